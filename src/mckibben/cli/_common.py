@@ -1,0 +1,76 @@
+"""Shared pieces of the command line: output (table or one JSON object) and errors.
+
+Every command takes ``--json``: then it prints a single JSON object on stdout, numbers in SI with
+unit-suffixed keys (``length_m``, ``pressure_Pa``). Bad input raises
+:class:`~mckibben.errors.InputError`; :func:`mckibben.cli.main` prints its one line on stderr
+and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from typing import Any
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from mckibben.errors import InputError
+
+console = Console()
+err_console = Console(stderr=True)
+
+JSON_OPTION = typer.Option(False, "--json", help="Print one JSON object on stdout (SI units).")
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Turn NumPy scalars and arrays, tuples and dataclass-like dicts into JSON values.
+
+    NaN and infinities become ``null`` (JSON has no NaN).
+    """
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating, float)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    return obj
+
+
+def emit_json(obj: dict) -> None:
+    """Print one JSON object on stdout."""
+    sys.stdout.write(json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n")
+    sys.stdout.flush()
+
+
+def print_table(title: str, columns: list[str], rows: list[list[Any]]) -> None:
+    """Print a Rich table of rows (values are formatted with ``str`` unless already strings)."""
+    table = Table(title=title, title_justify="left")
+    for col in columns:
+        table.add_column(col, justify="right" if col[:1] != " " else "left")
+    for row in rows:
+        table.add_row(*[v if isinstance(v, str) else _fmt(v) for v in row])
+    console.print(table)
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, (float, np.floating)):
+        if not math.isfinite(value):
+            return "—"
+        return f"{value:.4g}"
+    return str(value)
+
+
+def fail(message: str) -> None:
+    """Raise the error the CLI reports as one line with exit status 2."""
+    raise InputError(message)

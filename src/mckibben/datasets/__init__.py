@@ -1,0 +1,29 @@
+"""Bundled parameter sets (published, with citations) and example campaigns (marked synthetic)."""
+
+from __future__ import annotations
+
+from mckibben.datasets.published import MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES
+from mckibben.errors import unknown_name
+from mckibben.models.mpam import MiniatureMuscle
+
+
+def list_muscles() -> list[str]:
+    """Names of the published miniature-muscle parameter sets."""
+    return list(MUSCLES)
+
+
+def get_muscle(name: str) -> MiniatureMuscle:
+    """A published miniature-muscle parameter set by name (``mpam97``, ``mpam117``, ``mpam143``).
+
+    Raises
+    ------
+    InputError
+        For an unknown name, listing the closest matches and all valid names.
+    """
+    key = name.strip().lower()
+    if key not in MUSCLES:
+        raise unknown_name("muscle", name, MUSCLES)
+    return MUSCLES[key]
+
+
+__all__ = ["MUSCLES", "SPRING_MODEL_STRUCTURE", "SPRING_MUSCLE_SIZES", "get_muscle", "list_muscles"]

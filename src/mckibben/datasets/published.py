@@ -1,0 +1,105 @@
+"""Published parameter sets, each reproducing a table of its paper.
+
+Miniature muscles of 000_909f662a44080c85.txt (OD ≈ 1.2 mm):
+
+=========  ======  ======  ====  =======  ==========================  ===================
+name       L0      Ls      k1    k2       cos θ(P) cubics (P in MPa)  blocked force
+=========  ======  ======  ====  =======  ==========================  ===================
+mpam97     97 mm   112 mm  0.92  0.77 mm  0.6 N (Table II), 2.1 N     4.2 N at 0.8 MPa
+                                          (eq. 3)
+mpam117    117 mm  145 mm  0.88  1.09 mm  0.6 N, 2.1 N (Table II)     3.5 N at 0.8 MPa
+mpam143    143 mm  175 mm  0.86  4.19 mm  0.6 N, 2.1 N (Table II)     3.0 N at 0.8 MPa
+=========  ======  ======  ====  =======  ==========================  ===================
+
+Table I gives Ls, k1 and k2; k2 is read as millimetres (its size beside lengths of ~100 mm and
+the worked example 97 mm, 0.6 N, 0.8 MPa → 78.1 mm both support it). The cubics are
+characterized on 0–0.8 MPa (the paper's safe operating limit). Construction (§II): silicone tube
+ID 0.5 mm / OD 0.9 mm, nylon strand ~0.1 mm, braid angle ~20°, outer diameter ~1.2 mm.
+
+The spring model of 001_9d98bcef9f07dbeb.txt (Festo muscles PAM-A, -B, -C) is shipped as its
+structure and muscle sizes only: its coefficient tables are unreadable in our copy, and we ship
+no invented numbers; ``mckibben fit`` fits them from data.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mckibben.models.mpam import BraidAngleMap, MiniatureGeometry, MiniatureMuscle
+
+MM = 1e-3
+PAPER_MPAM = "000_909f662a44080c85.txt"
+PAPER_SPRING = "001_9d98bcef9f07dbeb.txt"
+
+#: Construction shared by the three miniature muscles (§II).
+MPAM_GEOMETRY = MiniatureGeometry(
+    outer_diameter=1.2e-3,
+    tube_inner_diameter=0.5e-3,
+    tube_outer_diameter=0.9e-3,
+    strand_diameter=0.1e-3,
+    braid_angle=float(np.deg2rad(20.0)),
+)
+
+_PRESSURE_RANGE = (0.0, 0.8e6)
+
+
+def _mpam(name, l0_mm, ls_mm, k1, k2_mm, rows, force_n, cubic_source):
+    return MiniatureMuscle(
+        name=name,
+        nominal_length=l0_mm * MM,
+        strand_length=ls_mm * MM,
+        k1=k1,
+        k2=k2_mm * MM,
+        braid_map=BraidAngleMap(
+            loads=tuple(load for load, _ in rows),
+            coefficients=tuple(tuple(c) for _, c in rows),
+            pressure_range=_PRESSURE_RANGE,
+            citation=f"{PAPER_MPAM}, {cubic_source}",
+        ),
+        blocked_force=((0.8e6, force_n),),
+        geometry=MPAM_GEOMETRY,
+        citation=(
+            f"{PAPER_MPAM}: Table I (Ls, k1, k2; eq. 2), {cubic_source} (cos θ cubics, P in MPa),"
+            f" §III.A (blocked force {force_n} N at 0.8 MPa), §II (geometry)"
+        ),
+    )
+
+
+#: The miniature muscles of 000_909f662a44080c85.txt, by name.
+MUSCLES: dict[str, MiniatureMuscle] = {
+    "mpam97": _mpam(
+        "mpam97", 97, 112, 0.92, 0.77,
+        [(0.6, (-0.6, 0.9, -0.71, 1.05)), (2.1, (-0.1, 0.1, -0.06, 0.94))],
+        4.2, "Table II (0.6 N) and eq. 3 (2.1 N)",
+    ),
+    "mpam117": _mpam(
+        "mpam117", 117, 145, 0.88, 1.09,
+        [(0.6, (0.2, -0.2, -0.22, 0.98)), (2.1, (-0.2, 0.3, -0.16, 0.94))],
+        3.5, "Table II",
+    ),
+    "mpam143": _mpam(
+        "mpam143", 143, 175, 0.86, 4.19,
+        [(0.6, (0.8, -1.2, 0.34, 0.87)), (2.1, (-0.4, 0.5, -0.31, 0.96))],
+        3.0, "Table II",
+    ),
+}
+
+#: Festo muscles of 001_9d98bcef9f07dbeb.txt: nominal diameter and length (read as cm in the
+#: extraction; PAM-A's diameter digit was lost and is read as 20 mm). Coefficients: none shipped.
+SPRING_MUSCLE_SIZES: dict[str, dict[str, float]] = {
+    "pam-a": {"nominal_diameter_m": 20e-3, "nominal_length_m": 0.30},
+    "pam-b": {"nominal_diameter_m": 10e-3, "nominal_length_m": 0.30},
+    "pam-c": {"nominal_diameter_m": 10e-3, "nominal_length_m": 0.075},
+}
+
+#: The spring model's published structure (001_9d98bcef9f07dbeb.txt, eq. 1–2, Tables 1–2).
+SPRING_MODEL_STRUCTURE = {
+    "force": "F = K(P, Ls)·Ls, Ls = L − Lu(P)  (eq. 1)",
+    "unstretched_length": "Lu = h2·P² + h1·P + h0  (Table 1)",
+    "stiffness": "K = c3·P + c2·P·Ls + c1·Ls + c0  (eq. 2, read as)",
+    "coefficient_sets": "per direction (elongation dL/dt > 0, contraction dL/dt < 0) and pressure"
+    " range (low ≤ 2.5 bar < high ≤ 5 bar)",
+    "split_pressure_Pa": 2.5e5,
+    "coefficients": "unreadable in our copy: fit them with `mckibben fit --model spring`",
+    "citation": f"{PAPER_SPRING}, eq. (1)–(2), Tables 1–2, §5",
+}

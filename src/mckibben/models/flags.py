@@ -1,0 +1,63 @@
+"""Flags that travel with every model evaluation.
+
+A model never hides a doubtful result: each element of an evaluation carries a bit mask of
+:class:`Flag` values. ``flag_names(mask)`` turns one element's mask into the list printed by the
+CLI (empty when everything is in range).
+"""
+
+from __future__ import annotations
+
+import enum
+
+import numpy as np
+
+
+class Flag(enum.IntFlag):
+    """Why a predicted value deserves doubt. Combine with ``|``; stored as ``uint16`` arrays."""
+
+    #: Pressure outside the range the model was characterized or fitted on.
+    PRESSURE_OUT_OF_RANGE = 1
+    #: Load outside the characterized loads; the map was extrapolated in load.
+    LOAD_OUT_OF_RANGE = 2
+    #: cos(theta) above 1: no braid angle gives it (e.g. Table II's delta97 at P = 0).
+    COS_THETA_ABOVE_ONE = 4
+    #: A negative length (or a length below the braid's locking length).
+    NEGATIVE_LENGTH = 8
+    #: Length outside the range the model was characterized or fitted on.
+    LENGTH_OUT_OF_RANGE = 16
+    #: The target cannot be reached with pressure within [0, p_max].
+    UNREACHABLE = 32
+    #: The muscle is slack: the model would need it to push (negative force).
+    SLACK = 64
+    #: Force outside the range the model was characterized or fitted on.
+    FORCE_OUT_OF_RANGE = 128
+
+
+FLAG_NAMES = {
+    Flag.PRESSURE_OUT_OF_RANGE: "pressure_out_of_range",
+    Flag.LOAD_OUT_OF_RANGE: "load_out_of_range",
+    Flag.COS_THETA_ABOVE_ONE: "cos_theta_above_one",
+    Flag.NEGATIVE_LENGTH: "negative_length",
+    Flag.LENGTH_OUT_OF_RANGE: "length_out_of_range",
+    Flag.UNREACHABLE: "unreachable",
+    Flag.SLACK: "slack",
+    Flag.FORCE_OUT_OF_RANGE: "force_out_of_range",
+}
+
+
+def flag_names(mask: int) -> list[str]:
+    """The names of the flags set in one element's mask, in a fixed order."""
+    mask = int(mask)
+    return [name for flag, name in FLAG_NAMES.items() if mask & flag]
+
+
+def flag_where(condition, flag: Flag) -> np.ndarray:
+    """A ``uint16`` mask array holding ``flag`` where ``condition`` is true, else 0."""
+    return np.where(np.asarray(condition), np.uint16(flag), np.uint16(0)).astype(np.uint16)
+
+
+def outside(values, lo: float, hi: float, flag: Flag, rtol: float = 1e-9) -> np.ndarray:
+    """Mask with ``flag`` where ``values`` lie outside ``[lo, hi]`` (with a relative slack)."""
+    values = np.asarray(values, dtype=float)
+    slack = rtol * max(abs(lo), abs(hi), 1e-300)
+    return flag_where((values < lo - slack) | (values > hi + slack), flag)

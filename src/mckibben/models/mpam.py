@@ -1,0 +1,321 @@
+"""The miniature muscle's empirical model: braid-angle cubics and the kinematic length map.
+
+Length under a hanging load follows from two fits of 000_909f662a44080c85.txt: the braid angle
+as a cubic in pressure per load (eq. 3, Table II) and the fitted pantograph (eq. 2, Table I).
+
+Loads between and beyond the characterized ones
+-----------------------------------------------
+The paper gives each muscle's cubic at two loads (0.6 N and 2.1 N). Between them we interpolate
+cos θ linearly in load; beyond them we extrapolate the same straight line and flag the result
+``load_out_of_range``. A straight line through the two characterized loads is the least-assuming
+model the data support: it keeps the measured trend (a heavier load holds the muscle longer), is
+exact at both characterized loads, and its flag makes every extrapolation visible. With a single
+characterized load the map is used as it is and any other load is flagged.
+
+The cubics take pressure in MPa (as printed); the functions here take Pa and convert at the edge.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mckibben.errors import InputError, UnreachableError
+from mckibben.models.flags import Flag, flag_where, outside
+from mckibben.models.kinematic import braid_from_length, length_from_braid
+
+MPA = 1e6  # Pa per MPa: the papers' cubics take P in MPa
+
+
+@dataclass(frozen=True)
+class BraidAngleMap:
+    """cos θ as a cubic in pressure, one cubic per characterized load.
+
+    Attributes
+    ----------
+    loads : tuple of float
+        The characterized hanging loads, ascending. [N]
+    coefficients : tuple of tuple of float
+        Per load, the cubic's coefficients of P³, P², P, 1 with P in MPa (as printed). [-]
+    pressure_range : tuple of float
+        The pressure range the cubics were characterized on. [Pa]
+    citation : str
+        Where the numbers come from.
+    """
+
+    loads: tuple[float, ...]
+    coefficients: tuple[tuple[float, float, float, float], ...]
+    pressure_range: tuple[float, float] = (0.0, 0.8e6)
+    citation: str = ""
+
+    def __post_init__(self):
+        if len(self.loads) != len(self.coefficients) or not self.loads:
+            raise InputError("BraidAngleMap: one coefficient row per load is needed")
+        if any(b <= a for a, b in zip(self.loads, self.loads[1:])):
+            raise InputError("BraidAngleMap: loads must be strictly ascending")
+        if any(len(row) != 4 for row in self.coefficients):
+            raise InputError("BraidAngleMap: each cubic has 4 coefficients (P^3, P^2, P, 1)")
+
+    @property
+    def load_range(self) -> tuple[float, float]:
+        """The characterized loads' range. [N]"""
+        return (self.loads[0], self.loads[-1])
+
+    def coefficients_at(self, load):
+        """The cubic's coefficients at each load, linear in load (see module notes).
+
+        Parameters
+        ----------
+        load : array_like
+            Hanging load. [N]
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``load.shape + (4,)``: coefficients of P³, P², P, 1 (P in MPa). [-]
+        """
+        load = np.asarray(load, dtype=float)
+        table = np.asarray(self.coefficients, dtype=float)
+        if len(self.loads) == 1:
+            return np.broadcast_to(table[0], load.shape + (4,)).copy()
+        loads = np.asarray(self.loads)
+        # index of the segment [loads[i], loads[i+1]] used for each load; the end segments
+        # are extended beyond the characterized loads.
+        i = np.clip(np.searchsorted(loads, load) - 1, 0, len(loads) - 2)
+        w = (load - loads[i]) / (loads[i + 1] - loads[i])
+        return table[i] + w[..., None] * (table[i + 1] - table[i])
+
+
+def braid_cos_theta(pressure, load, braid_map: BraidAngleMap):
+    """cos θ of the braid at a pressure under a hanging load.
+
+    Parameters
+    ----------
+    pressure : array_like
+        Gauge pressure. [Pa]
+    load : array_like
+        Hanging load. [N]
+    braid_map : BraidAngleMap
+        The cubics per load.
+
+    Returns
+    -------
+    cos_theta : numpy.ndarray
+        Cosine of the braid angle. [-]
+    flags : numpy.ndarray of uint16
+        :class:`~mckibben.models.flags.Flag` mask per element.
+
+    References
+    ----------
+    000_909f662a44080c85.txt, eq. (3) and Table II (P in MPa).
+    """
+    pressure, load = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    c = braid_map.coefficients_at(load)
+    p = pressure / MPA
+    cos_theta = ((c[..., 0] * p + c[..., 1]) * p + c[..., 2]) * p + c[..., 3]
+    lo, hi = braid_map.pressure_range
+    flags = (
+        outside(pressure, lo, hi, Flag.PRESSURE_OUT_OF_RANGE)
+        | outside(load, *braid_map.load_range, Flag.LOAD_OUT_OF_RANGE)
+        | flag_where(cos_theta > 1.0, Flag.COS_THETA_ABOVE_ONE)
+    )
+    return cos_theta, flags
+
+
+@dataclass(frozen=True)
+class MiniatureGeometry:
+    """Construction of a miniature muscle.
+
+    Attributes
+    ----------
+    outer_diameter : float
+        Outer diameter of the braided muscle. [m]
+    tube_inner_diameter : float
+        Inner diameter of the silicone tube. [m]
+    tube_outer_diameter : float
+        Outer diameter of the silicone tube. [m]
+    strand_diameter : float
+        Diameter of one braid strand. [m]
+    braid_angle : float
+        Initial braid angle, from the muscle axis. [rad]
+    """
+
+    outer_diameter: float = 1.2e-3
+    tube_inner_diameter: float = 0.5e-3
+    tube_outer_diameter: float = 0.9e-3
+    strand_diameter: float = 0.1e-3
+    braid_angle: float = np.deg2rad(20.0)
+
+    @property
+    def wall_thickness(self) -> float:
+        """Silicone tube wall thickness. [m]"""
+        return 0.5 * (self.tube_outer_diameter - self.tube_inner_diameter)
+
+
+@dataclass(frozen=True)
+class MiniatureMuscle:
+    """A characterized miniature muscle: kinematic fit plus braid-angle cubics.
+
+    Attributes
+    ----------
+    name : str
+        Short name, e.g. ``"mpam97"``.
+    nominal_length : float
+        Un-pressurized length L0. [m]
+    strand_length : float
+        Length of one braid strand, Ls. [m]
+    k1 : float
+        Slope correction of eq. (2). [-]
+    k2 : float
+        Offset of eq. (2). [m]
+    braid_map : BraidAngleMap
+        cos θ(P) per load.
+    blocked_force : tuple of (float, float)
+        Published (pressure [Pa], blocked force [N]) points.
+    geometry : MiniatureGeometry
+        Construction (diameters, braid angle).
+    citation : str
+        Paper, tables and equations the numbers come from.
+    """
+
+    name: str
+    nominal_length: float
+    strand_length: float
+    k1: float
+    k2: float
+    braid_map: BraidAngleMap
+    blocked_force: tuple[tuple[float, float], ...] = ()
+    geometry: MiniatureGeometry = field(default_factory=MiniatureGeometry)
+    citation: str = ""
+    synthetic: bool = False
+
+
+@dataclass(frozen=True)
+class LengthPrediction:
+    """Result of :func:`predict_length` or :func:`pressure_for_length` (all arrays, SI)."""
+
+    pressure: np.ndarray  #: gauge pressure [Pa]
+    load: np.ndarray  #: hanging load [N]
+    length: np.ndarray  #: muscle length [m]
+    contraction: np.ndarray  #: 1 - l/L0 [-]
+    cos_theta: np.ndarray  #: cosine of the braid angle [-]
+    flags: np.ndarray  #: Flag mask per element (uint16)
+
+
+def predict_length(muscle: MiniatureMuscle, pressure, load) -> LengthPrediction:
+    """Length and contraction of a miniature muscle at a pressure under a hanging load.
+
+    Parameters
+    ----------
+    muscle : MiniatureMuscle
+        The muscle's parameters (e.g. ``get_muscle("mpam97")``).
+    pressure : array_like
+        Gauge pressure. [Pa]
+    load : array_like
+        Hanging load. [N]
+
+    Returns
+    -------
+    LengthPrediction
+        Length [m], contraction 1 − l/L0 [-], cos θ [-] and flags, broadcast over the inputs.
+
+    References
+    ----------
+    000_909f662a44080c85.txt, eq. (2) with (3) and Tables I–II.
+
+    Examples
+    --------
+    >>> from mckibben.datasets import get_muscle
+    >>> r = predict_length(get_muscle("mpam97"), 0.8e6, 0.6)
+    >>> round(float(r.length) * 1e3, 1), round(float(r.contraction), 3)
+    (78.1, 0.195)
+    """
+    cos_theta, flags = braid_cos_theta(pressure, load, muscle.braid_map)
+    length = length_from_braid(cos_theta, muscle.strand_length, muscle.k1, muscle.k2)
+    flags = flags | flag_where(length < 0, Flag.NEGATIVE_LENGTH)
+    p, f = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    return LengthPrediction(p, f, length, 1.0 - length / muscle.nominal_length, cos_theta, flags)
+
+
+def pressure_for_length(muscle: MiniatureMuscle, length, load, p_max: float = 0.8e6) -> LengthPrediction:
+    """The pressure that holds a miniature muscle at a length under a load: the inverse model.
+
+    Solves eq. (2) for cos θ, then the load's cubic (eq. 3) for the pressure. Where the cubic
+    reaches the target cos θ more than once in ``[0, p_max]`` the lowest pressure is returned
+    (the first one met while inflating). Targets no pressure in ``[0, p_max]`` reaches are
+    returned as NaN with the ``unreachable`` flag; :func:`require_reachable` raises instead.
+
+    Parameters
+    ----------
+    muscle : MiniatureMuscle
+        The muscle's parameters.
+    length : array_like
+        Target length. [m]
+    load : array_like
+        Hanging load. [N]
+    p_max : float, default 0.8e6
+        Highest pressure allowed (the paper's safe limit). [Pa]
+
+    Returns
+    -------
+    LengthPrediction
+        The pressure [Pa] (NaN where unreachable) with length, contraction, cos θ and flags.
+
+    References
+    ----------
+    000_909f662a44080c85.txt, eq. (2) and (3) inverted; §IV uses it as the feed-forward.
+    """
+    length, load = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(load, dtype=float))
+    target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
+    coeffs = muscle.braid_map.coefficients_at(load)
+    p_max_mpa = p_max / MPA
+    pressure = np.full(length.shape, np.nan)
+    for idx in np.ndindex(length.shape):
+        pressure[idx] = _lowest_root(coeffs[idx], target[idx], p_max_mpa)
+    pressure *= MPA
+    reached = np.isfinite(pressure)
+    cos_theta, flags = braid_cos_theta(np.where(reached, pressure, 0.0), load, muscle.braid_map)
+    flags = np.where(reached, flags, np.uint16(0)).astype(np.uint16)
+    flags |= flag_where(~reached, Flag.UNREACHABLE)
+    flags |= outside(load, *muscle.braid_map.load_range, Flag.LOAD_OUT_OF_RANGE)
+    cos_theta = np.where(reached, cos_theta, target)
+    return LengthPrediction(pressure, load, length, 1.0 - length / muscle.nominal_length, cos_theta, flags)
+
+
+def _lowest_root(c, target: float, p_max: float) -> float:
+    """Lowest P in [0, p_max] with c0·P³ + c1·P² + c2·P + c3 = target, or NaN. P in MPa."""
+    if not np.isfinite(target):
+        return np.nan
+    poly = np.array([c[0], c[1], c[2], c[3] - target])
+    tol = 1e-9
+    roots = np.roots(poly) if np.any(poly[:3] != 0) else np.array([])
+    real = roots[np.abs(roots.imag) <= 1e-7 * max(1.0, np.max(np.abs(roots)) if roots.size else 1.0)].real
+    cands = np.sort(real[(real >= -tol) & (real <= p_max + tol)])
+    for p in cands:
+        # Newton polish to full precision, kept inside the bracket.
+        for _ in range(3):
+            f = np.polyval(poly, p)
+            df = np.polyval(np.polyder(poly), p)
+            if df == 0:
+                break
+            p = p - f / df
+        p = min(max(p, 0.0), p_max)
+        if abs(np.polyval(poly, p)) <= 1e-9:
+            return float(p)
+    return np.nan
+
+
+def require_reachable(result: LengthPrediction, muscle: MiniatureMuscle, p_max: float = 0.8e6) -> None:
+    """Raise :class:`~mckibben.errors.UnreachableError` naming the first unreachable target."""
+    bad = np.flatnonzero(np.isnan(np.ravel(result.pressure)))
+    if bad.size:
+        i = bad[0]
+        length = np.ravel(result.length)[i]
+        load = np.ravel(result.load)[i]
+        lo = predict_length(muscle, p_max, load).length
+        hi = predict_length(muscle, 0.0, load).length
+        raise UnreachableError(
+            f"length {length * 1e3:.2f} mm under {load:.3g} N is unreachable for {muscle.name} with"
+            f" 0..{p_max / MPA:g} MPa (the model spans {float(lo) * 1e3:.2f}..{float(hi) * 1e3:.2f} mm)"
+        )
