@@ -33,10 +33,19 @@ app = typer.Typer(
     rich_markup_mode=None,
 )
 
-# Sub-commands register themselves on import.
-from mckibben.cli import params as _params  # noqa: E402,F401
-from mckibben.cli import predict as _predict  # noqa: E402,F401
-from mckibben.cli import reproduce as _reproduce  # noqa: E402,F401
+
+
+def _register_commands() -> None:
+    """Import every sibling module: each adds its commands to :data:`app` on import."""
+    import importlib
+    import pkgutil
+
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
+        if not info.name.startswith("_"):
+            importlib.import_module(f"{__name__}.{info.name}")
+
+
+_register_commands()
 
 
 def main(argv: list[str] | None = None) -> int:
