@@ -319,3 +319,74 @@ def require_reachable(result: LengthPrediction, muscle: MiniatureMuscle, p_max: 
             f"length {length * 1e3:.2f} mm under {load:.3g} N is unreachable for {muscle.name} with"
             f" 0..{p_max / MPA:g} MPa (the model spans {float(lo) * 1e3:.2f}..{float(hi) * 1e3:.2f} mm)"
         )
+
+
+@dataclass(frozen=True)
+class ForcePrediction:
+    """Result of :func:`force_from_length` (arrays, SI)."""
+
+    pressure: np.ndarray  #: gauge pressure [Pa]
+    length: np.ndarray  #: muscle length [m]
+    force: np.ndarray  #: pulling force that holds the muscle at that length [N]
+    flags: np.ndarray  #: Flag mask per element (uint16)
+
+
+def force_from_length(muscle: MiniatureMuscle, pressure, length) -> ForcePrediction:
+    """The hanging load that holds a miniature muscle at a length and pressure.
+
+    Eq. (2) gives the target cos θ from the length; cos θ is linear in load between the
+    characterized loads (see the module notes), so the load follows in closed form. A load
+    outside the characterized loads is flagged ``load_out_of_range``; a negative load (the muscle
+    would have to push) is returned as computed and flagged ``slack``.
+
+    Parameters
+    ----------
+    muscle : MiniatureMuscle
+        The muscle's parameters; its braid map needs at least two characterized loads.
+    pressure : array_like
+        Gauge pressure. [Pa]
+    length : array_like
+        Muscle length. [m]
+
+    Returns
+    -------
+    ForcePrediction
+        Force [N] and flags, broadcast over the inputs.
+
+    References
+    ----------
+    000_909f662a44080c85.txt, eq. (2) and (3), Tables I–II, solved for the load.
+    """
+    bmap = muscle.braid_map
+    if len(bmap.loads) < 2:
+        raise InputError(f"{muscle.name}: force needs cubics at two or more loads; it has {len(bmap.loads)}")
+    pressure, length = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
+    target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
+    p = pressure / MPA
+    table = np.asarray(bmap.coefficients)
+    loads = np.asarray(bmap.loads)
+    cos_at = ((table[:, 0, None] * p.ravel() + table[:, 1, None]) * p.ravel() + table[:, 2, None]) * p.ravel() + table[:, 3, None]
+    cos_at = cos_at.reshape((len(loads),) + p.shape)
+    force = np.full(p.shape, np.nan)
+    # Piecewise linear in load: pick the segment whose cos θ interval holds the target; the end
+    # segments extend beyond the characterized loads.
+    nseg = len(loads) - 1
+    for i in range(nseg):
+        a, b = cos_at[i], cos_at[i + 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            w = (target - a) / (b - a)
+        inside = (w >= 0) & (w <= 1)
+        if i == 0:
+            inside |= w < 0
+        if i == nseg - 1:
+            inside |= w > 1
+        take = inside & np.isnan(force) & np.isfinite(w)
+        force[take] = (loads[i] + w * (loads[i + 1] - loads[i]))[take]
+    flags = (
+        outside(pressure, *bmap.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
+        | outside(np.nan_to_num(force, nan=loads[0]), loads[0], loads[-1], Flag.LOAD_OUT_OF_RANGE)
+        | flag_where(force < 0, Flag.SLACK)
+        | flag_where(target > 1, Flag.COS_THETA_ABOVE_ONE)
+        | flag_where(np.isnan(force), Flag.UNREACHABLE)
+    )
+    return ForcePrediction(pressure, length, force, flags)
