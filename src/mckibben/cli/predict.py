@@ -8,6 +8,7 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
 from mckibben.datasets import get_muscle
+from mckibben.errors import InputError
 from mckibben.models.flags import flag_names
 from mckibben.models.mpam import predict_length, pressure_for_length
 from mckibben.units import parse_quantity, parse_values
@@ -93,3 +94,75 @@ def pressure_cmd(
         for ll, pp, cc, fl in zip(r.length, r.pressure, r.contraction, flags)
     ]
     print_table(f"{m.name} under {f:g} N, p ≤ {pmax / 1e6:g} MPa", ["length mm", "pressure MPa", "contraction %", "flags"], rows)
+
+
+FORCE_MODELS = ("empirical", "chou-hannaford", "wall-corrected", "tondu-lopez")
+
+
+@predict_app.command("force")
+def force_cmd(
+    model: str = typer.Option("chou-hannaford", "--model", help=f"One of {', '.join(FORCE_MODELS)}."),
+    muscle: str = MUSCLE_OPTION,
+    pressure: str = typer.Option(..., "--pressure", help="Pressure, list or range: 0.8MPa, 0:0.8MPa:9."),
+    length: str = typer.Option(None, "--length", help="Muscle length (default: the rest length, i.e. blocked force)."),
+    rest_length: str = typer.Option(None, "--rest-length", help="Rest length L0 (default: the muscle's nominal length)."),
+    diameter: str = typer.Option(None, "--diameter", help="Braid diameter at rest (default: OD − strand, 1.1 mm)."),
+    braid_angle: str = typer.Option(None, "--braid-angle", help="Braid angle at rest, from the axis (default 20deg)."),
+    wall: str = typer.Option(None, "--wall", help="Tube wall thickness for wall-corrected (default 0.2mm)."),
+    k: float = typer.Option(1.0, "--k", help="Tondu–Lopez contraction correction k [-]."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Pulling force from pressure and length: empirical map or a physical model with geometry options."""
+    from mckibben.errors import unknown_name
+    from mckibben.models.mpam import force_from_length
+    from mckibben.models.physical import (
+        BraidGeometry,
+        chou_hannaford_force,
+        tondu_lopez_force,
+        wall_corrected_force,
+    )
+
+    if model not in FORCE_MODELS:
+        raise unknown_name("force model", model, FORCE_MODELS)
+    m = get_muscle(muscle)
+    g = m.geometry
+    p = parse_values(pressure, "pressure", "--pressure")
+    l0 = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else m.nominal_length
+    d = parse_quantity(diameter, "length", "--diameter", allow_zero=False) if diameter else g.outer_diameter - g.strand_diameter
+    angle = parse_quantity(braid_angle, "angle", "--braid-angle", allow_zero=False) if braid_angle else g.braid_angle
+    if not angle < np.pi / 2:
+        raise InputError(f"--braid-angle: {braid_angle!r} must be below 90deg")
+    t = parse_quantity(wall, "length", "--wall") if wall else g.wall_thickness
+    if t >= d / 2:
+        raise InputError(f"--wall: {wall!r} must be less than half the diameter")
+    ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else l0
+    geom = BraidGeometry.from_initial(l0, d, angle, t if model == "wall-corrected" else 0.0)
+    flags = np.zeros(p.shape, dtype=np.uint16)
+    if model == "empirical":
+        r = force_from_length(m, p, ell)
+        force, flags = r.force, r.flags
+    elif model == "chou-hannaford":
+        force = chou_hannaford_force(p, ell, geom)
+    elif model == "wall-corrected":
+        force = wall_corrected_force(p, ell, geom)
+    else:
+        force = tondu_lopez_force(p, 1.0 - ell / l0, d / 2.0, angle, k)
+    force = np.broadcast_to(force, p.shape)
+    names = [flag_names(x) for x in np.broadcast_to(flags, p.shape)]
+    geometry = {
+        "rest_length_m": l0,
+        "diameter_m": d,
+        "braid_angle_rad": angle,
+        "wall_thickness_m": geom.wall_thickness,
+        "strand_length_m": geom.strand_length,
+        "turns": geom.turns,
+    }
+    if json:
+        out = {"model": model, "muscle": m.name, "length_m": ell, "pressure_Pa": p.tolist(), "force_N": force.tolist(), "flags": names}
+        if model != "empirical":
+            out["geometry"] = geometry
+        scalar = len(p) == 1 and "," not in pressure and ":" not in pressure
+        emit_json(_rows_or_scalars(out, scalar) | ({"geometry": geometry} if model != "empirical" else {}))
+        return
+    rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
+    print_table(f"{model} force, {m.name}, length {ell * 1e3:.2f} mm", ["pressure MPa", "force N", "flags"], rows)

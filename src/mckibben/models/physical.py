@@ -243,9 +243,9 @@ def tondu_lopez_contraction(pressure, force, initial_radius, initial_angle, k=1.
 def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-hannaford"):
     """Equilibrium length of a physical model holding a hanging load.
 
-    Solves F(P, l) = load for l with cos θ in (1/√3, 1): closed form for Chou–Hannaford,
-    bisection (60 halvings) for the wall-corrected force on its rising branch (from the locking
-    angle to the peak of F/P, beyond which the −1/sin θ term makes it fall).
+    Solves F(P, l) = load for l: closed form for Chou–Hannaford (cos θ in (1/√3, 1)),
+    bisection (60 halvings) for the wall-corrected force on its rising branch (from θ = 90° to
+    the peak of F/P, beyond which the −1/sin θ term makes it fall).
 
     Parameters
     ----------
@@ -274,7 +274,8 @@ def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-ha
         # F/P depends on cos θ only and peaks before cos θ = 1 (the −1/sin θ term): the
         # equilibrium is on the rising branch between the locking angle and that peak.
         c_peak = _wall_force_peak(geom)
-        lo = np.full(p.shape, 1.0 / np.sqrt(3.0))
+        # F/P = −π(D0/2 − t)² < 0 at θ = 90° (cos θ = 0), so the branch starts below any load.
+        lo = np.zeros(p.shape)
         hi = np.full(p.shape, c_peak)
         for _ in range(60):
             mid = 0.5 * (lo + hi)
