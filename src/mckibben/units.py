@@ -83,7 +83,13 @@ _QUANTITY = re.compile(rf"^\s*(?P<num>{_NUMBER})\s*(?P<unit>[A-Za-z%]*)\s*$", re
 
 
 def units_of(dimension: str) -> list[str]:
-    """The unit suffixes accepted for a dimension, e.g. ``units_of("pressure")``."""
+    """The unit suffixes accepted for a dimension, e.g. ``units_of("pressure")``.
+
+    Parameters
+    ----------
+    dimension : str
+        A dimension name, e.g. ``"pressure"``. [-]
+    """
     return [u for u, (d, _) in UNITS.items() if d == dimension and u]
 
 
@@ -209,6 +215,8 @@ def parse_values(
         The wanted dimension (see :func:`parse_quantity`).
     name : str
         The argument's name for error messages.
+    allow_negative, allow_zero : bool
+        As in :func:`parse_quantity`.
 
     Returns
     -------
@@ -259,6 +267,11 @@ def _example(dimension: str) -> str:
 
 def split_column(column: str) -> tuple[str, str]:
     """Split a file column name ``quantity_unit`` into ``(quantity, unit)``.
+
+    Parameters
+    ----------
+    column : str
+        A column name such as ``"pressure_MPa"``. [-]
 
     ``"pressure_MPa"`` -> ``("pressure", "MPa")``; a name without a known unit suffix
     (``"trial"``) -> ``(name, "")``.

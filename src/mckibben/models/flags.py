@@ -46,18 +46,44 @@ FLAG_NAMES = {
 
 
 def flag_names(mask: int) -> list[str]:
-    """The names of the flags set in one element's mask, in a fixed order."""
+    """The names of the flags set in one element's mask, in a fixed order.
+
+    Parameters
+    ----------
+    mask : int
+        One element of a flag array. [-]
+    """
     mask = int(mask)
     return [name for flag, name in FLAG_NAMES.items() if mask & flag]
 
 
 def flag_where(condition, flag: Flag) -> np.ndarray:
-    """A ``uint16`` mask array holding ``flag`` where ``condition`` is true, else 0."""
+    """A ``uint16`` mask array holding ``flag`` where ``condition`` is true, else 0.
+
+    Parameters
+    ----------
+    condition : array_like of bool
+        Where to set the flag. [-]
+    flag : Flag
+        The flag to set. [-]
+    """
     return np.where(np.asarray(condition), np.uint16(flag), np.uint16(0)).astype(np.uint16)
 
 
 def outside(values, lo: float, hi: float, flag: Flag, rtol: float = 1e-9) -> np.ndarray:
-    """Mask with ``flag`` where ``values`` lie outside ``[lo, hi]`` (with a relative slack)."""
+    """Mask with ``flag`` where ``values`` lie outside ``[lo, hi]`` (with a relative slack).
+
+    Parameters
+    ----------
+    values : array_like
+        The values to check. [SI]
+    lo, hi : float
+        The valid range, inclusive. [SI]
+    flag : Flag
+        The flag to set outside it. [-]
+    rtol : float, default 1e-9
+        Slack relative to the larger bound, so round-off at the bounds is not flagged. [-]
+    """
     values = np.asarray(values, dtype=float)
     slack = rtol * max(abs(lo), abs(hi), 1e-300)
     return flag_where((values < lo - slack) | (values > hi + slack), flag)

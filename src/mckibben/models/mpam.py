@@ -307,7 +307,17 @@ def _lowest_root(c, target: float, p_max: float) -> float:
 
 
 def require_reachable(result: LengthPrediction, muscle: MiniatureMuscle, p_max: float = 0.8e6) -> None:
-    """Raise :class:`~mckibben.errors.UnreachableError` naming the first unreachable target."""
+    """Raise :class:`~mckibben.errors.UnreachableError` naming the first unreachable target.
+
+    Parameters
+    ----------
+    result : LengthPrediction
+        The result of :func:`pressure_for_length`.
+    muscle : MiniatureMuscle
+        The muscle it was computed for.
+    p_max : float, default 0.8e6
+        The pressure limit it was computed with. [Pa]
+    """
     bad = np.flatnonzero(np.isnan(np.ravel(result.pressure)))
     if bad.size:
         i = bad[0]
