@@ -1,0 +1,174 @@
+/* mckibben pressure-controller core (docs/controller.md, docs/firmware.md).
+ *
+ * One control step: ADC scaling, supervisor (reference clamp, overpressure vent, sensor faults),
+ * sliding-mode law or PID (chosen at run time), PWM split into inlet and bleed counts.
+ *
+ * Portable C99, integer only: built with avr-gcc for the ATmega2560 (firmware/src/main.c) and
+ * with gcc for the host tests, where it is checked bit for bit against the Python mirror
+ * src/mckibben/control/core.py. No division and no 64-bit arithmetic in mck_ctrl_step: every
+ * reciprocal is precomputed when a gain is set (mck_ctrl_set_gain, which may use 64-bit
+ * division and is not meant for an interrupt handler).
+ *
+ * Integer conventions that the Python mirror reproduces:
+ *   - right shifts of negative values are arithmetic (floor); gcc guarantees this;
+ *   - mck_mulq16(x, c) = floor(x * c / 2^16) for c >= 0, computed from 16x16-bit products,
+ *     wrapped to int32 (the value ranges below keep every true result inside int32);
+ *   - rounding divisions at gain-setting time are rdiv(n, d) = floor((n + floor(d/2)) / d) on
+ *     unsigned 64-bit integers.
+ */
+#ifndef MCK_CONTROLLER_H
+#define MCK_CONTROLLER_H
+
+#include <stdint.h>
+
+/* Modes (SET_MODE, docs/protocol.md). */
+#define MCK_MODE_OFF 0u       /* both valves closed */
+#define MCK_MODE_SMC 1u       /* sliding mode */
+#define MCK_MODE_PID 2u       /* PID */
+#define MCK_MODE_OPEN_LOOP 3u /* the PWM counts given by mck_ctrl_set_open_loop */
+
+/* Fault flags (TELEMETRY.faults). Bits 1-4 are latched until mck_ctrl_set_mode. */
+#define MCK_FAULT_OVERPRESSURE 0x01u /* p > p_max + margin, cleared when p < p_max */
+#define MCK_FAULT_ADC_RANGE 0x02u    /* reading outside [adc_min, adc_max] */
+#define MCK_FAULT_STUCK 0x04u        /* same reading n_stuck times while a valve is >= 128 */
+#define MCK_FAULT_MISSING 0x08u      /* n_missing consecutive missing samples */
+#define MCK_FAULT_VENT 0x10u         /* vent latched by command (VENT) */
+
+/* ACK status codes returned by the setters (docs/protocol.md). */
+#define MCK_OK 0u
+#define MCK_ERR_RANGE 3u
+#define MCK_ERR_GAIN_ID 4u
+
+/* Compiled limit of SET_MAX_PRESSURE [Pa]: the full scale of the 0-1 MPa transducer. */
+#define MCK_P_MAX_LIMIT 1000000L
+/* Control period limits [us] (mck_ctrl_init). The firmware uses 1000 us. */
+#define MCK_TS_US_MIN 100u
+#define MCK_TS_US_MAX 10000u
+
+/* Gain ids of SET_GAIN and their fixed-point scales: the i32 value sent is
+ * round(physical value * scale). The accepted range of the value is [lo, hi]; outside it the
+ * setter returns MCK_ERR_RANGE and changes nothing.
+ *
+ *  id  name                   physical unit          scale   lo        hi            default value
+ *   0  MCK_GAIN_SMC_BETA      beta, PWM counts       1e3     0         255000        120000
+ *   1  MCK_GAIN_SMC_EPS       epsilon, Pa            1       1         1000000       20000
+ *   2  MCK_GAIN_SMC_KI        Ki (SMC), 1/s          1e3     0         1000000       10000
+ *   3  MCK_GAIN_SMC_TAU       tau, s                 1e6     0         10000000      90000
+ *   4  MCK_GAIN_SMC_G         G, Pa per PWM count    1e3     1000      100000000     3000000
+ *   5  MCK_GAIN_SMC_IMAX      I_max, Pa s            1e3     0         2147483647    10000000
+ *   6  MCK_GAIN_PID_KP        Kp, counts/Pa          1e9     0         1000000000    1000000
+ *   7  MCK_GAIN_PID_KI        Ki (PID), counts/(Pa s) 1e9    0         2147483647    11000000
+ *   8  MCK_GAIN_PID_KD        Kd, counts s/Pa        1e12    0         2147483647    0
+ *   9  MCK_GAIN_PID_TF        Tf, s                  1e6     0         10000000      5000
+ *  10  MCK_GAIN_ADC_ZERO      adc_zero, count        1       0         1023          0
+ *  11  MCK_GAIN_PA_PER_COUNT  pa_per_count, Pa/count 1e3     1         2047999       977517
+ *  12  MCK_GAIN_MARGIN        overpressure margin,Pa 1       0         200000        20000
+ *  13  MCK_GAIN_ADC_MIN       adc_min, count         1       0         1023          0
+ *  14  MCK_GAIN_ADC_MAX       adc_max, count         1       0         1023          1022
+ *  15  MCK_GAIN_N_STUCK       n_stuck, samples       1       0 (off)   65535         500
+ *  16  MCK_GAIN_N_MISSING     n_missing, samples     1       0 (off)   65535         10
+ *
+ * p_max is set by mck_ctrl_set_max_pressure (SET_MAX_PRESSURE), in Pa, 0..MCK_P_MAX_LIMIT,
+ * default 800000.
+ */
+enum mck_gain_id {
+    MCK_GAIN_SMC_BETA = 0,
+    MCK_GAIN_SMC_EPS = 1,
+    MCK_GAIN_SMC_KI = 2,
+    MCK_GAIN_SMC_TAU = 3,
+    MCK_GAIN_SMC_G = 4,
+    MCK_GAIN_SMC_IMAX = 5,
+    MCK_GAIN_PID_KP = 6,
+    MCK_GAIN_PID_KI = 7,
+    MCK_GAIN_PID_KD = 8,
+    MCK_GAIN_PID_TF = 9,
+    MCK_GAIN_ADC_ZERO = 10,
+    MCK_GAIN_PA_PER_COUNT = 11,
+    MCK_GAIN_MARGIN = 12,
+    MCK_GAIN_ADC_MIN = 13,
+    MCK_GAIN_ADC_MAX = 14,
+    MCK_GAIN_N_STUCK = 15,
+    MCK_GAIN_N_MISSING = 16,
+    MCK_N_GAINS = 17
+};
+
+/* Outputs of one step. */
+typedef struct {
+    uint8_t inlet;      /* inlet valve PWM count 0..255 */
+    uint8_t bleed;      /* bleed valve PWM count 0..255 */
+    uint8_t faults;     /* MCK_FAULT_* */
+    int32_t reference;  /* reference after the supervisor's clamp [Pa] */
+    int32_t surface;    /* sliding surface S (SMC) or error e (other modes) [Pa] */
+} mck_out_t;
+
+/* Controller instance: gains, derived coefficients and state. Treat as opaque. */
+typedef struct {
+    /* gains as set (SET_GAIN values) and settings */
+    int32_t gain[MCK_N_GAINS];
+    int32_t p_max;      /* [Pa] */
+    uint16_t ts_us;     /* control period [us] */
+    uint8_t ol_inlet, ol_bleed;
+    /* derived coefficients (mck_ctrl_set_gain) */
+    int32_t ppc_q8;     /* Pa per count, Q8 */
+    int32_t beta_q8;    /* beta, counts Q8 */
+    int32_t c_p;        /* 2^24 / G: p [Pa] -> u [counts Q8], Q16 */
+    int32_t c_dref;     /* 2^24 tau / (G Ts): delta p_ref [Pa] -> u [counts Q8], Q16 */
+    int32_t c_e;        /* 2^24 tau Ki / G: e [Pa] -> u [counts Q8], Q16 */
+    int32_t c_ki;       /* 2^24 Ki Ts: sum of e [Pa] -> Ki I [Pa Q8], Q16 */
+    int32_t c_eps;      /* floor(2^28 / eps): S [Pa] -> S/eps Q12, Q16 */
+    int32_t s_sat;      /* 8 eps: |S| beyond which tanh is taken as 1 [Pa] */
+    int32_t isum_max;   /* clamp of the sum of e: min(I_max/Ts, 2^46/c_ki, 2^30) [Pa] */
+    int32_t c_kp;       /* 2^24 Kp, Q16 */
+    int32_t c_kip;      /* 2^32 Ki Ts: e [Pa] -> integral [counts Q16], Q16 */
+    int32_t c_kd;       /* 2^20 Kd / Ts: 16 Ts D [Pa Q4] -> u [counts Q8], Q16 */
+    int32_t alpha;      /* 2^16 Ts / (Tf + Ts) */
+    int32_t p_over;     /* p_max + margin [Pa] */
+    int16_t adc_zero;   /* supervisor settings in the step's native widths */
+    uint16_t adc_min, adc_max, n_stuck, n_missing;
+    /* state */
+    uint8_t mode;
+    uint8_t latched;    /* latched fault flags */
+    uint8_t over;       /* overpressure vent active */
+    uint8_t first;      /* 1: the next law step initializes e_prev and pref_prev */
+    uint8_t last_inlet, last_bleed;
+    uint16_t held_adc;  /* last valid sample */
+    uint16_t stuck_n, missing_n;
+    int32_t isum;       /* SMC: sum of e [Pa] (I = isum Ts) */
+    int32_t iu;         /* PID: Ki I [counts Q16] */
+    int32_t dq;         /* PID: 16 Ts D [Pa Q4] */
+    int32_t e_prev;     /* [Pa] */
+    int32_t pref_prev;  /* [Pa] */
+} mck_ctrl_t;
+
+/* Set every gain to its default, p_max to 800 kPa, mode off, no fault. ts_us is the control
+ * period in microseconds (MCK_TS_US_MIN..MCK_TS_US_MAX; clamped). */
+void mck_ctrl_init(mck_ctrl_t *c, uint16_t ts_us);
+
+/* Set one gain (value in the fixed-point scale above); recomputes the derived coefficients.
+ * Returns MCK_OK, MCK_ERR_GAIN_ID or MCK_ERR_RANGE. Uses 64-bit division: call it from the main
+ * loop on a copy and swap it in with interrupts off, or with the control interrupt masked. */
+uint8_t mck_ctrl_set_gain(mck_ctrl_t *c, uint8_t id, int32_t value);
+
+/* Mode 0..3; resets the controller state and clears the latched faults. */
+uint8_t mck_ctrl_set_mode(mck_ctrl_t *c, uint8_t mode);
+
+/* Maximum pressure [Pa], 0..MCK_P_MAX_LIMIT. */
+uint8_t mck_ctrl_set_max_pressure(mck_ctrl_t *c, int32_t p_max_pa);
+
+/* PWM counts used in MCK_MODE_OPEN_LOOP. */
+void mck_ctrl_set_open_loop(mck_ctrl_t *c, uint8_t inlet, uint8_t bleed);
+
+/* Latch the vent (MCK_FAULT_VENT) until the next mck_ctrl_set_mode. */
+void mck_ctrl_vent(mck_ctrl_t *c);
+
+/* One control step. adc: raw count of the pressure transducer; sample_ok: 0 when no sample
+ * arrived this period; p_ref_pa: set-point [Pa]. */
+void mck_ctrl_step(mck_ctrl_t *c, uint16_t adc, uint8_t sample_ok, int32_t p_ref_pa,
+                   mck_out_t *out);
+
+/* Building blocks, exported for the tests. */
+int32_t mck_mulq16(int32_t x, int32_t c);  /* floor(x c / 2^16), c >= 0 */
+uint16_t mck_tanh_q15(uint16_t x_q12);     /* tanh(x) Q15 for x in [0, 8), Q12 */
+unsigned mck_ctrl_sizeof(void);            /* sizeof(mck_ctrl_t), for ctypes */
+
+#endif

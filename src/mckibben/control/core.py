@@ -1,0 +1,730 @@
+"""The pressure-controller core: the firmware's fixed-point law, bit-exact in Python.
+
+This module mirrors ``firmware/core/controller.c`` operation for operation: ADC scaling, the
+supervisor (reference clamp, overpressure vent, latched sensor faults), the sliding-mode law and
+the PID of ``docs/controller.md``, and the split of the signed command into inlet and bleed PWM
+counts. The tests feed identical sequences to the C core (built for the host, loaded with
+ctypes) and to :func:`core_kernel` and require identical outputs at every step, so a simulation
+that uses this module runs the controller that runs on the Arduino Mega.
+
+The step is a Numba kernel with the controller-kernel interface of the plant simulator
+(``kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa) -> (inlet, bleed,
+faults)``); :func:`core_spec` builds the arrays for a batch of instances, :class:`CoreController`
+wraps one instance for step-by-step use, and :func:`float_command` is the same law in float64,
+the reference the fixed-point arithmetic is measured against (``docs/firmware.md``).
+
+Gains are carried as the integers of the SET_GAIN command (``GAINS``: id, scale, range); the
+derived coefficients are computed from them with the integer formulas of the C core.
+
+References
+----------
+000_909f662a44080c85.txt, section IV, eq. (5)-(12) (sliding mode; signs corrected as in
+``docs/controller.md``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from mckibben.errors import InputError
+
+# --- modes and fault flags (firmware/core/controller.h, docs/protocol.md) ---------------------
+
+MODE_OFF = 0
+MODE_SMC = 1
+MODE_PID = 2
+MODE_OPEN_LOOP = 3
+
+FAULT_OVERPRESSURE = 0x01
+FAULT_ADC_RANGE = 0x02
+FAULT_STUCK = 0x04
+FAULT_MISSING = 0x08
+FAULT_VENT = 0x10
+
+STATUS_OK = 0
+STATUS_RANGE = 3
+STATUS_GAIN_ID = 4
+
+#: Compiled limit of the maximum pressure [Pa] (full scale of the 0-1 MPa transducer).
+P_MAX_LIMIT = 1_000_000
+TS_US_MIN = 100
+TS_US_MAX = 10_000
+
+
+class Gain(NamedTuple):
+    """One SET_GAIN entry: the value sent is ``round(physical * scale)`` in ``[lo, hi]``."""
+
+    id: int
+    name: str
+    unit: str
+    scale: float
+    lo: int
+    hi: int
+    default: int
+
+
+#: The gains of SET_GAIN, in id order (firmware/core/controller.h).
+GAINS: tuple[Gain, ...] = (
+    Gain(0, "smc_beta", "PWM counts", 1e3, 0, 255_000, 120_000),
+    Gain(1, "smc_eps", "Pa", 1.0, 1, 1_000_000, 20_000),
+    Gain(2, "smc_ki", "1/s", 1e3, 0, 1_000_000, 10_000),
+    Gain(3, "smc_tau", "s", 1e6, 0, 10_000_000, 90_000),
+    Gain(4, "smc_g", "Pa/count", 1e3, 1_000, 100_000_000, 3_000_000),
+    Gain(5, "smc_i_max", "Pa s", 1e3, 0, 2_147_483_647, 10_000_000),
+    Gain(6, "pid_kp", "counts/Pa", 1e9, 0, 1_000_000_000, 1_000_000),
+    Gain(7, "pid_ki", "counts/(Pa s)", 1e9, 0, 2_147_483_647, 11_000_000),
+    Gain(8, "pid_kd", "counts s/Pa", 1e12, 0, 2_147_483_647, 0),
+    Gain(9, "pid_tf", "s", 1e6, 0, 10_000_000, 5_000),
+    Gain(10, "adc_zero", "count", 1.0, 0, 1023, 0),
+    Gain(11, "pa_per_count", "Pa/count", 1e3, 1, 2_047_999, 977_517),
+    Gain(12, "margin", "Pa", 1.0, 0, 200_000, 20_000),
+    Gain(13, "adc_min", "count", 1.0, 0, 1023, 0),
+    Gain(14, "adc_max", "count", 1.0, 0, 1023, 1022),
+    Gain(15, "n_stuck", "samples", 1.0, 0, 65_535, 500),
+    Gain(16, "n_missing", "samples", 1.0, 0, 65_535, 10),
+)
+GAIN_IDS = {g.name: g.id for g in GAINS}
+N_GAINS = len(GAINS)
+
+# --- array layouts ----------------------------------------------------------------------------
+
+# iparams (int64): settings, derived coefficients, then the 17 raw gain values.
+IP_P_MAX, IP_TS_US, IP_OL_INLET, IP_OL_BLEED = 0, 1, 2, 3
+IP_PPC_Q8, IP_BETA_Q8, IP_C_P, IP_C_DREF, IP_C_E, IP_C_KI = 4, 5, 6, 7, 8, 9
+IP_C_EPS, IP_S_SAT, IP_ISUM_MAX, IP_C_KP, IP_C_KIP, IP_C_KD, IP_ALPHA = 10, 11, 12, 13, 14, 15, 16
+IP_GAIN0 = 17
+N_IPARAMS = IP_GAIN0 + N_GAINS
+
+# istate (int64): mode, supervisor and law state, last telemetry values.
+IS_MODE, IS_LATCHED, IS_OVER, IS_FIRST, IS_LAST_INLET, IS_LAST_BLEED = 0, 1, 2, 3, 4, 5
+IS_HELD_ADC, IS_STUCK_N, IS_MISSING_N = 6, 7, 8
+IS_ISUM, IS_IU, IS_DQ, IS_E_PREV, IS_PREF_PREV = 9, 10, 11, 12, 13
+IS_SURFACE, IS_REFERENCE = 14, 15
+N_ISTATE = 16
+
+
+def tanh_table() -> np.ndarray:
+    """The tanh table of the fixed-point law: ``round(tanh(i/16) * 2^15)``, i = 0..128.
+
+    Returns
+    -------
+    numpy.ndarray
+        129 ``int64`` values; entry i is tanh at x = i/16 in Q15. [-]
+    """
+    return np.rint(np.tanh(np.arange(129) / 16.0) * 32768.0).astype(np.int64)
+
+
+_TANH = tanh_table()
+
+# --- integer building blocks (mirrors of controller.c) ----------------------------------------
+
+
+@njit(cache=True)
+def _wrap32(v):
+    return ((v + 2147483648) & 0xFFFFFFFF) - 2147483648
+
+
+@njit(cache=True)
+def mulq16(x, c):
+    """floor(x c / 2^16) wrapped to int32, as ``mck_mulq16`` (c >= 0). [-]"""
+    return _wrap32((x * c) >> 16)
+
+
+@njit(cache=True)
+def tanh_q15(x_q12):
+    """tanh of x (Q12, 0 <= x < 8) in Q15 by linear interpolation in the table. [-]"""
+    i = x_q12 >> 8
+    f = x_q12 & 0xFF
+    a = _TANH[i]
+    b = _TANH[i + 1]
+    return a + (((b - a) * f) >> 8)
+
+
+@njit(cache=True)
+def _clamp(v, lo, hi):
+    if v < lo:
+        return lo
+    if v > hi:
+        return hi
+    return v
+
+
+_TERM_LIM = 1 << 24
+
+
+@njit(cache=True)
+def smc_law_q8(ip, p, dpref, e, isum):
+    """Sliding-mode command for given state, without side effects.
+
+    Parameters
+    ----------
+    ip : numpy.ndarray
+        iparams of one instance (:func:`pack_params`). [-]
+    p : int
+        Measured pressure. [Pa]
+    dpref : int
+        Reference increment over one period, p_ref,k - p_ref,k-1. [Pa]
+    e : int
+        Error p_ref - p. [Pa]
+    isum : int
+        Sum of the errors (the integral is isum * Ts), already updated and clamped. [Pa]
+
+    Returns
+    -------
+    tuple of int
+        The command u in PWM counts Q8 (256 = one count) and the surface S. [-], [Pa]
+    """
+    s = e + (mulq16(isum, ip[IP_C_KI]) >> 8)
+    u = _clamp(mulq16(p, ip[IP_C_P]), -_TERM_LIM, _TERM_LIM)
+    u += _clamp(mulq16(dpref, ip[IP_C_DREF]), -_TERM_LIM, _TERM_LIM)
+    u += _clamp(mulq16(e, ip[IP_C_E]), -_TERM_LIM, _TERM_LIM)
+    sabs = -s if s < 0 else s
+    if sabs >= ip[IP_S_SAT]:
+        th = 32768
+    else:
+        th = tanh_q15(mulq16(sabs, ip[IP_C_EPS]))
+    t4 = (ip[IP_BETA_Q8] * th) >> 15
+    if s < 0:
+        return u - t4, s
+    return u + t4, s
+
+
+@njit(cache=True)
+def _pid_law_q8(st, ip, e):
+    st[IS_DQ] += mulq16((e - st[IS_E_PREV]) * 16 - st[IS_DQ], ip[IP_ALPHA])
+    st[IS_E_PREV] = e
+    tp = _clamp(mulq16(e, ip[IP_C_KP]), -_TERM_LIM, _TERM_LIM)
+    td = _clamp(mulq16(st[IS_DQ], ip[IP_C_KD]), -_TERM_LIM, _TERM_LIM)
+    u = tp + td + (st[IS_IU] >> 8)
+    ucnt = (u + 128) >> 8
+    if not ((ucnt >= 255 and e > 0) or (ucnt <= -255 and e < 0)):
+        inc = _clamp(mulq16(e, ip[IP_C_KIP]), -(1 << 25), 1 << 25)
+        st[IS_IU] = _clamp(st[IS_IU] + inc, -(1 << 24), 1 << 24)
+        u = tp + td + (st[IS_IU] >> 8)
+    return u
+
+
+@njit(cache=True)
+def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
+    """One control step of the firmware core (``mck_ctrl_step``), bit-exact.
+
+    Parameters
+    ----------
+    istate : numpy.ndarray of int64
+        This instance's integer state, mutated in place (layout ``IS_*``). [-]
+    iparams : numpy.ndarray of int64
+        This instance's parameters (:func:`pack_params`). [-]
+    fstate : numpy.ndarray of float64
+        Unused (the core is integer only); kept for the kernel interface. [-]
+    fparams : numpy.ndarray of float64
+        Unused; kept for the kernel interface. [-]
+    adc : int
+        Raw pressure ADC count; saturated to 0..65535 (the C core takes uint16). [count]
+    enc : int
+        Encoder count; the pressure law does not use it. [count]
+    sample_ok : bool
+        False when no sample arrived this period. [-]
+    p_ref_pa : float
+        Pressure reference; rounded to whole Pa as the protocol's i32 (NaN counts as 0). [Pa]
+
+    Returns
+    -------
+    tuple of int
+        Inlet PWM count 0..255, bleed PWM count 0..255, fault flags (``FAULT_*``). [-]
+    """
+    st = istate
+    ip = iparams
+    a_raw = _clamp(adc, 0, 65535)
+    p_max = ip[IP_P_MAX]
+    if not (p_ref_pa > 0.0):
+        pref = 0
+    elif p_ref_pa >= p_max:
+        pref = p_max
+    else:
+        pref = int(math.floor(p_ref_pa + 0.5))
+    # supervisor 3: sensor faults
+    if sample_ok:
+        st[IS_MISSING_N] = 0
+        if a_raw < ip[IP_GAIN0 + 13] or a_raw > ip[IP_GAIN0 + 14]:
+            st[IS_LATCHED] |= FAULT_ADC_RANGE
+        if a_raw == st[IS_HELD_ADC] and (st[IS_LAST_INLET] >= 128 or st[IS_LAST_BLEED] >= 128):
+            if st[IS_STUCK_N] < 65535:
+                st[IS_STUCK_N] += 1
+        else:
+            st[IS_STUCK_N] = 0
+        n_stuck = ip[IP_GAIN0 + 15]
+        if n_stuck != 0 and st[IS_STUCK_N] >= n_stuck:
+            st[IS_LATCHED] |= FAULT_STUCK
+        st[IS_HELD_ADC] = a_raw
+    else:
+        if st[IS_MISSING_N] < 65535:
+            st[IS_MISSING_N] += 1
+        n_missing = ip[IP_GAIN0 + 16]
+        if n_missing != 0 and st[IS_MISSING_N] >= n_missing:
+            st[IS_LATCHED] |= FAULT_MISSING
+    # ADC scaling
+    a = st[IS_HELD_ADC]
+    if a > 1023:
+        a = 1023
+    p = ((a - ip[IP_GAIN0 + 10]) * ip[IP_PPC_Q8] + 128) >> 8
+    # supervisor 1 and 2
+    pref = _clamp(pref, 0, p_max)
+    if st[IS_OVER] != 0:
+        if p < p_max:
+            st[IS_OVER] = 0
+    elif p > p_max + ip[IP_GAIN0 + 12]:
+        st[IS_OVER] = 1
+    e = pref - p
+    surface = e
+    inlet = 0
+    bleed = 0
+    mode = st[IS_MODE]
+    if st[IS_LATCHED] != 0 or st[IS_OVER] != 0:
+        bleed = 255
+        st[IS_FIRST] = 1
+    elif mode == MODE_SMC or mode == MODE_PID:
+        if st[IS_FIRST] != 0:
+            st[IS_FIRST] = 0
+            st[IS_PREF_PREV] = pref
+            st[IS_E_PREV] = e
+        if mode == MODE_SMC:
+            st[IS_ISUM] = _clamp(st[IS_ISUM] + e, -ip[IP_ISUM_MAX], ip[IP_ISUM_MAX])
+            u, surface = smc_law_q8(ip, p, pref - st[IS_PREF_PREV], e, st[IS_ISUM])
+            st[IS_PREF_PREV] = pref
+        else:
+            u = _pid_law_q8(st, ip, e)
+        u = (u + 128) >> 8
+        if u >= 0:
+            inlet = 255 if u > 255 else u
+        else:
+            bleed = 255 if u < -255 else -u
+    else:
+        st[IS_FIRST] = 1
+        if mode == MODE_OPEN_LOOP:
+            inlet = ip[IP_OL_INLET]
+            bleed = ip[IP_OL_BLEED]
+    faults = st[IS_LATCHED] | (FAULT_OVERPRESSURE if st[IS_OVER] != 0 else 0)
+    st[IS_LAST_INLET] = inlet
+    st[IS_LAST_BLEED] = bleed
+    st[IS_SURFACE] = surface
+    st[IS_REFERENCE] = pref
+    return inlet, bleed, faults
+
+
+# --- gains -> coefficients (mirror of derive() in controller.c) -------------------------------
+
+
+def _rdiv(n: int, d: int) -> int:
+    return (n + d // 2) // d
+
+
+def derive(gains: Sequence[int], ts_us: int) -> dict[str, int]:
+    """The derived coefficients of the fixed-point law from the SET_GAIN values.
+
+    Parameters
+    ----------
+    gains : sequence of int
+        The 17 gain values in their SET_GAIN scale (``GAINS``). [-]
+    ts_us : int
+        Control period. [us]
+
+    Returns
+    -------
+    dict of str to int
+        Coefficient name -> integer value, as ``derive()`` in ``firmware/core/controller.c``. [-]
+    """
+    g = [int(v) for v in gains]
+    ts = int(ts_us)
+    beta, eps, ki, tau, gg, imax = g[0], g[1], g[2], g[3], g[4], g[5]
+    c = {}
+    c["ppc_q8"] = _rdiv(g[11] * 256, 1000)
+    c["beta_q8"] = _rdiv(beta * 256, 1000)
+    c["c_p"] = min(_rdiv(1000 << 24, gg), 1 << 24)
+    c["c_dref"] = min(_rdiv((tau * 1000) << 24, gg * ts), (1 << 27) - 1)
+    c["c_e"] = min(_rdiv((tau * ki) << 18, gg * 15625), (1 << 25) - 1)
+    c["c_ki"] = _rdiv((ki * ts) << 15, 1953125)
+    c["c_eps"] = (1 << 28) // eps
+    c["s_sat"] = 8 * eps
+    lim = _rdiv(imax * 1000, ts)
+    if c["c_ki"] > 0 and (1 << 46) // c["c_ki"] < lim:
+        lim = (1 << 46) // c["c_ki"]
+    c["isum_max"] = min(lim, 1 << 30)
+    c["c_kp"] = min(_rdiv(g[6] << 15, 1953125), 1 << 24)
+    c["c_kip"] = min(_rdiv((g[7] * ts) << 17, 30517578125), (1 << 25) - 1)
+    c["c_kd"] = min(_rdiv(g[8] << 14, ts * 15625), (1 << 20) - 1)
+    c["alpha"] = _rdiv(ts << 16, g[9] + ts)
+    return c
+
+
+_COEF_INDEX = {
+    "ppc_q8": IP_PPC_Q8, "beta_q8": IP_BETA_Q8, "c_p": IP_C_P, "c_dref": IP_C_DREF,
+    "c_e": IP_C_E, "c_ki": IP_C_KI, "c_eps": IP_C_EPS, "s_sat": IP_S_SAT,
+    "isum_max": IP_ISUM_MAX, "c_kp": IP_C_KP, "c_kip": IP_C_KIP, "c_kd": IP_C_KD,
+    "alpha": IP_ALPHA,
+}  # fmt: skip
+
+
+def _fill_coefficients(ip: np.ndarray) -> None:
+    gains = ip[IP_GAIN0 : IP_GAIN0 + N_GAINS]
+    for name, value in derive(gains, int(ip[IP_TS_US])).items():
+        ip[_COEF_INDEX[name]] = value
+
+
+# --- physical parameters ----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CoreParams:
+    """Physical parameters of the controller core (defaults: docs/firmware.md, not tuned).
+
+    Parameters
+    ----------
+    beta : float
+        Sliding-mode switching gain (the paper's 120 and 150). [PWM counts]
+    eps : float
+        Boundary-layer width of tanh(S/eps). [Pa]
+    ki : float
+        Integral weight of the sliding surface S = e + Ki I. [1/s]
+    tau : float
+        Time constant of the identified first-order model. [s]
+    g : float
+        Static gain of the identified model, pressure per PWM count. [Pa/count]
+    i_max : float
+        Clamp of the sliding-mode integral I. [Pa s]
+    kp : float
+        PID proportional gain. [counts/Pa]
+    ki_pid : float
+        PID integral gain. [counts/(Pa s)]
+    kd : float
+        PID derivative gain. [counts s/Pa]
+    tf : float
+        PID derivative filter time constant. [s]
+    p_max : float
+        Maximum pressure; the reference is clamped to [0, p_max]. [Pa]
+    margin : float
+        Overpressure vent above p_max + margin, until p < p_max. [Pa]
+    adc_zero : int
+        ADC count at zero gauge pressure. [count]
+    pa_per_count : float
+        Pressure per ADC count. [Pa/count]
+    adc_min, adc_max : int
+        Valid ADC range; a reading outside latches a vent. [count]
+    n_stuck : int
+        Identical readings while a valve is at >= 128 counts that latch a vent; 0 = off. [-]
+    n_missing : int
+        Consecutive missing samples that latch a vent; 0 = off. [-]
+    ts : float
+        Control period, a whole number of microseconds in [100 us, 10 ms]. [s]
+    mode : int
+        Initial mode: 0 off, 1 sliding mode, 2 PID, 3 open loop. [-]
+    open_loop_inlet, open_loop_bleed : int
+        PWM counts used in mode 3. [count]
+    """
+
+    beta: float = 120.0
+    eps: float = 20e3
+    ki: float = 10.0
+    tau: float = 0.09
+    g: float = 3000.0
+    i_max: float = 1e4
+    kp: float = 1e-3
+    ki_pid: float = 0.011
+    kd: float = 0.0
+    tf: float = 0.005
+    p_max: float = 0.8e6
+    margin: float = 20e3
+    adc_zero: int = 0
+    pa_per_count: float = 1e6 / 1023
+    adc_min: int = 0
+    adc_max: int = 1022
+    n_stuck: int = 500
+    n_missing: int = 10
+    ts: float = 1e-3
+    mode: int = MODE_SMC
+    open_loop_inlet: int = 0
+    open_loop_bleed: int = 0
+
+
+_PARAM_OF_GAIN = (
+    "beta", "eps", "ki", "tau", "g", "i_max", "kp", "ki_pid", "kd", "tf",
+    "adc_zero", "pa_per_count", "margin", "adc_min", "adc_max", "n_stuck", "n_missing",
+)  # fmt: skip
+
+
+def gain_values(params: CoreParams) -> np.ndarray:
+    """The SET_GAIN integer values of a parameter set, range-checked.
+
+    Parameters
+    ----------
+    params : CoreParams
+        Physical parameters. [SI]
+
+    Returns
+    -------
+    numpy.ndarray
+        17 ``int64`` values in id order (``GAINS``). [-]
+
+    Raises
+    ------
+    InputError
+        A parameter is not finite or outside the range its fixed-point scale can carry.
+    """
+    out = np.zeros(N_GAINS, dtype=np.int64)
+    for gain, name in zip(GAINS, _PARAM_OF_GAIN, strict=True):
+        x = float(getattr(params, name))
+        v = round(x * gain.scale) if math.isfinite(x) else None
+        if v is None or not gain.lo <= v <= gain.hi:
+            raise InputError(
+                f"controller parameter {name}={x!r} outside "
+                f"[{gain.lo / gain.scale:g}, {gain.hi / gain.scale:g}] {gain.unit}"
+            )
+        out[gain.id] = v
+    return out
+
+
+def pack_params(params: CoreParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Arrays of one controller instance for :func:`core_kernel`.
+
+    Parameters
+    ----------
+    params : CoreParams
+        Physical parameters. [SI]
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(istate0, iparams, fstate0, fparams)``: int64[N_ISTATE], int64[N_IPARAMS],
+        float64[1], float64[1]. [-]
+
+    Raises
+    ------
+    InputError
+        A parameter is out of range (named in the message).
+    """
+    gains = gain_values(params)
+    ts_us = round(float(params.ts) * 1e6) if math.isfinite(float(params.ts)) else -1
+    if not TS_US_MIN <= ts_us <= TS_US_MAX or abs(ts_us - params.ts * 1e6) > 1e-6:
+        raise InputError(f"controller parameter ts={params.ts!r} must be a whole number of "
+                         f"microseconds in [{TS_US_MIN}, {TS_US_MAX}] us")
+    p_max = round(float(params.p_max)) if math.isfinite(float(params.p_max)) else -1
+    if not 0 <= p_max <= P_MAX_LIMIT:
+        raise InputError(f"controller parameter p_max={params.p_max!r} outside [0, {P_MAX_LIMIT}] Pa")
+    for name, lo, hi in (("mode", 0, 3), ("open_loop_inlet", 0, 255), ("open_loop_bleed", 0, 255)):
+        v = getattr(params, name)
+        if int(v) != v or not lo <= v <= hi:
+            raise InputError(f"controller parameter {name}={v!r} outside the integers {lo}..{hi}")
+    ip = np.zeros(N_IPARAMS, dtype=np.int64)
+    ip[IP_P_MAX] = p_max
+    ip[IP_TS_US] = ts_us
+    ip[IP_OL_INLET] = int(params.open_loop_inlet)
+    ip[IP_OL_BLEED] = int(params.open_loop_bleed)
+    ip[IP_GAIN0 : IP_GAIN0 + N_GAINS] = gains
+    _fill_coefficients(ip)
+    st = np.zeros(N_ISTATE, dtype=np.int64)
+    st[IS_MODE] = int(params.mode)
+    st[IS_FIRST] = 1
+    return st, ip, np.zeros(1), np.zeros(1)
+
+
+def core_spec(params: CoreParams | Sequence[CoreParams] = CoreParams(), n: int = 1):
+    """Controller spec for the batch simulator: the kernel and per-instance arrays.
+
+    Parameters
+    ----------
+    params : CoreParams or sequence of CoreParams
+        One parameter set (repeated ``n`` times) or one per instance. [SI]
+    n : int, default 1
+        Number of instances when ``params`` is a single set. [-]
+
+    Returns
+    -------
+    tuple
+        ``(core_kernel, istate0[N, ·], iparams[N, ·], fstate0[N, 1], fparams[N, 1])``. [-]
+    """
+    plist = [params] * int(n) if isinstance(params, CoreParams) else list(params)
+    if not plist:
+        raise InputError("core_spec needs at least one parameter set")
+    packs = [pack_params(p) for p in plist]
+    return (core_kernel,) + tuple(np.stack([pk[i] for pk in packs]) for i in range(4))
+
+
+class CoreController:
+    """One instance of the firmware controller core, stepped from Python.
+
+    The setters mirror the firmware commands and return their ACK status (0 ok, 3 value out of
+    range, 4 bad gain id) instead of raising, as the device does.
+
+    Parameters
+    ----------
+    params : CoreParams, optional
+        Physical parameters. [SI]
+    """
+
+    def __init__(self, params: CoreParams = CoreParams()):
+        self.istate, self.iparams, self.fstate, self.fparams = pack_params(params)
+
+    def step(self, adc: int, sample_ok: bool = True, p_ref_pa: float = 0.0) -> tuple[int, int, int]:
+        """One control step.
+
+        Parameters
+        ----------
+        adc : int
+            Raw pressure ADC count. [count]
+        sample_ok : bool, default True
+            False when no sample arrived this period. [-]
+        p_ref_pa : float, default 0.0
+            Pressure reference. [Pa]
+
+        Returns
+        -------
+        tuple of int
+            ``(inlet, bleed, faults)``: PWM counts 0..255 and fault flags. [-]
+        """
+        i, b, f = core_kernel(self.istate, self.iparams, self.fstate, self.fparams,
+                              int(adc), 0, bool(sample_ok), float(p_ref_pa))
+        return int(i), int(b), int(f)
+
+    @property
+    def surface_pa(self) -> int:
+        """Sliding surface S (mode 1) or error e (other modes) of the last step. [Pa]"""
+        return int(self.istate[IS_SURFACE])
+
+    @property
+    def reference_pa(self) -> int:
+        """Reference of the last step after the supervisor's clamp. [Pa]"""
+        return int(self.istate[IS_REFERENCE])
+
+    @property
+    def mode(self) -> int:
+        """Current mode. [-]"""
+        return int(self.istate[IS_MODE])
+
+    def set_gain(self, gain_id: int, value: int) -> int:
+        """SET_GAIN: one gain in its fixed-point scale (``GAINS``); returns the ACK status.
+
+        Parameters
+        ----------
+        gain_id : int
+            Gain id 0..16. [-]
+        value : int
+            Value in the gain's SET_GAIN scale. [-]
+        """
+        if not 0 <= gain_id < N_GAINS:
+            return STATUS_GAIN_ID
+        g = GAINS[gain_id]
+        if not g.lo <= value <= g.hi:
+            return STATUS_RANGE
+        self.iparams[IP_GAIN0 + gain_id] = value
+        _fill_coefficients(self.iparams)
+        return STATUS_OK
+
+    def set_mode(self, mode: int) -> int:
+        """SET_MODE: resets the law state and clears the latched faults; returns the status.
+
+        Parameters
+        ----------
+        mode : int
+            0 off, 1 sliding mode, 2 PID, 3 open loop. [-]
+        """
+        if not 0 <= mode <= MODE_OPEN_LOOP:
+            return STATUS_RANGE
+        st = self.istate
+        st[IS_MODE] = mode
+        st[IS_LATCHED] = 0
+        st[IS_FIRST] = 1
+        for k in (IS_ISUM, IS_IU, IS_DQ, IS_E_PREV, IS_PREF_PREV, IS_STUCK_N, IS_MISSING_N):
+            st[k] = 0
+        return STATUS_OK
+
+    def set_max_pressure(self, p_max_pa: int) -> int:
+        """SET_MAX_PRESSURE; returns the status.
+
+        Parameters
+        ----------
+        p_max_pa : int
+            Maximum pressure, 0..P_MAX_LIMIT. [Pa]
+        """
+        if not 0 <= p_max_pa <= P_MAX_LIMIT:
+            return STATUS_RANGE
+        self.iparams[IP_P_MAX] = p_max_pa
+        return STATUS_OK
+
+    def set_open_loop(self, inlet: int, bleed: int) -> None:
+        """SET_OPEN_LOOP: the PWM counts of mode 3.
+
+        Parameters
+        ----------
+        inlet, bleed : int
+            PWM counts 0..255. [count]
+        """
+        self.iparams[IP_OL_INLET] = int(inlet) & 0xFF
+        self.iparams[IP_OL_BLEED] = int(bleed) & 0xFF
+
+    def vent(self) -> None:
+        """VENT: latch the vent until the next :meth:`set_mode`."""
+        self.istate[IS_LATCHED] |= FAULT_VENT
+
+
+# --- float64 reference of the law (accuracy of the fixed point) -------------------------------
+
+
+def float_command(params: CoreParams, p, p_ref, dp_ref, integral, mode: int = MODE_SMC):
+    """The control law in float64, for measuring the fixed-point error.
+
+    Sliding mode: ``u = (p + tau (dp_ref/Ts + Ki e)) / G + beta tanh((e + Ki I)/eps)``;
+    PID (proportional and integral part only): ``u = Kp e + Ki_pid I``; with ``e = p_ref - p``.
+
+    Parameters
+    ----------
+    params : CoreParams
+        Physical parameters. [SI]
+    p : array_like
+        Measured pressure. [Pa]
+    p_ref : array_like
+        Reference. [Pa]
+    dp_ref : array_like
+        Reference increment over one period. [Pa]
+    integral : array_like
+        Integral of the error I. [Pa s]
+    mode : int, default 1
+        1 sliding mode, 2 PID. [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        The signed command before rounding and saturation. [PWM counts]
+
+    References
+    ----------
+    000_909f662a44080c85.txt, eq. (5) and (12), signs as corrected in docs/controller.md.
+    """
+    p, p_ref, dp_ref, integral = (np.asarray(x, dtype=float) for x in (p, p_ref, dp_ref, integral))
+    e = p_ref - p
+    if mode == MODE_PID:
+        return params.kp * e + params.ki_pid * integral
+    s = e + params.ki * integral
+    return ((p + params.tau * (dp_ref / params.ts + params.ki * e)) / params.g
+            + params.beta * np.tanh(s / params.eps))
+
+
+def counts_from_command(u) -> tuple[np.ndarray, np.ndarray]:
+    """Split a signed command into (inlet, bleed) PWM counts, rounding half up and saturating.
+
+    Parameters
+    ----------
+    u : array_like
+        Signed command. [PWM counts]
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        Inlet and bleed counts 0..255. [count]
+    """
+    r = np.floor(np.asarray(u, dtype=float) + 0.5)
+    return np.clip(r, 0, 255).astype(np.int64), np.clip(-r, 0, 255).astype(np.int64)

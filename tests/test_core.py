@@ -1,0 +1,226 @@
+"""The controller core's law, supervisor and fixed-point accuracy (Python mirror).
+
+C-versus-Python identity is tested in test_core_equivalence.py; this file checks that the law is
+the one of docs/controller.md and says how far the fixed point lies from float64.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mckibben.control import core
+from mckibben.errors import InputError
+
+ADC_PA = 1e6 / 1023  # default pa_per_count [Pa/count]
+
+
+def adc_of(p):
+    return int(np.clip(round(p / ADC_PA), 0, 1023))
+
+
+def simulate(ctrl, pref, n, g=3000.0, tau=0.09, p0=0.0):
+    """First-order plant dp/dt = (G u - p)/tau (u = inlet - bleed), the model of §IV.A.
+
+    Returns pressure, surface and outputs per step.
+    """
+    p = p0
+    out = []
+    for _ in range(n):
+        inlet, bleed, faults = ctrl.step(adc_of(p), True, pref)
+        out.append((p, ctrl.surface_pa, inlet, bleed, faults))
+        p += 1e-3 / tau * (g * (inlet - bleed) - p)
+        p = max(p, 0.0)
+    return np.array(out, dtype=float)
+
+
+# --- accuracy of the fixed point -------------------------------------------------------------
+
+PARAM_SETS = [
+    core.CoreParams(),
+    core.CoreParams(beta=150.0),  # the paper's faster setting (§IV)
+    core.CoreParams(eps=5e3, g=1000.0, tau=0.02, ki=50.0),
+    core.CoreParams(eps=1e5, g=1e4, tau=0.5, ki=0.0),
+    core.CoreParams(beta=255.0, eps=2e3, ki=2.0),  # steepest boundary layer tried
+]
+
+
+@pytest.mark.parametrize("params", PARAM_SETS)
+def test_fixed_point_law_matches_float64(params):
+    rng = np.random.default_rng(0)
+    _, ip, _, _ = core.pack_params(params)
+    n = 3000
+    p = rng.integers(0, 800_001, n)
+    near = rng.random(n) < 0.5  # half the samples near the reference: inside the tanh table
+    pref = np.clip(np.where(near, p + rng.integers(-60_000, 60_001, n), rng.integers(0, 800_001, n)),
+                   0, 800_000)
+    dpref = rng.integers(-2000, 2001, n)  # ramps up to 2 MPa/s at 1 kHz
+    isum = rng.integers(-ip[core.IP_ISUM_MAX], ip[core.IP_ISUM_MAX] + 1, n) // 37
+    uq = np.array([core.smc_law_q8(ip, int(a), int(d), int(r - a), int(s))[0]
+                   for a, d, r, s in zip(p, dpref, pref, isum, strict=True)]) / 256.0
+    uf = core.float_command(params, p, pref, dpref, isum * params.ts)
+    # 0.3 counts: tanh table (4.4e-4 * beta <= 0.11), 1 Pa quantization of S through the
+    # steepest slope beta/eps (0.13 counts/Pa for beta=255, eps=2 kPa), four floors of 1/256.
+    assert np.abs(uq - uf).max() < 0.3
+    (i_q, b_q), (i_f, b_f) = core.counts_from_command(uq), core.counts_from_command(uf)
+    # After rounding to whole PWM counts the two laws differ by at most one count.
+    assert max(np.abs(i_q - i_f).max(), np.abs(b_q - b_f).max()) <= 1
+
+
+def test_tanh_table_error():
+    x = np.arange(32768)
+    t = np.array([core.tanh_q15(int(v)) for v in x]) / 32768.0
+    err = np.abs(t - np.tanh(x / 4096.0)).max()
+    # Linear interpolation on a 1/16 grid: h^2/8 max|tanh''| = 3.76e-4, plus half an LSB of
+    # Q15 at both table ends and one LSB for the floor of the interpolation: 4.4e-4.
+    assert err < 4.4e-4
+    assert err > 1e-4  # the bound is not vacuous: the table is coarse on purpose
+    assert core.tanh_q15(0) == 0 and core.tanh_table()[-1] == 32768
+
+
+def test_coefficients_from_gain_scales():
+    c = core.derive([g.default for g in core.GAINS], 1000)
+    assert c["c_p"] == round(2**24 / 3000.0)  # 1/G in Q8 counts, Q16
+    assert c["c_dref"] == round(2**24 * 0.09 / (3000.0 * 1e-3))
+    assert c["c_e"] == round(2**24 * 0.09 * 10.0 / 3000.0)
+    assert c["c_ki"] == round(2**24 * 10.0 * 1e-3)
+    assert c["s_sat"] == 8 * 20_000
+    assert c["isum_max"] == round(1e4 / 1e-3)  # I_max / Ts
+    assert c["alpha"] == round(2**16 * 1e-3 / (5e-3 + 1e-3))
+    assert c["ppc_q8"] == round(256 * 1e6 / 1023)
+
+
+# --- the law in closed loop ------------------------------------------------------------------
+
+
+def test_smc_tracks_step_on_matched_model():
+    ctrl = core.CoreController(core.CoreParams())
+    r = simulate(ctrl, 550e3, 1000)
+    # final error within 2 ADC counts (the sensor's resolution is 977 Pa per count)
+    assert abs(r[-200:, 0].mean() - 550e3) < 2 * ADC_PA
+    assert r[:, 4].max() == 0  # no fault on the way
+
+
+def test_smc_surface_decreases_outside_boundary_layer():
+    """V = S^2/2 decreases while |S| > 2 eps, even with a 30 % gain error in the model.
+
+    Checked over 5-step windows: between ADC steps (977 Pa) the measured error is constant
+    and S may stand still for a period or two.
+    """
+    params = core.CoreParams(beta=150.0)
+    ctrl = core.CoreController(params)
+    # plant gain 30 % below the controller's G: the model error h that beta must dominate
+    r = simulate(ctrl, 300e3, 1500, g=0.7 * params.g)
+    s = np.abs(r[:, 1])
+    k = np.arange(1, len(s) - 5)  # step 0 carries the reference jump
+    outside = s[k] > 2 * params.eps
+    assert outside.sum() > 20  # the run does start outside the boundary layer
+    assert np.all(s[k + 5][outside] < s[k][outside])
+    # and the integral of S removes the offset the model error would leave (two ADC counts)
+    assert abs(r[-500:, 0].mean() - 300e3) < 2 * ADC_PA
+
+
+def test_pid_tracks_and_freezes_integral_while_saturated():
+    ctrl = core.CoreController(core.CoreParams(mode=core.MODE_PID))
+    ctrl.step(0, True, 700e3)  # e = 700 kPa: Kp e = 700 counts, saturated upwards
+    iu = ctrl.istate[core.IS_IU]
+    for _ in range(5):
+        assert ctrl.step(0, True, 700e3)[0] == 255
+    assert ctrl.istate[core.IS_IU] == iu == 0  # conditional integration: frozen
+    r = simulate(core.CoreController(core.CoreParams(mode=core.MODE_PID)), 400e3, 3000)
+    assert abs(r[-300:, 0].mean() - 400e3) < 2 * ADC_PA
+
+
+# --- supervisor --------------------------------------------------------------------------------
+
+
+def test_reference_clamped_to_p_max():
+    ctrl = core.CoreController(core.CoreParams(p_max=500e3))
+    ctrl.step(100, True, 2e6)
+    assert ctrl.reference_pa == 500_000
+    ctrl.step(100, True, -3e4)
+    assert ctrl.reference_pa == 0
+    ctrl.step(100, True, float("nan"))
+    assert ctrl.reference_pa == 0
+
+
+def test_overpressure_vents_until_below_p_max():
+    ctrl = core.CoreController(core.CoreParams())  # p_max 800 kPa, margin 20 kPa
+    assert ctrl.step(adc_of(815e3), True, 800e3)[2] == 0  # inside the margin
+    assert ctrl.step(adc_of(830e3), True, 800e3) == (0, 255, core.FAULT_OVERPRESSURE)
+    assert ctrl.step(adc_of(805e3), True, 800e3) == (0, 255, core.FAULT_OVERPRESSURE)
+    assert ctrl.step(adc_of(790e3), True, 800e3)[2] == 0  # released below p_max
+
+
+def test_adc_out_of_range_latches_until_set_mode():
+    ctrl = core.CoreController(core.CoreParams(adc_min=20))
+    assert ctrl.step(5, True, 300e3) == (0, 255, core.FAULT_ADC_RANGE)
+    assert ctrl.step(300, True, 300e3) == (0, 255, core.FAULT_ADC_RANGE)  # latched
+    assert ctrl.set_mode(core.MODE_SMC) == 0
+    assert ctrl.step(300, True, 300e3)[2] == 0
+    assert ctrl.step(1023, True, 300e3)[2] & core.FAULT_ADC_RANGE  # rail: shorted wire
+
+
+def test_stuck_sensor_latches_after_n_stuck():
+    ctrl = core.CoreController(core.CoreParams(n_stuck=50))
+    faults = [ctrl.step(100, True, 700e3)[2] for _ in range(60)]  # inlet at 255, no change
+    first = faults.index(core.FAULT_STUCK)
+    assert first == 50  # step 0 sets the held value; steps 1..50 count 50 repeats
+    # a reading that moves is not stuck
+    ctrl = core.CoreController(core.CoreParams(n_stuck=50))
+    assert all(ctrl.step(100 + k % 2, True, 700e3)[2] == 0 for k in range(200))
+
+
+def test_missing_samples_latch_after_n_missing():
+    ctrl = core.CoreController(core.CoreParams(n_missing=4))
+    ctrl.step(300, True, 300e3)
+    f = [ctrl.step(0, False, 300e3)[2] for _ in range(5)]
+    assert f == [0, 0, 0, core.FAULT_MISSING, core.FAULT_MISSING]
+    # a missing sample holds the last reading: the value passed with it is ignored
+    a, b = (core.CoreController(core.CoreParams(n_missing=4)) for _ in range(2))
+    a.step(300, True, 300e3)
+    b.step(300, True, 300e3)
+    assert a.step(0, False, 300e3) == b.step(300, True, 300e3)
+    assert a.surface_pa == b.surface_pa
+
+
+def test_vent_off_and_open_loop():
+    ctrl = core.CoreController(core.CoreParams(mode=core.MODE_OPEN_LOOP, open_loop_inlet=200,
+                                               open_loop_bleed=40))
+    assert ctrl.step(300, True, 0) == (200, 40, 0)
+    ctrl.vent()
+    assert ctrl.step(300, True, 0) == (0, 255, core.FAULT_VENT)
+    assert ctrl.set_mode(core.MODE_OFF) == 0
+    assert ctrl.step(300, True, 500e3) == (0, 0, 0)
+    assert ctrl.set_mode(4) == core.STATUS_RANGE
+    assert ctrl.set_gain(17, 1) == core.STATUS_GAIN_ID
+    assert ctrl.set_gain(core.GAIN_IDS["smc_beta"], 255_001) == core.STATUS_RANGE
+    assert ctrl.set_max_pressure(1_000_001) == core.STATUS_RANGE
+
+
+# --- parameters and the kernel spec ----------------------------------------------------------
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"beta": 300.0}, "beta=300.0 outside [0, 255] PWM counts"),
+    ({"g": 0.5}, "g=0.5 outside"),
+    ({"eps": float("nan")}, "eps=nan outside"),
+    ({"ts": 1.5e-7}, "ts=1.5e-07 must be a whole number of microseconds"),
+    ({"ts": 0.02}, "ts=0.02 must be"),
+    ({"p_max": 1.2e6}, "p_max=1200000.0 outside [0, 1000000] Pa"),
+    ({"mode": 5}, "mode=5 outside the integers 0..3"),
+])
+def test_bad_parameters_raise_input_error(kwargs, message):
+    with pytest.raises(InputError, match=message.replace("[", r"\[").replace("(", r"\(")):
+        core.pack_params(core.CoreParams(**kwargs))
+
+
+def test_core_spec_batch():
+    params = [core.CoreParams(), core.CoreParams(beta=150.0, mode=core.MODE_PID)]
+    kernel, ist, ip, fst, fp = core.core_spec(params)
+    assert ist.shape == (2, core.N_ISTATE) and ip.shape == (2, core.N_IPARAMS)
+    assert ist.dtype == np.int64 and ip.dtype == np.int64 and fst.dtype == np.float64
+    out = [kernel(ist[i], ip[i], fst[i], fp[i], 300, 0, True, 500e3) for i in range(2)]
+    single = [core.CoreController(p).step(300, True, 500e3) for p in params]
+    assert [tuple(int(v) for v in o) for o in out] == single
+    assert core.core_spec(core.CoreParams(), n=3)[1].shape == (3, core.N_ISTATE)
