@@ -101,7 +101,9 @@ typedef struct {
     int32_t surface;    /* sliding surface S (SMC) or error e (other modes) [Pa] */
 } mck_out_t;
 
-/* Controller instance: gains, derived coefficients and state. Treat as opaque. */
+/* Controller instance: gains, derived coefficients and state. Treat as opaque. Everything a
+ * setter changes precedes the member `mode`; the state follows it (firmware/src/main.c relies
+ * on this to swap in new gains computed on a copy). */
 typedef struct {
     /* gains as set (SET_GAIN values) and settings */
     int32_t gain[MCK_N_GAINS];
