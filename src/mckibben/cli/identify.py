@@ -1,0 +1,96 @@
+"""``mckibben identify LOG``: fit first/second-order-plus-dead-time models to a step-response log."""
+
+from __future__ import annotations
+
+import typer
+
+from mckibben.cli import app
+from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.errors import InputError
+
+
+@app.command("identify")
+def identify_cmd(
+    log: str = typer.Argument(..., help="Step-response log (.csv or .parquet): time_<unit>, pressure_<unit>, "
+                                        "inlet_pwm/bleed_pwm or command_pwm."),
+    order: str = typer.Option("1", "--order", help="Model order: 1, 2 or both."),
+    t_step: str = typer.Option(None, "--t-step", help="Time of the step, e.g. 0.1s (default: first command change)."),
+    plot: str = typer.Option(None, "--plot", help="Write a PNG of data, fit and residuals."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Identify gain, time constant and dead time (with standard errors) from an open-loop step."""
+    from mckibben.control.identify import fit_step_response, read_step_log
+    from mckibben.units import parse_quantity
+
+    orders = {"1": (1,), "2": (2,), "both": (1, 2)}.get(order)
+    if orders is None:
+        raise InputError(f"--order: {order!r} must be 1, 2 or both")
+    ts = parse_quantity(t_step, "time", "--t-step") if t_step is not None else None
+    if plot is not None and not plot.lower().endswith(".png"):
+        raise InputError(f"--plot: {plot!r} must end in .png")
+    data, meta = read_step_log(log)
+    fits = [fit_step_response(data["time_s"], data["pressure_Pa"], data.get("command_pwm"), order=o, t_step=ts)
+            for o in orders]
+    if plot is not None:
+        _plot(plot, data, fits)
+    input_unit = "count" if "command_pwm" in data else "step"
+    out = {"log": meta["path"], "columns": meta["columns"],
+           "models": [f.to_dict("Pa", input_unit) for f in fits]}
+    best = min(fits, key=lambda f: f.aic)
+    out["best_order"] = best.order
+    out[f"gain_Pa_per_{input_unit}"] = best.gain
+    out["time_constant_s"] = best.tau
+    out["dead_time_s"] = best.dead_time
+    if json:
+        emit_json(out)
+        return
+    rows = []
+    for f in fits:
+        for k, v in f.params.items():
+            rows.append([f"order {f.order}", k, v, f.stderr[k]])
+        rows.append([f"order {f.order}", "rmse Pa", f.rmse, ""])
+        rows.append([f"order {f.order}", "AIC", f.aic, ""])
+    print_table(f"{log}: step at {fits[0].t_step:.4g} s, input step {fits[0].input_step:g} "
+                f"({'PWM counts' if 'command_pwm' in data else 'no input column: unit step'})",
+                ["model", "parameter", "value", "std. error"], rows)
+
+
+def _plot(path: str, data: dict, fits) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = data["time_s"]
+    fig, (ax, axr) = plt.subplots(2, 1, sharex=True, figsize=(7, 5), gridspec_kw={"height_ratios": [3, 1]})
+    ax.plot(t, data["pressure_Pa"] / 1e6, ".", ms=2, color="0.5", label="measured")
+    for f in fits:
+        ax.plot(t, f.predict(t) / 1e6, label=f"order {f.order}: τ = {f.tau * 1e3:.1f} ms, "
+                                              f"θ = {f.dead_time * 1e3:.1f} ms")
+        axr.plot(t, f.residuals / 1e3, lw=0.8, label=f"order {f.order}")
+    ax.set_ylabel("pressure [MPa]")
+    ax.legend()
+    axr.set_ylabel("residual [kPa]")
+    axr.set_xlabel("time [s]")
+    fig.tight_layout()
+    save_png(fig, path)
+    plt.close(fig)
+
+
+def save_png(fig, path: str) -> None:
+    """Write a figure as PNG atomically (temporary file, then rename): nothing half-written."""
+    import os
+    import tempfile
+
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise InputError(f"--plot: directory {folder!r} does not exist")
+    fd, tmp = tempfile.mkstemp(suffix=".png", dir=folder)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=120)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

@@ -1,0 +1,69 @@
+"""``mckibben identify``: known parameters back from a generated log; bad input exits 2."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from mckibben.control.identify import fopdt_response
+
+
+@pytest.fixture
+def step_log(tmp_path):
+    t = np.arange(0, 1.0, 1e-3)
+    u = np.where(t >= 0.1, 200, 0)
+    y = fopdt_response(t, 2500.0, 0.09, 0.01, t_step=0.1, input_step=200)
+    y += np.random.default_rng(0).normal(0, 2e3, t.size)
+    path = tmp_path / "step.csv"
+    pd.DataFrame({"time_ms": t * 1e3, "pressure_MPa": y / 1e6, "inlet_pwm": u, "bleed_pwm": 0}).to_csv(path, index=False)
+    return path
+
+
+def test_identify_json_recovers_parameters(cli, step_log, tmp_path):
+    png = tmp_path / "fit.png"
+    r = cli("identify", str(step_log), "--order", "both", "--plot", str(png), "--json")
+    assert r.code == 0, r.err
+    d = r.json()
+    # 2 kPa noise on a 0.5 MPa step: tau within 1 ms, dead time within 1 ms, gain within 0.5 %
+    assert abs(d["time_constant_s"] - 0.09) < 1e-3
+    assert abs(d["dead_time_s"] - 0.01) < 1e-3
+    assert abs(d["gain_Pa_per_count"] - 2500) < 12.5
+    first = d["models"][0]
+    assert first["order"] == 1 and first["tau_s_stderr"] > 0 and first["input_step"] == 200
+    assert png.stat().st_size > 10_000
+
+
+def test_identify_parquet_and_table(cli, step_log, tmp_path):
+    pq = tmp_path / "step.parquet"
+    pd.read_csv(step_log).to_parquet(pq)
+    r = cli("identify", str(pq))
+    assert r.code == 0 and "tau_s" in r.out
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        ("time_s,pressure_MPa,inlet_pwm,bleed_pwm\n0,0.1,0,0\n0.001,abc,0,0\n", ":2:pressure_MPa:"),
+        ("time_s,inlet_pwm\n0,0\n", "no pressure_<unit> column"),
+        ("time_s,pressure_furlong\n0,1\n", "no pressure_<unit> column"),
+        ("time_s,pressure_m\n0,1\n0.1,2\n", "is a length, but a pressure is wanted"),
+        ("time_s,pressure_MPa\n0,1\n0,2\n", ":2:time_s: time must be strictly increasing"),
+    ],
+)
+def test_identify_bad_logs_exit_2(cli, tmp_path, content, message):
+    path = tmp_path / "bad.csv"
+    path.write_text(content)
+    png = tmp_path / "out.png"
+    r = cli("identify", str(path), "--plot", str(png))
+    assert r.code == 2
+    assert message in r.err and r.err.count("\n") == 1
+    assert not png.exists()  # nothing half-written on error
+
+
+def test_identify_bad_options(cli, step_log, tmp_path):
+    assert "no such file" in cli("identify", str(tmp_path / "missing.csv")).err
+    r = cli("identify", str(step_log), "--order", "3")
+    assert r.code == 2 and "--order" in r.err
+    r = cli("identify", str(step_log), "--t-step", "5kg")
+    assert r.code == 2 and "--t-step" in r.err
