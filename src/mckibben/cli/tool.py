@@ -1,0 +1,245 @@
+"""``mckibben tool fk|ik|workspace|track``: the three-muscle endoscope (docs/tool.md)."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import typer
+
+from mckibben.cli import app
+from mckibben.cli._common import JSON_OPTION, console, emit_json, print_table
+from mckibben.datasets import get_muscle
+from mckibben.errors import InputError
+from mckibben.units import parse_quantity, parse_values
+
+tool_app = typer.Typer(help="The three-muscle endoscope: kinematics, pressures for a tip, workspace, tracking.",
+                       no_args_is_help=True)
+app.add_typer(tool_app, name="tool")
+
+MUSCLE_OPTION = typer.Option("mpam117", "--muscle", help="Parameter set of the three muscles (mpam97, mpam117, mpam143).")
+PITCH_OPTION = typer.Option(None, "--pitch-radius", help="Radius of the muscle holes' circle (default 4mm, the middle of the 12 mm disc's ring).")
+DISCS_OPTION = typer.Option("13", "--discs", help="Number of spacer discs incl. base and tip, or 'continuous'.")
+PRELOAD_OPTION = typer.Option("1N", "--preload", help="Tension of each muscle in the straight tool, F0.")
+KB_OPTION = typer.Option("2e-4Nm2", "--bending-stiffness", help="Backbone bending stiffness Kb in N·m² (e.g. 2e-4Nm2).")
+KA_OPTION = typer.Option("0N", "--axial-stiffness", help="Backbone axial stiffness Ka (force per unit strain), e.g. 50N.")
+PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Highest pressure allowed in any muscle.")
+
+_KB = re.compile(r"^\s*(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?P<unit>N\s*[·*.]?\s*m\s*(?:\^?2|²)|Nmm2|Nmm\^2)?\s*$")
+
+
+def parse_bending_stiffness(text: str) -> float:
+    """Parse a bending stiffness such as ``2e-4Nm2``, ``2e-4 N·m²`` or ``200Nmm2`` into N·m².
+
+    Parameters
+    ----------
+    text : str
+        What the user typed; a bare number is taken in N·m². [-]
+
+    Returns
+    -------
+    float
+        The bending stiffness. [N·m²]
+    """
+    m = _KB.match(text or "")
+    if m is None:
+        raise InputError(f"--bending-stiffness: cannot read {text!r} (e.g. 2e-4Nm2, 200Nmm2)")
+    value = float(m.group("num"))
+    unit = (m.group("unit") or "").replace(" ", "")
+    if unit.startswith("Nmm"):
+        value *= 1e-6
+    if value < 0:
+        raise InputError(f"--bending-stiffness: {text!r} is negative")
+    return value
+
+
+def _discs(text: str):
+    if text.strip().lower() in ("continuous", "none", "inf"):
+        return None
+    try:
+        n = int(text)
+    except ValueError:
+        raise InputError(f"--discs: {text!r} is not a whole number of discs (or 'continuous')") from None
+    return n
+
+
+def build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max):
+    """The :class:`~mckibben.tool.geometry.Tool` from the command-line options (strings with units)."""
+    from mckibben.tool.geometry import StackLoad, Tool, ToolGeometry
+
+    geo = ToolGeometry(
+        pitch_radius=parse_quantity(pitch_radius, "length", "--pitch-radius", allow_zero=False) if pitch_radius else None,
+        n_discs=_discs(discs),
+    )
+    load = StackLoad(
+        preload=parse_quantity(preload, "force", "--preload"),
+        bending_stiffness=parse_bending_stiffness(bending_stiffness),
+        axial_stiffness=parse_quantity(axial_stiffness, "force", "--axial-stiffness"),
+    )
+    return Tool(get_muscle(muscle), geo, load, parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
+
+
+def tool_json(tool) -> dict:
+    """The tool's parameters as a JSON-ready dict (SI, unit-suffixed keys)."""
+    g, ld = tool.geometry, tool.load
+    return {
+        "muscle": tool.muscle.name,
+        "disc_diameter_m": g.disc_diameter,
+        "hole_diameter_m": g.hole_diameter,
+        "channel_diameter_m": g.channel_diameter,
+        "pitch_radius_m": g.pitch_radius,
+        "n_discs": g.n_discs,
+        "muscle_angles_rad": [0.0, 2 * np.pi / 3, 4 * np.pi / 3],
+        "preload_N": ld.preload,
+        "bending_stiffness_Nm2": ld.bending_stiffness,
+        "axial_stiffness_N": ld.axial_stiffness,
+        "reference_length_m": tool.reference_length,
+        "p_max_Pa": tool.p_max,
+    }
+
+
+def state_json(state) -> dict:
+    """A single pose of a :class:`~mckibben.tool.statics.ToolState` as a JSON-ready dict."""
+    arc = state.arc
+    return {
+        "arc_length_m": float(arc.arc_length),
+        "curvature_per_m": float(arc.curvature),
+        "bend_angle_rad": float(arc.theta),
+        "bend_plane_angle_rad": float(arc.phi),
+        "theta_x_rad": float(arc.theta_x),
+        "theta_y_rad": float(arc.theta_y),
+        "tip_m": state.tip.tolist(),
+        "tip_direction": state.rotation[:, 2].tolist(),
+        "tip_rotation": state.rotation.tolist(),
+        "lengths_m": state.lengths.tolist(),
+        "tensions_N": state.tensions.tolist(),
+        "pressures_Pa": state.pressures.tolist(),
+        "flags": state.flag_lists(),
+        "reachable": bool(state.reachable),
+    }
+
+
+def _three(values: np.ndarray, text: str, name: str) -> np.ndarray:
+    if values.shape != (3,) or ":" in text:
+        raise InputError(f"{name}: need exactly 3 comma-separated values (muscles 1, 2, 3), got {text!r}")
+    return values
+
+
+def _print_state(title: str, st: dict) -> None:
+    console.print(
+        f"[bold]{title}[/bold]\n"
+        f"  arc length {st['arc_length_m'] * 1e3:.3f} mm, bend θ {np.degrees(st['bend_angle_rad']):.2f}°,"
+        f" plane φ {np.degrees(st['bend_plane_angle_rad']):.2f}°, curvature {st['curvature_per_m']:.4g} 1/m\n"
+        f"  tip ({', '.join(f'{v * 1e3:.3f}' for v in st['tip_m'])}) mm,"
+        f" direction ({', '.join(f'{v:.4f}' for v in st['tip_direction'])})"
+    )
+    rows = []
+    for i in range(3):
+        p = st["pressures_Pa"][i]
+        rows.append([f"{i + 1} ({i * 120}°)", f"{st['lengths_m'][i] * 1e3:.3f}", f"{st['tensions_N'][i]:.3f}",
+                     "unreachable" if p is None or not np.isfinite(p) else f"{p / 1e6:.4f}", ", ".join(st["flags"][i]) or "ok"])
+    print_table("muscles", ["muscle", "length mm", "tension N", "pressure MPa", "flags"], rows)
+
+
+@tool_app.command("fk")
+def fk_cmd(
+    lengths: str = typer.Option(None, "--lengths", help="Three muscle lengths, e.g. 117mm,112mm,115mm."),
+    pressures: str = typer.Option(None, "--pressures", help="Or three pressures, e.g. 0.4MPa,0,0.2MPa: the static equilibrium pose."),
+    muscle: str = MUSCLE_OPTION,
+    pitch_radius: str = PITCH_OPTION,
+    discs: str = DISCS_OPTION,
+    preload: str = PRELOAD_OPTION,
+    bending_stiffness: str = KB_OPTION,
+    axial_stiffness: str = KA_OPTION,
+    p_max: str = PMAX_OPTION,
+    json: bool = JSON_OPTION,
+) -> None:
+    """Forward kinematics: three muscle lengths (or pressures) → arc → tip position and orientation."""
+    from mckibben.tool.statics import pressures_for_tip, tip_from_pressures
+
+    if (lengths is None) == (pressures is None):
+        raise InputError("tool fk: give exactly one of --lengths or --pressures")
+    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
+    geo = tool.geometry
+    if lengths is not None:
+        from mckibben.tool.kinematics import arc_from_lengths, tip_position
+
+        ls = _three(parse_values(lengths, "length", "--lengths", allow_zero=False), lengths, "--lengths")
+        arc = arc_from_lengths(ls, geo.pitch_radius, geo.n_gaps)
+        # the pressures that hold these lengths, through the same path as `tool ik`
+        state = pressures_for_tip(tip_position(arc), tool)
+        source = "lengths"
+    else:
+        ps = _three(parse_values(pressures, "pressure", "--pressures"), pressures, "--pressures")
+        state = tip_from_pressures(ps, tool)
+        if not bool(state.converged):
+            raise InputError(f"--pressures: the static equilibrium did not converge for {pressures!r}")
+        source = "pressures"
+    out = {"input": source, **state_json(state), "tool": tool_json(tool)}
+    if json:
+        emit_json(out)
+        return
+    _print_state(f"tool fk from {source} ({tool.muscle.name})", out)
+
+
+@tool_app.command("ik")
+def ik_cmd(
+    tip: str = typer.Option(..., "--tip", help="Target tip position X,Y,Z, e.g. 20mm,0mm,110mm."),
+    muscle: str = MUSCLE_OPTION,
+    pitch_radius: str = PITCH_OPTION,
+    discs: str = DISCS_OPTION,
+    preload: str = PRELOAD_OPTION,
+    bending_stiffness: str = KB_OPTION,
+    axial_stiffness: str = KA_OPTION,
+    p_max: str = PMAX_OPTION,
+    json: bool = JSON_OPTION,
+) -> None:
+    """Inverse: a tip position → arc → muscle lengths → tensions → pressures (unreachable: exit 2)."""
+    from mckibben.tool.statics import pressures_for_tip, require_reachable_tip
+
+    p = _three(parse_values(tip, "length", "--tip", allow_negative=True), tip, "--tip")
+    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
+    state = pressures_for_tip(p, tool)
+    require_reachable_tip(state, tool)
+    out = {**state_json(state), "tool": tool_json(tool)}
+    if json:
+        emit_json(out)
+        return
+    _print_state(f"tool ik for tip ({tip})", out)
+
+
+@tool_app.command("workspace")
+def workspace_cmd(
+    plot: str = typer.Option(None, "--plot", help="Write the workspace figure to this file (PNG)."),
+    grid: int = typer.Option(15, "--grid", help="Pressure grid points per muscle (2..101)."),
+    muscle: str = MUSCLE_OPTION,
+    pitch_radius: str = PITCH_OPTION,
+    discs: str = DISCS_OPTION,
+    preload: str = PRELOAD_OPTION,
+    bending_stiffness: str = KB_OPTION,
+    axial_stiffness: str = KA_OPTION,
+    p_max: str = PMAX_OPTION,
+    json: bool = JSON_OPTION,
+) -> None:
+    """Sample the pressure box [0, p_max]³, report the reachable tip set's extent, optionally plot it."""
+    from mckibben.tool.workspace import plot_workspace, sample_workspace
+
+    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
+    ws = sample_workspace(tool, grid)
+    ext = ws.extent()
+    if plot:
+        plot_workspace(ws, tool, plot)
+    if json:
+        emit_json({**ext, "grid": grid, "plot": plot, "tool": tool_json(tool)})
+        return
+    rows = [
+        ["lateral reach", f"{ext['lateral_reach_m'] * 1e3:.2f} mm"],
+        ["tip angle", f"{np.degrees(ext['tip_angle_min_rad']):.1f}..{np.degrees(ext['tip_angle_max_rad']):.1f}°"],
+        ["tip z", f"{ext['z_min_m'] * 1e3:.2f}..{ext['z_max_m'] * 1e3:.2f} mm"],
+        ["arc length", f"{ext['arc_length_min_m'] * 1e3:.2f}..{ext['arc_length_max_m'] * 1e3:.2f} mm"],
+        ["converged", f"{ext['converged']}/{ext['samples']}"],
+        ["flagged", ", ".join(f"{k}: {v}" for k, v in ext["samples_flagged"].items()) or "none"],
+    ]
+    print_table(f"workspace of {tool.muscle.name} tool ({grid}³ pressures)", ["", "value"], rows)
+    if plot:
+        console.print(f"wrote {plot}")

@@ -1,0 +1,107 @@
+"""``mckibben tool`` from the command line: answers, JSON, and bad input (exit 2, one line)."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from mckibben.datasets import get_muscle
+from mckibben.tool.geometry import Tool
+from mckibben.tool.kinematics import tip_from_lengths
+from mckibben.tool.statics import tip_from_pressures
+
+
+def test_fk_lengths_json(cli):
+    r = cli("tool", "fk", "--lengths", "117mm,112mm,115mm", "--json")
+    assert r.code == 0, r.err
+    out = r.json()
+    expected = tip_from_lengths([0.117, 0.112, 0.115], 4e-3, 12)
+    assert_allclose(out["tip_m"], expected, rtol=0, atol=1e-15)  # same function, JSON round trip
+    assert out["lengths_m"] == pytest.approx([0.117, 0.112, 0.115], abs=1e-12)
+    # muscle 2 is the shortest: the tip bends toward 120°..240° side, nearest muscle 2
+    assert np.degrees(out["bend_plane_angle_rad"]) == pytest.approx(143.41, abs=0.01)
+    assert len(out["pressures_Pa"]) == 3 and out["reachable"] is True
+    assert out["tool"]["pitch_radius_m"] == pytest.approx(4e-3)
+    assert np.linalg.norm(out["tip_direction"]) == pytest.approx(1.0)
+
+
+def test_fk_pressures_matches_library(cli):
+    r = cli("tool", "fk", "--pressures", "0.4,0,0.2MPa", "--json")
+    assert r.code == 0, r.err
+    st = tip_from_pressures([0.4e6, 0, 0.2e6], Tool(get_muscle("mpam117")))
+    assert_allclose(r.json()["tip_m"], st.tip, rtol=0, atol=1e-15)
+
+
+def test_ik_round_trip_through_the_cli(cli):
+    fk = cli("tool", "fk", "--pressures", "0.5,0.1,0.3MPa", "--json").json()
+    x, y, z = fk["tip_m"]
+    r = cli("tool", "ik", "--tip", f"{x * 1e3!r}mm,{y * 1e3!r}mm,{z * 1e3!r}mm", "--json")
+    assert r.code == 0, r.err
+    out = r.json()
+    # repr of mm values keeps 17 digits; the pressures come back to the cubic's root precision
+    assert_allclose(out["pressures_Pa"], [0.5e6, 0.1e6, 0.3e6], rtol=0, atol=1e-2)
+    assert out["reachable"] is True
+
+
+def test_ik_table_output(cli):
+    r = cli("tool", "ik", "--tip", "20mm,0mm,110mm")
+    assert r.code == 0
+    assert "pressure MPa" in r.out and "muscle" in r.out
+
+
+def test_options_change_the_tool(cli):
+    a = cli("tool", "ik", "--tip", "20mm,0mm,110mm", "--json").json()
+    b = cli("tool", "ik", "--tip", "20mm,0mm,110mm", "--pitch-radius", "4.5mm", "--discs", "continuous",
+            "--preload", "1.2N", "--bending-stiffness", "150Nmm2", "--json").json()
+    assert b["tool"]["pitch_radius_m"] == pytest.approx(4.5e-3)
+    assert b["tool"]["n_discs"] is None
+    assert b["tool"]["bending_stiffness_Nm2"] == pytest.approx(1.5e-4)
+    assert b["tool"]["preload_N"] == pytest.approx(1.2)
+    assert a["pressures_Pa"] != b["pressures_Pa"]
+
+
+def test_workspace_json_and_plot(cli, tmp_path):
+    png = tmp_path / "ws.png"
+    r = cli("tool", "workspace", "--grid", "5", "--plot", str(png), "--json")
+    assert r.code == 0, r.err
+    out = r.json()
+    assert out["samples"] == 125 and out["converged"] == 125
+    assert 0.05 < out["lateral_reach_m"] < 0.125  # bent sideways, never further than the arc length
+    assert out["tip_angle_max_rad"] > 1.0
+    assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["fk", "--lengths", "117mm,112mm"], "exactly 3"),
+        (["fk", "--lengths", "117mm,112mm,115mm,116mm"], "exactly 3"),
+        (["fk", "--lengths", "117,112,115"], "no unit"),
+        (["fk", "--lengths", "117MPa,112MPa,115MPa"], "is a pressure, but a length is wanted"),
+        (["fk", "--lengths", "117mm,-112mm,115mm"], "negative"),
+        (["fk"], "exactly one of --lengths or --pressures"),
+        (["fk", "--lengths", "117mm,112mm,115mm", "--pressures", "0,0,0MPa"], "exactly one"),
+        (["fk", "--pressures", "0.9,0,0MPa"], "above p_max"),
+        (["fk", "--lengths", "117mm,112mm,115mm", "--pitch-radius", "6mm"], "pitch radius"),
+        (["fk", "--lengths", "117mm,112mm,115mm", "--discs", "many"], "--discs"),
+        (["fk", "--lengths", "117mm,112mm,115mm", "--bending-stiffness", "stiff"], "--bending-stiffness"),
+        (["fk", "--lengths", "117mm,112mm,115mm", "--muscle", "mpam118"], "unknown muscle"),
+        (["ik", "--tip", "0,0,130mm"], "unreachable: muscle 1"),
+        (["ik", "--tip", "80mm,0mm,100mm"], "can only shorten"),
+        (["ik", "--tip", "0mm,0mm,-50mm"], "negative z"),
+        (["ik", "--tip", "1mm,2mm"], "exactly 3"),
+        (["ik", "--tip", "1s,2s,3s"], "is a time"),
+        (["workspace", "--grid", "1"], "grid: 1"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(cli, args, message):
+    r = cli("tool", *args)
+    assert r.code == 2
+    assert message in r.err
+    assert r.err.count("\n") == 1 and r.out == ""
+
+
+def test_workspace_plot_into_missing_folder_writes_nothing(cli, tmp_path):
+    target = tmp_path / "missing" / "ws.png"
+    r = cli("tool", "workspace", "--grid", "3", "--plot", str(target))
+    assert r.code == 2 and "does not exist" in r.err
+    assert not target.exists() and list(tmp_path.iterdir()) == []
