@@ -1,0 +1,313 @@
+"""``mckibben control step|track|fig13|robustness``: the firmware controller on the plant simulator."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import typer
+
+from mckibben.cli import app
+from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.errors import InputError, unknown_name
+
+control_app = typer.Typer(help="Pressure control on the simulated plant: step, track, fig13, robustness.",
+                          no_args_is_help=True)
+app.add_typer(control_app, name="control")
+
+CONTROLLERS = ("smc", "pid")
+STEP_KEYS = ("time_constant_s", "rise_time_s", "overshoot_pct", "settling_time_s", "steady_state_error_Pa",
+             "rms_error_Pa", "valve_effort_counts")
+
+
+def _png(plot: str | None) -> None:
+    if plot is not None and not plot.lower().endswith(".png"):
+        raise InputError(f"--plot: {plot!r} must end in .png")
+
+
+def _controller_options(controller: str, beta: float, eps: str | None, ki: float | None, lam: str | None) -> dict:
+    """Validate the controller options before anything runs (bad input → exit 2)."""
+    from mckibben.units import parse_quantity
+
+    if controller not in CONTROLLERS:
+        raise unknown_name("controller", controller, CONTROLLERS)
+    if not (math.isfinite(beta) and 0 <= beta <= 255):
+        raise InputError(f"--beta: {beta!r} must be in 0..255 PWM counts")
+    if ki is not None and not (math.isfinite(ki) and ki >= 0):
+        raise InputError(f"--ki: {ki!r} must be >= 0 (1/s)")
+    return {"controller": controller, "beta": beta, "ki": ki,
+            "eps": parse_quantity(eps, "pressure", "--eps", allow_zero=False) if eps else None,
+            "lam": parse_quantity(lam, "time", "--lambda", allow_zero=False) if lam else None}
+
+
+def _controller_params(opts: dict, model, p_max: float):
+    from mckibben.control.controllers import pid_params
+    from mckibben.control.core import CoreParams
+    from mckibben.control.experiments import default_pid, smc_core_params
+
+    base = CoreParams(p_max=p_max)
+    if opts["controller"] == "smc":
+        return smc_core_params(model, opts["beta"], eps=opts["eps"], ki=opts["ki"], base=base)
+    return pid_params(default_pid(model, opts["lam"]), base=base)
+
+
+BETA_OPTION = typer.Option(150.0, "--beta", help="Sliding-mode switching gain, PWM counts (paper: 120, 150).")
+EPS_OPTION = typer.Option(None, "--eps", help="Sliding-mode boundary layer, e.g. 20kPa (default: docs/control.md).")
+KI_OPTION = typer.Option(None, "--ki", help="Sliding-surface integral weight [1/s] (default: docs/control.md).")
+LAMBDA_OPTION = typer.Option(None, "--lambda", help="PID closed-loop time constant, e.g. 30ms (default τ/3).")
+PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Supervisor's maximum pressure.")
+LOAD_OPTION = typer.Option("0.6N", "--load", help="Hanging load, e.g. 0.6N.")
+SUPPLY_OPTION = typer.Option(None, "--supply", help="Supply pressure (default: the calibrated plant's).")
+
+
+@control_app.command("step")
+def step_cmd(
+    controller: str = typer.Option("smc", "--controller", help="smc or pid."),
+    target: str = typer.Option("0.55MPa", "--target", help="Step target pressure."),
+    start: str = typer.Option("0MPa", "--from", help="Pressure held before the step."),
+    beta: float = BETA_OPTION,
+    eps: str = EPS_OPTION,
+    ki: float = KI_OPTION,
+    lam: str = LAMBDA_OPTION,
+    load: str = LOAD_OPTION,
+    supply: str = SUPPLY_OPTION,
+    p_max: str = PMAX_OPTION,
+    duration: str = typer.Option("1s", "--duration", help="Time after the step."),
+    plot: str = typer.Option(None, "--plot", help="Write a PNG of pressure and commands."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """A pressure step on the calibrated plant under the firmware's controller."""
+    from mckibben.control.core import core_spec
+    from mckibben.control.experiments import identify_plant, plant_batch, run_closed_loop, step_reference
+    from mckibben.units import parse_quantity
+
+    _png(plot)
+    opts = _controller_options(controller, beta, eps, ki, lam)
+    pmax = parse_quantity(p_max, "pressure", "--p-max", allow_zero=False)
+    p1 = parse_quantity(target, "pressure", "--target")
+    p0 = parse_quantity(start, "pressure", "--from")
+    if p0 == p1:
+        raise InputError("--target: equals --from, there is no step")
+    f_load = parse_quantity(load, "force", "--load")
+    dur = parse_quantity(duration, "time", "--duration", allow_zero=False)
+    plant_kw = {"load_N": f_load}
+    if supply is not None:
+        plant_kw["supply_Pa"] = parse_quantity(supply, "pressure", "--supply", allow_zero=False)
+    plant = plant_batch(**plant_kw)
+    _, model, _ = identify_plant()
+    params = _controller_params(opts, model, pmax)
+    hold = 0.5 if p0 > 0 else 0.05
+    total = hold + dur
+    n = int(round(total / 1e-3))
+    ref = step_reference(n, int(round(hold / 1e-3)), p0, p1)
+    rec = run_closed_loop(core_spec(params), ref, total, plant)
+    m = rec.metrics(0, hold)
+    out = {"controller": controller, "target_Pa": p1, "from_Pa": p0, "load_N": f_load, "p_max_Pa": pmax,
+           "model": {"gain_Pa_per_count": model.gain, "tau_s": model.tau, "dead_time_s": model.dead_time},
+           "gains": _gains_dict(params, controller),
+           "peak_pressure_Pa": float(rec.pressure[0].max()),
+           "faults": int(np.bitwise_or.reduce(rec.faults[0].astype(np.int64))), **m}
+    if plot:
+        _plot_records(plot, rec, [f"{controller}"], hold)
+    if json:
+        emit_json(out)
+        return
+    print_table(f"{controller} step {p0 / 1e6:g} → {p1 / 1e6:g} MPa under {f_load:g} N",
+                ["metric", "value"], [[k, m[k]] for k in STEP_KEYS])
+
+
+def _gains_dict(params, controller: str) -> dict:
+    if controller == "smc":
+        return {"beta_counts": params.beta, "eps_Pa": params.eps, "ki_per_s": params.ki, "tau_s": params.tau,
+                "g_Pa_per_count": params.g}
+    return {"kp_counts_per_Pa": params.kp, "ki_counts_per_Pa_s": params.ki_pid, "kd_counts_s_per_Pa": params.kd,
+            "tf_s": params.tf}
+
+
+@control_app.command("fig13")
+def fig13_cmd(
+    eps: str = EPS_OPTION,
+    ki: float = KI_OPTION,
+    plot: str = typer.Option(None, "--plot", help="Write a PNG of both step responses."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """The paper's Fig. 13: sliding mode, step to 0.55 MPa, β = 120 and 150, paper vs ours."""
+    from mckibben.control.experiments import fig13, identify_plant
+    from mckibben.units import parse_quantity
+
+    _png(plot)
+    e = parse_quantity(eps, "pressure", "--eps", allow_zero=False) if eps else None
+    if ki is not None and not (math.isfinite(ki) and ki >= 0):
+        raise InputError(f"--ki: {ki!r} must be >= 0 (1/s)")
+    fit, model, _ = identify_plant()
+    rows, rec = fig13(model, eps=e, ki=ki)
+    if plot:
+        _plot_records(plot, rec, [f"β = {r['beta_counts']:g}" for r in rows], 0.1)
+    if json:
+        emit_json({"model": {"gain_Pa_per_count": model.gain, "tau_s": model.tau, "dead_time_s": model.dead_time,
+                             "tau_s_stderr": fit.stderr["tau_s"]}, "rows": rows})
+        return
+    print_table("Fig. 13 (000_909f662a44080c85.txt §IV.B): step to 0.55 MPa, paper vs ours",
+                ["β counts", "τ paper s", "τ ours s", "overshoot paper %", "overshoot ours %", "rise s",
+                 "settling s", "ss error Pa"],
+                [[r["beta_counts"], r["paper_time_constant_s"], r["time_constant_s"], r["paper_overshoot_pct"],
+                  r["overshoot_pct"], r["rise_time_s"], r["settling_time_s"], r["steady_state_error_Pa"]]
+                 for r in rows])
+
+
+@control_app.command("compare")
+def compare_cmd(
+    beta: float = BETA_OPTION,
+    json: bool = JSON_OPTION,
+) -> None:
+    """PID tuned on the first-order model vs sliding mode, over step sizes and loads (§IV.A)."""
+    from mckibben.control.experiments import identify_plant, step_size_table
+
+    if not (math.isfinite(beta) and 0 <= beta <= 255):
+        raise InputError(f"--beta: {beta!r} must be in 0..255 PWM counts")
+    _, model, _ = identify_plant()
+    rows = step_size_table(model, beta=beta)
+    if json:
+        emit_json({"rows": rows})
+        return
+    print_table("PID (lambda-tuned on the first-order model) vs sliding mode",
+                ["controller", "from MPa", "to MPa", "load N", "τ s", "overshoot %", "settling s", "ss error kPa"],
+                [[r["controller"], r["from_Pa"] / 1e6, r["to_Pa"] / 1e6, r["load_N"], r["time_constant_s"],
+                  r["overshoot_pct"], r["settling_time_s"], r["steady_state_error_Pa"] / 1e3] for r in rows])
+
+
+@control_app.command("robustness")
+def robustness_cmd(
+    n: int = typer.Option(1000, "--n", help="Number of random plants."),
+    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    beta: float = BETA_OPTION,
+    plot: str = typer.Option(None, "--plot", help="Write a PNG of the distributions."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Monte Carlo over plant uncertainty: PID and sliding mode, median and 5–95 % of each metric."""
+    from mckibben.control.experiments import identify_plant, robustness
+
+    _png(plot)
+    if n < 1:
+        raise InputError(f"--n: {n!r} must be at least 1")
+    if not (math.isfinite(beta) and 0 <= beta <= 255):
+        raise InputError(f"--beta: {beta!r} must be in 0..255 PWM counts")
+    _, model, _ = identify_plant()
+    res = robustness(model, n=n, seed=seed, beta=beta)
+    if plot:
+        _plot_robustness(plot, res)
+    if json:
+        emit_json({"n": n, "seed": seed, "summary": res["summary"]})
+        return
+    rows = []
+    for ctl, s in res["summary"].items():
+        for k, v in s.items():
+            rows.append([ctl, k, v["median"], v["p5"], v["p95"], v["n_undefined"]])
+    print_table(f"robustness over {n} plants (±30 % valve gain, dead band, volumes, leak; supply 0.6–1.0 MPa; "
+                "load 0–3 N)", ["controller", "metric", "median", "5 %", "95 %", "undefined"], rows)
+
+
+@control_app.command("track")
+def track_cmd(
+    reference: str = typer.Option(..., "--reference", help="sine:MEAN,AMPLITUDE,FREQ (e.g. sine:0.4MPa,0.2MPa,2Hz) "
+                                                           "or a CSV/Parquet file with time_<unit>, pressure_<unit>."),
+    controller: str = typer.Option("smc", "--controller", help="smc or pid."),
+    beta: float = BETA_OPTION,
+    eps: str = EPS_OPTION,
+    ki: float = KI_OPTION,
+    lam: str = LAMBDA_OPTION,
+    load: str = LOAD_OPTION,
+    p_max: str = PMAX_OPTION,
+    duration: str = typer.Option("2s", "--duration", help="Duration for a sine reference."),
+    plot: str = typer.Option(None, "--plot", help="Write a PNG of reference, pressure and commands."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Track a pressure trajectory: RMS and maximum error, valve effort."""
+    from mckibben.control.core import core_spec
+    from mckibben.control.experiments import identify_plant, plant_batch, run_closed_loop
+    from mckibben.control.metrics import tracking_metrics
+    from mckibben.units import parse_quantity
+
+    _png(plot)
+    opts = _controller_options(controller, beta, eps, ki, lam)
+    pmax = parse_quantity(p_max, "pressure", "--p-max", allow_zero=False)
+    f_load = parse_quantity(load, "force", "--load")
+    t, ref = _reference(reference, parse_quantity(duration, "time", "--duration", allow_zero=False))
+    _, model, _ = identify_plant()
+    params = _controller_params(opts, model, pmax)
+    rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * 1e-3, plant_batch(load_N=f_load))
+    m = tracking_metrics(rec.t, rec.pressure[0], rec.reference[0], rec.command[0])
+    if plot:
+        _plot_records(plot, rec, [controller], None)
+    if json:
+        emit_json({"controller": controller, "load_N": f_load, "gains": _gains_dict(params, controller), **m})
+        return
+    print_table(f"{controller} tracking {reference}", ["metric", "value"], [[k, v] for k, v in m.items()])
+
+
+def _reference(text: str, duration: float):
+    """A reference from ``sine:MEAN,AMP,FREQ`` or a file, resampled at 1 kHz. [s], [Pa]"""
+    from mckibben.units import parse_quantity
+
+    if text.startswith("sine:"):
+        parts = text[5:].split(",")
+        if len(parts) != 3:
+            raise InputError(f"--reference: {text!r} must be sine:MEAN,AMPLITUDE,FREQUENCY")
+        mean = parse_quantity(parts[0], "pressure", "--reference mean")
+        amp = parse_quantity(parts[1], "pressure", "--reference amplitude")
+        freq = parse_quantity(parts[2], "frequency", "--reference frequency", allow_zero=False)
+        t = np.arange(int(round(duration / 1e-3))) * 1e-3
+        return t, mean + amp * np.sin(2 * np.pi * freq * t)
+    from mckibben.control.identify import read_step_log
+
+    data, _ = read_step_log(text)
+    t0 = data["time_s"] - data["time_s"][0]
+    t = np.arange(int(t0[-1] / 1e-3) + 1) * 1e-3
+    if t.size < 10:
+        raise InputError(f"--reference: {text!r} is shorter than 10 ms")
+    return t, np.interp(t, t0, data["pressure_Pa"])
+
+
+def _plot_records(path: str, rec, labels, t_step) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mckibben.cli.identify import save_png
+
+    fig, (ax, axu) = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5), gridspec_kw={"height_ratios": [3, 1.3]})
+    ax.plot(rec.t, rec.reference[0] / 1e6, "k--", lw=1, label="reference")
+    for i, lab in enumerate(labels):
+        ax.plot(rec.t, rec.pressure[i] / 1e6, label=lab)
+        axu.plot(rec.t, rec.command[i], lw=0.8, label=lab)
+    ax.set_ylabel("pressure [MPa]")
+    ax.legend()
+    axu.set_ylabel("inlet − bleed [PWM]")
+    axu.set_xlabel("time [s]")
+    fig.tight_layout()
+    save_png(fig, path)
+    plt.close(fig)
+
+
+def _plot_robustness(path: str, res) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mckibben.cli.identify import save_png
+
+    keys = [("time_constant_s", 1e3, "time constant [ms]"), ("overshoot_pct", 1.0, "overshoot [%]"),
+            ("steady_state_error_Pa", 1e-3, "steady-state error [kPa]")]
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.8))
+    for ax, (k, scale, lab) in zip(axes, keys):
+        data = [res["metrics"][c][k] * scale for c in ("pid", "smc")]
+        data = [d[np.isfinite(d)] for d in data]
+        ax.boxplot(data, whis=(5, 95), showfliers=True, flierprops={"markersize": 2})
+        ax.set_xticks([1, 2], ["PID", "sliding mode"])
+        ax.set_ylabel(lab)
+    fig.suptitle(f"{len(res['metrics']['pid']['time_constant_s'])} random plants (whiskers 5–95 %)")
+    fig.tight_layout()
+    save_png(fig, path)
+    plt.close(fig)

@@ -1,0 +1,32 @@
+"""``mckibben control``: bad input is refused (exit 2, one line) before any simulation runs."""
+
+from __future__ import annotations
+
+import pytest
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("control", "step", "--controller", "smx"), "unknown controller 'smx'. Did you mean smc?"),
+        (("control", "step", "--beta", "300"), "--beta"),
+        (("control", "step", "--eps", "5N"), "--eps"),
+        (("control", "step", "--ki", "-1"), "--ki"),
+        (("control", "step", "--target", "fast"), "--target"),
+        (("control", "step", "--target", "0MPa"), "no step"),
+        (("control", "step", "--plot", "out.jpg"), "--plot"),
+        (("control", "track", "--reference", "sine:0.4MPa,0.1MPa"), "sine:MEAN,AMPLITUDE,FREQUENCY"),
+        (("control", "track", "--reference", "sine:0.4MPa,0.1MPa,0Hz"), "--reference frequency"),
+        (("control", "robustness", "--n", "0"), "--n"),
+        (("control", "fig13", "--ki", "nan"), "--ki"),
+    ],
+)
+def test_bad_input_exits_2(cli, args, message):
+    r = cli(*args)
+    assert r.code == 2
+    assert message in r.err and r.err.count("\n") == 1
+
+
+def test_missing_reference_file(cli, tmp_path):
+    r = cli("control", "track", "--reference", str(tmp_path / "none.csv"))
+    assert r.code == 2 and "no such file" in r.err
