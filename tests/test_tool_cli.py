@@ -105,3 +105,34 @@ def test_workspace_plot_into_missing_folder_writes_nothing(cli, tmp_path):
     r = cli("tool", "workspace", "--grid", "3", "--plot", str(target))
     assert r.code == 2 and "does not exist" in r.err
     assert not target.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_track_reference_only_json(cli):
+    r = cli("tool", "track", "--path", "circle:radius=5mm,period=0.5s,cycles=1", "--periods", "0.5s,0.25s",
+            "--reference-only", "--json")
+    assert r.code == 0, r.err
+    out = r.json()
+    assert out["simulated"] is False and len(out["runs"]) == 2
+    assert out["runs"][1]["mean_speed_m_per_s"] == pytest.approx(2 * np.pi * 0.005 / 0.25)
+    assert out["runs"][0]["samples"] == 500
+    lo, hi = out["runs"][0]["reference_pressure_min_Pa"], out["runs"][0]["reference_pressure_max_Pa"]
+    assert all(0 < a < b < 0.8e6 for a, b in zip(lo, hi))
+
+
+@pytest.mark.parametrize(
+    "path, message",
+    [
+        ("circle:radius=5,period=2s", "no unit"),
+        ("ellipse:radius=5mm,period=2s", "unknown path kind"),
+        ("circle:period=2s", "circle needs radius"),
+        ("circle:radius=60mm,period=1s", "is unreachable: muscle 1"),
+    ],
+)
+def test_track_bad_path_exit_2(cli, path, message):
+    r = cli("tool", "track", "--path", path, "--reference-only")
+    assert r.code == 2 and message in r.err and r.err.count("\n") == 1
+
+
+def test_track_bad_periods_exit_2(cli):
+    r = cli("tool", "track", "--path", "circle:radius=5mm,period=1s", "--periods", "1s,0s", "--reference-only")
+    assert r.code == 2 and "--periods" in r.err

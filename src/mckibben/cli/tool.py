@@ -243,3 +243,67 @@ def workspace_cmd(
     print_table(f"workspace of {tool.muscle.name} tool ({grid}³ pressures)", ["", "value"], rows)
     if plot:
         console.print(f"wrote {plot}")
+
+
+@tool_app.command("track")
+def track_cmd(
+    path: str = typer.Option(..., "--path", help="Tip path: circle:radius=5mm,period=2s[,z=..,cx=..,cy=..,cycles=2] or figure8:size=5mm,period=2s[,...]."),
+    periods: str = typer.Option(None, "--periods", help="Run the path at several periods (speeds), e.g. 4s,2s,1s,0.5s."),
+    reference_only: bool = typer.Option(False, "--reference-only", help="Only compute the pressure references (no simulation)."),
+    plot: str = typer.Option(None, "--plot", help="Write the target-vs-achieved figure to this file (PNG)."),
+    muscle: str = MUSCLE_OPTION,
+    pitch_radius: str = PITCH_OPTION,
+    discs: str = DISCS_OPTION,
+    preload: str = PRELOAD_OPTION,
+    bending_stiffness: str = KB_OPTION,
+    axial_stiffness: str = KA_OPTION,
+    p_max: str = PMAX_OPTION,
+    json: bool = JSON_OPTION,
+) -> None:
+    """Follow a tip path: IK + static inverse → pressure references → three controlled muscles (plant)."""
+    from mckibben.tool.paths import parse_path
+    from mckibben.tool.tracking import resolve_path, tip_reference
+
+    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
+    base = resolve_path(parse_path(path), tool)
+    period_list = parse_values(periods, "time", "--periods", allow_zero=False) if periods else np.array([base.period])
+    runs = []
+    for period in period_list:
+        p = base.with_period(float(period))
+        ref = tip_reference(tool, p)
+        runs.append((p, ref))
+    if not reference_only:
+        from mckibben.tool.tracking import simulate_tracking
+
+        results = simulate_tracking(tool, runs)
+    else:
+        results = None
+    out_runs = []
+    for k, (p, ref) in enumerate(runs):
+        entry = {
+            "period_s": p.period,
+            "mean_speed_m_per_s": p.mean_speed,
+            "samples": int(ref.time.size),
+            "reference_pressure_min_Pa": ref.pressures.min(axis=0).tolist(),
+            "reference_pressure_max_Pa": ref.pressures.max(axis=0).tolist(),
+            "reference_flags": sorted({f for row in ref.state.flag_lists() for m in row for f in m}),
+        }
+        if results is not None:
+            entry.update(results[k].summary())
+        out_runs.append(entry)
+    if plot and results is not None:
+        from mckibben.tool.tracking import plot_tracking
+
+        plot_tracking(runs, results, tool, plot)
+    if json:
+        emit_json({"path": {"kind": base.kind, "size_m": base.size, "z_m": base.z, "cx_m": base.cx, "cy_m": base.cy,
+                            "cycles": base.cycles}, "runs": out_runs, "simulated": results is not None,
+                   "plot": plot if results is not None else None, "tool": tool_json(tool)})
+        return
+    rows = []
+    for e in out_runs:
+        rows.append([f"{e['period_s']:.3g}", f"{e['mean_speed_m_per_s'] * 1e3:.2f}",
+                     f"{min(e['reference_pressure_min_Pa']) / 1e6:.3f}..{max(e['reference_pressure_max_Pa']) / 1e6:.3f}",
+                     f"{e['rms_error_m'] * 1e3:.3f}" if "rms_error_m" in e else "—",
+                     f"{e['max_error_m'] * 1e3:.3f}" if "max_error_m" in e else "—"])
+    print_table(f"tracking {base.kind} ({tool.muscle.name})", ["period s", "speed mm/s", "pressure MPa", "RMS error mm", "max error mm"], rows)

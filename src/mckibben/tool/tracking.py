@@ -152,3 +152,25 @@ def tip_errors(target, achieved) -> dict:
     """
     d = np.linalg.norm(np.asarray(achieved, float) - np.asarray(target, float), axis=-1)
     return {"rms_error_m": float(np.sqrt(np.mean(d * d))), "max_error_m": float(d.max())}
+
+
+def simulate_tracking(tool: Tool, runs):
+    """Run three plant instances per run (one per muscle, each with its own pressure controller).
+
+    Parameters
+    ----------
+    tool : Tool
+        The tool.
+    runs : list of (TipPath, TipReference)
+        The paths and their references; all runs are simulated in one batch.
+    """
+    from mckibben.errors import InputError
+
+    try:
+        from mckibben.plant import simulate_closed_loop  # issue 5
+    except ImportError:
+        raise InputError(
+            "tracking in simulation needs the plant simulator (mckibben.plant, issue 5), which is not in"
+            " this checkout; use --reference-only for the pressure references"
+        ) from None
+    raise InputError(f"tool tracking is not yet connected to {simulate_closed_loop.__module__}; use --reference-only")
