@@ -43,9 +43,11 @@ _FIELDS = [
     # sensors
     "adc_zero", "pa_per_count", "encoder_resolution", "pressure_noise", "seed",
 ]
-for _i, _name in enumerate(_FIELDS):
+#: Columns derived from the fields by :meth:`PlantParams.pack` (constants of the hot loop).
+_DERIVED = ["tl_a", "tl_b", "sin0", "rho_atm", "inv_valve_tau", "l_straight"]
+for _i, _name in enumerate(_FIELDS + _DERIVED):
     globals()[f"I_{_name.upper()}"] = _i
-NP = len(_FIELDS)
+NP = len(_FIELDS) + len(_DERIVED)
 
 
 def calibrate_force_law(muscle: MiniatureMuscle, blocked_force: float | None = None, alpha0: float | None = None):
@@ -306,7 +308,26 @@ class PlantParams:
                 raise InputError(f"plant parameter {name}: scalar or 1-D array, got shape {value.shape}")
             out[:, j] = np.broadcast_to(value.ravel() if value.ndim else value, (n,))
         validate(out)
+        derive(out)
         return out
+
+
+def derive(p: np.ndarray) -> None:
+    """Fill the derived columns of packed, validated parameters (in place).
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        Packed ``(N, NP)`` parameters.
+    """
+    a0 = p[:, I_ALPHA0]
+    p[:, I_TL_A] = 3.0 / np.tan(a0) ** 2
+    p[:, I_TL_B] = 1.0 / np.sin(a0) ** 2
+    c0 = np.clip((p[:, I_NOMINAL_LENGTH] - p[:, I_K2]) / (p[:, I_K1] * p[:, I_STRAND_LENGTH]), 0.05, 0.9999)
+    p[:, I_SIN0] = np.sqrt(1.0 - c0**2)
+    p[:, I_RHO_ATM] = P_ATM / (R_AIR * p[:, I_TEMPERATURE])
+    p[:, I_INV_VALVE_TAU] = 1.0 / p[:, I_VALVE_TAU]
+    p[:, I_L_STRAIGHT] = p[:, I_K1] * p[:, I_STRAND_LENGTH] + p[:, I_K2]
 
 
 def validate(p: np.ndarray) -> None:
@@ -317,6 +338,8 @@ def validate(p: np.ndarray) -> None:
     p : numpy.ndarray
         Packed ``(N, NP)`` parameters.
     """
+    if p.ndim != 2 or p.shape[1] < len(_FIELDS):
+        raise InputError(f"packed plant parameters: shape {p.shape}, want (N, {NP})")
     col = {name: p[:, j] for j, name in enumerate(_FIELDS)}
 
     def check(cond, name, what):

@@ -76,6 +76,11 @@ I_MASS = P.I_MOVING_MASS
 I_DAMP = P.I_DAMPING
 I_KS = P.I_SPRING_STIFFNESS
 I_LFREE = P.I_SPRING_FREE_LENGTH
+I_TLA = P.I_TL_A
+I_TLB = P.I_TL_B
+I_SIN0 = P.I_SIN0
+I_RHOATM = P.I_RHO_ATM
+I_INVTAU = P.I_INV_VALVE_TAU
 
 P_ATM = P.P_ATM
 R_AIR = P.R_AIR
@@ -138,10 +143,8 @@ def cos_theta_of(length, p):
 def chamber_volume(length, p):
     """Tubing dead volume plus the tube lumen at the braid's actual diameter. [m³]"""
     c = cos_theta_of(length, p)
-    c0 = cos_theta_of(p[I_L0], p)
     s = math.sqrt(1.0 - c * c)
-    s0 = math.sqrt(1.0 - c0 * c0)
-    d = p[I_OD] * s / s0 - (p[I_OD] - p[I_ID])
+    d = p[I_OD] * s / p[I_SIN0] - (p[I_OD] - p[I_ID])
     if d < 0.1 * p[I_ID]:
         d = 0.1 * p[I_ID]
     return p[I_VDEAD] + 0.25 * math.pi * d * d * length
@@ -150,9 +153,8 @@ def chamber_volume(length, p):
 @njit(cache=True)
 def gauge_pressure(mass, length, p):
     """Gauge pressure of the chamber air (polytropic, p/ρⁿ fixed at the atmospheric state). [Pa]"""
-    rho_atm = P_ATM / (R_AIR * p[I_T])
     rho = mass / chamber_volume(length, p)
-    return P_ATM * (rho / rho_atm) ** p[I_N] - P_ATM
+    return P_ATM * (rho / p[I_RHOATM]) ** p[I_N] - P_ATM
 
 
 @njit(cache=True)
@@ -161,11 +163,8 @@ def muscle_force(pg, length, p):
     model = int(p[I_FM])
     pos = pg if pg > 0.0 else 0.0
     if model == 0:  # Tondu–Lopez with a pressure threshold
-        a0 = p[I_A0]
-        ta = math.tan(a0)
-        sa = math.sin(a0)
-        a = 3.0 / (ta * ta)
-        b = 1.0 / (sa * sa)
+        a = p[I_TLA]
+        b = p[I_TLB]
         eps = 1.0 - length / p[I_L0]
         dp = pos - p[I_PTH]
         if dp < 0.0:
@@ -204,9 +203,8 @@ def derivatives(s, p, xin_t, xbl_t, out):
     xbl = s[S_XBL]
     vol = chamber_volume(length, p)
     t_gas_ref = p[I_T]
-    rho_atm = P_ATM / (R_AIR * t_gas_ref)
     rho = mass / vol
-    p_abs = P_ATM * (rho / rho_atm) ** p[I_N]
+    p_abs = P_ATM * (rho / p[I_RHOATM]) ** p[I_N]
     t_gas = p_abs / (rho * R_AIR)
     pg = p_abs - P_ATM
     x_open = xin if xin > 0.0 else 0.0
@@ -216,9 +214,9 @@ def derivatives(s, p, xin_t, xbl_t, out):
     q_bl = iso6358_flow(p[I_CBL] * (xbl if xbl > 0.0 else 0.0), p_abs, t_gas, P_ATM, t_gas_ref, b)
     q_lk = iso6358_flow(p[I_CLEAK], p_abs, t_gas, P_ATM, t_gas_ref, b)
     out[S_MASS] = q_in - q_bl - q_lk
-    tau = p[I_TAUV]
-    out[S_XIN] = (xin_t - xin) / tau
-    out[S_XBL] = (xbl_t - xbl) / tau
+    inv_tau = p[I_INVTAU]
+    out[S_XIN] = (xin_t - xin) * inv_tau
+    out[S_XBL] = (xbl_t - xbl) * inv_tau
     kind = int(p[I_LOAD])
     if kind == 1:  # blocked: the end does not move
         out[S_LEN] = 0.0
@@ -284,6 +282,5 @@ def static_length(pg, p):
 @njit(cache=True)
 def mass_for_pressure(pg, length, p):
     """Air mass that gives gauge pressure pg at a length (inverse of :func:`gauge_pressure`). [kg]"""
-    rho_atm = P_ATM / (R_AIR * p[I_T])
-    rho = rho_atm * ((pg + P_ATM) / P_ATM) ** (1.0 / p[I_N])
+    rho = p[I_RHOATM] * ((pg + P_ATM) / P_ATM) ** (1.0 / p[I_N])
     return rho * chamber_volume(length, p)
