@@ -218,13 +218,13 @@ class PlantParams:
     muscle_name: str = field(default="mpam97", compare=False)
 
     def __post_init__(self):
-        if not self.r0 and self.muscle_name:
+        if self.muscle_name and np.all(np.asarray(self.r0) == 0):
             from mckibben.datasets import get_muscle
 
             cal = calibrate_force_law(get_muscle(self.muscle_name))
             for key, value in cal.items():
                 object.__setattr__(self, key, value)
-        if not self.ch_turns:
+        if np.all(np.asarray(self.ch_turns) == 0):
             # Chou–Hannaford turns from the rest geometry: D = b·sin θ0/(n·π) at l0 = b·cos θ0
             b = np.asarray(self.strand_length, dtype=float)
             c0 = np.clip(np.asarray(self.nominal_length, dtype=float) / b, 0.0, 1.0)
