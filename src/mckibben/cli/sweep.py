@@ -1,0 +1,105 @@
+"""``mckibben sweep run|summarize``: design sweeps, local or on a Dask cluster."""
+
+from __future__ import annotations
+
+import re
+import sys
+import time
+
+import typer
+
+from mckibben.cli import app
+from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
+from mckibben.errors import InputError
+
+sweep_app = typer.Typer(help="Parameter sweeps on the batch simulator, in-process or on Dask.", no_args_is_help=True)
+app.add_typer(sweep_app, name="sweep")
+
+_SCHEDULER = re.compile(r"^tcp://[A-Za-z0-9_.\-\[\]:]+:\d{1,5}$")
+
+
+@sweep_app.command("run")
+def run_cmd(
+    file: str = typer.Argument(..., help="The sweep description (TOML)."),
+    out: str = typer.Option(None, "--out", help="Results folder (default: next to FILE, FILE-results/)."),
+    workers: int = typer.Option(None, "--workers", help="Run on a local Dask cluster with N worker processes."),
+    scheduler: str = typer.Option(None, "--scheduler", help="Run on an existing Dask scheduler, tcp://HOST:PORT."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Run a sweep; chunks already written are skipped (resume)."""
+    from pathlib import Path
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from mckibben.sweep import load_sweep, run_sweep
+
+    if workers is not None and scheduler is not None:
+        raise InputError("--workers and --scheduler: give one, not both")
+    if workers is not None and not 1 <= workers <= 256:
+        raise InputError(f"--workers: {workers} must be between 1 and 256")
+    if scheduler is not None and not _SCHEDULER.match(scheduler):
+        raise InputError(f"--scheduler: {scheduler!r} must look like tcp://HOST:PORT")
+    sweep = load_sweep(file)
+    out = out or str(Path(file).with_suffix("")) + "-results"
+    t0 = time.perf_counter()
+    show = not json and sys.stderr.isatty()
+    progress = Progress(TextColumn("sweep"), BarColumn(), TextColumn("{task.completed}/{task.total} runs"),
+                        TextColumn("{task.fields[rate]:.0f} sims/s"), TimeRemainingColumn(), console=err_console,
+                        disable=not show)
+    with progress:
+        task = progress.add_task("sweep", total=sweep.n_runs, rate=0.0)
+        first = {}
+
+        def update(done, total):
+            first.setdefault("done", done)
+            dt = time.perf_counter() - t0
+            rate = (done - first["done"]) / dt if dt > 0 else 0.0
+            progress.update(task, completed=done, rate=rate)
+
+        stats = run_sweep(sweep, out, workers=workers, scheduler=scheduler, progress=update)
+    stats.update(out=str(out), sweep_sha256=sweep.sha256, seed=sweep.seed)
+    if json:
+        emit_json(stats)
+        return
+    print_table("Sweep", ["runs", "chunks", "computed", "skipped (resumed)", "seconds", "results"],
+                [[stats["runs"], stats["chunks"], stats["computed"], stats["skipped"], f"{stats['seconds']:.1f}", str(out)]])
+
+
+@sweep_app.command("summarize")
+def summarize_cmd(
+    results: str = typer.Argument(..., help="A results folder written by `mckibben sweep run`."),
+    objective: str = typer.Option("time_constant_s", "--objective", help="Metric to minimise (median over plants)."),
+    constraint: str = typer.Option("overshoot_pct<=10", "--constraint", help="METRIC<=VALUE the quantile must meet."),
+    quantile: float = typer.Option(0.95, "--quantile", help="Fraction of plants that must meet the constraint."),
+    plots: str = typer.Option(None, "--plots", help="Folder for pareto.png and sensitivity.png."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Best setting under a constraint, Pareto front, sensitivities, figures."""
+    from mckibben.sweep import best_setting, pareto_front, read_results, sensitivity, settings_table
+    from mckibben.sweep.summary import figures
+
+    table = read_results(results)
+    best = best_setting(table, objective, constraint, quantile)
+    s = settings_table(table, quantile)
+    qn = int(round(quantile * 100))
+    objs = [c for c in ("time_constant_s_median", "valve_effort_counts_median", f"overshoot_pct_q{qn}") if c in s]
+    front = pareto_front(s, objs) if objs else s.iloc[:0]
+    sens = sensitivity(table)
+    paths = figures(table, plots, quantile) if plots else []
+    if json:
+        emit_json({"runs": len(table), "settings": len(s), "objective": objective, "constraint": constraint,
+                   "quantile": quantile, "best": best, "pareto_front": front.to_dict("records"),
+                   "sensitivity": {p: sens.loc[p].to_dict() for p in sens.index}, "figures": paths})
+        return
+    if best is None:
+        err_console.print(f"no setting meets {constraint} in {qn} % of plants")
+    else:
+        print_table(f"Best setting: lowest median {objective} with {constraint} in {qn} % of plants",
+                    ["field", "value"], [[k, v if isinstance(v, str) else f"{v:.4g}"] for k, v in best.items()])
+    grid = [c for c in front.columns if c.startswith(("plant.", "controller."))]
+    shown = front[grid + objs]
+    print_table("Pareto front (settings no other beats on every objective)",
+                [c.split(".")[-1] for c in shown.columns],
+                [[f"{v:.4g}" if isinstance(v, float) else str(v) for v in r] for r in shown.itertuples(index=False)])
+    print_table("Sensitivity (Spearman)", ["parameter", *sens.columns],
+                [[p, *[f"{v:+.2f}" for v in sens.loc[p]]] for p in sens.index])

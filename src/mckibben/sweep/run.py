@@ -1,0 +1,283 @@
+"""Running a sweep: chunks of batch simulations, in-process or on a Dask cluster.
+
+Each chunk is one batch call of :func:`mckibben.plant.simulate` and is written as one Parquet file
+``chunk-NNNNN.parquet`` atomically (a temporary file, fsync, rename), so a result file is either
+complete or absent. A rerun skips chunks already written for the same sweep file (its hash is
+in every file's metadata), so an interrupted sweep resumes. Every random draw is made up front
+from the sweep's seed (:func:`mckibben.sweep.spec.load_sweep`) and every simulation is
+deterministic, so the numbers do not depend on how many workers ran them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import fields
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+import mckibben
+from mckibben.errors import InputError
+from mckibben.sweep.spec import Sweep
+
+
+def chunk_path(out: Path, k: int) -> Path:
+    """Where chunk k is written.
+
+    Parameters
+    ----------
+    out : Path
+        The results folder.
+    k : int
+        Chunk index. [-]
+    """
+    return out / f"chunk-{k:05d}.parquet"
+
+
+def _plants(rows: pd.DataFrame):
+    """PlantParams with one array entry per row (muscles may differ between rows)."""
+    from mckibben.datasets import get_muscle
+    from mckibben.plant import PlantParams
+    from mckibben.plant.params import _FIELDS
+
+    n = len(rows)
+    names = rows["plant.muscle"].tolist() if "plant.muscle" in rows else ["mpam97"] * n
+    bases = {name: PlantParams.for_muscle(get_muscle(name)) for name in set(names)}
+    values = {f: np.array([float(np.asarray(getattr(bases[m], f))) for m in names]) for f in _FIELDS}
+    for col in rows.columns:
+        if col.startswith("plant.") and col != "plant.muscle":
+            values[col[6:]] = rows[col].to_numpy(dtype=float)
+    values["seed"] = rows["noise_seed"].to_numpy(dtype=float)
+    return PlantParams(**values, muscle_name="")
+
+
+def _controllers(rows: pd.DataFrame, kind: str):
+    from mckibben.control.core import MODE_PID, MODE_SMC, CoreParams, core_spec
+
+    names = {f.name for f in fields(CoreParams)}
+    cols = [c for c in rows.columns if c.startswith("controller.")]
+    mode = MODE_SMC if kind == "smc" else MODE_PID
+    plist = []
+    for rec in rows[cols].itertuples(index=False):
+        kw = {c[11:]: float(v) for c, v in zip(cols, rec) if c[11:] in names}
+        plist.append(CoreParams(mode=mode, **kw))
+    return core_spec(plist)
+
+
+def _reference(scenario: dict, n_steps: int) -> np.ndarray:
+    t = np.arange(n_steps) * 1e-3
+    if scenario["kind"] == "step":
+        ref = np.full(n_steps, scenario["target"])
+        ref[: int(0.01 / 1e-3)] = scenario["start"]  # the step comes at 10 ms
+        return ref
+    return scenario["mean"] + scenario["amplitude"] * np.sin(2 * np.pi * scenario["frequency"] * t)
+
+
+def run_chunk(meta: dict, rows: pd.DataFrame, k: int, out: str) -> dict:
+    """Simulate one chunk and write its Parquet file atomically.
+
+    Parameters
+    ----------
+    meta : dict
+        The sweep's scenario, controller kind, metrics and provenance.
+    rows : pandas.DataFrame
+        The chunk's design rows.
+    k : int
+        Chunk index. [-]
+    out : str
+        Results folder.
+
+    Returns
+    -------
+    dict
+        ``chunk``, ``runs``, ``seconds``, ``path``.
+    """
+    from mckibben.control.metrics import step_metrics, tracking_metrics
+    from mckibben.plant import simulate
+
+    t0 = time.perf_counter()
+    scenario = meta["scenario"]
+    n_steps = int(round(scenario["duration"] / 1e-3))
+    ref = _reference(scenario, n_steps)
+    res = simulate(_plants(rows), n_steps * 1e-3, controller=_controllers(rows, meta["controller"]),
+                   reference=ref, n=len(rows))
+    records = []
+    for i in range(len(rows)):
+        y = res.pressure[i]
+        if not np.all(np.isfinite(y)):
+            m = {}
+        elif scenario["kind"] == "step":
+            m = step_metrics(res.t, y, ref, res.command[i], t_step=0.01)
+        else:
+            m = tracking_metrics(res.t, y, ref, res.command[i])
+        m["max_pressure_Pa"] = float(np.nanmax(y))
+        records.append({name: float(m.get(name, np.nan)) for name in meta["metrics"]})
+    table = pd.concat([rows.reset_index(drop=True), pd.DataFrame(records)], axis=1)
+    table["chunk"] = k
+    table["sim_flags"] = res.flags
+    arrow = pa.Table.from_pandas(table, preserve_index=False)
+    arrow = arrow.replace_schema_metadata({**(arrow.schema.metadata or {}), b"mckibben": json.dumps(meta["provenance"]).encode()})
+    path = chunk_path(Path(out), k)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as fh:
+        pq.write_table(arrow, fh)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    return {"chunk": k, "runs": len(rows), "seconds": time.perf_counter() - t0, "path": str(path)}
+
+
+def chunk_done(path: Path, sha256: str) -> bool:
+    """Whether a chunk file exists, reads, and belongs to the sweep with this hash.
+
+    Parameters
+    ----------
+    path : Path
+        The chunk file.
+    sha256 : str
+        The sweep file's hash.
+    """
+    if not path.exists():
+        return False
+    try:
+        meta = pq.read_schema(path).metadata or {}
+        prov = json.loads(meta.get(b"mckibben", b"{}"))
+    except Exception:  # a foreign or damaged file: redo the chunk
+        return False
+    return prov.get("sweep_sha256") == sha256
+
+
+def prepare_output(out: str | Path, sweep: Sweep) -> Path:
+    """Create (or check) the results folder; refuse one that holds another sweep's results.
+
+    Parameters
+    ----------
+    out : str or Path
+        Results folder.
+    sweep : Sweep
+        The sweep.
+    """
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".probe-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise InputError(f"--out: cannot write to {str(out)!r} ({exc.strerror})") from None
+    manifest = out / "sweep.json"
+    info = {"sweep_sha256": sweep.sha256, "sweep_file": sweep.path, "seed": sweep.seed, "runs": sweep.n_runs,
+            "chunks": sweep.n_chunks, "chunk_size": sweep.chunk_size}
+    if manifest.exists():
+        try:
+            old = json.loads(manifest.read_text())
+        except (OSError, ValueError):
+            old = {}
+        if old.get("sweep_sha256") != sweep.sha256:
+            raise InputError(f"--out: {str(out)!r} holds the results of another sweep; choose another folder")
+    else:
+        tmp = out / ".sweep.json.tmp"
+        tmp.write_text(json.dumps(info, indent=2))
+        os.replace(tmp, manifest)
+    return out
+
+
+def run_sweep(sweep: Sweep, out: str | Path, *, workers: int | None = None, scheduler: str | None = None,
+              progress=None) -> dict:
+    """Run every chunk not yet written: in-process, on a local cluster, or on a scheduler.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        The validated sweep.
+    out : str or Path
+        Results folder (a Parquet dataset, one file per chunk).
+    workers : int, optional
+        Start a local Dask cluster with this many single-threaded worker processes.
+    scheduler : str, optional
+        Address of an existing Dask scheduler, ``tcp://HOST:PORT``.
+    progress : callable, optional
+        ``progress(done_runs, total_runs)`` after each chunk.
+
+    Returns
+    -------
+    dict
+        ``runs``, ``chunks``, ``skipped`` (chunks already written), ``computed`` (chunks),
+        ``computed_runs``, ``seconds``, ``sims_per_second``.
+    """
+    out = prepare_output(out, sweep)
+    meta = {
+        "scenario": sweep.scenario, "controller": sweep.controller_kind, "metrics": list(sweep.metrics),
+        "provenance": {"package_version": mckibben.__version__, "sweep_sha256": sweep.sha256,
+                       "sweep_file": sweep.path, "seed": sweep.seed},
+    }
+    todo = [k for k in range(sweep.n_chunks) if not chunk_done(chunk_path(out, k), sweep.sha256)]
+    skipped = sweep.n_chunks - len(todo)
+    done_runs = sum(len(sweep.chunk(k)) for k in range(sweep.n_chunks) if k not in set(todo))
+    t0 = time.perf_counter()
+    if progress:
+        progress(done_runs, sweep.n_runs)
+    if scheduler is None and not workers:
+        for k in todo:
+            r = run_chunk(meta, sweep.chunk(k), k, str(out))
+            done_runs += r["runs"]
+            if progress:
+                progress(done_runs, sweep.n_runs)
+    else:
+        _run_dask(sweep, meta, todo, out, workers, scheduler, progress, done_runs)
+    seconds = time.perf_counter() - t0
+    computed_runs = sum(len(sweep.chunk(k)) for k in todo)
+    return {"runs": sweep.n_runs, "chunks": sweep.n_chunks, "skipped": skipped, "computed": len(todo),
+            "computed_runs": computed_runs, "seconds": seconds,
+            "sims_per_second": computed_runs / seconds if computed_runs and seconds > 0 else None}
+
+
+def _run_dask(sweep, meta, todo, out, workers, scheduler, progress, done_runs):
+    from distributed import Client, LocalCluster, as_completed
+
+    cluster = None
+    try:
+        if scheduler is not None:
+            try:
+                client = Client(scheduler, timeout="3s")
+            except (OSError, TimeoutError) as exc:
+                raise InputError(f"--scheduler: cannot reach {scheduler} ({exc})") from None
+        else:
+            cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=40)
+            client = Client(cluster)
+        with client:
+            futures = [client.submit(run_chunk, meta, sweep.chunk(k), k, str(out), key=f"chunk-{sweep.sha256[:12]}-{k}",
+                                     retries=3, pure=False) for k in todo]
+            for fut in as_completed(futures):
+                r = fut.result()
+                done_runs += r["runs"]
+                if progress:
+                    progress(done_runs, sweep.n_runs)
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def read_results(out: str | Path) -> pd.DataFrame:
+    """All chunk files of a results folder as one table, in run order.
+
+    Parameters
+    ----------
+    out : str or Path
+        Results folder.
+    """
+    out = Path(out)
+    files = sorted(out.glob("chunk-*.parquet"))
+    if not out.is_dir() or not files:
+        raise InputError(f"{str(out)!r}: no sweep results (chunk-*.parquet) there")
+    try:
+        table = pd.concat([pd.read_parquet(f) for f in files], ignore_index=True)
+    except Exception as exc:
+        raise InputError(f"{str(out)!r}: cannot read the results ({exc})") from None
+    return table.sort_values("run_id").reset_index(drop=True)

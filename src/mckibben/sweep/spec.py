@@ -1,0 +1,259 @@
+"""A sweep description (TOML): parameters with grids or distributions, a scenario, metrics, seed.
+
+```toml
+[sweep]
+seed = 1            # all random draws follow from it
+samples = 20        # random plants drawn per grid point
+chunk_size = 500    # instances per batch call of the simulator
+
+[scenario]
+kind = "step"       # "step" (to `target`) or "sine" (mean ± amplitude at frequency)
+target = "0.55MPa"
+duration = "0.4s"
+
+[plant]             # any PlantParams field, or `muscle` (a published set's name)
+supply_pressure = { uniform = ["0.6MPa", "1.0MPa"] }
+load_force = { uniform = ["0N", "3N"] }
+dead_band = { normal = [0.10, 0.01] }
+
+[controller]        # kind = "smc" or "pid", and any CoreParams gain
+kind = "smc"
+beta = { grid = [100, 120, 150] }
+eps = "20kPa"
+
+[metrics]
+keep = ["time_constant_s", "overshoot_pct", "steady_state_error_Pa", "valve_effort_counts"]
+```
+
+A value is a constant (a number, or a string with a unit), ``{grid = [...]}`` (every value, in
+the cartesian product of all grids), ``{uniform = [lo, hi]}``, ``{normal = [mean, sd]}``,
+``{lognormal = [median, sigma]}`` or ``{choice = [...]}`` (a draw per sample).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mckibben.errors import InputError, unknown_name
+from mckibben.units import parse_quantity
+
+#: Plant fields a sweep may set, with the dimension of a value given with a unit.
+PLANT_FIELDS = {
+    "supply_pressure": "pressure", "supply_droop": "dimensionless", "valve_conductance": None,
+    "bleed_conductance": None, "critical_ratio": "dimensionless", "valve_tau": "time",
+    "dead_band": "dimensionless", "driver_gain": "dimensionless", "dead_volume": None,
+    "leak_conductance": None, "polytropic_n": "dimensionless", "friction_per_pa": None,
+    "load_force": "force", "damping": None, "pressure_noise": "pressure", "muscle": "name",
+}
+#: Controller gains a sweep may set (CoreParams fields), with their dimension.
+CONTROLLER_FIELDS = {
+    "beta": "dimensionless", "eps": "pressure", "ki": "frequency", "tau": "time", "g": None,
+    "i_max": None, "kp": None, "ki_pid": None, "kd": None, "tf": "time", "p_max": "pressure",
+    "margin": "pressure",
+}
+CONTROLLER_KINDS = ("smc", "pid")
+SCENARIOS = ("step", "sine")
+METRICS = ("time_constant_s", "rise_time_s", "settling_time_s", "overshoot_pct", "steady_state_error_Pa",
+           "valve_effort_counts", "rms_error_Pa", "max_pressure_Pa")
+DISTRIBUTIONS = ("grid", "uniform", "normal", "lognormal", "choice")
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep: its design table and how to run it."""
+
+    path: str
+    sha256: str
+    seed: int
+    samples: int
+    chunk_size: int
+    scenario: dict
+    controller_kind: str
+    metrics: tuple[str, ...]
+    grid_names: tuple[str, ...]
+    design: pd.DataFrame = field(repr=False)  # one row per simulation: run_id, grid_id, parameters
+
+    @property
+    def n_runs(self) -> int:
+        """Number of simulations."""
+        return len(self.design)
+
+    @property
+    def n_chunks(self) -> int:
+        """Number of chunks."""
+        return math.ceil(self.n_runs / self.chunk_size)
+
+    def chunk(self, k: int) -> pd.DataFrame:
+        """Rows of chunk k.
+
+        Parameters
+        ----------
+        k : int
+            Chunk index. [-]
+        """
+        return self.design.iloc[k * self.chunk_size:(k + 1) * self.chunk_size]
+
+
+def _value(raw, dim, where):
+    if dim == "name":
+        if not isinstance(raw, str):
+            raise InputError(f"{where}: a muscle name is wanted, got {raw!r}")
+        from mckibben.datasets import get_muscle
+
+        get_muscle(raw)  # raises with close matches
+        return raw
+    if isinstance(raw, bool):
+        raise InputError(f"{where}: {raw!r} is not a number")
+    if isinstance(raw, (int, float)):
+        if not math.isfinite(raw):
+            raise InputError(f"{where}: {raw!r} is not finite")
+        return float(raw)
+    if isinstance(raw, str):
+        if dim is None:
+            raise InputError(f"{where}: {raw!r} — give this parameter as a plain number in SI")
+        return parse_quantity(raw, dim, where, allow_negative=True)
+    raise InputError(f"{where}: {raw!r} is neither a number nor a quantity with a unit")
+
+
+def _parse_param(name, raw, dim, where):
+    """-> ("const", v) | ("grid", [v...]) | (dist, (a, b)) | ("choice", [v...])"""
+    if isinstance(raw, dict):
+        if len(raw) != 1:
+            raise InputError(f"{where}: one of {', '.join(DISTRIBUTIONS)} per parameter, got {sorted(raw)}")
+        (kind, args), = raw.items()
+        if kind not in DISTRIBUTIONS:
+            raise unknown_name(f"distribution in {where}", kind, DISTRIBUTIONS)
+        if not isinstance(args, list):
+            raise InputError(f"{where}: {kind} takes a list, got {args!r}")
+        if kind in ("grid", "choice"):
+            if not args:
+                raise InputError(f"{where}: empty {kind}")
+            return kind, [_value(a, dim, where) for a in args]
+        if dim == "name":
+            raise InputError(f"{where}: a muscle takes a grid or a choice, not {kind}")
+        if len(args) != 2:
+            raise InputError(f"{where}: {kind} takes two values [{'lo, hi' if kind == 'uniform' else 'centre, spread'}]")
+        a, b = (_value(x, dim, where) for x in args)
+        if kind == "uniform" and not b > a:
+            raise InputError(f"{where}: uniform needs lo < hi, got [{a:g}, {b:g}]")
+        if kind in ("normal", "lognormal") and not b > 0:
+            raise InputError(f"{where}: {kind} needs a spread > 0, got {b:g}")
+        if kind == "lognormal" and not a > 0:
+            raise InputError(f"{where}: lognormal needs a median > 0, got {a:g}")
+        return kind, (a, b)
+    return "const", _value(raw, dim, where)
+
+
+def load_sweep(path: str | Path) -> Sweep:
+    """Read and validate a sweep file and expand it into its design table.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Returns
+    -------
+    Sweep
+        The sweep with one design row per simulation.
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the sweep file ({exc.strerror})") from None
+    try:
+        doc = tomllib.loads(data.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    sections = ("sweep", "scenario", "plant", "controller", "metrics")
+    for key in doc:
+        if key not in sections:
+            raise unknown_name(f"section in {path}", key, sections)
+    sw = doc.get("sweep", {})
+    for key in sw:
+        if key not in ("seed", "samples", "chunk_size", "name"):
+            raise unknown_name(f"key in {path} [sweep]", key, ("seed", "samples", "chunk_size", "name"))
+
+    def whole(key, default, lo):
+        v = sw.get(key, default)
+        if not isinstance(v, int) or isinstance(v, bool) or v < lo:
+            raise InputError(f"{path} [sweep] {key}: a whole number >= {lo}, got {v!r}")
+        return v
+
+    seed, samples, chunk = whole("seed", 0, 0), whole("samples", 1, 1), whole("chunk_size", 500, 1)
+
+    sc = dict(doc.get("scenario", {}))
+    kind = sc.pop("kind", "step")
+    if kind not in SCENARIOS:
+        raise unknown_name(f"scenario in {path}", kind, SCENARIOS)
+    allowed = {"step": ("target", "duration", "start"), "sine": ("mean", "amplitude", "frequency", "duration")}[kind]
+    for key in sc:
+        if key not in allowed:
+            raise unknown_name(f"key in {path} [scenario] ({kind})", key, allowed)
+    dims = {"target": "pressure", "start": "pressure", "mean": "pressure", "amplitude": "pressure",
+            "frequency": "frequency", "duration": "time"}
+    defaults = {"target": "0.55MPa", "start": "0MPa", "mean": "0.4MPa", "amplitude": "0.1MPa",
+                "frequency": "2Hz", "duration": "0.4s"}
+    scenario = {"kind": kind}
+    for key in allowed:
+        scenario[key] = parse_quantity(str(sc.get(key, defaults[key])), dims[key], f"{path} [scenario] {key}")
+    if not 0 < scenario["duration"] <= 10:
+        raise InputError(f"{path} [scenario] duration: must be in (0, 10] s")
+    if abs(scenario["duration"] * 1000 - round(scenario["duration"] * 1000)) > 1e-6:
+        raise InputError(f"{path} [scenario] duration: a whole number of 1 ms control periods")
+
+    ctrl = dict(doc.get("controller", {}))
+    ckind = ctrl.pop("kind", "smc")
+    if ckind not in CONTROLLER_KINDS:
+        raise unknown_name(f"controller kind in {path}", ckind, CONTROLLER_KINDS)
+
+    params = {}
+    for section, fields_, raw in (("plant", PLANT_FIELDS, doc.get("plant", {})), ("controller", CONTROLLER_FIELDS, ctrl)):
+        for name, value in raw.items():
+            if name not in fields_:
+                raise unknown_name(f"{section} parameter in {path}", name, fields_)
+            params[f"{section}.{name}"] = _parse_param(name, value, fields_[name], f"{path} [{section}] {name}")
+
+    mt = doc.get("metrics", {})
+    keep = mt.get("keep", list(METRICS[:6]))
+    if not isinstance(keep, list) or not keep:
+        raise InputError(f"{path} [metrics] keep: a non-empty list of metric names")
+    for m in keep:
+        if m not in METRICS:
+            raise unknown_name(f"metric in {path}", m, METRICS)
+
+    grid_names = tuple(k for k, (kind_, _) in params.items() if kind_ == "grid")
+    grids = [params[k][1] for k in grid_names]
+    points = list(itertools.product(*grids)) if grids else [()]
+    n = len(points) * samples
+    if n > 5_000_000:
+        raise InputError(f"{path}: {n} simulations is more than the 5,000,000 a sweep may hold")
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    cols: dict[str, object] = {"run_id": np.arange(n), "grid_id": np.repeat(np.arange(len(points)), samples)}
+    for j, name in enumerate(grid_names):
+        cols[name] = np.repeat([pt[j] for pt in points], samples)
+    for name, (kind_, args) in params.items():
+        if kind_ == "grid":
+            continue
+        if kind_ == "const":
+            cols[name] = [args] * n if isinstance(args, str) else np.full(n, args)
+        elif kind_ == "uniform":
+            cols[name] = rng.uniform(args[0], args[1], n)
+        elif kind_ == "normal":
+            cols[name] = rng.normal(args[0], args[1], n)
+        elif kind_ == "lognormal":
+            cols[name] = args[0] * np.exp(rng.normal(0.0, args[1], n))
+        else:  # choice
+            cols[name] = [args[i] for i in rng.integers(0, len(args), n)]
+    cols["noise_seed"] = rng.integers(0, 2**31 - 1, n)
+    return Sweep(str(path), hashlib.sha256(data).hexdigest(), seed, samples, chunk, scenario, ckind, tuple(keep),
+                 grid_names, pd.DataFrame(cols))
