@@ -129,10 +129,29 @@ def test_track_reference_only_json(cli):
     ],
 )
 def test_track_bad_path_exit_2(cli, path, message):
-    r = cli("tool", "track", "--path", path, "--reference-only")
+    r = cli("tool", "track", "--path", path)
     assert r.code == 2 and message in r.err and r.err.count("\n") == 1
 
 
 def test_track_bad_periods_exit_2(cli):
     r = cli("tool", "track", "--path", "circle:radius=5mm,period=1s", "--periods", "1s,0s", "--reference-only")
     assert r.code == 2 and "--periods" in r.err
+
+
+@pytest.mark.slow  # ~7 s: the first plant simulation in the process loads the Numba cache
+def test_track_simulated_json_and_plot(cli, tmp_path):
+    png = tmp_path / "track.png"
+    r = cli("tool", "track", "--path", "figure8:size=8mm,period=0.25s,cycles=1", "--periods", "0.25s,0.125s",
+            "--plot", str(png), "--json")
+    assert r.code == 0, r.err
+    out = r.json()
+    assert out["simulated"] is True and out["plot"] == str(png)
+    for run in out["runs"]:
+        assert run["controller_faults"] == 0
+        assert 0 < run["rms_error_m"] <= run["max_error_m"] < 5e-3  # mm-scale errors on an 8 mm path
+    assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_track_bad_beta(cli):
+    r = cli("tool", "track", "--path", "circle:radius=5mm,period=0.1s,cycles=1", "--beta", "0")
+    assert r.code == 2 and "--beta" in r.err

@@ -251,6 +251,7 @@ def track_cmd(
     periods: str = typer.Option(None, "--periods", help="Run the path at several periods (speeds), e.g. 4s,2s,1s,0.5s."),
     reference_only: bool = typer.Option(False, "--reference-only", help="Only compute the pressure references (no simulation)."),
     plot: str = typer.Option(None, "--plot", help="Write the target-vs-achieved figure to this file (PNG)."),
+    beta: float = typer.Option(120.0, "--beta", help="Sliding-mode switching gain of the three controllers [PWM counts]."),
     muscle: str = MUSCLE_OPTION,
     pitch_radius: str = PITCH_OPTION,
     discs: str = DISCS_OPTION,
@@ -275,7 +276,9 @@ def track_cmd(
     if not reference_only:
         from mckibben.tool.tracking import simulate_tracking
 
-        results = simulate_tracking(tool, runs)
+        if not 0 < beta <= 255:
+            raise InputError(f"--beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
+        results = simulate_tracking(tool, runs, beta=beta)
     else:
         results = None
     out_runs = []

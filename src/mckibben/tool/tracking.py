@@ -154,23 +154,199 @@ def tip_errors(target, achieved) -> dict:
     return {"rms_error_m": float(np.sqrt(np.mean(d * d))), "max_error_m": float(d.max())}
 
 
-def simulate_tracking(tool: Tool, runs):
-    """Run three plant instances per run (one per muscle, each with its own pressure controller).
+@dataclass(frozen=True)
+class TrackingResult:
+    """One simulated tracking run: three muscles, target vs achieved tip.
+
+    Attributes
+    ----------
+    time : numpy.ndarray
+        Sample times, (n,). [s]
+    target : numpy.ndarray
+        Target tip, (n, 3). [m]
+    achieved : numpy.ndarray
+        Achieved tip: the tool's static equilibrium at the simulated chamber pressures, (n, 3). [m]
+    reference : numpy.ndarray
+        Pressure references, (n, 3). [Pa]
+    pressure : numpy.ndarray
+        Simulated chamber pressures, (n, 3). [Pa]
+    loads : numpy.ndarray
+        Hanging load each plant instance carried (the muscle's mean tension on the path), (3,). [N]
+    beta : float
+        Sliding-mode switching gain of the three controllers. [PWM counts]
+    model_gain, model_tau : float
+        Identified first-order model the controllers use. [Pa/count], [s]
+    faults : int
+        OR of every controller fault flag over the run (0: none). [-]
+    """
+
+    time: np.ndarray
+    target: np.ndarray
+    achieved: np.ndarray
+    reference: np.ndarray
+    pressure: np.ndarray
+    loads: np.ndarray
+    beta: float
+    model_gain: float
+    model_tau: float
+    faults: int
+
+    def summary(self) -> dict:
+        """Errors and settings as a JSON-ready dict (SI, unit-suffixed keys)."""
+        err = tip_errors(self.target, self.achieved)
+        p_err = self.pressure - self.reference
+        return {
+            **err,
+            "pressure_rms_error_Pa": float(np.sqrt(np.mean(p_err**2))),
+            "pressure_max_error_Pa": float(np.max(np.abs(p_err))),
+            "plant_loads_N": self.loads.tolist(),
+            "beta_counts": self.beta,
+            "model_gain_Pa_per_count": self.model_gain,
+            "model_tau_s": self.model_tau,
+            "controller_faults": self.faults,
+        }
+
+
+#: Switching gain of the tracking controllers: the paper's β = 120 (§IV.C, Fig. 13a); its faster 150
+#: chatters by ~1.7 kPa RMS on this plant, which this compliant tool turns into ~0.6 mm of tip error.
+TRACKING_BETA = 120.0
+
+
+def identify_muscle_plant(plant_params, pwm: int | None = None):
+    """The first-order model of one muscle's plant from an open-loop inlet step (§IV.A).
+
+    Parameters
+    ----------
+    plant_params : PlantParams
+        One plant instance.
+    pwm : int, optional
+        Inlet PWM count of the step; default the plant's calibration step. [counts]
+
+    Returns
+    -------
+    FirstOrderModel
+        Gain [Pa/count], time constant [s] and dead time [s] fitted with
+        :func:`mckibben.control.identify.fit_step_response`.
+    """
+    from mckibben.control.controllers import FirstOrderModel
+    from mckibben.control.identify import fit_step_response
+    from mckibben.plant import CALIBRATION_PWM, simulate
+
+    u1 = CALIBRATION_PWM if pwm is None else int(pwm)
+    res = simulate(plant_params, 0.8, inlet=u1, n=1)
+    fit = fit_step_response(res.t, res.pressure[0], np.full(res.t.size, float(u1)), t_step=0.0, input_step=float(u1))
+    return FirstOrderModel.from_fit(fit)
+
+
+def simulate_tracking(tool: Tool, runs, *, beta: float = TRACKING_BETA) -> list[TrackingResult]:
+    """Follow each run's pressure references with three plant instances and their controllers.
+
+    Each muscle is one instance of the batch plant (:func:`mckibben.plant.simulate`) with the
+    tool's muscle (:meth:`PlantParams.for_muscle`, the plant's calibrated force law), hanging the
+    muscle's mean tension along the path, and its own
+    sliding-mode pressure controller (the firmware core, :func:`mckibben.control.core.core_spec`)
+    whose model term is identified on that plant by an open-loop step. The run starts at the
+    path's first reference pressures. The achieved tip is the tool's static equilibrium at the
+    simulated chamber pressures (quasi-static tool mechanics).
 
     Parameters
     ----------
     tool : Tool
         The tool.
     runs : list of (TipPath, TipReference)
-        The paths and their references; all runs are simulated in one batch.
-    """
-    from mckibben.errors import InputError
+        Paths and their references (:func:`tip_reference`).
+    beta : float, default 120
+        Switching gain of the three controllers. [PWM counts]
 
-    try:
-        from mckibben.plant import simulate_closed_loop  # issue 5
-    except ImportError:
-        raise InputError(
-            "tracking in simulation needs the plant simulator (mckibben.plant, issue 5), which is not in"
-            " this checkout; use --reference-only for the pressure references"
-        ) from None
-    raise InputError(f"tool tracking is not yet connected to {simulate_closed_loop.__module__}; use --reference-only")
+    Returns
+    -------
+    list of TrackingResult
+        One per run.
+    """
+    from mckibben.control.core import core_spec
+    from mckibben.control.experiments import smc_core_params
+    from mckibben.plant import PlantParams, simulate
+
+    results = []
+    models = {}
+    for path, ref in runs:
+        loads = ref.state.tensions.mean(axis=0)
+        plants = PlantParams.for_muscle(tool.muscle, load_force=loads)
+        key = tuple(np.round(loads, 12))
+        if key not in models:
+            one = PlantParams.for_muscle(tool.muscle, load_force=float(loads.mean()))
+            models[key] = identify_muscle_plant(one)
+        model = models[key]
+        params = smc_core_params(model, beta)
+        params = type(params)(**{**params.__dict__, "p_max": tool.p_max})
+        sim = simulate(plants, ref.time.size * 1e-3, controller=core_spec(params, 3), reference=ref.pressures.T,
+                       initial_pressure=ref.pressures[0])
+        pressure = sim.pressure.T
+        achieved = tip_from_pressures(np.clip(pressure, 0.0, tool.p_max), tool).tip
+        results.append(TrackingResult(ref.time, ref.target, achieved, ref.pressures, pressure, loads, float(beta),
+                                      float(model.gain), float(model.tau), int(np.bitwise_or.reduce(sim.faults.ravel()))))
+    return results
+
+
+def plot_tracking(runs, results, tool: Tool, path) -> None:
+    """Figure: target vs achieved tip path (top view) per speed, tip error over time, error vs speed.
+
+    Parameters
+    ----------
+    runs : list of (TipPath, TipReference)
+        The runs.
+    results : list of TrackingResult
+        Their simulations.
+    tool : Tool
+        The tool (for the title).
+    path : str or os.PathLike
+        Output file (PNG). [-]
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mckibben.tool.workspace import save_figure
+
+    k = len(results)
+    fig, axes = plt.subplots(1, 3, figsize=(15, 5))
+    ax = axes[0]
+    colors = plt.cm.viridis(np.linspace(0, 0.85, k))
+    for (p, _), r, c in zip(runs, results, colors):
+        ax.plot(r.achieved[:, 0] * 1e3, r.achieved[:, 1] * 1e3, color=c, lw=1.2,
+                label=f"T = {p.period:g} s ({p.mean_speed * 1e3:.0f} mm/s)")
+    ax.plot(results[0].target[:, 0] * 1e3, results[0].target[:, 1] * 1e3, "r--", lw=1.5, label="target", zorder=5)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.set_title("tip path, top view: target vs achieved")
+    ax.legend(fontsize=8)
+    ax = axes[1]
+    for (p, _), r, c in zip(runs, results, colors):
+        err = np.linalg.norm(r.achieved - r.target, axis=1)
+        ax.plot(r.time / p.period, err * 1e3, color=c, lw=1, label=f"T = {p.period:g} s")
+    ax.set_xlabel("time / period [-]")
+    ax.set_ylabel("tip error [mm]")
+    ax.set_title("tip error over the run")
+    ax.legend(fontsize=8)
+    ax = axes[2]
+    speeds = np.array([p.mean_speed for p, _ in runs]) * 1e3
+    rms = np.array([r.summary()["rms_error_m"] for r in results]) * 1e3
+    mx = np.array([r.summary()["max_error_m"] for r in results]) * 1e3
+    order = np.argsort(speeds)
+    ax.plot(speeds[order], rms[order], "o-", label="RMS")
+    ax.plot(speeds[order], mx[order], "s-", label="max")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("mean tip speed [mm/s]")
+    ax.set_ylabel("tip error [mm]")
+    ax.set_title("tip error vs speed")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    p0 = runs[0][0]
+    fig.suptitle(f"Tracking a {p0.kind} ({p0.size * 1e3:g} mm, z = {p0.z * 1e3:.1f} mm) with three simulated"
+                 f" {tool.muscle.name} muscles, sliding mode β = {results[0].beta:g}", fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
