@@ -1,0 +1,70 @@
+"""Benchmark: simulations per second of a 100,000-plant step sweep, in-process and on a local
+two-worker Dask cluster (issue 9).
+
+The sweep: sliding mode at four β (90–180 counts) × 25,000 random plants each (supply 0.6–1.0 MPa,
+load 0–3 N, dead band ±30 %, valve conductance ±30 %), a step to 0.55 MPa simulated for 0.2 s
+(200 control periods, RK4 at 10 kHz), step metrics kept; chunks of 2,000.
+
+Run: ``python benchmarks/bench_sweep.py [--runs 100000]`` (a few minutes on 2 cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+from mckibben.sweep import load_sweep, read_results, run_sweep
+
+TEMPLATE = """
+[sweep]
+seed = 2026
+samples = {samples}
+chunk_size = 2000
+[scenario]
+kind = "step"
+target = "0.55MPa"
+duration = "0.2s"
+[plant]
+supply_pressure = {{ uniform = ["0.6MPa", "1.0MPa"] }}
+load_force = {{ uniform = ["0N", "3N"] }}
+dead_band = {{ uniform = [0.07, 0.13] }}
+valve_conductance = {{ uniform = [1.05e-10, 1.95e-10] }}
+[controller]
+kind = "smc"
+beta = {{ grid = [90, 120, 150, 180] }}
+[metrics]
+keep = ["time_constant_s", "overshoot_pct", "steady_state_error_Pa", "valve_effort_counts"]
+"""
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--runs", type=int, default=100_000)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        toml = Path(d) / "bench.toml"
+        toml.write_text(TEMPLATE.format(samples=args.runs // 4))
+        sweep = load_sweep(toml)
+        # warm the compile cache outside the timing
+        warm = Path(d) / "warm.toml"
+        warm.write_text(TEMPLATE.format(samples=1))
+        run_sweep(load_sweep(warm), Path(d) / "warm")
+        rows = []
+        for label, kw in (("in-process", {}), ("local cluster, 2 workers", {"workers": 2})):
+            t = time.perf_counter()
+            stats = run_sweep(sweep, Path(d) / label.split(",")[0].replace(" ", "-"), **kw)
+            sec = time.perf_counter() - t
+            rows.append((label, stats["computed_runs"], sec, stats["computed_runs"] / sec))
+        a = read_results(Path(d) / "in-process")
+        b = read_results(Path(d) / "local-cluster")
+        same = a.equals(b)
+    print(f"{'where':<26} | {'runs':>7} | {'seconds':>8} | {'sims/s':>7}")
+    for label, runs, sec, rate in rows:
+        print(f"{label:<26} | {runs:>7} | {sec:>8.1f} | {rate:>7.0f}")
+    print(f"results identical in-process and on the cluster: {same}")
+
+
+if __name__ == "__main__":
+    main()
