@@ -1,0 +1,491 @@
+"""Read and validate experiment tables (CSV, Parquet) and muscle files (TOML).
+
+Every problem is an :class:`~mckibben.errors.InputError` with one line that names the file, the
+row and the column (or the key) and what is wrong. Rows are counted as **1-based data rows**: row 1
+is the first row after the header, in CSV and Parquet alike. For a CSV the file line is given too,
+``row 4 (line 5)``, because the header is line 1. The first problem found (lowest row, then
+leftmost column) is reported.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mckibben.data.schema import BARE_COLUMNS, KINDS, QUANTITIES, SCHEMAS
+from mckibben.errors import InputError
+from mckibben.units import G_N, UNITS, to_si, units_of
+
+NUMERIC_SUFFIXES = (".csv", ".parquet", ".pq")
+
+
+@dataclass(frozen=True)
+class Table:
+    """One validated experiment table, in SI.
+
+    Attributes
+    ----------
+    kind : str
+        Experiment kind (a key of :data:`mckibben.data.schema.SCHEMAS`).
+    path : str
+        The file as the user named it (used in messages).
+    data : pandas.DataFrame
+        One column per quantity, SI (``pressure`` [Pa], ``load`` [N], ``length`` [m], ``force`` [N],
+        ``braid_angle`` [rad], ``time`` [s], ``command`` [-]), ``trial`` (int, 1 if absent),
+        ``direction`` and ``muscle`` (str). The index is the 1-based data row.
+    columns : dict
+        Quantity -> the column name in the file (e.g. ``{"pressure": "pressure_psi"}``).
+    """
+
+    kind: str
+    path: str
+    data: pd.DataFrame
+    columns: dict = field(default_factory=dict)
+
+    @property
+    def is_csv(self) -> bool:
+        """Whether the file is a CSV (its messages give file lines too)."""
+        return self.path.lower().endswith(".csv")
+
+    def where(self, row: int | None = None, quantity: str | None = None) -> str:
+        """The location prefix of a message: ``file: row R (line R+1), column C``.
+
+        Parameters
+        ----------
+        row : int, optional
+            1-based data row. [-]
+        quantity : str, optional
+            Quantity name; the file's column name is printed. [-]
+        """
+        return _where(self.path, row, self.columns.get(quantity, quantity) if quantity else None, self.is_csv)
+
+    def __len__(self) -> int:
+        return len(self.data)
+
+
+def _where(path: str, row: int | None, column: str | None, is_csv: bool) -> str:
+    out = path
+    if row is not None:
+        out += f": row {row}" + (f" (line {row + 1})" if is_csv else "")
+    if column is not None:
+        out += (", " if row is not None else ": ") + f"column {column}"
+    return out
+
+
+def _parse_columns(path: str, names: list[str]) -> dict[str, tuple[str, str, str]]:
+    """Map each file column to (quantity, unit, original name); raise on bad names."""
+    out: dict[str, tuple[str, str, str]] = {}
+    for name in names:
+        if name in BARE_COLUMNS:
+            quantity, unit = name, ""
+        elif name in QUANTITIES:
+            dim = QUANTITIES[name][0]
+            if dim == "dimensionless":
+                quantity, unit = name, ""
+            else:
+                raise InputError(f"{path}: column {name}: no unit; name it {name}_<unit>, e.g. {name}_{units_of(dim)[0] if dim != 'force' else 'N'}")
+        else:
+            quantity, _, unit = name.rpartition("_")
+            if quantity not in QUANTITIES:
+                known = ", ".join([q if QUANTITIES[q][0] == "dimensionless" else f"{q}_<unit>" for q in QUANTITIES]
+                                  + list(BARE_COLUMNS))
+                raise InputError(f"{path}: column {name!r} is unknown; known columns are {known}")
+            dim = QUANTITIES[quantity][0]
+            ok_units = units_of(dim) + (units_of("mass") if quantity == "load" else [])
+            if unit not in UNITS or not unit:
+                raise InputError(f"{path}: column {name}: unknown unit {unit!r} for {quantity}; use one of {', '.join(ok_units)}")
+            if unit not in ok_units:
+                raise InputError(f"{path}: column {name}: unit {unit!r} is a {UNITS[unit][0]}, not a {dim}; use one of {', '.join(ok_units)}")
+        if quantity in out:
+            raise InputError(f"{path}: columns {out[quantity][2]} and {name} both give {quantity}; keep one")
+        out[quantity] = (quantity, unit, name)
+    return out
+
+
+def detect_kind(quantities) -> str | None:
+    """The experiment kind whose required columns are all present (the most specific one).
+
+    Parameters
+    ----------
+    quantities : iterable of str
+        The quantities (and bare columns) a table has. [-]
+
+    Returns
+    -------
+    str or None
+        The kind, or None if no kind's required columns are all present.
+    """
+    present = set(quantities)
+    fits = [s for s in SCHEMAS.values() if set(s.required) <= present]
+    if not fits:
+        return None
+    # the kind that explains most of the columns, then the most specific (most required)
+    fits.sort(key=lambda s: (len(present - set(s.allowed)), -len(s.required)))
+    return fits[0].kind
+
+
+def _read_frame(path: Path, name: str) -> tuple[pd.DataFrame, bool]:
+    suffix = path.suffix.lower()
+    if suffix not in NUMERIC_SUFFIXES:
+        raise InputError(f"{name}: unknown file type {path.suffix!r}; use .csv or .parquet")
+    if not path.is_file():
+        raise InputError(f"{name}: no such file")
+    if suffix == ".csv":
+        try:
+            df = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False, skipinitialspace=True)
+        except pd.errors.EmptyDataError:
+            raise InputError(f"{name}: the file is empty; it needs a header line and data rows") from None
+        except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+            raise InputError(f"{name}: cannot read as CSV: {' '.join(str(exc).split())}") from None
+        return df, True
+    try:
+        df = pd.read_parquet(path)
+    except Exception as exc:  # pyarrow raises several types for a bad file
+        raise InputError(f"{name}: cannot read as Parquet: {' '.join(str(exc).split())}") from None
+    return df.reset_index(drop=True), False
+
+
+def read_table(path, kind: str | None = None) -> Table:
+    """Read one experiment table (CSV or Parquet), validate it and convert it to SI.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file. Its kind is ``kind`` if given, else the file's stem if that names a kind
+        (``isotonic.csv``), else detected from its columns.
+    kind : str, optional
+        Force the experiment kind (a key of :data:`~mckibben.data.schema.SCHEMAS`).
+
+    Returns
+    -------
+    Table
+        The validated table in SI.
+
+    Raises
+    ------
+    InputError
+        One line naming the file, row and column and what is wrong: unknown or missing column,
+        unknown unit, text in a numeric cell, a missing value, NaN or infinity, a negative pressure
+        or load, a direction that is not one of the kind's, time not increasing within a trial.
+    """
+    p = Path(path)
+    name = str(path)
+    df, is_csv = _read_frame(p, name)
+    df.columns = [str(c).strip() for c in df.columns]
+    cols = _parse_columns(name, list(df.columns))
+    if kind is not None and kind not in SCHEMAS:
+        from mckibben.errors import unknown_name
+
+        raise unknown_name("experiment kind", kind, KINDS)
+    if kind is None and p.stem in SCHEMAS:
+        kind = p.stem
+    if kind is None:
+        kind = detect_kind(cols)
+        if kind is None:
+            best = max(SCHEMAS.values(), key=lambda s: len(set(s.required) & set(cols)))
+            missing = [q for q in best.required if q not in cols]
+            raise InputError(
+                f"{name}: missing column {_example_column(missing[0])}: no experiment kind matches the columns"
+                f" (closest: {best.kind}, which needs {', '.join(best.required)})"
+            )
+    schema = SCHEMAS[kind]
+    for q in schema.required:
+        if q not in cols:
+            raise InputError(f"{name}: missing column {_example_column(q)}; a {kind} table needs {', '.join(schema.required)}")
+    for q, (_, _, col) in cols.items():
+        if q not in schema.allowed:
+            raise InputError(
+                f"{name}: column {col} is not part of the {kind} schema (required: {', '.join(schema.required)};"
+                f" optional: {', '.join(schema.optional)})"
+            )
+    if len(df) == 0:
+        raise InputError(f"{name}: no data rows")
+
+    rows = np.arange(1, len(df) + 1)
+    errors: list[tuple[int, int, str]] = []  # (row, column position, message)
+    out: dict[str, np.ndarray] = {}
+    order = list(df.columns)
+    for q, (_, unit, col) in cols.items():
+        pos = order.index(col)
+        raw = df[col]
+        where = lambda r: _where(name, int(r), col, is_csv)  # noqa: E731
+        if q in QUANTITIES:
+            values, bad = _numbers(raw)
+            for r, text in bad:
+                errors.append((r, pos, f"{where(r)}: {text}"))
+            dim, no_negative, _ = QUANTITIES[q]
+            if no_negative:
+                neg = np.flatnonzero(np.nan_to_num(values, nan=0.0) < 0)
+                if neg.size:
+                    r = rows[neg[0]]
+                    errors.append((r, pos, f"{where(r)}: {_g(values[neg[0]])} is negative; a {QUANTITIES[q][2].split(' (')[0]} must be >= 0"))
+            if q == "load" and UNITS[unit][0] == "mass":
+                out[q] = to_si(values, unit, "mass") * G_N
+            else:
+                out[q] = to_si(values, unit, dim) if unit else values
+        elif q == "trial":
+            values, bad = _numbers(raw)
+            for r, text in bad:
+                errors.append((r, pos, f"{where(r)}: {text}"))
+            frac = np.flatnonzero(np.isfinite(values) & (values != np.round(values)))
+            if frac.size:
+                r = rows[frac[0]]
+                errors.append((r, pos, f"{where(r)}: {_g(values[frac[0]])} is not a whole number (trials are counted 1, 2, ...)"))
+            out[q] = np.nan_to_num(values, nan=1.0).astype(int)
+        else:  # direction, muscle: text
+            text = raw.astype(str).str.strip().to_numpy()
+            empty = np.flatnonzero((text == "") | (text == "nan") | (text == "None"))
+            if empty.size:
+                r = rows[empty[0]]
+                errors.append((r, pos, f"{where(r)}: value is missing"))
+            if q == "direction":
+                lowered = np.char.lower(text.astype(str))
+                wrong = np.flatnonzero(~np.isin(lowered, schema.directions) & (text != ""))
+                if wrong.size:
+                    r = rows[wrong[0]]
+                    errors.append((r, pos, f"{where(r)}: {text[wrong[0]]!r} is not a direction; use {' or '.join(schema.directions)}"))
+                text = lowered
+            out[q] = text
+    if errors:
+        errors.sort(key=lambda e: (e[0], e[1]))
+        raise InputError(errors[0][2])
+    data = pd.DataFrame(out, index=pd.Index(rows, name="row"))
+    if "trial" not in data:
+        data["trial"] = 1
+    if "time" in data:
+        col = cols["time"][2]
+        for _, grp in data.groupby("trial", sort=False):
+            t = grp["time"].to_numpy()
+            back = np.flatnonzero(np.diff(t) <= 0)
+            if back.size:
+                r = int(grp.index[back[0] + 1])
+                prev = int(grp.index[back[0]])
+                raise InputError(
+                    f"{_where(name, r, col, is_csv)}: time {_g(t[back[0] + 1])} does not increase"
+                    f" (row {prev} has {_g(t[back[0]])}); time must increase within each trial"
+                )
+    return Table(kind, name, data, {q: c[2] for q, c in cols.items()})
+
+
+def _numbers(raw: pd.Series) -> tuple[np.ndarray, list[tuple[int, str]]]:
+    """Convert a column to float; list (1-based row, problem) for cells that are not finite numbers."""
+    if pd.api.types.is_numeric_dtype(raw) and not pd.api.types.is_bool_dtype(raw):
+        values = raw.to_numpy(dtype=float)
+        text = None
+    else:
+        text = raw.astype(str).str.strip()
+        values = pd.to_numeric(text.where(text != "", None), errors="coerce").to_numpy(dtype=float)
+    bad = []
+    idx = np.flatnonzero(~np.isfinite(values))
+    for i in idx[:1]:  # the first one is enough: one message per problem
+        if text is None:
+            v = values[i]
+            bad.append((i + 1, "value is missing (NaN)" if math.isnan(v) else f"{_g(v)} is not a finite number"))
+            continue
+        cell = text.iloc[i]
+        if cell == "" or cell.lower() in ("none", "null"):
+            bad.append((i + 1, "value is missing"))
+            continue
+        try:
+            v = float(cell)
+        except ValueError:
+            bad.append((i + 1, f"{cell!r} is not a number"))
+            continue
+        bad.append((i + 1, "value is missing (NaN)" if math.isnan(v) else f"{cell!r} is not a finite number"))
+    return values, bad
+
+
+def _g(v: float) -> str:
+    return f"{float(v):g}"
+
+
+def _example_column(quantity: str) -> str:
+    if quantity in BARE_COLUMNS:
+        return quantity
+    dim = QUANTITIES[quantity][0]
+    example = {"pressure": "MPa", "force": "N", "length": "mm", "angle": "deg", "time": "s"}.get(dim, "")
+    return f"{quantity}_<unit> (e.g. {quantity}_{example})" if example else quantity
+
+
+# ---------------------------------------------------------------------------------------------
+# Muscle files
+
+
+@dataclass(frozen=True)
+class MuscleSpec:
+    """A muscle as described by its TOML file (SI).
+
+    Attributes
+    ----------
+    id : str
+        The muscle's id, e.g. ``"mpam97"``.
+    nominal_length : float
+        Length at zero gauge pressure and no load, L0. [m]
+    strand_length : float
+        Length of one braid strand, Ls. [m]
+    outer_diameter, tube_inner_diameter, tube_outer_diameter, strand_diameter : float
+        Construction. [m]
+    braid_angle : float
+        Braid angle at rest, from the axis. [rad]
+    notes : str
+        Free text.
+    synthetic : bool
+        Whether the muscle (and its data) are generated, not measured.
+    path : str
+        The file it was read from.
+    """
+
+    id: str
+    nominal_length: float
+    strand_length: float
+    outer_diameter: float = 1.2e-3
+    tube_inner_diameter: float = 0.5e-3
+    tube_outer_diameter: float = 0.9e-3
+    strand_diameter: float = 0.1e-3
+    braid_angle: float = float(np.deg2rad(20.0))
+    notes: str = ""
+    synthetic: bool = False
+    path: str = ""
+
+    @property
+    def geometry(self):
+        """The construction as a :class:`~mckibben.models.mpam.MiniatureGeometry`."""
+        from mckibben.models.mpam import MiniatureGeometry
+
+        return MiniatureGeometry(self.outer_diameter, self.tube_inner_diameter, self.tube_outer_diameter,
+                                 self.strand_diameter, self.braid_angle)
+
+
+#: Muscle-file keys: field -> (dimension, required).
+MUSCLE_KEYS: dict[str, tuple[str, bool]] = {
+    "nominal_length": ("length", True),
+    "strand_length": ("length", True),
+    "outer_diameter": ("length", False),
+    "tube_inner_diameter": ("length", False),
+    "tube_outer_diameter": ("length", False),
+    "strand_diameter": ("length", False),
+    "braid_angle": ("angle", False),
+}
+
+
+def read_muscle(path) -> MuscleSpec:
+    """Read a muscle file (TOML): id, lengths and diameters as ``quantity_unit`` keys, notes.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The TOML file, e.g. ``mpam97.toml`` with ``id = "mpam97"``, ``nominal_length_mm = 97``,
+        ``strand_length_mm = 112`` and optionally ``outer_diameter_mm``, ``tube_inner_diameter_mm``,
+        ``tube_outer_diameter_mm``, ``strand_diameter_mm``, ``braid_angle_deg``, ``notes``,
+        ``synthetic``.
+
+    Returns
+    -------
+    MuscleSpec
+        The muscle in SI.
+    """
+    name = str(path)
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{name}: no such muscle file")
+    try:
+        doc = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{name}: not a valid TOML file: {' '.join(str(exc).split())}") from None
+    if not isinstance(doc.get("id"), str) or not doc["id"].strip():
+        raise InputError(f"{name}: key id: missing; give the muscle an id, e.g. id = \"mpam97\"")
+    values: dict = {"id": doc["id"].strip(), "path": name}
+    seen = {"id"}
+    for key, raw in doc.items():
+        if key in ("id",):
+            continue
+        if key == "notes":
+            values["notes"] = str(raw)
+            seen.add(key)
+            continue
+        if key == "synthetic":
+            if not isinstance(raw, bool):
+                raise InputError(f"{name}: key synthetic: must be true or false")
+            values["synthetic"] = raw
+            seen.add(key)
+            continue
+        quantity, _, unit = key.rpartition("_")
+        if quantity == "braid":  # braid_angle_deg splits as braid / angle_deg
+            quantity, unit = "braid_angle", key[len("braid_angle_"):]
+        if quantity not in MUSCLE_KEYS:
+            known = ", ".join([f"{k}_<unit>" for k in MUSCLE_KEYS] + ["id", "notes", "synthetic"])
+            raise InputError(f"{name}: key {key!r} is unknown; known keys are {known}")
+        dim = MUSCLE_KEYS[quantity][0]
+        if unit not in units_of(dim):
+            raise InputError(f"{name}: key {key}: unknown unit {unit!r} for {quantity}; use one of {', '.join(units_of(dim))}")
+        if isinstance(raw, bool) or not isinstance(raw, (int, float)) or not math.isfinite(raw) or raw <= 0:
+            raise InputError(f"{name}: key {key}: {raw!r} is not a positive number")
+        if quantity in values:
+            raise InputError(f"{name}: keys give {quantity} twice; keep one")
+        values[quantity] = float(to_si(float(raw), unit, dim))
+    for quantity, (dim, required) in MUSCLE_KEYS.items():
+        if required and quantity not in values:
+            raise InputError(f"{name}: key {quantity}_<unit> missing (e.g. {quantity}_mm = ...)")
+    spec = MuscleSpec(**values)
+    if spec.strand_length < spec.nominal_length:
+        raise InputError(
+            f"{name}: key strand_length: {spec.strand_length * 1e3:g} mm is shorter than the nominal length"
+            f" {spec.nominal_length * 1e3:g} mm; a braid strand is at least as long as the muscle (eq. 1)"
+        )
+    if not spec.braid_angle < np.pi / 2:
+        raise InputError(f"{name}: key braid_angle: must be below 90 deg")
+    if spec.tube_inner_diameter >= spec.tube_outer_diameter:
+        raise InputError(f"{name}: key tube_inner_diameter: must be smaller than tube_outer_diameter")
+    return spec
+
+
+def check_muscle(table: Table, muscle: MuscleSpec) -> None:
+    """Check that a table belongs to a muscle file; raise naming the first mismatch.
+
+    A ``muscle`` column must hold the muscle file's id, and no length may exceed the strand length
+    (eq. 1: l = Ls·cos θ ≤ Ls): a longer one means the data and the muscle file do not match.
+
+    Parameters
+    ----------
+    table : Table
+        A validated table.
+    muscle : MuscleSpec
+        The muscle file's content.
+    """
+    d = table.data
+    if "muscle" in d:
+        wrong = np.flatnonzero(d["muscle"].to_numpy() != muscle.id)
+        if wrong.size:
+            r = int(d.index[wrong[0]])
+            raise InputError(
+                f"{table.where(r, 'muscle')}: {d['muscle'].iloc[wrong[0]]!r} does not match muscle file"
+                f" {muscle.path or muscle.id} (id {muscle.id!r})"
+            )
+    if "length" in d:
+        over = np.flatnonzero(d["length"].to_numpy() > muscle.strand_length)
+        if over.size:
+            r = int(d.index[over[0]])
+            raise InputError(
+                f"{table.where(r, 'length')}: {d['length'].iloc[over[0]] * 1e3:g} mm is longer than the strand"
+                f" length {muscle.strand_length * 1e3:g} mm of muscle file {muscle.path or muscle.id}"
+                f" (id {muscle.id!r}); does the muscle file match the data?"
+            )
+
+
+def find_muscle_file(data_path) -> Path | None:
+    """The muscle file beside a data file: ``muscle.toml`` in the same folder, if there is one.
+
+    Parameters
+    ----------
+    data_path : str or pathlib.Path
+        A data file or a folder. [-]
+    """
+    p = Path(data_path)
+    folder = p if p.is_dir() else p.parent
+    candidate = folder / "muscle.toml"
+    return candidate if candidate.is_file() else None

@@ -1,0 +1,99 @@
+"""Table schemas: the experiment kinds a characterization lab records, and their columns.
+
+A table is one experiment: a CSV or Parquet file whose numeric columns are named
+``quantity_unit`` (``pressure_MPa``, ``load_g``, ``length_mm``) and whose text columns have bare
+names (``direction``, ``muscle``). The units are those of :data:`mckibben.units.UNITS`; a load may
+also be given as a hanging mass (``load_g``, ``load_kg``), taken times standard gravity.
+
+Kinds (see ``docs/data.md`` for the full description of each):
+
+=================  ==========================================  ===============================
+kind               required                                    optional
+=================  ==========================================  ===============================
+blocked_force      pressure, force                             trial, muscle
+isotonic           pressure, load, length                      trial, muscle
+hysteresis         pressure, load, length, direction           trial, muscle
+                   (inflate/deflate)
+braid_angle        braid_angle, length                         pressure, load, trial, muscle
+force_length       pressure, length, force, direction          trial, muscle
+                   (elongation/contraction)
+step_response      time, pressure, command                     trial, muscle
+=================  ==========================================  ===============================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: Numeric quantities: name -> (dimension, whether negative values are refused, description).
+QUANTITIES: dict[str, tuple[str, bool, str]] = {
+    "pressure": ("pressure", True, "gauge pressure"),
+    "load": ("force", True, "hanging load (a force, or a mass taken times g)"),
+    "length": ("length", True, "muscle length"),
+    "force": ("force", False, "measured pulling force (a load cell may read slightly below zero)"),
+    "braid_angle": ("angle", True, "braid angle from the muscle axis"),
+    "time": ("time", False, "time"),
+    "command": ("dimensionless", False, "valve command, as a fraction of full scale"),
+}
+
+#: Columns without a unit: name -> description.
+BARE_COLUMNS: dict[str, str] = {
+    "trial": "repetition number (whole number)",
+    "direction": "branch of a loop (inflate/deflate or elongation/contraction)",
+    "muscle": "muscle id; must match the muscle file's id",
+}
+
+INFLATE_DEFLATE = ("inflate", "deflate")
+ELONGATION_CONTRACTION = ("elongation", "contraction")
+
+
+@dataclass(frozen=True)
+class Schema:
+    """The columns of one experiment kind.
+
+    Attributes
+    ----------
+    kind : str
+        The kind's name, e.g. ``"isotonic"``.
+    required : tuple of str
+        Quantities (or bare columns) every table of this kind has.
+    optional : tuple of str
+        Quantities (or bare columns) it may have.
+    directions : tuple of str
+        The allowed values of the ``direction`` column (empty if it has none).
+    description : str
+        One line saying what the experiment is.
+    """
+
+    kind: str
+    required: tuple[str, ...]
+    optional: tuple[str, ...]
+    directions: tuple[str, ...] = ()
+    description: str = ""
+
+    @property
+    def allowed(self) -> tuple[str, ...]:
+        """Every column name (quantity or bare) this kind accepts."""
+        return self.required + self.optional
+
+
+SCHEMAS: dict[str, Schema] = {
+    s.kind: s
+    for s in [
+        Schema("blocked_force", ("pressure", "force"), ("trial", "muscle"),
+               description="blocked (isometric) force vs pressure, muscle held at its rest length (Fig. 3)"),
+        Schema("isotonic", ("pressure", "load", "length"), ("trial", "muscle"),
+               description="length under hanging loads vs pressure (Fig. 5, Fig. 10 via eq. 2)"),
+        Schema("hysteresis", ("pressure", "load", "length", "direction"), ("trial", "muscle"), INFLATE_DEFLATE,
+               description="length vs pressure while inflating and deflating under a load (Fig. 6)"),
+        Schema("braid_angle", ("braid_angle", "length"), ("pressure", "load", "trial", "muscle"),
+               description="braid angle from photographs with the length at that moment (Fig. 9, 10)"),
+        Schema("force_length", ("pressure", "length", "force", "direction"), ("trial", "muscle"),
+               ELONGATION_CONTRACTION,
+               description="force-length loops at constant pressure (001_9d98bcef9f07dbeb.txt, Fig. 5)"),
+        Schema("step_response", ("time", "pressure", "command"), ("trial", "muscle"),
+               description="pressure after a step of the valve command (§IV.A)"),
+    ]
+}
+
+KINDS = tuple(SCHEMAS)

@@ -1,0 +1,129 @@
+"""Reading and validating experiment tables and muscle files: every bad input has its exact message."""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from mckibben.data import check_muscle, read_muscle, read_table
+from mckibben.errors import InputError
+from mckibben.units import G_N
+
+MUSCLE = 'id = "m97"\nnominal_length_mm = 97\nstrand_length_mm = 112\nbraid_angle_deg = 20\n'
+
+
+def _write(tmp_path: Path, name: str, text: str) -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_units_are_converted_to_si(tmp_path):
+    p = _write(tmp_path, "a.csv", "pressure_psi,load_g,length_mm,trial\n10,60,97.1,1\n20,60,96.0,2\n")
+    t = read_table(p)
+    assert t.kind == "isotonic"
+    # exact conversions: psi by definition, grams times standard gravity
+    np.testing.assert_allclose(t.data["pressure"], [68947.57293168361, 137895.14586336722], rtol=1e-12)
+    np.testing.assert_allclose(t.data["load"], 0.060 * G_N, rtol=1e-12)
+    np.testing.assert_allclose(t.data["length"], [0.0971, 0.0960], rtol=1e-12)
+    assert list(t.data.index) == [1, 2]  # 1-based data rows
+
+
+def test_parquet_is_read_like_csv(tmp_path):
+    df = pd.DataFrame({"braid_angle_deg": [20.0, 25.0, 30.0], "length_mm": [97.0, 94.0, 90.0]})
+    df.to_parquet(tmp_path / "photos.parquet")
+    t = read_table(tmp_path / "photos.parquet")
+    assert t.kind == "braid_angle"
+    np.testing.assert_allclose(t.data["braid_angle"], np.deg2rad([20, 25, 30]), rtol=1e-12)
+
+
+BAD_TABLES = [
+    ("missing.csv", "pressure_MPa,length_mm\n0.1,90\n",
+     "missing.csv: missing column load_<unit> (e.g. load_N): no experiment kind matches the columns"
+     " (closest: isotonic, which needs pressure, load, length)"),
+    ("isotonic.csv", "pressure_MPa,length_mm\n0.1,90\n",
+     "isotonic.csv: missing column load_<unit> (e.g. load_N); a isotonic table needs pressure, load, length"),
+    ("unknown.csv", "pressure_MPa,load_N,length_mm,colour\n0.1,0.6,90,red\n",
+     "unknown.csv: column 'colour' is unknown; known columns are pressure_<unit>, load_<unit>, length_<unit>,"
+     " force_<unit>, braid_angle_<unit>, time_<unit>, command, trial, direction, muscle"),
+    ("other.csv", "pressure_MPa,load_N,length_mm,time_s\n0.1,0.6,90,0\n",
+     "other.csv: column time_s is not part of the isotonic schema (required: pressure, load, length;"
+     " optional: trial, muscle)"),
+    ("unit.csv", "pressure_atm,load_N,length_mm\n0.1,0.6,90\n",
+     "unit.csv: column pressure_atm: unknown unit 'atm' for pressure; use one of Pa, kPa, MPa, bar, mbar, psi"),
+    ("dim.csv", "pressure_mm,load_N,length_mm\n0.1,0.6,90\n",
+     "dim.csv: column pressure_mm: unit 'mm' is a length, not a pressure; use one of Pa, kPa, MPa, bar, mbar, psi"),
+    ("text.csv", "pressure_MPa,load_N,length_mm\n0.1,0.6,90\n0.2,abc,89\n",
+     "text.csv: row 2 (line 3), column load_N: 'abc' is not a number"),
+    ("nan.csv", "pressure_MPa,load_N,length_mm\n0.1,0.6,nan\n",
+     "nan.csv: row 1 (line 2), column length_mm: value is missing (NaN)"),
+    ("inf.csv", "pressure_MPa,load_N,length_mm\n0.1,0.6,inf\n",
+     "inf.csv: row 1 (line 2), column length_mm: 'inf' is not a finite number"),
+    ("empty.csv", "pressure_MPa,load_N,length_mm\n0.1,,90\n",
+     "empty.csv: row 1 (line 2), column load_N: value is missing"),
+    ("negp.csv", "pressure_MPa,load_N,length_mm\n0.1,0.6,90\n-0.1,0.6,90\n",
+     "negp.csv: row 2 (line 3), column pressure_MPa: -0.1 is negative; a gauge pressure must be >= 0"),
+    ("negload.csv", "pressure_MPa,load_g,length_mm\n0.1,-60,90\n",
+     "negload.csv: row 1 (line 2), column load_g: -60 is negative; a hanging load must be >= 0"),
+    ("dir.csv", "pressure_MPa,load_N,length_mm,direction\n0.1,0.6,90,up\n",
+     "dir.csv: row 1 (line 2), column direction: 'up' is not a direction; use inflate or deflate"),
+    ("time.csv", "time_s,pressure_kPa,command,trial\n0,80,0.1,1\n0.01,80,0.1,1\n0.01,81,0.4,1\n",
+     "time.csv: row 3 (line 4), column time_s: time 0.01 does not increase (row 2 has 0.01);"
+     " time must increase within each trial"),
+    ("trial.csv", "pressure_MPa,force_N,trial\n0.1,0.6,1.5\n",
+     "trial.csv: row 1 (line 2), column trial: 1.5 is not a whole number (trials are counted 1, 2, ...)"),
+    ("first.csv", "pressure_MPa,load_N,length_mm\n0.1,0.6,x\n-1,y,90\n",
+     "first.csv: row 1 (line 2), column length_mm: 'x' is not a number"),  # lowest row first
+]
+
+
+@pytest.mark.parametrize("name, text, message", BAD_TABLES, ids=[b[0] for b in BAD_TABLES])
+def test_bad_table_message(tmp_path, name, text, message):
+    with pytest.raises(InputError) as exc:
+        read_table(_write(tmp_path, name, text))
+    assert str(exc.value) == message.replace(name, str(tmp_path / name), 1)
+
+
+def test_parquet_rows_have_no_line_numbers(tmp_path):
+    pd.DataFrame({"pressure_MPa": [0.1, np.nan], "force_N": [1.0, 2.0]}).to_parquet(tmp_path / "bf.parquet")
+    with pytest.raises(InputError) as exc:
+        read_table(tmp_path / "bf.parquet")
+    assert str(exc.value) == f"{tmp_path / 'bf.parquet'}: row 2, column pressure_MPa: value is missing (NaN)"
+
+
+BAD_MUSCLES = [
+    ('nominal_length_mm = 97\nstrand_length_mm = 112\n', 'key id: missing; give the muscle an id, e.g. id = "mpam97"'),
+    ('id = "a"\nstrand_length_mm = 112\n', "key nominal_length_<unit> missing (e.g. nominal_length_mm = ...)"),
+    ('id = "a"\nnominal_length_mm = 97\nstrand_length_furlong = 1\n',
+     "key strand_length_furlong: unknown unit 'furlong' for strand_length; use one of m, cm, mm, um, in"),
+    ('id = "a"\nnominal_length_mm = -97\nstrand_length_mm = 112\n', "key nominal_length_mm: -97 is not a positive number"),
+    ('id = "a"\nnominal_length_mm = 97\nstrand_length_mm = 90\n',
+     "key strand_length: 90 mm is shorter than the nominal length 97 mm; a braid strand is at least as long as the muscle (eq. 1)"),
+    ('id = "a"\ncolour = "red"\n', "key 'colour' is unknown; known keys are nominal_length_<unit>, strand_length_<unit>,"
+     " outer_diameter_<unit>, tube_inner_diameter_<unit>, tube_outer_diameter_<unit>, strand_diameter_<unit>,"
+     " braid_angle_<unit>, id, notes, synthetic"),
+]
+
+
+@pytest.mark.parametrize("text, message", BAD_MUSCLES)
+def test_bad_muscle_message(tmp_path, text, message):
+    p = _write(tmp_path, "m.toml", text)
+    with pytest.raises(InputError) as exc:
+        read_muscle(p)
+    assert str(exc.value) == f"{p}: {message}"
+
+
+def test_muscle_file_that_does_not_match(tmp_path):
+    m = read_muscle(_write(tmp_path, "m.toml", MUSCLE))
+    assert m.strand_length == pytest.approx(0.112) and m.braid_angle == pytest.approx(np.deg2rad(20))
+    t = read_table(_write(tmp_path, "a.csv", "braid_angle_deg,length_mm,muscle\n20,97,m97\n25,95,m117\n"))
+    with pytest.raises(InputError) as exc:
+        check_muscle(t, m)
+    assert str(exc.value) == (f"{tmp_path / 'a.csv'}: row 2 (line 3), column muscle: 'm117' does not match muscle file"
+                              f" {tmp_path / 'm.toml'} (id 'm97')")
+    t = read_table(_write(tmp_path, "b.csv", "braid_angle_deg,length_mm\n20,97\n10,140\n"))
+    with pytest.raises(InputError) as exc:
+        check_muscle(t, m)
+    assert str(exc.value) == (f"{tmp_path / 'b.csv'}: row 2 (line 3), column length_mm: 140 mm is longer than the strand"
+                              f" length 112 mm of muscle file {tmp_path / 'm.toml'} (id 'm97'); does the muscle file match the data?")
