@@ -1,0 +1,153 @@
+/* mckibben serial protocol, version 1 (docs/protocol.md): COBS frames with CRC-16/CCITT-FALSE.
+ * Portable C99, no allocation; builds for the ATmega2560 and for the host tests. */
+#include "protocol.h"
+
+#include <string.h>
+
+uint16_t mck_crc16(const uint8_t *data, size_t len)
+{
+    uint16_t crc = 0xFFFFu;
+    for (size_t i = 0; i < len; i++) {
+        crc ^= (uint16_t)((uint16_t)data[i] << 8);
+        for (uint8_t b = 0; b < 8u; b++) {
+            crc = (crc & 0x8000u) ? (uint16_t)((crc << 1) ^ 0x1021u) : (uint16_t)(crc << 1);
+        }
+    }
+    return crc;
+}
+
+/* COBS-encode n bytes of src into dst (no delimiter); returns the encoded length. */
+static size_t cobs_encode(const uint8_t *src, size_t n, uint8_t *dst)
+{
+    size_t code_at = 0, out = 1;
+    uint8_t code = 1;
+    for (size_t i = 0; i < n; i++) {
+        if (src[i] == 0u) {
+            dst[code_at] = code;
+            code_at = out++;
+            code = 1;
+        } else {
+            dst[out++] = src[i];
+            if (++code == 0xFFu) {
+                dst[code_at] = code;
+                code_at = out++;
+                code = 1;
+            }
+        }
+    }
+    dst[code_at] = code;
+    return out;
+}
+
+/* COBS-decode n bytes; returns the decoded length, or 0 on a malformed packet. */
+static size_t cobs_decode(const uint8_t *src, size_t n, uint8_t *dst, size_t cap)
+{
+    size_t i = 0, out = 0;
+    while (i < n) {
+        uint8_t code = src[i++];
+        if (code == 0u || i + code - 1u > n) return 0;
+        for (uint8_t k = 1; k < code; k++) {
+            if (out >= cap) return 0;
+            dst[out++] = src[i++];
+        }
+        if (code != 0xFFu && i < n) {
+            if (out >= cap) return 0;
+            dst[out++] = 0u;
+        }
+    }
+    return out;
+}
+
+size_t mck_encode_frame(uint8_t type, uint16_t seq, const uint8_t *body, size_t body_len, uint8_t *out,
+                        size_t cap)
+{
+    uint8_t raw[MCK_MAX_FRAME];
+    if (body_len + 6u > MCK_MAX_FRAME) return 0;
+    raw[0] = MCK_PROTOCOL_VERSION;
+    raw[1] = type;
+    raw[2] = (uint8_t)(seq & 0xFFu);
+    raw[3] = (uint8_t)(seq >> 8);
+    if (body_len) memcpy(raw + 4, body, body_len);
+    uint16_t crc = mck_crc16(raw, body_len + 4u);
+    raw[body_len + 4u] = (uint8_t)(crc & 0xFFu);
+    raw[body_len + 5u] = (uint8_t)(crc >> 8);
+    size_t n = body_len + 6u;
+    if (cap < n + n / 254u + 2u) return 0;
+    size_t m = cobs_encode(raw, n, out);
+    out[m++] = 0u;
+    return m;
+}
+
+static void put_u16(uint8_t *p, uint16_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+}
+
+static void put_u32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+    p[2] = (uint8_t)(v >> 16);
+    p[3] = (uint8_t)(v >> 24);
+}
+
+size_t mck_encode_telemetry(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap)
+{
+    uint8_t b[22]; /* docs/protocol.md, TELEMETRY body */
+    put_u32(b, t->t_us);
+    put_u16(b + 4, t->pressure_adc);
+    put_u32(b + 6, (uint32_t)t->encoder);
+    b[10] = t->inlet_pwm;
+    b[11] = t->bleed_pwm;
+    b[12] = t->mode;
+    b[13] = t->faults;
+    put_u32(b + 14, (uint32_t)t->reference_pa);
+    put_u32(b + 18, (uint32_t)t->surface_pa);
+    return mck_encode_frame(MCK_TELEMETRY, seq, b, sizeof b, out, cap);
+}
+
+size_t mck_encode_ack(uint16_t seq, uint16_t cmd_seq, uint8_t cmd_type, uint8_t status, uint8_t *out, size_t cap)
+{
+    uint8_t b[4];
+    put_u16(b, cmd_seq);
+    b[2] = cmd_type;
+    b[3] = status;
+    return mck_encode_frame(MCK_ACK, seq, b, sizeof b, out, cap);
+}
+
+void mck_rx_init(mck_rx_t *rx)
+{
+    memset(rx, 0, sizeof *rx);
+}
+
+int mck_rx_feed(mck_rx_t *rx, uint8_t byte)
+{
+    if (byte != 0u) {
+        if (rx->len < sizeof rx->buf) {
+            rx->buf[rx->len++] = byte;
+        } else {
+            rx->overflow = 1;
+        }
+        return 0;
+    }
+    /* delimiter: decode what was gathered */
+    uint8_t raw[MCK_MAX_FRAME];
+    size_t len = rx->len, n;
+    int bad = rx->overflow;
+    rx->len = 0;
+    rx->overflow = 0;
+    if (len == 0u && !bad) return 0; /* idle delimiters */
+    n = bad ? 0u : cobs_decode(rx->buf, len, raw, sizeof raw);
+    if (n < 6u || raw[0] != MCK_PROTOCOL_VERSION ||
+        mck_crc16(raw, n - 2u) != (uint16_t)(raw[n - 2u] | ((uint16_t)raw[n - 1u] << 8))) {
+        rx->corrupt++;
+        return 0;
+    }
+    rx->type = raw[1];
+    rx->seq = (uint16_t)(raw[2] | ((uint16_t)raw[3] << 8));
+    rx->body_len = (uint8_t)(n - 6u);
+    memcpy(rx->body, raw + 4, rx->body_len);
+    rx->frames++;
+    return 1;
+}
