@@ -166,3 +166,17 @@ def test_force_models_by_name_agree_with_the_static_models():
             assert ph.muscle_force(pg, length, emp) == pytest.approx(max(want, 0.0), rel=1e-9)
             want_tl = float(tondu_lopez_force(pg - base.p_threshold, 1 - length / 0.097, base.r0, base.alpha0, base.k_tl))
             assert ph.muscle_force(pg, length, tl) == pytest.approx(max(want_tl, 0.0), rel=1e-9)
+
+
+def test_stepper_equals_the_batch_simulator():
+    from mckibben.plant import PlantStepper
+
+    st = PlantStepper()
+    sched = np.r_[np.full(100, 200), np.full(100, 0)]
+    bleed = np.r_[np.zeros(100, int), np.full(100, 120)]
+    ps = []
+    for u_in, u_bl in zip(sched, bleed):
+        ps.append(st.pressure)
+        st.advance(int(u_in), int(u_bl))
+    r = simulate(None, 0.2, inlet=sched, bleed=bleed, n=1)
+    np.testing.assert_array_equal(np.array(ps), r.pressure[0])  # same code path, bit for bit

@@ -7,9 +7,9 @@ against the paper. See ``docs/plant.md``.
 
 from mckibben.plant.calibration import CALIBRATION_PWM, calibration, open_loop_step
 from mckibben.plant.params import FORCE_MODELS, LOADS, PlantParams, calibrate_force_law
-from mckibben.plant.simulator import SimResult, simulate
+from mckibben.plant.simulator import PlantStepper, SimResult, simulate
 
 __all__ = [
-    "CALIBRATION_PWM", "FORCE_MODELS", "LOADS", "PlantParams", "SimResult", "calibrate_force_law",
+    "CALIBRATION_PWM", "FORCE_MODELS", "LOADS", "PlantParams", "PlantStepper", "SimResult", "calibrate_force_law",
     "calibration", "open_loop_step", "simulate",
 ]

@@ -359,3 +359,78 @@ def _result(n_steps, ts, out, ref, n_inst, flags, istate=None, fstate=None) -> S
         adc=out["out_adc"], encoder=out["out_enc"],
         reference=np.broadcast_to(ref, (n_inst, n_steps)).copy(), flags=flags, istate=istate, fstate=fstate,
     )
+
+
+@njit(cache=True)
+def _advance(s, p, inlet, bleed, dt, substeps, k1, k2, k3, k4, tmp):
+    xin_t = ph.valve_target(inlet, p)
+    xbl_t = ph.valve_target(bleed, p)
+    for _ in range(substeps):
+        ph.rk4_step(s, p, xin_t, xbl_t, dt, k1, k2, k3, k4, tmp)
+
+
+class PlantStepper:
+    """One rig stepped a control period at a time, for live use (the device emulator).
+
+    :func:`simulate` runs whole experiments; a stepper keeps its state between calls so a
+    controller outside the simulator (the firmware core driven over the serial link) can close
+    the loop in real time: ``sense()`` the sensors, then ``advance(inlet, bleed)`` one period.
+
+    Parameters
+    ----------
+    plant : PlantParams, optional
+        One rig (scalar fields); default the calibrated rig.
+    ts : float, default 1e-3
+        Control period. [s]
+    substeps : int, default 10
+        RK4 steps per period. [-]
+    initial_pressure : float, default 0.0
+        Starting gauge pressure. [Pa]
+    """
+
+    def __init__(self, plant: PP.PlantParams | None = None, ts: float = 1e-3, substeps: int = 10,
+                 initial_pressure: float = 0.0):
+        plant = plant or PP.PlantParams()
+        if plant.size() != 1:
+            raise InputError("PlantStepper: one rig (scalar parameters) only")
+        if not (isinstance(substeps, (int, np.integer)) and substeps >= 1) or not ts > 0:
+            raise InputError("PlantStepper: ts > 0 and a whole number of substeps >= 1")
+        self.p = plant.pack(1)[0]
+        self.s = _initial_states(self.p[None, :], np.array([float(initial_pressure)]))[0].copy()
+        self.ts, self.substeps = float(ts), int(substeps)
+        self.t = 0.0
+        self._work = tuple(np.empty(ph.NS) for _ in range(5))
+        self._rng = np.array([np.uint64(int(self.p[PP.I_SEED]) * 2654435761 + 1)], dtype=np.uint64)
+
+    @property
+    def pressure(self) -> float:
+        """True gauge pressure. [Pa]"""
+        return float(ph.gauge_pressure(self.s[ph.S_MASS], self.s[ph.S_LEN], self.p))
+
+    @property
+    def length(self) -> float:
+        """Muscle length. [m]"""
+        return float(self.s[ph.S_LEN])
+
+    def sense(self) -> tuple[int, int]:
+        """The sensors now: ``(adc, encoder)`` counts, with the configured noise."""
+        p = self.p
+        meas = self.pressure
+        if p[PP.I_PRESSURE_NOISE] > 0:
+            meas += p[PP.I_PRESSURE_NOISE] * _gauss(self._rng)
+        adc = int(min(max(round(meas / p[PP.I_PA_PER_COUNT] + p[PP.I_ADC_ZERO]), 0), 1023))
+        enc = int(round((p[PP.I_NOMINAL_LENGTH] - self.length) / p[PP.I_ENCODER_RESOLUTION]))
+        return adc, enc
+
+    def advance(self, inlet: int, bleed: int) -> None:
+        """Hold the valve commands for one control period.
+
+        Parameters
+        ----------
+        inlet, bleed : int
+            PWM counts 0..255. [counts]
+        """
+        if not (0 <= inlet <= 255 and 0 <= bleed <= 255):
+            raise InputError(f"PlantStepper.advance: PWM counts must be in 0..255, got ({inlet}, {bleed})")
+        _advance(self.s, self.p, float(inlet), float(bleed), self.ts / self.substeps, self.substeps, *self._work)
+        self.t += self.ts
