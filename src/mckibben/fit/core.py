@@ -1,0 +1,387 @@
+"""Least squares with standard errors, 95 % intervals and the range a fit is valid on.
+
+Two engines, one result type:
+
+- :func:`linear_fit`: ordinary least squares on a design matrix (``numpy.linalg.lstsq`` on
+  column-scaled columns; the condition number of the scaled matrix is checked);
+- :func:`nonlinear_fit`: :func:`scipy.optimize.least_squares` on scaled parameters; the
+  covariance is ``s²·(JᵀJ)⁻¹`` from the Jacobian at the solution, ``s² = SSR/(n − p)``.
+
+Intervals use Student's t with ``n − p`` degrees of freedom (``scipy.stats.t``). Both refuse
+fits with too few points and fits whose (scaled) design is ill-conditioned, with one line that
+names the fit. A :class:`FitResult` keeps the model function, so it predicts with flags outside
+its data range (:mod:`mckibben.models.flags`) and gives confidence bands by the delta method.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize, stats
+
+from mckibben.errors import InputError
+from mckibben.models.flags import Flag, outside
+
+#: Largest condition number of the column-scaled design (or Jacobian) we accept. Beyond it the
+#: data cannot tell the parameters apart: doubles keep ~16 digits, and 1e10 leaves ~6 for the fit.
+COND_MAX = 1e10
+
+#: Which flag marks an input outside the fitted range.
+RANGE_FLAGS = {
+    "pressure": Flag.PRESSURE_OUT_OF_RANGE,
+    "load": Flag.LOAD_OUT_OF_RANGE,
+    "length": Flag.LENGTH_OUT_OF_RANGE,
+    "contraction": Flag.LENGTH_OUT_OF_RANGE,
+    "cos_theta": Flag.LENGTH_OUT_OF_RANGE,
+    "force": Flag.FORCE_OUT_OF_RANGE,
+}
+
+#: SI unit of each input quantity, for JSON keys of the valid range.
+INPUT_UNITS = {"pressure": "Pa", "load": "N", "length": "m", "force": "N", "cos_theta": "", "contraction": "",
+               "time": "s", "braid_angle": "rad"}
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fitted model: parameters, their uncertainty, fit statistics and validity range.
+
+    Attributes
+    ----------
+    model : str
+        The model's name (``"kinematic"``, ``"cubic"``, ...).
+    names : tuple of str
+        Parameter names, each with its unit suffix (``"k2_m"``, ``"c3_per_MPa3"``).
+    values : numpy.ndarray
+        Parameter values, in the units the names say. [mixed]
+    covariance : numpy.ndarray
+        Parameter covariance. [mixed]
+    dof : int
+        Degrees of freedom n − p. [-]
+    n_points : int
+        Number of data points used. [-]
+    residuals : numpy.ndarray
+        Measured − fitted response per point. [response unit]
+    response : str
+        The fitted quantity with its SI unit, e.g. ``"length_m"``.
+    r2 : float
+        Coefficient of determination. [-]
+    valid_range : dict
+        Input quantity -> (min, max) of the data, SI (``{"pressure": (0, 8e5)}``).
+    condition_number : float
+        Of the column-scaled design or Jacobian. [-]
+    condition : dict
+        What the data were restricted to, e.g. ``{"load_N": 0.6}``.
+    func : callable
+        ``func(values, **inputs) -> response`` (SI inputs), used by :meth:`predict`.
+    source : str
+        The file the data came from.
+    """
+
+    model: str
+    names: tuple[str, ...]
+    values: np.ndarray
+    covariance: np.ndarray
+    dof: int
+    n_points: int
+    residuals: np.ndarray
+    response: str
+    r2: float
+    valid_range: dict
+    condition_number: float
+    condition: dict = field(default_factory=dict)
+    func: Callable | None = None
+    source: str = ""
+
+    @property
+    def stderr(self) -> np.ndarray:
+        """Standard errors of the parameters. [parameter units]"""
+        return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+
+    @property
+    def t_quantile(self) -> float:
+        """Student's t quantile for a two-sided 95 % interval with :attr:`dof` degrees of freedom. [-]"""
+        return float(stats.t.ppf(0.975, self.dof))
+
+    @property
+    def ci95(self) -> np.ndarray:
+        """95 % confidence intervals, shape (p, 2). [parameter units]"""
+        half = self.t_quantile * self.stderr
+        return np.column_stack([self.values - half, self.values + half])
+
+    @property
+    def residual_rms(self) -> float:
+        """Root mean square of the residuals. [response unit]"""
+        return float(np.sqrt(np.mean(self.residuals**2)))
+
+    @property
+    def sigma(self) -> float:
+        """Residual standard error sqrt(SSR/dof). [response unit]"""
+        return float(np.sqrt(np.sum(self.residuals**2) / max(self.dof, 1)))
+
+    def __getitem__(self, name: str) -> float:
+        return float(self.values[self.names.index(name)])
+
+    def se(self, name: str) -> float:
+        """Standard error of one parameter.
+
+        Parameters
+        ----------
+        name : str
+            Parameter name. [-]
+        """
+        return float(self.stderr[self.names.index(name)])
+
+    def predict(self, **inputs):
+        """Evaluate the fitted model and flag inputs outside the fitted range.
+
+        Parameters
+        ----------
+        **inputs : array_like
+            The model's inputs in SI (e.g. ``pressure=``, ``load=``). [SI]
+
+        Returns
+        -------
+        value : numpy.ndarray
+            The response. [response unit]
+        flags : numpy.ndarray
+            :class:`~mckibben.models.flags.Flag` mask per element (out of the fitted range).
+        """
+        value = np.asarray(self.func(self.values, **inputs), dtype=float)
+        flags = np.zeros(value.shape, dtype=np.uint16)
+        for q, (lo, hi) in self.valid_range.items():
+            if q in inputs and q in RANGE_FLAGS:
+                flags = flags | np.broadcast_to(outside(np.asarray(inputs[q], dtype=float), lo, hi, RANGE_FLAGS[q]), value.shape)
+        return value, flags
+
+    def band(self, **inputs) -> np.ndarray:
+        """Half-width of the 95 % confidence band of the fitted curve (delta method).
+
+        Parameters
+        ----------
+        **inputs : array_like
+            The model's inputs in SI. [SI]
+
+        Returns
+        -------
+        numpy.ndarray
+            t·sqrt(gᵀ·C·g), g the gradient of the response in the parameters. [response unit]
+        """
+        base = np.asarray(self.func(self.values, **inputs), dtype=float)
+        grads = []
+        for k, v in enumerate(self.values):
+            step = 1e-6 * max(abs(v), self.stderr[k], 1e-300)
+            up = self.values.copy()
+            dn = self.values.copy()
+            up[k] += step
+            dn[k] -= step
+            grads.append((np.asarray(self.func(up, **inputs)) - np.asarray(self.func(dn, **inputs))) / (2 * step))
+        g = np.stack([np.broadcast_to(x, base.shape) for x in grads], axis=-1)
+        var = np.einsum("...i,ij,...j->...", g, self.covariance, g)
+        return self.t_quantile * np.sqrt(np.clip(var, 0.0, None))
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary: parameters, standard errors, 95 % intervals, statistics, range."""
+        ci = self.ci95
+        unit = self.response.split("_", 1)[1] if "_" in self.response else ""
+        return {
+            "model": self.model,
+            "condition": self.condition,
+            "response": self.response,
+            "parameters": {n: float(v) for n, v in zip(self.names, self.values)},
+            "stderr": {n: float(s) for n, s in zip(self.names, self.stderr)},
+            "ci95": {n: [float(a), float(b)] for n, (a, b) in zip(self.names, ci)},
+            f"residual_rms_{unit}" if unit else "residual_rms": self.residual_rms,
+            "r2": self.r2,
+            "n_points": self.n_points,
+            "dof": self.dof,
+            "condition_number": self.condition_number,
+            "valid_range": {f"{q}_{INPUT_UNITS.get(q, '')}".rstrip("_"): [float(lo), float(hi)]
+                            for q, (lo, hi) in self.valid_range.items()},
+        }
+
+
+def _r2(y, resid) -> float:
+    ss_tot = float(np.sum((y - np.mean(y)) ** 2))
+    return 1.0 - float(np.sum(resid**2)) / ss_tot if ss_tot > 0 else float("nan")
+
+
+def require_points(n: int, p: int, what: str) -> None:
+    """Refuse a fit with fewer than p + 1 points (no residual degree of freedom).
+
+    Parameters
+    ----------
+    n : int
+        Number of points. [-]
+    p : int
+        Number of parameters. [-]
+    what : str
+        The fit's name for the message, e.g. ``"fit cubic on a.csv (load 0.6 N)"``.
+    """
+    if n < p + 1:
+        raise InputError(f"{what}: {n} points for {p} parameters; needs at least {p + 1}")
+
+
+def require_distinct(values, needed: int, quantity: str, what: str, reason: str) -> None:
+    """Refuse a fit whose data have too few distinct values of an input.
+
+    Parameters
+    ----------
+    values : array_like
+        The input's values. [SI]
+    needed : int
+        Distinct values needed. [-]
+    quantity : str
+        Its name for the message, e.g. ``"pressures"``. [-]
+    what : str
+        The fit's name for the message.
+    reason : str
+        Why, e.g. ``"a cubic in pressure"``.
+    """
+    distinct = np.unique(np.round(np.asarray(values, dtype=float), 12)).size
+    if distinct < needed:
+        raise InputError(f"{what}: {distinct} distinct {quantity}; {reason} needs at least {needed}")
+
+
+def _check_condition(matrix: np.ndarray, what: str) -> float:
+    norms = np.linalg.norm(matrix, axis=0)
+    if np.any(norms == 0):
+        raise InputError(f"{what}: ill-conditioned: parameter {int(np.flatnonzero(norms == 0)[0]) + 1} has no effect on the data")
+    cond = float(np.linalg.cond(matrix / norms))
+    if not np.isfinite(cond) or cond > COND_MAX:
+        raise InputError(
+            f"{what}: ill-conditioned (condition number {cond:.3g} > {COND_MAX:.0e}): the data do not"
+            " determine the parameters; add points that vary the inputs more"
+        )
+    return cond
+
+
+def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_range: dict,
+               func: Callable | None = None, condition: dict | None = None, source: str = "",
+               scale=None) -> FitResult:
+    """Ordinary least squares y ≈ X·β with standard errors.
+
+    Parameters
+    ----------
+    design : array_like
+        Design matrix X, shape (n, p), in scaled units (e.g. pressure in MPa). [mixed]
+    y : array_like
+        Response, shape (n,). [response unit]
+    names : sequence of str
+        Parameter names with unit suffixes. [-]
+    model : str
+        Model name. [-]
+    response : str
+        Response name with SI unit, e.g. ``"length_m"``. [-]
+    what : str
+        The fit's name for error messages. [-]
+    valid_range : dict
+        Input -> (min, max), SI. [SI]
+    func : callable, optional
+        ``func(values, **inputs)``, for :meth:`FitResult.predict`.
+    condition : dict, optional
+        The condition the data were restricted to.
+    source : str
+        Data file.
+    scale : array_like, optional
+        Multiply the fitted β (and its covariance) by this to get the reported values. [-]
+
+    Returns
+    -------
+    FitResult
+    """
+    x = np.asarray(design, dtype=float)
+    y = np.asarray(y, dtype=float)
+    n, p = x.shape
+    require_points(n, p, what)
+    cond = _check_condition(x, what)
+    norms = np.linalg.norm(x, axis=0)
+    beta_s, *_ = np.linalg.lstsq(x / norms, y, rcond=None)
+    beta = beta_s / norms
+    resid = y - x @ beta
+    dof = n - p
+    s2 = float(resid @ resid) / dof
+    xs = x / norms
+    cov_s = s2 * np.linalg.inv(xs.T @ xs)
+    cov = cov_s / np.outer(norms, norms)
+    if scale is not None:
+        sc = np.asarray(scale, dtype=float)
+        beta = beta * sc
+        cov = cov * np.outer(sc, sc)
+    return FitResult(model, tuple(names), beta, cov, dof, n, resid, response, _r2(y, resid), dict(valid_range),
+                     cond, dict(condition or {}), func, source)
+
+
+def nonlinear_fit(residual, x0, names, *, model: str, response: str, what: str, valid_range: dict,
+                  scale, func: Callable | None = None, condition: dict | None = None, source: str = "",
+                  bounds=(-np.inf, np.inf), y=None, n_points=None) -> FitResult:
+    """Nonlinear least squares (:func:`scipy.optimize.least_squares`) with standard errors.
+
+    Parameters
+    ----------
+    residual : callable
+        ``residual(theta) -> r`` on scaled parameters θ (each of order 1), r = model − data in
+        response units. [response unit]
+    x0 : array_like
+        Starting scaled parameters. [-]
+    names : sequence of str
+        Parameter names with unit suffixes. [-]
+    model, response, what : str
+        As in :func:`linear_fit`.
+    valid_range : dict
+        Input -> (min, max), SI. [SI]
+    scale : array_like
+        Physical value = θ·scale. [parameter units]
+    func : callable, optional
+        ``func(values, **inputs)`` on physical values.
+    condition : dict, optional
+        The condition the data were restricted to.
+    source : str
+        Data file.
+    bounds : tuple
+        Bounds on θ. [-]
+    y : array_like, optional
+        The measured response, for R². [response unit]
+    n_points : int, optional
+        Number of points (default: the number of residuals).
+
+    Returns
+    -------
+    FitResult
+    """
+    x0 = np.asarray(x0, dtype=float)
+    r0 = np.asarray(residual(x0))
+    n = int(n_points if n_points is not None else r0.size)
+    p = x0.size
+    require_points(n, p, what)
+    if not np.all(np.isfinite(r0)):
+        raise InputError(f"{what}: the model cannot be evaluated at the starting point (check the data)")
+    res = optimize.least_squares(residual, x0, bounds=bounds, method="trf", x_scale="jac", max_nfev=200 * (p + 1))
+    if not res.success or not np.all(np.isfinite(res.fun)):
+        raise InputError(f"{what}: the fit did not converge ({res.message})")
+    jac = res.jac
+    cond = _check_condition(jac, what)
+    dof = n - p
+    resid = -res.fun  # data − model
+    s2 = float(resid @ resid) / dof
+    norms = np.linalg.norm(jac, axis=0)
+    js = jac / norms
+    cov_t = s2 * np.linalg.inv(js.T @ js) / np.outer(norms, norms)
+    sc = np.asarray(scale, dtype=float)
+    values = res.x * sc
+    cov = cov_t * np.outer(sc, sc)
+    r2 = _r2(np.asarray(y, dtype=float), resid) if y is not None else float("nan")
+    return FitResult(model, tuple(names), values, cov, dof, n, resid, response, r2, dict(valid_range), cond,
+                     dict(condition or {}), func, source)
+
+
+def data_range(**arrays) -> dict:
+    """(min, max) of each named array: the range a fit is valid on.
+
+    Parameters
+    ----------
+    **arrays : array_like
+        Input quantities in SI. [SI]
+    """
+    return {k: (float(np.min(v)), float(np.max(v))) for k, v in arrays.items()}
