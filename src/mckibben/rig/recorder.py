@@ -1,0 +1,212 @@
+"""The telemetry recorder: crash-safe by construction.
+
+Frames are parsed as they arrive and written, at least every ``flush_interval`` (default
+0.25 s), as a new Parquet part in a journal folder ``OUT.journal/``: each part is written to a
+temporary name, fsynced, renamed, and the folder fsynced, so a part is complete or absent. A
+``kill -9`` at any moment therefore loses at most the frames of the last interval (and what the
+serial driver still buffered). A normal end joins the parts into ``OUT`` (atomically) and removes
+the journal; after a crash, ``mckibben rig recover OUT.journal --out OUT`` does the join.
+
+Columns (SI, unit-suffixed): ``seq``, ``time_s`` (device clock, wrap-corrected), ``pressure_Pa``,
+``pressure_adc``, ``encoder_count``, ``length_m``, ``inlet_pwm``, ``bleed_pwm``, ``mode``,
+``faults``, ``reference_Pa``, ``surface_Pa``. The file's metadata holds the port, baud rate,
+protocol version, conversion constants and the parser's counters.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from mckibben.errors import InputError
+from mckibben.rig import protocol as P
+
+COLUMNS = ["seq", "time_s", "pressure_Pa", "pressure_adc", "encoder_count", "length_m", "inlet_pwm", "bleed_pwm",
+           "mode", "faults", "reference_Pa", "surface_Pa"]
+
+
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _atomic_parquet(table: pa.Table, path: Path) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "wb") as fh:
+        pq.write_table(table, fh)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    _fsync_dir(path.parent)
+
+
+@dataclass
+class Recorder:
+    """Parse telemetry bytes and journal them to disk.
+
+    Parameters
+    ----------
+    out : Path
+        The final Parquet file; the journal is ``out`` + ``.journal``.
+    meta : dict
+        Provenance stored with the data (port, baud, ...).
+    pa_per_count : float
+        Transducer scale. [Pa/count]
+    nominal_length : float
+        Muscle rest length, for ``length_m``. [m]
+    encoder_resolution : float
+        Belt travel per encoder count. [m]
+    flush_interval : float
+        Longest time between journal parts. [s]
+    """
+
+    out: Path
+    meta: dict = field(default_factory=dict)
+    pa_per_count: float = 1e6 / 1023
+    nominal_length: float = 0.097
+    encoder_resolution: float = 0.17e-3
+    flush_interval: float = 0.25
+    parser: P.Parser = field(default_factory=P.Parser)
+    rows: list = field(default_factory=list)
+    part: int = 0
+    written: int = 0
+    last: P.Telemetry | None = None
+    _t_wrap: int = 0
+    _t_prev: int | None = None
+    _flushed_at: float = field(default_factory=time.monotonic)
+
+    def __post_init__(self):
+        self.out = Path(self.out)
+        self.journal = Path(str(self.out) + ".journal")
+        if self.out.suffix.lower() != ".parquet":
+            raise InputError(f"--out: {str(self.out)!r} must end in .parquet")
+        if not self.out.parent.is_dir():
+            raise InputError(f"--out: folder {str(self.out.parent)!r} does not exist")
+        if self.journal.exists():
+            raise InputError(f"--out: a journal {str(self.journal)!r} is already there; recover it or remove it")
+        try:
+            self.journal.mkdir()
+        except OSError as exc:
+            raise InputError(f"--out: cannot write in {str(self.out.parent)!r} ({exc.strerror})") from None
+        info = {**self.meta, "protocol_version": P.VERSION, "pa_per_count": self.pa_per_count,
+                "nominal_length_m": self.nominal_length, "encoder_resolution_m": self.encoder_resolution}
+        tmp = self.journal / ".meta.json.tmp"
+        tmp.write_text(json.dumps(info))
+        os.replace(tmp, self.journal / "meta.json")
+        _fsync_dir(self.journal)
+
+    def feed(self, data: bytes) -> list:
+        """Parse bytes; journal when the interval has passed. Returns the frames parsed.
+
+        Parameters
+        ----------
+        data : bytes
+            Bytes from the link. [-]
+        """
+        frames = self.parser.feed(data)
+        for f in frames:
+            if isinstance(f, P.Telemetry):
+                if self._t_prev is not None and f.t_us < self._t_prev and self._t_prev - f.t_us > 2**31:
+                    self._t_wrap += 2**32
+                self._t_prev = f.t_us
+                self.last = f
+                self.rows.append((f.seq, (f.t_us + self._t_wrap) * 1e-6, f.pressure_adc * self.pa_per_count,
+                                  f.pressure_adc, f.encoder, self.nominal_length - f.encoder * self.encoder_resolution,
+                                  f.inlet_pwm, f.bleed_pwm, f.mode, f.faults, float(f.reference_pa), float(f.surface_pa)))
+        if time.monotonic() - self._flushed_at >= self.flush_interval:
+            self.flush()
+        return frames
+
+    def flush(self) -> None:
+        """Write the rows received since the last part as a new journal part."""
+        self._flushed_at = time.monotonic()
+        if not self.rows:
+            return
+        df = pd.DataFrame(self.rows, columns=COLUMNS)
+        self.rows = []
+        self.part += 1
+        table = pa.Table.from_pandas(df, preserve_index=False)
+        table = table.replace_schema_metadata({b"counters": json.dumps(self.parser.counters()).encode()})
+        _atomic_parquet(table, self.journal / f"part-{self.part:06d}.parquet")
+        self.written += len(df)
+
+    def close(self) -> pd.DataFrame:
+        """Flush, join the journal into ``out`` and remove the journal; returns the data."""
+        self.flush()
+        return recover(self.journal, self.out, counters=self.parser.counters())
+
+
+def recover(journal: str | Path, out: str | Path, counters: dict | None = None) -> pd.DataFrame:
+    """Join a journal's parts into one Parquet file (atomically), then remove the journal.
+
+    Parameters
+    ----------
+    journal : str or Path
+        The ``*.journal`` folder.
+    out : str or Path
+        The Parquet file to write.
+    counters : dict, optional
+        Parser counters to store (default: those of the last part).
+    """
+    journal, out = Path(journal), Path(out)
+    meta_file = journal / "meta.json"
+    if not journal.is_dir() or not meta_file.exists():
+        raise InputError(f"{str(journal)!r} is not a recorder journal (no meta.json)")
+    if out.suffix.lower() != ".parquet":
+        raise InputError(f"--out: {str(out)!r} must end in .parquet")
+    if not out.parent.is_dir():
+        raise InputError(f"--out: folder {str(out.parent)!r} does not exist")
+    try:
+        meta = json.loads(meta_file.read_text())
+    except (OSError, ValueError):
+        raise InputError(f"{str(meta_file)!r}: unreadable journal metadata") from None
+    parts = sorted(journal.glob("part-*.parquet"))
+    tables = []
+    for p in parts:
+        try:
+            tables.append(pq.read_table(p))
+        except Exception:
+            raise InputError(f"{str(p)!r}: unreadable journal part") from None
+    if counters is None and tables:
+        counters = json.loads((tables[-1].schema.metadata or {}).get(b"counters", b"{}"))
+    df = pd.concat([t.to_pandas() for t in tables], ignore_index=True) if tables else pd.DataFrame(columns=COLUMNS)
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    table = table.replace_schema_metadata({b"mckibben": json.dumps({**meta, "counters": counters or {}}).encode()})
+    try:
+        _atomic_parquet(table, out)
+    except OSError as exc:
+        raise InputError(f"--out: cannot write {str(out)!r} ({exc.strerror})") from None
+    for p in parts:
+        p.unlink()
+    meta_file.unlink()
+    try:
+        journal.rmdir()
+    except OSError:
+        pass
+    return df
+
+
+def read_recording(path: str | Path) -> tuple[pd.DataFrame, dict]:
+    """A recording and its metadata (``read_*`` returns ``(data, metadata)``).
+
+    Parameters
+    ----------
+    path : str or Path
+        A Parquet file written by the recorder.
+    """
+    try:
+        table = pq.read_table(path)
+    except Exception as exc:
+        raise InputError(f"{str(path)!r}: not a readable recording ({exc})") from None
+    meta = json.loads((table.schema.metadata or {}).get(b"mckibben", b"{}"))
+    return table.to_pandas(), meta
