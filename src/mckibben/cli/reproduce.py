@@ -1,20 +1,25 @@
-"""``mckibben reproduce``: the main job, run on the bundled data."""
+"""``mckibben reproduce``: the whole characterization, on the bundled data or ``--data DIR``.
+
+Prints the published Tables I and II (and the predicted lengths), fits every model to every
+muscle of the campaign, and writes an HTML report with PNG figures (default ``./mckibben-report/``;
+written into a temporary folder and renamed into place, so a failure leaves nothing half-written).
+"""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.datasets import MUSCLES
 from mckibben.models.flags import flag_names
 from mckibben.models.mpam import predict_length
 
 
-@app.command("reproduce")
-def reproduce_cmd(json: bool = JSON_OPTION) -> None:
-    """Reproduce the published models: Tables I and II and the predicted lengths."""
+def _published_length_tables() -> dict:
     pressures = np.linspace(0.0, 0.8e6, 9)
     tables = {}
     for name, m in MUSCLES.items():
@@ -29,9 +34,10 @@ def reproduce_cmd(json: bool = JSON_OPTION) -> None:
                 "cos_theta": r.cos_theta.tolist(),
                 "flags": [flag_names(x) for x in r.flags],
             }
-    if json:
-        emit_json({"length_tables": tables})
-        return
+    return tables
+
+
+def _print_published(tables: dict) -> None:
     print_table(
         "Table I (000_909f662a44080c85.txt): l = k1·Ls·cos θ + k2",
         ["muscle", "L0 mm", "Ls mm", "k1", "k2 mm", "blocked force N @ 0.8 MPa"],
@@ -42,10 +48,64 @@ def reproduce_cmd(json: bool = JSON_OPTION) -> None:
         ["muscle", "load N", "c3", "c2", "c1", "c0"],
         [[n, f"{load:g}", *[f"{v:+g}" for v in c]] for n, m in MUSCLES.items() for load, c in zip(m.braid_map.loads, m.braid_map.coefficients)],
     )
-    for key, t in tables.items():
+    for t in tables.values():
         print_table(
             f"Predicted length, {t['muscle']} under {t['load_N']:g} N",
             ["pressure MPa", "length mm", "contraction %", "cos θ", "flags"],
             [[f"{p / 1e6:.1f}", f"{l_ * 1e3:.2f}", f"{c * 100:.1f}", f"{ct:.4f}", ", ".join(f) or "ok"]
              for p, l_, c, ct, f in zip(t["pressure_Pa"], t["length_m"], t["contraction"], t["cos_theta"], t["flags"])],
         )
+
+
+@app.command("reproduce")
+def reproduce_cmd(
+    out: Path = typer.Option(Path("mckibben-report"), "--out", help="Report folder (default ./mckibben-report)."),
+    data: Path = typer.Option(None, "--data", help="Campaign folder (one sub-folder per muscle); default: the bundled synthetic campaign."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Characterize the campaign: fit every model, compare them, write the HTML report with figures."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from mckibben.datasets.campaign import campaign_muscle_dirs
+    from mckibben.report.characterize import characterize
+    from mckibben.report.html import write_report
+
+    tables = _published_length_tables()
+    n_muscles = len(campaign_muscle_dirs(data))
+    # steps: per muscle fits + comparison, then the figures
+    from mckibben.report.figures import ALL_FIGURES
+
+    total = 2 * n_muscles + len(ALL_FIGURES)
+    with Progress(TextColumn("{task.description:<40}"), BarColumn(), TimeElapsedColumn(), console=err_console,
+                  transient=True, disable=json or not err_console.is_terminal) as bar:
+        task = bar.add_task("reading data", total=total)
+
+        def step(msg: str) -> None:
+            bar.update(task, description=msg, advance=1)
+
+        char = characterize(data, progress=step)
+        folder, summary = write_report(char, out, progress=step)
+    if json:
+        emit_json({"out": str(folder), "report_html": str(folder / "index.html"), **summary, "length_tables": tables})
+        return
+    _print_published(tables)
+    if summary["synthetic"]:
+        console.print("[bold red]SYNTHETIC DATA[/]: the bundled example campaign is generated, not measured.")
+    print_table("Fitted Table I (± one standard error) beside the published values",
+                [" muscle", "k1", "published", "k2 mm", "published"],
+                [[r["muscle"], f"{r['k1']:.3f} ± {r['k1_stderr']:.3f}", _g(r["k1_published"]),
+                  f"{r['k2_m'] * 1e3:.2f} ± {r['k2_stderr_m'] * 1e3:.2f}", _g(r["k2_published_m"], 1e3)]
+                 for r in summary["table_I"]])
+    rows = []
+    for muscle, c in summary["comparison"].items():
+        best = min((m for m in c["models"] if np.isfinite(m["cv_rmse_m"] or np.nan)), key=lambda m: m["cv_rmse_m"])
+        paper = next((m for m in c["models"] if m["model"].startswith("paper")), None)
+        rows.append([muscle, best["model"], f"{best['cv_rmse_m'] * 1e3:.3f}",
+                     f"{paper['within_20pct'] * 100:.1f}" if paper else "—"])
+    print_table("Model comparison (length under load; details in the report)",
+                [" muscle", " best model (CV RMSE)", "CV RMSE mm", "paper eq. 2+3 within 20 % [%]"], rows)
+    console.print(f"Report: {folder / 'index.html'}")
+
+
+def _g(v, scale=1.0):
+    return "—" if v is None else f"{v * scale:.4g}"

@@ -17,7 +17,9 @@ stiffness at zero pressure, so zero-pressure rows are left out for all models al
 - ``spring``: the spring model of 001 with the load as the force, solved for the length.
 - ``chou-hannaford``, ``tondu-lopez``: physical models with fitted corrections.
 - ``gaussian process``: a data-driven regressor (scikit-learn, RBF + white noise kernel on scaled
-  inputs), as 001 suggests a universal approximator.
+  inputs, fitted to the trial means), as 001 suggests a universal approximator. Its kernel's
+  hyperparameters (4 numbers) are optimized once on all the data and kept in the cross-validation
+  folds (a refit per fold takes seconds and moves them little); the GP itself is refitted per fold.
 
 Measures
 --------
@@ -35,6 +37,7 @@ Measures
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 import pandas as pd
@@ -96,7 +99,7 @@ def _physical(fitter, muscle):
     return make
 
 
-def _gaussian_process(train: Table):
+def _gaussian_process(train: Table, kernel=None, optimize=True):
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
@@ -108,14 +111,17 @@ def _gaussian_process(train: Table):
     x = np.column_stack([d["pressure"] / 1e6, d["load"]])
     y = d["length"].to_numpy()
     mu, sd = float(np.mean(y)), float(np.std(y)) or 1.0
-    kernel = ConstantKernel(1.0, (1e-2, 1e2)) * RBF([0.5, 1.0], (1e-2, 1e2)) + WhiteKernel(1e-2, (1e-6, 1.0))
-    gp = GaussianProcessRegressor(kernel, normalize_y=False, random_state=0, n_restarts_optimizer=0)
+    if kernel is None:
+        kernel = ConstantKernel(1.0, (1e-2, 1e2)) * RBF([0.5, 1.0], (1e-2, 1e2)) + WhiteKernel(1e-2, (1e-6, 1.0))
+    gp = GaussianProcessRegressor(kernel, normalize_y=False, random_state=0, n_restarts_optimizer=0,
+                                  optimizer="fmin_l_bfgs_b" if optimize else None)
     gp.fit(x, (y - mu) / sd)
 
     def predict(p, f):
         q = np.column_stack([np.ravel(p) / 1e6, np.broadcast_to(f, np.shape(p)).ravel()])
         return gp.predict(q) * sd + mu
 
+    predict.kernel_ = gp.kernel_  # the cross-validation folds reuse these hyperparameters
     return predict, int(gp.kernel_.n_dims)
 
 
@@ -203,6 +209,8 @@ def compare_models(table: Table, muscle: MuscleSpec, braid: Table | None = None)
     for name, make in makers.items():
         try:
             predict, npar = make(data)
+            if hasattr(predict, "kernel_"):
+                make = partial(make, kernel=predict.kernel_, optimize=False)
             pred = np.asarray(predict(p, f), dtype=float)
             rmse, mx, w20 = _scores(pred, ell, muscle.nominal_length)
             cv_pred = np.full(len(d), np.nan)

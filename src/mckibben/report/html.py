@@ -1,0 +1,213 @@
+"""The characterization report: a summary (JSON-ready), an HTML page and its PNG figures.
+
+:func:`write_report` writes everything into a temporary folder beside ``out`` and renames it into
+place at the end, so a failure leaves nothing half-written.
+"""
+
+from __future__ import annotations
+
+import html
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from mckibben.errors import InputError
+from mckibben.report.figures import ALL_FIGURES
+
+MPA = 1e6
+
+
+def _pm(v, se, scale=1.0, digits=3):
+    return f"{v * scale:.{digits}g} ± {se * scale:.2g}"
+
+
+def summarize(char: dict) -> dict:
+    """The fitted Tables I and II beside the published values, blocked force, τ and the comparison.
+
+    Parameters
+    ----------
+    char : dict
+        From :func:`mckibben.report.characterize.characterize`.
+
+    Returns
+    -------
+    dict
+        JSON-ready, SI values with unit-suffixed keys.
+    """
+    t1, t2, bf, steps, spring, comp = [], [], [], [], [], {}
+    for r in char["muscles"]:
+        pub = r.published
+        if r.kinematic is not None:
+            k = r.kinematic
+            t1.append({"muscle": r.spec.id, "strand_length_m": r.spec.strand_length,
+                       "k1": k["k1"], "k1_stderr": k.se("k1"), "k1_ci95": k.ci95[0].tolist(),
+                       "k2_m": k["k2_m"], "k2_stderr_m": k.se("k2_m"), "k2_ci95_m": k.ci95[1].tolist(),
+                       "k1_published": pub.k1 if pub else None, "k2_published_m": pub.k2 if pub else None,
+                       "residual_rms_m": k.residual_rms, "r2": k.r2, "n_points": k.n_points})
+        for (load, _), res in sorted(r.braid_cubics.items()):
+            row = {"muscle": r.spec.id, "load_N": load, "coefficients_P_in_MPa": res.values.tolist(),
+                   "stderr": res.stderr.tolist(), "ci95": res.ci95.tolist(), "residual_rms": res.residual_rms,
+                   "n_points": res.n_points, "published": None}
+            if pub is not None and np.any(np.isclose(pub.braid_map.loads, load)):
+                i = int(np.flatnonzero(np.isclose(pub.braid_map.loads, load))[0])
+                row["published"] = list(pub.braid_map.coefficients[i])
+            t2.append(row)
+        if r.blocked_force is not None:
+            f, _ = r.blocked_force.predict(pressure=0.8e6)
+            bf.append({"muscle": r.spec.id, "force_at_0_8MPa_N": float(f), "band95_N": float(r.blocked_force.band(pressure=0.8e6)),
+                       "published_N": pub.blocked_force[0][1] if pub else None})
+        for cmd, res in sorted(r.steps.items()):
+            steps.append({"muscle": r.spec.id, "command": cmd, "tau_s": res["tau_s"], "tau_stderr_s": res.se("tau_s"),
+                          "tau_ci95_s": res.ci95[2].tolist(), "p_final_Pa": res["p_final_Pa"]})
+        if r.spring is not None:
+            spring.append({"muscle": r.spec.id, **{k: v for k, v in r.spring.result.to_dict().items()
+                                                   if k in ("parameters", "stderr", "r2", "residual_rms_N", "n_points")},
+                           "split_pressure_Pa": r.spring.model.split_pressure})
+        if r.comparison is not None:
+            comp[r.spec.id] = {"n_points": r.comparison["n_points"], "cv_method": r.comparison["cv_method"],
+                               "models": [s.to_dict() for s in r.comparison["scores"]]}
+    return {"synthetic": char["synthetic"], "data": char["root"], "table_I": t1, "table_II": t2,
+            "blocked_force": bf, "step_response": steps, "spring": spring, "comparison": comp,
+            "skipped": [s for r in char["muscles"] for s in r.skipped]}
+
+
+def _table(headers, rows) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in headers)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows)
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+CSS = """body{font-family:system-ui,sans-serif;max-width:1280px;margin:2em auto;padding:0 1em;color:#222}
+table{border-collapse:collapse;margin:0.6em 0 1.4em}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}
+th{background:#f3f3f3}td:first-child{text-align:left}.synthetic{background:#fff0f0;border:2px solid #c00;
+padding:0.6em 1em;font-weight:bold;color:#900}img{max-width:100%;border:1px solid #ddd;margin:0.4em 0}
+.note{color:#555;font-size:0.9em}"""
+
+
+def render_html(summary: dict, figures: list[str]) -> str:
+    """The report page.
+
+    Parameters
+    ----------
+    summary : dict
+        From :func:`summarize`.
+    figures : list of str
+        PNG file names beside the page.
+    """
+    parts = ["<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
+             "<title>mckibben characterization report</title>", f"<style>{CSS}</style></head><body>",
+             "<h1>Characterization report</h1>"]
+    if summary["synthetic"]:
+        parts.append("<p class='synthetic'>SYNTHETIC DATA: this report was made from the generated example campaign"
+                     " (mckibben datasets generate), not from measurements. Its fits recover the parameters the data"
+                     " were generated from; they say nothing about a real muscle.</p>")
+    parts.append(f"<p>Data: {html.escape(summary['data'])}. Fits: least squares; ± is one standard error, intervals"
+                 " are 95 % (Student t); shaded bands in the figures are 95 % confidence bands of the fitted curve;"
+                 " error bars are ± one standard deviation over trials.</p>")
+    parts.append("<h2>Table I — kinematic model, eq. 2: l = k1·Ls·cos θ + k2</h2>")
+    parts.append(_table(["muscle", "Ls [mm]", "k1 (fitted)", "k1 95 %", "k1 published", "k2 [mm] (fitted)", "k2 95 % [mm]",
+                         "k2 published [mm]", "RMS [mm]", "n"],
+                        [[r["muscle"], f"{r['strand_length_m'] * 1e3:g}", _pm(r["k1"], r["k1_stderr"]),
+                          f"[{r['k1_ci95'][0]:.3f}, {r['k1_ci95'][1]:.3f}]", _g(r["k1_published"]),
+                          _pm(r["k2_m"], r["k2_stderr_m"], 1e3), f"[{r['k2_ci95_m'][0] * 1e3:.2f}, {r['k2_ci95_m'][1] * 1e3:.2f}]",
+                          _g(r["k2_published_m"], 1e3), f"{r['residual_rms_m'] * 1e3:.2f}", r["n_points"]] for r in summary["table_I"]]))
+    parts.append("<h2>Table II — cos θ = c3·P³ + c2·P² + c1·P + c0 (P in MPa), eq. 3</h2>")
+    rows = []
+    for r in summary["table_II"]:
+        fitted = [_pm(v, s, digits=3) for v, s in zip(r["coefficients_P_in_MPa"], r["stderr"])]
+        pub = r["published"] or [None] * 4
+        rows.append([r["muscle"], f"{r['load_N']:g}", *[f"{f} ({_g(p)})" for f, p in zip(fitted, pub)], r["n_points"]])
+    parts.append(_table(["muscle", "load [N]", "c3 fitted (published)", "c2", "c1", "c0", "n"], rows))
+    if summary["blocked_force"]:
+        parts.append("<h2>Blocked force at 0.8 MPa (Fig. 3)</h2>")
+        parts.append(_table(["muscle", "fitted cubic at 0.8 MPa [N]", "published [N]"],
+                            [[b["muscle"], _pm(b["force_at_0_8MPa_N"], b["band95_N"] / 1.96), _g(b["published_N"])]
+                             for b in summary["blocked_force"]]))
+    for muscle, c in summary["comparison"].items():
+        parts.append(f"<h2>Model comparison — {html.escape(muscle)}</h2>")
+        parts.append(f"<p class='note'>Every model predicts the length under the hanging load at a pressure for the"
+                     f" {c['n_points']} isotonic points with P &gt; 0. Relative errors are of the contraction ε = 1 − l/L0"
+                     f" (points with |ε| ≥ 2 %); “within 20 %” is the paper's accuracy measure. Cross-validation:"
+                     f" {html.escape(c['cv_method'])}.</p>")
+        parts.append(_table(["model", "parameters", "RMSE [mm]", "max rel. error of ε [%]", "within 20 % [%]",
+                             "CV RMSE [mm]", "CV within 20 % [%]", "note"],
+                            [[m["model"], m["n_parameters"], _g(m["rmse_m"], 1e3, 3), _g(m["max_rel_error"], 100, 3),
+                              _g(m["within_20pct"], 100, 3), _g(m["cv_rmse_m"], 1e3, 3), _g(m["cv_within_20pct"], 100, 3),
+                              m["note"]] for m in c["models"]]))
+    if summary["step_response"]:
+        parts.append("<h2>Pressure step response, first order (§IV.A)</h2>")
+        parts.append(_table(["muscle", "command", "τ [ms]", "τ 95 % [ms]", "final pressure [MPa]"],
+                            [[s["muscle"], f"{s['command']:g}", _pm(s["tau_s"], s["tau_stderr_s"], 1e3),
+                              f"[{s['tau_ci95_s'][0] * 1e3:.1f}, {s['tau_ci95_s'][1] * 1e3:.1f}]", f"{s['p_final_Pa'] / MPA:.3f}"]
+                             for s in summary["step_response"]]))
+    if summary["spring"]:
+        parts.append("<h2>Spring model of 001: Lu(P) = h2·P² + h1·P + h0, K = c3·P + c2·P·Ls + c1·Ls + c0 (SI)</h2>")
+        for s in summary["spring"]:
+            parts.append(f"<p>{html.escape(s['muscle'])}: split {s['split_pressure_Pa'] / MPA:.3g} MPa, R² {s['r2']:.5f},"
+                         f" force RMS {s['residual_rms_N'] * 1e3:.1f} mN, n {s['n_points']}</p>")
+            parts.append(_table(["parameter", "value ± s.e."], [[k, _pm(v, s["stderr"][k], digits=4)] for k, v in s["parameters"].items()]))
+    parts.append("<h2>Figures</h2>")
+    for f in figures:
+        parts.append(f"<p><img src='{html.escape(f)}' alt='{html.escape(f)}'></p>")
+    if summary["skipped"]:
+        parts.append("<p class='note'>Skipped: " + html.escape("; ".join(summary["skipped"])) + "</p>")
+    parts.append("<p class='note'>Made by <code>mckibben reproduce</code>. Sources: 000_909f662a44080c85.txt (eq. 1–3,"
+                 " Tables I–II, Figs. 3, 5, 6, 9, 10, §IV.A); 001_9d98bcef9f07dbeb.txt (eq. 1–2).</p></body></html>")
+    return "\n".join(parts)
+
+
+def _g(v, scale=1.0, digits=4):
+    if v is None or not np.isfinite(v):
+        return "—"
+    return f"{v * scale:.{digits}g}"
+
+
+def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
+    """Write ``index.html``, ``summary.json`` and the PNG figures into ``out``, atomically.
+
+    Parameters
+    ----------
+    char : dict
+        From :func:`mckibben.report.characterize.characterize`.
+    out : str or pathlib.Path
+        The report folder; an existing report folder (one holding ``index.html``) or an empty
+        folder is replaced, anything else is refused.
+    progress : callable, optional
+        Called with a description before each figure.
+
+    Returns
+    -------
+    (pathlib.Path, dict)
+        The folder and the summary.
+    """
+    import json
+
+    from mckibben.cli._common import to_jsonable
+
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / "index.html").is_file())):
+        raise InputError(f"--out: {out} exists and is neither empty nor a report written before; choose another folder")
+    parent = out.resolve().parent
+    parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".report-", dir=parent))
+    try:
+        summary = summarize(char)
+        figures = []
+        for name, make in ALL_FIGURES.items():
+            if progress:
+                progress(f"figure {name}")
+            if make(char["muscles"], tmp / name, char["synthetic"]) is not None:
+                figures.append(name)
+        summary["figures"] = figures
+        (tmp / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False), encoding="utf-8")
+        (tmp / "index.html").write_text(render_html(summary, figures), encoding="utf-8")
+        if out.exists():
+            shutil.rmtree(out)
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out, summary

@@ -1,0 +1,112 @@
+"""`mckibben fit` and `mckibben compare` from the command line: JSON results and one-line errors."""
+
+import numpy as np
+import pytest
+
+from mckibben.datasets.campaign import BUNDLED
+
+MUSCLE = 'id = "mpam117"\nnominal_length_mm = 117\nstrand_length_mm = 145\nbraid_angle_deg = 20\n'
+
+
+def test_kinematic_fit_from_a_two_column_csv(cli, tmp_path):
+    # eq. 2 with Table I's mpam117 values and a length error of 0.8 mm (the paper's)
+    r = np.random.default_rng(1)
+    angle = np.arange(18, 42, 1.0)
+    length = 0.88 * 145 * np.cos(np.deg2rad(angle)) + 1.09 + r.normal(0, 0.8, angle.size)
+    lines = ["braid_angle_deg,length_mm"] + [f"{a:.1f},{ell:.2f}" for a, ell in zip(angle, length)]
+    (tmp_path / "photos.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "m117.toml").write_text(MUSCLE)
+    res = cli("fit", str(tmp_path / "photos.csv"), "--model", "kinematic", "--muscle", str(tmp_path / "m117.toml"), "--json")
+    assert res.code == 0, res.err
+    out = res.json()
+    k1, k2 = out["parameters"]["k1"], out["parameters"]["k2_m"]
+    se1, se2 = out["stderr"]["k1"], out["stderr"]["k2_m"]
+    assert 0 < se1 < 0.05 and 0 < se2 < 5e-3
+    assert out["ci95"]["k1"][0] <= 0.88 <= out["ci95"]["k1"][1]  # this seed's interval holds the truth
+    assert out["ci95"]["k2_m"][0] <= 1.09e-3 <= out["ci95"]["k2_m"][1]
+    assert out["n_points"] == angle.size and out["dof"] == angle.size - 2
+    assert out["valid_range"]["cos_theta"][1] == pytest.approx(np.cos(np.deg2rad(18)), abs=1e-12)
+    assert out["synthetic"] is False and out["kind"] == "braid_angle"
+    assert k1 == pytest.approx(0.88, abs=4 * se1) and k2 == pytest.approx(1.09e-3, abs=4 * se2)
+
+
+def test_fit_prints_a_table_and_marks_synthetic(cli):
+    r = cli("fit", str(BUNDLED / "mpam97" / "blocked_force.csv"), "--model", "cubic")
+    assert r.code == 0 and "SYNTHETIC" in r.out and "c3_N_per_MPa3" in r.out
+
+
+def test_fit_json_on_the_bundled_spring_data(cli):
+    r = cli("fit", str(BUNDLED / "mpam143" / "force_length.csv"), "--model", "spring", "--json")
+    assert r.code == 0
+    out = r.json()
+    assert out["synthetic"] is True and len(out["blocks"]) == 4 and len(out["parameters"]) == 19
+    assert out["r2"] > 0.99  # the loops are generated from this model with 10 mN noise on forces up to 3 N
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--model", "kinematik"], "error: unknown model 'kinematik'. Did you mean kinematic?"),
+    (["--model", "kinematic"], "error: fit kinematic: needs a braid_angle table; {iso} is a isotonic table"),
+    (["--model", "first-order"], "error: fit first-order: needs a step_response table; {iso} is a isotonic table"),
+])
+def test_fit_refuses_with_one_line(cli, tmp_path, args, message):
+    iso = tmp_path / "isotonic.csv"
+    iso.write_text("pressure_MPa,load_N,length_mm\n0.1,0.6,100\n0.2,0.6,99\n")
+    (tmp_path / "muscle.toml").write_text(MUSCLE)
+    r = cli("fit", str(iso), *args)
+    assert r.code == 2 and r.out == ""
+    assert r.err.count("\n") == 1 and r.err.startswith(message.format(iso=iso))
+
+
+def test_fit_needs_a_muscle_file(cli, tmp_path):
+    (tmp_path / "a.csv").write_text("braid_angle_deg,length_mm\n20,100\n25,98\n30,95\n")
+    r = cli("fit", str(tmp_path / "a.csv"), "--model", "kinematic")
+    assert r.code == 2
+    assert r.err == (f"error: fit kinematic: needs a muscle file; give --muscle FILE.toml or put muscle.toml beside"
+                     f" {tmp_path / 'a.csv'}\n")
+
+
+def test_fit_bad_cell_is_one_line_with_exit_2(cli, tmp_path):
+    (tmp_path / "a.csv").write_text("braid_angle_deg,length_mm\n20,100\n25,ninety\n30,95\n")
+    r = cli("fit", str(tmp_path / "a.csv"), "--model", "kinematic", "--json")
+    assert r.code == 2 and r.out == ""
+    assert r.err == f"error: {tmp_path / 'a.csv'}: row 2 (line 3), column length_mm: 'ninety' is not a number\n"
+
+
+def test_fit_too_few_pressures_from_the_cli(cli, tmp_path):
+    (tmp_path / "bf.csv").write_text("pressure_psi,force_N\n0,0\n10,0.2\n20,0.5\n30,0.9\n")
+    r = cli("fit", str(tmp_path / "bf.csv"), "--model", "cubic")
+    assert r.code == 2
+    assert r.err == (f"error: fit cubic on {tmp_path / 'bf.csv'}: 4 distinct pressures; a cubic in pressure"
+                     " (4 coefficients and a check of its fit) needs at least 5\n")
+
+
+def test_compare_on_a_bundled_muscle(cli):
+    r = cli("compare", str(BUNDLED / "mpam117"), "--json")
+    assert r.code == 0, r.err
+    out = r.json()
+    models = {m["model"]: m for m in out["models"]}
+    assert set(models) == {"paper (eq. 2+3)", "cubic per load", "surface", "spring", "chou-hannaford", "tondu-lopez",
+                           "gaussian process"}
+    assert out["cv_method"] == "leave one load out" and out["synthetic"] is True
+    # the data are generated from the paper's model with 0.3 mm trial scatter and 0.17 mm encoder
+    # counts: the models that contain it fit to about that noise; the physical baselines do not
+    for name in ("cubic per load", "surface", "paper (eq. 2+3)"):
+        assert models[name]["rmse_m"] < 0.5e-3 and models[name]["within_20pct"] > 0.9
+    assert models["chou-hannaford"]["rmse_m"] > 2e-3
+
+
+def test_compare_refuses_other_kinds(cli):
+    r = cli("compare", str(BUNDLED / "mpam97" / "blocked_force.csv"))
+    assert r.code == 2
+    assert r.err == (f"error: compare: needs an isotonic table (length under loads vs pressure);"
+                     f" {BUNDLED / 'mpam97' / 'blocked_force.csv'} is a blocked_force table\n")
+
+
+def test_datasets_generate_and_list(cli, tmp_path):
+    r = cli("datasets", "generate", "--out", str(tmp_path / "c"), "--seed", "3", "--json")
+    assert r.code == 0 and r.json()["synthetic"] is True
+    assert (tmp_path / "c" / "mpam143" / "step_response.parquet").is_file()
+    r = cli("datasets", "list", "--json")
+    assert r.code == 0 and len(r.json()["files"]) == 18
+    r = cli("datasets", "generate", "--out", str(tmp_path / "c"), "--seed", "-1")
+    assert r.code == 2 and r.err == "error: --seed: -1 must be >= 0\n"
