@@ -318,8 +318,16 @@ def simulate(
         for name, a in (("istate0", istate), ("iparams", iparams), ("fstate0", fstate), ("fparams", fparams)):
             if a.ndim != 2 or a.shape[0] != n_inst:
                 raise InputError(f"controller {name}: shape {a.shape}, want ({n_inst}, ·)")
-        _run(kernel, istate, iparams, fstate, fparams, True, sched, prm, s0, ref, n_steps, int(substeps), float(ts),
-             *out.values(), flags)
+        args = (kernel, istate, iparams, fstate, fparams, True, sched, prm, s0, ref, n_steps, int(substeps),
+                float(ts), *out.values(), flags)
+        try:
+            _run(*args)
+        except ReferenceError:
+            # Numba's on-disk cache cannot re-pickle its index once it holds the type of a kernel
+            # compiled by another process ("underlying object has vanished"); the failure is in
+            # saving, after the new overload was compiled and registered, so the call is retried
+            # in memory. The run had not started: the outputs are untouched.
+            _run(*args)
         return _result(n_steps, ts, out, ref, n_inst, flags, istate, fstate)
     if callable(controller):
         _run_python(controller, sched, prm, s0, ref, n_steps, int(substeps), float(ts), out, flags)
