@@ -231,6 +231,7 @@ void mck_ctrl_init(mck_ctrl_t *c, uint16_t ts_us)
     c->last_inlet = 0;
     c->last_bleed = 0;
     c->held_adc = 0;
+    c->p_prev = MCK_P_NONE;
     reset_state(c);
     derive(c);
 }
@@ -310,7 +311,7 @@ static int32_t law_pid(mck_ctrl_t *c, int32_t e)
 void mck_ctrl_step(mck_ctrl_t *c, uint16_t adc, uint8_t sample_ok, int32_t p_ref_pa,
                    mck_out_t *out)
 {
-    int32_t p, pref, e, u, surface;
+    int32_t p, pref, e, u, surface, lead;
     uint16_t a;
     uint8_t inlet = 0, bleed = 0, faults;
 
@@ -340,6 +341,11 @@ void mck_ctrl_step(mck_ctrl_t *c, uint16_t adc, uint8_t sample_ok, int32_t p_ref
     } else if (p > c->p_over) {
         c->over = 1;
     }
+    lead = p - c->p_prev; /* x MCK_LEAD_SAMPLES (4) by two additions: no libgcc multiply */
+    lead += lead;
+    lead += lead;
+    lead += p;
+    c->p_prev = p;
     e = pref - p;
     surface = e;
     if (c->latched || c->over) {
@@ -365,6 +371,8 @@ void mck_ctrl_step(mck_ctrl_t *c, uint16_t adc, uint8_t sample_ok, int32_t p_ref
             bleed = c->ol_bleed;
         }
     }
+    /* supervisor 2b: shut the inlet before the valve's lag carries p past p_max + margin */
+    if (lead > c->p_over) inlet = 0u;
     faults = (uint8_t)(c->latched | (c->over ? MCK_FAULT_OVERPRESSURE : 0u));
     c->last_inlet = inlet;
     c->last_bleed = bleed;

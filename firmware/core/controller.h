@@ -34,6 +34,11 @@
 #define MCK_FAULT_MISSING 0x08u      /* n_missing consecutive missing samples */
 #define MCK_FAULT_VENT 0x10u         /* vent latched by command (VENT) */
 
+/* Supervisor 2b: the inlet is shut while p + MCK_LEAD_SAMPLES (p - p_prev) > p_max + margin,
+ * the pressure extrapolated over the inlet valve's closing time (~3 ms lag + one period). */
+#define MCK_LEAD_SAMPLES 4
+#define MCK_P_NONE 2000000L /* p_prev before the first step: no cut on the first sample */
+
 /* ACK status codes returned by the setters (docs/protocol.md). */
 #define MCK_OK 0u
 #define MCK_ERR_RANGE 3u
@@ -140,6 +145,7 @@ typedef struct {
     int32_t dq;         /* PID: 16 Ts D [Pa Q4] */
     int32_t e_prev;     /* [Pa] */
     int32_t pref_prev;  /* [Pa] */
+    int32_t p_prev;     /* supervisor 2b: last step's measured pressure [Pa] */
 } mck_ctrl_t;
 
 /* Set every gain to its default, p_max to 800 kPa, mode off, no fault. ts_us is the control

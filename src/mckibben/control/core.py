@@ -105,8 +105,11 @@ N_IPARAMS = IP_GAIN0 + N_GAINS
 IS_MODE, IS_LATCHED, IS_OVER, IS_FIRST, IS_LAST_INLET, IS_LAST_BLEED = 0, 1, 2, 3, 4, 5
 IS_HELD_ADC, IS_STUCK_N, IS_MISSING_N = 6, 7, 8
 IS_ISUM, IS_IU, IS_DQ, IS_E_PREV, IS_PREF_PREV = 9, 10, 11, 12, 13
-IS_SURFACE, IS_REFERENCE = 14, 15
-N_ISTATE = 16
+IS_SURFACE, IS_REFERENCE, IS_P_PREV = 14, 15, 16
+N_ISTATE = 17
+#: Supervisor 2b: the inlet is shut while p + LEAD_SAMPLES·(p − p_prev) > p_max + margin.
+LEAD_SAMPLES = 4
+P_NONE = 2_000_000  #: IS_P_PREV before the first step: a falling 'rate', so no cut on the first sample
 
 
 def tanh_table() -> np.ndarray:
@@ -280,6 +283,8 @@ def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa)
             st[IS_OVER] = 0
     elif p > p_max + ip[IP_GAIN0 + 12]:
         st[IS_OVER] = 1
+    lead = p + (p - st[IS_P_PREV]) * LEAD_SAMPLES
+    st[IS_P_PREV] = p
     e = pref - p
     surface = e
     inlet = 0
@@ -309,6 +314,9 @@ def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa)
         if mode == MODE_OPEN_LOOP:
             inlet = ip[IP_OL_INLET]
             bleed = ip[IP_OL_BLEED]
+    # supervisor 2b: shut the inlet before the valve's lag carries p past p_max + margin
+    if lead > p_max + ip[IP_GAIN0 + 12]:
+        inlet = 0
     faults = st[IS_LATCHED] | (FAULT_OVERPRESSURE if st[IS_OVER] != 0 else 0)
     st[IS_LAST_INLET] = inlet
     st[IS_LAST_BLEED] = bleed
@@ -528,6 +536,7 @@ def pack_params(params: CoreParams) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     _fill_coefficients(ip)
     st = np.zeros(N_ISTATE, dtype=np.int64)
     st[IS_MODE] = int(params.mode)
+    st[IS_P_PREV] = P_NONE
     st[IS_FIRST] = 1
     return st, ip, np.zeros(1), np.zeros(1)
 
