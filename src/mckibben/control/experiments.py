@@ -21,7 +21,7 @@ from mckibben.control.controllers import FirstOrderModel, design_pid, pid_params
 from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
 from mckibben.control.identify import fit_step_response
 from mckibben.control.metrics import step_metrics
-from mckibben.errors import InputError
+from mckibben.errors import InputError, unknown_name
 
 #: The paper's Fig. 13 (000_909f662a44080c85.txt, §IV.B): step to 0.55 MPa (80 psi).
 PAPER_FIG13 = {
@@ -110,12 +110,14 @@ def run_closed_loop(spec, reference, duration: float, plant=None, ts: float = 1e
 
 
 def _plant_backend(spec, reference, duration, plant, ts):
-    try:
-        from mckibben.plant import simulate_closed_loop  # issue 5; the adapter is written when it lands
-    except ImportError:
-        raise InputError("the plant simulator (mckibben.plant, issue 5) is not in this checkout; "
-                         "closed-loop control experiments need it") from None
-    raise InputError(f"the control experiments are not yet connected to {simulate_closed_loop.__module__}")
+    from mckibben.plant import simulate
+
+    n_inst = np.asarray(spec[1]).shape[0]
+    sim = simulate(to_plant_params(plant), duration, controller=spec, reference=reference, ts=ts, n=n_inst)
+    pressure = sim.pressure.copy()
+    pressure[sim.flags & 1 != 0] = np.nan  # a diverged instance has no metrics, not wrong ones
+    return LoopRecord(t=sim.t, pressure=pressure, reference=sim.reference, inlet=sim.inlet, bleed=sim.bleed,
+                      faults=sim.faults, length=sim.length, fstate=sim.fstate)
 
 
 def _steps(duration: float, ts: float = 1e-3) -> tuple[int, np.ndarray]:
@@ -123,7 +125,7 @@ def _steps(duration: float, ts: float = 1e-3) -> tuple[int, np.ndarray]:
     return n, np.arange(n) * ts
 
 
-def identify_plant(plant=None, u1: int = 200, duration: float = 0.8):
+def identify_plant(plant=None, u1: int = 40, duration: float = 0.8):
     """Identify the plant's first-order model from an open-loop inlet-valve step (§IV.A).
 
     From rest (both valves closed, atmospheric pressure), the inlet valve steps to ``u1`` PWM
@@ -134,8 +136,9 @@ def identify_plant(plant=None, u1: int = 200, duration: float = 0.8):
     ----------
     plant : optional
         Plant parameters; default the calibrated default plant. [-]
-    u1 : int, default 200
-        Inlet counts after the step. [PWM counts]
+    u1 : int, default 40
+        Inlet counts after the step; the default is the plant's calibration step
+        (:data:`mckibben.plant.CALIBRATION_PWM`), whose time constant is the paper's 0.09 s. [PWM counts]
     duration : float, default 0.8
         Record length. [s]
 
@@ -155,8 +158,18 @@ def identify_plant(plant=None, u1: int = 200, duration: float = 0.8):
     return fit, FirstOrderModel.from_fit(fit), rec
 
 
+#: How far the measured pressure may rise above ``p_max + margin`` on the calibrated plant.
+#: The supervisor shuts the inlet while the pressure extrapolated over the valve's closing time
+#: (:data:`mckibben.control.core.LEAD_SAMPLES`) passes ``p_max + margin`` and vents above it; the
+#: inlet valve's 3 ms lag still lets some air in. Measured with the inlet commanded wide open
+#: (open-loop mode and a saturated sliding mode), p_max 0.3–0.8 MPa, supply 0.6–1.0 MPa, valves
+#: and volumes ±30 %: at most 55 kPa (at p_max = 0.3 MPa, supply 1 MPa, fast valves, small
+#: volume); 12 kPa at p_max = 0.8 MPa. The bound is 60 kPa (``docs/control.md``, Safety; a
+#: property test in ``tests/test_control_plant.py``).
+SAFETY_TRANSIENT_PA = 60e3
+
 #: Sliding-mode design gains besides β (docs/control.md says how they were chosen).
-SMC_TUNING = {"eps": 20e3, "ki": 5.0, "i_max": 1e4}
+SMC_TUNING = {"eps": 200e3, "ki": 8.0, "i_max": 1e4}
 
 
 def smc_core_params(model: FirstOrderModel, beta: float, *, eps: float | None = None, ki: float | None = None,
@@ -303,16 +316,81 @@ def step_size_table(model: FirstOrderModel, steps=((0.0, 0.2e6), (0.0, 0.55e6), 
     return rows
 
 
-def plant_batch(**kwargs):
-    """Plant parameters for :func:`run_closed_loop` (translated to :mod:`mckibben.plant`).
+def plant_batch(**kwargs) -> dict:
+    """Plant description for :func:`run_closed_loop`, checked; :func:`to_plant_params` builds it.
 
     Parameters
     ----------
     **kwargs
-        ``load_N``, ``supply_Pa``, and multiplicative factors ``valve_gain``, ``dead_band``,
-        ``volume``, ``dead_volume``, ``leak`` (1 = the calibrated plant); scalars or arrays of N. [-]
+        ``load_N`` (hanging load) [N], ``supply_Pa`` (supply, gauge) [Pa], and multiplicative
+        factors on the calibrated plant (1 = calibrated) [-]: ``valve_gain`` (sonic conductance
+        of both valves), ``dead_band``, ``volume`` (the tube lumen at rest), ``dead_volume``,
+        ``leak``. Scalars or arrays of N.
+
+    Returns
+    -------
+    dict
+        The keyword arguments, as float arrays.
     """
-    return dict(kwargs)
+    allowed = ("load_N", "supply_Pa") + UNCERTAIN_FACTORS
+    out = {}
+    for key, value in kwargs.items():
+        if key not in allowed:
+            raise unknown_name("plant factor", key, allowed)
+        a = np.asarray(value, dtype=float)
+        if not np.all(np.isfinite(a)):
+            raise InputError(f"plant {key}: must be finite")
+        if key == "load_N" and np.any(a < 0):
+            raise InputError(f"plant load_N: {a.min():g} N, a hanging load cannot be negative")
+        if key != "load_N" and np.any(a <= 0):
+            raise InputError(f"plant {key}: {a.min():g}, must be positive")
+        out[key] = a
+    return out
+
+
+def to_plant_params(plant=None):
+    """:class:`~mckibben.plant.PlantParams` from a :func:`plant_batch` dict (or pass one through).
+
+    The factors scale the calibrated default plant: ``valve_gain`` both valves' sonic
+    conductance, ``dead_band`` the valves' dead band, ``volume`` the lumen (the tube's inner
+    diameter by its square root, so the rest lumen volume scales by the factor), ``dead_volume``
+    the tubing volume, ``leak`` the leak conductance.
+
+    Parameters
+    ----------
+    plant : dict or PlantParams or None
+        None: the calibrated default plant. [-]
+
+    Returns
+    -------
+    PlantParams
+    """
+    from mckibben.plant import PlantParams
+
+    if plant is None:
+        return PlantParams()
+    if isinstance(plant, PlantParams):
+        return plant
+    f = plant_batch(**plant)
+    base = PlantParams()
+    kw = {}
+    if "valve_gain" in f:
+        kw["valve_conductance"] = base.valve_conductance * f["valve_gain"]
+        kw["bleed_conductance"] = base.bleed_conductance * f["valve_gain"]
+    if "dead_band" in f:
+        kw["dead_band"] = np.minimum(base.dead_band * f["dead_band"], 0.95)
+    if "volume" in f:
+        kw["inner_diameter"] = base.inner_diameter * np.sqrt(f["volume"])
+    if "dead_volume" in f:
+        kw["dead_volume"] = base.dead_volume * f["dead_volume"]
+    if "leak" in f:
+        kw["leak_conductance"] = base.leak_conductance * f["leak"]
+    if "supply_Pa" in f:
+        kw["supply_pressure"] = f["supply_Pa"]
+    if "load_N" in f:
+        kw["load_force"] = f["load_N"]
+    kw = {k: (float(v) if np.ndim(v) == 0 else v) for k, v in kw.items()}
+    return base.replace(**kw) if kw else base
 
 
 #: Uncertainty of the robustness study: multiplicative ±30 % (uniform) on these plant factors.

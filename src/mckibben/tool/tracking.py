@@ -210,6 +210,11 @@ class TrackingResult:
 #: Switching gain of the tracking controllers: the paper's β = 120 (§IV.C, Fig. 13a); its faster 150
 #: chatters by ~1.7 kPa RMS on this plant, which this compliant tool turns into ~0.6 mm of tip error.
 TRACKING_BETA = 120.0
+#: Boundary layer [Pa] and surface integral weight [1/s] of the tracking controllers: narrower
+#: than the step tuning of :data:`mckibben.control.experiments.SMC_TUNING` (200 kPa, 8 1/s),
+#: which trades holding accuracy for a clean step; tracking a moving reference wants the
+#: pressure held to ~1 kPa.
+TRACKING_SMC = {"eps": 20e3, "ki": 5.0}
 
 
 def identify_muscle_plant(plant_params, pwm: int | None = None):
@@ -277,7 +282,7 @@ def simulate_tracking(tool: Tool, runs, *, beta: float = TRACKING_BETA) -> list[
             one = PlantParams.for_muscle(tool.muscle, load_force=float(loads.mean()))
             models[key] = identify_muscle_plant(one)
         model = models[key]
-        params = smc_core_params(model, beta)
+        params = smc_core_params(model, beta, **TRACKING_SMC)
         params = type(params)(**{**params.__dict__, "p_max": tool.p_max})
         sim = simulate(plants, ref.time.size * 1e-3, controller=core_spec(params, 3), reference=ref.pressures.T,
                        initial_pressure=ref.pressures[0])
