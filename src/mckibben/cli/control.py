@@ -1,4 +1,4 @@
-"""``mckibben control step|track|fig13|robustness``: the firmware controller on the plant simulator."""
+"""``mckibben control step|track|fig13|compare|robustness|hysteresis``: the controller on the plant simulator."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
 from mckibben.errors import InputError, unknown_name
 
-control_app = typer.Typer(help="Pressure control on the simulated plant: step, track, fig13, robustness.",
+control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
                           no_args_is_help=True)
 app.add_typer(control_app, name="control")
 
@@ -311,3 +311,103 @@ def _plot_robustness(path: str, res) -> None:
     fig.tight_layout()
     save_png(fig, path)
     plt.close(fig)
+
+
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+@control_app.command("hysteresis")
+def hysteresis_cmd(
+    period: str = typer.Option("4s", "--period", help="Period of the length sinusoid (1–60 s)."),
+    sweep_period: str = typer.Option(None, "--sweep-period",
+                                     help="Period of the identification triangle (default 8 × --period)."),
+    plot: str = typer.Option(None, "--plot", help="Write the sweep loop and the tracking errors (.png, .svg, .pdf)."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Length tracking with and without hysteresis compensation (inflate/deflate branches)."""
+    from mckibben.control.experiments import identify_plant
+    from mckibben.control.hysteresis import (
+        PERIOD_MAX,
+        PERIOD_MIN,
+        SWEEP_PERIOD_MAX,
+        SWEEP_PERIOD_MIN,
+        hysteresis_benefit,
+    )
+    from mckibben.units import parse_quantity
+
+    if plot is not None and not plot.lower().endswith(PLOT_SUFFIXES):
+        raise InputError(f"--plot: {plot!r} must end in {', '.join(PLOT_SUFFIXES)}")
+    per = parse_quantity(period, "time", "--period", allow_zero=False)
+    if not PERIOD_MIN <= per <= PERIOD_MAX:
+        raise InputError(f"--period: {period!r} must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")
+    sweep = None
+    if sweep_period is not None:
+        sweep = parse_quantity(sweep_period, "time", "--sweep-period", allow_zero=False)
+        if not SWEEP_PERIOD_MIN <= sweep <= SWEEP_PERIOD_MAX:
+            raise InputError(f"--sweep-period: {sweep_period!r} must be between {SWEEP_PERIOD_MIN:g} s and "
+                             f"{SWEEP_PERIOD_MAX:g} s")
+    _, model, _ = identify_plant()
+    res = hysteresis_benefit(model, period=per, sweep_period=sweep)
+    if plot:
+        _plot_hysteresis(plot, res)
+    if json:
+        emit_json(res.summary())
+        return
+    s = res.summary()
+    print_table(f"length target {res.mean * 1e3:.2f} ± {res.amplitude * 1e3:.2f} mm, period {res.period:g} s "
+                f"(sweep {res.sweep_period:g} s, loop width {s['hysteresis_width_at_mean_Pa'] / 1e3:.0f} kPa); "
+                "errors after the first cycle",
+                ["method", "RMS error mm", "max error mm"],
+                [["single cubic", res.rms_error[0] * 1e3, res.max_error[0] * 1e3],
+                 ["inflate/deflate branches", res.rms_error[1] * 1e3, res.max_error[1] * 1e3],
+                 ["ratio branches / single", res.rms_ratio, res.max_ratio]])
+
+
+def _plot_hysteresis(path: str, res) -> None:
+    import os
+    import tempfile
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise InputError(f"--plot: directory {folder!r} does not exist")
+    fig, (ax, axe) = plt.subplots(1, 2, figsize=(11, 4.5))
+    up = res.sweep_inflating
+    ax.plot(res.sweep_pressure[up] / 1e6, res.sweep_length[up] * 1e3, ".", ms=1.5, color="C3",
+            label="sweep, inflating")
+    ax.plot(res.sweep_pressure[~up] / 1e6, res.sweep_length[~up] * 1e3, ".", ms=1.5, color="C0",
+            label="sweep, deflating")
+    ell = np.linspace(*res.branches.length_range, 200)
+    ax.plot(res.branches.pressure(ell, True) / 1e6, ell * 1e3, "-", color="darkred", lw=1.5, label="inflating fit")
+    ax.plot(res.branches.pressure(ell, False) / 1e6, ell * 1e3, "-", color="navy", lw=1.5, label="deflating fit")
+    ax.plot(res.single(ell) / 1e6, ell * 1e3, "k--", lw=1, label="single cubic")
+    ax.set_xlabel("pressure [MPa]")
+    ax.set_ylabel("length [mm]")
+    ax.set_title(f"identification sweep ({res.sweep_period:g} s)")
+    ax.legend(fontsize=8)
+    for i, lab in enumerate(("single cubic", "branches")):
+        axe.plot(res.t, (res.length[i] - res.length_ref) * 1e3,
+                 label=f"{lab}: RMS {res.rms_error[i] * 1e3:.2f} mm")
+    axe.axvspan(0, res.period, color="0.9", label="first cycle (not scored)")
+    axe.axhline(0, color="k", lw=0.5)
+    axe.set_xlabel("time [s]")
+    axe.set_ylabel("length − target [mm]")
+    axe.set_title(f"tracking {res.mean * 1e3:.1f} ± {res.amplitude * 1e3:.1f} mm, period {res.period:g} s")
+    axe.legend(fontsize=8)
+    fig.tight_layout()
+    suffix = os.path.splitext(path)[1].lower()
+    fd, tmp = tempfile.mkstemp(suffix=suffix, dir=folder)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=120)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    finally:
+        plt.close(fig)
