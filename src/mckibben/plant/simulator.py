@@ -318,25 +318,30 @@ def simulate(
         for name, a in (("istate0", istate), ("iparams", iparams), ("fstate0", fstate), ("fparams", fparams)):
             if a.ndim != 2 or a.shape[0] != n_inst:
                 raise InputError(f"controller {name}: shape {a.shape}, want ({n_inst}, ·)")
-        args = (kernel, istate, iparams, fstate, fparams, True, sched, prm, s0, ref, n_steps, int(substeps),
-                float(ts), *out.values(), flags)
-        try:
-            _run(*args)
-        except ReferenceError:
-            # Numba's on-disk cache cannot re-pickle its index once it holds the type of a kernel
-            # compiled by another process ("underlying object has vanished"); the failure is in
-            # saving, after the new overload was compiled and registered, so the call is retried
-            # in memory. The run had not started: the outputs are untouched.
-            _run(*args)
+        _run_cached(kernel, istate, iparams, fstate, fparams, True, sched, prm, s0, ref, n_steps, int(substeps),
+                    float(ts), *out.values(), flags)
         return _result(n_steps, ts, out, ref, n_inst, flags, istate, fstate)
     if callable(controller):
         _run_python(controller, sched, prm, s0, ref, n_steps, int(substeps), float(ts), out, flags)
         return _result(n_steps, ts, out, ref, n_inst, flags)
     if controller is not None:
         raise InputError("controller: a kernel spec tuple, a Python callable, or None for open loop")
-    _run(_no_kernel, dummy_i, dummy_i, dummy_f, dummy_f, False, sched, prm, s0, ref, n_steps, int(substeps), float(ts),
-         *out.values(), flags)
+    _run_cached(_no_kernel, dummy_i, dummy_i, dummy_f, dummy_f, False, sched, prm, s0, ref, n_steps, int(substeps),
+                float(ts), *out.values(), flags)
     return _result(n_steps, ts, out, ref, n_inst, flags)
+
+
+def _run_cached(*args):
+    """Call :func:`_run`, retrying once if Numba fails to *save* the new overload to its cache.
+
+    Numba's on-disk cache cannot re-pickle its index once it holds the type of a kernel compiled
+    by another process ("underlying object has vanished"). The failure is in saving, after the
+    overload was compiled and registered, and before the run started: the retry runs in memory.
+    """
+    try:
+        _run(*args)
+    except ReferenceError:
+        _run(*args)
 
 
 def _run_python(f, sched, prm, s0, ref, n_steps, substeps, ts, out, flags):
