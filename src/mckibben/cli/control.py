@@ -364,17 +364,13 @@ def hysteresis_cmd(
 
 
 def _plot_hysteresis(path: str, res) -> None:
-    import os
-    import tempfile
-
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise InputError(f"--plot: directory {folder!r} does not exist")
+    from mckibben.plotting import save_figure
+
     fig, (ax, axe) = plt.subplots(1, 2, figsize=(11, 4.5))
     up = res.sweep_inflating
     ax.plot(res.sweep_pressure[up] / 1e6, res.sweep_length[up] * 1e3, ".", ms=1.5, color="C3",
@@ -399,15 +395,7 @@ def _plot_hysteresis(path: str, res) -> None:
     axe.set_title(f"tracking {res.mean * 1e3:.1f} ± {res.amplitude * 1e3:.1f} mm, period {res.period:g} s")
     axe.legend(fontsize=8)
     fig.tight_layout()
-    suffix = os.path.splitext(path)[1].lower()
-    fd, tmp = tempfile.mkstemp(suffix=suffix, dir=folder)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=120)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        save_figure(fig, path)
     finally:
         plt.close(fig)

@@ -78,19 +78,7 @@ def _plot(path: str, data: dict, fits) -> None:
 
 
 def save_png(fig, path: str) -> None:
-    """Write a figure as PNG atomically (temporary file, then rename): nothing half-written."""
-    import os
-    import tempfile
+    """Write a figure atomically (:func:`mckibben.plotting.save_figure`): nothing half-written."""
+    from mckibben.plotting import save_figure
 
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise InputError(f"--plot: directory {folder!r} does not exist")
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=folder)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=120)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    save_figure(fig, path, dpi=120)

@@ -7,14 +7,13 @@ at p_max) map onto the boundary of the reachable tip set, so they are drawn as s
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
 
 import numpy as np
 
 from mckibben.errors import InputError
 from mckibben.models.flags import FLAG_NAMES, Flag
+from mckibben.plotting import save_figure as _save_figure
 from mckibben.tool.geometry import Tool
 from mckibben.tool.statics import ToolState, tip_from_pressures
 
@@ -184,7 +183,7 @@ def plot_workspace(ws: Workspace, tool: Tool, path) -> None:
 
 
 def save_figure(fig, path) -> None:
-    """Save a Matplotlib figure atomically (temporary file in the same folder, then rename).
+    """Save a Matplotlib figure atomically at 110 dpi (:func:`mckibben.plotting.save_figure`).
 
     Parameters
     ----------
@@ -193,17 +192,4 @@ def save_figure(fig, path) -> None:
     path : str or os.PathLike
         Output file. [-]
     """
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise InputError(f"--plot: folder {folder!r} does not exist")
-    suffix = os.path.splitext(path)[1] or ".png"
-    fd, tmp = tempfile.mkstemp(suffix=suffix, dir=folder)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=110, format=suffix.lstrip(".") or "png")
-        os.replace(tmp, path)
-    except Exception:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+    _save_figure(fig, path, dpi=110)
