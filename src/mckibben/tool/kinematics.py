@@ -173,8 +173,11 @@ def arc_from_lengths(lengths, pitch_radius, n_gaps=None) -> Arc:
     """
     lengths = _as_lengths(lengths)
     k = -2.0 / (3.0 * pitch_radius)
-    mx = k * (lengths @ _COS)
-    my = k * (lengths @ _SIN)
+    # Σ l_i·cos θi and Σ l_i·sin θi written as differences: exactly 0 for equal lengths, where a
+    # BLAS dot product (FMA, reordered sums) leaves a rounding residue of order 1e-17 m
+    l1, l2, l3 = lengths[..., 0], lengths[..., 1], lengths[..., 2]
+    mx = k * (l1 - 0.5 * (l2 + l3))
+    my = k * (_SIN[1] * (l2 - l3))
     m = np.hypot(mx, my)
     if n_gaps is None:
         ratio = np.ones_like(m)
