@@ -42,6 +42,8 @@ PARAM_SETS = [
     core.CoreParams(eps=5e3, g=1000.0, tau=0.02, ki=50.0),
     core.CoreParams(eps=1e5, g=1e4, tau=0.5, ki=0.0),
     core.CoreParams(beta=255.0, eps=2e3, ki=2.0),  # steepest boundary layer tried
+    core.CoreParams(beta=120.0, eps=60e3, ki=12.0, g=0.0),  # no model term: the paper's law (Fig. 13)
+    core.CoreParams(beta=150.0, eps=30e3, ki=10.0, g=9e4, tau=0.09, u0=114.0),  # model with the lift-off
 ]
 
 
@@ -193,7 +195,7 @@ def test_vent_off_and_open_loop():
     assert ctrl.set_mode(core.MODE_OFF) == 0
     assert ctrl.step(300, True, 500e3) == (0, 0, 0)
     assert ctrl.set_mode(4) == core.STATUS_RANGE
-    assert ctrl.set_gain(17, 1) == core.STATUS_GAIN_ID
+    assert ctrl.set_gain(core.N_GAINS, 1) == core.STATUS_GAIN_ID
     assert ctrl.set_gain(core.GAIN_IDS["smc_beta"], 255_001) == core.STATUS_RANGE
     assert ctrl.set_max_pressure(1_000_001) == core.STATUS_RANGE
 
@@ -203,7 +205,7 @@ def test_vent_off_and_open_loop():
 
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"beta": 300.0}, "beta=300.0 outside [0, 255] PWM counts"),
-    ({"g": 0.5}, "g=0.5 outside"),
+    ({"g": -1.0}, "g=-1.0 outside"),
     ({"eps": float("nan")}, "eps=nan outside"),
     ({"ts": 1.5e-7}, "ts=1.5e-07 must be a whole number of microseconds"),
     ({"ts": 0.02}, "ts=0.02 must be"),

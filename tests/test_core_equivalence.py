@@ -188,8 +188,10 @@ def test_supervisor_paths(clib):
     ev += [("set_mode", 0)] + [("step", 300, True, 0)] * 2
     ev += [("set_mode", 7), ("set_max_pressure", 1_000_001), ("set_max_pressure", -1)]
     ev += [("set_max_pressure", 500_000), ("set_mode", 1)] + [("step", 300, True, 600_000)] * 3
-    ev += [("set_gain", 17, 5), ("set_gain", 0, 255_001), ("set_gain", 4, 999)]
+    ev += [("set_gain", 18, 5), ("set_gain", 0, 255_001), ("set_gain", 4, -1), ("set_gain", 17, 255_001)]
     ev += [("set_gain", 13, 200)] + [("step", 150, True, 100_000)] * 2
+    ev += [("set_gain", 17, 114_000)] + [("step", 150 + k, True, 300_000) for k in range(10)]  # u0: lift-off
+    ev += [("set_gain", 4, 0)] + [("step", 150 + k, True, 300_000) for k in range(20)]  # G = 0: no model term
     assert run_both(c, py, ev) > 600
 
 

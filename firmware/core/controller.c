@@ -30,15 +30,17 @@ static const uint16_t mck_tanh_tab[129] MCK_ROM = {
 static const int32_t mck_gain_default[MCK_N_GAINS] = {
     120000L, 20000L, 10000L, 90000L, 3000000L, 10000000L,     /* SMC */
     1000000L, 11000000L, 0L, 5000L,                            /* PID */
-    0L, 977517L, 20000L, 0L, 1022L, 500L, 10L                  /* scaling, supervisor */
+    0L, 977517L, 20000L, 0L, 1022L, 500L, 10L,                 /* scaling, supervisor */
+    0L                                                         /* SMC u0 */
 };
 static const int32_t mck_gain_lo[MCK_N_GAINS] = {
-    0L, 1L, 0L, 0L, 1000L, 0L, 0L, 0L, 0L, 0L, 0L, 1L, 0L, 0L, 0L, 0L, 0L
+    0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L
 };
 static const int32_t mck_gain_hi[MCK_N_GAINS] = {
     255000L, 1000000L, 1000000L, 10000000L, 100000000L, 2147483647L,
     1000000000L, 2147483647L, 2147483647L, 10000000L,
-    1023L, 2047999L, 200000L, 1023L, 1023L, 65535L, 65535L
+    1023L, 2047999L, 200000L, 1023L, 1023L, 65535L, 65535L,
+    255000L
 };
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -171,12 +173,22 @@ static void derive(mck_ctrl_t *c)
 
     c->ppc_q8 = (int32_t)rdiv((uint64_t)g[MCK_GAIN_PA_PER_COUNT] * 256u, 1000u);
     c->beta_q8 = (int32_t)rdiv(beta * 256u, 1000u);
-    /* 2^24 / G with G = gg / 1e3 */
-    c->c_p = cap_u64(rdiv(1000ull << 24, gg), 1L << 24);
-    /* 2^24 tau / (G Ts) = 2^24 1e3 tau_us / (gg ts_us) */
-    c->c_dref = cap_u64(rdiv((tau * 1000u) << 24, gg * ts), (1L << 27) - 1);
-    /* 2^24 tau Ki / G = 2^24 tau_us ki_milli / (gg 1e6) = tau ki 2^18 / (gg 5^6) */
-    c->c_e = cap_u64(rdiv((tau * ki) << 18, gg * 15625u), (1L << 25) - 1);
+    if (gg == 0u) {
+        /* G = 0: no model term, u = beta tanh(S/eps) alone */
+        c->c_p = 0;
+        c->c_dref = 0;
+        c->c_e = 0;
+        c->c_u0 = 0;
+    } else {
+        /* u0 in counts Q8 */
+        c->c_u0 = (int32_t)rdiv((uint64_t)g[MCK_GAIN_SMC_U0] * 256u, 1000u);
+        /* 2^24 / G with G = gg / 1e3 */
+        c->c_p = cap_u64(rdiv(1000ull << 24, gg), 1L << 24);
+        /* 2^24 tau / (G Ts) = 2^24 1e3 tau_us / (gg ts_us) */
+        c->c_dref = cap_u64(rdiv((tau * 1000u) << 24, gg * ts), (1L << 27) - 1);
+        /* 2^24 tau Ki / G = 2^24 tau_us ki_milli / (gg 1e6) = tau ki 2^18 / (gg 5^6) */
+        c->c_e = cap_u64(rdiv((tau * ki) << 18, gg * 15625u), (1L << 25) - 1);
+    }
     /* 2^24 Ki Ts = ki_milli ts_us 2^24 / 1e9 = ki ts 2^15 / 5^9 */
     c->c_ki = (int32_t)rdiv((ki * ts) << 15, 1953125u);
     c->c_eps = (int32_t)((1ull << 28) / eps);
@@ -287,7 +299,11 @@ static int32_t law_smc(mck_ctrl_t *c, int32_t p, int32_t pref, int32_t e, int32_
     sabs = s < 0 ? -s : s;
     th = sabs >= c->s_sat ? 32768u : tanh_q15((uint16_t)mulq16(sabs, c->c_eps));
     t4 = (int32_t)(((uint32_t)c->beta_q8 * th) >> 15);           /* beta tanh(|S|/eps) */
-    return s < 0 ? u - t4 : u + t4;
+    u = s < 0 ? u - t4 : u + t4;
+    /* the valves' lift-off: inverse of the dead zone, on the side the command opens */
+    if (u > 0) return u + c->c_u0;
+    if (u < 0) return u - c->c_u0;
+    return 0;
 }
 
 /* PID with filtered derivative and conditional integration: returns u [counts Q8]. */

@@ -59,7 +59,7 @@
  *   1  MCK_GAIN_SMC_EPS       epsilon, Pa            1       1         1000000       20000
  *   2  MCK_GAIN_SMC_KI        Ki (SMC), 1/s          1e3     0         1000000       10000
  *   3  MCK_GAIN_SMC_TAU       tau, s                 1e6     0         10000000      90000
- *   4  MCK_GAIN_SMC_G         G, Pa per PWM count    1e3     1000      100000000     3000000
+ *   4  MCK_GAIN_SMC_G         G, Pa per PWM count    1e3     0 (off)   100000000     3000000
  *   5  MCK_GAIN_SMC_IMAX      I_max, Pa s            1e3     0         2147483647    10000000
  *   6  MCK_GAIN_PID_KP        Kp, counts/Pa          1e9     0         1000000000    1000000
  *   7  MCK_GAIN_PID_KI        Ki (PID), counts/(Pa s) 1e9    0         2147483647    11000000
@@ -72,6 +72,13 @@
  *  14  MCK_GAIN_ADC_MAX       adc_max, count         1       0         1023          1022
  *  15  MCK_GAIN_N_STUCK       n_stuck, samples       1       0 (off)   65535         500
  *  16  MCK_GAIN_N_MISSING     n_missing, samples     1       0 (off)   65535         10
+ *  17  MCK_GAIN_SMC_U0        u0, PWM counts         1e3     0         255000        0
+ *
+ * The sliding mode's model term is (p + tau (dp_ref/Ts + Ki e)) / G from the identified model
+ * dp/dt = (G (u - u0) - p) / tau, with u0 the valves' lift-off: the command v = model term +
+ * beta tanh(S/eps) is sent as v + u0 sign(v), the inverse of the valves' dead zone. G = 0
+ * switches the model term and u0 off: u = beta tanh(S/eps) alone, the law as the paper ran it
+ * (docs/controller.md).
  *
  * p_max is set by mck_ctrl_set_max_pressure (SET_MAX_PRESSURE), in Pa, 0..MCK_P_MAX_LIMIT,
  * default 800000.
@@ -94,7 +101,8 @@ enum mck_gain_id {
     MCK_GAIN_ADC_MAX = 14,
     MCK_GAIN_N_STUCK = 15,
     MCK_GAIN_N_MISSING = 16,
-    MCK_N_GAINS = 17
+    MCK_GAIN_SMC_U0 = 17,
+    MCK_N_GAINS = 18
 };
 
 /* Outputs of one step. */
@@ -121,6 +129,7 @@ typedef struct {
     int32_t c_p;        /* 2^24 / G: p [Pa] -> u [counts Q8], Q16 */
     int32_t c_dref;     /* 2^24 tau / (G Ts): delta p_ref [Pa] -> u [counts Q8], Q16 */
     int32_t c_e;        /* 2^24 tau Ki / G: e [Pa] -> u [counts Q8], Q16 */
+    int32_t c_u0;       /* u0 [counts Q8] (0 when G = 0) */
     int32_t c_ki;       /* 2^24 Ki Ts: sum of e [Pa] -> Ki I [Pa Q8], Q16 */
     int32_t c_eps;      /* floor(2^28 / eps): S [Pa] -> S/eps Q12, Q16 */
     int32_t s_sat;      /* 8 eps: |S| beyond which tanh is taken as 1 [Pa] */

@@ -75,7 +75,7 @@ GAINS: tuple[Gain, ...] = (
     Gain(1, "smc_eps", "Pa", 1.0, 1, 1_000_000, 20_000),
     Gain(2, "smc_ki", "1/s", 1e3, 0, 1_000_000, 10_000),
     Gain(3, "smc_tau", "s", 1e6, 0, 10_000_000, 90_000),
-    Gain(4, "smc_g", "Pa/count", 1e3, 1_000, 100_000_000, 3_000_000),
+    Gain(4, "smc_g", "Pa/count", 1e3, 0, 100_000_000, 3_000_000),  # 0: no model term
     Gain(5, "smc_i_max", "Pa s", 1e3, 0, 2_147_483_647, 10_000_000),
     Gain(6, "pid_kp", "counts/Pa", 1e9, 0, 1_000_000_000, 1_000_000),
     Gain(7, "pid_ki", "counts/(Pa s)", 1e9, 0, 2_147_483_647, 11_000_000),
@@ -88,17 +88,19 @@ GAINS: tuple[Gain, ...] = (
     Gain(14, "adc_max", "count", 1.0, 0, 1023, 1022),
     Gain(15, "n_stuck", "samples", 1.0, 0, 65_535, 500),
     Gain(16, "n_missing", "samples", 1.0, 0, 65_535, 10),
+    Gain(17, "smc_u0", "PWM counts", 1e3, 0, 255_000, 0),
 )
 GAIN_IDS = {g.name: g.id for g in GAINS}
 N_GAINS = len(GAINS)
 
 # --- array layouts ----------------------------------------------------------------------------
 
-# iparams (int64): settings, derived coefficients, then the 17 raw gain values.
+# iparams (int64): settings, derived coefficients, then the 18 raw gain values.
 IP_P_MAX, IP_TS_US, IP_OL_INLET, IP_OL_BLEED = 0, 1, 2, 3
 IP_PPC_Q8, IP_BETA_Q8, IP_C_P, IP_C_DREF, IP_C_E, IP_C_KI = 4, 5, 6, 7, 8, 9
 IP_C_EPS, IP_S_SAT, IP_ISUM_MAX, IP_C_KP, IP_C_KIP, IP_C_KD, IP_ALPHA = 10, 11, 12, 13, 14, 15, 16
-IP_GAIN0 = 17
+IP_C_U0 = 17
+IP_GAIN0 = 18
 N_IPARAMS = IP_GAIN0 + N_GAINS
 
 # istate (int64): mode, supervisor and law state, last telemetry values.
@@ -193,9 +195,13 @@ def smc_law_q8(ip, p, dpref, e, isum):
     else:
         th = tanh_q15(mulq16(sabs, ip[IP_C_EPS]))
     t4 = (ip[IP_BETA_Q8] * th) >> 15
-    if s < 0:
-        return u - t4, s
-    return u + t4, s
+    u = u - t4 if s < 0 else u + t4
+    # the valves' lift-off: inverse of the dead zone, on the side the command opens
+    if u > 0:
+        return u + ip[IP_C_U0], s
+    if u < 0:
+        return u - ip[IP_C_U0], s
+    return 0, s
 
 
 @njit(cache=True)
@@ -338,7 +344,7 @@ def derive(gains: Sequence[int], ts_us: int) -> dict[str, int]:
     Parameters
     ----------
     gains : sequence of int
-        The 17 gain values in their SET_GAIN scale (``GAINS``). [-]
+        The 18 gain values in their SET_GAIN scale (``GAINS``). [-]
     ts_us : int
         Control period. [us]
 
@@ -353,9 +359,13 @@ def derive(gains: Sequence[int], ts_us: int) -> dict[str, int]:
     c = {}
     c["ppc_q8"] = _rdiv(g[11] * 256, 1000)
     c["beta_q8"] = _rdiv(beta * 256, 1000)
-    c["c_p"] = min(_rdiv(1000 << 24, gg), 1 << 24)
-    c["c_dref"] = min(_rdiv((tau * 1000) << 24, gg * ts), (1 << 27) - 1)
-    c["c_e"] = min(_rdiv((tau * ki) << 18, gg * 15625), (1 << 25) - 1)
+    if gg == 0:  # no model term: u = beta tanh(S/eps) alone
+        c["c_p"] = c["c_dref"] = c["c_e"] = c["c_u0"] = 0
+    else:
+        c["c_u0"] = _rdiv(g[17] * 256, 1000)
+        c["c_p"] = min(_rdiv(1000 << 24, gg), 1 << 24)
+        c["c_dref"] = min(_rdiv((tau * 1000) << 24, gg * ts), (1 << 27) - 1)
+        c["c_e"] = min(_rdiv((tau * ki) << 18, gg * 15625), (1 << 25) - 1)
     c["c_ki"] = _rdiv((ki * ts) << 15, 1953125)
     c["c_eps"] = (1 << 28) // eps
     c["s_sat"] = 8 * eps
@@ -374,7 +384,7 @@ _COEF_INDEX = {
     "ppc_q8": IP_PPC_Q8, "beta_q8": IP_BETA_Q8, "c_p": IP_C_P, "c_dref": IP_C_DREF,
     "c_e": IP_C_E, "c_ki": IP_C_KI, "c_eps": IP_C_EPS, "s_sat": IP_S_SAT,
     "isum_max": IP_ISUM_MAX, "c_kp": IP_C_KP, "c_kip": IP_C_KIP, "c_kd": IP_C_KD,
-    "alpha": IP_ALPHA,
+    "alpha": IP_ALPHA, "c_u0": IP_C_U0,
 }  # fmt: skip
 
 
@@ -402,7 +412,8 @@ class CoreParams:
     tau : float
         Time constant of the identified first-order model. [s]
     g : float
-        Static gain of the identified model, pressure per PWM count. [Pa/count]
+        Static gain of the identified model, pressure per PWM count; 0 switches the model term
+        off (u = β·tanh(S/ε) alone, the law as the paper ran it). [Pa/count]
     i_max : float
         Clamp of the sliding-mode integral I. [Pa s]
     kp : float
@@ -433,6 +444,9 @@ class CoreParams:
         Initial mode: 0 off, 1 sliding mode, 2 PID, 3 open loop. [-]
     open_loop_inlet, open_loop_bleed : int
         PWM counts used in mode 3. [count]
+    u0 : float
+        Valve lift-off of the identified model ``ṗ = (G·(u − u0) − p)/τ``: the sliding mode
+        sends ``v + u0·sign(v)`` for its command v (not used when g = 0). [PWM counts]
     """
 
     beta: float = 120.0
@@ -457,11 +471,12 @@ class CoreParams:
     mode: int = MODE_SMC
     open_loop_inlet: int = 0
     open_loop_bleed: int = 0
+    u0: float = 0.0
 
 
 _PARAM_OF_GAIN = (
     "beta", "eps", "ki", "tau", "g", "i_max", "kp", "ki_pid", "kd", "tf",
-    "adc_zero", "pa_per_count", "margin", "adc_min", "adc_max", "n_stuck", "n_missing",
+    "adc_zero", "pa_per_count", "margin", "adc_min", "adc_max", "n_stuck", "n_missing", "u0",
 )  # fmt: skip
 
 
@@ -476,7 +491,7 @@ def gain_values(params: CoreParams) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        17 ``int64`` values in id order (``GAINS``). [-]
+        18 ``int64`` values in id order (``GAINS``). [-]
 
     Raises
     ------
@@ -620,7 +635,7 @@ class CoreController:
         Parameters
         ----------
         gain_id : int
-            Gain id 0..16. [-]
+            Gain id 0..17. [-]
         value : int
             Value in the gain's SET_GAIN scale. [-]
         """
@@ -686,7 +701,8 @@ class CoreController:
 def float_command(params: CoreParams, p, p_ref, dp_ref, integral, mode: int = MODE_SMC):
     """The control law in float64, for measuring the fixed-point error.
 
-    Sliding mode: ``u = (p + tau (dp_ref/Ts + Ki e)) / G + beta tanh((e + Ki I)/eps)``;
+    Sliding mode: ``v = (p + tau (dp_ref/Ts + Ki e)) / G + beta tanh((e + Ki I)/eps)``,
+    ``u = v + u0 sign(v)`` (``u = beta tanh(...)`` alone when G = 0);
     PID (proportional and integral part only): ``u = Kp e + Ki_pid I``; with ``e = p_ref - p``.
 
     Parameters
@@ -718,8 +734,11 @@ def float_command(params: CoreParams, p, p_ref, dp_ref, integral, mode: int = MO
     if mode == MODE_PID:
         return params.kp * e + params.ki_pid * integral
     s = e + params.ki * integral
-    return ((p + params.tau * (dp_ref / params.ts + params.ki * e)) / params.g
-            + params.beta * np.tanh(s / params.eps))
+    switching = params.beta * np.tanh(s / params.eps)
+    if params.g == 0:  # no model term
+        return switching
+    v = (p + params.tau * (dp_ref / params.ts + params.ki * e)) / params.g + switching
+    return v + params.u0 * np.sign(v)
 
 
 def counts_from_command(u) -> tuple[np.ndarray, np.ndarray]:
