@@ -18,12 +18,12 @@ from mckibben.sweep import load_sweep, read_results, run_sweep
 SWEEP = """
 [sweep]
 seed = 11
-samples = 4
-chunk_size = 2
+samples = 8
+chunk_size = 1
 
 [scenario]
 kind = "step"
-duration = "0.06s"
+duration = "0.2s"
 
 [plant]
 supply_pressure = { uniform = ["0.6MPa", "1.0MPa"] }
@@ -95,7 +95,8 @@ def test_cluster_equals_in_process_and_survives_a_killed_worker(cluster, tmp_pat
     toml = tmp_path / "sweep.toml"
     toml.write_text(textwrap.dedent(SWEEP))
     sweep = load_sweep(toml)
-    assert sweep.n_chunks == 6
+    # 24 one-run chunks: enough that a worker killed after the first one lands mid-sweep
+    assert sweep.n_chunks == 24
 
     local = tmp_path / "local"
     run_sweep(sweep, local)
@@ -113,7 +114,7 @@ def test_cluster_equals_in_process_and_survives_a_killed_worker(cluster, tmp_pat
                             "--scheduler", addr, "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     end = time.monotonic() + 120
     while time.monotonic() < end and len(list(killed.glob("chunk-*.parquet"))) < 1:
-        time.sleep(0.05)
+        time.sleep(0.005)
     written_before = len(list(killed.glob("chunk-*.parquet")))
     os.killpg(workers[0].pid, signal.SIGKILL)
     out, err = run.communicate(timeout=240)
