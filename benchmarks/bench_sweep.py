@@ -29,8 +29,8 @@ duration = "0.2s"
 [plant]
 supply_pressure = {{ uniform = ["0.6MPa", "1.0MPa"] }}
 load_force = {{ uniform = ["0N", "3N"] }}
-dead_band = {{ uniform = [0.07, 0.13] }}
-valve_conductance = {{ uniform = [1.05e-10, 1.95e-10] }}
+dead_band = {{ uniform = [0.44, 0.82] }}
+valve_conductance = {{ uniform = [1.4e-10, 2.6e-10] }}
 [controller]
 kind = "smc"
 beta = {{ grid = [90, 120, 150, 180] }}

@@ -1,13 +1,12 @@
 """Hysteresis compensation for length control: its measured benefit on the plant simulator.
 
-Numbers measured on the calibrated default plant (docs/hysteresis.md), sliding mode β = 150,
-length target 90.0 ± 6.2 mm, period 4 s, errors after the first cycle:
+Numbers measured on the calibrated default plant (docs/hysteresis.md), sliding mode (our law,
+SMC_TUNING), length target 90.0 ± 6.2 mm, period 4 s, errors after the first cycle:
 
-- sweep 32 s (default, 8 × period): single cubic RMS 2.33 mm / max 3.83 mm, branches RMS
-  0.37 mm / max 1.11 mm (ratios 0.16 / 0.29), loop width 41 kPa at the mean length;
-- sweep 4 s (as fast as the tracking): loop width 88 kPa, branches RMS 2.35 mm against 2.47 mm
-  (ratio 0.95), max 5.31 mm against 3.97 mm: the over-wide branches buy nothing.
-"""
+- sweep 32 s (default, 8 × period): single cubic RMS 2.35 mm / max 3.87 mm, branches RMS
+  0.38 mm / max 1.09 mm (ratios 0.16 / 0.28), loop width 41 kPa at the mean length;
+- sweep 4 s (as fast as the tracking): loop width 88 kPa, branches RMS 2.31 mm against 2.50 mm
+  (ratio 0.93), max 5.29 mm against 3.98 mm: the over-wide branches buy nothing."""
 
 from __future__ import annotations
 

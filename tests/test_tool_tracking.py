@@ -55,7 +55,7 @@ def test_tip_errors():
     assert e == {"rms_error_m": pytest.approx(5e-3 / np.sqrt(2)), "max_error_m": pytest.approx(5e-3)}
 
 
-def _run(spec, periods, beta=120.0):
+def _run(spec, periods, beta=50.0):
     base = resolve_path(parse_path(spec), TOOL)
     runs = [(base.with_period(T), tip_reference(TOOL, base.with_period(T))) for T in periods]
     return runs, simulate_tracking(TOOL, runs, beta=beta)

@@ -25,17 +25,25 @@ def _png(plot: str | None) -> None:
         raise InputError(f"--plot: {plot!r} must end in .png")
 
 
-def _controller_options(controller: str, beta: float, eps: str | None, ki: float | None, lam: str | None) -> dict:
+def _check_beta(beta: float | None) -> None:
+    if beta is not None and not (math.isfinite(beta) and 0 <= beta <= 255):
+        raise InputError(f"--beta: {beta!r} must be in 0..255 PWM counts")
+
+
+def _controller_options(controller: str, beta: float | None, eps: str | None, ki: float | None, lam: str | None,
+                        law: str = "model") -> dict:
     """Validate the controller options before anything runs (bad input → exit 2)."""
+    from mckibben.control.experiments import LAWS
     from mckibben.units import parse_quantity
 
     if controller not in CONTROLLERS:
         raise unknown_name("controller", controller, CONTROLLERS)
-    if not (math.isfinite(beta) and 0 <= beta <= 255):
-        raise InputError(f"--beta: {beta!r} must be in 0..255 PWM counts")
+    if law not in LAWS:
+        raise unknown_name("--law", law, LAWS)
+    _check_beta(beta)
     if ki is not None and not (math.isfinite(ki) and ki >= 0):
         raise InputError(f"--ki: {ki!r} must be >= 0 (1/s)")
-    return {"controller": controller, "beta": beta, "ki": ki,
+    return {"controller": controller, "beta": beta, "ki": ki, "law": law,
             "eps": parse_quantity(eps, "pressure", "--eps", allow_zero=False) if eps else None,
             "lam": parse_quantity(lam, "time", "--lambda", allow_zero=False) if lam else None}
 
@@ -47,11 +55,14 @@ def _controller_params(opts: dict, model, p_max: float):
 
     base = CoreParams(p_max=p_max)
     if opts["controller"] == "smc":
-        return smc_core_params(model, opts["beta"], eps=opts["eps"], ki=opts["ki"], base=base)
+        return smc_core_params(model, opts["beta"], law=opts["law"], eps=opts["eps"], ki=opts["ki"], base=base)
     return pid_params(default_pid(model, opts["lam"]), base=base)
 
 
-BETA_OPTION = typer.Option(150.0, "--beta", help="Sliding-mode switching gain, PWM counts (paper: 120, 150).")
+BETA_OPTION = typer.Option(None, "--beta", help="Sliding-mode switching gain, PWM counts (paper: 120, 150; "
+                                               "default: 50 for --law model, 150 for --law paper).")
+LAW_OPTION = typer.Option("model", "--law", help="Sliding-mode law: model (ours: model term with the valves' "
+                                                 "lift-off) or paper (β·tanh(S/ε) alone, as the paper ran it).")
 EPS_OPTION = typer.Option(None, "--eps", help="Sliding-mode boundary layer, e.g. 20kPa (default: docs/control.md).")
 KI_OPTION = typer.Option(None, "--ki", help="Sliding-surface integral weight [1/s] (default: docs/control.md).")
 LAMBDA_OPTION = typer.Option(None, "--lambda", help="PID closed-loop time constant, e.g. 30ms (default τ/3).")
@@ -66,6 +77,7 @@ def step_cmd(
     target: str = typer.Option("0.55MPa", "--target", help="Step target pressure."),
     start: str = typer.Option("0MPa", "--from", help="Pressure held before the step."),
     beta: float = BETA_OPTION,
+    law: str = LAW_OPTION,
     eps: str = EPS_OPTION,
     ki: float = KI_OPTION,
     lam: str = LAMBDA_OPTION,
@@ -82,7 +94,7 @@ def step_cmd(
     from mckibben.units import parse_quantity
 
     _png(plot)
-    opts = _controller_options(controller, beta, eps, ki, lam)
+    opts = _controller_options(controller, beta, eps, ki, lam, law)
     pmax = parse_quantity(p_max, "pressure", "--p-max", allow_zero=False)
     p1 = parse_quantity(target, "pressure", "--target")
     p0 = parse_quantity(start, "pressure", "--from")
@@ -103,7 +115,7 @@ def step_cmd(
     rec = run_closed_loop(core_spec(params), ref, total, plant)
     m = rec.metrics(0, hold)
     out = {"controller": controller, "target_Pa": p1, "from_Pa": p0, "load_N": f_load, "p_max_Pa": pmax,
-           "model": {"gain_Pa_per_count": model.gain, "tau_s": model.tau, "dead_time_s": model.dead_time},
+           "model": _model_dict(model),
            "gains": _gains_dict(params, controller),
            "peak_pressure_Pa": float(rec.pressure[0].max()),
            "faults": int(np.bitwise_or.reduce(rec.faults[0].astype(np.int64))), **m}
@@ -116,10 +128,15 @@ def step_cmd(
                 ["metric", "value"], [[k, m[k]] for k in STEP_KEYS])
 
 
+def _model_dict(model) -> dict:
+    return {"gain_Pa_per_count": model.gain, "tau_s": model.tau, "dead_time_s": model.dead_time,
+            "lift_off_counts": model.lift_off}
+
+
 def _gains_dict(params, controller: str) -> dict:
     if controller == "smc":
-        return {"beta_counts": params.beta, "eps_Pa": params.eps, "ki_per_s": params.ki, "tau_s": params.tau,
-                "g_Pa_per_count": params.g}
+        return {"law": "paper" if params.g == 0 else "model", "beta_counts": params.beta, "eps_Pa": params.eps,
+                "ki_per_s": params.ki, "tau_s": params.tau, "g_Pa_per_count": params.g, "lift_off_counts": params.u0}
     return {"kp_counts_per_Pa": params.kp, "ki_counts_per_Pa_s": params.ki_pid, "kd_counts_s_per_Pa": params.kd,
             "tf_s": params.tf}
 
@@ -128,11 +145,15 @@ def _gains_dict(params, controller: str) -> dict:
 def fig13_cmd(
     eps: str = EPS_OPTION,
     ki: float = KI_OPTION,
-    plot: str = typer.Option(None, "--plot", help="Write a PNG of both step responses."),
+    plot: str = typer.Option(None, "--plot", help="Write a PNG of the step responses and of τ against β."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """The paper's Fig. 13: sliding mode, step to 0.55 MPa, β = 120 and 150, paper vs ours."""
-    from mckibben.control.experiments import fig13, identify_plant
+    """The paper's Fig. 13: sliding mode, step to 0.55 MPa, β = 120 and 150, paper vs ours.
+
+    Rows for both laws: ``paper`` (β·tanh(S/ε) alone, what the paper measured) and ``model``
+    (ours, with the model term) at the paper's β.
+    """
+    from mckibben.control.experiments import beta_sweep, fig13, identify_plant
     from mckibben.units import parse_quantity
 
     _png(plot)
@@ -142,17 +163,17 @@ def fig13_cmd(
     fit, model, _ = identify_plant()
     rows, rec = fig13(model, eps=e, ki=ki)
     if plot:
-        _plot_records(plot, rec, [f"β = {r['beta_counts']:g}" for r in rows], 0.1)
+        sweep = beta_sweep(np.arange(110.0, 201.0, 2.0))
+        _plot_fig13(plot, rec, rows, sweep)
     if json:
-        emit_json({"model": {"gain_Pa_per_count": model.gain, "tau_s": model.tau, "dead_time_s": model.dead_time,
-                             "tau_s_stderr": fit.stderr["tau_s"]}, "rows": rows})
+        emit_json({"model": {**_model_dict(model), "tau_s_stderr": fit.stderr["tau_s"]}, "rows": rows})
         return
     print_table("Fig. 13 (000_909f662a44080c85.txt §IV.B): step to 0.55 MPa, paper vs ours",
-                ["β counts", "τ paper s", "τ ours s", "overshoot paper %", "overshoot ours %", "rise s",
+                ["law", "β counts", "τ paper s", "τ ours s", "overshoot paper %", "overshoot ours %", "rise s",
                  "settling s", "ss error Pa"],
-                [[r["beta_counts"], r["paper_time_constant_s"], r["time_constant_s"], r["paper_overshoot_pct"],
-                  r["overshoot_pct"], r["rise_time_s"], r["settling_time_s"], r["steady_state_error_Pa"]]
-                 for r in rows])
+                [[r["law"], r["beta_counts"], r["paper_time_constant_s"], r["time_constant_s"],
+                  r["paper_overshoot_pct"], r["overshoot_pct"], r["rise_time_s"], r["settling_time_s"],
+                  r["steady_state_error_Pa"]] for r in rows])
 
 
 @control_app.command("compare")
@@ -160,17 +181,16 @@ def compare_cmd(
     beta: float = BETA_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
-    """PID tuned on the first-order model vs sliding mode, over step sizes and loads (§IV.A)."""
+    """PID tuned on the first-order model vs both sliding-mode laws, over step sizes and loads (§IV.A)."""
     from mckibben.control.experiments import identify_plant, step_size_table
 
-    if not (math.isfinite(beta) and 0 <= beta <= 255):
-        raise InputError(f"--beta: {beta!r} must be in 0..255 PWM counts")
+    _check_beta(beta)
     _, model, _ = identify_plant()
     rows = step_size_table(model, beta=beta)
     if json:
         emit_json({"rows": rows})
         return
-    print_table("PID (lambda-tuned on the first-order model) vs sliding mode",
+    print_table("PID (lambda-tuned on the first-order model) vs sliding mode (smc: ours, smc_paper: β = 150)",
                 ["controller", "from MPa", "to MPa", "load N", "τ s", "overshoot %", "settling s", "ss error kPa"],
                 [[r["controller"], r["from_Pa"] / 1e6, r["to_Pa"] / 1e6, r["load_N"], r["time_constant_s"],
                   r["overshoot_pct"], r["settling_time_s"], r["steady_state_error_Pa"] / 1e3] for r in rows])
@@ -190,8 +210,7 @@ def robustness_cmd(
     _png(plot)
     if n < 1:
         raise InputError(f"--n: {n!r} must be at least 1")
-    if not (math.isfinite(beta) and 0 <= beta <= 255):
-        raise InputError(f"--beta: {beta!r} must be in 0..255 PWM counts")
+    _check_beta(beta)
     _, model, _ = identify_plant()
     res = robustness(model, n=n, seed=seed, beta=beta)
     if plot:
@@ -213,6 +232,7 @@ def track_cmd(
                                                            "or a CSV/Parquet file with time_<unit>, pressure_<unit>."),
     controller: str = typer.Option("smc", "--controller", help="smc or pid."),
     beta: float = BETA_OPTION,
+    law: str = LAW_OPTION,
     eps: str = EPS_OPTION,
     ki: float = KI_OPTION,
     lam: str = LAMBDA_OPTION,
@@ -229,7 +249,7 @@ def track_cmd(
     from mckibben.units import parse_quantity
 
     _png(plot)
-    opts = _controller_options(controller, beta, eps, ki, lam)
+    opts = _controller_options(controller, beta, eps, ki, lam, law)
     pmax = parse_quantity(p_max, "pressure", "--p-max", allow_zero=False)
     f_load = parse_quantity(load, "force", "--load")
     t, ref = _reference(reference, parse_quantity(duration, "time", "--duration", allow_zero=False))
@@ -290,6 +310,38 @@ def _plot_records(path: str, rec, labels, t_step) -> None:
     plt.close(fig)
 
 
+def _plot_fig13(path: str, rec, rows, sweep) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mckibben.plotting import save_figure
+
+    fig, (ax, axb) = plt.subplots(1, 2, figsize=(11, 4.5))
+    ax.plot(rec.t, rec.reference[0] / 1e6, "k--", lw=1, label="reference")
+    for i, r in enumerate(rows):
+        ax.plot(rec.t, rec.pressure[i] / 1e6, ls="-" if r["law"] == "paper" else ":",
+                label=f"{r['law']} law, β = {r['beta_counts']:g}")
+    ax.set_xlim(0.08, 0.4)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("pressure [MPa]")
+    ax.legend(fontsize=8)
+    ax.set_title("step to 0.55 MPa")
+    b = np.array([r["beta_counts"] for r in sweep])
+    tc = np.array([r["time_constant_s"] for r in sweep])
+    axb.semilogy(b, tc * 1e3, "o-", ms=3, label="paper's law on the plant")
+    axb.semilogy([120, 150], [60, 10], "k*", ms=12, label="paper, Fig. 13")
+    axb.axhspan(45, 75, xmin=0, xmax=1, color="C1", alpha=0.1)
+    axb.set_xlabel("β [PWM counts]")
+    axb.set_ylabel("time constant [ms]")
+    axb.set_title("τ against β: β must exceed the holding command (eq. 11)")
+    axb.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
 def _plot_robustness(path: str, res) -> None:
     import matplotlib
 
@@ -297,15 +349,16 @@ def _plot_robustness(path: str, res) -> None:
     import matplotlib.pyplot as plt
 
     from mckibben.cli.identify import save_png
+    from mckibben.control.experiments import CONTROLLER_NAMES
 
     keys = [("time_constant_s", 1e3, "time constant [ms]"), ("overshoot_pct", 1.0, "overshoot [%]"),
             ("steady_state_error_Pa", 1e-3, "steady-state error [kPa]")]
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.8))
     for ax, (k, scale, lab) in zip(axes, keys):
-        data = [res["metrics"][c][k] * scale for c in ("pid", "smc")]
+        data = [res["metrics"][c][k] * scale for c in CONTROLLER_NAMES]
         data = [d[np.isfinite(d)] for d in data]
         ax.boxplot(data, whis=(5, 95), showfliers=True, flierprops={"markersize": 2})
-        ax.set_xticks([1, 2], ["PID", "sliding mode"])
+        ax.set_xticks([1, 2, 3], ["PID", "sliding mode\n(ours)", "sliding mode\n(paper, β = 150)"])
         ax.set_ylabel(lab)
     fig.suptitle(f"{len(res['metrics']['pid']['time_constant_s'])} random plants (whiskers 5–95 %)")
     fig.tight_layout()

@@ -62,21 +62,27 @@ def adc_from_pressure(pressure, adc_zero: int = 0, pa_per_count: float = 1e6 / 1
 
 @dataclass(frozen=True)
 class FirstOrderModel:
-    """The identified model ``ṗ = (G·u − p)/τ`` (plus an optional dead time θ).
+    """The identified model ``ṗ = (G·(u − u0) − p)/τ`` (plus an optional dead time θ).
+
+    u0 is the command below which the valve passes no air (its lift-off); 0 gives the paper's
+    first-order model through the origin (§IV.A).
 
     Parameters
     ----------
     gain : float
-        Static gain G, pressure per PWM count. [Pa/count]
+        Static gain G, pressure per PWM count above the lift-off. [Pa/count]
     tau : float
         Time constant. [s]
     dead_time : float, default 0.0
         Dead time. [s]
+    lift_off : float, default 0.0
+        u0, the valve's lift-off. [PWM counts]
     """
 
     gain: float
     tau: float
     dead_time: float = 0.0
+    lift_off: float = 0.0
 
     @classmethod
     def from_fit(cls, fit) -> FirstOrderModel:
@@ -88,6 +94,22 @@ class FirstOrderModel:
             Fitted step response with gain in Pa per count. [-]
         """
         return cls(float(fit.gain), float(fit.tau), float(fit.dead_time))
+
+    def through_origin(self, pressure: float) -> FirstOrderModel:
+        """The paper's model through the origin (no lift-off), with the secant gain at a pressure.
+
+        ``G_s = p/(u0 + p/G)``: the gain of the straight line from rest to the command that
+        holds ``pressure``; equal to this model there, wrong away from it (§IV.A's PID).
+
+        Parameters
+        ----------
+        pressure : float
+            Operating point. [Pa]
+        """
+        if not pressure > 0:
+            raise InputError(f"through_origin: pressure={pressure!r} must be > 0 Pa")
+        gain = pressure / (self.lift_off + pressure / self.gain)
+        return FirstOrderModel(float(gain), self.tau, self.dead_time)
 
     def transfer_function(self, pade_order: int = 2) -> control.TransferFunction:
         """``G/(τs + 1)`` times a Padé approximation of the dead time.
@@ -203,8 +225,8 @@ def smc_params(model: FirstOrderModel, beta: float, eps: float, ki: float, *, i_
                base: CoreParams = CoreParams()) -> CoreParams:
     """Core parameters of the sliding-mode law from an identified model and the design gains.
 
-    The model term of the law (``docs/controller.md``) uses τ and G of the identified
-    first-order model; β, ε and Ki are the design's. The PID gains and supervisor settings are
+    The model term of the law (``docs/controller.md``) uses τ, G and the lift-off u0 of the
+    identified first-order model; β, ε and Ki are the design's. The PID gains and supervisor settings are
     taken from ``base``.
 
     Parameters
@@ -232,7 +254,7 @@ def smc_params(model: FirstOrderModel, beta: float, eps: float, ki: float, *, i_
     000_909f662a44080c85.txt, eq. (5), (8), (12); signs corrected in docs/controller.md.
     """
     return replace(base, beta=float(beta), eps=float(eps), ki=float(ki), tau=float(model.tau),
-                   g=float(model.gain), i_max=float(i_max), mode=MODE_SMC)
+                   g=float(model.gain), u0=float(model.lift_off), i_max=float(i_max), mode=MODE_SMC)
 
 
 def pid_params(design: PIDDesign, *, base: CoreParams = CoreParams()) -> CoreParams:

@@ -143,7 +143,7 @@ def _triangle(n: int, p_low: float, p_high: float) -> np.ndarray:
 
 def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = None, mean: float | None = None,
                        cycles: int = 2, plant=None, sweep_period: float | None = None, p_low: float = 0.1e6,
-                       p_high: float = 0.7e6, beta: float = 150.0, ts: float = 1e-3) -> HysteresisBenefit:
+                       p_high: float = 0.7e6, beta: float | None = None, ts: float = 1e-3) -> HysteresisBenefit:
     """Length tracking error with and without hysteresis compensation, on the plant.
 
     Parameters
@@ -168,8 +168,9 @@ def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = 
         :data:`SWEEP_PERIOD_FACTOR` × ``period`` (quasi-static). [s]
     p_low, p_high : float, default 0.1e6, 0.7e6
         Pressure range of the identification sweep. [Pa]
-    beta : float, default 150.0
-        Sliding-mode switching gain. [PWM counts]
+    beta : float, optional
+        Switching gain of the pressure loop (our sliding-mode law); default the step design's
+        (:data:`mckibben.control.experiments.SMC_TUNING`). [PWM counts]
     ts : float, default 1e-3
         Control period. [s]
 

@@ -13,11 +13,12 @@ from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import simulate
 
-#: PWM count of the open-loop calibration step: a small voltage step (0.78 V of 5 V, just above
-#: the valve's dead band) whose steady pressure (≈ 0.47 MPa, where the inflow balances the leak)
-#: lies inside the operating range, as the paper's identification step must have (its size is
-#: not printed). Larger steps fill faster and end at the supply pressure.
-CALIBRATION_PWM = 40
+#: PWM count of the open-loop calibration step: a voltage step to 2.29 V of 5 V, five counts above
+#: the valves' lift-off (112 counts, ``docs/plant.md``), whose steady pressure (≈ 0.5 MPa, where
+#: the inflow through the barely open inlet balances the leak) lies inside the operating range, as
+#: the paper's identification step must have (its size is not printed). Larger steps fill faster
+#: and end nearer the supply pressure.
+CALIBRATION_PWM = 117
 
 
 def open_loop_step(plant: PP.PlantParams | None = None, valve: int = CALIBRATION_PWM, duration: float = 0.5,

@@ -168,12 +168,12 @@ class PlantParams:
 
     supply_pressure: object = 0.8e6
     supply_droop: object = 0.0
-    valve_conductance: object = 1.5e-10
-    bleed_conductance: object = 1.5e-10
+    valve_conductance: object = 2.0e-10
+    bleed_conductance: object = 2.0e-10
     critical_ratio: object = 0.3
     valve_tau: object = 3e-3
-    dead_band: object = 0.1
-    driver_gain: object = 1.15
+    dead_band: object = 0.63
+    driver_gain: object = 1.43
     dead_volume: object = 3.0e-7
     leak_conductance: object = 2.0e-11
     polytropic_n: object = 1.2

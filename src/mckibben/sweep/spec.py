@@ -14,12 +14,13 @@ duration = "0.4s"
 [plant]             # any PlantParams field, or `muscle` (a published set's name)
 supply_pressure = { uniform = ["0.6MPa", "1.0MPa"] }
 load_force = { uniform = ["0N", "3N"] }
-dead_band = { normal = [0.10, 0.01] }
+dead_band = { normal = [0.63, 0.03] }
 
-[controller]        # kind = "smc" or "pid", and any CoreParams gain
+[controller]        # kind = "smc" or "pid", and any CoreParams gain (g = 0: the paper's law)
 kind = "smc"
-beta = { grid = [100, 120, 150] }
-eps = "20kPa"
+g = 0
+beta = { grid = [120, 150, 180] }
+eps = "50kPa"
 
 [metrics]
 keep = ["time_constant_s", "overshoot_pct", "steady_state_error_Pa", "valve_effort_counts"]
@@ -57,7 +58,7 @@ PLANT_FIELDS = {
 CONTROLLER_FIELDS = {
     "beta": "dimensionless", "eps": "pressure", "ki": "frequency", "tau": "time", "g": None,
     "i_max": None, "kp": None, "ki_pid": None, "kd": None, "tf": "time", "p_max": "pressure",
-    "margin": "pressure",
+    "margin": "pressure", "u0": "dimensionless",
 }
 CONTROLLER_KINDS = ("smc", "pid")
 SCENARIOS = ("step", "sine")

@@ -207,40 +207,38 @@ class TrackingResult:
         }
 
 
-#: Switching gain of the tracking controllers: the paper's β = 120 (§IV.C, Fig. 13a); its faster 150
-#: chatters by ~1.7 kPa RMS on this plant, which this compliant tool turns into ~0.6 mm of tip error.
-TRACKING_BETA = 120.0
+#: Switching gain of the tracking controllers (law ``model``): the step design's
+#: (:data:`mckibben.control.experiments.SMC_TUNING`); with the model term carrying the holding
+#: command (valve lift-off included) the switching term only covers the model's error.
+TRACKING_BETA = 50.0
 #: Boundary layer [Pa] and surface integral weight [1/s] of the tracking controllers: narrower
-#: than the step tuning of :data:`mckibben.control.experiments.SMC_TUNING` (200 kPa, 8 1/s),
+#: than the step tuning of :data:`mckibben.control.experiments.SMC_TUNING` (100 kPa, 5 1/s),
 #: which trades holding accuracy for a clean step; tracking a moving reference wants the
-#: pressure held to ~1 kPa.
-TRACKING_SMC = {"eps": 20e3, "ki": 5.0}
+#: pressure held to ~1 kPa. Narrower still chatters: β/ε is the loop's gain near the surface
+#: (20 kPa: 2.6 kPa RMS pressure error on a 2 Hz circle, 0.9 mm of tip error; 50 kPa: 0.9 kPa,
+#: 0.2 mm).
+TRACKING_SMC = {"eps": 50e3, "ki": 5.0}
 
 
 def identify_muscle_plant(plant_params, pwm: int | None = None):
-    """The first-order model of one muscle's plant from an open-loop inlet step (§IV.A).
+    """The first-order model of one muscle's plant, with the valves' lift-off, from two open-loop
+    inlet steps (§IV.A; :func:`mckibben.control.experiments.identify_plant`).
 
     Parameters
     ----------
     plant_params : PlantParams
         One plant instance.
     pwm : int, optional
-        Inlet PWM count of the step; default the plant's calibration step. [counts]
+        Inlet PWM count of the first step; default the plant's calibration step. [counts]
 
     Returns
     -------
     FirstOrderModel
-        Gain [Pa/count], time constant [s] and dead time [s] fitted with
-        :func:`mckibben.control.identify.fit_step_response`.
+        Gain [Pa/count], time constant [s], dead time [s] and lift-off [counts].
     """
-    from mckibben.control.controllers import FirstOrderModel
-    from mckibben.control.identify import fit_step_response
-    from mckibben.plant import CALIBRATION_PWM, simulate
+    from mckibben.control.experiments import identify_plant
 
-    u1 = CALIBRATION_PWM if pwm is None else int(pwm)
-    res = simulate(plant_params, 0.8, inlet=u1, n=1)
-    fit = fit_step_response(res.t, res.pressure[0], np.full(res.t.size, float(u1)), t_step=0.0, input_step=float(u1))
-    return FirstOrderModel.from_fit(fit)
+    return identify_plant(plant_params, u1=pwm)[1]
 
 
 def simulate_tracking(tool: Tool, runs, *, beta: float = TRACKING_BETA) -> list[TrackingResult]:
@@ -260,7 +258,7 @@ def simulate_tracking(tool: Tool, runs, *, beta: float = TRACKING_BETA) -> list[
         The tool.
     runs : list of (TipPath, TipReference)
         Paths and their references (:func:`tip_reference`).
-    beta : float, default 120
+    beta : float, default 50
         Switching gain of the three controllers. [PWM counts]
 
     Returns
