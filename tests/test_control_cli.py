@@ -15,6 +15,9 @@ import pytest
         (("control", "step", "--target", "fast"), "--target"),
         (("control", "step", "--target", "0MPa"), "no step"),
         (("control", "step", "--plot", "out.jpg"), "--plot"),
+        (("control", "step", "--law", "papr"), "unknown --law 'papr'. Did you mean paper?"),
+        (("control", "track", "--reference", "sine:0.4MPa,0.1MPa,2Hz", "--law", "x"), "--law"),
+        (("control", "compare", "--beta", "-5"), "--beta"),
         (("control", "track", "--reference", "sine:0.4MPa,0.1MPa"), "sine:MEAN,AMPLITUDE,FREQUENCY"),
         (("control", "track", "--reference", "sine:0.4MPa,0.1MPa,0Hz"), "--reference frequency"),
         (("control", "robustness", "--n", "0"), "--n"),
@@ -30,3 +33,15 @@ def test_bad_input_exits_2(cli, args, message):
 def test_missing_reference_file(cli, tmp_path):
     r = cli("control", "track", "--reference", str(tmp_path / "none.csv"))
     assert r.code == 2 and "no such file" in r.err
+
+
+def test_step_json_reports_the_law_and_the_lift_off(cli):
+    r = cli("control", "step", "--law", "paper", "--beta", "150", "--duration", "0.3s", "--json")
+    assert r.code == 0, r.err
+    d = r.json()
+    assert d["gains"]["law"] == "paper" and d["gains"]["g_Pa_per_count"] == 0.0
+    assert d["time_constant_s"] <= 0.015  # the paper's β = 150, as in Fig. 13
+    r = cli("control", "step", "--duration", "0.3s", "--json")
+    d = r.json()
+    assert d["gains"]["law"] == "model" and d["gains"]["beta_counts"] == 50.0
+    assert 100 < d["model"]["lift_off_counts"] < 115 and d["gains"]["lift_off_counts"] == d["model"]["lift_off_counts"]

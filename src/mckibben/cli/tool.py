@@ -251,7 +251,8 @@ def track_cmd(
     periods: str = typer.Option(None, "--periods", help="Run the path at several periods (speeds), e.g. 4s,2s,1s,0.5s."),
     reference_only: bool = typer.Option(False, "--reference-only", help="Only compute the pressure references (no simulation)."),
     plot: str = typer.Option(None, "--plot", help="Write the target-vs-achieved figure to this file (PNG)."),
-    beta: float = typer.Option(120.0, "--beta", help="Sliding-mode switching gain of the three controllers [PWM counts]."),
+    beta: float = typer.Option(50.0, "--beta", help="Sliding-mode switching gain of the three controllers [PWM counts] "
+                                                   "(our law, docs/control.md)."),
     muscle: str = MUSCLE_OPTION,
     pitch_radius: str = PITCH_OPTION,
     discs: str = DISCS_OPTION,
