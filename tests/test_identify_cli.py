@@ -67,3 +67,45 @@ def test_identify_bad_options(cli, step_log, tmp_path):
     assert r.code == 2 and "--order" in r.err
     r = cli("identify", str(step_log), "--t-step", "5kg")
     assert r.code == 2 and "--t-step" in r.err
+
+
+def _plant_step_log(path, u1):
+    """A step of the calibrated plant's inlet from rest to u1 counts, as the rig logs it."""
+    from mckibben.plant import simulate
+
+    n = 800
+    inlet = np.r_[np.zeros(50, int), np.full(n - 50, u1)]
+    r = simulate(None, n * 1e-3, inlet=inlet, n=1)
+    pd.DataFrame({"time_s": r.t, "pressure_Pa": r.pressure[0], "inlet_pwm": inlet, "bleed_pwm": 0}).to_csv(
+        path, index=False)
+    return path
+
+
+def test_identify_two_logs_gives_the_lift_off(cli, tmp_path):
+    from mckibben.control.experiments import identify_plant
+
+    a = _plant_step_log(tmp_path / "a.csv", 117)
+    b = _plant_step_log(tmp_path / "b.csv", 119)
+    r = cli("identify", str(a), str(b), "--json")
+    assert r.code == 0, r.err
+    d = r.json()
+    assert len(d["logs"]) == 2 and d["logs"][0]["time_constant_s"] > 0.08
+    # the same steps as identify_plant (there from rest at t = 0): the same line, to the fits' noise
+    model = identify_plant()[1]
+    assert abs(d["lift_off"]["lift_off_counts"] - model.lift_off) < 0.5
+    # the plant's valves lift off at 0.63 · 255 / 1.43 = 112.3 counts
+    assert 105 < d["lift_off"]["lift_off_counts"] < 112.3
+    c = _plant_step_log(tmp_path / "c.csv", 121)
+    r = cli("identify", str(a), str(b), str(c), "--json")
+    lift = r.json()["lift_off"]
+    assert lift["lift_off_counts_stderr"] > 0 and 100 < lift["lift_off_counts"] < 112.3
+
+
+def test_identify_lift_off_bad_input(cli, tmp_path, step_log):
+    a = _plant_step_log(tmp_path / "a.csv", 117)
+    r = cli("identify", str(a), str(a))
+    assert r.code == 2 and "different commands" in r.err and r.err.count("\n") == 1
+    nocmd = tmp_path / "nocmd.csv"
+    pd.read_csv(step_log).drop(columns=["inlet_pwm", "bleed_pwm"]).to_csv(nocmd, index=False)
+    r = cli("identify", str(a), str(nocmd))
+    assert r.code == 2 and "nocmd.csv" in r.err and "command" in r.err

@@ -11,15 +11,17 @@ from mckibben.errors import InputError
 
 @app.command("identify")
 def identify_cmd(
-    log: str = typer.Argument(..., help="Step-response log (.csv or .parquet): time_<unit>, pressure_<unit>, "
-                                        "inlet_pwm/bleed_pwm or command_pwm."),
+    logs: list[str] = typer.Argument(..., help="Step-response log(s) (.csv or .parquet): time_<unit>, pressure_<unit>, "
+                                               "inlet_pwm/bleed_pwm or command_pwm. Two or more steps to different "
+                                               "commands also give the valve's lift-off."),
     order: str = typer.Option("1", "--order", help="Model order: 1, 2 or both."),
     t_step: str = typer.Option(None, "--t-step", help="Time of the step, e.g. 0.1s (default: first command change)."),
-    plot: str = typer.Option(None, "--plot", help="Write a PNG of data, fit and residuals."),
+    plot: str = typer.Option(None, "--plot", help="Write a PNG of data, fit and residuals (the first log)."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """Identify gain, time constant and dead time (with standard errors) from an open-loop step."""
-    from mckibben.control.identify import fit_step_response, read_step_log
+    """Identify gain, time constant and dead time (with standard errors) from an open-loop step;
+    from steps to several commands, the valve's lift-off u0 of ṗ = (G·(u − u0) − p)/τ too."""
+    from mckibben.control.identify import fit_lift_off, fit_step_response, read_step_log
     from mckibben.units import parse_quantity
 
     orders = {"1": (1,), "2": (2,), "both": (1, 2)}.get(order)
@@ -28,11 +30,42 @@ def identify_cmd(
     ts = parse_quantity(t_step, "time", "--t-step") if t_step is not None else None
     if plot is not None and not plot.lower().endswith(".png"):
         raise InputError(f"--plot: {plot!r} must end in .png")
-    data, meta = read_step_log(log)
-    fits = [fit_step_response(data["time_s"], data["pressure_Pa"], data.get("command_pwm"), order=o, t_step=ts)
-            for o in orders]
+    results = []
+    for log in logs:
+        data, meta = read_step_log(log)
+        if len(logs) > 1 and "command_pwm" not in data:
+            raise InputError(f"{meta['path']}: the lift-off needs the valve command (inlet_pwm/bleed_pwm or "
+                             "command_pwm) in every log")
+        fits = [fit_step_response(data["time_s"], data["pressure_Pa"], data.get("command_pwm"), order=o, t_step=ts)
+                for o in orders]
+        results.append((log, data, meta, fits))
+    lift = None
+    if len(results) > 1:
+        lift = fit_lift_off([r[3][0] for r in results], [float(r[1]["command_pwm"][-1]) for r in results])
     if plot is not None:
-        _plot(plot, data, fits)
+        _plot(plot, results[0][1], results[0][3])
+    outs = [_log_result(data, meta, fits) for _, data, meta, fits in results]
+    if json:
+        emit_json(outs[0] if lift is None else {"logs": outs, "lift_off": lift})
+        return
+    for (log, data, _, fits) in results:
+        rows = []
+        for f in fits:
+            for k, v in f.params.items():
+                rows.append([f"order {f.order}", k, v, f.stderr[k]])
+            rows.append([f"order {f.order}", "rmse Pa", f.rmse, ""])
+            rows.append([f"order {f.order}", "AIC", f.aic, ""])
+        print_table(f"{log}: step at {fits[0].t_step:.4g} s, input step {fits[0].input_step:g} "
+                    f"({'PWM counts' if 'command_pwm' in data else 'no input column: unit step'})",
+                    ["model", "parameter", "value", "std. error"], rows)
+    if lift is not None:
+        print_table("lift-off: p = G·(u − u0) through the final pressures",
+                    ["parameter", "value", "std. error"],
+                    [["G Pa/count", lift["gain_Pa_per_count"], lift["gain_Pa_per_count_stderr"]],
+                     ["u0 counts", lift["lift_off_counts"], lift["lift_off_counts_stderr"]]])
+
+
+def _log_result(data: dict, meta: dict, fits) -> dict:
     input_unit = "count" if "command_pwm" in data else "step"
     out = {"log": meta["path"], "columns": meta["columns"],
            "models": [f.to_dict("Pa", input_unit) for f in fits]}
@@ -41,18 +74,7 @@ def identify_cmd(
     out[f"gain_Pa_per_{input_unit}"] = best.gain
     out["time_constant_s"] = best.tau
     out["dead_time_s"] = best.dead_time
-    if json:
-        emit_json(out)
-        return
-    rows = []
-    for f in fits:
-        for k, v in f.params.items():
-            rows.append([f"order {f.order}", k, v, f.stderr[k]])
-        rows.append([f"order {f.order}", "rmse Pa", f.rmse, ""])
-        rows.append([f"order {f.order}", "AIC", f.aic, ""])
-    print_table(f"{log}: step at {fits[0].t_step:.4g} s, input step {fits[0].input_step:g} "
-                f"({'PWM counts' if 'command_pwm' in data else 'no input column: unit step'})",
-                ["model", "parameter", "value", "std. error"], rows)
+    return out
 
 
 def _plot(path: str, data: dict, fits) -> None:

@@ -19,7 +19,7 @@ import numpy as np
 
 from mckibben.control.controllers import FirstOrderModel, design_pid, pid_params, smc_params
 from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
-from mckibben.control.identify import fit_step_response
+from mckibben.control.identify import fit_lift_off, fit_step_response
 from mckibben.control.metrics import step_metrics
 from mckibben.errors import InputError, unknown_name
 
@@ -169,13 +169,9 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
     rec = run_closed_loop(spec, np.zeros(n), duration, plant)
     fits = [fit_step_response(t, rec.pressure[i], np.full(n, float(u)), t_step=0.0, input_step=float(u))
             for i, u in enumerate(steps)]
-    p1, p2 = (f.params["y0"] + f.gain * u for f, u in zip(fits, steps, strict=True))
-    if not p2 > p1 > 0:
-        raise InputError(f"identify_plant: the steps to {steps[0]} and {steps[1]} counts end at {p1:.0f} and "
-                         f"{p2:.0f} Pa; the second must end higher (is the valve saturated or shut?)")
-    gain = (p2 - p1) / int(du)
+    lift = fit_lift_off(fits, steps)
     fit = fits[0]
-    model = FirstOrderModel(float(gain), float(fit.tau), float(fit.dead_time), float(steps[0] - p1 / gain))
+    model = FirstOrderModel(lift["gain_Pa_per_count"], float(fit.tau), float(fit.dead_time), lift["lift_off_counts"])
     return fit, model, rec
 
 

@@ -458,3 +458,57 @@ def read_step_log(path) -> tuple[dict, dict]:
         data["command_pwm"] = numeric(COMMAND_COLUMN)
         cols["command"] = COMMAND_COLUMN
     return data, {"path": str(p), "columns": cols}
+
+
+def fit_lift_off(fits, commands) -> dict:
+    """The valve's lift-off from steps to different commands: the affine map p = G·(u − u0).
+
+    Each fit's final pressure ``y0 + gain·input_step`` is paired with the command held after its
+    step; a straight line through the pairs (exact for two, least squares with standard errors
+    for more) gives G and u0 = −intercept/G. The identified model ṗ = (G·(u − u0) − p)/τ then
+    holds a pressure p with u0 + p/G counts, where the paper's line through the origin (one step)
+    asks p/G_secant (``docs/control.md``).
+
+    Parameters
+    ----------
+    fits : sequence of StepFit
+        Order-1 or order-2 fits of steps from rest (or from any held command). [-]
+    commands : sequence of float
+        Command held after each step. [PWM counts]
+
+    Returns
+    -------
+    dict
+        ``gain_Pa_per_count``, ``lift_off_counts`` and, with three or more steps, their standard
+        errors (``*_stderr``; NaN with two: a line through two points has no residual).
+
+    Raises
+    ------
+    InputError
+        Fewer than two steps, steps to the same command, or final pressures that do not rise
+        with the command.
+    """
+    fits = list(fits)
+    u = np.asarray(commands, dtype=float)
+    if len(fits) < 2 or u.shape != (len(fits),):
+        raise InputError(f"lift-off: needs two or more steps with one command each, got {len(fits)} steps "
+                         f"and {u.size} commands")
+    if np.unique(u).size != u.size:
+        raise InputError(f"lift-off: the steps must end at different commands, got {u.tolist()} counts")
+    p = np.array([f.params["y0"] + f.gain * f.input_step for f in fits])
+    if u.size == 2:
+        g = (p[1] - p[0]) / (u[1] - u[0])
+        cov = np.full((2, 2), np.nan)
+        b = p[0] - g * u[0]
+    else:
+        (g, b), cov = np.polyfit(u, p, 1, cov=True)
+    if not g > 0:
+        raise InputError(f"lift-off: the final pressures {np.round(p).tolist()} Pa do not rise with the commands "
+                         f"{u.tolist()} counts (a saturated or shut valve?)")
+    u0 = -b / g
+    # u0 = −b/g: first-order propagation of the line's covariance
+    jac = np.array([b / g**2, -1.0 / g])
+    return {"gain_Pa_per_count": float(g), "lift_off_counts": float(u0),
+            "gain_Pa_per_count_stderr": float(np.sqrt(cov[0, 0])),
+            "lift_off_counts_stderr": float(np.sqrt(jac @ cov @ jac)),
+            "final_pressure_Pa": p.tolist(), "commands_pwm": u.tolist()}
