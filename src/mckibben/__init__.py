@@ -7,8 +7,12 @@ arguments, file columns named ``quantity_unit``, plots and reports).
 """
 
 from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
 
+from mckibben._numba_cache import drop_stale
 from mckibben.errors import InputError
+
+drop_stale(Path(__file__).parent)
 
 try:
     __version__ = version("mckibben")
