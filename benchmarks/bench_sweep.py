@@ -1,9 +1,9 @@
 """Benchmark: simulations per second of a 100,000-plant step sweep, in-process and on a local
 two-worker Dask cluster (issue 9).
 
-The sweep: sliding mode at four β (90–180 counts) × 25,000 random plants each (supply 0.6–1.0 MPa,
-load 0–3 N, dead band ±30 %, valve conductance ±30 %), a step to 0.55 MPa simulated for 0.2 s
-(200 control periods, RK4 at 10 kHz), step metrics kept; chunks of 2,000.
+The sweep: the paper's sliding-mode law at four β (120–180 counts) × 25,000 random plants each
+(supply 0.6–1.0 MPa, load 0–3 N, dead band ±30 %, valve conductance ±30 %), a step to 0.55 MPa
+simulated for 0.2 s (200 control periods, RK4 at 10 kHz), step metrics kept; chunks of 2,000.
 
 Run: ``python benchmarks/bench_sweep.py [--runs 100000]`` (a few minutes on 2 cores).
 """
@@ -33,7 +33,8 @@ dead_band = {{ uniform = [0.44, 0.82] }}
 valve_conductance = {{ uniform = [1.4e-10, 2.6e-10] }}
 [controller]
 kind = "smc"
-beta = {{ grid = [90, 120, 150, 180] }}
+g = 0
+beta = {{ grid = [120, 135, 150, 180] }}
 [metrics]
 keep = ["time_constant_s", "overshoot_pct", "steady_state_error_Pa", "valve_effort_counts"]
 """

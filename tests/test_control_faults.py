@@ -38,7 +38,7 @@ def test_stuck_sensor_is_caught_by_the_core_supervisor():
     adcs = np.linspace(100, 600, 60).astype(int)
     out, _ = _drive(instrumented_spec([params], 60, kinds=[1], onsets=[5]), adcs, 0.7e6)
     vent = np.flatnonzero(out[:, 1] == 255)
-    # vent after n_stuck = 20 identical readings with the inlet open >= 128 counts
+    # vent after n_stuck = 20 identical readings with the inlet open >= STUCK_PWM (160) counts
     assert vent.size and 5 + 19 <= vent[0] <= 5 + 21
     assert out[vent[0], 2] & core.FAULT_STUCK and np.all(out[vent[0]:, 0] == 0)
 

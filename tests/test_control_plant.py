@@ -204,3 +204,18 @@ def test_plant_factors_scale_the_calibrated_plant():
 def test_bad_plant_factors(kw, message):
     with pytest.raises(InputError, match=message):
         E.plant_batch(**kw)
+
+
+@pytest.mark.parametrize("kw, message", [({"u1": 117.5}, "u1=117.5"), ({"u1": 255}, "u1=255"),
+                                         ({"du": 0}, "du=0")])
+def test_identify_plant_bad_steps(kw, message):
+    with pytest.raises(InputError, match=message):
+        E.identify_plant(**kw)
+
+
+def test_through_origin_meets_the_model_at_its_operating_point(model):
+    line = model.through_origin(0.55e6)
+    hold = model.lift_off + 0.55e6 / model.gain  # the identified command that holds 0.55 MPa
+    assert line.gain * hold == pytest.approx(0.55e6)
+    with pytest.raises(InputError, match="pressure"):
+        model.through_origin(0.0)

@@ -109,3 +109,25 @@ def test_identify_lift_off_bad_input(cli, tmp_path, step_log):
     pd.read_csv(step_log).drop(columns=["inlet_pwm", "bleed_pwm"]).to_csv(nocmd, index=False)
     r = cli("identify", str(a), str(nocmd))
     assert r.code == 2 and "nocmd.csv" in r.err and "command" in r.err
+
+
+def test_lift_off_outside_the_commands_is_refused(cli, tmp_path):
+    # 117 counts and a wide-open 250: the map is far from one line, u0 would come out negative
+    a = _plant_step_log(tmp_path / "a.csv", 117)
+    sat = _plant_step_log(tmp_path / "sat.csv", 250)
+    r = cli("identify", str(a), str(sat))
+    assert r.code == 2 and "meets zero at" in r.err and r.err.count("\n") == 1
+
+
+def test_held_command_is_the_one_after_the_step(cli, tmp_path):
+    # a log that shuts the valve for its last samples still pairs its step with 119 counts
+    a = _plant_step_log(tmp_path / "a.csv", 117)
+    b = _plant_step_log(tmp_path / "b.csv", 119)
+    both = cli("identify", str(a), str(b), "--json").json()["lift_off"]
+    df = pd.read_csv(b)
+    df.loc[df.index[-20:], "inlet_pwm"] = 0
+    df.to_csv(tmp_path / "b_shut.csv", index=False)
+    r = cli("identify", str(a), str(tmp_path / "b_shut.csv"), "--json")
+    assert r.code == 0, r.err
+    assert r.json()["lift_off"]["commands_pwm"] == [117.0, 119.0]
+    assert abs(r.json()["lift_off"]["lift_off_counts"] - both["lift_off_counts"]) < 1.0

@@ -335,7 +335,7 @@ void mck_ctrl_step(mck_ctrl_t *c, uint16_t adc, uint8_t sample_ok, int32_t p_ref
     if (sample_ok) {
         c->missing_n = 0;
         if (adc < c->adc_min || adc > c->adc_max) c->latched |= MCK_FAULT_ADC_RANGE;
-        if (adc == c->held_adc && (c->last_inlet >= 128u || c->last_bleed >= 128u)) {
+        if (adc == c->held_adc && (c->last_inlet >= MCK_STUCK_PWM || c->last_bleed >= MCK_STUCK_PWM)) {
             if (c->stuck_n < 65535u) c->stuck_n++;
         } else {
             c->stuck_n = 0;

@@ -30,13 +30,16 @@
 /* Fault flags (TELEMETRY.faults). Bits 1-4 are latched until mck_ctrl_set_mode. */
 #define MCK_FAULT_OVERPRESSURE 0x01u /* p > p_max + margin, cleared when p < p_max */
 #define MCK_FAULT_ADC_RANGE 0x02u    /* reading outside [adc_min, adc_max] */
-#define MCK_FAULT_STUCK 0x04u        /* same reading n_stuck times while a valve is >= 128 */
+#define MCK_FAULT_STUCK 0x04u        /* same reading n_stuck times while a valve is >= MCK_STUCK_PWM */
 #define MCK_FAULT_MISSING 0x08u      /* n_missing consecutive missing samples */
 #define MCK_FAULT_VENT 0x10u         /* vent latched by command (VENT) */
 
 /* Supervisor 2b: the inlet is shut while p + MCK_LEAD_SAMPLES (p - p_prev) > p_max + margin,
  * the pressure extrapolated over the inlet valve's closing time (~3 ms lag + one period). */
 #define MCK_LEAD_SAMPLES 4
+/* Supervisor 3: a valve at or above this many PWM counts is open wide enough that the pressure
+ * must move: above the calibrated valves' lift-off (112 counts) and its +30 % (146). */
+#define MCK_STUCK_PWM 160u
 #define MCK_P_NONE 2000000L /* p_prev before the first step: no cut on the first sample */
 
 /* ACK status codes returned by the setters (docs/protocol.md). */

@@ -59,8 +59,8 @@ def _controller_params(opts: dict, model, p_max: float):
     return pid_params(default_pid(model, opts["lam"]), base=base)
 
 
-BETA_OPTION = typer.Option(None, "--beta", help="Sliding-mode switching gain, PWM counts (paper: 120, 150; "
-                                               "default: 50 for --law model, 150 for --law paper).")
+BETA_OPTION = typer.Option(None, "--beta", help="Sliding-mode switching gain of our law, PWM counts (default 50; "
+                                               "the paper's law: 150 unless given).")
 LAW_OPTION = typer.Option("model", "--law", help="Sliding-mode law: model (ours: model term with the valves' "
                                                  "lift-off) or paper (β·tanh(S/ε) alone, as the paper ran it).")
 EPS_OPTION = typer.Option(None, "--eps", help="Sliding-mode boundary layer, e.g. 20kPa (default: docs/control.md).")
@@ -204,7 +204,7 @@ def robustness_cmd(
     plot: str = typer.Option(None, "--plot", help="Write a PNG of the distributions."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """Monte Carlo over plant uncertainty: PID and sliding mode, median and 5–95 % of each metric."""
+    """Monte Carlo over plant uncertainty: PID and both sliding-mode laws, median and 5–95 % of each metric."""
     from mckibben.control.experiments import identify_plant, robustness
 
     _png(plot)

@@ -41,7 +41,7 @@ def identify_cmd(
         results.append((log, data, meta, fits))
     lift = None
     if len(results) > 1:
-        lift = fit_lift_off([r[3][0] for r in results], [float(r[1]["command_pwm"][-1]) for r in results])
+        lift = fit_lift_off([r[3][0] for r in results], [_held_command(r[1], r[3][0].t_step) for r in results])
     if plot is not None:
         _plot(plot, results[0][1], results[0][3])
     outs = [_log_result(data, meta, fits) for _, data, meta, fits in results]
@@ -63,6 +63,14 @@ def identify_cmd(
                     ["parameter", "value", "std. error"],
                     [["G Pa/count", lift["gain_Pa_per_count"], lift["gain_Pa_per_count_stderr"]],
                      ["u0 counts", lift["lift_off_counts"], lift["lift_off_counts_stderr"]]])
+
+
+def _held_command(data: dict, t_step: float) -> float:
+    """The command held after the step: the median from the step on. [PWM counts]"""
+    import numpy as np
+
+    after = data["time_s"] >= t_step
+    return float(np.median(data["command_pwm"][after]))
 
 
 def _log_result(data: dict, meta: dict, fits) -> dict:

@@ -52,7 +52,8 @@ def _save_plot(path: Path, t, pressure, title: str, metrics: dict) -> None:
 
 @simulate_app.command("open-loop")
 def open_loop_cmd(
-    valve: int = typer.Option(40, "--valve", help="Inlet PWM step, 0..255 counts (bleed shut)."),
+    valve: int = typer.Option(117, "--valve", help="Inlet PWM step, 0..255 counts (bleed shut); the default is the "
+                                                   "calibration step (the valves lift off at 112 counts)."),
     duration: str = typer.Option("0.5s", "--duration", help="Simulated time, e.g. 0.5s."),
     supply: str = typer.Option("0.8MPa", "--supply", help="Supply pressure (gauge), ≤ 1 MPa."),
     load: str = typer.Option("0.6N", "--load", help="Hanging load."),

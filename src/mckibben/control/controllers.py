@@ -105,10 +105,17 @@ class FirstOrderModel:
         ----------
         pressure : float
             Operating point. [Pa]
+
+        Returns
+        -------
+        FirstOrderModel
+            Gain G_s [Pa/count], the same τ [s] and θ [s], no lift-off.
         """
-        if not pressure > 0:
-            raise InputError(f"through_origin: pressure={pressure!r} must be > 0 Pa")
+        if not (math.isfinite(pressure) and pressure > 0):
+            raise InputError(f"through_origin: pressure={pressure!r} must be a finite pressure > 0 Pa")
         gain = pressure / (self.lift_off + pressure / self.gain)
+        if not (math.isfinite(gain) and gain > 0):
+            raise InputError(f"through_origin: no line through the origin meets {self!r} at {pressure:g} Pa")
         return FirstOrderModel(float(gain), self.tau, self.dead_time)
 
     def transfer_function(self, pade_order: int = 2) -> control.TransferFunction:

@@ -112,6 +112,9 @@ N_ISTATE = 17
 #: Supervisor 2b: the inlet is shut while p + LEAD_SAMPLES·(p − p_prev) > p_max + margin.
 LEAD_SAMPLES = 4
 P_NONE = 2_000_000  #: IS_P_PREV before the first step: a falling 'rate', so no cut on the first sample
+#: Supervisor 3: a valve at or above this many counts is open wide enough that the pressure must
+#: move (above the calibrated valves' lift-off, 112 counts, and its +30 %, 146).
+STUCK_PWM = 160
 
 
 def tanh_table() -> np.ndarray:
@@ -262,7 +265,7 @@ def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa)
         st[IS_MISSING_N] = 0
         if a_raw < ip[IP_GAIN0 + 13] or a_raw > ip[IP_GAIN0 + 14]:
             st[IS_LATCHED] |= FAULT_ADC_RANGE
-        if a_raw == st[IS_HELD_ADC] and (st[IS_LAST_INLET] >= 128 or st[IS_LAST_BLEED] >= 128):
+        if a_raw == st[IS_HELD_ADC] and (st[IS_LAST_INLET] >= STUCK_PWM or st[IS_LAST_BLEED] >= STUCK_PWM):
             if st[IS_STUCK_N] < 65535:
                 st[IS_STUCK_N] += 1
         else:
@@ -435,7 +438,8 @@ class CoreParams:
     adc_min, adc_max : int
         Valid ADC range; a reading outside latches a vent. [count]
     n_stuck : int
-        Identical readings while a valve is at >= 128 counts that latch a vent; 0 = off. [-]
+        Identical readings while a valve is at >= :data:`STUCK_PWM` counts that latch a vent;
+        0 = off. [-]
     n_missing : int
         Consecutive missing samples that latch a vent; 0 = off. [-]
     ts : float

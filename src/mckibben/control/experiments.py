@@ -4,10 +4,12 @@ Every experiment runs the firmware core (:mod:`mckibben.control.core`) on the ba
 simulator (:mod:`mckibben.plant`) through one seam, :func:`run_closed_loop`. The gains are the
 ones of ``docs/control.md``, chosen on the calibrated default plant:
 
-1. identify the plant with an open-loop step of the inlet valve (:func:`identify_plant`), as the
-   paper did (§IV.A);
-2. the sliding-mode model term uses that τ and G; ε and Ki are ours (:data:`SMC_TUNING`);
-3. the PID is lambda-tuned on the same model (:func:`default_pid`).
+1. identify the plant with two open-loop steps of the inlet valve (:func:`identify_plant`): τ and
+   θ as the paper did (§IV.A), and the valves' lift-off u0 with the gain above it;
+2. two sliding-mode laws (:data:`LAWS`): ``model`` (ours; its model term uses τ, G and u0;
+   :data:`SMC_TUNING`) and ``paper`` (β·tanh(S/ε) alone, as the paper ran it;
+   :data:`PAPER_SMC_TUNING`);
+3. the PID is lambda-tuned on the paper's line through the origin at 0.55 MPa (:func:`default_pid`).
 """
 
 from __future__ import annotations
@@ -159,10 +161,10 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
         from mckibben.plant import CALIBRATION_PWM
 
         u1 = CALIBRATION_PWM
-    if not 1 <= int(u1) <= 255:
-        raise InputError(f"identify_plant: u1={u1!r} must be 1..255 counts")
-    if not 1 <= int(du) <= 255 - int(u1):
-        raise InputError(f"identify_plant: du={du!r} must be 1..{255 - int(u1)} counts")
+    if not (float(u1).is_integer() and 1 <= u1 <= 254):
+        raise InputError(f"identify_plant: u1={u1!r} must be a whole number of counts in 1..254")
+    if not (float(du).is_integer() and 1 <= du <= 255 - u1):
+        raise InputError(f"identify_plant: du={du!r} must be a whole number of counts in 1..{255 - int(u1)}")
     n, t = _steps(duration)
     steps = (int(u1), int(u1) + int(du))
     spec = core_spec([CoreParams(mode=MODE_OPEN_LOOP, open_loop_inlet=u) for u in steps])
@@ -193,7 +195,7 @@ LAWS = ("model", "paper")
 
 #: Our sliding-mode design (law ``model``; ``docs/control.md`` says how it was chosen): with the
 #: model term carrying the holding command, a small switching gain suffices.
-SMC_TUNING = {"beta": 50.0, "eps": 100e3, "ki": 5.0, "i_max": 1e4}
+SMC_TUNING = {"beta": 50.0, "eps": 100e3, "ki": 5.0, "i_max": 4e4}
 #: The paper's law (``paper``): β is the paper's (120 or 150); ε and Ki are ours, chosen so that
 #: the integral brings the β = 120 step to its target within Fig. 13's second.
 PAPER_SMC_TUNING = {"eps": 50e3, "ki": 12.0, "i_max": 1e4}
@@ -220,6 +222,11 @@ def smc_core_params(model: FirstOrderModel, beta: float | None = None, *, law: s
         Surface integral weight; default from the law's tuning. [1/s]
     base : CoreParams, optional
         Supervisor and other settings. [-]
+
+    Returns
+    -------
+    CoreParams
+        With ``mode = MODE_SMC``; ``g = 0`` for the ``paper`` law.
     """
     if law not in LAWS:
         raise unknown_name("sliding-mode law", law, LAWS)
@@ -251,6 +258,11 @@ def default_pid(model: FirstOrderModel, closed_loop_tau: float | None = None,
         λ; default τ/3 (three times faster than open loop, a usual aggressive choice). [s]
     operating_point : float, default 0.55e6
         Pressure at which the line through the origin meets the model. [Pa]
+
+    Returns
+    -------
+    PIDDesign
+        Gains in PWM counts per Pa and python-control's verdict on them.
     """
     lam = model.tau / 3.0 if closed_loop_tau is None else closed_loop_tau
     return design_pid(model.through_origin(operating_point), lam)

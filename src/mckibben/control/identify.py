@@ -479,14 +479,16 @@ def fit_lift_off(fits, commands) -> dict:
     Returns
     -------
     dict
-        ``gain_Pa_per_count``, ``lift_off_counts`` and, with three or more steps, their standard
-        errors (``*_stderr``; NaN with two: a line through two points has no residual).
+        ``gain_Pa_per_count`` [Pa/count], ``lift_off_counts`` [counts] and their standard errors
+        (``*_stderr``; NaN with two steps: a line through two points has no residual), with the
+        data they came from: ``final_pressure_Pa`` and ``commands_pwm``.
 
     Raises
     ------
     InputError
-        Fewer than two steps, steps to the same command, or final pressures that do not rise
-        with the command.
+        Fewer than two steps, steps to the same command, final pressures that do not rise with
+        the command, or a lift-off outside [0, smallest command) — the steps do not share one
+        line (a saturated valve, or one far above its lift-off where the map bends).
     """
     fits = list(fits)
     u = np.asarray(commands, dtype=float)
@@ -506,6 +508,10 @@ def fit_lift_off(fits, commands) -> dict:
         raise InputError(f"lift-off: the final pressures {np.round(p).tolist()} Pa do not rise with the commands "
                          f"{u.tolist()} counts (a saturated or shut valve?)")
     u0 = -b / g
+    if not 0 <= u0 < u.min():
+        raise InputError(f"lift-off: the line through the final pressures {np.round(p).tolist()} Pa at "
+                         f"{u.tolist()} counts meets zero at {u0:.1f} counts, outside [0, {u.min():g}): use steps "
+                         "a few counts apart just above where the pressure starts to rise")
     # u0 = −b/g: first-order propagation of the line's covariance
     jac = np.array([b / g**2, -1.0 / g])
     return {"gain_Pa_per_count": float(g), "lift_off_counts": float(u0),

@@ -227,7 +227,7 @@ def identify_muscle_plant(plant_params, pwm: int | None = None):
     Parameters
     ----------
     plant_params : PlantParams
-        One plant instance.
+        One plant instance. [-]
     pwm : int, optional
         Inlet PWM count of the first step; default the plant's calibration step. [counts]
 
