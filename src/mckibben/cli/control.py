@@ -358,7 +358,7 @@ def _plot_robustness(path: str, res) -> None:
         data = [res["metrics"][c][k] * scale for c in CONTROLLER_NAMES]
         data = [d[np.isfinite(d)] for d in data]
         ax.boxplot(data, whis=(5, 95), showfliers=True, flierprops={"markersize": 2})
-        ax.set_xticks([1, 2, 3], ["PID", "sliding mode\n(ours)", "sliding mode\n(paper, β = 150)"])
+        ax.set_xticks([1, 2, 3], ["PID", "SMC\n(ours)", "SMC, paper's\nlaw, β = 150"])
         ax.set_ylabel(lab)
     fig.suptitle(f"{len(res['metrics']['pid']['time_constant_s'])} random plants (whiskers 5–95 %)")
     fig.tight_layout()
