@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -64,9 +65,9 @@ class LoopRecord:
     length: np.ndarray
     fstate: np.ndarray | None = None
 
-    @property
+    @cached_property
     def command(self) -> np.ndarray:
-        """Signed command, inlet − bleed. [PWM counts]"""
+        """Signed command, inlet − bleed, computed once (metrics index it per instance). [PWM counts]"""
         return self.inlet.astype(float) - self.bleed.astype(float)
 
     def metrics(self, i: int = 0, t_step: float | None = None) -> dict:

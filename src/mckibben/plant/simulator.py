@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -80,9 +81,9 @@ class SimResult:
     istate: np.ndarray | None = None
     fstate: np.ndarray | None = None
 
-    @property
+    @cached_property
     def command(self) -> np.ndarray:
-        """Signed valve command, inlet − bleed. [PWM counts]"""
+        """Signed valve command, inlet − bleed, computed once (callers index it per instance). [PWM counts]"""
         return self.inlet.astype(float) - self.bleed.astype(float)
 
     def to_pandas(self, i: int = 0):
