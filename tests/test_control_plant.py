@@ -207,7 +207,8 @@ def test_bad_plant_factors(kw, message):
 
 
 @pytest.mark.parametrize("kw, message", [({"u1": 117.5}, "u1=117.5"), ({"u1": 255}, "u1=255"),
-                                         ({"du": 0}, "du=0")])
+                                         ({"du": 0}, "du=0"), ({"u1": "117"}, "u1='117'"),
+                                         ({"u1": True}, "u1=True"), ({"u1": 254}, "u1 \\+ du")])
 def test_identify_plant_bad_steps(kw, message):
     with pytest.raises(InputError, match=message):
         E.identify_plant(**kw)

@@ -226,3 +226,13 @@ def test_core_spec_batch():
     single = [core.CoreController(p).step(300, True, 500e3) for p in params]
     assert [tuple(int(v) for v in o) for o in out] == single
     assert core.core_spec(core.CoreParams(), n=3)[1].shape == (3, core.N_ISTATE)
+
+
+def test_stuck_rule_needs_a_valve_at_stuck_pwm():
+    # a frozen reading counts only while a valve is open past the lift-off range (160 counts)
+    for counts, latched in ((core.STUCK_PWM - 1, False), (core.STUCK_PWM, True)):
+        for inlet, bleed in ((counts, 0), (0, counts)):
+            ctrl = core.CoreController(core.CoreParams(mode=core.MODE_OPEN_LOOP, n_stuck=5, open_loop_inlet=inlet,
+                                                       open_loop_bleed=bleed))
+            faults = [ctrl.step(400, True, 0.0)[2] for _ in range(10)]
+            assert bool(faults[-1] & core.FAULT_STUCK) is latched, (inlet, bleed)

@@ -184,6 +184,8 @@ def test_supervisor_paths(clib):
     ev += [("step", 300, False, 400_000)] * 12          # missing samples: latched at 10
     ev += [("set_mode", 2)] + [("step", 100, True, 700_000)] * 600  # stuck with inlet 255
     ev += [("set_mode", 3), ("set_open_loop", 200, 40)] + [("step", 300, True, 0)] * 3
+    for counts in (159, 160):  # the stuck rule's threshold, STUCK_PWM
+        ev += [("set_mode", 3), ("set_open_loop", counts, 0)] + [("step", 310, True, 0)] * 505
     ev += [("vent",)] + [("step", 300, True, 0)] * 2
     ev += [("set_mode", 0)] + [("step", 300, True, 0)] * 2
     ev += [("set_mode", 7), ("set_max_pressure", 1_000_001), ("set_max_pressure", -1)]

@@ -35,5 +35,16 @@ def test_an_edit_in_another_module_drops_every_cache(tmp_path):
     assert not drop_stale(pkg)
 
 
-def test_a_read_only_or_missing_package_never_raises(tmp_path):
+def test_a_missing_package_or_a_garbled_stamp_never_raises(tmp_path):
     assert drop_stale(tmp_path / "nowhere") in (True, False)
+    pkg = _package(tmp_path)
+    drop_stale(pkg)
+    (pkg / "__pycache__" / STAMP).write_bytes(b"\xff\xfe not text")
+    assert drop_stale(pkg) in (True, False)
+
+
+def test_a_numba_cache_dir_elsewhere_is_left_alone(tmp_path, monkeypatch):
+    pkg = _package(tmp_path)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "elsewhere"))
+    assert not drop_stale(pkg)
+    assert not (pkg / "__pycache__" / STAMP).exists()  # no stamp: nothing claimed as checked

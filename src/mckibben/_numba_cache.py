@@ -6,11 +6,17 @@ core), so an edit there leaves a stale cache that silently runs the old code —
 error. This module keeps a fingerprint of every source the cached functions are built from and
 removes the package's ``*.nbi``/``*.nbc`` files when it changes. An installed (non-editable)
 package is rewritten whole on upgrade and is not affected; a source checkout is.
+
+Only the caches beside the sources (``__pycache__``, Numba's default) are handled: with
+``NUMBA_CACHE_DIR`` set the check stands aside and writes no stamp. A process that imported the
+package before an edit and compiles after it (a long-lived Jupyter kernel) can still write a
+stale cache; restart such processes after editing the plant or the controller core.
 """
 
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 
 #: Subpackages whose modules hold or feed ``@njit(cache=True)`` functions.
@@ -50,6 +56,8 @@ def drop_stale(package_dir: Path) -> bool:
     bool
         True when caches were dropped.
     """
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return False
     try:
         stamp = package_dir / "__pycache__" / STAMP
         now = fingerprint(package_dir)
@@ -61,9 +69,9 @@ def drop_stale(package_dir: Path) -> bool:
                 f.unlink(missing_ok=True)
                 dropped = True
         stamp.parent.mkdir(exist_ok=True)
-        tmp = stamp.with_suffix(".tmp")
+        tmp = stamp.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(now)
         tmp.replace(stamp)
         return dropped
-    except OSError:
+    except (OSError, ValueError):  # unwritable, missing, or a garbled stamp (UnicodeDecodeError)
         return False

@@ -52,8 +52,8 @@ def _save_plot(path: Path, t, pressure, title: str, metrics: dict) -> None:
 
 @simulate_app.command("open-loop")
 def open_loop_cmd(
-    valve: int = typer.Option(117, "--valve", help="Inlet PWM step, 0..255 counts (bleed shut); the default is the "
-                                                   "calibration step (the valves lift off at 112 counts)."),
+    valve: int = typer.Option(None, "--valve", help="Inlet PWM step, 0..255 counts (bleed shut); default the "
+                                                    "calibration step (117 counts; the valves lift off at 112)."),
     duration: str = typer.Option("0.5s", "--duration", help="Simulated time, e.g. 0.5s."),
     supply: str = typer.Option("0.8MPa", "--supply", help="Supply pressure (gauge), ≤ 1 MPa."),
     load: str = typer.Option("0.6N", "--load", help="Hanging load."),
@@ -61,8 +61,9 @@ def open_loop_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """An open-loop inlet-valve step from rest: time constant, rise time, final pressure."""
-    from mckibben.plant import PlantParams, open_loop_step
+    from mckibben.plant import CALIBRATION_PWM, PlantParams, open_loop_step
 
+    valve = CALIBRATION_PWM if valve is None else valve
     if not 0 <= valve <= 255:
         raise InputError(f"--valve: {valve} must be a PWM count in 0..255")
     d = parse_quantity(duration, "time", "--duration", allow_zero=False)

@@ -15,6 +15,7 @@ ones of ``docs/control.md``, chosen on the calibrated default plant:
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass, replace
 from functools import cached_property
 
@@ -67,8 +68,10 @@ class LoopRecord:
 
     @cached_property
     def command(self) -> np.ndarray:
-        """Signed command, inlet − bleed, computed once (metrics index it per instance). [PWM counts]"""
-        return self.inlet.astype(float) - self.bleed.astype(float)
+        """Signed command, inlet − bleed, computed once (metrics index it per instance); read-only. [PWM counts]"""
+        u = self.inlet.astype(float) - self.bleed.astype(float)
+        u.flags.writeable = False
+        return u
 
     def metrics(self, i: int = 0, t_step: float | None = None) -> dict:
         """:func:`~mckibben.control.metrics.step_metrics` of instance ``i``.
@@ -162,10 +165,9 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
         from mckibben.plant import CALIBRATION_PWM
 
         u1 = CALIBRATION_PWM
-    if not (float(u1).is_integer() and 1 <= u1 <= 254):
-        raise InputError(f"identify_plant: u1={u1!r} must be a whole number of counts in 1..254")
-    if not (float(du).is_integer() and 1 <= du <= 255 - u1):
-        raise InputError(f"identify_plant: du={du!r} must be a whole number of counts in 1..{255 - int(u1)}")
+    u1, du = _counts("u1", u1, 1, 254), _counts("du", du, 1, 254)
+    if u1 + du > 255:
+        raise InputError(f"identify_plant: u1 + du = {u1} + {du} counts, the second step must stay within 255")
     n, t = _steps(duration)
     steps = (int(u1), int(u1) + int(du))
     spec = core_spec([CoreParams(mode=MODE_OPEN_LOOP, open_loop_inlet=u) for u in steps])
@@ -176,6 +178,22 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
     fit = fits[0]
     model = FirstOrderModel(lift["gain_Pa_per_count"], float(fit.tau), float(fit.dead_time), lift["lift_off_counts"])
     return fit, model, rec
+
+
+def _counts(name: str, value, lo: int, hi: int) -> int:
+    """A whole number of PWM counts in [lo, hi], or a one-line InputError naming ``name``."""
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        v = operator.index(value) if not isinstance(value, float) else value
+        if isinstance(v, float) and not v.is_integer():
+            raise TypeError
+        v = int(v)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"identify_plant: {name}={value!r} must be a whole number of counts in {lo}..{hi}") from None
+    if not lo <= v <= hi:
+        raise InputError(f"identify_plant: {name}={value!r} must be a whole number of counts in {lo}..{hi}")
+    return v
 
 
 #: How far the measured pressure may rise above ``p_max + margin`` on the calibrated plant.

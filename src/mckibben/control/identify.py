@@ -488,7 +488,8 @@ def fit_lift_off(fits, commands) -> dict:
     InputError
         Fewer than two steps, steps to the same command, final pressures that do not rise with
         the command, or a lift-off outside [0, smallest command) — the steps do not share one
-        line (a saturated valve, or one far above its lift-off where the map bends).
+        line (a saturated valve, or one far above its lift-off where the map bends). A lift-off
+        within one count below zero is taken as 0 (no lift-off, to the fits' noise).
     """
     fits = list(fits)
     u = np.asarray(commands, dtype=float)
@@ -508,6 +509,8 @@ def fit_lift_off(fits, commands) -> dict:
         raise InputError(f"lift-off: the final pressures {np.round(p).tolist()} Pa do not rise with the commands "
                          f"{u.tolist()} counts (a saturated or shut valve?)")
     u0 = -b / g
+    if -1.0 <= u0 < 0.0:  # a valve with no lift-off, within the fits' noise
+        u0 = 0.0
     if not 0 <= u0 < u.min():
         raise InputError(f"lift-off: the line through the final pressures {np.round(p).tolist()} Pa at "
                          f"{u.tolist()} counts meets zero at {u0:.1f} counts, outside [0, {u.min():g}): use steps "

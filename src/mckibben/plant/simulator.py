@@ -83,8 +83,10 @@ class SimResult:
 
     @cached_property
     def command(self) -> np.ndarray:
-        """Signed valve command, inlet − bleed, computed once (callers index it per instance). [PWM counts]"""
-        return self.inlet.astype(float) - self.bleed.astype(float)
+        """Signed valve command, inlet − bleed, computed once (callers index it per instance); read-only. [PWM counts]"""
+        u = self.inlet.astype(float) - self.bleed.astype(float)
+        u.flags.writeable = False
+        return u
 
     def to_pandas(self, i: int = 0):
         """Instance ``i`` as a DataFrame with unit-suffixed columns."""
