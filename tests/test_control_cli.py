@@ -45,3 +45,15 @@ def test_step_json_reports_the_law_and_the_lift_off(cli):
     d = r.json()
     assert d["gains"]["law"] == "model" and d["gains"]["beta_counts"] == 50.0
     assert 100 < d["model"]["lift_off_counts"] < 115 and d["gains"]["lift_off_counts"] == d["model"]["lift_off_counts"]
+
+
+def test_fig13_and_robustness_plots_are_written(cli, tmp_path):
+    png = tmp_path / "fig13.png"
+    r = cli("control", "fig13", "--plot", str(png))
+    assert r.code == 0, r.err
+    assert "paper" in r.out and png.stat().st_size > 20_000  # responses and the τ(β) sweep
+    png = tmp_path / "rob.png"
+    r = cli("control", "robustness", "--n", "4", "--plot", str(png), "--json")
+    assert r.code == 0, r.err
+    assert set(r.json()["summary"]) == {"pid", "smc", "smc_paper"} and png.stat().st_size > 10_000
+    assert not list(tmp_path.glob("*.tmp*"))  # written atomically, nothing left behind

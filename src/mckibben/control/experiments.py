@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import operator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -169,7 +169,7 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
     if u1 + du > 255:
         raise InputError(f"identify_plant: u1 + du = {u1} + {du} counts, the second step must stay within 255")
     n, t = _steps(duration)
-    steps = (int(u1), int(u1) + int(du))
+    steps = (u1, u1 + du)
     spec = core_spec([CoreParams(mode=MODE_OPEN_LOOP, open_loop_inlet=u) for u in steps])
     rec = run_closed_loop(spec, np.zeros(n), duration, plant)
     fits = [fit_step_response(t, rec.pressure[i], np.full(n, float(u)), t_step=0.0, input_step=float(u))
@@ -182,14 +182,13 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
 
 def _counts(name: str, value, lo: int, hi: int) -> int:
     """A whole number of PWM counts in [lo, hi], or a one-line InputError naming ``name``."""
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
     try:
         if isinstance(value, bool):
             raise TypeError
-        v = operator.index(value) if not isinstance(value, float) else value
-        if isinstance(v, float) and not v.is_integer():
-            raise TypeError
-        v = int(v)
-    except (TypeError, ValueError, OverflowError):
+        v = operator.index(value)
+    except TypeError:
         raise InputError(f"identify_plant: {name}={value!r} must be a whole number of counts in {lo}..{hi}") from None
     if not lo <= v <= hi:
         raise InputError(f"identify_plant: {name}={value!r} must be a whole number of counts in {lo}..{hi}")
@@ -255,9 +254,8 @@ def smc_core_params(model: FirstOrderModel, beta: float | None = None, *, law: s
     eps = tuning["eps"] if eps is None else eps
     ki = tuning["ki"] if ki is None else ki
     if law == "paper":
-        model = FirstOrderModel(gain=0.0, tau=0.0)
-    params = smc_params(model, beta, eps, ki, i_max=tuning["i_max"], base=base)
-    return replace(params, g=0.0, tau=0.0, u0=0.0) if law == "paper" else params
+        model = FirstOrderModel(gain=0.0, tau=0.0)  # G = 0: no model term (nor lift-off)
+    return smc_params(model, beta, eps, ki, i_max=tuning["i_max"], base=base)
 
 
 def default_pid(model: FirstOrderModel, closed_loop_tau: float | None = None,
