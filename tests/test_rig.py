@@ -54,7 +54,11 @@ def test_garbage_and_cut_frames_are_counted_and_skipped(tmp_path):
     garbage = n // 100
     cut = n // 250
     both = n // 500
-    assert c["corrupt"] == garbage + cut - both
+    # the recording stops at an arbitrary byte: frame n's garbage burst may be cut off (one
+    # corrupt packet fewer), and if frame n + 1 was cut, the packet it glued to may have come in
+    # (one more, both frames lost after n)
+    edge = {0} | ({-1} if n % 100 == 0 else set()) | ({1} if (n + 1) % 250 == 0 else set())
+    assert c["corrupt"] - (garbage + cut - both) in edge
     assert c["missing"] == 2 * cut - both
     assert cuts >= cut
     assert len(df) == n + 1 - c["missing"] - 1  # rows: every telemetry seq but the lost ones (seq 0 is the ACK)
