@@ -60,8 +60,8 @@ def test_fig13_model_term_makes_beta_matter_little(fig13_rows):
     assert abs(a["time_constant_s"] - b["time_constant_s"]) < 2e-3
 
 
-def test_paper_law_tau_falls_as_beta_passes_the_holding_command():
-    rows = E.beta_sweep([108.0, 120.0, 150.0, 180.0])
+def test_paper_law_tau_falls_as_beta_passes_the_holding_command(model):
+    rows, _ = E.fig13(model, betas=[108.0, 120.0, 150.0, 180.0], laws=("paper",))
     tc = [r["time_constant_s"] for r in rows]
     # below the command that holds 0.55 MPa (~117 counts) the step never gets to 63 %: eq. (11)
     assert np.isnan(tc[0])

@@ -153,7 +153,7 @@ def fig13_cmd(
     Rows for both laws: ``paper`` (β·tanh(S/ε) alone, what the paper measured) and ``model``
     (ours, with the model term) at the paper's β.
     """
-    from mckibben.control.experiments import beta_sweep, fig13, identify_plant
+    from mckibben.control.experiments import fig13, identify_plant
     from mckibben.units import parse_quantity
 
     _png(plot)
@@ -163,7 +163,7 @@ def fig13_cmd(
     fit, model, _ = identify_plant()
     rows, rec = fig13(model, eps=e, ki=ki)
     if plot:
-        sweep = beta_sweep(np.arange(110.0, 201.0, 2.0))
+        sweep, _ = fig13(model, betas=np.arange(110.0, 201.0, 2.0), laws=("paper",))  # τ against β
         _plot_fig13(plot, rec, rows, sweep)
     if json:
         emit_json({"model": {**_model_dict(model), "tau_s_stderr": fit.stderr["tau_s"]}, "rows": rows})

@@ -251,8 +251,8 @@ def track_cmd(
     periods: str = typer.Option(None, "--periods", help="Run the path at several periods (speeds), e.g. 4s,2s,1s,0.5s."),
     reference_only: bool = typer.Option(False, "--reference-only", help="Only compute the pressure references (no simulation)."),
     plot: str = typer.Option(None, "--plot", help="Write the target-vs-achieved figure to this file (PNG)."),
-    beta: float = typer.Option(50.0, "--beta", help="Sliding-mode switching gain of the three controllers [PWM counts] "
-                                                   "(our law, docs/control.md)."),
+    beta: float = typer.Option(None, "--beta", help="Sliding-mode switching gain of the three controllers [PWM counts] "
+                                                    "(our law, docs/control.md; default TRACKING_BETA, 50)."),
     muscle: str = MUSCLE_OPTION,
     pitch_radius: str = PITCH_OPTION,
     discs: str = DISCS_OPTION,
@@ -275,8 +275,9 @@ def track_cmd(
         ref = tip_reference(tool, p)
         runs.append((p, ref))
     if not reference_only:
-        from mckibben.tool.tracking import simulate_tracking
+        from mckibben.tool.tracking import TRACKING_BETA, simulate_tracking
 
+        beta = TRACKING_BETA if beta is None else beta
         if not 0 < beta <= 255:
             raise InputError(f"--beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
         results = simulate_tracking(tool, runs, beta=beta)

@@ -350,33 +350,6 @@ def fig13(model: FirstOrderModel, plant=None, betas=(120.0, 150.0), *, laws=LAWS
     return rows, rec
 
 
-def beta_sweep(betas, plant=None, *, duration: float = 1.0, t_step: float = 0.1) -> list[dict]:
-    """The paper's law over switching gains: the time constant falls as β rises past the command
-    that holds the target (eq. 11, β ≥ A), where Fig. 13's two points lie.
-
-    Parameters
-    ----------
-    betas : sequence of float
-        Switching gains. [PWM counts]
-    plant : optional
-        Plant parameters; default the calibrated default plant. [-]
-    duration : float, default 1.0
-        Record length. [s]
-    t_step : float, default 0.1
-        Time of the step. [s]
-
-    Returns
-    -------
-    list of dict
-        ``beta_counts`` and the step metrics, one per β.
-    """
-    n, _ = _steps(duration)
-    ref = step_reference(n, int(round(t_step / 1e-3)), 0.0, FIG13_TARGET_PA)
-    params = [smc_core_params(FirstOrderModel(0.0, 0.0), float(b), law="paper") for b in betas]
-    rec = run_closed_loop(core_spec(params), ref, duration, plant)
-    return [{"beta_counts": float(b), **rec.metrics(i, t_step)} for i, b in enumerate(betas)]
-
-
 def step_size_table(model: FirstOrderModel, steps=((0.0, 0.2e6), (0.0, 0.55e6), (0.3e6, 0.7e6), (0.55e6, 0.2e6)),
                     loads=(0.0, 1.5, 3.0), beta: float | None = None, plant_for_load=None, hold: float = 0.5,
                     duration: float = 0.6):
