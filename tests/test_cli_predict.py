@@ -82,8 +82,8 @@ def test_bad_input_gives_one_line_and_exit_2(cli, args, message):
     assert r.err.count("\n") == 1 and r.err.startswith(message)
 
 
-def test_reproduce_prints_the_published_tables(cli):
-    r = cli("reproduce", "--json")
+def test_reproduce_prints_the_published_tables(cli, tmp_path):
+    r = cli("reproduce", "--out", str(tmp_path / "report"), "--json")
     assert r.code == 0
     tables = r.json()["length_tables"]
     assert tables["mpam97@0.6N"]["length_m"][-1] == pytest.approx(78.13e-3, abs=0.01e-3)

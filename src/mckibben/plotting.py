@@ -6,6 +6,7 @@ import os
 import tempfile
 
 from mckibben.errors import InputError
+from mckibben.files import apply_umask
 
 
 def save_figure(fig, path, dpi: int = 120) -> None:
@@ -31,6 +32,7 @@ def save_figure(fig, path, dpi: int = 120) -> None:
     os.close(fd)
     try:
         fig.savefig(tmp, dpi=dpi, format=suffix.lstrip(".").lower())
+        apply_umask(tmp, directory=False)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -29,9 +29,26 @@ app = typer.Typer(
     help="Braided pneumatic artificial muscles: characterize, fit, predict, simulate, control, deploy.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
-    add_completion=False,
+    add_completion=True,
     rich_markup_mode=None,
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        from mckibben import __version__
+
+        sys.stdout.write(f"mckibben {__version__}\n")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", "-V", is_eager=True, callback=_print_version,
+                                 help="Print the version and exit."),
+) -> None:
+    """Braided pneumatic artificial muscles: characterize, fit, predict, simulate, control, deploy."""
 
 
 

@@ -20,8 +20,8 @@ from rich.table import Table
 
 from mckibben.errors import InputError
 
-console = Console()
-err_console = Console(stderr=True)
+console = Console(soft_wrap=True)
+err_console = Console(stderr=True, soft_wrap=True)
 
 JSON_OPTION = typer.Option(False, "--json", help="Print one JSON object on stdout (SI units).")
 
@@ -54,13 +54,34 @@ def emit_json(obj: dict) -> None:
 
 
 def print_table(title: str, columns: list[str], rows: list[list[Any]]) -> None:
-    """Print a Rich table of rows (values are formatted with ``str`` unless already strings)."""
+    """Print a table of rows (values are formatted with ``str`` unless already strings).
+
+    On a terminal, a Rich table; otherwise (piped, redirected) plain aligned text, never cut to
+    the terminal's width.
+    """
+    cells = [[v if isinstance(v, str) else _fmt(v) for v in row] for row in rows]
+    if not console.is_terminal:
+        sys.stdout.write(plain_table(title, columns, cells))
+        sys.stdout.flush()
+        return
     table = Table(title=title, title_justify="left")
     for col in columns:
         table.add_column(col, justify="right" if col[:1] != " " else "left")
-    for row in rows:
-        table.add_row(*[v if isinstance(v, str) else _fmt(v) for v in row])
+    for row in cells:
+        table.add_row(*row)
     console.print(table)
+
+
+def plain_table(title: str, columns: list[str], cells: list[list[str]]) -> str:
+    """The table as plain text: a title line, a header, one line per row, columns aligned."""
+    head = [c.strip() for c in columns]
+    widths = [max([len(h)] + [len(r[i]) for r in cells if i < len(r)]) for i, h in enumerate(head)]
+    left = [c[:1] == " " for c in columns]
+
+    def line(values):
+        return "  ".join(v.ljust(w) if lft else v.rjust(w) for v, w, lft in zip(values, widths, left)).rstrip()
+
+    return "\n".join([title, line(head), *[line(r) for r in cells]]) + "\n"
 
 
 def _fmt(value: Any) -> str:

@@ -53,6 +53,7 @@ import pandas as pd
 
 from mckibben.datasets.published import MUSCLES
 from mckibben.errors import InputError
+from mckibben.files import apply_umask
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import MiniatureMuscle, braid_cos_theta
 from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel, spring_force
@@ -386,6 +387,7 @@ def write_campaign(out, seed: int = 0) -> Path:
                     df.to_parquet(folder / fname, index=False)
                 else:
                     _write_csv(df, folder / fname)
+        apply_umask(tmp, directory=True)
         if out.exists():
             shutil.rmtree(out)
         os.replace(tmp, out)

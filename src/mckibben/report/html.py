@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.errors import InputError
+from mckibben.files import apply_umask
 from mckibben.report.figures import ALL_FIGURES
 
 MPA = 1e6
@@ -204,6 +205,7 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
         summary["figures"] = figures
         (tmp / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False), encoding="utf-8")
         (tmp / "index.html").write_text(render_html(summary, figures), encoding="utf-8")
+        apply_umask(tmp, directory=True)
         if out.exists():
             shutil.rmtree(out)
         os.replace(tmp, out)

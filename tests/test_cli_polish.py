@@ -1,0 +1,57 @@
+"""The command line's manners: --version, -h, completion, plain tables when piped, the user's umask."""
+
+from __future__ import annotations
+
+import os
+import stat
+import subprocess
+import sys
+
+import pytest
+
+import mckibben
+
+
+def test_version_and_short_help(cli):
+    r = cli("--version")
+    assert r.code == 0 and r.out.strip() == f"mckibben {mckibben.__version__}"
+    r = cli("-h")
+    assert r.code == 0 and "Usage: mckibben" in r.out and "control" in r.out
+    r = cli("control", "step", "-h")
+    assert r.code == 0 and "--target" in r.out
+
+
+def test_shell_completion_script(cli):
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    r = subprocess.run([sys.executable, "-m", "mckibben.cli", "--show-completion", "bash"], capture_output=True,
+                       text=True, env=env, timeout=120)
+    assert r.returncode == 0 and "_MCKIBBEN_COMPLETE" in r.stdout
+
+
+def test_piped_tables_are_plain_and_never_cut(cli):
+    # stdout is a StringIO here, as it is a pipe for `mckibben control fig13 | cat`
+    r = cli("predict", "length", "--muscle", "mpam97", "--pressure", "0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8MPa",
+            "--load", "0.6N")
+    assert r.code == 0, r.err
+    assert "…" not in r.out and "━" not in r.out and "│" not in r.out
+    assert max(len(line) for line in r.out.splitlines()) > 0
+
+
+@pytest.fixture
+def umask022():
+    old = os.umask(0o022)
+    yield
+    os.umask(old)
+
+
+def test_files_and_folders_follow_the_umask(cli, tmp_path, umask022):
+    pdf = tmp_path / "ws.pdf"
+    r = cli("tool", "workspace", "--grid", "3", "--plot", str(pdf))
+    assert r.code == 0, r.err
+    assert stat.S_IMODE(pdf.stat().st_mode) == 0o644
+    out = tmp_path / "campaign"
+    r = cli("datasets", "generate", "--out", str(out))
+    assert r.code == 0, r.err
+    assert stat.S_IMODE(out.stat().st_mode) == 0o755
+    modes = {stat.S_IMODE(p.stat().st_mode) for p in out.rglob("*") if p.is_file()}
+    assert modes == {0o644}
