@@ -20,7 +20,9 @@ import os
 from pathlib import Path
 
 #: Subpackages whose modules hold or feed ``@njit(cache=True)`` functions.
-CACHED_SUBPACKAGES = ("plant", "control")
+CACHED_SUBPACKAGES = ("plant", "control", "models")
+#: Top-level modules that hold or feed them.
+CACHED_MODULES = ("hardware.py",)
 STAMP = "numba-sources.sha256"
 
 
@@ -37,6 +39,10 @@ def fingerprint(package_dir: Path) -> str:
         for f in sorted((package_dir / sub).glob("*.py")):
             h.update(f.name.encode())
             h.update(f.read_bytes())
+    for name in CACHED_MODULES:
+        f = package_dir / name
+        h.update(name.encode())
+        h.update(f.read_bytes() if f.exists() else b"")
     return h.hexdigest()
 
 
@@ -66,6 +72,10 @@ def drop_stale(package_dir: Path) -> bool:
         dropped = False
         for sub in CACHED_SUBPACKAGES:
             for f in (package_dir / sub / "__pycache__").glob("*.nb[ic]"):
+                f.unlink(missing_ok=True)
+                dropped = True
+        for name in CACHED_MODULES:
+            for f in (package_dir / "__pycache__").glob(f"{Path(name).stem}.*.nb[ic]"):
                 f.unlink(missing_ok=True)
                 dropped = True
         stamp.parent.mkdir(exist_ok=True)

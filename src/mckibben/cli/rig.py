@@ -11,6 +11,7 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
 from mckibben.errors import InputError
+from mckibben.hardware import pressure_from_adc
 from mckibben.units import parse_quantity
 
 rig_app = typer.Typer(help="The rig over its serial link: record, step, emulate.", no_args_is_help=True)
@@ -148,7 +149,7 @@ def step_cmd(
                 sent = True
             for f in parser.feed(link.read(8192)):
                 if isinstance(f, P.Telemetry):
-                    rows.append((f.t_us * 1e-6, f.pressure_adc * 1e6 / 1023, f.reference_pa, f.inlet_pwm - f.bleed_pwm))
+                    rows.append((f.t_us * 1e-6, pressure_from_adc(f.pressure_adc).item(), f.reference_pa, f.inlet_pwm - f.bleed_pwm))
                 elif isinstance(f, P.Ack):
                     acks.append(f)
         link.write(P.stream(4, False, 1))

@@ -29,32 +29,7 @@ import numpy as np
 from mckibben.control import core
 from mckibben.control.core import MODE_OPEN_LOOP, MODE_PID, MODE_SMC, CoreController, CoreParams, core_spec
 from mckibben.errors import InputError
-
-
-def adc_from_pressure(pressure, adc_zero: int = 0, pa_per_count: float = 1e6 / 1023):
-    """The 10-bit ADC count the 0–1 MPa transducer gives for a pressure (rounded, saturated).
-
-    Parameters
-    ----------
-    pressure : array_like
-        Gauge pressure. [Pa]
-    adc_zero : int, default 0
-        Count at zero gauge pressure. [count]
-    pa_per_count : float, default 1e6/1023
-        Pressure per count. [Pa/count]
-
-    Returns
-    -------
-    numpy.ndarray or int
-        ADC count 0..1023. [count]
-
-    Examples
-    --------
-    >>> int(adc_from_pressure(0.55e6))
-    563
-    """
-    a = np.clip(np.floor(np.asarray(pressure, dtype=float) / pa_per_count + adc_zero + 0.5), 0, 1023)
-    return a.astype(np.int64) if a.ndim else int(a)
+from mckibben.hardware import adc_from_pressure  # noqa: F401  (re-exported: the one sensor model)
 
 
 # --- design --------------------------------------------------------------------------------------

@@ -32,7 +32,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from mckibben import hardware as HW
 from mckibben.errors import InputError
+from mckibben.hardware import ADC_MAX
 
 # --- modes and fault flags (firmware/core/controller.h, docs/protocol.md) ---------------------
 
@@ -52,9 +54,9 @@ STATUS_RANGE = 3
 STATUS_GAIN_ID = 4
 
 #: Compiled limit of the maximum pressure [Pa] (full scale of the 0-1 MPa transducer).
-P_MAX_LIMIT = 1_000_000
-TS_US_MIN = 100
-TS_US_MAX = 10_000
+P_MAX_LIMIT = HW.P_MAX_LIMIT
+TS_US_MIN = HW.TS_US_MIN
+TS_US_MAX = HW.TS_US_MAX
 
 
 class Gain(NamedTuple):
@@ -282,8 +284,8 @@ def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa)
             st[IS_LATCHED] |= FAULT_MISSING
     # ADC scaling
     a = st[IS_HELD_ADC]
-    if a > 1023:
-        a = 1023
+    if a > ADC_MAX:
+        a = ADC_MAX
     p = ((a - ip[IP_GAIN0 + 10]) * ip[IP_PPC_Q8] + 128) >> 8
     # supervisor 1 and 2
     pref = _clamp(pref, 0, p_max)
@@ -463,15 +465,15 @@ class CoreParams:
     ki_pid: float = 0.011
     kd: float = 0.0
     tf: float = 0.005
-    p_max: float = 0.8e6
+    p_max: float = float(HW.P_MAX_DEFAULT)
     margin: float = 20e3
     adc_zero: int = 0
-    pa_per_count: float = 1e6 / 1023
+    pa_per_count: float = HW.PA_PER_COUNT
     adc_min: int = 0
     adc_max: int = 1022
     n_stuck: int = 500
     n_missing: int = 10
-    ts: float = 1e-3
+    ts: float = HW.CONTROL_PERIOD
     mode: int = MODE_SMC
     open_loop_inlet: int = 0
     open_loop_bleed: int = 0

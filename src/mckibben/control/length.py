@@ -25,9 +25,10 @@ from numba import njit
 
 from mckibben.control.core import N_ISTATE, core_kernel
 from mckibben.errors import InputError
+from mckibben.hardware import ENCODER_RESOLUTION
 
-#: Encoder resolution of the paper's rig: 500 counts per pulley turn → 0.17 mm per count (§II).
-ENCODER_M_PER_COUNT = 0.17e-3
+#: Encoder resolution of the paper's rig (:data:`mckibben.hardware.ENCODER_RESOLUTION`).
+ENCODER_M_PER_COUNT = ENCODER_RESOLUTION
 
 
 @dataclass(frozen=True)

@@ -54,6 +54,7 @@ import pandas as pd
 from mckibben.datasets.published import MUSCLES
 from mckibben.errors import InputError
 from mckibben.files import apply_umask
+from mckibben.hardware import ENCODER_RESOLUTION, P_MAX_DEFAULT, quantize_length
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import MiniatureMuscle, braid_cos_theta
 from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel, spring_force
@@ -64,7 +65,7 @@ BUNDLED = Path(__file__).with_name("campaign")
 CAMPAIGN_MUSCLES = ("mpam97", "mpam117", "mpam143")
 
 # instrument limits of 000_909f662a44080c85.txt
-ENCODER_STEP = 0.17e-3  #: pulley encoder [m per count] (§III.B)
+ENCODER_STEP = ENCODER_RESOLUTION  #: pulley encoder [m per count] (§III.B, mckibben.hardware)
 LENGTH_TRIAL_SD = 0.3e-3  #: trial-to-trial length scatter [m] (max contraction sd 0.003, §III.B)
 PHOTO_LENGTH_SD = 0.8e-3  #: length error of the photographs [m] (§III.C, Fig. 9)
 PHOTO_ANGLE_SD = np.deg2rad(0.4)  #: angle reading scatter [rad], within the ±1° resolution (§III.C)
@@ -86,7 +87,7 @@ HYSTERESIS_LOAD = 0.6
 STEP_COMMANDS = (0.4, 0.7, 1.0)
 STEP_TIME = 0.05
 STEP_BASE = 0.1  #: command before the step (80 kPa: the transducer never clips at zero) [-]
-P_MAX = 0.8e6
+P_MAX = float(P_MAX_DEFAULT)
 
 
 @dataclass(frozen=True)
@@ -171,7 +172,7 @@ def campaign_truth(name: str) -> CampaignTruth:
 
 
 def _encoder(length, l0):
-    return l0 + np.round((np.asarray(length) - l0) / ENCODER_STEP) * ENCODER_STEP
+    return quantize_length(length, l0, ENCODER_STEP)
 
 
 def _cos_cubic(c, p_pa):

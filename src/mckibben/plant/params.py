@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mckibben import hardware as HW
 from mckibben.errors import InputError, unknown_name
 from mckibben.models.mpam import MiniatureMuscle, predict_length
 
@@ -211,8 +212,8 @@ class PlantParams:
     spring_stiffness: object = 0.0
     spring_free_length: object = 0.097
     adc_zero: object = 0.0
-    pa_per_count: object = 1e6 / 1023.0
-    encoder_resolution: object = 0.17e-3
+    pa_per_count: object = HW.PA_PER_COUNT
+    encoder_resolution: object = HW.ENCODER_RESOLUTION
     pressure_noise: object = 0.0
     seed: object = 0.0
     muscle_name: str = field(default="mpam97", compare=False)

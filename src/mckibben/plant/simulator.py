@@ -25,6 +25,7 @@ from functools import cached_property
 import numpy as np
 from numba import njit
 
+from mckibben import hardware as HW
 from mckibben.errors import InputError
 from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
@@ -143,12 +144,8 @@ def _run(kernel, istate, iparams, fstate, fparams, use_kernel, schedule, prm, s0
             meas = pg
             if noise > 0.0:
                 meas += noise * _gauss(rng)
-            adc = int(round(meas / p[PP.I_PA_PER_COUNT] + p[PP.I_ADC_ZERO]))
-            if adc < 0:
-                adc = 0
-            if adc > 1023:
-                adc = 1023
-            enc = int(round((p[PP.I_NOMINAL_LENGTH] - length) / p[PP.I_ENCODER_RESOLUTION]))
+            adc = HW.adc_count(meas, p[PP.I_PA_PER_COUNT], p[PP.I_ADC_ZERO])
+            enc = HW.encoder_count(length, p[PP.I_NOMINAL_LENGTH], p[PP.I_ENCODER_RESOLUTION])
             r = ref[i if per_instance_ref else 0, k]
             if use_kernel:
                 u_in, u_bl, fault = kernel(istate[i], iparams[i], fstate[i], fparams[i], adc, enc, True, r)
@@ -158,7 +155,7 @@ def _run(kernel, istate, iparams, fstate, fparams, use_kernel, schedule, prm, s0
                 u_bl = schedule[row, k, 1]
                 fault = 0
             out_p[i, k] = pg
-            out_pm[i, k] = (adc - p[PP.I_ADC_ZERO]) * p[PP.I_PA_PER_COUNT]
+            out_pm[i, k] = HW.adc_pressure(adc, p[PP.I_PA_PER_COUNT], p[PP.I_ADC_ZERO])
             out_l[i, k] = length
             out_f[i, k] = ph.muscle_force(pg, length, p)
             out_m[i, k] = s[ph.S_MASS]
@@ -434,8 +431,8 @@ class PlantStepper:
         meas = self.pressure
         if p[PP.I_PRESSURE_NOISE] > 0:
             meas += p[PP.I_PRESSURE_NOISE] * _gauss(self._rng)
-        adc = int(min(max(round(meas / p[PP.I_PA_PER_COUNT] + p[PP.I_ADC_ZERO]), 0), 1023))
-        enc = int(round((p[PP.I_NOMINAL_LENGTH] - self.length) / p[PP.I_ENCODER_RESOLUTION]))
+        adc = int(HW.adc_count(meas, p[PP.I_PA_PER_COUNT], p[PP.I_ADC_ZERO]))
+        enc = int(HW.encoder_count(self.length, p[PP.I_NOMINAL_LENGTH], p[PP.I_ENCODER_RESOLUTION]))
         return adc, enc
 
     def advance(self, inlet: int, bleed: int) -> None:

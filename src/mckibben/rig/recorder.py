@@ -25,6 +25,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from mckibben import hardware as HW
 from mckibben.errors import InputError
 from mckibben.rig import protocol as P
 
@@ -72,9 +73,9 @@ class Recorder:
 
     out: Path
     meta: dict = field(default_factory=dict)
-    pa_per_count: float = 1e6 / 1023
+    pa_per_count: float = HW.PA_PER_COUNT
     nominal_length: float = 0.097
-    encoder_resolution: float = 0.17e-3
+    encoder_resolution: float = HW.ENCODER_RESOLUTION
     flush_interval: float = 0.25
     parser: P.Parser = field(default_factory=P.Parser)
     rows: list = field(default_factory=list)
@@ -120,8 +121,8 @@ class Recorder:
                     self._t_wrap += 2**32
                 self._t_prev = f.t_us
                 self.last = f
-                self.rows.append((f.seq, (f.t_us + self._t_wrap) * 1e-6, f.pressure_adc * self.pa_per_count,
-                                  f.pressure_adc, f.encoder, self.nominal_length - f.encoder * self.encoder_resolution,
+                self.rows.append((f.seq, (f.t_us + self._t_wrap) * 1e-6, HW.adc_pressure(f.pressure_adc, self.pa_per_count, 0.0),
+                                  f.pressure_adc, f.encoder, HW.encoder_length(f.encoder, self.nominal_length, self.encoder_resolution),
                                   f.inlet_pwm, f.bleed_pwm, f.mode, f.faults, float(f.reference_pa), float(f.surface_pa)))
         if time.monotonic() - self._flushed_at >= self.flush_interval:
             self.flush()
