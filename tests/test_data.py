@@ -10,7 +10,7 @@ from mckibben.data import check_muscle, read_muscle, read_table
 from mckibben.errors import InputError
 from mckibben.units import G_N
 
-MUSCLE = 'id = "m97"\nnominal_length_mm = 97\nstrand_length_mm = 112\nbraid_angle_deg = 20\n'
+MUSCLE = 'id = "m97"\nnominal_length_mm = 97\nouter_diameter_mm = 1.2\nstrand_length_mm = 112\nbraid_angle_deg = 20\n'
 
 
 def _write(tmp_path: Path, name: str, text: str) -> Path:
@@ -46,7 +46,7 @@ BAD_TABLES = [
      "isotonic.csv: missing column load_<unit> (e.g. load_N); a isotonic table needs pressure, load, length"),
     ("unknown.csv", "pressure_MPa,load_N,length_mm,colour\n0.1,0.6,90,red\n",
      "unknown.csv: column 'colour' is unknown; known columns are pressure_<unit>, load_<unit>, length_<unit>,"
-     " force_<unit>, braid_angle_<unit>, time_<unit>, command, trial, direction, muscle"),
+     " held_length_<unit>, force_<unit>, tare_<unit>, braid_angle_<unit>, time_<unit>, command, trial, direction, muscle"),
     ("other.csv", "pressure_MPa,load_N,length_mm,time_s\n0.1,0.6,90,0\n",
      "other.csv: column time_s is not part of the isotonic schema (required: pressure, load, length;"
      " optional: trial, muscle)"),
@@ -98,11 +98,14 @@ BAD_MUSCLES = [
     ('id = "a"\nnominal_length_mm = 97\nstrand_length_furlong = 1\n',
      "key strand_length_furlong: unknown unit 'furlong' for strand_length; use one of m, cm, mm, um, in"),
     ('id = "a"\nnominal_length_mm = -97\nstrand_length_mm = 112\n', "key nominal_length_mm: -97 is not a positive number"),
-    ('id = "a"\nnominal_length_mm = 97\nstrand_length_mm = 90\n',
+    ('id = "a"\nnominal_length_mm = 97\nouter_diameter_mm = 1.2\nstrand_length_mm = 90\n',
      "key strand_length: 90 mm is shorter than the nominal length 97 mm; a braid strand is at least as long as the muscle (eq. 1)"),
     ('id = "a"\ncolour = "red"\n', "key 'colour' is unknown; known keys are nominal_length_<unit>, strand_length_<unit>,"
      " outer_diameter_<unit>, tube_inner_diameter_<unit>, tube_outer_diameter_<unit>, strand_diameter_<unit>,"
-     " braid_angle_<unit>, id, notes, synthetic"),
+     " braid_angle_<unit>, id, notes, synthetic, force_model"),
+    ('id = "a"\nnominal_length_mm = 97\n', "key outer_diameter_<unit> missing (e.g. outer_diameter_mm = ...)"),
+    ('id = "a"\nnominal_length_mm = 97\nouter_diameter_mm = 12\n[force_model]\nmodel = "spring"\n',
+     "key force_model.parameters: missing; a fitted force law needs its parameters"),
 ]
 
 
@@ -127,3 +130,68 @@ def test_muscle_file_that_does_not_match(tmp_path):
         check_muscle(t, m)
     assert str(exc.value) == (f"{tmp_path / 'b.csv'}: row 2 (line 3), column length_mm: 140 mm is longer than the strand"
                               f" length 112 mm of muscle file {tmp_path / 'm.toml'} (id 'm97'); does the muscle file match the data?")
+
+
+# --- isometric tables ---------------------------------------------------------------------------
+
+ISO = ("held_length_cm,pressure_bar,force_N,direction,trial\n"
+       "30,0,2.0,inflate,1\n30,3,60.0,inflate,1\n30,6,110.0,inflate,1\n30,3,64.0,deflate,1\n30,0,2.5,deflate,1\n"
+       "27,0,-1.0,inflate,1\n27,3,30.0,inflate,1\n27,6,70.0,inflate,1\n27,3,33.0,deflate,1\n27,0,-0.5,deflate,1\n")
+
+
+def test_isometric_table_in_any_units_and_detected_from_its_columns(tmp_path):
+    t = read_table(_write(tmp_path, "iso.csv", ISO))
+    assert t.kind == "isometric"
+    assert t.data["held_length"].tolist()[:2] == pytest.approx([0.30, 0.30])  # cm -> m
+    assert t.data["pressure"].max() == pytest.approx(6e5)  # bar -> Pa
+
+
+def test_isometric_tare_lowest_is_per_run_and_reported(tmp_path):
+    from mckibben.data import apply_tare
+
+    t = read_table(_write(tmp_path, "iso.csv", ISO))
+    same, rep = apply_tare(t)
+    assert same is t and rep == {"method": "none"}
+    tared, rep = apply_tare(t, "lowest")
+    # the run at 30 cm reads 2.0 and 2.5 N at 0 bar: its tare is their mean
+    assert [r["tare_N"] for r in rep["per_run_N"]] == pytest.approx([-0.75, 2.25])
+    assert tared.data["force"].iloc[1] == pytest.approx(60.0 - 2.25)
+    col = read_table(_write(tmp_path, "iso2.csv", ISO.replace("trial\n", "trial,tare_N\n").replace(",1\n", ",1,0.5\n")))
+    assert apply_tare(col)[1]["note"].startswith("the tare column was not subtracted")
+    assert apply_tare(col, "column")[0].data["force"].iloc[1] == pytest.approx(59.5)
+    with pytest.raises(InputError, match="tare 'column' needs a tare_<unit> column"):
+        apply_tare(t, "column")
+
+
+BAD_ISO = [
+    ("noheld.csv", "pressure_kPa,force_N,direction,trial\n0,1,inflate,1\n100,5,inflate,1\n",
+     "noheld.csv: missing column held_length_<unit> (e.g. held_length_mm); a isometric table needs held_length,"
+     " pressure, force, direction, trial"),
+    ("nodir.csv", "held_length_mm,pressure_kPa,force_N,trial\n300,0,1,1\n300,100,5,1\n",
+     "nodir.csv: missing column direction; a isometric table needs held_length, pressure, force, direction, trial"),
+    ("onelength.csv", "held_length_mm,pressure_kPa,force_N,direction,trial\n300,0,1,inflate,1\n300,100,5,inflate,1\n",
+     "onelength.csv: column held_length_mm: only one held length (300 mm); an isometric table needs two or more to"
+     " fit force(P, L) (one length at rest is a blocked_force table)"),
+    ("onepressure.csv", "held_length_mm,pressure_kPa,force_N,direction,trial\n300,100,1,inflate,1\n"
+     "300,100,5,deflate,1\n280,0,1,inflate,1\n280,100,3,inflate,1\n",
+     "onepressure.csv: row 1 (line 2), column pressure_kPa: the run at held length 300 mm, trial 1 has one pressure"
+     " (100 kPa); an isometric run steps the pressure up and down"),
+    ("baddir.csv", "held_length_mm,pressure_kPa,force_N,direction,trial\n300,0,1,up,1\n280,100,5,inflate,1\n",
+     "baddir.csv: row 1 (line 2), column direction: 'up' is not a direction; use inflate or deflate"),
+]
+
+
+@pytest.mark.parametrize("name, text, message", BAD_ISO, ids=[b[0] for b in BAD_ISO])
+def test_bad_isometric_table(tmp_path, name, text, message):
+    with pytest.raises(InputError) as exc:
+        read_table(_write(tmp_path, name, text))
+    assert str(exc.value) == message.replace(name, str(tmp_path / name), 1)
+
+
+def test_commercial_muscle_needs_only_id_length_and_diameter(tmp_path):
+    m = read_muscle(_write(tmp_path, "f.toml", 'id = "festo10"\nnominal_length_mm = 300\nouter_diameter_mm = 12\n'))
+    assert (m.strand_length, m.braid_angle, m.tube_inner_diameter) == (None, None, None)
+    with pytest.raises(InputError) as exc:
+        m.need("strand_length", "fit kinematic (eq. 2)")
+    assert str(exc.value) == (f"{tmp_path / 'f.toml'}: key strand_length_<unit> missing; fit kinematic (eq. 2) needs it"
+                              " (e.g. strand_length_mm = ...)")

@@ -44,3 +44,12 @@ def test_every_public_argument_is_documented_with_a_unit(qualname, func):
     text = section[1].split("\n\n    ")[0]
     for p in params:
         assert re.search(rf"^{p}\b|, {p}\b|^{p},", section[1], re.M), f"{qualname}: argument {p!r} is undocumented"
+
+
+def test_data_md_tables_are_generated_from_the_schema():
+    from pathlib import Path
+
+    from mckibben.data.schema import schema_markdown
+
+    text = (Path(__file__).parents[1] / "docs" / "data.md").read_text(encoding="utf-8")
+    assert schema_markdown() in text

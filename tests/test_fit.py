@@ -34,7 +34,10 @@ from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH,
 
 SEEDS = range(20)
 MIN_COVERED = 16  # of 20; see the module docstring
-MUSCLE = MuscleSpec("m", nominal_length=0.117, strand_length=0.145)
+#: the miniature muscle of 000 (§II): 1.2 mm outer, tube 0.5/0.9 mm, strand 0.1 mm, braid ~20°
+MINI = dict(outer_diameter=1.2e-3, tube_inner_diameter=0.5e-3, tube_outer_diameter=0.9e-3, strand_diameter=0.1e-3,
+            braid_angle=float(np.deg2rad(20.0)))
+MUSCLE = MuscleSpec("m", nominal_length=0.117, strand_length=0.145, **MINI)
 
 
 def table(kind, **cols):
@@ -154,13 +157,13 @@ def test_chou_hannaford_round_trip():
         load = np.repeat([0.6, 1.1, 1.6, 2.1, 2.6, 3.1], 8)
         ell, _ = length_under_load(p, load, geom)
         fits.append(fit_chou_hannaford(table("isotonic", pressure=p, load=load, length=ell + r.normal(0, 0.3e-3, p.size)),
-                                       MuscleSpec("m", 0.117, 0.145, outer_diameter=1.3e-3, braid_angle=np.deg2rad(25))))
+                                       MuscleSpec("m", 0.117, 0.145, **(MINI | dict(outer_diameter=1.3e-3, braid_angle=np.deg2rad(25))))))
     assert_coverage([geom.strand_length, geom.d0], fits)
 
 
 def test_tondu_lopez_round_trip():
     k, r0 = 1.6, 0.6e-3
-    spec = MuscleSpec("m", 0.117, 0.145)
+    spec = MuscleSpec("m", 0.117, 0.145, **MINI)
     fits = []
     for seed in SEEDS:
         r = np.random.default_rng(seed)

@@ -5,7 +5,7 @@ import pytest
 
 from mckibben.datasets.campaign import BUNDLED
 
-MUSCLE = 'id = "mpam117"\nnominal_length_mm = 117\nstrand_length_mm = 145\nbraid_angle_deg = 20\n'
+MUSCLE = 'id = "mpam117"\nnominal_length_mm = 117\nouter_diameter_mm = 1.2\nstrand_length_mm = 145\nbraid_angle_deg = 20\n'
 
 
 def test_kinematic_fit_from_a_two_column_csv(cli, tmp_path):

@@ -186,6 +186,10 @@ def read_table(path, kind: str | None = None) -> Table:
         kind = p.stem
     if kind is None:
         kind = detect_kind(cols)
+        explains = [sc for sc in SCHEMAS.values() if set(cols) <= set(sc.allowed)]
+        if explains and kind is not None and not set(cols) <= set(SCHEMAS[kind].allowed):
+            # the columns name one kind (e.g. held_length: isometric) that misses a required one
+            kind = max(explains, key=lambda sc: len(set(sc.required) & set(cols))).kind
         if kind is None:
             best = max(SCHEMAS.values(), key=lambda s: len(set(s.required) & set(cols)))
             missing = [q for q in best.required if q not in cols]
@@ -269,7 +273,88 @@ def read_table(path, kind: str | None = None) -> Table:
                     f"{_where(name, r, col, is_csv)}: time {_g(t[back[0] + 1])} does not increase"
                     f" (row {prev} has {_g(t[back[0]])}); time must increase within each trial"
                 )
-    return Table(kind, name, data, {q: c[2] for q, c in cols.items()})
+    table = Table(kind, name, data, {q: c[2] for q, c in cols.items()})
+    if kind == "isometric":
+        _check_isometric(table)
+    return table
+
+
+def _check_isometric(table: Table) -> None:
+    """An isometric table spans two held lengths or more and two pressures or more per run."""
+    d = table.data
+    lengths = np.unique(np.round(d["held_length"].to_numpy(), 9))
+    if lengths.size < 2:
+        raise InputError(
+            f"{table.where(None, 'held_length')}: only one held length ({lengths[0] * 1e3:g} mm); an isometric table"
+            " needs two or more to fit force(P, L) (one length at rest is a blocked_force table)"
+        )
+    for (ell, trial), grp in d.groupby(["held_length", "trial"], sort=True):
+        if np.unique(np.round(grp["pressure"].to_numpy(), 3)).size < 2:
+            r = int(grp.index[0])
+            raise InputError(
+                f"{table.where(r, 'pressure')}: the run at held length {ell * 1e3:g} mm, trial {trial} has one"
+                f" pressure ({grp['pressure'].iloc[0] / 1e3:g} kPa); an isometric run steps the pressure up and down"
+            )
+
+
+#: Tare methods of :func:`apply_tare`.
+TARES = ("none", "lowest", "column")
+
+
+def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
+    """Subtract the load cell's zero from an isometric table's force (off by default).
+
+    A load cell that was not zeroed reads a few newtons at zero pressure (pre-tension at rest
+    length, or a negative reading on a slack muscle; ``/work/shared/notes/lab-data.md``). Two ways
+    to remove it:
+
+    - ``"lowest"``: per run (held length and trial), the mean force at the run's lowest pressure
+      (inflate and deflate rows alike) is subtracted, so every run starts at zero force. This also
+      removes real pre-tension at rest length: use it when the models should see force due to
+      pressure only.
+    - ``"column"``: the table's ``tare`` column (a tare run's reading) is subtracted row by row.
+
+    Parameters
+    ----------
+    table : Table
+        An ``isometric`` table.
+    method : {"none", "lowest", "column"}, default "none"
+        How to tare. [-]
+
+    Returns
+    -------
+    table : Table
+        The table with the force tared (the same table for ``"none"``).
+    report : dict
+        ``method`` and, when used, ``per_run_N``: a list of ``{held_length_m, trial, tare_N}``
+        (``"lowest"``) or ``tare_N_range`` (``"column"``). Printed by the CLI when a tare is used.
+    """
+    if method not in TARES:
+        from mckibben.errors import unknown_name
+
+        raise unknown_name("tare", method, TARES)
+    if table.kind != "isometric":
+        raise InputError(f"--tare: applies to isometric tables; {table.path} is a {table.kind} table")
+    d = table.data.copy()
+    report: dict = {"method": method}
+    if method == "none":
+        if "tare" in d:
+            report["note"] = "the tare column was not subtracted (use tare 'column')"
+        return table, report
+    if method == "column":
+        if "tare" not in d:
+            raise InputError(f"{table.path}: tare 'column' needs a tare_<unit> column (e.g. tare_N)")
+        d["force"] = d["force"] - d["tare"]
+        report["tare_N_range"] = [float(d["tare"].min()), float(d["tare"].max())]
+    else:
+        runs = []
+        for (ell, trial), grp in d.groupby(["held_length", "trial"], sort=True):
+            p = grp["pressure"].to_numpy()
+            zero = float(grp["force"].to_numpy()[np.isclose(p, p.min(), rtol=0, atol=1.0)].mean())
+            d.loc[grp.index, "force"] = grp["force"] - zero
+            runs.append({"held_length_m": float(ell), "trial": int(trial), "tare_N": zero})
+        report["per_run_N"] = runs
+    return Table(table.kind, table.path, d, table.columns), report
 
 
 def _numbers(raw: pd.Series) -> tuple[np.ndarray, list[tuple[int, str]]]:
@@ -320,52 +405,82 @@ def _example_column(quantity: str) -> str:
 class MuscleSpec:
     """A muscle as described by its TOML file (SI).
 
+    Only ``id``, the nominal length and the outer diameter are required: a commercial muscle's
+    braid angle and strand length are not published (``/work/shared/notes/lab-data.md``). A
+    model that needs a missing quantity either fits it within physical bounds or asks for it
+    with :meth:`need` (one line naming the key).
+
     Attributes
     ----------
     id : str
         The muscle's id, e.g. ``"mpam97"``.
     nominal_length : float
         Length at zero gauge pressure and no load, L0. [m]
-    strand_length : float
-        Length of one braid strand, Ls. [m]
-    outer_diameter, tube_inner_diameter, tube_outer_diameter, strand_diameter : float
-        Construction. [m]
-    braid_angle : float
-        Braid angle at rest, from the axis. [rad]
+    strand_length : float or None
+        Length of one braid strand, Ls (None: not known). [m]
+    outer_diameter : float or None
+        Outer diameter at rest (required in a file). [m]
+    tube_inner_diameter, tube_outer_diameter, strand_diameter : float or None
+        Construction (None: not known). [m]
+    braid_angle : float or None
+        Braid angle at rest, from the axis (None: not known). [rad]
     notes : str
         Free text.
     synthetic : bool
         Whether the muscle (and its data) are generated, not measured.
     path : str
         The file it was read from.
+    force_model : dict or None
+        A fitted static force law (``[force_model]`` table written by ``mckibben fit --save``):
+        ``model``, ``parameters`` (SI) and ``valid_range``.
     """
 
     id: str
     nominal_length: float
-    strand_length: float
-    outer_diameter: float = 1.2e-3
-    tube_inner_diameter: float = 0.5e-3
-    tube_outer_diameter: float = 0.9e-3
-    strand_diameter: float = 0.1e-3
-    braid_angle: float = float(np.deg2rad(20.0))
+    strand_length: float | None = None
+    outer_diameter: float | None = None
+    tube_inner_diameter: float | None = None
+    tube_outer_diameter: float | None = None
+    strand_diameter: float | None = None
+    braid_angle: float | None = None
     notes: str = ""
     synthetic: bool = False
     path: str = ""
+    force_model: dict | None = None
+
+    def need(self, quantity: str, model: str) -> float:
+        """The value of an optional quantity a model needs, or one line naming the missing key.
+
+        Parameters
+        ----------
+        quantity : str
+            A field name, e.g. ``"strand_length"``. [-]
+        model : str
+            The model that needs it, for the message. [-]
+        """
+        value = getattr(self, quantity)
+        if value is None:
+            unit = "deg" if quantity == "braid_angle" else "mm"
+            raise InputError(f"{self.path or self.id}: key {quantity}_<unit> missing; {model} needs it"
+                             f" (e.g. {quantity}_{unit} = ...)")
+        return float(value)
 
     @property
     def geometry(self):
-        """The construction as a :class:`~mckibben.models.mpam.MiniatureGeometry`."""
+        """The construction as a :class:`~mckibben.models.mpam.MiniatureGeometry` (every size needed)."""
         from mckibben.models.mpam import MiniatureGeometry
 
-        return MiniatureGeometry(self.outer_diameter, self.tube_inner_diameter, self.tube_outer_diameter,
-                                 self.strand_diameter, self.braid_angle)
+        sizes = [self.need(q, "the miniature geometry") for q in ("outer_diameter", "tube_inner_diameter",
+                                                                 "tube_outer_diameter", "strand_diameter",
+                                                                 "braid_angle")]
+        return MiniatureGeometry(*sizes)
 
 
 #: Muscle-file keys: field -> (dimension, required).
 MUSCLE_KEYS: dict[str, tuple[str, bool]] = {
     "nominal_length": ("length", True),
-    "strand_length": ("length", True),
-    "outer_diameter": ("length", False),
+    "strand_length": ("length", False),
+    "outer_diameter": ("length", True),
     "tube_inner_diameter": ("length", False),
     "tube_outer_diameter": ("length", False),
     "strand_diameter": ("length", False),
@@ -380,9 +495,10 @@ def read_muscle(path) -> MuscleSpec:
     ----------
     path : str or pathlib.Path
         The TOML file, e.g. ``mpam97.toml`` with ``id = "mpam97"``, ``nominal_length_mm = 97``,
-        ``strand_length_mm = 112`` and optionally ``outer_diameter_mm``, ``tube_inner_diameter_mm``,
+        ``outer_diameter_mm = 1.2`` and optionally ``strand_length_mm``, ``tube_inner_diameter_mm``,
         ``tube_outer_diameter_mm``, ``strand_diameter_mm``, ``braid_angle_deg``, ``notes``,
-        ``synthetic``.
+        ``synthetic`` and a ``[force_model]`` table (a fitted force law, written by
+        ``mckibben fit --save``).
 
     Returns
     -------
@@ -408,6 +524,10 @@ def read_muscle(path) -> MuscleSpec:
             values["notes"] = str(raw)
             seen.add(key)
             continue
+        if key == "force_model":
+            values["force_model"] = _force_model_entry(name, raw)
+            seen.add(key)
+            continue
         if key == "synthetic":
             if not isinstance(raw, bool):
                 raise InputError(f"{name}: key synthetic: must be true or false")
@@ -418,7 +538,7 @@ def read_muscle(path) -> MuscleSpec:
         if quantity == "braid":  # braid_angle_deg splits as braid / angle_deg
             quantity, unit = "braid_angle", key[len("braid_angle_"):]
         if quantity not in MUSCLE_KEYS:
-            known = ", ".join([f"{k}_<unit>" for k in MUSCLE_KEYS] + ["id", "notes", "synthetic"])
+            known = ", ".join([f"{k}_<unit>" for k in MUSCLE_KEYS] + ["id", "notes", "synthetic", "force_model"])
             raise InputError(f"{name}: key {key!r} is unknown; known keys are {known}")
         dim = MUSCLE_KEYS[quantity][0]
         if unit not in units_of(dim):
@@ -432,16 +552,34 @@ def read_muscle(path) -> MuscleSpec:
         if required and quantity not in values:
             raise InputError(f"{name}: key {quantity}_<unit> missing (e.g. {quantity}_mm = ...)")
     spec = MuscleSpec(**values)
-    if spec.strand_length < spec.nominal_length:
+    if spec.strand_length is not None and spec.strand_length < spec.nominal_length:
         raise InputError(
             f"{name}: key strand_length: {spec.strand_length * 1e3:g} mm is shorter than the nominal length"
             f" {spec.nominal_length * 1e3:g} mm; a braid strand is at least as long as the muscle (eq. 1)"
         )
-    if not spec.braid_angle < np.pi / 2:
+    if spec.braid_angle is not None and not spec.braid_angle < np.pi / 2:
         raise InputError(f"{name}: key braid_angle: must be below 90 deg")
-    if spec.tube_inner_diameter >= spec.tube_outer_diameter:
+    if None not in (spec.tube_inner_diameter, spec.tube_outer_diameter) and \
+            spec.tube_inner_diameter >= spec.tube_outer_diameter:
         raise InputError(f"{name}: key tube_inner_diameter: must be smaller than tube_outer_diameter")
     return spec
+
+
+def _force_model_entry(name: str, raw) -> dict:
+    """Check a muscle file's ``[force_model]`` table: model name, numeric parameters, range."""
+    if not isinstance(raw, dict) or not isinstance(raw.get("model"), str):
+        raise InputError(f"{name}: key force_model: must be a table with model = \"<name>\" and [force_model.parameters]")
+    params = raw.get("parameters")
+    if not isinstance(params, dict) or not params:
+        raise InputError(f"{name}: key force_model.parameters: missing; a fitted force law needs its parameters")
+    for k, v in params.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise InputError(f"{name}: key force_model.parameters.{k}: {v!r} is not a finite number")
+    out = {"model": raw["model"], "parameters": {k: float(v) for k, v in params.items()}}
+    for k, v in raw.items():
+        if k not in ("model", "parameters"):
+            out[k] = v
+    return out
 
 
 def check_muscle(table: Table, muscle: MuscleSpec) -> None:
@@ -466,12 +604,14 @@ def check_muscle(table: Table, muscle: MuscleSpec) -> None:
                 f"{table.where(r, 'muscle')}: {d['muscle'].iloc[wrong[0]]!r} does not match muscle file"
                 f" {muscle.path or muscle.id} (id {muscle.id!r})"
             )
-    if "length" in d:
-        over = np.flatnonzero(d["length"].to_numpy() > muscle.strand_length)
+    for q in ("length", "held_length"):
+        if q not in d or muscle.strand_length is None:
+            continue
+        over = np.flatnonzero(d[q].to_numpy() > muscle.strand_length)
         if over.size:
             r = int(d.index[over[0]])
             raise InputError(
-                f"{table.where(r, 'length')}: {d['length'].iloc[over[0]] * 1e3:g} mm is longer than the strand"
+                f"{table.where(r, q)}: {d[q].iloc[over[0]] * 1e3:g} mm is longer than the strand"
                 f" length {muscle.strand_length * 1e3:g} mm of muscle file {muscle.path or muscle.id}"
                 f" (id {muscle.id!r}); does the muscle file match the data?"
             )

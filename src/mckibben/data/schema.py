@@ -17,6 +17,8 @@ hysteresis         pressure, load, length, direction           trial, muscle
 braid_angle        braid_angle, length                         pressure, load, trial, muscle
 force_length       pressure, length, force, direction          trial, muscle
                    (elongation/contraction)
+isometric          held_length, pressure, force, direction,    tare, muscle
+                   trial (inflate/deflate)
 step_response      time, pressure, command                     trial, muscle
 =================  ==========================================  ===============================
 """
@@ -30,7 +32,9 @@ QUANTITIES: dict[str, tuple[str, bool, str]] = {
     "pressure": ("pressure", True, "gauge pressure"),
     "load": ("force", True, "hanging load (a force, or a mass taken times g)"),
     "length": ("length", True, "muscle length"),
+    "held_length": ("length", True, "length the muscle is clamped at (isometric test)"),
     "force": ("force", False, "measured pulling force (a load cell may read slightly below zero)"),
+    "tare": ("force", False, "load-cell reading to subtract from the force (its zero), per row"),
     "braid_angle": ("angle", True, "braid angle from the muscle axis"),
     "time": ("time", False, "time"),
     "command": ("dimensionless", False, "valve command, as a fraction of full scale"),
@@ -91,9 +95,38 @@ SCHEMAS: dict[str, Schema] = {
         Schema("force_length", ("pressure", "length", "force", "direction"), ("trial", "muscle"),
                ELONGATION_CONTRACTION,
                description="force-length loops at constant pressure (001_9d98bcef9f07dbeb.txt, Fig. 5)"),
+        Schema("isometric", ("held_length", "pressure", "force", "direction", "trial"), ("tare", "muscle"),
+               INFLATE_DEFLATE,
+               description="force at held lengths while the pressure is stepped up (inflate) and back"
+                           " down (deflate); one run per held length and trial (commercial muscles)"),
         Schema("step_response", ("time", "pressure", "command"), ("trial", "muscle"),
                description="pressure after a step of the valve command (§IV.A)"),
     ]
 }
 
 KINDS = tuple(SCHEMAS)
+
+
+def schema_markdown() -> str:
+    """The two tables of ``docs/data.md`` (kinds, and quantities), generated from the schema.
+
+    ``tests/test_docs.py`` checks that ``docs/data.md`` holds exactly this text, so the
+    documentation cannot drift from :data:`SCHEMAS` and :data:`QUANTITIES`.
+
+    Returns
+    -------
+    str
+        Markdown.
+    """
+    lines = ["| kind | required | optional | what |", "| --- | --- | --- | --- |"]
+    for s in SCHEMAS.values():
+        req = ", ".join(s.required) + (f" (direction: {'/'.join(s.directions)})" if s.directions else "")
+        lines.append(f"| `{s.kind}` | {req} | {', '.join(s.optional)} | {s.description} |")
+    lines += ["", "Quantities and the dimension of their unit:", "",
+              "| column | dimension | negative values | meaning |", "| --- | --- | --- | --- |"]
+    for q, (dim, no_neg, text) in QUANTITIES.items():
+        col = q if dim == "dimensionless" else f"{q}_<unit>"
+        lines.append(f"| `{col}` | {dim} | {'refused' if no_neg else 'allowed'} | {text} |")
+    for q, text in BARE_COLUMNS.items():
+        lines.append(f"| `{q}` | — | — | {text} |")
+    return "\n".join(lines) + "\n"

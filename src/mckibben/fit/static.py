@@ -101,7 +101,7 @@ def fit_kinematic(table: Table, muscle: MuscleSpec) -> FitResult:
     what = _what("kinematic", table)
     cos_t = np.cos(d["braid_angle"].to_numpy())
     require_distinct(d["braid_angle"], 3, "braid angles", what, "a straight line with a check of its fit")
-    x = np.column_stack([muscle.strand_length * cos_t, np.ones_like(cos_t)])
+    x = np.column_stack([muscle.need("strand_length", "fit kinematic (eq. 2)") * cos_t, np.ones_like(cos_t)])
     return linear_fit(x, d["length"].to_numpy(), ("k1", "k2_m"), model="kinematic", response="length_m", what=what,
                       valid_range=data_range(cos_theta=cos_t, length=d["length"]), func=_kinematic_func,
                       source=table.path)
@@ -245,7 +245,7 @@ def fitted_muscle(spec: MuscleSpec, kinematic: FitResult, braid_fits: dict[tuple
         From :func:`fit_cubics` on a braid_angle table.
     """
     return MiniatureMuscle(
-        name=spec.id, nominal_length=spec.nominal_length, strand_length=spec.strand_length,
+        name=spec.id, nominal_length=spec.nominal_length, strand_length=spec.need("strand_length", "the paper's map"),
         k1=kinematic["k1"], k2=kinematic["k2_m"], braid_map=braid_map_from_fits(braid_fits),
         geometry=spec.geometry, citation=f"fitted to {kinematic.source}", synthetic=spec.synthetic,
     )
@@ -537,7 +537,8 @@ def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     d = table.data[_positive(table.data)]
     what = _what("chou-hannaford", table)
     require_distinct(d["pressure"], 3, "pressures above zero", what, "Chou–Hannaford (2 parameters and a check)")
-    g0 = BraidGeometry.from_initial(muscle.nominal_length, muscle.outer_diameter - muscle.strand_diameter, muscle.braid_angle)
+    g0 = BraidGeometry.from_initial(muscle.nominal_length, muscle.need("outer_diameter", "chou-hannaford")
+                                    - (muscle.strand_diameter or 0.0), muscle.need("braid_angle", "chou-hannaford (start)"))
     scale = np.array([g0.strand_length, g0.d0])
     p, f, ell = d["pressure"].to_numpy(), d["load"].to_numpy(), d["length"].to_numpy()
 
@@ -578,10 +579,10 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     d = table.data[_positive(table.data)]
     what = _what("tondu-lopez", table)
     require_distinct(d["pressure"], 3, "pressures above zero", what, "Tondu–Lopez (2 parameters and a check)")
-    r_start = 0.5 * (muscle.outer_diameter - muscle.strand_diameter)
+    r_start = 0.5 * (muscle.need("outer_diameter", "tondu-lopez") - (muscle.strand_diameter or 0.0))
     scale = np.array([1.0, r_start])
     p, f, ell = d["pressure"].to_numpy(), d["load"].to_numpy(), d["length"].to_numpy()
-    l0, a0 = muscle.nominal_length, muscle.braid_angle
+    l0, a0 = muscle.nominal_length, muscle.need("braid_angle", "tondu-lopez on isotonic data")
 
     def func(values, pressure, load):
         eps, _ = tondu_lopez_contraction(pressure, load, values[1], a0, values[0])
