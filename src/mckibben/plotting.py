@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import os
-import tempfile
 
-from mckibben.errors import InputError
-from mckibben.files import apply_umask
+from mckibben.atomic import atomic_file
 
 
-def save_figure(fig, path, dpi: int = 120) -> None:
+def save_figure(fig, path, dpi: int = 120, name: str = "--plot") -> None:
     """Save a Matplotlib figure atomically (temporary file in the same folder, then rename).
 
-    The format follows the file's suffix (.png when it has none).
+    The format follows the file's suffix (.png when it has none). A destination that is a folder,
+    a FIFO or device, or in a folder that does not exist or takes no new files is an
+    :class:`~mckibben.errors.InputError` naming ``name`` (see :mod:`mckibben.atomic`).
 
     Parameters
     ----------
@@ -22,19 +22,10 @@ def save_figure(fig, path, dpi: int = 120) -> None:
         Output file. [-]
     dpi : int, default 120
         Resolution of raster formats. [dots per inch]
+    name : str, default "--plot"
+        The option that named the file, for error messages. [-]
     """
     path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise InputError(f"--plot: folder {folder!r} does not exist")
     suffix = os.path.splitext(path)[1] or ".png"
-    fd, tmp = tempfile.mkstemp(suffix=suffix, dir=folder)
-    os.close(fd)
-    try:
+    with atomic_file(path, name) as tmp:
         fig.savefig(tmp, dpi=dpi, format=suffix.lstrip(".").lower())
-        apply_umask(tmp, directory=False)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise

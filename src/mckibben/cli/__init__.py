@@ -7,9 +7,17 @@ Sub-commands live in sibling modules, each adding itself to :data:`app`.
 
 from __future__ import annotations
 
+import contextlib
+import errno
+import os
+import signal
 import sys
+import threading
+import traceback
+import warnings
 
 import click
+import numpy as np
 import typer
 
 try:  # Typer >= 0.20 vendors its own copy of Click
@@ -66,28 +74,132 @@ _register_commands()
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line with ``argv`` (default ``sys.argv[1:]``); return the exit status."""
-    args = sys.argv[1:] if argv is None else argv
+    """Run the command line with ``argv`` (default ``sys.argv[1:]``); return the exit status.
+
+    The one error boundary of the command line: a user's mistake (bad value, bad file, an output
+    path that cannot be written, more memory than the machine has) is one line on stderr and exit
+    status 2; anything else is an internal error: one line asking for a report, exit status 1, and
+    the traceback only with ``--debug`` (anywhere on the line) or ``MCKIBBEN_DEBUG=1``. Warnings are
+    one line each, after a successful run. SIGTERM and SIGHUP unwind like Ctrl-C, so no temporary
+    file is left behind.
+    """
+    args = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in args or os.environ.get("MCKIBBEN_DEBUG", "") not in ("", "0")
+    args = [a for a in args if a != "--debug"]
+    with _signals_unwind(), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        if not debug:
+            np_err = np.seterr(all="ignore")
+        try:
+            code = _run(args, debug)
+        finally:
+            if not debug:
+                np.seterr(**np_err)
+    if code == 0 or debug:
+        _print_warnings(caught)
+    return _exit(code)
+
+
+def _run(args: list[str], debug: bool) -> int:
     try:
         result = app(args=args, prog_name="mckibben", standalone_mode=False)
     except InputError as exc:
-        sys.stderr.write(f"error: {exc}\n")
-        return _exit(2)
+        return _fail(f"error: {exc}", 2)
     except _NO_ARGS as exc:
         sys.stdout.write(exc.ctx.get_help() + "\n" if exc.ctx is not None else "")
-        return _exit(0)
+        return 0
     except _USAGE_ERRORS as exc:
         where = f" ({exc.ctx.command_path})" if exc.ctx is not None else ""
-        sys.stderr.write(f"error{where}: {exc.format_message()}\n")
-        return _exit(2)
+        return _fail(f"error{where}: {exc.format_message()}", 2)
     except _EXITS as exc:
-        return _exit(exc.exit_code)
-    except _ABORTS:
-        sys.stderr.write("error: aborted\n")
-        return _exit(130)
+        return exc.exit_code
+    except (_ABORTS + (KeyboardInterrupt,)) as exc:
+        return _fail(f"error: {_signal_name(exc)}", 130 if not isinstance(exc, _Terminated) else 128 + exc.signum)
     except BrokenPipeError:
-        return _exit(0)
-    return _exit(result if isinstance(result, int) else 0)
+        return 0
+    except MemoryError as exc:
+        detail = f" ({exc})" if str(exc) else ""
+        return _fail(f"error: not enough memory for the size asked{detail}; ask for a smaller size", 2, debug)
+    except OSError as exc:
+        if getattr(exc, "filename", None) is None and exc.errno not in _USER_ERRNOS:
+            return _internal(exc, debug)
+        what = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        return _fail(f"error: {what}{exc.strerror or exc}", 2, debug)
+    except RecursionError as exc:
+        return _internal(exc, debug)
+    except Exception as exc:  # noqa: BLE001 - the boundary: nothing leaves as a bare traceback
+        return _internal(exc, debug)
+    return result if isinstance(result, int) else 0
+
+
+#: OS errors that come from the user's paths or machine even without a file name.
+_USER_ERRNOS = {errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC, errno.EDQUOT, errno.ENOENT, errno.EISDIR,
+                errno.ENOTDIR, errno.EEXIST, errno.ENAMETOOLONG, errno.ELOOP, errno.EXDEV, errno.EBUSY}
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _fail(message: str, code: int, debug: bool = False) -> int:
+    if debug:
+        traceback.print_exc(file=sys.stderr)
+    sys.stderr.write(_one_line(message) + "\n")
+    return code
+
+
+def _internal(exc: BaseException, debug: bool) -> int:
+    if debug:
+        traceback.print_exc(file=sys.stderr)
+    hint = "" if debug else " (rerun with --debug for the traceback)"
+    sys.stderr.write(_one_line(f"internal error: {type(exc).__name__}: {exc}; please report it with the command "
+                               f"line{hint}") + "\n")
+    return 1
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised in the main thread so that ``finally`` blocks clean up."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _signal_name(exc: BaseException) -> str:
+    if isinstance(exc, _Terminated):
+        return f"terminated by {signal.Signals(exc.signum).name}"
+    return "interrupted"
+
+
+@contextlib.contextmanager
+def _signals_unwind():
+    """Turn SIGTERM and SIGHUP into an exception for the duration of a command (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    def handler(signum, frame):
+        raise _Terminated(signum)
+
+    old = {}
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        try:
+            old[sig] = signal.signal(sig, handler)
+        except (ValueError, OSError):
+            pass
+    try:
+        yield
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+
+
+def _print_warnings(caught) -> None:
+    seen = set()
+    for w in caught:
+        line = _one_line(f"warning: {w.message}")
+        if line not in seen:
+            seen.add(line)
+            sys.stderr.write(line + "\n")
 
 
 def _exit(code: int) -> int:

@@ -21,8 +21,10 @@ STEP_KEYS = ("time_constant_s", "rise_time_s", "overshoot_pct", "settling_time_s
 
 
 def _png(plot: str | None) -> None:
-    if plot is not None and not plot.lower().endswith(".png"):
-        raise InputError(f"--plot: {plot!r} must end in .png")
+    if plot is not None:
+        from mckibben.atomic import check_output_file
+
+        check_output_file(plot, "--plot", (".png",))
 
 
 def _check_beta(beta: float | None) -> None:
@@ -388,8 +390,10 @@ def hysteresis_cmd(
     )
     from mckibben.units import parse_quantity
 
-    if plot is not None and not plot.lower().endswith(PLOT_SUFFIXES):
-        raise InputError(f"--plot: {plot!r} must end in {', '.join(PLOT_SUFFIXES)}")
+    if plot is not None:
+        from mckibben.atomic import check_output_file
+
+        check_output_file(plot, "--plot", PLOT_SUFFIXES)
     per = parse_quantity(period, "time", "--period", allow_zero=False)
     if not PERIOD_MIN <= per <= PERIOD_MAX:
         raise InputError(f"--period: {period!r} must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")

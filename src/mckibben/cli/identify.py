@@ -28,8 +28,10 @@ def identify_cmd(
     if orders is None:
         raise InputError(f"--order: {order!r} must be 1, 2 or both")
     ts = parse_quantity(t_step, "time", "--t-step") if t_step is not None else None
-    if plot is not None and not plot.lower().endswith(".png"):
-        raise InputError(f"--plot: {plot!r} must end in .png")
+    if plot is not None:
+        from mckibben.atomic import check_output_file
+
+        check_output_file(plot, "--plot", (".png",))
     results = []
     for log in logs:
         data, meta = read_step_log(log)

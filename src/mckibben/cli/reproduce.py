@@ -68,8 +68,9 @@ def reproduce_cmd(
 
     from mckibben.datasets.campaign import campaign_muscle_dirs
     from mckibben.report.characterize import characterize
-    from mckibben.report.html import write_report
+    from mckibben.report.html import check_report_folder, write_report
 
+    check_report_folder(out)
     tables = _published_length_tables()
     n_muscles = len(campaign_muscle_dirs(data))
     # steps: per muscle fits + comparison, then the figures

@@ -10,6 +10,7 @@ import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
+from mckibben.atomic import check_output_file
 from mckibben.errors import InputError
 from mckibben.hardware import pressure_from_adc
 from mckibben.units import parse_quantity
@@ -55,7 +56,7 @@ def record_cmd(
     if not 1 <= decimation <= 255:
         raise InputError(f"--decimation: {decimation} must be in 1..255")
     l0 = parse_quantity(nominal_length, "length", "--nominal-length", allow_zero=False)
-    rec_out = Path(out)
+    rec_out = check_output_file(out, "--out", (".parquet",))
     link = _open(port)
     rec = Recorder(rec_out, meta={"port": port, "baud": BAUD}, nominal_length=l0)
     link.write(P.stream(0, True, decimation))
@@ -105,6 +106,7 @@ def recover_cmd(
     """Join a recorder's journal into one Parquet file."""
     from mckibben.rig.recorder import recover
 
+    check_output_file(out, "--out", (".parquet",))
     df = recover(journal, out)
     result = {"out": out, "telemetry_rows": len(df),
               "time_s": [float(df["time_s"].min()), float(df["time_s"].max())] if len(df) else None}

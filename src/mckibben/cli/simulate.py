@@ -19,12 +19,9 @@ app.add_typer(simulate_app, name="simulate")
 def _check_plot_path(plot: str | None) -> Path | None:
     if plot is None:
         return None
-    path = Path(plot)
-    if path.suffix.lower() not in (".png", ".pdf", ".svg"):
-        raise InputError(f"--plot: {plot!r} must end in .png, .pdf or .svg")
-    if not path.parent.exists() or not path.parent.is_dir():
-        raise InputError(f"--plot: folder {str(path.parent)!r} does not exist")
-    return path
+    from mckibben.atomic import check_output_file
+
+    return check_output_file(plot, "--plot", (".png", ".pdf", ".svg"))
 
 
 def _save_plot(path: Path, t, pressure, title: str, metrics: dict) -> None:
@@ -44,10 +41,12 @@ def _save_plot(path: Path, t, pressure, title: str, metrics: dict) -> None:
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp{path.suffix}")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(path)
+    from mckibben.plotting import save_figure
+
+    try:
+        save_figure(fig, path)
+    finally:
+        plt.close(fig)
 
 
 @simulate_app.command("open-loop")

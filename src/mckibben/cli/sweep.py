@@ -78,6 +78,10 @@ def summarize_cmd(
     from mckibben.sweep import best_setting, pareto_front, read_results, sensitivity, settings_table
     from mckibben.sweep.summary import figures
 
+    if plots:
+        from mckibben.atomic import check_output_dir
+
+        check_output_dir(plots, "--plots")
     table = read_results(results)
     best = best_setting(table, objective, constraint, quantile)
     s = settings_table(table, quantile)

@@ -10,6 +10,7 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, print_table
 from mckibben.datasets import get_muscle
+from mckibben.atomic import check_output_file
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity, parse_values
 
@@ -224,6 +225,8 @@ def workspace_cmd(
     """Sample the pressure box [0, p_max]³, report the reachable tip set's extent, optionally plot it."""
     from mckibben.tool.workspace import plot_workspace, sample_workspace
 
+    if plot:
+        check_output_file(plot, "--plot")
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
     ws = sample_workspace(tool, grid)
     ext = ws.extent()
@@ -266,6 +269,8 @@ def track_cmd(
     from mckibben.tool.paths import parse_path
     from mckibben.tool.tracking import resolve_path, tip_reference
 
+    if plot:
+        check_output_file(plot, "--plot")
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
     base = resolve_path(parse_path(path), tool)
     period_list = parse_values(periods, "time", "--periods", allow_zero=False) if periods else np.array([base.period])

@@ -415,9 +415,9 @@ def read_step_log(path) -> tuple[dict, dict]:
 
     from mckibben.units import split_column, to_si
 
-    p = pathlib.Path(path)
-    if not p.is_file():
-        raise InputError(f"{p}: no such file")
+    from mckibben.atomic import check_input_file
+
+    p = check_input_file(pathlib.Path(path))
     try:
         if p.suffix.lower() == ".parquet":
             df = pd.read_parquet(p)

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from mckibben.data.schema import BARE_COLUMNS, KINDS, QUANTITIES, SCHEMAS
+from mckibben.atomic import check_input_file
 from mckibben.errors import InputError
 from mckibben.units import G_N, UNITS, to_si, units_of
 
@@ -133,8 +134,7 @@ def _read_frame(path: Path, name: str) -> tuple[pd.DataFrame, bool]:
     suffix = path.suffix.lower()
     if suffix not in NUMERIC_SUFFIXES:
         raise InputError(f"{name}: unknown file type {path.suffix!r}; use .csv or .parquet")
-    if not path.is_file():
-        raise InputError(f"{name}: no such file")
+    check_input_file(path, None)
     if suffix == ".csv":
         try:
             df = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False, skipinitialspace=True)
@@ -507,8 +507,7 @@ def read_muscle(path) -> MuscleSpec:
     """
     name = str(path)
     p = Path(path)
-    if not p.is_file():
-        raise InputError(f"{name}: no such muscle file")
+    check_input_file(p, None, "muscle file")
     try:
         doc = tomllib.loads(p.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:

@@ -42,9 +42,6 @@ Every experiment is drawn from one "truth" per muscle (:func:`campaign_truth`):
 
 from __future__ import annotations
 
-import os
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -53,7 +50,6 @@ import pandas as pd
 
 from mckibben.datasets.published import MUSCLES
 from mckibben.errors import InputError
-from mckibben.files import apply_umask
 from mckibben.hardware import ENCODER_RESOLUTION, P_MAX_DEFAULT, quantize_length
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import MiniatureMuscle, braid_cos_theta
@@ -370,13 +366,12 @@ def write_campaign(out, seed: int = 0) -> Path:
     pathlib.Path
         The folder.
     """
-    out = Path(out)
-    if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / "campaign.toml").is_file())):
+    from mckibben.atomic import atomic_dir, check_output_dir
+
+    out = check_output_dir(out, "--out")
+    if out.is_dir() and any(out.iterdir()) and not (out / "campaign.toml").is_file():
         raise InputError(f"--out: {out} exists and is not an empty folder or a campaign written before")
-    parent = out.resolve().parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".campaign-", dir=parent))
-    try:
+    with atomic_dir(out, "--out") as tmp:
         (tmp / "campaign.toml").write_text(campaign_toml(seed), encoding="utf-8")
         (tmp / "README.md").write_text(README.format(seed=seed), encoding="utf-8")
         for name in CAMPAIGN_MUSCLES:
@@ -388,13 +383,6 @@ def write_campaign(out, seed: int = 0) -> Path:
                     df.to_parquet(folder / fname, index=False)
                 else:
                     _write_csv(df, folder / fname)
-        apply_umask(tmp, directory=True)
-        if out.exists():
-            shutil.rmtree(out)
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 

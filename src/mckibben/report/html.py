@@ -7,15 +7,11 @@ place at the end, so a failure leaves nothing half-written.
 from __future__ import annotations
 
 import html
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from mckibben.errors import InputError
-from mckibben.files import apply_umask
 from mckibben.report.figures import ALL_FIGURES
 
 MPA = 1e6
@@ -166,6 +162,23 @@ def _g(v, scale=1.0, digits=4):
     return f"{v * scale:.{digits}g}"
 
 
+def check_report_folder(out) -> Path:
+    """Check that ``out`` may receive a report: absent, empty, or a report written before, in a
+    folder that takes new entries (:func:`mckibben.atomic.check_output_dir`).
+
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The report folder. [-]
+    """
+    from mckibben.atomic import check_output_dir
+
+    out = check_output_dir(out, "--out")
+    if out.is_dir() and any(out.iterdir()) and not (out / "index.html").is_file():
+        raise InputError(f"--out: {out} exists and is neither empty nor a report written before; choose another folder")
+    return out
+
+
 def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
     """Write ``index.html``, ``summary.json`` and the PNG figures into ``out``, atomically.
 
@@ -188,13 +201,10 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
 
     from mckibben.cli._common import to_jsonable
 
-    out = Path(out)
-    if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / "index.html").is_file())):
-        raise InputError(f"--out: {out} exists and is neither empty nor a report written before; choose another folder")
-    parent = out.resolve().parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".report-", dir=parent))
-    try:
+    from mckibben.atomic import atomic_dir
+
+    out = check_report_folder(out)
+    with atomic_dir(out, "--out") as tmp:
         summary = summarize(char)
         figures = []
         for name, make in ALL_FIGURES.items():
@@ -205,11 +215,4 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
         summary["figures"] = figures
         (tmp / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False), encoding="utf-8")
         (tmp / "index.html").write_text(render_html(summary, figures), encoding="utf-8")
-        apply_umask(tmp, directory=True)
-        if out.exists():
-            shutil.rmtree(out)
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out, summary

@@ -123,12 +123,19 @@ def run_chunk(meta: dict, rows: pd.DataFrame, k: int, out: str) -> dict:
     arrow = pa.Table.from_pandas(table, preserve_index=False)
     arrow = arrow.replace_schema_metadata({**(arrow.schema.metadata or {}), b"mckibben": json.dumps(meta["provenance"]).encode()})
     path = chunk_path(Path(out), k)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as fh:
-        pq.write_table(arrow, fh)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    from mckibben.atomic import TMP_TAG
+
+    # not atomic_file: workers on other hosts write here too, so no stale-temporary sweep per chunk
+    tmp = path.with_name(f".{path.name}{TMP_TAG}{os.getpid()}-{k:x}")
+    try:
+        with open(tmp, "wb") as fh:
+            pq.write_table(arrow, fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return {"chunk": k, "runs": len(rows), "seconds": time.perf_counter() - t0, "path": str(path)}
 
 
@@ -162,7 +169,9 @@ def prepare_output(out: str | Path, sweep: Sweep) -> Path:
     sweep : Sweep
         The sweep.
     """
-    out = Path(out)
+    from mckibben.atomic import check_output_dir, clean_stale
+
+    out = check_output_dir(out, "--out")
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".probe-{os.getpid()}"
@@ -170,7 +179,9 @@ def prepare_output(out: str | Path, sweep: Sweep) -> Path:
         probe.unlink()
     except OSError as exc:
         raise InputError(f"--out: cannot write to {str(out)!r} ({exc.strerror})") from None
+    clean_stale(out)
     manifest = out / "sweep.json"
+    old: dict = {}
     info = {"sweep_sha256": sweep.sha256, "sweep_file": sweep.path, "seed": sweep.seed, "runs": sweep.n_runs,
             "chunks": sweep.n_chunks, "chunk_size": sweep.chunk_size}
     if manifest.exists():
@@ -178,12 +189,15 @@ def prepare_output(out: str | Path, sweep: Sweep) -> Path:
             old = json.loads(manifest.read_text())
         except (OSError, ValueError):
             old = {}
-        if old.get("sweep_sha256") != sweep.sha256:
+        other = old.get("sweep_sha256")
+        if other != sweep.sha256 and any(chunk_done(f, other) for f in out.glob("chunk-*.parquet")):
             raise InputError(f"--out: {str(out)!r} holds the results of another sweep; choose another folder")
-    else:
-        tmp = out / ".sweep.json.tmp"
-        tmp.write_text(json.dumps(info, indent=2))
-        os.replace(tmp, manifest)
+    if not manifest.exists() or old.get("sweep_sha256") != sweep.sha256:
+        # a folder without another sweep's results (e.g. left by a failed run) is reused
+        from mckibben.atomic import atomic_file
+
+        with atomic_file(manifest, "--out") as tmp:
+            tmp.write_text(json.dumps(info, indent=2))
     return out
 
 

@@ -166,7 +166,9 @@ def load_sweep(path: str | Path) -> Sweep:
     Sweep
         The sweep with one design row per simulation.
     """
-    path = Path(path)
+    from mckibben.atomic import check_input_file
+
+    path = check_input_file(Path(path), None, "sweep file")
     try:
         data = path.read_bytes()
     except OSError as exc:

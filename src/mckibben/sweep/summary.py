@@ -15,6 +15,7 @@ import pandas as pd
 from scipy.stats import spearmanr
 
 from mckibben.errors import InputError, unknown_name
+from mckibben.plotting import save_figure
 
 _CONSTRAINT = re.compile(r"^\s*([a-zA-Z_]+)\s*(<=|>=|<|>)\s*([-+0-9.eE]+)\s*$")
 
@@ -159,8 +160,13 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    from mckibben.atomic import check_output_dir
+
+    folder = check_output_dir(folder, "--plots")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--plots: cannot create folder {str(folder)!r} ({exc.strerror})") from None
     paths = []
     s = settings_table(table, quantile)
     qn = int(round(quantile * 100))
@@ -180,8 +186,10 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
         ax.legend(fontsize=8)
         fig.tight_layout()
         p = folder / "pareto.png"
-        fig.savefig(p)
-        plt.close(fig)
+        try:
+            save_figure(fig, p, name="--plots")
+        finally:
+            plt.close(fig)
         paths.append(str(p))
     sens = sensitivity(table)
     if not sens.empty:
@@ -196,7 +204,9 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
         ax.set_title("Sensitivity of each metric to each parameter", fontsize=10)
         fig.tight_layout()
         p = folder / "sensitivity.png"
-        fig.savefig(p)
-        plt.close(fig)
+        try:
+            save_figure(fig, p, name="--plots")
+        finally:
+            plt.close(fig)
         paths.append(str(p))
     return paths
