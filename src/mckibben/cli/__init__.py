@@ -55,6 +55,8 @@ def _print_version(value: bool) -> None:
 def _root(
     version: bool = typer.Option(False, "--version", "-V", is_eager=True, callback=_print_version,
                                  help="Print the version and exit."),
+    debug: bool = typer.Option(False, "--debug", help="On an internal error, print the traceback (allowed anywhere "
+                                                      "on the command line; or MCKIBBEN_DEBUG=1)."),
 ) -> None:
     """Braided pneumatic artificial muscles: characterize, fit, predict, simulate, control, deploy."""
 
