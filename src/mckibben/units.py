@@ -61,6 +61,9 @@ UNITS: dict[str, tuple[str, float]] = {
     # frequency [Hz]
     "Hz": ("frequency", 1.0),
     "kHz": ("frequency", 1e3),
+    # bending stiffness [N·m²] (written Nm2, N·m², N*m^2 or Nmm2)
+    "Nm2": ("bending_stiffness", 1.0),
+    "Nmm2": ("bending_stiffness", 1e-6),
     # dimensionless
     "": ("dimensionless", 1.0),
     "%": ("dimensionless", 1e-2),
@@ -75,11 +78,12 @@ SI_UNIT = {
     "angle": "rad",
     "time": "s",
     "frequency": "Hz",
+    "bending_stiffness": "Nm2",
     "dimensionless": "",
 }
 
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|[-+]?(?:nan|inf)"
-_QUANTITY = re.compile(rf"^\s*(?P<num>{_NUMBER})\s*(?P<unit>[A-Za-z%]*)\s*$", re.IGNORECASE)
+_QUANTITY = re.compile(rf"^\s*(?P<num>{_NUMBER})\s*(?P<unit>[A-Za-z%]*2?)\s*$", re.IGNORECASE)
 
 
 def units_of(dimension: str) -> list[str]:
@@ -167,6 +171,8 @@ def parse_quantity(
     """
     if not isinstance(text, str):
         text = str(text)
+    if dimension == "bending_stiffness":  # N·m², N*m^2, N m2 -> Nm2
+        text = re.sub(r"(?<=[A-Za-z])[\s·*.^]+(?=[A-Za-z0-9²])|\^", "", text).replace("²", "2")
     match = _QUANTITY.match(text)
     if match is None:
         raise InputError(f"{name}: cannot read {text!r} as a {dimension} (e.g. {_example(dimension)})")
@@ -190,6 +196,61 @@ def parse_quantity(
     if value == 0 and not allow_zero:
         raise InputError(f"{name}: {text!r} is zero; a {dimension} here must be > 0")
     return float(value)
+
+
+def quantity(
+    value,
+    dimension: str,
+    name: str = "value",
+    *,
+    allow_negative: bool = False,
+    allow_zero: bool = True,
+) -> float:
+    """A quantity given either in SI (a number) or as text with a unit (``"0.8MPa"``).
+
+    Every public function of the library that takes a physical quantity passes it through
+    here, so ``step_response(target=0.55e6)`` and ``step_response(target="0.55MPa")`` are the
+    same call.
+
+    Parameters
+    ----------
+    value : float or str
+        A number, taken in the SI unit of ``dimension``, or text parsed by
+        :func:`parse_quantity`. [SI]
+    dimension : str
+        The wanted dimension (see :func:`parse_quantity`). [-]
+    name : str
+        The argument's name, for error messages. [-]
+    allow_negative : bool, default False
+        Whether a negative value is accepted. [-]
+    allow_zero : bool, default True
+        Whether zero is accepted. [-]
+
+    Returns
+    -------
+    float
+        The value in SI. [SI]
+
+    Examples
+    --------
+    >>> round(quantity("80psi", "pressure"))
+    551581
+    >>> quantity(0.097, "length")
+    0.097
+    """
+    if isinstance(value, str):
+        return parse_quantity(value, dimension, name, allow_negative=allow_negative, allow_zero=allow_zero)
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InputError(f"{name}: {value!r} is neither a number in SI nor text with a unit "
+                         f"(e.g. {_example(dimension)})")
+    v = float(value)
+    if not math.isfinite(v):
+        raise InputError(f"{name}: {value!r} is not a finite number")
+    if v < 0 and not allow_negative:
+        raise InputError(f"{name}: {value!r} is negative; a {dimension} here must be >= 0")
+    if v == 0 and not allow_zero:
+        raise InputError(f"{name}: {value!r} is zero; a {dimension} here must be > 0")
+    return v
 
 
 def parse_values(
@@ -261,6 +322,7 @@ def _example(dimension: str) -> str:
         "time": "0.5s, 20ms",
         "frequency": "1kHz",
         "mass": "60g",
+        "bending_stiffness": "2e-4Nm2, 200Nmm2",
         "dimensionless": "0.2",
     }.get(dimension, "1")
 

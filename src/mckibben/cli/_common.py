@@ -19,32 +19,12 @@ from rich.console import Console
 from rich.table import Table
 
 from mckibben.errors import InputError
+from mckibben.results import to_jsonable
 
 console = Console(soft_wrap=True)
 err_console = Console(stderr=True, soft_wrap=True)
 
 JSON_OPTION = typer.Option(False, "--json", help="Print one JSON object on stdout (SI units).")
-
-
-def to_jsonable(obj: Any) -> Any:
-    """Turn NumPy scalars and arrays, tuples and dataclass-like dicts into JSON values.
-
-    NaN and infinities become ``null`` (JSON has no NaN).
-    """
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, (np.bool_, bool)):
-        return bool(obj)
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.floating, float)):
-        value = float(obj)
-        return value if math.isfinite(value) else None
-    return obj
 
 
 def emit_json(obj: dict) -> None:

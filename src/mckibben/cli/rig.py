@@ -12,22 +12,12 @@ from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
 from mckibben.atomic import check_output_file
 from mckibben.errors import InputError
-from mckibben.hardware import pressure_from_adc
 from mckibben.units import parse_quantity
 
 rig_app = typer.Typer(help="The rig over its serial link: record, step, emulate.", no_args_is_help=True)
 app.add_typer(rig_app, name="rig")
 
-BAUD = 500000
-
-
-def _open(port: str):
-    import serial
-
-    try:
-        return serial.serial_for_url(port, baudrate=BAUD, timeout=0.02)
-    except (serial.SerialException, ValueError, OSError) as exc:
-        raise InputError(f"--port: cannot open {port!r} ({exc})") from None
+from mckibben.rig.device import BAUD, open_port as _open
 
 
 def _duration(text: str, name: str = "--duration", limit: float = 24 * 3600) -> float:
@@ -125,52 +115,15 @@ def step_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Run a pressure step on the device and print the step metrics."""
-    import numpy as np
+    from mckibben.rig import Device
 
-    from mckibben.control.metrics import step_metrics
-    from mckibben.rig import protocol as P
-
-    p = parse_quantity(target, "pressure", "--target", allow_zero=False)
-    if p > 0.8e6:
-        raise InputError(f"--target: {target!r} is above the 0.8 MPa safe limit")
-    if controller not in ("smc", "pid"):
-        raise InputError(f"--controller: {controller!r} must be smc or pid")
-    d = _duration(duration, limit=60)
-    link = _open(port)
-    parser = P.Parser()
-    rows = []
-    acks = []
-    try:
-        for seq, pkt in enumerate((P.set_point(0, 0), P.set_mode(1, P.MODES[controller]), P.stream(2, True, 1))):
-            link.write(P.set_point(seq, 0) if seq == 0 else pkt)
-        t0 = time.monotonic()
-        sent = False
-        while time.monotonic() - t0 < d + 0.1:
-            if not sent and time.monotonic() - t0 >= 0.1:
-                link.write(P.set_point(3, p))
-                sent = True
-            for f in parser.feed(link.read(8192)):
-                if isinstance(f, P.Telemetry):
-                    rows.append((f.t_us * 1e-6, pressure_from_adc(f.pressure_adc).item(), f.reference_pa, f.inlet_pwm - f.bleed_pwm))
-                elif isinstance(f, P.Ack):
-                    acks.append(f)
-        link.write(P.stream(4, False, 1))
-        link.write(P.set_mode(5, 0))
-    finally:
-        link.close()
-    bad = [a for a in acks if a.status != 0]
-    if bad:
-        raise InputError(f"the device refused command type 0x{bad[0].cmd_type:02x} (status {bad[0].status})")
-    if len(rows) < 50:
-        raise InputError(f"--port: only {len(rows)} telemetry frames arrived from {port!r}; is it a mckibben device?")
-    a = np.array(rows)
-    t_step = a[np.argmax(a[:, 2] > 0), 0] if np.any(a[:, 2] > 0) else a[0, 0]
-    m = step_metrics(a[:, 0], a[:, 1], a[:, 2], a[:, 3], t_step=t_step)
-    result = {"target_Pa": p, "controller": controller, **m, "frames": parser.frames, "missing": parser.missing}
+    res = Device(port).step(target, controller=controller, duration=duration)
     if json:
-        emit_json(result)
+        emit_json(res.to_dict())
         return
-    print_table(f"Step to {p / 1e6:g} MPa ({controller})", ["metric", "value"], [[k, f"{v:.4g}"] for k, v in m.items()])
+    p = res.arguments["target_Pa"]
+    print_table(f"Step to {p / 1e6:g} MPa ({controller})", ["metric", "value"],
+                [[k, f"{v:.4g}"] for k, v in res.metrics.items()])
 
 
 @rig_app.command("emulate")

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 import typer
 
@@ -26,34 +24,6 @@ KB_OPTION = typer.Option("2e-4Nm2", "--bending-stiffness", help="Backbone bendin
 KA_OPTION = typer.Option("0N", "--axial-stiffness", help="Backbone axial stiffness Ka (force per unit strain), e.g. 50N.")
 PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Highest pressure allowed in any muscle.")
 
-_KB = re.compile(r"^\s*(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?P<unit>N\s*[·*.]?\s*m\s*(?:\^?2|²)|Nmm2|Nmm\^2)?\s*$")
-
-
-def parse_bending_stiffness(text: str) -> float:
-    """Parse a bending stiffness such as ``2e-4Nm2``, ``2e-4 N·m²`` or ``200Nmm2`` into N·m².
-
-    Parameters
-    ----------
-    text : str
-        What the user typed; a bare number is taken in N·m². [-]
-
-    Returns
-    -------
-    float
-        The bending stiffness. [N·m²]
-    """
-    m = _KB.match(text or "")
-    if m is None:
-        raise InputError(f"--bending-stiffness: cannot read {text!r} (e.g. 2e-4Nm2, 200Nmm2)")
-    value = float(m.group("num"))
-    unit = (m.group("unit") or "").replace(" ", "")
-    if unit.startswith("Nmm"):
-        value *= 1e-6
-    if value < 0:
-        raise InputError(f"--bending-stiffness: {text!r} is negative")
-    return value
-
-
 def _discs(text: str):
     if text.strip().lower() in ("continuous", "none", "inf"):
         return None
@@ -74,7 +44,8 @@ def build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_st
     )
     load = StackLoad(
         preload=parse_quantity(preload, "force", "--preload"),
-        bending_stiffness=parse_bending_stiffness(bending_stiffness),
+        bending_stiffness=parse_quantity(bending_stiffness, "bending_stiffness", "--bending-stiffness",
+                                         default_unit="Nm2"),
         axial_stiffness=parse_quantity(axial_stiffness, "force", "--axial-stiffness"),
     )
     return Tool(get_muscle(muscle), geo, load, parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))

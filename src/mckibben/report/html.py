@@ -199,7 +199,7 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
     """
     import json
 
-    from mckibben.cli._common import to_jsonable
+    from mckibben.results import to_jsonable
 
     from mckibben.atomic import atomic_dir
 

@@ -1,0 +1,237 @@
+"""What every experiment returns: a result object with one shape across the library.
+
+Each public experiment (a closed-loop step, Fig. 13, a robustness study, a tracking run, a fit)
+returns a subclass of :class:`Result`, following python-control's response objects and lmfit's
+``ModelResult``:
+
+``.metrics``
+    A dict of scalar results, SI units, keys suffixed with their unit (``time_constant_s``,
+    ``overshoot_pct``, ``steady_state_error_Pa``).
+``.to_pandas()``
+    The time series (or table) behind the metrics, columns named ``quantity_unit``
+    (``time_s``, ``pressure_Pa``, ``inlet_pwm``), provenance in ``DataFrame.attrs``.
+``.plot(ax=None)``
+    Draws on ``ax`` (a new figure when None) and returns the :class:`~matplotlib.figure.Figure`;
+    it never switches Matplotlib's backend, so figures show inline in Jupyter.
+``.to_dict()``
+    Everything ``--json`` prints: JSON-ready values, SI units.
+``.to_file(path)``
+    The ``to_pandas()`` table as CSV or Parquet (by suffix); Parquet files carry the provenance
+    in their schema metadata (key ``mckibben``).
+``repr``
+    The class name, what was run and the headline metrics, on one line.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from datetime import datetime, timezone
+from typing import Any
+
+import numpy as np
+
+from mckibben.errors import InputError
+
+__all__ = ["Result", "to_jsonable", "write_table", "read_provenance", "SERIES_SUFFIXES"]
+
+#: The file formats of :meth:`Result.to_file` and ``--out``.
+SERIES_SUFFIXES = (".csv", ".parquet")
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Turn NumPy scalars and arrays, tuples and dicts into JSON values; NaN and infinities become None.
+
+    Parameters
+    ----------
+    obj : object
+        A value, possibly nested. [-]
+    """
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, (np.floating, float)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    return obj
+
+
+def provenance(call: str, arguments: dict | None = None) -> dict:
+    """Where a table came from: the library call, its arguments, the version and the time.
+
+    Parameters
+    ----------
+    call : str
+        The public function that produced it, e.g. ``"mckibben.control.step_response"``. [-]
+    arguments : dict, optional
+        Its arguments, SI. [-]
+    """
+    from mckibben import __version__
+
+    return {"call": call, "arguments": to_jsonable(arguments or {}), "mckibben_version": __version__,
+            "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+
+
+def check_table_path(path, name: str = "--out") -> str:
+    """Refuse a path whose suffix is not .csv or .parquet, or whose folder does not exist.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file. [-]
+    name : str, default "--out"
+        The argument's name, for the message. [-]
+    """
+    path = os.fspath(path)
+    if not path.lower().endswith(SERIES_SUFFIXES):
+        raise InputError(f"{name}: {path!r} must end in {' or '.join(SERIES_SUFFIXES)}")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise InputError(f"{name}: folder {folder!r} does not exist")
+    return path
+
+
+def write_table(df, path, meta: dict | None = None) -> str:
+    """Write a table as CSV or Parquet, atomically and with the user's umask.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The table, columns named ``quantity_unit``. [-]
+    path : str or os.PathLike
+        ``.csv`` or ``.parquet``. [-]
+    meta : dict, optional
+        Provenance; default ``df.attrs["provenance"]``. Parquet stores it as JSON under the
+        schema metadata key ``mckibben``; CSV has no place for it. [-]
+
+    Returns
+    -------
+    str
+        The path written.
+    """
+    import tempfile
+
+    from mckibben.files import apply_umask
+
+    path = check_table_path(path)
+    meta = meta if meta is not None else df.attrs.get("provenance", {})
+    folder = os.path.dirname(os.path.abspath(path))
+    suffix = os.path.splitext(path)[1].lower()
+    fd, tmp = tempfile.mkstemp(suffix=suffix, prefix=".mckibben-", dir=folder)
+    os.close(fd)
+    try:
+        if suffix == ".csv":
+            df.to_csv(tmp, index=False)
+        else:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+
+            table = pa.Table.from_pandas(df, preserve_index=False)
+            md = dict(table.schema.metadata or {})
+            md[b"mckibben"] = json.dumps(to_jsonable(meta), allow_nan=False).encode()
+            pq.write_table(table.replace_schema_metadata(md), tmp)
+        apply_umask(tmp, directory=False)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    return path
+
+
+def read_provenance(path) -> dict:
+    """The provenance a :func:`write_table` Parquet file carries (empty dict if none).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A Parquet file. [-]
+    """
+    import pyarrow.parquet as pq
+
+    md = pq.read_schema(path).metadata or {}
+    raw = md.get(b"mckibben")
+    return json.loads(raw) if raw else {}
+
+
+class Result:
+    """Base of the library's result objects (see the module's docstring for the conventions).
+
+    Subclasses set :attr:`call` and :attr:`arguments` and implement :meth:`_series`,
+    :attr:`metrics` and :meth:`plot`; they may extend :meth:`to_dict`.
+    """
+
+    #: The public function that produced the result.
+    call: str = ""
+    #: Its arguments, SI.
+    arguments: dict = {}
+    #: Metrics shown by ``repr``; default the first four.
+    _repr_keys: tuple[str, ...] = ()
+
+    @property
+    def metrics(self) -> dict:
+        """Scalar results, SI, unit-suffixed keys."""
+        raise NotImplementedError
+
+    def _series(self):
+        raise NotImplementedError
+
+    def to_pandas(self):
+        """The time series (or table) behind the metrics, ``quantity_unit`` columns.
+
+        Returns
+        -------
+        pandas.DataFrame
+            With ``attrs["provenance"]``: the call, its arguments, the version and the time.
+        """
+        df = self._series()
+        df.attrs["provenance"] = provenance(self.call, self.arguments)
+        return df
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the arguments and the metrics (what ``--json`` prints)."""
+        return to_jsonable({**self.arguments, **self.metrics})
+
+    def to_file(self, path) -> str:
+        """Write :meth:`to_pandas` as ``.csv`` or ``.parquet`` (provenance in the Parquet metadata).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Output file. [-]
+        """
+        return write_table(self.to_pandas(), path)
+
+    def plot(self, ax=None):
+        """Draw the result; return the Figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+        """
+        raise NotImplementedError
+
+    def _repr_args(self) -> str:
+        return ", ".join(f"{k}={_short(v)}" for k, v in self.arguments.items() if not isinstance(v, (dict, list)))
+
+    def __repr__(self) -> str:
+        m = self.metrics
+        keys = self._repr_keys or tuple(k for k, v in m.items() if not isinstance(v, (dict, list)))[:4]
+        shown = ", ".join(f"{k}={_short(m[k])}" for k in keys if k in m)
+        args = self._repr_args()
+        return f"{type(self).__name__}({args}{'; ' if args and shown else ''}{shown})"
+
+
+def _short(v) -> str:
+    if isinstance(v, (float, np.floating)):
+        return f"{float(v):.4g}"
+    return repr(v)
