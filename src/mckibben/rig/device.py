@@ -23,6 +23,8 @@ __all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "RigStepResult", "open_port
 BAUD = 500000
 #: The paper's safe limit: no step above it is sent to the device. [Pa]
 SAFE_MAX_PRESSURE_PA = float(P_MAX_DEFAULT)
+#: How long :meth:`Device.step` waits for the first telemetry frame. [s]
+STARTUP_TIMEOUT_S = 10.0
 #: The device's controllers by name (:data:`mckibben.rig.protocol.MODES`).
 CONTROLLERS = ("smc", "pid")
 
@@ -171,6 +173,15 @@ class Device:
         try:
             for pkt in (P.set_point(0, 0), P.set_mode(1, P.MODES[controller]), P.stream(2, True, 1)):
                 link.write(pkt)
+            # the hold starts with the first telemetry frame (a device may take a moment to start)
+            started = time.monotonic()
+            while not rows and time.monotonic() - started < STARTUP_TIMEOUT_S:
+                for f in parser.feed(link.read(8192)):
+                    if isinstance(f, P.Telemetry):
+                        rows.append((f.t_us * 1e-6, pressure_from_adc(f.pressure_adc).item(), f.reference_pa,
+                                     f.inlet_pwm - f.bleed_pwm))
+                    elif isinstance(f, P.Ack):
+                        acks.append(f)
             t0 = time.monotonic()
             sent = False
             while time.monotonic() - t0 < d + 0.1:
