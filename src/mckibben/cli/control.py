@@ -71,6 +71,21 @@ LAMBDA_OPTION = typer.Option(None, "--lambda", help="PID closed-loop time consta
 PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Supervisor's maximum pressure.")
 LOAD_OPTION = typer.Option("0.6N", "--load", help="Hanging load, e.g. 0.6N.")
 SUPPLY_OPTION = typer.Option(None, "--supply", help="Supply pressure (default: the calibrated plant's).")
+FORCE_OPTION = typer.Option(False, "--force", help="Run past the documented size limits (4 GiB, 10 min; "
+                                                   "mckibben.limits); never past the memory available.")
+
+
+def _periods(text: str, name: str) -> float:
+    """A positive time that is a whole number of 1 ms control periods. [s]"""
+    from mckibben.units import parse_quantity
+
+    d = parse_quantity(text, "time", name, allow_zero=False)
+    steps = d / 1e-3
+    if steps >= 1 and abs(steps - round(steps)) > 1e-6 * steps:
+        raise InputError(f"{name}: {text!r} must be a whole number of 1 ms control periods")
+    if steps < 1 - 1e-9:
+        raise InputError(f"{name}: {text!r} is shorter than one 1 ms control period")
+    return d
 
 
 @control_app.command("step")
@@ -88,35 +103,46 @@ def step_cmd(
     p_max: str = PMAX_OPTION,
     duration: str = typer.Option("1s", "--duration", help="Time after the step."),
     plot: str = typer.Option(None, "--plot", help="Write a PNG of pressure and commands."),
+    force: bool = FORCE_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """A pressure step on the calibrated plant under the firmware's controller."""
-    from mckibben.control.core import core_spec
-    from mckibben.control.experiments import identify_plant, plant_batch, run_closed_loop, step_reference
+    from mckibben.limits import check_budget, check_p_max, clamp_pressure
     from mckibben.units import parse_quantity
 
-    _png(plot)
-    opts = _controller_options(controller, beta, eps, ki, lam, law)
-    pmax = parse_quantity(p_max, "pressure", "--p-max", allow_zero=False)
+    # sizes and limits first: a refusal comes before any plant is built
+    dur = _periods(duration, "--duration")
+    pmax = check_p_max(parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
     p1 = parse_quantity(target, "pressure", "--target")
     p0 = parse_quantity(start, "pressure", "--from")
+    hold = 0.5 if p0 > 0 else 0.05
+    total = hold + dur
+    check_budget("--duration", total / 1e-3, force=force)
+    _png(plot)
     if p0 == p1:
         raise InputError("--target: equals --from, there is no step")
+    (p0c, p1c), clamped = clamp_pressure([p0, p1], pmax, "--target/--from")
+    if p0c == p1c:
+        raise InputError(f"--target: {target!r} and --from {start!r} are both clamped to {p1c / 1e6:g} MPa "
+                         "(--p-max): there is no step")
     f_load = parse_quantity(load, "force", "--load")
-    dur = parse_quantity(duration, "time", "--duration", allow_zero=False)
+
+    from mckibben.control.core import core_spec
+    from mckibben.control.experiments import identify_plant, plant_batch, run_closed_loop, step_reference
+
+    opts = _controller_options(controller, beta, eps, ki, lam, law)
     plant_kw = {"load_N": f_load}
     if supply is not None:
         plant_kw["supply_Pa"] = parse_quantity(supply, "pressure", "--supply", allow_zero=False)
     plant = plant_batch(**plant_kw)
     _, model, _ = identify_plant()
     params = _controller_params(opts, model, pmax)
-    hold = 0.5 if p0 > 0 else 0.05
-    total = hold + dur
     n = int(round(total / 1e-3))
-    ref = step_reference(n, int(round(hold / 1e-3)), p0, p1)
+    ref = step_reference(n, int(round(hold / 1e-3)), p0c, p1c)
     rec = run_closed_loop(core_spec(params), ref, total, plant)
     m = rec.metrics(0, hold)
-    out = {"controller": controller, "target_Pa": p1, "from_Pa": p0, "load_N": f_load, "p_max_Pa": pmax,
+    out = {"controller": controller, "target_Pa": p1c, "from_Pa": p0c, "load_N": f_load, "p_max_Pa": pmax,
+           "requested_target_Pa": p1, "requested_from_Pa": p0, "reference_clamped": clamped,
            "model": _model_dict(model),
            "gains": _gains_dict(params, controller),
            "peak_pressure_Pa": float(rec.pressure[0].max()),
@@ -126,7 +152,8 @@ def step_cmd(
     if json:
         emit_json(out)
         return
-    print_table(f"{controller} step {p0 / 1e6:g} → {p1 / 1e6:g} MPa under {f_load:g} N",
+    print_table(f"{controller} step {p0c / 1e6:g} → {p1c / 1e6:g} MPa under {f_load:g} N"
+                + (" (clamped to --p-max)" if clamped else ""),
                 ["metric", "value"], [[k, m[k]] for k in STEP_KEYS])
 
 
@@ -198,21 +225,32 @@ def compare_cmd(
                   r["overshoot_pct"], r["settling_time_s"], r["steady_state_error_Pa"] / 1e3] for r in rows])
 
 
+#: Record length of each robustness run (:func:`mckibben.control.experiments.robustness`). [s]
+ROBUSTNESS_DURATION = 0.6
+
+
 @control_app.command("robustness")
 def robustness_cmd(
     n: int = typer.Option(1000, "--n", help="Number of random plants."),
     seed: int = typer.Option(0, "--seed", help="Random seed."),
     beta: float = BETA_OPTION,
     plot: str = typer.Option(None, "--plot", help="Write a PNG of the distributions."),
+    force: bool = FORCE_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws, median and 5–95 % of each metric."""
-    from mckibben.control.experiments import identify_plant, robustness
+    from mckibben.limits import check_budget
 
-    _png(plot)
     if n < 1:
         raise InputError(f"--n: {n!r} must be at least 1")
+    if not 0 <= seed < 2**63:
+        raise InputError(f"--seed: {seed!r} must be in 0..2**63-1")
+    check_budget("--n", 3 * n * ROBUSTNESS_DURATION / 1e-3, force=force,
+                 what="control periods (3 controllers × --n plants × 0.6 s)")
+    _png(plot)
     _check_beta(beta)
+
+    from mckibben.control.experiments import identify_plant, robustness
     _, model, _ = identify_plant()
     res = robustness(model, n=n, seed=seed, beta=beta)
     if plot:
@@ -242,19 +280,24 @@ def track_cmd(
     p_max: str = PMAX_OPTION,
     duration: str = typer.Option("2s", "--duration", help="Duration for a sine reference."),
     plot: str = typer.Option(None, "--plot", help="Write a PNG of reference, pressure and commands."),
+    force: bool = FORCE_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Track a pressure trajectory: RMS and maximum error, valve effort."""
-    from mckibben.control.core import core_spec
-    from mckibben.control.experiments import identify_plant, plant_batch, run_closed_loop
-    from mckibben.control.metrics import tracking_metrics
+    from mckibben.limits import check_p_max, clamp_pressure
     from mckibben.units import parse_quantity
 
     _png(plot)
-    opts = _controller_options(controller, beta, eps, ki, lam, law)
-    pmax = parse_quantity(p_max, "pressure", "--p-max", allow_zero=False)
+    pmax = check_p_max(parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
     f_load = parse_quantity(load, "force", "--load")
-    t, ref = _reference(reference, parse_quantity(duration, "time", "--duration", allow_zero=False))
+    t, ref = _reference(reference, duration, force)
+    ref, clamped = clamp_pressure(ref, pmax, "--reference")
+
+    from mckibben.control.core import core_spec
+    from mckibben.control.experiments import identify_plant, plant_batch, run_closed_loop
+    from mckibben.control.metrics import tracking_metrics
+
+    opts = _controller_options(controller, beta, eps, ki, lam, law)
     _, model, _ = identify_plant()
     params = _controller_params(opts, model, pmax)
     rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * 1e-3, plant_batch(load_N=f_load))
@@ -262,13 +305,19 @@ def track_cmd(
     if plot:
         _plot_records(plot, rec, [controller], None)
     if json:
-        emit_json({"controller": controller, "load_N": f_load, "gains": _gains_dict(params, controller), **m})
+        emit_json({"controller": controller, "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
+                   "gains": _gains_dict(params, controller), **m})
         return
     print_table(f"{controller} tracking {reference}", ["metric", "value"], [[k, v] for k, v in m.items()])
 
 
-def _reference(text: str, duration: float):
-    """A reference from ``sine:MEAN,AMP,FREQ`` or a file, resampled at 1 kHz. [s], [Pa]"""
+def _reference(text: str, duration: str, force: bool = False):
+    """A reference from ``sine:MEAN,AMP,FREQ`` or a file, resampled at 1 kHz. [s], [Pa]
+
+    The number of samples is checked against the size limits (:mod:`mckibben.limits`) before
+    anything is allocated.
+    """
+    from mckibben.limits import check_budget
     from mckibben.units import parse_quantity
 
     if text.startswith("sine:"):
@@ -278,12 +327,17 @@ def _reference(text: str, duration: float):
         mean = parse_quantity(parts[0], "pressure", "--reference mean")
         amp = parse_quantity(parts[1], "pressure", "--reference amplitude")
         freq = parse_quantity(parts[2], "frequency", "--reference frequency", allow_zero=False)
-        t = np.arange(int(round(duration / 1e-3))) * 1e-3
+        dur = _periods(duration, "--duration")
+        check_budget("--duration", dur / 1e-3, force=force)
+        if freq > 500:
+            raise InputError(f"--reference frequency: {parts[2]!r} is above the 500 Hz a 1 kHz controller can follow")
+        t = np.arange(int(round(dur / 1e-3))) * 1e-3
         return t, mean + amp * np.sin(2 * np.pi * freq * t)
     from mckibben.control.identify import read_step_log
 
     data, _ = read_step_log(text)
     t0 = data["time_s"] - data["time_s"][0]
+    check_budget(f"--reference {text}", float(t0[-1]) / 1e-3, force=force, what="control periods (the file's span)")
     t = np.arange(int(t0[-1] / 1e-3) + 1) * 1e-3
     if t.size < 10:
         raise InputError(f"--reference: {text!r} is shorter than 10 ms")

@@ -24,6 +24,7 @@ def run_cmd(
     out: str = typer.Option(None, "--out", help="Results folder (default: next to FILE, FILE-results/)."),
     workers: int = typer.Option(None, "--workers", help="Run on a local Dask cluster with N worker processes."),
     scheduler: str = typer.Option(None, "--scheduler", help="Run on an existing Dask scheduler, tcp://HOST:PORT."),
+    force: bool = typer.Option(False, "--force", help="Run past the documented size limits (mckibben.limits)."),
     json: bool = JSON_OPTION,
 ) -> None:
     """Run a sweep; chunks already written are skipped (resume)."""
@@ -40,6 +41,13 @@ def run_cmd(
     if scheduler is not None and not _SCHEDULER.match(scheduler):
         raise InputError(f"--scheduler: {scheduler!r} must look like tcp://HOST:PORT")
     sweep = load_sweep(file)
+    from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
+
+    # memory: one chunk per worker at a time; time: the wall time, shared by the workers
+    steps = round(sweep.scenario["duration"] / 1e-3)
+    check_budget(f"{file} (samples × grid × duration, chunk_size)", sweep.n_runs * steps, force=force,
+                 memory_samples=min(sweep.chunk_size, sweep.n_runs) * steps * (workers or 1),
+                 seconds_per_sample=SECONDS_PER_SAMPLE / (workers or 1))
     out = out or str(Path(file).with_suffix("")) + "-results"
     t0 = time.perf_counter()
     show = not json and sys.stderr.isatty()

@@ -31,6 +31,8 @@ def _discs(text: str):
         n = int(text)
     except ValueError:
         raise InputError(f"--discs: {text!r} is not a whole number of discs (or 'continuous')") from None
+    if n < 2:
+        raise InputError(f"--discs: {text!r} must be at least 2 (base and tip)")
     return n
 
 
@@ -48,7 +50,14 @@ def build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_st
                                          default_unit="Nm2"),
         axial_stiffness=parse_quantity(axial_stiffness, "force", "--axial-stiffness"),
     )
-    return Tool(get_muscle(muscle), geo, load, parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
+    from mckibben.limits import check_p_max
+
+    pmax = check_p_max(parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
+    try:
+        return Tool(get_muscle(muscle), geo, load, pmax)
+    except InputError as exc:  # the library names its field; the command line names the option
+        msg = str(exc)
+        raise InputError("--" + msg if msg.startswith("discs:") else msg) from None
 
 
 def tool_json(tool) -> dict:
@@ -219,11 +228,18 @@ def workspace_cmd(
         console.print(f"wrote {plot}")
 
 
+#: Cost of one 1 ms sample of `tool track`: IK and static inverse, three controlled muscles; the
+#: memory of the reference and record. Measured on the reference machine with headroom. [B], [s]
+TRACK_BYTES_PER_SAMPLE = 4096
+TRACK_SECONDS_PER_SAMPLE = {False: 400e-6, True: 100e-6}
+
+
 @tool_app.command("track")
 def track_cmd(
     path: str = typer.Option(..., "--path", help="Tip path: circle:radius=5mm,period=2s[,z=..,cx=..,cy=..,cycles=2] or figure8:size=5mm,period=2s[,...]."),
     periods: str = typer.Option(None, "--periods", help="Run the path at several periods (speeds), e.g. 4s,2s,1s,0.5s."),
     reference_only: bool = typer.Option(False, "--reference-only", help="Only compute the pressure references (no simulation)."),
+    force: bool = typer.Option(False, "--force", help="Run past the documented size limits (mckibben.limits)."),
     plot: str = typer.Option(None, "--plot", help="Write the target-vs-achieved figure to this file (PNG)."),
     beta: float = typer.Option(None, "--beta", help="Sliding-mode switching gain of the three controllers [PWM counts] "
                                                     "(our law, docs/control.md; default TRACKING_BETA, 50)."),
@@ -242,9 +258,16 @@ def track_cmd(
 
     if plot:
         check_output_file(plot, "--plot")
+    from mckibben.limits import check_budget
+
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
-    base = resolve_path(parse_path(path), tool)
-    period_list = parse_values(periods, "time", "--periods", allow_zero=False) if periods else np.array([base.period])
+    spec = parse_path(path)
+    period_list = parse_values(periods, "time", "--periods", allow_zero=False) if periods else np.array([spec.period])
+    samples = float(np.sum(period_list)) * spec.cycles / 1e-3
+    check_budget("--path/--periods" if periods else "--path", samples, force=force, what="1 ms samples",
+                 bytes_per_sample=TRACK_BYTES_PER_SAMPLE,
+                 seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)])
+    base = resolve_path(spec, tool)
     runs = []
     for period in period_list:
         p = base.with_period(float(period))

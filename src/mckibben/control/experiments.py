@@ -111,6 +111,11 @@ def run_closed_loop(spec, reference, duration: float, plant=None, ts: float = 1e
     LoopRecord
         The sampled record.
     """
+    from mckibben.limits import check_budget
+
+    n_inst = np.asarray(spec[1]).shape[0]
+    # the documented limits are the command line's (--force); here only what cannot fit at all
+    check_budget("duration", n_inst * max(float(duration) / ts, 0.0), force=True)
     backend = _BACKEND if _BACKEND is not None else _plant_backend
     return backend(spec, reference, duration, plant, ts)
 
@@ -550,6 +555,13 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
         {controller: {metric: (median, p5, p95)}}. A plant a controller never brings to 63 %
         of the step has a NaN time constant, counted in ``n_undefined``.
     """
+    if isinstance(n, bool) or int(n) != n or n < 1:
+        raise InputError(f"n: {n!r} must be a whole number of plants >= 1")
+    if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2**63:
+        raise InputError(f"seed: {seed!r} must be a whole number in 0..2**63-1")
+    from mckibben.limits import check_budget
+
+    check_budget("n", 3 * n * duration / 1e-3, force=True)
     samples = sample_plants(n, seed)
     k = len(CONTROLLER_NAMES)
     every = {key: np.concatenate([v] * k) for key, v in samples.items()}

@@ -224,6 +224,11 @@ def run_sweep(sweep: Sweep, out: str | Path, *, workers: int | None = None, sche
         ``runs``, ``chunks``, ``skipped`` (chunks already written), ``computed`` (chunks),
         ``computed_runs``, ``seconds``, ``sims_per_second``.
     """
+    from mckibben.limits import check_budget
+
+    # the documented limits are the command line's (--force); here only a chunk that cannot fit
+    check_budget("chunk_size", min(sweep.chunk_size, sweep.n_runs) * round(sweep.scenario["duration"] / 1e-3),
+                 force=True)
     out = prepare_output(out, sweep)
     meta = {
         "scenario": sweep.scenario, "controller": sweep.controller_kind, "metrics": list(sweep.metrics),

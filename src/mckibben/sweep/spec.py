@@ -153,6 +153,31 @@ def _parse_param(name, raw, dim, where):
     return "const", _value(raw, dim, where)
 
 
+def _check_scenario_pressures(path, scenario: dict, params: dict) -> None:
+    """Refuse a scenario whose reference leaves [0, p_max]: the supervisor would clamp it and the
+    metrics would be scored against a pressure never commanded."""
+    from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
+
+    kind_, args = params.get("controller.p_max", ("const", float(P_MAX_DEFAULT)))
+    if kind_ == "const":
+        cap, what = float(args), "the controller's p_max"
+    elif kind_ in ("grid", "choice"):
+        cap, what = float(min(args)), "the smallest controller p_max"
+    else:
+        cap, what = float(P_MAX_LIMIT), "the supervisor's ceiling"
+    if scenario["kind"] == "step":
+        checks = [("target", scenario["target"]), ("start", scenario["start"])]
+    else:
+        checks = [("mean + amplitude", scenario["mean"] + scenario["amplitude"])]
+        if scenario["mean"] - scenario["amplitude"] < 0:
+            raise InputError(f"{path} [scenario] mean - amplitude: {(scenario['mean'] - scenario['amplitude']) / 1e6:g}"
+                             " MPa is below 0 gauge; the supervisor would clamp the reference")
+    for key, value in checks:
+        if value > cap:
+            raise InputError(f"{path} [scenario] {key}: {value / 1e6:g} MPa is above {what} ({cap / 1e6:g} MPa); "
+                             "the supervisor would clamp the reference")
+
+
 def load_sweep(path: str | Path) -> Sweep:
     """Read and validate a sweep file and expand it into its design table.
 
@@ -225,6 +250,8 @@ def load_sweep(path: str | Path) -> Sweep:
             if name not in fields_:
                 raise unknown_name(f"{section} parameter in {path}", name, fields_)
             params[f"{section}.{name}"] = _parse_param(name, value, fields_[name], f"{path} [{section}] {name}")
+
+    _check_scenario_pressures(path, scenario, params)
 
     mt = doc.get("metrics", {})
     keep = mt.get("keep", list(METRICS[:6]))

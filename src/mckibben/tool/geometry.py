@@ -29,6 +29,8 @@ from mckibben.models.mpam import MiniatureMuscle
 PAPER = "000_909f662a44080c85.txt"
 
 #: Angular positions of muscles 1, 2, 3, counter-clockwise from the base x axis. [rad]
+#: Closest spacing of two discs along the tool (a disc is about this thick, §V). [m]
+MIN_DISC_GAP = 1e-3
 MUSCLE_ANGLES = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)
 
 
@@ -212,8 +214,18 @@ class Tool:
     p_max: float = 0.8e6
 
     def __post_init__(self):
-        if not (math.isfinite(self.p_max) and self.p_max > 0):
+        from mckibben.limits import check_p_max
+
+        if not (isinstance(self.p_max, (int, float)) and math.isfinite(self.p_max)):
             raise InputError(f"p_max: {self.p_max!r} must be a pressure > 0 Pa")
+        check_p_max(float(self.p_max), "p_max")
+        gaps = self.geometry.n_gaps
+        if gaps is not None and self.reference_length / gaps < MIN_DISC_GAP:
+            most = int(self.reference_length / MIN_DISC_GAP) + 1
+            raise InputError(
+                f"discs: {self.geometry.n_discs} discs leave {self.reference_length / gaps * 1e3:.3g} mm between discs"
+                f" on a {self.reference_length * 1e3:.3g} mm tool; at most {most} fit at {MIN_DISC_GAP * 1e3:g} mm"
+                " apart (use 'continuous' for the limit of many discs)")
 
     @property
     def reference_length(self) -> float:
