@@ -6,6 +6,8 @@ the one of docs/controller.md and says how far the fixed point lies from float64
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -164,12 +166,16 @@ def test_adc_out_of_range_latches_until_set_mode():
 
 
 def test_stuck_sensor_latches_after_n_stuck():
+    # the supply has shown ~586 kPa (600 counts); then a reading frozen at 100 counts while the
+    # inlet is wide open: the model says it must rise, it does not
     ctrl = core.CoreController(core.CoreParams(n_stuck=50))
-    faults = [ctrl.step(100, True, 700e3)[2] for _ in range(60)]  # inlet at 255, no change
+    ctrl.step(600, True, 0.0)
+    faults = [ctrl.step(100, True, 700e3)[2] for _ in range(60)]
     first = faults.index(core.FAULT_STUCK)
     assert first == 50  # step 0 sets the held value; steps 1..50 count 50 repeats
     # a reading that moves is not stuck
     ctrl = core.CoreController(core.CoreParams(n_stuck=50))
+    ctrl.step(600, True, 0.0)
     assert all(ctrl.step(100 + k % 2, True, 700e3)[2] == 0 for k in range(200))
 
 
@@ -228,11 +234,48 @@ def test_core_spec_batch():
     assert core.core_spec(core.CoreParams(), n=3)[1].shape == (3, core.N_ISTATE)
 
 
-def test_stuck_rule_needs_a_valve_at_stuck_pwm():
-    # a frozen reading counts only while a valve is open past the lift-off range (160 counts)
-    for counts, latched in ((core.STUCK_PWM - 1, False), (core.STUCK_PWM, True)):
-        for inlet, bleed in ((counts, 0), (0, counts)):
-            ctrl = core.CoreController(core.CoreParams(mode=core.MODE_OPEN_LOOP, n_stuck=5, open_loop_inlet=inlet,
-                                                       open_loop_bleed=bleed))
-            faults = [ctrl.step(400, True, 0.0)[2] for _ in range(10)]
-            assert bool(faults[-1] & core.FAULT_STUCK) is latched, (inlet, bleed)
+def _frozen_faults(inlet, bleed, adc, seen_adc=800, params=None, n=10):
+    """Open loop at (inlet, bleed) on a reading frozen at ``adc`` after the supply showed ``seen_adc``."""
+    params = params or core.CoreParams(n_stuck=5)
+    ctrl = core.CoreController(replace(params, mode=core.MODE_OPEN_LOOP))
+    ctrl.step(seen_adc, True, 0.0)
+    ctrl.set_open_loop(inlet, bleed)
+    return [ctrl.step(adc, True, 0.0)[2] for _ in range(n)]
+
+
+def test_response_rule_follows_the_valve_model():
+    """The frozen reading counts only where the supervisor's model p = G_s (u - u0_s) says it must move."""
+    resp_u = 112 + core.RESP_DU  # default u0_s + the margin
+    # inlet: the model's equilibrium G_s (u - resp_u) must reach p (391,006 Pa at 400 counts):
+    # 3000 Pa/count x 131 counts = 393 kPa at 247 counts, 390 kPa at 246
+    assert not _frozen_faults(246, 0, 400)[-1] & core.FAULT_STUCK
+    assert _frozen_faults(247, 0, 400)[-1] & core.FAULT_STUCK
+    # bleed: open from resp_u counts, down to RESP_P_MIN
+    assert not _frozen_faults(0, resp_u - 1, 400)[-1] & core.FAULT_STUCK
+    assert _frozen_faults(0, resp_u, 400)[-1] & core.FAULT_STUCK
+    assert not _frozen_faults(0, 255, 10)[-1] & core.FAULT_STUCK  # 9.8 kPa: nothing left to vent
+    # both valves open (open loop only): no prediction
+    assert not _frozen_faults(255, 255, 400)[-1] & core.FAULT_STUCK
+    # sup_g = 0 switches the rule off
+    assert not _frozen_faults(255, 0, 100, params=core.CoreParams(n_stuck=5, sup_g=0.0))[-1]
+
+
+def test_a_chamber_at_supply_pressure_is_not_stuck():
+    # the reading stops at the highest pressure ever shown (the supply's) with the inlet wide open
+    faults = _frozen_faults(255, 0, 400, seen_adc=400, n=2000)
+    assert not any(f & core.FAULT_STUCK for f in faults)
+    # within RESP_P_MIN of it, too (a supply that droops a little)
+    assert not any(f & core.FAULT_STUCK for f in _frozen_faults(255, 0, 400, seen_adc=420, n=2000))
+    # but a reading frozen well below what the supply delivered is caught
+    assert _frozen_faults(255, 0, 400, seen_adc=430, n=10)[-1] & core.FAULT_STUCK
+
+
+def test_held_at_target_with_a_steady_command_is_not_stuck():
+    # the sliding mode holding 0.55 MPa on a noiseless reading: its steady command is the model's
+    # holding command (u0 + p/G), below the rule's u0_s + p/G_s + RESP_DU
+    params = core.CoreParams(mode=core.MODE_SMC, g=3000.0, u0=112.0, sup_g=3000.0, sup_u0=112.0, n_stuck=5)
+    ctrl = core.CoreController(params)
+    ctrl.step(800, True, 0.55e6)
+    adc = round(0.55e6 / (1e6 / 1023))
+    out = [ctrl.step(adc, True, 0.55e6) for _ in range(3000)]
+    assert not any(f for _, _, f in out)

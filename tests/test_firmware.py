@@ -16,8 +16,10 @@ import pytest
 from mckibben.control import core
 
 FIRMWARE = Path(__file__).resolve().parents[1] / "firmware"
-#: 10 % of the 16,000 cycles of one 1 kHz period at 16 MHz (docs/firmware.md).
+#: 10 % of the 16,000 cycles of one 1 kHz period at 16 MHz (docs/firmware.md): one channel.
 CYCLE_BUDGET = 1600
+#: 25 % of the period for the three channels' steps together (docs/firmware.md).
+BANK_CYCLE_BUDGET = 4000
 
 needs_avr = pytest.mark.skipif(
     shutil.which("avr-gcc") is None or shutil.which("simavr") is None,
@@ -59,10 +61,60 @@ def bench_checksum() -> int:
         else:
             adc = max((pref >> 10) + ((r2 >> 8) & 31) - 16, 0)
         inlet, bleed, faults = ctrl.step(adc, (r2 & 0x3E) != 0, pref)
-        h = (h * 31 + (inlet | bleed << 8 | faults << 16)) & m32
-        h = (h * 31 + (ctrl.surface_pa & m32)) & m32
-        h = (h * 31 + (ctrl.reference_pa & m32)) & m32
+        h = _mix(h, inlet, bleed, faults, ctrl)
     return h
+
+
+def _mix(h, inlet, bleed, faults, ctrl):
+    m32 = 0xFFFFFFFF
+    h = (h * 31 + (inlet | bleed << 8 | faults << 16)) & m32
+    h = (h * 31 + (ctrl.surface_pa & m32)) & m32
+    return (h * 31 + (ctrl.reference_pa & m32)) & m32
+
+
+def bank_checksum() -> int:
+    """The outputs hash of bench/cycles.c's three-channel sequence (run_bank), with CoreBank."""
+    rnd = Lcg()
+    rnd.s = _lcg_after_single()
+    bank = core.CoreBank([core.CoreParams(mode=core.MODE_OFF)] * 3)
+    for i in range(3):
+        bank[i].set_open_loop(200 - 40 * i, 30 + 10 * i)
+    g = core.GAIN_IDS
+    for name, v in (("smc_beta", 150_000), ("smc_eps", 5000), ("pid_kd", 20_000_000)):
+        bank[1].set_gain(g[name], v)
+    for name, v in (("smc_g", 62_000_000), ("smc_u0", 109_000), ("sup_g", 62_000_000), ("sup_u0", 109_000),
+                    ("n_stuck", 20)):
+        bank[2].set_gain(g[name], v)
+    phase_mode = [1, 2, 1, 2, 3, 0]
+    h = 0
+    pref = [0, 0, 0]
+    for k in range(3000):
+        if k % 500 == 0:
+            for i in range(3):
+                bank[i].set_mode(phase_mode[k // 500])
+        adcs, oks = [0, 0, 0], [False] * 3
+        for i in range(3):
+            r1, r2 = rnd(), rnd()
+            if k % 100 == 0:
+                pref[i] = r1 * 15
+            if (r2 & 1) and i != 2:
+                adcs[i] = 100 + (r2 >> 6) % 800
+            else:
+                adcs[i] = max((pref[i] >> 10) + ((r2 >> 8) & 31) - 16, 0)
+            if i == 2 and (k // 50) % 4 == 3:
+                adcs[i] = 200  # a frozen reading
+            oks[i] = (r2 & 0x3E) != 0
+        for i, (inlet, bleed, faults) in enumerate(bank.step(adcs, oks, pref)):
+            h = _mix(h, inlet, bleed, faults, bank[i])
+    return h
+
+
+def _lcg_after_single() -> int:
+    """The LCG state after the single-channel sequence (2 draws per step)."""
+    rnd = Lcg()
+    for _ in range(2 * 3000):
+        rnd()
+    return rnd.s
 
 
 @pytest.fixture(scope="module")
@@ -84,14 +136,21 @@ def test_cycles_per_step_within_budget(cycles_output):
     assert worst <= CYCLE_BUDGET, cycles_output
     # the laws cost more than the bare supervisor path (the count is not of an empty loop)
     assert int(rows[1][4]) > int(rows[0][4]) + 300
+    m = re.search(r"bank 3 channels steps 3000 cycles min (\d+) mean (\d+) max (\d+)", cycles_output)
+    assert m, cycles_output
+    assert int(m.group(3)) <= BANK_CYCLE_BUDGET, cycles_output
+    assert int(m.group(3)) > 2 * int(rows[1][4])  # three channels' work, not one
 
 
 @needs_avr
 def test_avr_build_computes_what_python_computes(cycles_output):
     assert re.search(r"mulq16 check .* mismatches 0\b", cycles_output), cycles_output
-    m = re.search(r"checksum (\d+)", cycles_output)
+    m = re.search(r"^checksum (\d+)", cycles_output, re.M)
     assert m, cycles_output
     assert int(m.group(1)) == bench_checksum()
+    m = re.search(r"bank checksum (\d+)", cycles_output)
+    assert m, cycles_output
+    assert int(m.group(1)) == bank_checksum()
 
 
 @pytest.mark.skipif(shutil.which("avr-gcc") is None, reason="avr-gcc not installed")

@@ -1,9 +1,11 @@
-/* Cycle count of one control step (mck_ctrl_step) on the ATmega2560, run in simavr:
+/* Cycle count of one control step on the ATmega2560, run in simavr:
  *   make -C firmware cycles
- * Timer1 runs at the CPU clock (prescaler 1) and is read around each step. The input sequence
- * (a 32-bit LCG, mode switches, gain changes) is reproduced in tests/test_firmware.py, which
- * also checks the checksum of the outputs against the Python mirror, so the image proves that
- * the AVR build computes what the host build and Python compute. */
+ * First one channel (mck_ctrl_step), then a bank of three channels with different gains
+ * (mck_bank_step, what the firmware's interrupt runs). Timer1 runs at the CPU clock (prescaler
+ * 1) and is read around each step. The input sequences (a 32-bit LCG, mode switches, gain
+ * changes) are reproduced in tests/test_firmware.py, which also checks the checksums of the
+ * outputs against the Python mirror, so the image proves that the AVR build computes what the
+ * host build and Python compute. */
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <avr/sleep.h>
@@ -25,6 +27,7 @@ static int uart_put(char ch, FILE *f)
 static FILE uart_out = FDEV_SETUP_STREAM(uart_put, NULL, _FDEV_SETUP_WRITE);
 
 static uint32_t lcg = 1u;
+static uint16_t overhead_cycles;
 static uint16_t rnd(void)
 {
     lcg = lcg * 1664525UL + 1013904223UL;
@@ -41,9 +44,15 @@ static uint16_t check_mulq16(uint16_t n)
     for (a = 0; a < 6; a++)
         for (b = 0; b < 5; b++)
             if (mck_mulq16(xs[a], cs[b]) != (int32_t)(((int64_t)xs[a] * cs[b]) >> 16)) bad++;
+    for (a = 0; a < 6; a++)
+        for (b = 0; b < 5; b++) {
+            int32_t x = xs[a] >> 8; /* in [-2^23, 2^23) */
+            if (mck_mulq16s24(x, cs[b]) != (int32_t)(((int64_t)x * cs[b]) >> 16)) bad++;
+        }
     for (i = 0; i < n; i++) {
         int32_t x = (int32_t)(((uint32_t)rnd() << 16) | rnd());
         int32_t c = (int32_t)((((uint32_t)rnd() << 16) | rnd()) >> (rnd() & 31u) >> 1);
+        if (mck_mulq16s24(x >> 8, c) != (int32_t)(((int64_t)(x >> 8) * c) >> 16)) bad++;
         if (mck_mulq16(x, c) != (int32_t)(((int64_t)x * c) >> 16)) bad++;
     }
     return bad;
@@ -52,6 +61,68 @@ static uint16_t check_mulq16(uint16_t n)
 static const uint8_t phase_mode[6] = {1u, 2u, 1u, 2u, 3u, 0u};
 
 static mck_ctrl_t ctrl;
+#define bank mck_bank
+
+static uint32_t mix(uint32_t hash, const mck_out_t *o)
+{
+    hash = hash * 31u + ((uint32_t)o->inlet | ((uint32_t)o->bleed << 8) | ((uint32_t)o->faults << 16));
+    hash = hash * 31u + (uint32_t)o->surface;
+    return hash * 31u + (uint32_t)o->reference;
+}
+
+/* Three channels, each with its own gains, in the modes of phase_mode (all channels at once:
+ * the worst case is all three in the same law). */
+static void run_bank(void)
+{
+    uint16_t k, t0, t1, cyc, cmin = 0xFFFFu, cmax = 0;
+    uint32_t csum = 0, hash = 0;
+    uint16_t adc[3];
+    int32_t pref[3] = {0, 0, 0};
+    mck_out_t o[3];
+    uint8_t i, ok;
+    for (i = 0; i < 3u; i++) {
+        mck_ctrl_init(&bank[i], 1000u);
+        mck_ctrl_set_open_loop(&bank[i], (uint8_t)(200u - 40u * i), (uint8_t)(30u + 10u * i));
+    }
+    mck_ctrl_set_gain(&bank[1], MCK_GAIN_SMC_BETA, 150000L);
+    mck_ctrl_set_gain(&bank[1], MCK_GAIN_SMC_EPS, 5000L);
+    mck_ctrl_set_gain(&bank[1], MCK_GAIN_PID_KD, 20000000L);
+    mck_ctrl_set_gain(&bank[2], MCK_GAIN_SMC_G, 62000000L);
+    mck_ctrl_set_gain(&bank[2], MCK_GAIN_SMC_U0, 109000L);
+    mck_ctrl_set_gain(&bank[2], MCK_GAIN_SUP_G, 62000000L);
+    mck_ctrl_set_gain(&bank[2], MCK_GAIN_SUP_U0, 109000L);
+    mck_ctrl_set_gain(&bank[2], MCK_GAIN_N_STUCK, 20L);
+    for (k = 0; k < N_STEPS; k++) {
+        if (k % 500u == 0u)
+            for (i = 0; i < 3u; i++) mck_ctrl_set_mode(&bank[i], phase_mode[k / 500u]);
+        ok = 0;
+        for (i = 0; i < 3u; i++) {
+            uint16_t r1 = rnd(), r2 = rnd();
+            if (k % 100u == 0u) pref[i] = (int32_t)r1 * 15;
+            if ((r2 & 1u) && i != 2u) {
+                adc[i] = (uint16_t)(100u + (r2 >> 6) % 800u);
+            } else {
+                int32_t a = (pref[i] >> 10) + (int32_t)((r2 >> 8) & 31u) - 16;
+                adc[i] = a < 0 ? 0u : (uint16_t)a;
+            }
+            if (i == 2u && (k / 50u) % 4u == 3u) adc[i] = 200u; /* a frozen reading */
+            if ((r2 & 0x3Eu) != 0u) ok |= (uint8_t)(1u << i);
+        }
+        cli();
+        t0 = TCNT1;
+        mck_bank_run(3u, adc, ok, pref, o);
+        t1 = TCNT1;
+        sei();
+        cyc = (uint16_t)(t1 - t0 - overhead_cycles);
+        if (cyc < cmin) cmin = cyc;
+        if (cyc > cmax) cmax = cyc;
+        csum += cyc;
+        for (i = 0; i < 3u; i++) hash = mix(hash, &o[i]);
+    }
+    printf("bank 3 channels steps %u cycles min %u mean %lu max %u\n", N_STEPS, cmin,
+           (unsigned long)((csum + N_STEPS / 2u) / N_STEPS), cmax);
+    printf("bank checksum %lu\n", (unsigned long)hash);
+}
 
 int main(void)
 {
@@ -74,8 +145,9 @@ int main(void)
     t0 = TCNT1;
     t1 = TCNT1;
     overhead = (uint16_t)(t1 - t0);
+    overhead_cycles = overhead;
 
-    printf("mulq16 check 2000 random + 30 edge cases, mismatches %u\n", check_mulq16(2000u));
+    printf("mulq16 check 2000 random + 30 edge cases (and the 24-bit variant), mismatches %u\n", check_mulq16(2000u));
     lcg = 1u;
     mck_ctrl_init(&ctrl, 1000u);
     mck_ctrl_set_open_loop(&ctrl, 200u, 30u);
@@ -96,7 +168,7 @@ int main(void)
             adc = a < 0 ? 0u : (uint16_t)a;
         }
         uint8_t ok = (r2 & 0x3Eu) != 0u;
-        m = ctrl.mode;
+        m = ctrl.s.mode;
         cli();
         t0 = TCNT1;
         mck_ctrl_step(&ctrl, adc, ok, pref, &o);
@@ -107,9 +179,7 @@ int main(void)
         if (cyc > cmax[m]) cmax[m] = cyc;
         csum[m] += cyc;
         cnt[m]++;
-        hash = hash * 31u + ((uint32_t)o.inlet | ((uint32_t)o.bleed << 8) | ((uint32_t)o.faults << 16));
-        hash = hash * 31u + (uint32_t)o.surface;
-        hash = hash * 31u + (uint32_t)o.reference;
+        hash = mix(hash, &o);
     }
     printf("timer overhead %u cycles (subtracted)\n", overhead);
     for (m = 0; m < 4; m++) {
@@ -117,6 +187,7 @@ int main(void)
                (unsigned long)((csum[m] + cnt[m] / 2u) / cnt[m]), cmax[m]);
     }
     printf("checksum %lu\n", (unsigned long)hash);
+    run_bank();
     /* mck_ctrl_set_gain (main loop, not the interrupt): Timer1 at F_CPU/64 */
     TCCR1B = (uint8_t)(1 << CS11 | 1 << CS10);
     t0 = TCNT1;

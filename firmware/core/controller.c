@@ -30,17 +30,18 @@ static const uint16_t mck_tanh_tab[129] MCK_ROM = {
 static const int32_t mck_gain_default[MCK_N_GAINS] = {
     120000L, 20000L, 10000L, 90000L, 3000000L, 10000000L,     /* SMC */
     1000000L, 11000000L, 0L, 5000L,                            /* PID */
-    0L, 977517L, 20000L, 0L, 1022L, 500L, 10L,                 /* scaling, supervisor */
-    0L                                                         /* SMC u0 */
+    0L, 977517L, 20000L, 0L, 1022L, 250L, 10L,                 /* scaling, supervisor */
+    0L,                                                        /* SMC u0 */
+    3000000L, 112000L                                          /* supervisor's valve model */
 };
 static const int32_t mck_gain_lo[MCK_N_GAINS] = {
-    0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L
+    0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L
 };
 static const int32_t mck_gain_hi[MCK_N_GAINS] = {
     255000L, 1000000L, 1000000L, 10000000L, 100000000L, 2147483647L,
     1000000000L, 2147483647L, 2147483647L, 10000000L,
     1023L, 2047999L, 200000L, 1023L, 1023L, 65535L, 65535L,
-    255000L
+    255000L, 100000000L, 255000L
 };
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -110,6 +111,50 @@ MCK_INLINE int32_t mulq16(int32_t x, int32_t c)
         : [x] "r"(x), [c] "r"(c));
     return r;
 }
+
+/* The same for |x| < 2^23 (p, e, the reference increment, |S| below s_sat: every such x in
+ * the step is bounded so, controller.h): x has three bytes, 12 byte products instead of 15,
+ * and a negative x (x_u = x + 2^24) is corrected by subtracting c 2^8. */
+MCK_INLINE int32_t mulq16s24(int32_t x, int32_t c)
+{
+    int32_t r;
+    uint8_t a1, z;
+    __asm__(
+        "clr %[z]\n\t"
+        "clr %A[r]\n\t"
+        "clr %B[r]\n\t"
+        "clr %C[r]\n\t"
+        "clr %D[r]\n\t"
+        /* byte 1 */
+        "mul %A[x], %A[c]\n\t"
+        "mov %[a1], r1\n\t"
+        "mul %A[x], %B[c]\n\t" "add %[a1], r0\n\t" "adc %A[r], r1\n\t" "adc %B[r], %[z]\n\t"
+        "mul %B[x], %A[c]\n\t" "add %[a1], r0\n\t" "adc %A[r], r1\n\t" "adc %B[r], %[z]\n\t"
+        /* byte 2 */
+        "mul %A[x], %C[c]\n\t" "add %A[r], r0\n\t" "adc %B[r], r1\n\t" "adc %C[r], %[z]\n\t"
+        "mul %B[x], %B[c]\n\t" "add %A[r], r0\n\t" "adc %B[r], r1\n\t" "adc %C[r], %[z]\n\t"
+        "mul %C[x], %A[c]\n\t" "add %A[r], r0\n\t" "adc %B[r], r1\n\t" "adc %C[r], %[z]\n\t"
+        /* byte 3 */
+        "mul %A[x], %D[c]\n\t" "add %B[r], r0\n\t" "adc %C[r], r1\n\t" "adc %D[r], %[z]\n\t"
+        "mul %B[x], %C[c]\n\t" "add %B[r], r0\n\t" "adc %C[r], r1\n\t" "adc %D[r], %[z]\n\t"
+        "mul %C[x], %B[c]\n\t" "add %B[r], r0\n\t" "adc %C[r], r1\n\t" "adc %D[r], %[z]\n\t"
+        /* byte 4 */
+        "mul %B[x], %D[c]\n\t" "add %C[r], r0\n\t" "adc %D[r], r1\n\t"
+        "mul %C[x], %C[c]\n\t" "add %C[r], r0\n\t" "adc %D[r], r1\n\t"
+        /* byte 5 */
+        "mul %C[x], %D[c]\n\t" "add %D[r], r0\n\t"
+        /* signed x */
+        "sbrs %C[x], 7\n\t"
+        "rjmp 1f\n\t"
+        "sub %B[r], %A[c]\n\t"
+        "sbc %C[r], %B[c]\n\t"
+        "sbc %D[r], %C[c]\n\t"
+        "1:\n\t"
+        "clr __zero_reg__"
+        : [r] "=&r"(r), [a1] "=&r"(a1), [z] "=&r"(z)
+        : [x] "r"(x), [c] "r"(c));
+    return r;
+}
 #else
 MCK_INLINE int32_t mulq16(int32_t x, int32_t c)
 {
@@ -137,15 +182,23 @@ MCK_INLINE int32_t mulq16(int32_t x, int32_t c)
 }
 #endif
 
+#if !defined(__AVR__) || defined(MCK_PORTABLE_MUL)
+#define mulq16s24 mulq16 /* the same function on its domain */
+#endif
+
 int32_t mck_mulq16(int32_t x, int32_t c) { return mulq16(x, c); }
+int32_t mck_mulq16s24(int32_t x, int32_t c) { return mulq16s24(x, c); }
 
 MCK_INLINE uint16_t tanh_q15(uint16_t x_q12)
 {
     uint8_t i = (uint8_t)(x_q12 >> 8);
     uint8_t f = (uint8_t)(x_q12 & 0xFFu);
     uint16_t a = MCK_ROM_U16(&mck_tanh_tab[i]);
-    uint16_t b = MCK_ROM_U16(&mck_tanh_tab[i + 1u]);
-    return (uint16_t)(a + (uint16_t)(((uint32_t)(uint16_t)(b - a) * f) >> 8));
+    uint16_t d = (uint16_t)(MCK_ROM_U16(&mck_tanh_tab[i + 1u]) - a); /* < 2^12 */
+    /* floor(d f / 256) from two 8x8 products, d = dh 256 + dl: dh f + floor(dl f / 256),
+     * exact and without libgcc's 16x16->32 routine */
+    uint8_t dh = (uint8_t)(d >> 8), dl = (uint8_t)d;
+    return (uint16_t)(a + (uint16_t)(dh * f) + (uint16_t)(((uint16_t)(dl * f)) >> 8));
 }
 
 uint16_t mck_tanh_q15(uint16_t x_q12) { return tanh_q15(x_q12); }
@@ -165,67 +218,74 @@ static int32_t cap_u64(uint64_t v, int32_t hi) { return v > (uint64_t)hi ? hi : 
 static void derive(mck_ctrl_t *c)
 {
     const int32_t *g = c->gain;
+    mck_coef_t *k = &c->k;
     uint64_t ts = c->ts_us;
     uint64_t beta = (uint64_t)g[MCK_GAIN_SMC_BETA], eps = (uint64_t)g[MCK_GAIN_SMC_EPS];
     uint64_t ki = (uint64_t)g[MCK_GAIN_SMC_KI], tau = (uint64_t)g[MCK_GAIN_SMC_TAU];
     uint64_t gg = (uint64_t)g[MCK_GAIN_SMC_G], imax = (uint64_t)g[MCK_GAIN_SMC_IMAX];
+    uint64_t gs = (uint64_t)g[MCK_GAIN_SUP_G];
     uint64_t lim;
 
-    c->ppc_q8 = (int32_t)rdiv((uint64_t)g[MCK_GAIN_PA_PER_COUNT] * 256u, 1000u);
-    c->beta_q8 = (int32_t)rdiv(beta * 256u, 1000u);
+    k->ppc_q8 = (int32_t)rdiv((uint64_t)g[MCK_GAIN_PA_PER_COUNT] * 256u, 1000u);
+    k->beta_q8 = (uint16_t)rdiv(beta * 256u, 1000u);
     if (gg == 0u) {
         /* G = 0: no model term, u = beta tanh(S/eps) alone */
-        c->c_p = 0;
-        c->c_dref = 0;
-        c->c_e = 0;
-        c->c_u0 = 0;
+        k->c_p = 0;
+        k->c_dref = 0;
+        k->c_e = 0;
+        k->c_u0 = 0;
     } else {
         /* u0 in counts Q8 */
-        c->c_u0 = (int32_t)rdiv((uint64_t)g[MCK_GAIN_SMC_U0] * 256u, 1000u);
+        k->c_u0 = (int32_t)rdiv((uint64_t)g[MCK_GAIN_SMC_U0] * 256u, 1000u);
         /* 2^24 / G with G = gg / 1e3 */
-        c->c_p = cap_u64(rdiv(1000ull << 24, gg), 1L << 24);
+        k->c_p = cap_u64(rdiv(1000ull << 24, gg), 1L << 24);
         /* 2^24 tau / (G Ts) = 2^24 1e3 tau_us / (gg ts_us) */
-        c->c_dref = cap_u64(rdiv((tau * 1000u) << 24, gg * ts), (1L << 27) - 1);
+        k->c_dref = cap_u64(rdiv((tau * 1000u) << 24, gg * ts), (1L << 27) - 1);
         /* 2^24 tau Ki / G = 2^24 tau_us ki_milli / (gg 1e6) = tau ki 2^18 / (gg 5^6) */
-        c->c_e = cap_u64(rdiv((tau * ki) << 18, gg * 15625u), (1L << 25) - 1);
+        k->c_e = cap_u64(rdiv((tau * ki) << 18, gg * 15625u), (1L << 25) - 1);
     }
     /* 2^24 Ki Ts = ki_milli ts_us 2^24 / 1e9 = ki ts 2^15 / 5^9 */
-    c->c_ki = (int32_t)rdiv((ki * ts) << 15, 1953125u);
-    c->c_eps = (int32_t)((1ull << 28) / eps);
-    c->s_sat = (int32_t)(8u * eps);
+    k->c_ki = (int32_t)rdiv((ki * ts) << 15, 1953125u);
+    k->c_eps = (int32_t)((1ull << 28) / eps);
+    k->s_sat = (int32_t)(8u * eps);
     /* I_max / Ts = imax_milli 1e3 / ts_us, capped so that Ki I < 2^22 Pa and isum < 2^30 */
     lim = rdiv(imax * 1000u, ts);
-    if (c->c_ki > 0 && (1ull << 46) / (uint64_t)c->c_ki < lim) lim = (1ull << 46) / (uint64_t)c->c_ki;
-    c->isum_max = cap_u64(lim, 1L << 30);
+    if (k->c_ki > 0 && (1ull << 46) / (uint64_t)k->c_ki < lim) lim = (1ull << 46) / (uint64_t)k->c_ki;
+    k->isum_max = cap_u64(lim, 1L << 30);
+    k->isum_min = -k->isum_max;
     /* PID: 2^24 Kp = kp_nano 2^24 / 1e9 = kp 2^15 / 5^9 */
-    c->c_kp = cap_u64(rdiv((uint64_t)g[MCK_GAIN_PID_KP] << 15, 1953125u), 1L << 24);
+    k->c_kp = cap_u64(rdiv((uint64_t)g[MCK_GAIN_PID_KP] << 15, 1953125u), 1L << 24);
     /* 2^32 Ki Ts = ki_nano ts_us 2^32 / 1e15 = ki ts 2^17 / 5^15 */
-    c->c_kip = cap_u64(rdiv(((uint64_t)g[MCK_GAIN_PID_KI] * ts) << 17, 30517578125ull),
+    k->c_kip = cap_u64(rdiv(((uint64_t)g[MCK_GAIN_PID_KI] * ts) << 17, 30517578125ull),
                        (1L << 25) - 1);
     /* 2^20 Kd / Ts = kd_pico 2^20 / (ts_us 1e6) = kd 2^14 / (ts 5^6) */
-    c->c_kd = cap_u64(rdiv((uint64_t)g[MCK_GAIN_PID_KD] << 14, ts * 15625u), (1L << 20) - 1);
+    k->c_kd = cap_u64(rdiv((uint64_t)g[MCK_GAIN_PID_KD] << 14, ts * 15625u), (1L << 20) - 1);
     /* 2^16 Ts / (Tf + Ts) */
-    c->alpha = (int32_t)rdiv(ts << 16, (uint64_t)g[MCK_GAIN_PID_TF] + ts);
+    k->alpha = (int32_t)rdiv(ts << 16, (uint64_t)g[MCK_GAIN_PID_TF] + ts);
+    /* supervisor's valve model: 2^16 / G_s with G_s = gs / 1e3; lift-off rounded to counts */
+    k->gs_pa = (int32_t)rdiv(gs, 1000u);
+    k->resp_u = (int16_t)(rdiv((uint64_t)g[MCK_GAIN_SUP_U0], 1000u) + MCK_RESP_DU);
     /* supervisor settings */
-    c->p_over = c->p_max + g[MCK_GAIN_MARGIN];
-    c->adc_zero = (int16_t)g[MCK_GAIN_ADC_ZERO];
-    c->adc_min = (uint16_t)g[MCK_GAIN_ADC_MIN];
-    c->adc_max = (uint16_t)g[MCK_GAIN_ADC_MAX];
-    c->n_stuck = (uint16_t)g[MCK_GAIN_N_STUCK];
-    c->n_missing = (uint16_t)g[MCK_GAIN_N_MISSING];
+    k->p_over = k->p_max + g[MCK_GAIN_MARGIN];
+    k->adc_zero = (int16_t)g[MCK_GAIN_ADC_ZERO];
+    k->adc_min = (uint16_t)g[MCK_GAIN_ADC_MIN];
+    k->adc_max = (uint16_t)g[MCK_GAIN_ADC_MAX];
+    k->n_stuck = (uint16_t)g[MCK_GAIN_N_STUCK];
+    k->n_missing = (uint16_t)g[MCK_GAIN_N_MISSING];
 }
 
-static void reset_state(mck_ctrl_t *c)
+static void reset_state(mck_state_t *s)
 {
-    c->latched = 0;
-    c->first = 1;
-    c->isum = 0;
-    c->iu = 0;
-    c->dq = 0;
-    c->e_prev = 0;
-    c->pref_prev = 0;
-    c->stuck_n = 0;
-    c->missing_n = 0;
+    s->latched = 0;
+    s->first = 1;
+    s->isum = 0;
+    s->iu = 0;
+    s->dq = 0;
+    s->e_prev = 0;
+    s->pref_prev = 0;
+    s->stuck_n = 0;
+    s->missing_n = 0;
+    s->p_seen = 0;
 }
 
 void mck_ctrl_init(mck_ctrl_t *c, uint16_t ts_us)
@@ -235,16 +295,16 @@ void mck_ctrl_init(mck_ctrl_t *c, uint16_t ts_us)
     if (ts_us > MCK_TS_US_MAX) ts_us = MCK_TS_US_MAX;
     for (i = 0; i < MCK_N_GAINS; i++) c->gain[i] = mck_gain_default[i];
     c->ts_us = ts_us;
-    c->p_max = 800000L;
-    c->ol_inlet = 0;
-    c->ol_bleed = 0;
-    c->mode = MCK_MODE_OFF;
-    c->over = 0;
-    c->last_inlet = 0;
-    c->last_bleed = 0;
-    c->held_adc = 0;
-    c->p_prev = MCK_P_NONE;
-    reset_state(c);
+    c->k.p_max = 800000L;
+    c->k.ol_inlet = 0;
+    c->k.ol_bleed = 0;
+    c->s.mode = MCK_MODE_OFF;
+    c->s.over = 0;
+    c->s.last_inlet = 0;
+    c->s.last_bleed = 0;
+    c->s.held_adc = 0;
+    c->s.p_prev = MCK_P_NONE;
+    reset_state(&c->s);
     derive(c);
 }
 
@@ -260,120 +320,141 @@ uint8_t mck_ctrl_set_gain(mck_ctrl_t *c, uint8_t id, int32_t value)
 uint8_t mck_ctrl_set_mode(mck_ctrl_t *c, uint8_t mode)
 {
     if (mode > MCK_MODE_OPEN_LOOP) return MCK_ERR_RANGE;
-    c->mode = mode;
-    reset_state(c);
+    c->s.mode = mode;
+    reset_state(&c->s);
     return MCK_OK;
 }
 
 uint8_t mck_ctrl_set_max_pressure(mck_ctrl_t *c, int32_t p_max_pa)
 {
     if (p_max_pa < 0 || p_max_pa > MCK_P_MAX_LIMIT) return MCK_ERR_RANGE;
-    c->p_max = p_max_pa;
-    c->p_over = p_max_pa + c->gain[MCK_GAIN_MARGIN];
+    c->k.p_max = p_max_pa;
+    c->k.p_over = p_max_pa + c->gain[MCK_GAIN_MARGIN];
     return MCK_OK;
 }
 
 void mck_ctrl_set_open_loop(mck_ctrl_t *c, uint8_t inlet, uint8_t bleed)
 {
-    c->ol_inlet = inlet;
-    c->ol_bleed = bleed;
+    c->k.ol_inlet = inlet;
+    c->k.ol_bleed = bleed;
 }
 
-void mck_ctrl_vent(mck_ctrl_t *c) { c->latched |= MCK_FAULT_VENT; }
+void mck_ctrl_vent(mck_ctrl_t *c) { c->s.latched |= MCK_FAULT_VENT; }
 
 #define TERM_LIM (1L << 24) /* clamp of each Q8 term before summing: 65536 counts */
 
 /* Sliding mode, docs/controller.md: returns u [counts Q8]; sets *surface = S [Pa]. */
-static int32_t law_smc(mck_ctrl_t *c, int32_t p, int32_t pref, int32_t e, int32_t *surface)
+MCK_INLINE int32_t law_smc(mck_state_t *s, const mck_coef_t *k, int32_t p, int32_t pref,
+                           int32_t e, int32_t *surface)
 {
-    int32_t s, ki_i, u, t4, sabs;
+    int32_t sf, u, t4, sabs;
     uint16_t th;
-    c->isum = clamp32(c->isum + e, -c->isum_max, c->isum_max);
-    ki_i = mulq16(c->isum, c->c_ki) >> 8;                    /* Ki I [Pa] */
-    s = e + ki_i;
-    *surface = s;
-    u = clamp32(mulq16(p, c->c_p), -TERM_LIM, TERM_LIM);     /* p / G */
-    u += clamp32(mulq16(pref - c->pref_prev, c->c_dref), -TERM_LIM, TERM_LIM);
-    u += clamp32(mulq16(e, c->c_e), -TERM_LIM, TERM_LIM);    /* tau Ki e / G */
-    c->pref_prev = pref;
-    sabs = s < 0 ? -s : s;
-    th = sabs >= c->s_sat ? 32768u : tanh_q15((uint16_t)mulq16(sabs, c->c_eps));
-    t4 = (int32_t)(((uint32_t)c->beta_q8 * th) >> 15);           /* beta tanh(|S|/eps) */
-    u = s < 0 ? u - t4 : u + t4;
+    /* the model term first, while p and pref are at hand; then the surface from e alone (fewer
+     * 32-bit values live at once: fewer spills on the AVR) */
+    u = clamp32(mulq16s24(p, k->c_p), -TERM_LIM, TERM_LIM);     /* p / G */
+    u += clamp32(mulq16s24(pref - s->pref_prev, k->c_dref), -TERM_LIM, TERM_LIM);
+    s->pref_prev = pref;
+    u += clamp32(mulq16s24(e, k->c_e), -TERM_LIM, TERM_LIM);    /* tau Ki e / G */
+    s->isum = clamp32(s->isum + e, k->isum_min, k->isum_max);
+    sf = e + (mulq16(s->isum, k->c_ki) >> 8);                /* S = e + Ki I [Pa] */
+    *surface = sf;
+    sabs = sf < 0 ? -sf : sf;
+    th = sabs >= k->s_sat ? 32768u : tanh_q15((uint16_t)mulq16s24(sabs, k->c_eps));
+    /* beta tanh(|S|/eps) = floor(beta_q8 th / 2^15), as (2 x) >> 16 (x < 2^31): byte moves
+     * instead of avr-gcc's 15-turn shift loop */
+    t4 = (int32_t)((((uint32_t)k->beta_q8 * th) << 1) >> 16);
+    u = sf < 0 ? u - t4 : u + t4;
     /* the valves' lift-off: inverse of the dead zone, on the side the command opens */
-    if (u > 0) return u + c->c_u0;
-    if (u < 0) return u - c->c_u0;
+    if (u > 0) return u + k->c_u0;
+    if (u < 0) return u - k->c_u0;
     return 0;
 }
 
 /* PID with filtered derivative and conditional integration: returns u [counts Q8]. */
-static int32_t law_pid(mck_ctrl_t *c, int32_t e)
+MCK_INLINE int32_t law_pid(mck_state_t *s, const mck_coef_t *k, int32_t e)
 {
     int32_t tp, td, u, ucnt, inc;
-    c->dq += mulq16((e - c->e_prev) * 16 - c->dq, c->alpha);
-    c->e_prev = e;
-    tp = clamp32(mulq16(e, c->c_kp), -TERM_LIM, TERM_LIM);
-    td = clamp32(mulq16(c->dq, c->c_kd), -TERM_LIM, TERM_LIM);
-    u = tp + td + (c->iu >> 8);
+    s->dq += mulq16((e - s->e_prev) * 16 - s->dq, k->alpha);
+    s->e_prev = e;
+    tp = clamp32(mulq16s24(e, k->c_kp), -TERM_LIM, TERM_LIM);
+    td = clamp32(mulq16(s->dq, k->c_kd), -TERM_LIM, TERM_LIM);
+    u = tp + td + (s->iu >> 8);
     ucnt = (u + 128) >> 8;
     if (!((ucnt >= 255 && e > 0) || (ucnt <= -255 && e < 0))) {
-        inc = clamp32(mulq16(e, c->c_kip), -(1L << 25), 1L << 25);
-        c->iu = clamp32(c->iu + inc, -(1L << 24), 1L << 24);
-        u = tp + td + (c->iu >> 8);
+        inc = clamp32(mulq16s24(e, k->c_kip), -(1L << 25), 1L << 25);
+        s->iu = clamp32(s->iu + inc, -(1L << 24), 1L << 24);
+        u = tp + td + (s->iu >> 8);
     }
     return u;
 }
 
-void mck_ctrl_step(mck_ctrl_t *c, uint16_t adc, uint8_t sample_ok, int32_t p_ref_pa,
-                   mck_out_t *out)
+/* Supervisor 3's prediction for the command applied during the period now ending: 1 when the
+ * valve model says the reading must have moved (controller.h, MCK_RESP_DU). */
+MCK_INLINE uint8_t response_expected(const mck_state_t *s, const mck_coef_t *k, int32_t seen)
+{
+    int32_t p = s->p_prev;
+    if (k->gs_pa == 0) return 0;
+    if (s->last_bleed != 0u) /* a fall, if the inlet is shut */
+        return s->last_inlet == 0u && (int16_t)s->last_bleed >= k->resp_u && p >= MCK_RESP_P_MIN;
+    if ((int16_t)s->last_inlet < k->resp_u || p > seen - MCK_RESP_P_MIN) return 0;
+    /* the model's equilibrium for this command, G_s (inlet - u0_s - DU), at or above p */
+    return (int32_t)((uint32_t)(uint8_t)((int16_t)s->last_inlet - k->resp_u) * (uint32_t)k->gs_pa) >= p;
+}
+
+/* The step, on the state and the coefficients through two pointers (see mck_state_t). Inlined
+ * into mck_ctrl_step and into the loop of mck_bank_step (one prologue for the bank). */
+MCK_INLINE void step(mck_state_t *s, const mck_coef_t *k, uint16_t adc, uint8_t sample_ok,
+                     int32_t p_ref_pa, mck_out_t *out, int32_t *seen)
 {
     int32_t p, pref, e, u, surface, lead;
     uint16_t a;
-    uint8_t inlet = 0, bleed = 0, faults;
+    uint8_t inlet = 0, bleed = 0, faults, cut;
 
     /* supervisor 3: sensor faults */
     if (sample_ok) {
-        c->missing_n = 0;
-        if (adc < c->adc_min || adc > c->adc_max) c->latched |= MCK_FAULT_ADC_RANGE;
-        if (adc == c->held_adc && (c->last_inlet >= MCK_STUCK_PWM || c->last_bleed >= MCK_STUCK_PWM)) {
-            if (c->stuck_n < 65535u) c->stuck_n++;
+        s->missing_n = 0;
+        if (adc < k->adc_min || adc > k->adc_max) s->latched |= MCK_FAULT_ADC_RANGE;
+        if (adc == s->held_adc && response_expected(s, k, *seen)) {
+            if (s->stuck_n < 65535u) s->stuck_n++;
         } else {
-            c->stuck_n = 0;
+            s->stuck_n = 0;
         }
-        if (c->n_stuck != 0u && c->stuck_n >= c->n_stuck) c->latched |= MCK_FAULT_STUCK;
-        c->held_adc = adc;
+        if (k->n_stuck != 0u && s->stuck_n >= k->n_stuck) s->latched |= MCK_FAULT_STUCK;
+        s->held_adc = adc;
     } else {
-        if (c->missing_n < 65535u) c->missing_n++;
-        if (c->n_missing != 0u && c->missing_n >= c->n_missing) c->latched |= MCK_FAULT_MISSING;
+        if (s->missing_n < 65535u) s->missing_n++;
+        if (k->n_missing != 0u && s->missing_n >= k->n_missing) s->latched |= MCK_FAULT_MISSING;
     }
     /* ADC scaling: p = (adc - adc_zero) pa_per_count, rounded to Pa */
-    a = c->held_adc > 1023u ? 1023u : c->held_adc;
-    p = ((int32_t)(int16_t)((int16_t)a - c->adc_zero) * c->ppc_q8 + 128) >> 8;
+    a = s->held_adc > 1023u ? 1023u : s->held_adc;
+    p = ((int32_t)(int16_t)((int16_t)a - k->adc_zero) * k->ppc_q8 + 128) >> 8;
+    if (p > *seen) *seen = p;
     /* supervisor 1: reference clamp */
-    pref = clamp32(p_ref_pa, 0, c->p_max);
+    pref = clamp32(p_ref_pa, 0, k->p_max);
     /* supervisor 2: overpressure vent with hysteresis */
-    if (c->over) {
-        if (p < c->p_max) c->over = 0;
-    } else if (p > c->p_over) {
-        c->over = 1;
+    if (s->over) {
+        if (p < k->p_max) s->over = 0;
+    } else if (p > k->p_over) {
+        s->over = 1;
     }
-    lead = p - c->p_prev; /* x MCK_LEAD_SAMPLES (4) by two additions: no libgcc multiply */
+    lead = p - s->p_prev; /* x MCK_LEAD_SAMPLES (4) by two additions: no libgcc multiply */
     lead += lead;
     lead += lead;
     lead += p;
-    c->p_prev = p;
+    cut = lead > k->p_over; /* a flag, not a 32-bit value, lives across the law */
+    s->p_prev = p;
     e = pref - p;
     surface = e;
-    if (c->latched || c->over) {
+    if (s->latched || s->over) {
         bleed = 255u;
-        c->first = 1;
-    } else if (c->mode == MCK_MODE_SMC || c->mode == MCK_MODE_PID) {
-        if (c->first) {
-            c->first = 0;
-            c->pref_prev = pref;
-            c->e_prev = e;
+        s->first = 1;
+    } else if (s->mode == MCK_MODE_SMC || s->mode == MCK_MODE_PID) {
+        if (s->first) {
+            s->first = 0;
+            s->pref_prev = pref;
+            s->e_prev = e;
         }
-        u = c->mode == MCK_MODE_SMC ? law_smc(c, p, pref, e, &surface) : law_pid(c, e);
+        u = s->mode == MCK_MODE_SMC ? law_smc(s, k, p, pref, e, &surface) : law_pid(s, k, e);
         u = (u + 128) >> 8; /* counts, rounded */
         if (u >= 0) {
             inlet = u > 255 ? 255u : (uint8_t)u;
@@ -381,20 +462,51 @@ void mck_ctrl_step(mck_ctrl_t *c, uint16_t adc, uint8_t sample_ok, int32_t p_ref
             bleed = u < -255 ? 255u : (uint8_t)(-u);
         }
     } else {
-        c->first = 1;
-        if (c->mode == MCK_MODE_OPEN_LOOP) {
-            inlet = c->ol_inlet;
-            bleed = c->ol_bleed;
+        s->first = 1;
+        if (s->mode == MCK_MODE_OPEN_LOOP) {
+            inlet = k->ol_inlet;
+            bleed = k->ol_bleed;
         }
     }
     /* supervisor 2b: shut the inlet before the valve's lag carries p past p_max + margin */
-    if (lead > c->p_over) inlet = 0u;
-    faults = (uint8_t)(c->latched | (c->over ? MCK_FAULT_OVERPRESSURE : 0u));
-    c->last_inlet = inlet;
-    c->last_bleed = bleed;
+    if (cut) inlet = 0u;
+    faults = (uint8_t)(s->latched | (s->over ? MCK_FAULT_OVERPRESSURE : 0u));
+    s->last_inlet = inlet;
+    s->last_bleed = bleed;
     out->inlet = inlet;
     out->bleed = bleed;
     out->faults = faults;
     out->reference = pref;
     out->surface = surface;
+}
+
+void mck_ctrl_step(mck_ctrl_t *c, uint16_t adc, uint8_t sample_ok, int32_t p_ref_pa,
+                   mck_out_t *out)
+{
+    step(&c->s, &c->k, adc, sample_ok, p_ref_pa, out, &c->s.p_seen);
+}
+
+void mck_bank_step(mck_ctrl_t *ch, uint8_t n, const uint16_t *adc, uint8_t ok_mask,
+                   const int32_t *p_ref_pa, mck_out_t *out)
+{
+    /* the shared supply check: every channel compares with and raises channel 0's p_seen */
+    int32_t *seen = &ch[0].s.p_seen;
+    uint8_t i;
+    for (i = 0; i < n; i++)
+        step(&ch[i].s, &ch[i].k, adc[i], (uint8_t)(ok_mask & (1u << i)), p_ref_pa[i], &out[i], seen);
+}
+
+/* The firmware's bank: a global array, stepped with constant addresses (no pointer arithmetic on
+ * the AVR: every field is one lds/sts away). */
+mck_ctrl_t mck_bank[MCK_MAX_CHANNELS];
+
+void mck_bank_run(uint8_t n, const uint16_t *adc, uint8_t ok_mask, const int32_t *p_ref_pa,
+                  mck_out_t *out)
+{
+    int32_t *seen = &mck_bank[0].s.p_seen;
+    step(&mck_bank[0].s, &mck_bank[0].k, adc[0], (uint8_t)(ok_mask & 1u), p_ref_pa[0], &out[0], seen);
+    if (n < 2u) return;
+    step(&mck_bank[1].s, &mck_bank[1].k, adc[1], (uint8_t)(ok_mask & 2u), p_ref_pa[1], &out[1], seen);
+    if (n < 3u) return;
+    step(&mck_bank[2].s, &mck_bank[2].k, adc[2], (uint8_t)(ok_mask & 4u), p_ref_pa[2], &out[2], seen);
 }

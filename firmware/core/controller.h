@@ -30,16 +30,26 @@
 /* Fault flags (TELEMETRY.faults). Bits 1-4 are latched until mck_ctrl_set_mode. */
 #define MCK_FAULT_OVERPRESSURE 0x01u /* p > p_max + margin, cleared when p < p_max */
 #define MCK_FAULT_ADC_RANGE 0x02u    /* reading outside [adc_min, adc_max] */
-#define MCK_FAULT_STUCK 0x04u        /* same reading n_stuck times while a valve is >= MCK_STUCK_PWM */
+#define MCK_FAULT_STUCK 0x04u        /* no response: n_stuck readings unchanged while the valve model
+                                        predicts a change (supervisor 3, docs/controller.md) */
 #define MCK_FAULT_MISSING 0x08u      /* n_missing consecutive missing samples */
 #define MCK_FAULT_VENT 0x10u         /* vent latched by command (VENT) */
 
 /* Supervisor 2b: the inlet is shut while p + MCK_LEAD_SAMPLES (p - p_prev) > p_max + margin,
  * the pressure extrapolated over the inlet valve's closing time (~3 ms lag + one period). */
 #define MCK_LEAD_SAMPLES 4
-/* Supervisor 3: a valve at or above this many PWM counts is open wide enough that the pressure
- * must move: above the calibrated valves' lift-off (112 counts) and its +30 % (146). */
-#define MCK_STUCK_PWM 160u
+/* Supervisor 3, the response rule: the supervisor's valve model p = G_s (u - u0_s) (gains
+ * SUP_G, SUP_U0; the identified model) predicts that the reading must move when
+ *   - the bleed is at >= u0_s + MCK_RESP_DU counts and p >= MCK_RESP_P_MIN (it must fall: the
+ *     bleed vents to atmosphere whatever the supply), or
+ *   - the inlet is at >= u0_s + p/G_s + MCK_RESP_DU counts (the model holds p with u0_s + p/G_s:
+ *     it must rise) and p <= p_seen - MCK_RESP_P_MIN, p_seen being the highest pressure the
+ *     supply has delivered to any channel since SET_MODE (at or near it, the supply may be the
+ *     limit, and a chamber at supply pressure is not a fault).
+ * n_stuck consecutive valid readings equal to the previous one while a prediction holds latch
+ * MCK_FAULT_STUCK. */
+#define MCK_RESP_DU 4
+#define MCK_RESP_P_MIN 20000L
 #define MCK_P_NONE 2000000L /* p_prev before the first step: no cut on the first sample */
 
 /* ACK status codes returned by the setters (docs/protocol.md). */
@@ -73,9 +83,11 @@
  *  12  MCK_GAIN_MARGIN        overpressure margin,Pa 1       0         200000        20000
  *  13  MCK_GAIN_ADC_MIN       adc_min, count         1       0         1023          0
  *  14  MCK_GAIN_ADC_MAX       adc_max, count         1       0         1023          1022
- *  15  MCK_GAIN_N_STUCK       n_stuck, samples       1       0 (off)   65535         500
+ *  15  MCK_GAIN_N_STUCK       n_stuck, samples       1       0 (off)   65535         250
  *  16  MCK_GAIN_N_MISSING     n_missing, samples     1       0 (off)   65535         10
  *  17  MCK_GAIN_SMC_U0        u0, PWM counts         1e3     0         255000        0
+ *  18  MCK_GAIN_SUP_G         G_s, Pa per PWM count  1e3     0 (off)   100000000     3000000
+ *  19  MCK_GAIN_SUP_U0        u0_s, PWM counts       1e3     0         255000        112000
  *
  * The sliding mode's model term is (p + tau (dp_ref/Ts + Ki e)) / G from the identified model
  * dp/dt = (G (u - u0) - p) / tau, with u0 the valves' lift-off: the command v = model term +
@@ -105,7 +117,9 @@ enum mck_gain_id {
     MCK_GAIN_N_STUCK = 15,
     MCK_GAIN_N_MISSING = 16,
     MCK_GAIN_SMC_U0 = 17,
-    MCK_N_GAINS = 18
+    MCK_GAIN_SUP_G = 18,
+    MCK_GAIN_SUP_U0 = 19,
+    MCK_N_GAINS = 20
 };
 
 /* Outputs of one step. */
@@ -117,18 +131,34 @@ typedef struct {
     int32_t surface;    /* sliding surface S (SMC) or error e (other modes) [Pa] */
 } mck_out_t;
 
-/* Controller instance: gains, derived coefficients and state. Treat as opaque. Everything a
- * setter changes precedes the member `mode`; the state follows it (firmware/src/main.c relies
- * on this to swap in new gains computed on a copy). */
+/* The step's state. It comes first in mck_ctrl_t and the step reaches it through its own
+ * pointer: every member lies within the 63-byte displacement of the AVR's ldd/std, so each
+ * access is one instruction (docs/firmware.md, "Cycle budget"). */
 typedef struct {
-    /* gains as set (SET_GAIN values) and settings */
-    int32_t gain[MCK_N_GAINS];
-    int32_t p_max;      /* [Pa] */
-    uint16_t ts_us;     /* control period [us] */
-    uint8_t ol_inlet, ol_bleed;
-    /* derived coefficients (mck_ctrl_set_gain) */
+    uint8_t mode;
+    uint8_t latched;    /* latched fault flags */
+    uint8_t over;       /* overpressure vent active */
+    uint8_t first;      /* 1: the next law step initializes e_prev and pref_prev */
+    uint8_t last_inlet, last_bleed; /* the command applied during the period now ending */
+    uint16_t held_adc;  /* last valid sample */
+    uint16_t stuck_n, missing_n;
+    int32_t isum;       /* SMC: sum of e [Pa] (I = isum Ts) */
+    int32_t iu;         /* PID: Ki I [counts Q16] */
+    int32_t dq;         /* PID: 16 Ts D [Pa Q4] */
+    int32_t e_prev;     /* [Pa] */
+    int32_t pref_prev;  /* [Pa] */
+    int32_t p_prev;     /* last step's measured pressure [Pa] */
+    int32_t p_seen;     /* supply estimate: highest pressure shown since SET_MODE, shared by
+                           the channels of a bank (mck_bank_step) [Pa] */
+} mck_state_t;
+
+/* Settings in the step's native widths and the derived coefficients (mck_ctrl_set_gain), in
+ * the order the step reads them. */
+typedef struct {
+    /* the supervisor and the sliding mode (within the first 64 bytes: one ldd each) */
     int32_t ppc_q8;     /* Pa per count, Q8 */
-    int32_t beta_q8;    /* beta, counts Q8 */
+    int32_t p_max;      /* [Pa] */
+    int32_t p_over;     /* p_max + margin [Pa] */
     int32_t c_p;        /* 2^24 / G: p [Pa] -> u [counts Q8], Q16 */
     int32_t c_dref;     /* 2^24 tau / (G Ts): delta p_ref [Pa] -> u [counts Q8], Q16 */
     int32_t c_e;        /* 2^24 tau Ki / G: e [Pa] -> u [counts Q8], Q16 */
@@ -137,27 +167,28 @@ typedef struct {
     int32_t c_eps;      /* floor(2^28 / eps): S [Pa] -> S/eps Q12, Q16 */
     int32_t s_sat;      /* 8 eps: |S| beyond which tanh is taken as 1 [Pa] */
     int32_t isum_max;   /* clamp of the sum of e: min(I_max/Ts, 2^46/c_ki, 2^30) [Pa] */
+    int32_t isum_min;   /* -isum_max */
+    uint16_t beta_q8;   /* beta, counts Q8 (<= 65280) */
+    int16_t resp_u;     /* u0_s + MCK_RESP_DU [counts]: a valve below this is not "open" */
+    int16_t adc_zero;
+    uint16_t adc_min, adc_max, n_stuck, n_missing;
+    int32_t gs_pa;      /* G_s rounded to Pa per count; 0: response rule off */
+    /* the PID */
     int32_t c_kp;       /* 2^24 Kp, Q16 */
     int32_t c_kip;      /* 2^32 Ki Ts: e [Pa] -> integral [counts Q16], Q16 */
     int32_t c_kd;       /* 2^20 Kd / Ts: 16 Ts D [Pa Q4] -> u [counts Q8], Q16 */
     int32_t alpha;      /* 2^16 Ts / (Tf + Ts) */
-    int32_t p_over;     /* p_max + margin [Pa] */
-    int16_t adc_zero;   /* supervisor settings in the step's native widths */
-    uint16_t adc_min, adc_max, n_stuck, n_missing;
-    /* state */
-    uint8_t mode;
-    uint8_t latched;    /* latched fault flags */
-    uint8_t over;       /* overpressure vent active */
-    uint8_t first;      /* 1: the next law step initializes e_prev and pref_prev */
-    uint8_t last_inlet, last_bleed;
-    uint16_t held_adc;  /* last valid sample */
-    uint16_t stuck_n, missing_n;
-    int32_t isum;       /* SMC: sum of e [Pa] (I = isum Ts) */
-    int32_t iu;         /* PID: Ki I [counts Q16] */
-    int32_t dq;         /* PID: 16 Ts D [Pa Q4] */
-    int32_t e_prev;     /* [Pa] */
-    int32_t pref_prev;  /* [Pa] */
-    int32_t p_prev;     /* supervisor 2b: last step's measured pressure [Pa] */
+    uint8_t ol_inlet, ol_bleed;
+} mck_coef_t;
+
+/* Controller instance (one channel). Treat as opaque. The state comes first; everything a
+ * setter changes (k and what follows it) comes after, so firmware/src/main.c can compute new
+ * gains on a copy and swap in the bytes from offsetof(mck_ctrl_t, k) on. */
+typedef struct {
+    mck_state_t s;
+    mck_coef_t k;
+    int32_t gain[MCK_N_GAINS]; /* as set (SET_GAIN values) */
+    uint16_t ts_us;            /* control period [us] */
 } mck_ctrl_t;
 
 /* Set every gain to its default, p_max to 800 kPa, mode off, no fault. ts_us is the control
@@ -186,8 +217,22 @@ void mck_ctrl_vent(mck_ctrl_t *c);
 void mck_ctrl_step(mck_ctrl_t *c, uint16_t adc, uint8_t sample_ok, int32_t p_ref_pa,
                    mck_out_t *out);
 
+/* N channels (a bank) stepped in one period: channel i gets adc[i], bit i of ok_mask and
+ * p_ref_pa[i]; then the shared supply check: every channel's p_seen becomes the highest of the
+ * bank's, so a supply that one channel shows to deliver counts for all. */
+#define MCK_MAX_CHANNELS 3u
+void mck_bank_step(mck_ctrl_t *ch, uint8_t n, const uint16_t *adc, uint8_t ok_mask,
+                   const int32_t *p_ref_pa, mck_out_t *out);
+
+/* The same on the global bank mck_bank[0..n-1] (what firmware/src/main.c runs): constant
+ * addresses instead of pointers, the same results as mck_bank_step(mck_bank, n, ...). */
+extern mck_ctrl_t mck_bank[MCK_MAX_CHANNELS];
+void mck_bank_run(uint8_t n, const uint16_t *adc, uint8_t ok_mask, const int32_t *p_ref_pa,
+                  mck_out_t *out);
+
 /* Building blocks, exported for the tests. */
 int32_t mck_mulq16(int32_t x, int32_t c);  /* floor(x c / 2^16), c >= 0 */
+int32_t mck_mulq16s24(int32_t x, int32_t c); /* the same for -2^23 <= x < 2^23 */
 uint16_t mck_tanh_q15(uint16_t x_q12);     /* tanh(x) Q15 for x in [0, 8), Q12 */
 unsigned mck_ctrl_sizeof(void);            /* sizeof(mck_ctrl_t), for ctypes */
 

@@ -88,21 +88,26 @@ GAINS: tuple[Gain, ...] = (
     Gain(12, "margin", "Pa", 1.0, 0, 200_000, 20_000),
     Gain(13, "adc_min", "count", 1.0, 0, 1023, 0),
     Gain(14, "adc_max", "count", 1.0, 0, 1023, 1022),
-    Gain(15, "n_stuck", "samples", 1.0, 0, 65_535, 500),
+    Gain(15, "n_stuck", "samples", 1.0, 0, 65_535, 250),
     Gain(16, "n_missing", "samples", 1.0, 0, 65_535, 10),
     Gain(17, "smc_u0", "PWM counts", 1e3, 0, 255_000, 0),
+    Gain(18, "sup_g", "Pa/count", 1e3, 0, 100_000_000, 3_000_000),  # 0: response rule off
+    Gain(19, "sup_u0", "PWM counts", 1e3, 0, 255_000, 112_000),
 )
 GAIN_IDS = {g.name: g.id for g in GAINS}
 N_GAINS = len(GAINS)
 
 # --- array layouts ----------------------------------------------------------------------------
 
-# iparams (int64): settings, derived coefficients, then the 18 raw gain values.
+# iparams (int64): settings, derived coefficients and the supervisor's settings by name (the
+# fields of mck_coef_t), then the raw gain values (IP_GAIN0 + id) that the setters keep.
 IP_P_MAX, IP_TS_US, IP_OL_INLET, IP_OL_BLEED = 0, 1, 2, 3
 IP_PPC_Q8, IP_BETA_Q8, IP_C_P, IP_C_DREF, IP_C_E, IP_C_KI = 4, 5, 6, 7, 8, 9
 IP_C_EPS, IP_S_SAT, IP_ISUM_MAX, IP_C_KP, IP_C_KIP, IP_C_KD, IP_ALPHA = 10, 11, 12, 13, 14, 15, 16
 IP_C_U0 = 17
-IP_GAIN0 = 18
+IP_P_OVER, IP_ADC_ZERO, IP_ADC_MIN, IP_ADC_MAX, IP_N_STUCK, IP_N_MISSING = 18, 19, 20, 21, 22, 23
+IP_GS_PA, IP_RESP_U = 24, 25
+IP_GAIN0 = 26
 N_IPARAMS = IP_GAIN0 + N_GAINS
 
 # istate (int64): mode, supervisor and law state, last telemetry values.
@@ -110,13 +115,16 @@ IS_MODE, IS_LATCHED, IS_OVER, IS_FIRST, IS_LAST_INLET, IS_LAST_BLEED = 0, 1, 2, 
 IS_HELD_ADC, IS_STUCK_N, IS_MISSING_N = 6, 7, 8
 IS_ISUM, IS_IU, IS_DQ, IS_E_PREV, IS_PREF_PREV = 9, 10, 11, 12, 13
 IS_SURFACE, IS_REFERENCE, IS_P_PREV = 14, 15, 16
-N_ISTATE = 17
+IS_P_SEEN = 17  #: supply estimate: highest pressure shown since SET_MODE (a bank's channel 0 holds the shared one)
+N_ISTATE = 18
 #: Supervisor 2b: the inlet is shut while p + LEAD_SAMPLES·(p − p_prev) > p_max + margin.
 LEAD_SAMPLES = 4
 P_NONE = 2_000_000  #: IS_P_PREV before the first step: a falling 'rate', so no cut on the first sample
-#: Supervisor 3: a valve at or above this many counts is open wide enough that the pressure must
-#: move (above the calibrated valves' lift-off, 112 counts, and its +30 %, 146).
-STUCK_PWM = 160
+#: Supervisor 3, the response rule (``docs/controller.md``): a valve counts as open from the
+#: supervisor model's lift-off u0_s plus RESP_DU counts; the inlet must raise the pressure while
+#: the model's equilibrium for its command lies above it, the bleed lower it from RESP_P_MIN up.
+RESP_DU = 4
+RESP_P_MIN = 20_000
 
 
 def tanh_table() -> np.ndarray:
@@ -225,35 +233,26 @@ def _pid_law_q8(st, ip, e):
 
 
 @njit(cache=True)
-def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
-    """One control step of the firmware core (``mck_ctrl_step``), bit-exact.
+def _response_expected(st, ip, seen):
+    # controller.c response_expected(): must the reading have moved under the last command?
+    if ip[IP_GS_PA] == 0:
+        return False
+    p = st[IS_P_PREV]
+    if st[IS_LAST_BLEED] != 0:  # a fall, if the inlet is shut
+        return st[IS_LAST_INLET] == 0 and st[IS_LAST_BLEED] >= ip[IP_RESP_U] and p >= RESP_P_MIN
+    if st[IS_LAST_INLET] < ip[IP_RESP_U] or p > seen - RESP_P_MIN:
+        return False
+    # the model's equilibrium for this command, G_s (inlet - u0_s - DU), at or above p
+    return (st[IS_LAST_INLET] - ip[IP_RESP_U]) * ip[IP_GS_PA] >= p
 
-    Parameters
-    ----------
-    istate : numpy.ndarray of int64
-        This instance's integer state, mutated in place (layout ``IS_*``). [-]
-    iparams : numpy.ndarray of int64
-        This instance's parameters (:func:`pack_params`). [-]
-    fstate : numpy.ndarray of float64
-        Unused (the core is integer only); kept for the kernel interface. [-]
-    fparams : numpy.ndarray of float64
-        Unused; kept for the kernel interface. [-]
-    adc : int
-        Raw pressure ADC count; saturated to 0..65535 (the C core takes uint16). [count]
-    enc : int
-        Encoder count; the pressure law does not use it. [count]
-    sample_ok : bool
-        False when no sample arrived this period. [-]
-    p_ref_pa : float
-        Pressure reference; rounded to whole Pa as the protocol's i32 (NaN counts as 0). [Pa]
 
-    Returns
-    -------
-    tuple of int
-        Inlet PWM count 0..255, bleed PWM count 0..255, fault flags (``FAULT_*``). [-]
+@njit(cache=True)
+def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
+    """One step of one channel; ``shared`` is the istate that holds the supply estimate.
+
+    ``shared`` is ``st`` itself for a lone controller and channel 0's istate in a bank
+    (``mck_bank_step``). See :func:`core_kernel` for the other arguments.
     """
-    st = istate
-    ip = iparams
     a_raw = _clamp(adc, 0, 65535)
     p_max = ip[IP_P_MAX]
     if not (p_ref_pa > 0.0):
@@ -265,36 +264,36 @@ def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa)
     # supervisor 3: sensor faults
     if sample_ok:
         st[IS_MISSING_N] = 0
-        if a_raw < ip[IP_GAIN0 + 13] or a_raw > ip[IP_GAIN0 + 14]:
+        if a_raw < ip[IP_ADC_MIN] or a_raw > ip[IP_ADC_MAX]:
             st[IS_LATCHED] |= FAULT_ADC_RANGE
-        if a_raw == st[IS_HELD_ADC] and (st[IS_LAST_INLET] >= STUCK_PWM or st[IS_LAST_BLEED] >= STUCK_PWM):
+        if a_raw == st[IS_HELD_ADC] and _response_expected(st, ip, shared[IS_P_SEEN]):
             if st[IS_STUCK_N] < 65535:
                 st[IS_STUCK_N] += 1
         else:
             st[IS_STUCK_N] = 0
-        n_stuck = ip[IP_GAIN0 + 15]
-        if n_stuck != 0 and st[IS_STUCK_N] >= n_stuck:
+        if ip[IP_N_STUCK] != 0 and st[IS_STUCK_N] >= ip[IP_N_STUCK]:
             st[IS_LATCHED] |= FAULT_STUCK
         st[IS_HELD_ADC] = a_raw
     else:
         if st[IS_MISSING_N] < 65535:
             st[IS_MISSING_N] += 1
-        n_missing = ip[IP_GAIN0 + 16]
-        if n_missing != 0 and st[IS_MISSING_N] >= n_missing:
+        if ip[IP_N_MISSING] != 0 and st[IS_MISSING_N] >= ip[IP_N_MISSING]:
             st[IS_LATCHED] |= FAULT_MISSING
     # ADC scaling
     a = st[IS_HELD_ADC]
     if a > ADC_MAX:
         a = ADC_MAX
-    p = ((a - ip[IP_GAIN0 + 10]) * ip[IP_PPC_Q8] + 128) >> 8
+    p = ((a - ip[IP_ADC_ZERO]) * ip[IP_PPC_Q8] + 128) >> 8
+    if p > shared[IS_P_SEEN]:
+        shared[IS_P_SEEN] = p
     # supervisor 1 and 2
     pref = _clamp(pref, 0, p_max)
     if st[IS_OVER] != 0:
         if p < p_max:
             st[IS_OVER] = 0
-    elif p > p_max + ip[IP_GAIN0 + 12]:
+    elif p > ip[IP_P_OVER]:
         st[IS_OVER] = 1
-    lead = p + (p - st[IS_P_PREV]) * LEAD_SAMPLES
+    cut = p + (p - st[IS_P_PREV]) * LEAD_SAMPLES > ip[IP_P_OVER]
     st[IS_P_PREV] = p
     e = pref - p
     surface = e
@@ -326,7 +325,7 @@ def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa)
             inlet = ip[IP_OL_INLET]
             bleed = ip[IP_OL_BLEED]
     # supervisor 2b: shut the inlet before the valve's lag carries p past p_max + margin
-    if lead > p_max + ip[IP_GAIN0 + 12]:
+    if cut:
         inlet = 0
     faults = st[IS_LATCHED] | (FAULT_OVERPRESSURE if st[IS_OVER] != 0 else 0)
     st[IS_LAST_INLET] = inlet
@@ -334,6 +333,37 @@ def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa)
     st[IS_SURFACE] = surface
     st[IS_REFERENCE] = pref
     return inlet, bleed, faults
+
+
+@njit(cache=True)
+def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
+    """One control step of the firmware core (``mck_ctrl_step``), bit-exact.
+
+    Parameters
+    ----------
+    istate : numpy.ndarray of int64
+        This instance's integer state, mutated in place (layout ``IS_*``). [-]
+    iparams : numpy.ndarray of int64
+        This instance's parameters (:func:`pack_params`). [-]
+    fstate : numpy.ndarray of float64
+        Unused (the core is integer only); kept for the kernel interface. [-]
+    fparams : numpy.ndarray of float64
+        Unused; kept for the kernel interface. [-]
+    adc : int
+        Raw pressure ADC count; saturated to 0..65535 (the C core takes uint16). [count]
+    enc : int
+        Encoder count; the pressure law does not use it. [count]
+    sample_ok : bool
+        False when no sample arrived this period. [-]
+    p_ref_pa : float
+        Pressure reference; rounded to whole Pa as the protocol's i32 (NaN counts as 0). [Pa]
+
+    Returns
+    -------
+    tuple of int
+        Inlet PWM count 0..255, bleed PWM count 0..255, fault flags (``FAULT_*``). [-]
+    """
+    return core_step(istate, iparams, adc, sample_ok, p_ref_pa, istate)
 
 
 # --- gains -> coefficients (mirror of derive() in controller.c) -------------------------------
@@ -382,6 +412,8 @@ def derive(gains: Sequence[int], ts_us: int) -> dict[str, int]:
     c["c_kip"] = min(_rdiv((g[7] * ts) << 17, 30517578125), (1 << 25) - 1)
     c["c_kd"] = min(_rdiv(g[8] << 14, ts * 15625), (1 << 20) - 1)
     c["alpha"] = _rdiv(ts << 16, g[9] + ts)
+    c["gs_pa"] = _rdiv(g[18], 1000)
+    c["resp_u"] = _rdiv(g[19], 1000) + RESP_DU
     return c
 
 
@@ -389,7 +421,7 @@ _COEF_INDEX = {
     "ppc_q8": IP_PPC_Q8, "beta_q8": IP_BETA_Q8, "c_p": IP_C_P, "c_dref": IP_C_DREF,
     "c_e": IP_C_E, "c_ki": IP_C_KI, "c_eps": IP_C_EPS, "s_sat": IP_S_SAT,
     "isum_max": IP_ISUM_MAX, "c_kp": IP_C_KP, "c_kip": IP_C_KIP, "c_kd": IP_C_KD,
-    "alpha": IP_ALPHA, "c_u0": IP_C_U0,
+    "alpha": IP_ALPHA, "c_u0": IP_C_U0, "gs_pa": IP_GS_PA, "resp_u": IP_RESP_U,
 }  # fmt: skip
 
 
@@ -397,6 +429,11 @@ def _fill_coefficients(ip: np.ndarray) -> None:
     gains = ip[IP_GAIN0 : IP_GAIN0 + N_GAINS]
     for name, value in derive(gains, int(ip[IP_TS_US])).items():
         ip[_COEF_INDEX[name]] = value
+    # the supervisor's settings in the step's fields (derive() in controller.c)
+    ip[IP_P_OVER] = ip[IP_P_MAX] + gains[GAIN_IDS["margin"]]
+    for name, index in (("adc_zero", IP_ADC_ZERO), ("adc_min", IP_ADC_MIN), ("adc_max", IP_ADC_MAX),
+                        ("n_stuck", IP_N_STUCK), ("n_missing", IP_N_MISSING)):
+        ip[index] = gains[GAIN_IDS[name]]
 
 
 # --- physical parameters ----------------------------------------------------------------------
@@ -440,8 +477,8 @@ class CoreParams:
     adc_min, adc_max : int
         Valid ADC range; a reading outside latches a vent. [count]
     n_stuck : int
-        Identical readings while a valve is at >= :data:`STUCK_PWM` counts that latch a vent;
-        0 = off. [-]
+        Consecutive unchanged readings while the supervisor's valve model predicts a change that
+        latch a vent (the response rule, ``docs/controller.md``); 0 = off. [-]
     n_missing : int
         Consecutive missing samples that latch a vent; 0 = off. [-]
     ts : float
@@ -453,6 +490,12 @@ class CoreParams:
     u0 : float
         Valve lift-off of the identified model ``ṗ = (G·(u − u0) − p)/τ``: the sliding mode
         sends ``v + u0·sign(v)`` for its command v (not used when g = 0). [PWM counts]
+    sup_g : float
+        Static gain G_s of the supervisor's valve model ``p = G_s·(u − u0_s)`` (the identified
+        model's G, also under the paper's law), rounded to whole Pa per count; 0 switches the
+        response rule off. [Pa/count]
+    sup_u0 : float
+        Lift-off u0_s of the supervisor's valve model. [PWM counts]
     """
 
     beta: float = 120.0
@@ -471,18 +514,21 @@ class CoreParams:
     pa_per_count: float = HW.PA_PER_COUNT
     adc_min: int = 0
     adc_max: int = 1022
-    n_stuck: int = 500
+    n_stuck: int = 250
     n_missing: int = 10
     ts: float = HW.CONTROL_PERIOD
     mode: int = MODE_SMC
     open_loop_inlet: int = 0
     open_loop_bleed: int = 0
     u0: float = 0.0
+    sup_g: float = 3000.0
+    sup_u0: float = 112.0
 
 
 _PARAM_OF_GAIN = (
     "beta", "eps", "ki", "tau", "g", "i_max", "kp", "ki_pid", "kd", "tf",
     "adc_zero", "pa_per_count", "margin", "adc_min", "adc_max", "n_stuck", "n_missing", "u0",
+    "sup_g", "sup_u0",
 )  # fmt: skip
 
 
@@ -641,7 +687,7 @@ class CoreController:
         Parameters
         ----------
         gain_id : int
-            Gain id 0..17. [-]
+            Gain id 0..N_GAINS-1. [-]
         value : int
             Value in the gain's SET_GAIN scale. [-]
         """
@@ -668,7 +714,7 @@ class CoreController:
         st[IS_MODE] = mode
         st[IS_LATCHED] = 0
         st[IS_FIRST] = 1
-        for k in (IS_ISUM, IS_IU, IS_DQ, IS_E_PREV, IS_PREF_PREV, IS_STUCK_N, IS_MISSING_N):
+        for k in (IS_ISUM, IS_IU, IS_DQ, IS_E_PREV, IS_PREF_PREV, IS_STUCK_N, IS_MISSING_N, IS_P_SEEN):
             st[k] = 0
         return STATUS_OK
 
@@ -683,6 +729,7 @@ class CoreController:
         if not 0 <= p_max_pa <= P_MAX_LIMIT:
             return STATUS_RANGE
         self.iparams[IP_P_MAX] = p_max_pa
+        self.iparams[IP_P_OVER] = p_max_pa + self.iparams[IP_GAIN0 + GAIN_IDS["margin"]]
         return STATUS_OK
 
     def set_open_loop(self, inlet: int, bleed: int) -> None:
@@ -699,6 +746,57 @@ class CoreController:
     def vent(self) -> None:
         """VENT: latch the vent until the next :meth:`set_mode`."""
         self.istate[IS_LATCHED] |= FAULT_VENT
+
+
+class CoreBank:
+    """N channels of the core stepped together, as ``mck_bank_step`` in the firmware.
+
+    Each channel is a :class:`CoreController` with its own gains and state; in one period
+    channel i steps with ``adcs[i]``, ``oks[i]``, ``refs[i]`` in order, and all compare
+    with and raise one supply estimate, channel 0's (the shared supply check of the response
+    rule, ``docs/controller.md``).
+
+    Parameters
+    ----------
+    params : sequence of CoreParams
+        One parameter set per channel (1..3 on the firmware). [SI]
+    """
+
+    def __init__(self, params: Sequence[CoreParams]):
+        plist = list(params)
+        if not plist:
+            raise InputError("CoreBank needs at least one channel")
+        self.channels = [CoreController(p) for p in plist]
+
+    def __len__(self) -> int:
+        return len(self.channels)
+
+    def __getitem__(self, i: int) -> CoreController:
+        return self.channels[i]
+
+    def step(self, adcs, oks, refs) -> list[tuple[int, int, int]]:
+        """One period of every channel.
+
+        Parameters
+        ----------
+        adcs : sequence of int
+            Raw ADC count per channel. [count]
+        oks : sequence of bool
+            Whether each channel's sample arrived. [-]
+        refs : sequence of float
+            Pressure reference per channel. [Pa]
+
+        Returns
+        -------
+        list of tuple of int
+            ``(inlet, bleed, faults)`` per channel. [-]
+        """
+        shared = self.channels[0].istate
+        out = []
+        for c, a, ok, r in zip(self.channels, adcs, oks, refs, strict=True):
+            i, b, f = core_step(c.istate, c.iparams, int(a), bool(ok), float(r), shared)
+            out.append((int(i), int(b), int(f)))
+        return out
 
 
 # --- float64 reference of the law (accuracy of the fixed point) -------------------------------
