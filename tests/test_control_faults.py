@@ -33,14 +33,19 @@ def test_records_the_same_surface_as_the_bare_core():
 
 
 def test_stuck_sensor_is_caught_by_the_core_supervisor():
-    params = core.CoreParams(n_stuck=20)
-    # the true pressure rises, but from step 5 on the controller sees the reading of step 5
-    adcs = np.linspace(100, 600, 60).astype(int)
-    out, _ = _drive(instrumented_spec([params], 60, kinds=[1], onsets=[5]), adcs, 0.7e6)
-    vent = np.flatnonzero(out[:, 1] == 255)
-    # vent after n_stuck = 20 identical readings with the inlet open >= STUCK_PWM (160) counts
-    assert vent.size and 5 + 19 <= vent[0] <= 5 + 21
-    assert out[vent[0], 2] & core.FAULT_STUCK and np.all(out[vent[0]:, 0] == 0)
+    # the paper's law (no model term) with beta 200: the bleed opens at ~200 counts
+    params = core.CoreParams(n_stuck=20, g=0.0, beta=200.0)
+    # the true pressure falls from 0.59 MPa towards a 0.2 MPa reference with the bleed open, but
+    # from step 5 on the controller sees the reading of step 5: no response to the bleed
+    adcs = np.linspace(600, 200, 60).astype(int)
+    out, _ = _drive(instrumented_spec([params], 60, kinds=[1], onsets=[5]), adcs, 0.2e6)
+    stuck = np.flatnonzero(out[:, 2] & core.FAULT_STUCK)
+    # the fault after n_stuck = 20 unchanged readings while the model predicts a fall
+    assert stuck.size and 5 + 19 <= stuck[0] <= 5 + 21
+    assert np.all(out[stuck[0]:, 1] == 255) and np.all(out[stuck[0]:, 0] == 0)
+    # the same fall with a healthy sensor: no fault
+    out, _ = _drive(instrumented_spec([params], 60), adcs, 0.2e6)
+    assert not np.any(out[:, 2])
 
 
 def test_missing_and_fixed_reading_vent():

@@ -26,7 +26,7 @@ def test_constants_equal_the_firmware():
     assert HW.CONTROL_PERIOD_US == _define(main, "TS_US")
     assert HW.CONTROL_PERIOD == 1e-3
     # mck_ctrl_init's default maximum pressure
-    m = re.search(r"c->p_max\s*=\s*(\d+)L?;", source)
+    m = re.search(r"c->(?:k\.)?p_max\s*=\s*(\d+)L?;", source)
     assert m and HW.P_MAX_DEFAULT == int(m.group(1))
     # the gain table of the header: adc_zero's upper bound is the ADC's largest count, and the
     # default pa_per_count (fixed point, scale 1e3) is our scale rounded the firmware's way

@@ -145,7 +145,7 @@ ISR(TIMER1_COMPA_vect)
     latest.encoder = enc;
     latest.inlet_pwm = out.inlet;
     latest.bleed_pwm = out.bleed;
-    latest.mode = ctrl.mode;
+    latest.mode = ctrl.s.mode;
     latest.faults = out.faults;
     latest.reference_pa = out.reference;
     latest.surface_pa = out.surface;
@@ -175,12 +175,15 @@ static uint8_t set_gain(uint8_t id, int32_t value)
 {
     uint8_t status;
     /* mck_ctrl_set_gain takes ~15,000 cycles (64-bit divisions): run it on a copy with
-     * interrupts on, then swap in the gains and coefficients, which precede the state in
+     * interrupts on, then swap in the coefficients and gains, which follow the state in
      * mck_ctrl_t, with interrupts off. */
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { memcpy(&shadow, &ctrl, sizeof ctrl); }
     status = mck_ctrl_set_gain(&shadow, id, value);
     if (status == MCK_OK) {
-        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { memcpy(&ctrl, &shadow, offsetof(mck_ctrl_t, mode)); }
+        ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
+        {
+            memcpy(&ctrl.k, &shadow.k, sizeof ctrl - offsetof(mck_ctrl_t, k));
+        }
     }
     return status;
 }
