@@ -28,12 +28,22 @@ def list_cmd(json: bool = JSON_OPTION) -> None:
                 t = read_table(f)
                 files.append({"muscle": spec.id, "file": str(f), "kind": t.kind, "rows": len(t),
                               "trials": int(t.data["trial"].nunique()), "size_bytes": f.stat().st_size})
+    from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
+
+    for folder in sorted(p for p in BUNDLED_ISOMETRIC.iterdir() if (p / "muscle.toml").is_file()):
+        spec = read_muscle(folder / "muscle.toml")
+        for f in sorted(folder.glob("*.csv")):
+            t = read_table(f)
+            files.append({"muscle": spec.id, "file": str(f), "kind": t.kind, "rows": len(t),
+                          "trials": int(t.data["trial"].nunique()), "size_bytes": f.stat().st_size,
+                          "synthetic": bool(spec.synthetic)})
     out = {"campaign": str(BUNDLED), "synthetic": is_synthetic(BUNDLED), "files": files,
            "published_sets": list(MUSCLES)}
     if json:
         emit_json(out)
         return
-    console.print(f"[bold yellow]SYNTHETIC[/] example campaign in {BUNDLED} (generated, not measured)")
+    console.print(f"[bold yellow]SYNTHETIC[/] example campaign in {BUNDLED} and a SYNTHETIC isometric test of a "
+                  "commercial-size muscle (commercial10) (generated, not measured)")
     print_table("Bundled campaign", [" muscle", " kind", "rows", "trials", "bytes", " file"],
                 [[f["muscle"], f["kind"], str(f["rows"]), str(f["trials"]), str(f["size_bytes"]), Path(f["file"]).name]
                  for f in files])

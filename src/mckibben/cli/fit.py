@@ -8,7 +8,7 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, console, emit_json, print_table
+from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.errors import InputError, unknown_name
 
 FIT_MODELS = {
@@ -16,12 +16,13 @@ FIT_MODELS = {
     "cubic": "one cubic in pressure per load/direction (isotonic, hysteresis, braid_angle, blocked_force)",
     "surface": "one cubic-in-pressure, linear-in-load surface of the length (isotonic)",
     "force-contraction": "one cubic of load vs contraction per pressure, Fig. 5 (isotonic; muscle file)",
-    "spring": "Lu(P) and K(P, Ls) per direction and pressure range (force_length or isotonic)",
-    "chou-hannaford": "length under load, fitted strand length and D0 (isotonic; muscle file)",
-    "tondu-lopez": "length under load, fitted k and r0 (isotonic; muscle file)",
+    "spring": "Lu(P) and K(P, Ls) per direction and pressure range (force_length, isotonic or isometric)",
+    "chou-hannaford": "fitted braid geometry: length under load (isotonic) or force(P, L) (isometric); muscle file",
+    "wall-chou-hannaford": "Chou-Hannaford with the tube wall: force(P, L) (isometric; muscle file)",
+    "tondu-lopez": "fitted k and r0 (and alpha0 if unknown): isotonic or isometric; muscle file",
     "first-order": "p0, p_final, tau of pressure step responses (step_response)",
 }
-NEEDS_MUSCLE = {"kinematic", "force-contraction", "chou-hannaford", "tondu-lopez"}
+NEEDS_MUSCLE = {"kinematic", "force-contraction", "chou-hannaford", "wall-chou-hannaford", "tondu-lopez"}
 
 
 def load_muscle(data: Path, muscle: str | None, required: bool, what: str):
@@ -44,7 +45,7 @@ def _synthetic(data: Path, spec) -> bool:
 
 
 def run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None = None,
-            split_pressure: float | None = None) -> dict:
+            split_pressure: float | None = None, tare: str = "none", save: str | None = None) -> dict:
     """Run one fit command; return the JSON-ready result (also used by the tests)."""
     from mckibben.data import check_muscle, read_table
     from mckibben.fit import static
@@ -52,10 +53,29 @@ def run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None 
     if model not in FIT_MODELS:
         raise unknown_name("model", model, FIT_MODELS)
     table = read_table(data, kind)
-    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE, f"fit {model}")
+    isometric = table.kind == "isometric"
+    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}")
     if spec is not None:
         check_muscle(table, spec)
+    if tare != "none" and not isometric:
+        raise InputError(f"--tare: applies to isometric tables; {data} is a {table.kind} table")
+    if save is not None and not isometric:
+        raise InputError(f"--save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
     extra: dict = {}
+    if isometric:
+        from mckibben.fit.isometric import FORCE_MODELS, fit_isometric
+
+        if model not in FORCE_MODELS:
+            raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(FORCE_MODELS)}")
+        fit = fit_isometric(table, spec, model, tare)
+        out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
+               "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
+        out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
+        if save is not None:
+            from mckibben.fit.muscle_file import save_muscle_file
+
+            out["saved"] = str(save_muscle_file(save, spec, fit))
+        return out
     if model == "kinematic":
         fits = [static.fit_kinematic(table, spec)]
     elif model == "cubic":
@@ -74,13 +94,23 @@ def run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None 
         fits = [static.fit_chou_hannaford(table, spec)]
     elif model == "tondu-lopez":
         fits = [static.fit_tondu_lopez(table, spec)]
+    elif model == "wall-chou-hannaford":
+        raise InputError(f"fit wall-chou-hannaford: needs an isometric table; {data} is a {table.kind} table")
     else:
         fits = list(static.fit_first_order(table).values())
     out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id if spec else None,
            "synthetic": _synthetic(data, spec), **extra, "fits": [f.to_dict() for f in fits]}
     if len(fits) == 1:
         out.update({k: v for k, v in fits[0].to_dict().items() if k not in ("model",)})
+    else:
+        out["flags"] = sorted({fl for f in fits for fl in f.flags})
     return out
+
+
+def warn_flags(what: str, flags) -> None:
+    """One warning line on stderr when a fit carries flags (the JSON keeps them too)."""
+    if flags:
+        err_console.print(f"warning: {what}: flagged: {', '.join(flags)}", markup=False, highlight=False)
 
 
 @app.command("fit")
@@ -90,16 +120,27 @@ def fit_cmd(
     muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
     kind: str = typer.Option(None, "--kind", help="Experiment kind, if neither the file name nor its columns tell."),
     split_pressure: str = typer.Option(None, "--split-pressure", help="spring: low/high range split (default: median pressure)."),
+    tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest (each run's force at its "
+                                                    "lowest pressure) or column (a tare_N column)."),
+    save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """Fit a static model to one experiment table: parameters, standard errors, 95 % intervals."""
+    """Fit a static model to one experiment table: parameters, standard errors, 95 % intervals, flags."""
     from mckibben.units import parse_quantity
 
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
-    out = run_fit(data, model, muscle, kind, split)
+    out = run_fit(data, model, muscle, kind, split, tare, save)
+    warn_flags(f"fit {model} on {data}", out.get("flags", []))
     if json:
         emit_json(out)
         return
+    if out.get("tare", {}).get("method", "none") != "none":
+        t = out["tare"]
+        vals = [r["tare_N"] for r in t.get("per_run_N", [])] or t.get("tare_N_range", [])
+        console.print(f"tare ({t['method']}): {len(t.get('per_run_N', []))} runs, "
+                      f"{min(vals):.3g} to {max(vals):.3g} N subtracted" if vals else f"tare ({t['method']})")
+    if out.get("saved"):
+        console.print(f"wrote muscle file {out['saved']} with the fitted {model} force law")
     if out["synthetic"]:
         console.print("[bold yellow]SYNTHETIC data[/] (generated, not measured)")
     for f in out["fits"]:
@@ -111,15 +152,38 @@ def fit_cmd(
         rms_key = next(k for k in f if k.startswith("residual_rms"))
         rng = ", ".join(f"{k} {lo:.4g}..{hi:.4g}" for k, (lo, hi) in f["valid_range"].items())
         console.print(f"  {rms_key} {f[rms_key]:.4g}, R² {f['r2']:.5f}, n {f['n_points']}, valid on {rng}")
+        console.print(f"  covariance: {f.get('covariance', 'ols')}; flags: {', '.join(f.get('flags', [])) or 'none'}")
 
 
 @app.command("compare")
 def compare_cmd(
-    data: Path = typer.Argument(..., help="An isotonic table, or a muscle folder holding isotonic.csv (and braid_angle.csv)."),
+    data: Path = typer.Argument(..., help="An isometric or isotonic table, or a muscle folder holding isotonic.csv "
+                                          "(and braid_angle.csv)."),
     muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
+    cv: str = typer.Option(None, "--cv", help="isometric: leave-one-length-out (default) or leave-one-trial-out."),
+    tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest or column (see docs/data.md)."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """Fit every applicable model to the same isotonic data; RMSE, max relative error, CV error, 20 % rule."""
+    """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
+    iso = _isometric_table(data)
+    if iso is not None:
+        out = run_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare)
+        flagged = [f"{s['model']} ({', '.join(s['flags'])})" for s in out["models"] if s["flags"]]
+        warn_flags(f"compare on {data}", flagged)
+        if json:
+            emit_json(out)
+            return
+        if out["synthetic"]:
+            console.print("[bold yellow]SYNTHETIC data[/] (generated, not measured)")
+        rows = [[s["model"], str(s["n_parameters"]), _g(s["rmse_N"]), _g(s["r2"], ".4f"), _g(s["cv_rmse_N"]),
+                 _g(s["cv_rmse_pct_of_peak"], ".2f"), ", ".join(s["flags"]) or "none"]
+                for s in sorted(out["models"], key=lambda s: (s["cv_rmse_N"] is None, s["cv_rmse_N"] or 0))]
+        print_table(f"Force(P, L) models on {out['file']}, held out: {out['cv']} (peak {out['peak_force_N']:.4g} N)",
+                    [" model", "params", "RMSE N", "R²", "CV RMSE N", "CV % of peak", " flags"], rows)
+        console.print(f"best on held-out error: {out['best']}")
+        return
+    if cv is not None or tare != "none":
+        raise InputError("--cv/--tare: apply to isometric tables; the isotonic comparison chooses its own folds")
     out = run_compare(data, muscle)
     if json:
         emit_json(out)
@@ -131,6 +195,33 @@ def compare_cmd(
     print_table(f"Length under load vs pressure, {out['n_points']} points of {out['file']} (P > 0); CV: {out['cv_method']}",
                 [" model", "params", "RMSE mm", "max rel. err. ε %", "within 20 % ε", "CV RMSE mm", "CV within 20 %", " note"],
                 rows)
+
+
+def _g(v, fmt=".4g"):
+    return "—" if v is None or not np.isfinite(v) else format(v, fmt)
+
+
+def _isometric_table(data: Path):
+    """The table if DATA is an isometric table file, else None (a folder or another kind)."""
+    from mckibben.data import read_table
+
+    data = Path(data)
+    if data.is_dir():
+        return None
+    table = read_table(data)
+    return table if table.kind == "isometric" else None
+
+
+def run_compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str) -> dict:
+    """Compare every force model on an isometric table; return the JSON-ready result."""
+    from mckibben.data import check_muscle
+    from mckibben.fit.isometric import compare_isometric
+
+    spec = load_muscle(data, muscle, True, "compare")
+    check_muscle(table, spec)
+    res = compare_isometric(table, spec, cv, tare)
+    return {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
+            "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
 
 
 def _mm(v):

@@ -110,9 +110,16 @@ def force_cmd(
     braid_angle: str = typer.Option(None, "--braid-angle", help="Braid angle at rest, from the axis (default 20deg)."),
     wall: str = typer.Option(None, "--wall", help="Tube wall thickness for wall-corrected (default 0.2mm)."),
     k: float = typer.Option(1.0, "--k", help="Tondu–Lopez contraction correction k [-]."),
+    muscle_file: str = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law "
+                                                                "(mckibben fit ISO.csv --save FILE.toml); "
+                                                                "replaces --model and --muscle."),
+    direction: str = typer.Option("inflate", "--direction", help="--muscle-file: inflate or deflate branch."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """Pulling force from pressure and length: empirical map or a physical model with geometry options."""
+    """Pulling force from pressure and length: empirical map, a physical model, or a muscle file's fitted law."""
+    if muscle_file is not None:
+        _force_from_muscle_file(muscle_file, pressure, length, direction, json)
+        return
     from mckibben.errors import unknown_name
     from mckibben.models.mpam import force_from_length
     from mckibben.models.physical import (
@@ -166,3 +173,27 @@ def force_cmd(
         return
     rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
     print_table(f"{model} force, {m.name}, length {ell * 1e3:.2f} mm", ["pressure MPa", "force N", "flags"], rows)
+
+
+def _force_from_muscle_file(path: str, pressure: str, length: str | None, direction: str, json: bool) -> None:
+    """``predict force --muscle-file``: the file's fitted force law at the given pressures."""
+    from mckibben.data import read_muscle
+    from mckibben.fit.muscle_file import muscle_force_law
+
+    if direction not in ("inflate", "deflate"):
+        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
+    law = muscle_force_law(read_muscle(path))
+    p = parse_values(pressure, "pressure", "--pressure")
+    ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else law.spec.nominal_length
+    force, flags = law.force(p, ell, direction)
+    names = [flag_names(x) for x in flags]
+    if json:
+        out = {"model": law.model, "muscle": law.spec.id, "muscle_file": path, "direction": direction,
+               "length_m": ell, "pressure_Pa": p.tolist(), "force_N": force.tolist(), "flags": names,
+               "fit_flags": list(law.flags)}
+        scalar = len(p) == 1 and "," not in pressure and ":" not in pressure
+        emit_json(_rows_or_scalars(out, scalar) | {"fit_flags": list(law.flags)})
+        return
+    rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
+    print_table(f"{law.model} force fitted for {law.spec.id} ({path}), length {ell * 1e3:.2f} mm, {direction}",
+                ["pressure MPa", "force N", "flags"], rows)

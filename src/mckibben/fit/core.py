@@ -28,6 +28,14 @@ from mckibben.models.flags import Flag, outside
 #: data cannot tell the parameters apart: doubles keep ~16 digits, and 1e10 leaves ~6 for the fit.
 COND_MAX = 1e10
 
+#: Condition number of the scaled Jacobian above which a bounded fit's covariance is flagged
+#: ``ill_conditioned``: beyond it a standard error moves by more than ~1 % per 1e-4 relative change
+#: of the data, so the intervals are not to be trusted even if the fit converged.
+COND_FLAG = 1e6
+
+#: R² below which a fit is flagged ``r2_below_0.5``: the model explains less than half the variance.
+R2_FLAG = 0.5
+
 #: Which flag marks an input outside the fitted range.
 RANGE_FLAGS = {
     "pressure": Flag.PRESSURE_OUT_OF_RANGE,
@@ -77,6 +85,15 @@ class FitResult:
         ``func(values, **inputs) -> response`` (SI inputs), used by :meth:`predict`.
     source : str
         The file the data came from.
+    flags : tuple of str
+        Why the fit deserves doubt (empty when nothing was found): a parameter at a bound,
+        R² < 0.5, an ill-conditioned covariance, a non-physical value (see
+        :func:`fit_flags`). The CLI prints them on stderr and in the JSON.
+    t_dof : int, optional
+        Degrees of freedom of the intervals' t quantile when they differ from :attr:`dof`
+        (cluster-robust covariance: number of clusters − 1). [-]
+    covariance_method : str
+        ``"ols"`` (s²·(JᵀJ)⁻¹) or ``"cluster-robust (N trials)"``.
     """
 
     model: str
@@ -93,6 +110,9 @@ class FitResult:
     condition: dict = field(default_factory=dict)
     func: Callable | None = None
     source: str = ""
+    flags: tuple = ()
+    t_dof: int | None = None
+    covariance_method: str = "ols"
 
     @property
     def stderr(self) -> np.ndarray:
@@ -102,7 +122,7 @@ class FitResult:
     @property
     def t_quantile(self) -> float:
         """Student's t quantile for a two-sided 95 % interval with :attr:`dof` degrees of freedom. [-]"""
-        return float(stats.t.ppf(0.975, self.dof))
+        return float(stats.t.ppf(0.975, self.t_dof if self.t_dof is not None else self.dof))
 
     @property
     def ci95(self) -> np.ndarray:
@@ -193,7 +213,10 @@ class FitResult:
             "stderr": {n: float(s) for n, s in zip(self.names, self.stderr)},
             "ci95": {n: [float(a), float(b)] for n, (a, b) in zip(self.names, ci)},
             f"residual_rms_{unit}" if unit else "residual_rms": self.residual_rms,
+            f"rmse_{unit}" if unit else "rmse": self.residual_rms,
             "r2": self.r2,
+            "flags": list(self.flags),
+            "covariance": self.covariance_method,
             "n_points": self.n_points,
             "dof": self.dof,
             "condition_number": self.condition_number,
@@ -259,7 +282,7 @@ def _check_condition(matrix: np.ndarray, what: str) -> float:
 
 def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_range: dict,
                func: Callable | None = None, condition: dict | None = None, source: str = "",
-               scale=None) -> FitResult:
+               scale=None, clusters=None) -> FitResult:
     """Ordinary least squares y ≈ X·β with standard errors.
 
     Parameters
@@ -286,6 +309,10 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
         Data file.
     scale : array_like, optional
         Multiply the fitted β (and its covariance) by this to get the reported values. [-]
+    clusters : array_like, optional
+        Trial label per row: with two or more trials the covariance is cluster-robust
+        (:func:`cluster_covariance`) and the intervals use t with (trials − 1) degrees of freedom.
+        [-]
 
     Returns
     -------
@@ -305,12 +332,19 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
     xs = x / norms
     cov_s = s2 * np.linalg.inv(xs.T @ xs)
     cov = cov_s / np.outer(norms, norms)
+    t_dof, method = None, "ols"
+    if clusters is not None and np.unique(clusters).size >= 2:
+        cov = cluster_covariance(x, resid, clusters)
+        t_dof = int(np.unique(clusters).size - 1)
+        method = f"cluster-robust ({t_dof + 1} trials)"
     if scale is not None:
         sc = np.asarray(scale, dtype=float)
         beta = beta * sc
         cov = cov * np.outer(sc, sc)
-    return FitResult(model, tuple(names), beta, cov, dof, n, resid, response, _r2(y, resid), dict(valid_range),
-                     cond, dict(condition or {}), func, source)
+    r2 = _r2(y, resid)
+    flags = ("r2_below_0.5",) if not r2 >= R2_FLAG else ()
+    return FitResult(model, tuple(names), beta, cov, dof, n, resid, response, r2, dict(valid_range),
+                     cond, dict(condition or {}), func, source, flags, t_dof, method)
 
 
 def nonlinear_fit(residual, x0, names, *, model: str, response: str, what: str, valid_range: dict,
@@ -385,3 +419,198 @@ def data_range(**arrays) -> dict:
         Input quantities in SI. [SI]
     """
     return {k: (float(np.min(v)), float(np.max(v))) for k, v in arrays.items()}
+
+
+def cluster_covariance(jac, resid, clusters, p_scale=None):
+    """Cluster-robust (CR1) covariance of least-squares parameters.
+
+    ``C = c·(JᵀJ)⁻¹·(Σ_g J_gᵀr_g·r_gᵀJ_g)·(JᵀJ)⁻¹``, c = G/(G − 1)·(n − 1)/(n − p), summing over
+    the G clusters (trials). Residuals within a trial may be correlated in any way (a per-trial
+    offset, a per-trial gain); trials are taken as independent. Intervals then use Student's t
+    with G − 1 degrees of freedom.
+
+    Parameters
+    ----------
+    jac : array_like
+        Jacobian of the model in the parameters, shape (n, p). [response/parameter]
+    resid : array_like
+        Residuals, shape (n,). [response unit]
+    clusters : array_like
+        Cluster label per point, shape (n,). [-]
+    p_scale : array_like, optional
+        Unused placeholder for symmetry with the OLS path. [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        Covariance, shape (p, p). [parameter units²]
+
+    References
+    ----------
+    Cameron, A. C., Miller, D. L. (2015), A practitioner's guide to cluster-robust inference,
+    J. Human Resources 50(2), 317–372. doi:10.3368/jhr.50.2.317
+    """
+    jac = np.asarray(jac, dtype=float)
+    resid = np.asarray(resid, dtype=float)
+    n, p = jac.shape
+    labels, idx = np.unique(np.asarray(clusters), return_inverse=True)
+    g = labels.size
+    norms = np.linalg.norm(jac, axis=0)
+    norms[norms == 0] = 1.0
+    js = jac / norms  # column-scaled: parameters of wildly different units stay invertible
+    bread = np.linalg.pinv(js.T @ js)
+    scores = np.zeros((g, p))
+    np.add.at(scores, idx.ravel(), js * resid[:, None])
+    meat = scores.T @ scores
+    c = g / max(g - 1, 1) * (n - 1) / max(n - p, 1)
+    return c * (bread @ meat @ bread) / np.outer(norms, norms)
+
+
+def fit_flags(names, values, lo, hi, r2, condition_number, extra=()) -> tuple:
+    """The doubt flags of a bounded fit (see :attr:`FitResult.flags`).
+
+    Parameters
+    ----------
+    names : sequence of str
+        Parameter names. [-]
+    values, lo, hi : array_like
+        Fitted values and their bounds. [parameter units]
+    r2 : float
+        Coefficient of determination. [-]
+    condition_number : float
+        Of the column-scaled Jacobian of the free parameters. [-]
+    extra : sequence of str
+        Model-specific flags (non-physical values). [-]
+
+    Returns
+    -------
+    tuple of str
+        ``"<name>_at_lower_bound"``/``"<name>_at_upper_bound"`` (within 0.1 % of the bound's
+        span), ``"r2_below_0.5"``, ``"ill_conditioned"`` and the extra flags.
+    """
+    out = []
+    for n_, v, a, b in zip(names, values, lo, hi):
+        span = (b - a) if np.isfinite(a) and np.isfinite(b) else max(abs(v), 1e-300)
+        if np.isfinite(a) and v - a <= 1e-3 * span:
+            out.append(f"{n_}_at_lower_bound")
+        elif np.isfinite(b) and b - v <= 1e-3 * span:
+            out.append(f"{n_}_at_upper_bound")
+    if not np.isfinite(r2) or r2 < R2_FLAG:
+        out.append("r2_below_0.5")
+    if not np.isfinite(condition_number) or condition_number > COND_FLAG:
+        out.append("ill_conditioned")
+    return tuple(out) + tuple(extra)
+
+
+def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str, what: str, valid_range: dict,
+                func: Callable, clusters=None, condition: dict | None = None, source: str = "",
+                physical_flags: Callable | None = None) -> FitResult:
+    """Bounded nonlinear least squares from several starts, with flags and trial-aware intervals.
+
+    Every start is run briefly (:func:`scipy.optimize.least_squares`, trust region reflective,
+    each parameter scaled by its bound span or start value), the two lowest are run to
+    convergence and the lowest cost wins: the physical models are non-convex (D0 trades against
+    the braid angle), so one start is not enough. A
+    fit never fails silently: parameters at a bound, R² < 0.5, an ill-conditioned covariance and
+    the model's own non-physical checks are listed in :attr:`FitResult.flags`. Parameters at a
+    bound are held there for the covariance (their standard error is NaN).
+
+    Parameters
+    ----------
+    model_fn : callable
+        ``model_fn(values) -> prediction`` at the data, physical parameter values. [response unit]
+    y : array_like
+        Measured response. [response unit]
+    starts : sequence of array_like
+        Starting parameter vectors (physical), each inside the bounds. [parameter units]
+    names : sequence of str
+        Parameter names with unit suffixes. [-]
+    lo, hi : array_like
+        Bounds (``-inf``/``inf`` for none). [parameter units]
+    model, response, what : str
+        As in :func:`linear_fit`.
+    valid_range : dict
+        Input -> (min, max), SI. [SI]
+    func : callable
+        ``func(values, **inputs)``, for :meth:`FitResult.predict`.
+    clusters : array_like, optional
+        Trial label per point: with two or more trials the covariance is cluster-robust
+        (:func:`cluster_covariance`), else s²·(JᵀJ)⁻¹. [-]
+    condition : dict, optional
+        The condition the data were restricted to.
+    source : str
+        Data file.
+    physical_flags : callable, optional
+        ``physical_flags(values) -> list of str``: the model's own non-physical checks.
+
+    Returns
+    -------
+    FitResult
+    """
+    y = np.asarray(y, dtype=float)
+    lo = np.asarray(lo, dtype=float)
+    hi = np.asarray(hi, dtype=float)
+    p = lo.size
+    require_points(y.size, p, what)
+    best, tried = None, []
+    for x0 in starts:
+        x0 = np.clip(np.asarray(x0, dtype=float), lo, hi)
+        scale = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(x0), 1e-12))
+        shift = np.where(np.isfinite(lo), lo, 0.0)
+
+        def resid(th, shift=shift, scale=scale):
+            return np.asarray(model_fn(th * scale + shift), dtype=float) - y
+
+        th0 = (x0 - shift) / scale
+        tlo, thi = (lo - shift) / scale, (hi - shift) / scale
+        th0 = np.clip(th0, tlo + 1e-9 * np.isfinite(tlo), thi - 1e-9 * np.isfinite(thi))
+        r0 = resid(th0)
+        if not np.all(np.isfinite(r0)):
+            continue
+        # stage 1: a short run from every start; stage 2 below runs the two best to convergence
+        res = optimize.least_squares(resid, th0, bounds=(tlo, thi), method="trf", x_scale=1.0,
+                                     max_nfev=5 * (p + 1) if len(starts) > 2 else 100 * (p + 1))
+        if np.all(np.isfinite(res.fun)):
+            tried.append((res.cost, res.x, resid, tlo, thi, shift, scale))
+    if not tried:
+        raise InputError(f"{what}: the model cannot be evaluated at any starting point (check the data)")
+    tried.sort(key=lambda t: t[0])
+    for cost, x, resid, tlo, thi, shift, scale in tried[:2]:
+        res = optimize.least_squares(resid, x, bounds=(tlo, thi), method="trf", x_scale=1.0, max_nfev=100 * (p + 1))
+        if np.all(np.isfinite(res.fun)) and (best is None or res.cost < best[0].cost):
+            best = (res, shift, scale)
+    res, shift, scale = best
+    values = res.x * scale + shift
+    resid = -np.asarray(res.fun)  # data - model
+    n = y.size
+    span = hi - lo
+    at = np.zeros(p, bool)
+    for k in range(p):
+        sp = span[k] if np.isfinite(span[k]) else max(abs(values[k]), 1e-300)
+        at[k] = (np.isfinite(lo[k]) and values[k] - lo[k] <= 1e-3 * sp) or (np.isfinite(hi[k]) and hi[k] - values[k] <= 1e-3 * sp)
+    free = ~at
+    jac = res.jac / scale  # d prediction / d physical value
+    cov = np.full((p, p), np.nan)
+    cond = float("inf")
+    t_dof = None
+    method = "ols"
+    if free.any():
+        jf = jac[:, free]
+        norms = np.linalg.norm(jf, axis=0)
+        if np.all(norms > 0):
+            cond = float(np.linalg.cond(jf / norms))
+            labels = np.unique(clusters) if clusters is not None else np.array([0])
+            if clusters is not None and labels.size >= 2:
+                cf = cluster_covariance(jf, resid, clusters)
+                t_dof = int(labels.size - 1)
+                method = f"cluster-robust ({labels.size} trials)"
+            else:
+                s2 = float(resid @ resid) / max(n - p, 1)
+                js = jf / norms
+                cf = s2 * np.linalg.pinv(js.T @ js) / np.outer(norms, norms)
+            cov[np.ix_(free, free)] = cf
+    r2 = _r2(y, resid)
+    extra = list(physical_flags(values)) if physical_flags is not None else []
+    flags = fit_flags(names, values, lo, hi, r2, cond, extra)
+    return FitResult(model, tuple(names), values, cov, n - p, n, resid, response, r2, dict(valid_range), cond,
+                     dict(condition or {}), func, source, flags, t_dof, method)

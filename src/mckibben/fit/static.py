@@ -30,7 +30,8 @@ import pandas as pd
 
 from mckibben.data.io import MuscleSpec, Table
 from mckibben.errors import InputError
-from mckibben.fit.core import FitResult, data_range, linear_fit, nonlinear_fit, require_distinct, require_points
+from mckibben.fit.core import (FitResult, bounded_fit, data_range, linear_fit, nonlinear_fit, require_distinct,
+                               require_points)
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import BraidAngleMap, MiniatureMuscle
 from mckibben.models.physical import BraidGeometry, length_under_load, tondu_lopez_contraction
@@ -130,7 +131,7 @@ def _cubic_names(base: str) -> tuple[str, ...]:
 
 
 def fit_cubic(pressure, response, *, what: str, response_name: str, unit: str, condition=None, source="",
-              extra_range=None) -> FitResult:
+              extra_range=None, trials=None) -> FitResult:
     """One cubic in pressure, y = c3·P³ + c2·P² + c1·P + c0 with P in MPa (the paper's fits).
 
     Parameters
@@ -151,6 +152,10 @@ def fit_cubic(pressure, response, *, what: str, response_name: str, unit: str, c
         Data file.
     extra_range : dict, optional
         More entries of the valid range (e.g. the load). [SI]
+    trials : array_like, optional
+        Trial per point: with two trials or more the covariance is cluster-robust by trial
+        (a per-trial offset shifts every point of a trial alike; :func:`~mckibben.fit.core.cluster_covariance`).
+        [-]
 
     Returns
     -------
@@ -166,7 +171,7 @@ def fit_cubic(pressure, response, *, what: str, response_name: str, unit: str, c
     x = np.column_stack([(p / MPA) ** 3, (p / MPA) ** 2, p / MPA, np.ones_like(p)])
     vr = data_range(pressure=p) | dict(extra_range or {})
     return linear_fit(x, response, _cubic_names(unit), model="cubic", response=response_name, what=what,
-                      valid_range=vr, func=_cubic_func, condition=condition, source=source)
+                      valid_range=vr, func=_cubic_func, condition=condition, source=source, clusters=trials)
 
 
 def fit_cubics(table: Table) -> dict[tuple, FitResult]:
@@ -213,7 +218,8 @@ def fit_cubics(table: Table) -> dict[tuple, FitResult]:
             extra = {"load": (float(load), float(load))} if load is not None else {}
             out[(load, direction)] = fit_cubic(sub["pressure"], sub[col], what=_what("cubic", table, cond),
                                                response_name=response_name, unit=unit, condition=cond,
-                                               source=table.path, extra_range=extra)
+                                               source=table.path, extra_range=extra,
+                                               trials=sub["trial"].to_numpy() if sub["trial"].nunique() >= 2 else None)
     return out
 
 
@@ -511,18 +517,26 @@ def _positive(d: pd.DataFrame) -> np.ndarray:
     return d["pressure"].to_numpy() > 0
 
 
+def _clusters(d: pd.DataFrame):
+    return d["trial"].to_numpy() if "trial" in d and d["trial"].nunique() >= 2 else None
+
+
 def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     """Chou–Hannaford length under a hanging load with a fitted effective strand length and D0.
 
-    l = b·sqrt((4F/(π·D0²·P) + 1)/3); b and D0 are fitted (the muscle file's geometry is the
-    start). Rows at zero pressure are left out: the model has no stiffness there.
+    l = b·sqrt((4F/(π·D0²·P) + 1)/3); b and D0 are fitted within physical bounds: b in
+    [L0, L0/cos 54.7°] (a strand at least as long as the muscle, a braid angle at rest below
+    54.7°), D0 within :data:`~mckibben.fit.isometric.D0_FACTOR` × the outer diameter. The fit starts
+    from several braid angles (it is non-convex) and is flagged at a bound, with R² < 0.5 or an
+    ill-conditioned covariance. Rows at zero pressure are left out: the model has no stiffness
+    there.
 
     Parameters
     ----------
     table : Table
         An ``isotonic`` table.
     muscle : MuscleSpec
-        Starting geometry (nominal length, diameters, braid angle).
+        Nominal length L0 and outer diameter.
 
     Returns
     -------
@@ -533,38 +547,41 @@ def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Chou & Hannaford (1996); :func:`mckibben.models.physical.length_under_load`.
     """
+    from mckibben.fit.isometric import D0_FACTOR, THETA_MAX, THETA_STARTS_DEG
+
     _need(table, ("isotonic", "hysteresis"), "chou-hannaford")
     d = table.data[_positive(table.data)]
     what = _what("chou-hannaford", table)
     require_distinct(d["pressure"], 3, "pressures above zero", what, "Chou–Hannaford (2 parameters and a check)")
-    g0 = BraidGeometry.from_initial(muscle.nominal_length, muscle.need("outer_diameter", "chou-hannaford")
-                                    - (muscle.strand_diameter or 0.0), muscle.need("braid_angle", "chou-hannaford (start)"))
-    scale = np.array([g0.strand_length, g0.d0])
+    od = muscle.need("outer_diameter", "chou-hannaford")
+    l0 = muscle.nominal_length
     p, f, ell = d["pressure"].to_numpy(), d["load"].to_numpy(), d["length"].to_numpy()
 
     def func(values, pressure, load):
         geom = BraidGeometry(float(values[0]), float(values[0] / (np.pi * values[1])))
         return length_under_load(pressure, load, geom, "chou-hannaford")[0]
 
-    # start: the D0 that puts the model through the data's median length at the given b
-    res = nonlinear_fit(lambda th: func(th * scale, p, f) - ell, [1.0, 1.0], ("b_m", "d0_m"), model="chou-hannaford",
-                        response="length_m", what=what, valid_range=data_range(pressure=p, load=f), scale=scale,
-                        func=func, source=table.path, y=ell, bounds=([0.2, 0.05], [20.0, 20.0]))
-    return res
+    lo = np.array([l0, D0_FACTOR[0] * od])
+    hi = np.array([l0 / np.cos(THETA_MAX), D0_FACTOR[1] * od])
+    starts = [np.array([l0 / np.cos(np.deg2rad(t)), fac * od]) for t in THETA_STARTS_DEG for fac in (1.5, 3.0)]
+    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("b_m", "d0_m"), lo, hi, model="chou-hannaford",
+                       response="length_m", what=what, valid_range=data_range(pressure=p, load=f), func=func,
+                       clusters=_clusters(d), source=table.path)
 
 
 def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     """Tondu–Lopez length under a hanging load with fitted contraction correction k and radius r0.
 
-    l = L0·(1 − ε), ε from F = π·r0²·P·[a(1 − kε)² − b] (α0 from the muscle file). Rows at zero
-    pressure are left out.
+    l = L0·(1 − ε), ε from F = π·r0²·P·[a(1 − kε)² − b] (α0 from the muscle file). k within
+    :data:`~mckibben.fit.isometric.K_BOUNDS`, r0 within :data:`~mckibben.fit.isometric.R0_FACTOR` ×
+    the outer diameter; flagged as :func:`fit_chou_hannaford`. Rows at zero pressure are left out.
 
     Parameters
     ----------
     table : Table
         An ``isotonic`` table.
     muscle : MuscleSpec
-        Nominal length L0 and braid angle α0.
+        Nominal length L0, outer diameter and braid angle α0.
 
     Returns
     -------
@@ -575,12 +592,13 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Tondu & Lopez (2000); :func:`mckibben.models.physical.tondu_lopez_contraction`.
     """
+    from mckibben.fit.isometric import K_BOUNDS, R0_FACTOR
+
     _need(table, ("isotonic", "hysteresis"), "tondu-lopez")
     d = table.data[_positive(table.data)]
     what = _what("tondu-lopez", table)
     require_distinct(d["pressure"], 3, "pressures above zero", what, "Tondu–Lopez (2 parameters and a check)")
-    r_start = 0.5 * (muscle.need("outer_diameter", "tondu-lopez") - (muscle.strand_diameter or 0.0))
-    scale = np.array([1.0, r_start])
+    od = muscle.need("outer_diameter", "tondu-lopez")
     p, f, ell = d["pressure"].to_numpy(), d["load"].to_numpy(), d["length"].to_numpy()
     l0, a0 = muscle.nominal_length, muscle.need("braid_angle", "tondu-lopez on isotonic data")
 
@@ -588,9 +606,12 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
         eps, _ = tondu_lopez_contraction(pressure, load, values[1], a0, values[0])
         return l0 * (1.0 - eps)
 
-    return nonlinear_fit(lambda th: func(th * scale, p, f) - ell, [1.0, 1.0], ("k", "r0_m"), model="tondu-lopez",
-                         response="length_m", what=what, valid_range=data_range(pressure=p, load=f), scale=scale,
-                         func=func, source=table.path, y=ell, bounds=([0.05, 0.05], [50.0, 50.0]))
+    lo = np.array([K_BOUNDS[0], R0_FACTOR[0] * od])
+    hi = np.array([K_BOUNDS[1], R0_FACTOR[1] * od])
+    starts = [np.array([k, fac * od]) for k in (1.0, 2.0) for fac in (0.4, 0.7)]
+    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("k", "r0_m"), lo, hi, model="tondu-lopez",
+                       response="length_m", what=what, valid_range=data_range(pressure=p, load=f), func=func,
+                       clusters=_clusters(d), source=table.path)
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,0 +1,706 @@
+"""Static force models fitted to isometric tests: force(P, L) at held lengths, inflate and deflate.
+
+Every model predicts the load-cell force at a held length L and gauge pressure P. Geometry the
+muscle file does not give is fitted within physical bounds; geometry it gives is held fixed.
+
+==========================  ===========================================================  ==========
+model                       force                                                        fitted
+==========================  ===========================================================  ==========
+``chou-hannaford``          π·D0²·P/4·(3cos²θ − 1), cos θ = L·cos θ0/L0                 θ0, D0
+``wall-chou-hannaford``     the same + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]              θ0, D0, t
+``tondu-lopez``             π·r0²·P·[a(1 − kε)² − b], ε = 1 − L/L0                       α0, r0, k
+``spring``                  K(P, Ls)·Ls, Ls = L − Lu(P), K per direction (001, eq. 1–2)  h, c
+``surface``                 Σ a_ij·P^i·ε^j (i ≤ 3, j ≤ 1) + deflate·(b0 + b1·P)         a, b
+==========================  ===========================================================  ==========
+
+Every model but ``spring`` (whose stretch term already gives a force at zero pressure) also
+fits ``offset_N``, the load cell's zero: a lab's force column is seldom tared
+(``docs/data.md``). ``inflate`` rows are the spring model's ``elongation`` branch (the force rises
+at a fixed length), ``deflate`` its ``contraction`` branch.
+
+Physical bounds (``BOUNDS_NOTE``):
+
+- braid angle at rest θ0 (α0 for Tondu–Lopez) in [1°, 54.7°): at 54.7° (cos²θ = 1/3) the ideal
+  braid pulls nothing, beyond it it pushes; the strand length b = L0/cos θ0 ≥ L0 follows;
+- D0 (the braid's diameter at 90°) within [0.5, 4] × the measured outer diameter: D0·sin θ0 is
+  the braid diameter at rest, which is about the outer diameter, and θ0 ≥ 15° keeps D0 below
+  4 × that;
+- r0 (the braid radius at rest, an effective value) within [0.25, 1] × the outer diameter;
+- wall thickness t within [0, 0.25] × the outer diameter; Tondu–Lopez k within [0.5, 5];
+- offset within ± the largest measured force, flagged ``large_offset`` beyond 5 % of it;
+- spring stiffness: K ≥ 0 is checked at every data point (``negative_stiffness`` flag), not
+  forced by bounds, since single coefficients of K may be negative while K stays positive.
+
+A fit at a bound, with R² < 0.5, an ill-conditioned covariance or a non-physical result carries
+flags (:func:`mckibben.fit.core.fit_flags`); it is never silently wrong. Intervals are
+cluster-robust by run (held length and trial): see :func:`fit_isometric`.
+
+References
+----------
+Chou & Hannaford (1996); Tondu & Lopez (2000); Tsagarakis & Caldwell (2000), Davis et al. (2003):
+:mod:`mckibben.models.physical`. 001_9d98bcef9f07dbeb.txt, eq. (1)–(2): :mod:`mckibben.models.spring`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from mckibben.data.io import MuscleSpec, Table, apply_tare
+from mckibben.errors import InputError, unknown_name
+from mckibben.fit.core import FitResult, bounded_fit, data_range, linear_fit
+from mckibben.models.physical import BraidGeometry, chou_hannaford_force, tondu_lopez_force, wall_corrected_force
+from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, LOW, SpringModel, spring_force, stiffness
+
+#: Largest braid angle at rest: cos²θ = 1/3, where the ideal braid stops pulling. [rad]
+THETA_MAX = float(np.arccos(1.0 / np.sqrt(3.0)))
+#: Smallest braid angle at rest allowed in a fit. [rad]
+THETA_MIN = float(np.deg2rad(1.0))
+#: D0 bounds as factors of the measured outer diameter. [-]
+D0_FACTOR = (0.5, 4.0)
+#: r0 bounds as factors of the measured outer diameter. [-]
+R0_FACTOR = (0.25, 1.0)
+#: Wall thickness bound as a factor of the outer diameter. [-]
+WALL_FACTOR = 0.25
+#: Tondu–Lopez contraction correction bounds. [-]
+K_BOUNDS = (0.5, 5.0)
+#: Starting braid angles of the multi-start (the physical fits are non-convex in θ0). [deg]
+THETA_STARTS_DEG = (10.0, 30.0, 50.0)
+
+BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
+               "wall in [0, 0.25] x outer diameter; k in [0.5, 5]; |offset| <= peak force; spring K >= 0 checked")
+
+#: The models and one line each.
+FORCE_MODELS = {
+    "chou-hannaford": "ideal braid, fitted braid angle at rest and D0 (+ load-cell zero)",
+    "wall-chou-hannaford": "Chou-Hannaford with the tube wall (fitted unless the tube sizes are in the muscle file)",
+    "tondu-lopez": "Tondu-Lopez with its contraction correction k, fitted alpha0 and r0",
+    "spring": "F = K(P, Ls)*Ls of 001 (Lu(P) quadratic, K per inflate/deflate)",
+    "surface": "data-driven: cubic in pressure, linear in contraction, a deflate shift",
+}
+
+
+def _direction_flag(direction) -> np.ndarray:
+    return (np.asarray(direction) == "deflate").astype(float)
+
+
+@dataclass(frozen=True)
+class _Spec:
+    names: tuple
+    lo: np.ndarray
+    hi: np.ndarray
+    starts: list
+    force: Callable  # force(values, pressure, length, direction)
+    physical: Callable | None = None
+
+
+def _geometry_params(muscle: MuscleSpec, fmax: float, what: str):
+    od = muscle.need("outer_diameter", what)
+    l0 = muscle.nominal_length
+    theta_known = muscle.braid_angle
+    if theta_known is not None and not THETA_MIN <= theta_known < THETA_MAX:
+        raise InputError(f"{muscle.path or muscle.id}: key braid_angle: {np.rad2deg(theta_known):g} deg is outside"
+                         f" [1, 54.7) deg, where a braid pulls")
+    return od, l0, theta_known
+
+
+def _ch_spec(muscle: MuscleSpec, fmax: float, wall: bool) -> _Spec:
+    name = "wall-chou-hannaford" if wall else "chou-hannaford"
+    od, l0, theta_known = _geometry_params(muscle, fmax, name)
+    t_known = None
+    if wall and None not in (muscle.tube_outer_diameter, muscle.tube_inner_diameter):
+        t_known = 0.5 * (muscle.tube_outer_diameter - muscle.tube_inner_diameter)
+    names, lo, hi = [], [], []
+    if theta_known is None:
+        names.append("theta0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
+    names.append("d0_m"), lo.append(D0_FACTOR[0] * od), hi.append(D0_FACTOR[1] * od)
+    if wall and t_known is None:
+        names.append("wall_m"), lo.append(0.0), hi.append(WALL_FACTOR * od)
+    names.append("offset_N"), lo.append(-fmax), hi.append(fmax)
+
+    def unpack(v):
+        k = 0
+        th = theta_known
+        if th is None:
+            th, k = v[0], 1
+        d0 = v[k]
+        t = (v[k + 1] if wall and t_known is None else (t_known or 0.0)) if wall else 0.0
+        return th, d0, t, v[-1]
+
+    def force(v, pressure, length, direction=None):
+        th, d0, t, off = unpack(v)
+        b = l0 / np.cos(th)
+        geom = BraidGeometry(b, b / (np.pi * d0), t)
+        f = wall_corrected_force(pressure, length, geom) if wall else chou_hannaford_force(pressure, length, geom)
+        return f + off
+
+    def physical(v):
+        return _offset_flag(v[-1], fmax)
+
+    starts = []
+    for tdeg in (THETA_STARTS_DEG if theta_known is None else (None,)):
+        for dfac in (2.5,):
+            x = []
+            if theta_known is None:
+                x.append(np.deg2rad(tdeg))
+            x.append(dfac * od)
+            if wall and t_known is None:
+                x.append(0.05 * od)
+            x.append(0.0)
+            starts.append(np.array(x))
+    return _Spec(tuple(names), np.array(lo), np.array(hi), starts, force, physical)
+
+
+def _tl_spec(muscle: MuscleSpec, fmax: float) -> _Spec:
+    od, l0, alpha_known = _geometry_params(muscle, fmax, "tondu-lopez")
+    names, lo, hi = [], [], []
+    if alpha_known is None:
+        names.append("alpha0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
+    names += ["r0_m", "k", "offset_N"]
+    lo += [R0_FACTOR[0] * od, K_BOUNDS[0], -fmax]
+    hi += [R0_FACTOR[1] * od, K_BOUNDS[1], fmax]
+
+    def force(v, pressure, length, direction=None):
+        a0 = alpha_known if alpha_known is not None else v[0]
+        r0, k, off = v[-3], v[-2], v[-1]
+        eps = 1.0 - np.asarray(length, dtype=float) / l0
+        return tondu_lopez_force(pressure, eps, r0, a0, k) + off
+
+    starts = []
+    for tdeg in (THETA_STARTS_DEG if alpha_known is None else (None,)):
+        for kk in (1.0,):
+            x = [] if alpha_known is not None else [np.deg2rad(tdeg)]
+            starts.append(np.array(x + [0.45 * od, kk, 0.0]))
+    return _Spec(tuple(names), np.array(lo), np.array(hi), starts, force, lambda v: _offset_flag(v[-1], fmax))
+
+
+#: A load cell's zero larger than this fraction of the peak force is flagged ``large_offset``: a
+#: zero error of a few newtons is usual (lab-data notes), one of many percent means the model is
+#: buying a constant to make up for missing physics. [-]
+OFFSET_FLAG = 0.05
+
+
+def _offset_flag(offset: float, fmax: float) -> list:
+    return ["large_offset"] if abs(offset) > OFFSET_FLAG * fmax else []
+
+
+SPRING_NAMES = ("h2_m_per_Pa2", "h1_m_per_Pa", "h0_m") + tuple(
+    f"c{k}_{d}" for d in ("inflate", "deflate") for k in (3, 2, 1, 0))
+
+
+def _spring_model(v, l0, pmax) -> SpringModel:
+    h = (float(v[0]), float(v[1]), float(v[2]))
+    coeffs = {(ELONGATION, LOW): tuple(float(x) for x in v[3:7]), (CONTRACTION, LOW): tuple(float(x) for x in v[7:11])}
+    return SpringModel(l0, h, coeffs, DEFAULT_TERMS, np.inf, (0.0, pmax), (0.0, np.inf), "fitted (isometric)")
+
+
+def _spring_spec(muscle: MuscleSpec, fmax: float, p, ell, f, direction) -> _Spec:
+    l0 = muscle.nominal_length
+    pmax = float(np.max(p)) or 1.0
+    lspan = float(np.ptp(ell)) or 0.1 * l0
+    lo = np.array([-np.inf, -np.inf, 0.5 * l0] + [-np.inf] * 8)
+    hi = np.array([np.inf, np.inf, 1.5 * l0] + [np.inf] * 8)
+    dirs = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
+
+    def force(v, pressure, length, direction=None):
+        d = ELONGATION if direction is None else np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
+        return spring_force(length, pressure, _spring_model(v, l0, pmax), d)[0]
+
+    def linear_c(u):
+        """Variable projection: K's coefficients by least squares for Lu = L0·(u0 + u1·x + u2·x²)."""
+        h = np.array([l0 * u[2] / pmax**2, l0 * u[1] / pmax, l0 * u[0]])
+        stretch = np.maximum(ell - np.polyval(h, p), 0.0)
+        c, r = [], np.empty_like(f)
+        for dn in (ELONGATION, CONTRACTION):
+            sel = dirs == dn
+            if sel.sum() < 5:
+                c += [0.0] * 4
+                r[sel] = -f[sel]
+                continue
+            x = np.column_stack([p[sel] ** i * stretch[sel] ** j * stretch[sel] for i, j in DEFAULT_TERMS])
+            norms = np.linalg.norm(x, axis=0)
+            norms[norms == 0] = 1.0
+            cs = np.linalg.lstsq(x / norms, f[sel], rcond=None)[0] / norms
+            c += list(cs)
+            r[sel] = x @ cs - f[sel]
+        return h, np.array(c), r
+
+    starts = []
+    from scipy import optimize
+
+    for free in (0.15, 0.3):  # free contraction at the top pressure
+        u = optimize.least_squares(lambda u: linear_c(u)[2], [1.0, 0.0, -free], method="lm", max_nfev=400).x
+        h, c, _ = linear_c(u)
+        starts.append(np.concatenate([h, c]))
+
+    def physical(v):
+        out = []
+        model = _spring_model(v, l0, pmax)
+        stretch = ell - np.polyval(v[:3], p)
+        k = np.where(dirs == ELONGATION, stiffness(p, stretch, v[3:7]), stiffness(p, stretch, v[7:11]))
+        if np.any((stretch > 0) & (k < 0)):
+            out.append("negative_stiffness")
+        pg = np.linspace(0.0, pmax, 50)
+        if np.any(np.diff(np.polyval(v[:3], pg)) > 1e-9 * l0):
+            out.append("free_length_grows_with_pressure")
+        del model
+        return out
+
+    return _Spec(SPRING_NAMES, lo, hi, starts, force, physical)
+
+
+def _surface_terms(pressure, length, direction, l0):
+    x = np.asarray(pressure, dtype=float) / 1e6
+    e = 1.0 - np.asarray(length, dtype=float) / l0
+    dfl = _direction_flag(direction) if direction is not None else np.zeros(np.shape(x))
+    x, e, dfl = np.broadcast_arrays(x, e, dfl)
+    return [x**3, x**2, x, np.ones_like(x), x**3 * e, x**2 * e, x * e, e, dfl, dfl * x]
+
+
+SURFACE_NAMES = ("a30_N_per_MPa3", "a20_N_per_MPa2", "a10_N_per_MPa", "a00_N", "a31_N_per_MPa3", "a21_N_per_MPa2",
+                 "a11_N_per_MPa", "a01_N", "b0_deflate_N", "b1_deflate_N_per_MPa")
+
+
+@dataclass
+class IsometricFit:
+    """A force model fitted to an isometric table.
+
+    Attributes
+    ----------
+    model : str
+        The model's name (a key of :data:`FORCE_MODELS`).
+    result : FitResult
+        Parameters (SI), standard errors, flags; ``result.predict(pressure=, length=, direction=)``.
+    muscle : MuscleSpec
+        The muscle file the fit used.
+    tare : dict
+        The tare applied (:func:`mckibben.data.io.apply_tare`).
+    data : pandas.DataFrame
+        The fitted points: ``held_length`` [m], ``pressure`` [Pa], ``force`` [N] (after the tare),
+        ``direction``, ``trial``.
+    """
+
+    model: str
+    result: FitResult
+    muscle: MuscleSpec
+    tare: dict
+    data: pd.DataFrame = field(repr=False)
+
+    @property
+    def flags(self) -> list:
+        """The fit's doubt flags (empty: nothing found)."""
+        return list(self.result.flags)
+
+    @property
+    def metrics(self) -> dict:
+        """``rmse_N``, ``r2``, ``n_points``, ``flags`` and the covariance used."""
+        return {"rmse_N": self.result.residual_rms, "r2": self.result.r2, "n_points": self.result.n_points,
+                "flags": self.flags, "covariance": self.result.covariance_method}
+
+    def predict(self, pressure, length, direction="inflate"):
+        """Force at pressures and lengths, with out-of-range flags.
+
+        Parameters
+        ----------
+        pressure : array_like
+            Gauge pressure. [Pa]
+        length : array_like
+            Held length. [m]
+        direction : str or array_like, default "inflate"
+            ``"inflate"`` or ``"deflate"`` branch. [-]
+
+        Returns
+        -------
+        force : numpy.ndarray
+            [N]
+        flags : numpy.ndarray
+            :class:`~mckibben.models.flags.Flag` masks.
+        """
+        return self.result.predict(pressure=pressure, length=length, direction=direction)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the fit's parameters, errors, flags and tare."""
+        return {**self.result.to_dict(), "tare": self.tare, "bounds": BOUNDS_NOTE}
+
+    def to_pandas(self) -> pd.DataFrame:
+        """The fitted points with the model's force and the residual. [SI]"""
+        d = self.data.copy()
+        d["force_fit"] = d["force"] - self.result.residuals
+        d["residual"] = self.result.residuals
+        return d
+
+    def plot(self, ax=None):
+        """Force against pressure per held length, inflate and deflate, with the fit and its 95 % band.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(6, 4))
+        fig = ax.figure
+        d = self.data
+        lengths = np.unique(d["held_length"])
+        colors = plt.get_cmap("viridis")(np.linspace(0, 0.85, lengths.size))
+        pg = np.linspace(0.0, float(d["pressure"].max()), 60)
+        for ell, col in zip(lengths, colors):
+            sel = np.isclose(d["held_length"], ell)
+            for dn, mk, ls in (("inflate", "o", "-"), ("deflate", "v", "--")):
+                s = sel & (d["direction"] == dn).to_numpy()
+                if not s.any():
+                    continue
+                ax.plot(d["pressure"][s] / 1e3, d["force"][s], mk, ms=3, color=col, alpha=0.6)
+                f = self.result.func(self.result.values, pressure=pg, length=np.full_like(pg, ell), direction=dn)
+                band = self.result.band(pressure=pg, length=np.full_like(pg, ell), direction=dn)
+                ax.plot(pg / 1e3, f, ls, color=col, lw=1,
+                        label=f"{ell * 1e3:g} mm" if dn == "inflate" else None)
+                ax.fill_between(pg / 1e3, f - band, f + band, color=col, alpha=0.15, lw=0)
+        ax.set_xlabel("pressure [kPa]")
+        ax.set_ylabel("force [N]")
+        ax.set_title(f"{self.model}: o inflate, v deflate, 95 % band")
+        ax.legend(title="held length", fontsize="small")
+        return fig
+
+
+def isometric_points(table: Table, tare: str = "none") -> tuple[pd.DataFrame, dict]:
+    """The tared points of an isometric table (SI), and the tare report.
+
+    Parameters
+    ----------
+    table : Table
+        An ``isometric`` table.
+    tare : {"none", "lowest", "column"}, default "none"
+        See :func:`mckibben.data.io.apply_tare`. [-]
+    """
+    if table.kind != "isometric":
+        raise InputError(f"fit: needs an isometric table (held_length, pressure, force, direction, trial);"
+                         f" {table.path} is a {table.kind} table")
+    tared, report = apply_tare(table, tare)
+    d = tared.data[["held_length", "pressure", "force", "direction", "trial"]].copy()
+    return d, report
+
+
+def _runs(d: pd.DataFrame) -> np.ndarray:
+    """Cluster label per row: one run = one held length and one trial."""
+    keys = np.column_stack([np.round(d["held_length"].to_numpy(dtype=float), 9), d["trial"].to_numpy(dtype=float)])
+    return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
+
+
+def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "") -> FitResult:
+    """Fit one force model to isometric points (already tared). See :func:`fit_isometric`.
+
+    Parameters
+    ----------
+    d : pandas.DataFrame
+        ``held_length`` [m], ``pressure`` [Pa], ``force`` [N], ``direction``, ``trial``.
+    muscle : MuscleSpec
+        Nominal length, outer diameter and whatever geometry is known.
+    model : str
+        A key of :data:`FORCE_MODELS`. [-]
+    source : str
+        The data file, for messages.
+
+    Returns
+    -------
+    FitResult
+    """
+    if model not in FORCE_MODELS:
+        raise unknown_name("force model", model, FORCE_MODELS)
+    what = f"fit {model} on {source}"
+    p = d["pressure"].to_numpy(dtype=float)
+    ell = d["held_length"].to_numpy(dtype=float)
+    f = d["force"].to_numpy(dtype=float)
+    direction = d["direction"].to_numpy()
+    clusters = _runs(d)
+    fmax = float(np.max(np.abs(f))) or 1.0
+    vr = data_range(pressure=p, length=ell)
+    if model == "surface":
+        l0 = muscle.nominal_length
+        x = np.column_stack(_surface_terms(p, ell, direction, l0))
+        if np.unique(direction).size < 2:
+            x = x[:, :8]
+
+        def sfunc(values, pressure, length, direction="inflate"):
+            terms = _surface_terms(pressure, length, direction, l0)[: len(values)]
+            return sum(v * t for v, t in zip(values, terms))
+
+        names = SURFACE_NAMES[: x.shape[1]]
+        return linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
+                          source=source, clusters=clusters)
+    if model in ("chou-hannaford", "wall-chou-hannaford"):
+        spec = _ch_spec(muscle, fmax, model == "wall-chou-hannaford")
+    elif model == "tondu-lopez":
+        spec = _tl_spec(muscle, fmax)
+    else:
+        spec = _spring_spec(muscle, fmax, p, ell, f, direction)
+
+    def func(values, pressure, length, direction="inflate"):
+        return spec.force(values, pressure, length, direction)
+
+    return bounded_fit(lambda v: spec.force(v, p, ell, direction), f, spec.starts, spec.names, spec.lo, spec.hi,
+                       model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
+                       source=source, physical_flags=spec.physical)
+
+
+def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none") -> IsometricFit:
+    """Fit a static force model F(P, L) to an isometric table.
+
+    Geometry missing from the muscle file (braid angle, wall) is fitted within the bounds of
+    :data:`BOUNDS_NOTE`; the physical fits start from several braid angles and keep the best.
+
+    **Uncertainty.** The intervals are cluster-robust by run (one held length, one trial):
+    :func:`mckibben.fit.core.cluster_covariance`, with t on (runs − 1) degrees of freedom. We
+    chose a cluster-robust covariance over a random per-trial offset because a run differs from
+    the next by more than an offset (re-clamping changes the pre-tension, the load cell's zero and
+    the hysteresis loop), the robust covariance assumes no form for that, and it needs no extra
+    parameter per trial that a held-out trial could not use anyway. It needs enough runs: with
+    fewer than about 6 the t quantile grows large (wide, honest intervals).
+
+    Parameters
+    ----------
+    table : Table
+        An ``isometric`` table.
+    muscle : MuscleSpec
+        The muscle file (nominal length and outer diameter are required).
+    model : str, default "spring"
+        A key of :data:`FORCE_MODELS`. [-]
+    tare : {"none", "lowest", "column"}, default "none"
+        See :func:`mckibben.data.io.apply_tare`. [-]
+
+    Returns
+    -------
+    IsometricFit
+
+    References
+    ----------
+    Module notes; Cameron & Miller (2015) for the cluster-robust covariance.
+    """
+    d, report = isometric_points(table, tare)
+    res = fit_points(d, muscle, model, source=table.path)
+    return IsometricFit(model, res, muscle, report, d)
+
+
+def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
+    """The force function F(P, L, direction) of a fitted model, from its parameter values.
+
+    Used to evaluate a force law saved in a muscle file (``mckibben fit … --save``): the muscle
+    file's known geometry is held fixed exactly as in the fit.
+
+    Parameters
+    ----------
+    model : str
+        A key of :data:`FORCE_MODELS`. [-]
+    muscle : MuscleSpec
+        The muscle the law was fitted for.
+    values : array_like
+        Parameter values in the order of :func:`parameter_names`. [SI]
+
+    Returns
+    -------
+    callable
+        ``f(pressure [Pa], length [m], direction="inflate") -> force [N]``.
+    """
+    v = np.asarray(values, dtype=float)
+    if model == "surface":
+        l0 = muscle.nominal_length
+
+        def sfunc(pressure, length, direction="inflate"):
+            terms = _surface_terms(pressure, length, direction, l0)[: len(v)]
+            return sum(a * t for a, t in zip(v, terms))
+
+        return sfunc
+    if model == "spring":
+        l0 = muscle.nominal_length
+
+        def spring(pressure, length, direction="inflate"):
+            d = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
+            return spring_force(length, pressure, _spring_model(v, l0, np.inf), d)[0]
+
+        return spring
+    spec = _physical_spec(model, muscle)
+    return lambda pressure, length, direction="inflate": spec.force(v, pressure, length, direction)
+
+
+def _physical_spec(model: str, muscle: MuscleSpec) -> _Spec:
+    if model in ("chou-hannaford", "wall-chou-hannaford"):
+        return _ch_spec(muscle, 1.0, model == "wall-chou-hannaford")
+    if model == "tondu-lopez":
+        return _tl_spec(muscle, 1.0)
+    raise unknown_name("force model", model, FORCE_MODELS)
+
+
+def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
+    """The parameter names a model fits for a muscle (geometry the file gives is not fitted).
+
+    Parameters
+    ----------
+    model : str
+        A key of :data:`FORCE_MODELS`. [-]
+    muscle : MuscleSpec
+        The muscle file.
+    """
+    if model == "surface":
+        return SURFACE_NAMES
+    if model == "spring":
+        return SPRING_NAMES
+    return _physical_spec(model, muscle).names
+
+
+#: Cross-validation schemes of :func:`compare_isometric`.
+CV_METHODS = ("leave-one-length-out", "leave-one-trial-out")
+
+
+@dataclass
+class ModelComparison:
+    """Every force model on the same isometric data and the same folds.
+
+    Attributes
+    ----------
+    cv : str
+        The cross-validation scheme (a key of :data:`CV_METHODS`).
+    scores : list of dict
+        Per model: ``model``, ``n_parameters``, ``rmse_N``, ``r2`` (in-sample, all data),
+        ``cv_rmse_N`` (held-out), ``cv_rmse_pct_of_peak`` (held-out RMSE / peak |force| × 100),
+        ``extrapolated_folds`` (folds whose held-out points lie outside the training range),
+        ``flags`` (of the fit on all data) and ``note``.
+    best : str or None
+        The model with the smallest held-out RMSE.
+    peak_force : float
+        Largest |force| in the data. [N]
+    fits : dict
+        Model -> :class:`IsometricFit` on all the data (models that could be fitted).
+    tare : dict
+        The tare applied.
+    source : str
+        The data file.
+    """
+
+    cv: str
+    scores: list
+    best: str | None
+    peak_force: float
+    fits: dict = field(repr=False)
+    tare: dict = field(default_factory=dict)
+    source: str = ""
+
+    @property
+    def metrics(self) -> dict:
+        """``best``, its ``cv_rmse_N`` and ``cv_rmse_pct_of_peak``, and the peak force."""
+        b = next((s for s in self.scores if s["model"] == self.best), {})
+        return {"best": self.best, "cv": self.cv, "cv_rmse_N": b.get("cv_rmse_N"),
+                "cv_rmse_pct_of_peak": b.get("cv_rmse_pct_of_peak"), "peak_force_N": self.peak_force}
+
+    def to_pandas(self) -> pd.DataFrame:
+        """One row per model (the scores), sorted by held-out error."""
+        return pd.DataFrame(self.scores).sort_values("cv_rmse_N", na_position="last").reset_index(drop=True)
+
+    def to_dict(self) -> dict:
+        """JSON-ready."""
+        return {"cv": self.cv, "best": self.best, "peak_force_N": self.peak_force, "tare": self.tare,
+                "models": self.scores}
+
+    def plot(self, ax=None):
+        """Held-out and in-sample RMSE per model, as % of the peak force (bar chart).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 3.5))
+        df = self.to_pandas()
+        x = np.arange(len(df))
+        ax.bar(x - 0.2, df["rmse_N"] / self.peak_force * 100, 0.4, label="in-sample")
+        ax.bar(x + 0.2, df["cv_rmse_pct_of_peak"], 0.4, label=f"held out ({self.cv})")
+        ax.set_xticks(x, df["model"], rotation=20, ha="right", fontsize="small")
+        ax.set_ylabel("RMSE [% of peak force]")
+        ax.legend(fontsize="small")
+        return ax.figure
+
+
+def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
+                      models=None) -> ModelComparison:
+    """Fit every force model to an isometric table and score it on held-out lengths or trials.
+
+    Every model is fitted on the same folds: ``leave-one-length-out`` leaves each held length out
+    in turn and predicts it from the others (the extreme lengths are extrapolations, counted in
+    ``extrapolated_folds``); ``leave-one-trial-out`` leaves each trial number out. The best model
+    is the one with the smallest held-out RMSE, never the in-sample one (notes/lab-data.md).
+
+    Parameters
+    ----------
+    table : Table
+        An ``isometric`` table.
+    muscle : MuscleSpec
+        The muscle file.
+    cv : {"leave-one-length-out", "leave-one-trial-out"}
+        Cross-validation scheme. [-]
+    tare : {"none", "lowest", "column"}, default "none"
+        See :func:`mckibben.data.io.apply_tare`. [-]
+    models : sequence of str, optional
+        Models to compare (default: all of :data:`FORCE_MODELS`). [-]
+
+    Returns
+    -------
+    ModelComparison
+    """
+    if cv not in CV_METHODS:
+        raise unknown_name("--cv scheme", cv, CV_METHODS)
+    d, report = isometric_points(table, tare)
+    f = d["force"].to_numpy(dtype=float)
+    peak = float(np.max(np.abs(f)))
+    key = np.round(d["held_length"].to_numpy(dtype=float), 9) if cv == "leave-one-length-out" else d["trial"].to_numpy()
+    groups = np.unique(key)
+    if groups.size < 2:
+        raise InputError(f"compare on {table.path}: {cv} needs two {'held lengths' if 'length' in cv else 'trials'} or more")
+    scores, fits = [], {}
+    for model in (models or FORCE_MODELS):
+        try:
+            full = fit_points(d, muscle, model, source=table.path)
+        except InputError as exc:
+            scores.append({"model": model, "n_parameters": 0, "rmse_N": None, "r2": None, "cv_rmse_N": None,
+                           "cv_rmse_pct_of_peak": None, "extrapolated_folds": 0, "flags": [],
+                           "note": f"not fitted: {exc}"})
+            continue
+        fits[model] = IsometricFit(model, full, muscle, report, d)
+        pred = np.full(f.size, np.nan)
+        extrapolated, notes = 0, []
+        for g in groups:
+            test = key == g
+            try:
+                r = fit_points(d[~test], muscle, model, source=table.path)
+            except InputError as exc:
+                notes.append(f"fold {g:g} not fitted: {exc}")
+                continue
+            sub = d[test]
+            value, fl = r.predict(pressure=sub["pressure"].to_numpy(), length=sub["held_length"].to_numpy(),
+                                  direction=sub["direction"].to_numpy())
+            pred[test] = value
+            extrapolated += int(np.any(fl))
+        ok = np.isfinite(pred)
+        cv_rmse = float(np.sqrt(np.mean((pred[ok] - f[ok]) ** 2))) if ok.any() else float("nan")
+        if not ok.all():
+            notes.append(f"{int((~ok).sum())} points not predicted")
+        scores.append({"model": model, "n_parameters": len(full.values), "rmse_N": full.residual_rms,
+                       "r2": full.r2, "cv_rmse_N": cv_rmse, "cv_rmse_pct_of_peak": cv_rmse / peak * 100.0,
+                       "extrapolated_folds": extrapolated, "flags": list(full.flags), "note": "; ".join(notes)})
+    ranked = [s for s in scores if s["cv_rmse_N"] is not None and np.isfinite(s["cv_rmse_N"])]
+    best = min(ranked, key=lambda s: s["cv_rmse_N"])["model"] if ranked else None
+    return ModelComparison(cv, scores, best, peak, fits, report, table.path)

@@ -1,0 +1,202 @@
+"""A lab's own muscle through the whole flow: fitted force laws saved in, and read from, muscle files.
+
+``mckibben fit ISO.csv --model spring --muscle my.toml --save mine.toml`` writes the muscle file
+again with a ``[force_model]`` table: the model's name, its parameters in SI (with standard
+errors), the range of data it was fitted on and its flags. :func:`muscle_force_law` turns such a
+file back into F(P, L) for ``mckibben predict force --muscle-file mine.toml``; evaluating outside
+the fitted range is flagged.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mckibben.data.io import MuscleSpec
+from mckibben.errors import InputError
+from mckibben.models.flags import Flag, outside
+
+#: Muscle-file keys written from a MuscleSpec: field -> (key, factor from SI).
+_KEYS = (("nominal_length", "nominal_length_mm", 1e3), ("outer_diameter", "outer_diameter_mm", 1e3),
+         ("strand_length", "strand_length_mm", 1e3), ("tube_inner_diameter", "tube_inner_diameter_mm", 1e3),
+         ("tube_outer_diameter", "tube_outer_diameter_mm", 1e3), ("strand_diameter", "strand_diameter_mm", 1e3),
+         ("braid_angle", "braid_angle_deg", 180.0 / math.pi))
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    return repr(float(v))
+
+
+def muscle_file_text(spec: MuscleSpec, fit) -> str:
+    """The TOML text of a muscle file holding a fitted force law.
+
+    Parameters
+    ----------
+    spec : MuscleSpec
+        The muscle file the fit used (its known geometry is kept as is).
+    fit : IsometricFit
+        From :func:`mckibben.fit.isometric.fit_isometric`.
+    """
+    r = fit.result
+    lines = [f"id = {_toml_value(spec.id)}"]
+    for field_, key, factor in _KEYS:
+        value = getattr(spec, field_)
+        if value is not None:
+            lines.append(f"{key} = {float(value) * factor:.12g}")
+    note = (spec.notes + " " if spec.notes else "") + f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
+    lines.append(f"notes = {_toml_value(note)}")
+    lines.append(f"synthetic = {_toml_value(bool(spec.synthetic))}")
+    lines += ["", "[force_model]", f"model = {_toml_value(fit.model)}", f"source = {_toml_value(r.source)}",
+              f"tare = {_toml_value(fit.tare.get('method', 'none'))}", f"flags = {_toml_value(list(r.flags))}",
+              f"rmse_N = {r.residual_rms!r}", f"r2 = {r.r2!r}"]
+    for q, (lo, hi) in r.valid_range.items():
+        unit = {"pressure": "Pa", "length": "m"}.get(q, "")
+        lines.append(f"valid_{q}_{unit} = [{lo!r}, {hi!r}]")
+    lines += ["", "[force_model.parameters]"] + [f"{n} = {float(v)!r}" for n, v in zip(r.names, r.values)]
+    lines += ["", "[force_model.stderr]"] + [f"{n} = {float(s)!r}" for n, s in zip(r.names, r.stderr)
+                                             if np.isfinite(s)]
+    return "\n".join(lines) + "\n"
+
+
+def save_muscle_file(path, spec: MuscleSpec, fit) -> Path:
+    """Write a muscle file with a fitted force law, atomically (nothing half-written).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The TOML file to write. [-]
+    spec : MuscleSpec
+        The muscle file the fit used.
+    fit : IsometricFit
+        The fit.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
+    from mckibben.files import apply_umask
+
+    p = Path(path)
+    if p.suffix.lower() != ".toml":
+        raise InputError(f"--save: {path} must end in .toml")
+    if not p.parent.is_dir():
+        raise InputError(f"--save: folder {p.parent} does not exist")
+    text = muscle_file_text(spec, fit)
+    fd, tmp = tempfile.mkstemp(prefix=".mckibben-", suffix=".toml", dir=p.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        apply_umask(tmp, directory=False)
+        os.replace(tmp, p)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return p
+
+
+@dataclass(frozen=True)
+class MuscleForceLaw:
+    """A muscle file's fitted force law, ready to evaluate.
+
+    Attributes
+    ----------
+    spec : MuscleSpec
+        The muscle.
+    model : str
+        The fitted model's name.
+    parameters : dict
+        Parameter name -> value. [SI]
+    valid_range : dict
+        ``pressure`` and ``length`` -> (min, max) of the data it was fitted on. [Pa, m]
+    flags : tuple of str
+        The fit's flags, as saved.
+    """
+
+    spec: MuscleSpec
+    model: str
+    parameters: dict
+    valid_range: dict
+    flags: tuple
+
+    def force(self, pressure, length, direction="inflate"):
+        """Force at pressures and lengths, flagged outside the fitted range.
+
+        Parameters
+        ----------
+        pressure : array_like
+            Gauge pressure. [Pa]
+        length : array_like
+            Muscle length. [m]
+        direction : str, default "inflate"
+            ``"inflate"`` or ``"deflate"`` branch. [-]
+
+        Returns
+        -------
+        force : numpy.ndarray
+            [N]
+        flags : numpy.ndarray
+            :class:`~mckibben.models.flags.Flag` masks.
+        """
+        from mckibben.fit.isometric import force_law
+
+        p, ell = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
+        f = np.broadcast_to(force_law(self.model, self.spec, list(self.parameters.values()))(p, ell, direction), p.shape)
+        flags = np.zeros(p.shape, dtype=np.uint16)
+        if "pressure" in self.valid_range:
+            flags |= outside(p, *self.valid_range["pressure"], Flag.PRESSURE_OUT_OF_RANGE)
+        if "length" in self.valid_range:
+            flags |= outside(ell, *self.valid_range["length"], Flag.LENGTH_OUT_OF_RANGE)
+        return np.asarray(f, dtype=float), flags
+
+
+def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
+    """The fitted force law of a muscle file (its ``[force_model]`` table), checked.
+
+    Parameters
+    ----------
+    spec : MuscleSpec
+        A muscle file read by :func:`mckibben.data.io.read_muscle`.
+
+    Raises
+    ------
+    InputError
+        No ``[force_model]``, an unknown model, or parameters that are not the model's.
+    """
+    from mckibben.fit.isometric import FORCE_MODELS, parameter_names
+
+    where = spec.path or spec.id
+    fm = spec.force_model
+    if fm is None:
+        raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv --model NAME --save FILE.toml")
+    model = fm["model"]
+    if model not in FORCE_MODELS:
+        raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(FORCE_MODELS)}")
+    names = parameter_names(model, spec)
+    params = fm["parameters"]
+    if tuple(params) != tuple(names):
+        missing = [n for n in names if n not in params]
+        extra = [n for n in params if n not in names]
+        what = f"missing {', '.join(missing)}" if missing else f"unexpected {', '.join(extra)}" if extra else "out of order"
+        raise InputError(f"{where}: key force_model.parameters: {what} for model {model} with this muscle's geometry"
+                         f" (expected {', '.join(names)})")
+    vr = {}
+    for q, unit in (("pressure", "Pa"), ("length", "m")):
+        v = fm.get(f"valid_{q}_{unit}")
+        if v is not None:
+            if not (isinstance(v, list) and len(v) == 2 and all(isinstance(x, (int, float)) for x in v)):
+                raise InputError(f"{where}: key force_model.valid_{q}_{unit}: must be [min, max]")
+            vr[q] = (float(v[0]), float(v[1]))
+    return MuscleForceLaw(spec, model, dict(params), vr, tuple(fm.get("flags", ())))

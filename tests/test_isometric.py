@@ -1,0 +1,238 @@
+"""Force models on isometric data: recovery of known parameters, trial-aware coverage, flags, CLI."""
+
+import tomllib
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from mckibben.data import MuscleSpec, read_muscle, read_table
+from mckibben.datasets.isometric import BUNDLED_ISOMETRIC, isometric_campaign
+from mckibben.fit.isometric import FORCE_MODELS, compare_isometric, fit_isometric, fit_points
+from mckibben.models.physical import BraidGeometry, chou_hannaford_force
+
+ISO = BUNDLED_ISOMETRIC / "commercial10" / "isometric.csv"
+MUSCLE = BUNDLED_ISOMETRIC / "commercial10" / "muscle.toml"
+
+# a 10 mm-class braid: L0 = 300 mm, θ0 = 22°, D0 = 29.4 mm (braid 11 mm across at rest)
+L0, OD, THETA0, D0 = 0.300, 0.012, float(np.deg2rad(22.0)), 0.0294
+SPEC = MuscleSpec("c10", L0, outer_diameter=OD)
+
+
+def _ch_campaign(rng, n_campaigns, offset_sd, lengths=(1.0, 0.94, 0.88, 0.82), trials=4, steps=5, noise=0.4,
+                 zero=2.0):
+    """Chou–Hannaford isometric campaigns, vectorised: force (n_campaigns, n_points) and the layout."""
+    b = L0 / np.cos(THETA0)
+    geom = BraidGeometry(b, b / (np.pi * D0))
+    p_up = np.linspace(0.0, 620e3, steps)
+    rows = []
+    for ell in lengths:
+        for trial in range(1, trials + 1):
+            for dn, ps in (("inflate", p_up), ("deflate", p_up[::-1][1:])):
+                rows += [(ell * L0, pv, dn, trial) for pv in ps]
+    d = pd.DataFrame(rows, columns=["held_length", "pressure", "direction", "trial"])
+    runs = d.groupby(["held_length", "trial"]).ngroup().to_numpy()
+    clean = chou_hannaford_force(d["pressure"].to_numpy(), d["held_length"].to_numpy(), geom) + zero
+    run_offset = rng.normal(0.0, offset_sd, (n_campaigns, runs.max() + 1))[:, runs]
+    return d, clean + run_offset + rng.normal(0.0, noise, (n_campaigns, len(d)))
+
+
+def _coverage(d, forces, model, muscle, truth):
+    covered = np.zeros(len(truth), int)
+    for f in forces:
+        r = fit_points(d.assign(force=f), muscle, model)
+        ci = r.ci95
+        covered += (ci[:, 0] <= truth) & (truth <= ci[:, 1])
+    return covered / len(forces)
+
+
+def test_chou_hannaford_recovers_the_braid_and_covers_with_per_trial_offsets():
+    # 200 small campaigns (4 lengths x 4 trials, 5 pressures up and back) with a per-run load-cell
+    # zero of sd 1.5 N over 0.4 N noise: the offsets dominate, as in lab data (notes/lab-data.md).
+    rng = np.random.default_rng(0)
+    d, forces = _ch_campaign(rng, 200, offset_sd=1.5)
+    truth = np.array([THETA0, D0, 2.0])
+    covered = np.zeros(3)
+    for f in forces:
+        ci = fit_points(d.assign(force=f), SPEC, "chou-hannaford").ci95
+        covered += (ci[:, 0] <= truth) & (truth <= ci[:, 1])
+    # >= 90 %: the issue's bar for 95 % intervals; the binomial sd of a 95 % rate over 200
+    # campaigns is 1.5 %, so a correct interval falls below 90 % with probability ~1e-3
+    assert np.all(covered / 200 >= 0.90), dict(zip(["theta0", "d0", "offset"], covered / 200))
+
+
+def test_coverage_without_offsets():
+    # no per-run offset: the cluster-robust intervals still cover (they are not just wide)
+    rng = np.random.default_rng(1)
+    d, forces = _ch_campaign(rng, 200, offset_sd=0.0)
+    cov = _coverage(d, forces, "chou-hannaford", SPEC, np.array([THETA0, D0, 2.0]))
+    assert np.all(cov >= 0.90), cov
+
+
+def test_known_braid_angle_is_held_fixed():
+    rng = np.random.default_rng(2)
+    d, forces = _ch_campaign(rng, 1, offset_sd=0.5)
+    known = MuscleSpec("c10", L0, outer_diameter=OD, braid_angle=THETA0)
+    r = fit_points(d.assign(force=forces[0]), known, "chou-hannaford")
+    assert r.names == ("d0_m", "offset_N")
+    # D0 from ~100 points of 0.4 N noise on forces up to ~700 N: well inside 0.5 % (5 se)
+    assert r["d0_m"] == pytest.approx(D0, rel=5e-3)
+
+
+def test_every_model_fits_the_synthetic_commercial_campaign():
+    t = read_table(ISO)
+    m = read_muscle(MUSCLE)
+    assert m.braid_angle is None and m.strand_length is None  # a commercial muscle's datasheet
+    for model in FORCE_MODELS:
+        fit = fit_isometric(t, m, model)
+        r = fit.result
+        assert r.r2 > 0.95, model  # all reproduce the force's rise with pressure and fall with length
+        assert np.all(np.isfinite(r.values)), model
+        assert fit.metrics["covariance"] == "cluster-robust (12 trials)"
+        # physical bounds hold whatever the fit did
+        if "theta0_rad" in r.names:
+            assert 0 < r["theta0_rad"] < np.arccos(1 / np.sqrt(3))
+            assert 0.5 * m.outer_diameter <= r["d0_m"] <= 4 * m.outer_diameter
+
+
+def test_physical_models_are_flagged_on_data_they_cannot_explain():
+    # the truth has an opening pressure and rubber elasticity the ideal braid lacks: the ideal
+    # models buy a large load-cell zero to make up for it, and say so
+    t, m = read_table(ISO), read_muscle(MUSCLE)
+    for model in ("chou-hannaford", "tondu-lopez"):
+        assert "large_offset" in fit_isometric(t, m, model).flags
+
+
+def test_compare_picks_the_best_on_held_out_lengths():
+    c = compare_isometric(read_table(ISO), read_muscle(MUSCLE), "leave-one-length-out")
+    df = c.to_pandas()
+    assert set(df["model"]) == set(FORCE_MODELS)
+    assert c.best == df["model"].iloc[0]
+    best = df.iloc[0]
+    # the bar: within a few percent of the peak force on held-out lengths (2.4 % measured, seed 0)
+    assert best["cv_rmse_pct_of_peak"] < 5.0
+    # held-out error is never below the in-sample error of the same model
+    assert np.all(df["cv_rmse_N"] >= df["rmse_N"] * 0.999)
+    # no unflagged non-physical model: every physical fit at a bound or with a large zero is flagged
+    for s in c.scores:
+        if s["model"] != "spring" and s["model"] != "surface":
+            assert s["flags"], s["model"]
+
+
+def test_result_objects_plot_and_tabulate(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    fit = fit_isometric(read_table(ISO), read_muscle(MUSCLE), "spring", tare="lowest")
+    fig = fit.plot()
+    fig.savefig(tmp_path / "iso.png")
+    assert (tmp_path / "iso.png").stat().st_size > 10_000
+    df = fit.to_pandas()
+    assert np.allclose(df["force"] - df["force_fit"], df["residual"])
+    assert fit.tare["method"] == "lowest" and len(fit.tare["per_run_N"]) == 12
+
+
+def test_generated_campaign_is_the_bundled_one():
+    bundled = pd.read_csv(ISO)
+    fresh = isometric_campaign(seed=0)
+    pd.testing.assert_frame_equal(bundled, fresh, check_dtype=False)
+
+
+# --- command line ---------------------------------------------------------------------------
+
+
+def test_fit_spring_json_has_errors_and_flags(cli, tmp_path):
+    r = cli("fit", str(ISO), "--model", "spring", "--muscle", str(MUSCLE), "--json")
+    assert r.code == 0, r.err
+    out = r.json()
+    for key in ("parameters", "stderr", "rmse_N", "r2", "flags"):
+        assert key in out
+    assert all(v is not None and v > 0 for v in out["stderr"].values())
+    assert out["covariance"].startswith("cluster-robust")
+
+
+def test_fit_flags_go_to_stderr_in_one_line(cli):
+    r = cli("fit", str(ISO), "--model", "chou-hannaford", "--json")
+    assert r.code == 0
+    assert r.err.count("\n") == 1 and r.err.startswith("warning: fit chou-hannaford on") and "large_offset" in r.err
+    assert "large_offset" in r.json()["flags"]
+
+
+def test_compare_cli_json(cli):
+    r = cli("compare", str(ISO), "--muscle", str(MUSCLE), "--cv", "leave-one-trial-out", "--json")
+    assert r.code == 0
+    out = r.json()
+    assert out["cv"] == "leave-one-trial-out"
+    for s in out["models"]:
+        assert {"cv_rmse_N", "cv_rmse_pct_of_peak", "rmse_N", "r2", "flags"} <= set(s)
+
+
+def test_fit_save_then_predict_with_the_muscle_file(cli, tmp_path):
+    saved = tmp_path / "mine.toml"
+    r = cli("fit", str(ISO), "--model", "spring", "--save", str(saved), "--json")
+    assert r.code == 0 and r.json()["saved"] == str(saved)
+    doc = tomllib.loads(saved.read_text())
+    assert doc["force_model"]["model"] == "spring" and doc["id"] == "commercial10"
+    fit = fit_isometric(read_table(ISO), read_muscle(MUSCLE), "spring")
+    p = cli("predict", "force", "--muscle-file", str(saved), "--pressure", "0.3,0.7MPa", "--length", "280mm", "--json")
+    assert p.code == 0, p.err
+    out = p.json()
+    expect, _ = fit.predict(np.array([0.3e6, 0.7e6]), 0.28)
+    np.testing.assert_allclose(out["force_N"], expect, rtol=1e-9)  # the same law, through TOML's repr of floats
+    assert out["flags"] == [[], ["pressure_out_of_range"]]  # 0.7 MPa is beyond the 620 kPa tested
+
+
+BAD = [
+    ("missing.csv", "held_length_mm,pressure_kPa,force_N,trial\n300,0,1,1\n300,100,5,1\n", "missing column direction"),
+    ("onelength.csv", "held_length_mm,pressure_kPa,force_N,direction,trial\n300,0,1,inflate,1\n300,100,5,inflate,1\n",
+     "column held_length_mm: only one held length"),
+    ("onepressure.csv", "held_length_mm,pressure_kPa,force_N,direction,trial\n300,100,1,inflate,1\n"
+     "280,100,3,inflate,1\n", "column pressure_kPa: the run at held length 280 mm, trial 1 has one pressure"),
+]
+
+
+@pytest.mark.parametrize("name, text, message", BAD, ids=[b[0] for b in BAD])
+@pytest.mark.parametrize("command", ["fit", "compare"])
+def test_bad_isometric_tables_exit_2_with_one_line(cli, tmp_path, name, text, message, command):
+    (tmp_path / name).write_text(text)
+    args = ["--model", "spring"] if command == "fit" else []
+    r = cli(command, str(tmp_path / name), "--muscle", str(MUSCLE), *args, "--json")
+    assert r.code == 2 and r.out == ""
+    assert r.err.count("\n") == 1 and str(tmp_path / name) in r.err and message in r.err
+
+
+def test_model_that_needs_a_missing_field_names_it(cli, tmp_path):
+    iso = tmp_path / "isotonic.csv"
+    iso.write_text("pressure_MPa,load_N,length_mm\n0.1,0.6,100\n0.2,0.6,99\n0.3,0.6,98\n0.4,0.6,97\n")
+    m = tmp_path / "m.toml"
+    m.write_text('id = "x"\nnominal_length_mm = 100\nouter_diameter_mm = 12\n')
+    r = cli("fit", str(iso), "--model", "tondu-lopez", "--muscle", str(m))
+    assert r.code == 2 and r.err.strip() == (f"error: {m}: key braid_angle_<unit> missing; tondu-lopez on isotonic"
+                                             " data needs it (e.g. braid_angle_deg = ...)")
+
+
+def test_stats_binomial_claim_in_the_coverage_test():
+    # the claim in test_chou_hannaford_recovers...: P(rate < 90 % | true 95 %, n = 200) ~ 1e-3
+    assert stats.binom.cdf(179, 200, 0.95) < 2e-3
+
+
+def test_blocked_force_intercept_covers_with_per_trial_offsets():
+    # the issue's case: a cubic of the blocked force with a per-trial load-cell offset (sd 0.05 N over
+    # 0.01 N noise); iid intervals covered the intercept 74 % of the time. Cluster-robust by trial:
+    from mckibben.data.io import Table
+    from mckibben.fit.static import fit_cubics
+
+    rng = np.random.default_rng(3)
+    c = np.array([-2.0, 3.0, 4.0, 0.1])  # N per MPa^i: F = -2P^3 + 3P^2 + 4P + 0.1
+    p = np.tile(np.linspace(0.0, 0.8e6, 9), 5)
+    trial = np.repeat(np.arange(1, 6), 9)
+    clean = np.polyval(c, p / 1e6)
+    forces = clean + rng.normal(0, 0.05, (200, 5))[:, trial - 1] + rng.normal(0, 0.01, (200, p.size))
+    covered = np.zeros(4)
+    for f in forces:
+        t = Table("blocked_force", "bf.csv", pd.DataFrame({"pressure": p, "force": f, "trial": trial}))
+        ci = fit_cubics(t)[(None, None)].ci95
+        covered += (ci[:, 0] <= c) & (c <= ci[:, 1])
+    # >= 90 % over 200 campaigns (binomial: a true 95 % rate falls below with probability ~1e-3)
+    assert np.all(covered / 200 >= 0.90), covered / 200
