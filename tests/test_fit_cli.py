@@ -107,6 +107,8 @@ def test_datasets_generate_and_list(cli, tmp_path):
     assert r.code == 0 and r.json()["synthetic"] is True
     assert (tmp_path / "c" / "mpam143" / "step_response.parquet").is_file()
     r = cli("datasets", "list", "--json")
-    assert r.code == 0 and len(r.json()["files"]) == 18
+    files = r.json()["files"]
+    assert r.code == 0 and len(files) == 19  # 3 muscles x 6 tables + the commercial isometric test
+    assert [f["synthetic"] for f in files if f["kind"] == "isometric"] == [True]
     r = cli("datasets", "generate", "--out", str(tmp_path / "c"), "--seed", "-1")
     assert r.code == 2 and r.err == "error: --seed: -1 must be >= 0\n"
