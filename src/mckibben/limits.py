@@ -188,3 +188,67 @@ def clamp_pressure(values, p_max: float, name: str):
             f"[0, {p_max / 1e6:g}] MPa (--p-max), so that is what is commanded and scored (flag "
             "reference_clamped)"), stacklevel=2)
     return (float(out) if np.ndim(values) == 0 else out), clamped
+
+
+def check_load(load: float, muscle, name: str = "--load") -> float:
+    """Refuse a hanging load that no pressure the rig can give would lift.
+
+    The blocked force grows about linearly with pressure (Fig. 3 of the miniature-muscle paper);
+    past the blocked force at :data:`mckibben.hardware.P_MAX_LIMIT` the muscle would only hang
+    stretched against its braid, outside every model's range.
+
+    Parameters
+    ----------
+    load : float
+        The hanging load. [N]
+    muscle : MiniatureMuscle
+        The muscle (its published blocked force). [-]
+    name : str
+        The option, for the message. [-]
+
+    Returns
+    -------
+    float
+        ``load``. [N]
+    """
+    from mckibben.hardware import P_MAX_LIMIT
+
+    p_ref, f_ref = muscle.blocked_force[0]
+    most = f_ref * P_MAX_LIMIT / p_ref
+    if not (math.isfinite(load) and load <= most):
+        raise InputError(f"{name}: {load:g} N is more than {muscle.name} can lift at any pressure the rig gives "
+                         f"(blocked force {f_ref:g} N at {p_ref / 1e6:g} MPa, about {most:.3g} N at "
+                         f"{P_MAX_LIMIT / 1e6:g} MPa)")
+    return float(load)
+
+
+#: Largest plausible magnitude of a measured quantity, per dimension (SI). A value past it is a
+#: typo or a corrupt file (a unit slip, 1e300), and would break a fit's linear algebra; these are
+#: generous bounds for any braided muscle, hydraulic ones included. [SI]
+PLAUSIBLE_MAX = {
+    "pressure": 100e6,  # [Pa] 100 MPa
+    "length": 10.0,  # [m]
+    "force": 1e5,  # [N]
+    "angle": 2 * math.pi,  # [rad]
+    "time": 1e7,  # [s] about 116 days
+    "dimensionless": 1e6,  # [-]
+}
+
+
+def first_implausible(values, dimension: str):
+    """The index of the first value whose magnitude is past :data:`PLAUSIBLE_MAX`, or None.
+
+    Parameters
+    ----------
+    values : array_like
+        Values in SI. [SI]
+    dimension : str
+        Their dimension, a key of :data:`PLAUSIBLE_MAX`. [-]
+    """
+    import numpy as np
+
+    limit = PLAUSIBLE_MAX.get(dimension)
+    if limit is None:
+        return None
+    bad = np.flatnonzero(np.abs(np.asarray(values, dtype=float)) > limit)
+    return int(bad[0]) if bad.size else None

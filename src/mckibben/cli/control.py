@@ -75,6 +75,17 @@ FORCE_OPTION = typer.Option(False, "--force", help="Run past the documented size
                                                    "mckibben.limits); never past the memory available.")
 
 
+def _load(text: str) -> float:
+    """The hanging load of the calibrated plant's muscle, checked against what it can lift. [N]"""
+    from mckibben.datasets import get_muscle
+    from mckibben.limits import check_load
+    from mckibben.units import parse_quantity
+
+    from mckibben.plant import PlantParams
+
+    return check_load(parse_quantity(text, "force", "--load"), get_muscle(PlantParams().muscle_name))
+
+
 def _periods(text: str, name: str) -> float:
     """A positive time that is a whole number of 1 ms control periods. [s]"""
     from mckibben.units import parse_quantity
@@ -125,7 +136,7 @@ def step_cmd(
     if p0c == p1c:
         raise InputError(f"--target: {target!r} and --from {start!r} are both clamped to {p1c / 1e6:g} MPa "
                          "(--p-max): there is no step")
-    f_load = parse_quantity(load, "force", "--load")
+    f_load = _load(load)
 
     from mckibben.control.core import core_spec
     from mckibben.control.experiments import identify_plant, plant_batch, run_closed_loop, step_reference
@@ -289,7 +300,7 @@ def track_cmd(
 
     _png(plot)
     pmax = check_p_max(parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    f_load = parse_quantity(load, "force", "--load")
+    f_load = _load(load)
     t, ref = _reference(reference, duration, force)
     ref, clamped = clamp_pressure(ref, pmax, "--reference")
 

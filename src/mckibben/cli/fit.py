@@ -85,6 +85,11 @@ def run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None 
     elif model == "force-contraction":
         fits = list(static.fit_force_contraction(table, spec).values())
     elif model == "spring":
+        if split_pressure is not None:
+            p = table.data["pressure"].to_numpy()
+            if not float(p.min()) <= split_pressure < float(p.max()):
+                raise InputError(f"--split-pressure: {split_pressure / 1e6:g} MPa is outside the pressures of {data} "
+                                 f"({p.min() / 1e6:g}..{p.max() / 1e6:g} MPa): one range would get no point")
         sf = static.fit_spring(table, split_pressure=split_pressure,
                                nominal_length=spec.nominal_length if spec else None)
         fits = [sf.result]
@@ -232,6 +237,11 @@ def _pct(v):
     return "—" if v is None or not np.isfinite(v) else f"{v * 100:.1f}"
 
 
+#: Distinct pressures (above 0) an isotonic table needs for `compare`: a cubic in pressure and a
+#: check of its fit (as :func:`mckibben.fit.static.fit_cubics` requires), plus one left out by CV.
+COMPARE_MIN_PRESSURES = 6
+
+
 def run_compare(data: Path, muscle: str | None = None) -> dict:
     """Run the comparison; return the JSON-ready result."""
     from mckibben.data import check_muscle, read_table
@@ -252,6 +262,11 @@ def run_compare(data: Path, muscle: str | None = None) -> dict:
         if {"pressure", "load"} <= set(b.data.columns):
             check_muscle(b, spec)
             braid = b
+    pressures = table.data["pressure"].to_numpy()
+    distinct = np.unique(np.round(pressures[pressures > 0], 3)).size
+    if distinct < COMPARE_MIN_PRESSURES:
+        raise InputError(f"compare: {iso_path} has {distinct} distinct pressures above 0; comparing the models "
+                         f"(cubics in pressure, cross-validated) needs at least {COMPARE_MIN_PRESSURES}")
     res = compare_models(table, spec, braid)
     return {"file": str(iso_path), "muscle": spec.id, "synthetic": _synthetic(iso_path, spec),
             "quantity": "length under load at a pressure (rows with P > 0); relative errors on contraction",

@@ -38,8 +38,11 @@ def identify_cmd(
         if len(logs) > 1 and "command_pwm" not in data:
             raise InputError(f"{meta['path']}: the lift-off needs the valve command (inlet_pwm/bleed_pwm or "
                              "command_pwm) in every log")
-        fits = [fit_step_response(data["time_s"], data["pressure_Pa"], data.get("command_pwm"), order=o, t_step=ts)
-                for o in orders]
+        try:
+            fits = [fit_step_response(data["time_s"], data["pressure_Pa"], data.get("command_pwm"), order=o,
+                                      t_step=ts) for o in orders]
+        except RuntimeError as exc:  # the data give the fit nothing to converge on: the file's problem
+            raise InputError(f"{meta['path']}: {exc}") from None
         results.append((log, data, meta, fits))
     lift = None
     if len(results) > 1:

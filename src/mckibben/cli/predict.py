@@ -9,6 +9,7 @@ from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
+from mckibben.limits import check_load, check_p_max
 from mckibben.models.flags import flag_names
 from mckibben.models.mpam import predict_length, pressure_for_length
 from mckibben.units import parse_quantity, parse_values
@@ -37,7 +38,7 @@ def length_cmd(
     """Length and contraction at a pressure under a hanging load (eq. 2 + 3)."""
     m = get_muscle(muscle)
     p = parse_values(pressure, "pressure", "--pressure")
-    f = parse_quantity(load, "force", "--load")
+    f = check_load(parse_quantity(load, "force", "--load"), m)
     r = predict_length(m, p, f)
     flags = [flag_names(x) for x in r.flags]
     if json:
@@ -71,8 +72,8 @@ def pressure_cmd(
     """The pressure that holds a target length under a load (the inverse of eq. 2 + 3)."""
     m = get_muscle(muscle)
     lengths = parse_values(length, "length", "--length", allow_zero=False)
-    f = parse_quantity(load, "force", "--load")
-    pmax = parse_quantity(p_max, "pressure", "--p-max", allow_zero=False)
+    f = check_load(parse_quantity(load, "force", "--load"), m)
+    pmax = check_p_max(parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
     r = pressure_for_length(m, lengths, f, pmax)
     flags = [flag_names(x) for x in r.flags]
     if json:
@@ -140,9 +141,22 @@ def force_cmd(
     if not angle < np.pi / 2:
         raise InputError(f"--braid-angle: {braid_angle!r} must be below 90deg")
     t = parse_quantity(wall, "length", "--wall") if wall else g.wall_thickness
-    if t >= d / 2:
-        raise InputError(f"--wall: {wall!r} must be less than half the diameter")
+    if model == "wall-corrected" and t >= d / 2:
+        if wall:
+            raise InputError(f"--wall: {wall!r} must be less than half the diameter ({d / 2 * 1e3:g} mm)")
+        raise InputError(f"--diameter: {diameter!r} leaves no room for the default {t * 1e3:g} mm wall "
+                         f"(it must exceed {2 * t * 1e3:g} mm, or give a thinner --wall)")
+    if not np.isfinite(k) or k < 1:
+        raise InputError(f"--k: {k!r} must be a finite correction >= 1 (k = 1 is the ideal Tondu–Lopez muscle; "
+                         "real muscles reach zero force sooner, k > 1)")
     ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else l0
+    strand = BraidGeometry.from_initial(l0, d, angle, 0.0).strand_length if model != "empirical" else m.strand_length
+    if ell > strand:
+        raise InputError(f"--length: {ell * 1e3:g} mm is longer than the braid's strand length {strand * 1e3:.4g} mm "
+                         "(eq. 1: a muscle cannot stretch past a straight braid)")
+    if d >= l0:
+        raise InputError(f"--diameter: {d * 1e3:g} mm is not smaller than the rest length {l0 * 1e3:g} mm "
+                         "(a braided muscle is long and thin)")
     geom = BraidGeometry.from_initial(l0, d, angle, t if model == "wall-corrected" else 0.0)
     flags = np.zeros(p.shape, dtype=np.uint16)
     if model == "empirical":

@@ -74,7 +74,10 @@ def open_loop_cmd(
     s = parse_quantity(supply, "pressure", "--supply", allow_zero=False)
     if s > 1e6:
         raise InputError(f"--supply: {supply!r} is above the compressor's 1 MPa")
-    f = parse_quantity(load, "force", "--load")
+    from mckibben.datasets import get_muscle
+    from mckibben.limits import check_load
+
+    f = check_load(parse_quantity(load, "force", "--load"), get_muscle(PlantParams().muscle_name))
     path = _check_plot_path(plot)
     res, m = open_loop_step(PlantParams(supply_pressure=s, load_force=f), valve=valve, duration=d)
     out = {"valve_pwm": valve, "supply_Pa": s, "load_N": f, "duration_s": d, **m,

@@ -449,6 +449,13 @@ def read_step_log(path) -> tuple[dict, dict]:
     if len(t) < 2 or not np.all(np.diff(t) > 0):
         k = int(np.argmax(np.diff(t) <= 0)) + 2 if len(t) >= 2 else 1
         raise InputError(f"{p}:{k}:{tcol}: time must be strictly increasing")
+    from mckibben.limits import PLAUSIBLE_MAX, first_implausible
+
+    for values, col, dim, unit in ((t, tcol, "time", "s"), (pressure, pcol, "pressure", "Pa")):
+        bad = first_implausible(values, dim)
+        if bad is not None:
+            raise InputError(f"{p}:{bad + 2}:{col}: {values[bad]:g} {unit} is not a plausible {dim} "
+                             f"(more than {PLAUSIBLE_MAX[dim]:g} {unit})")
     data = {"time_s": t, "pressure_Pa": pressure}
     cols = {"time": tcol, "pressure": pcol}
     if INLET_COLUMN in df.columns and BLEED_COLUMN in df.columns:

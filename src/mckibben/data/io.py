@@ -273,10 +273,27 @@ def read_table(path, kind: str | None = None) -> Table:
                     f"{_where(name, r, col, is_csv)}: time {_g(t[back[0] + 1])} does not increase"
                     f" (row {prev} has {_g(t[back[0]])}); time must increase within each trial"
                 )
+    _check_plausible(data, cols, name, is_csv)
     table = Table(kind, name, data, {q: c[2] for q, c in cols.items()})
     if kind == "isometric":
         _check_isometric(table)
     return table
+
+
+def _check_plausible(data: pd.DataFrame, cols: dict, name: str, is_csv: bool) -> None:
+    """Refuse a magnitude no braided muscle produces (:data:`mckibben.limits.PLAUSIBLE_MAX`)."""
+    from mckibben.limits import PLAUSIBLE_MAX, first_implausible
+    from mckibben.units import SI_UNIT
+
+    for q, (_, _, col) in cols.items():
+        if q not in QUANTITIES:
+            continue
+        dim = QUANTITIES[q][0]
+        i = first_implausible(data[q].to_numpy(), dim)
+        if i is not None:
+            r = int(data.index[i])
+            raise InputError(f"{_where(name, r, col, is_csv)}: {_g(data[q].iloc[i])} {SI_UNIT[dim]} is not a plausible "
+                             f"{QUANTITIES[q][2].split(' (')[0]} (more than {PLAUSIBLE_MAX[dim]:g} {SI_UNIT[dim]})")
 
 
 def _check_isometric(table: Table) -> None:
