@@ -246,10 +246,10 @@ def _frozen_faults(inlet, bleed, adc, seen_adc=800, params=None, n=10):
 def test_response_rule_follows_the_valve_model():
     """The frozen reading counts only where the supervisor's model p = G_s (u - u0_s) says it must move."""
     resp_u = 112 + core.RESP_DU  # default u0_s + the margin
-    # inlet: the model's equilibrium G_s (u - resp_u) must reach p (391,006 Pa at 400 counts):
-    # 3000 Pa/count x 131 counts = 393 kPa at 247 counts, 390 kPa at 246
-    assert not _frozen_faults(246, 0, 400)[-1] & core.FAULT_STUCK
-    assert _frozen_faults(247, 0, 400)[-1] & core.FAULT_STUCK
+    # inlet: the model's equilibrium G_s (u - resp_u) must reach 2 p + RESP_P_MIN (215,504 Pa at
+    # 100 counts, p = 97,752 Pa): 3000 Pa/count x 72 counts = 216 kPa at 208 counts, 213 kPa at 207
+    assert not _frozen_faults(207, 0, 100)[-1] & core.FAULT_STUCK
+    assert _frozen_faults(208, 0, 100)[-1] & core.FAULT_STUCK
     # bleed: open from resp_u counts, down to RESP_P_MIN
     assert not _frozen_faults(0, resp_u - 1, 400)[-1] & core.FAULT_STUCK
     assert _frozen_faults(0, resp_u, 400)[-1] & core.FAULT_STUCK
@@ -262,12 +262,12 @@ def test_response_rule_follows_the_valve_model():
 
 def test_a_chamber_at_supply_pressure_is_not_stuck():
     # the reading stops at the highest pressure ever shown (the supply's) with the inlet wide open
-    faults = _frozen_faults(255, 0, 400, seen_adc=400, n=2000)
+    faults = _frozen_faults(255, 0, 100, seen_adc=100, n=2000)
     assert not any(f & core.FAULT_STUCK for f in faults)
     # within RESP_P_MIN of it, too (a supply that droops a little)
-    assert not any(f & core.FAULT_STUCK for f in _frozen_faults(255, 0, 400, seen_adc=420, n=2000))
+    assert not any(f & core.FAULT_STUCK for f in _frozen_faults(255, 0, 100, seen_adc=120, n=2000))
     # but a reading frozen well below what the supply delivered is caught
-    assert _frozen_faults(255, 0, 400, seen_adc=430, n=10)[-1] & core.FAULT_STUCK
+    assert _frozen_faults(255, 0, 100, seen_adc=130, n=10)[-1] & core.FAULT_STUCK
 
 
 def test_held_at_target_with_a_steady_command_is_not_stuck():

@@ -189,7 +189,7 @@ def test_supervisor_paths(clib):
     ev += [("step", 300, False, 400_000)] * 12          # missing samples: latched at 10
     ev += [("set_mode", 2), ("step", 600, True, 0)] + [("step", 100, True, 700_000)] * 300  # stuck, inlet 255
     ev += [("set_mode", 3), ("set_open_loop", 200, 40)] + [("step", 300, True, 0)] * 3
-    for inlet, bleed, adc in ((246, 0, 400), (247, 0, 400), (0, 115, 400), (0, 116, 400), (0, 255, 10), (255, 0, 790)):
+    for inlet, bleed, adc in ((207, 0, 100), (208, 0, 100), (0, 135, 400), (0, 136, 400), (0, 255, 10), (255, 0, 790)):
         # the response rule's edges (tests/test_core.py): the supply showed 800 counts first
         ev += [("set_mode", 3), ("set_open_loop", 0, 0), ("step", 800, True, 0),
                ("set_open_loop", inlet, bleed)] + [("step", adc, True, 0)] * 255

@@ -397,8 +397,10 @@ MCK_INLINE uint8_t response_expected(const mck_state_t *s, const mck_coef_t *k, 
     if (s->last_bleed != 0u) /* a fall, if the inlet is shut */
         return s->last_inlet == 0u && (int16_t)s->last_bleed >= k->resp_u && p >= MCK_RESP_P_MIN;
     if ((int16_t)s->last_inlet < k->resp_u || p > seen - MCK_RESP_P_MIN) return 0;
-    /* the model's equilibrium for this command, G_s (inlet - u0_s - DU), at or above p */
-    return (int32_t)((uint32_t)(uint8_t)((int16_t)s->last_inlet - k->resp_u) * (uint32_t)k->gs_pa) >= p;
+    /* the model's equilibrium for this command above the margin, G_s (inlet - u0_s - DU), at or
+     * above 2 p + MCK_RESP_P_MIN: at least twice what holds p (a plant's valve may be weaker) */
+    return (int32_t)((uint32_t)(uint8_t)((int16_t)s->last_inlet - k->resp_u) * (uint32_t)k->gs_pa) >=
+           p + p + MCK_RESP_P_MIN;
 }
 
 /* The step, on the state and the coefficients through two pointers (see mck_state_t). Inlined

@@ -39,16 +39,19 @@
  * the pressure extrapolated over the inlet valve's closing time (~3 ms lag + one period). */
 #define MCK_LEAD_SAMPLES 4
 /* Supervisor 3, the response rule: the supervisor's valve model p = G_s (u - u0_s) (gains
- * SUP_G, SUP_U0; the identified model) predicts that the reading must move when
- *   - the bleed is at >= u0_s + MCK_RESP_DU counts and p >= MCK_RESP_P_MIN (it must fall: the
- *     bleed vents to atmosphere whatever the supply), or
- *   - the inlet is at >= u0_s + p/G_s + MCK_RESP_DU counts (the model holds p with u0_s + p/G_s:
- *     it must rise) and p <= p_seen - MCK_RESP_P_MIN, p_seen being the highest pressure the
- *     supply has delivered to any channel since SET_MODE (at or near it, the supply may be the
- *     limit, and a chamber at supply pressure is not a fault).
+ * SUP_G, SUP_U0: the identified model) predicts that the reading must move when
+ *   - the bleed is at >= u0_s + MCK_RESP_DU counts (open past any plausible lift-off), the
+ *     inlet shut, and p >= MCK_RESP_P_MIN: it must fall, the bleed vents to atmosphere whatever
+ *     the supply; or
+ *   - the inlet is at u >= u0_s + MCK_RESP_DU counts with G_s (u - u0_s - MCK_RESP_DU) >=
+ *     2 p + MCK_RESP_P_MIN (the model's equilibrium for the command lies far above p: a steady
+ *     holding command never qualifies) and p <= p_seen - MCK_RESP_P_MIN, p_seen being the
+ *     highest pressure the supply has delivered (to any channel of a bank) since SET_MODE: at
+ *     or near it the supply may be the limit, and a chamber at supply pressure is not a fault.
  * n_stuck consecutive valid readings equal to the previous one while a prediction holds latch
- * MCK_FAULT_STUCK. */
-#define MCK_RESP_DU 4
+ * MCK_FAULT_STUCK. A reading that freezes during a rise to a new maximum is indistinguishable
+ * from the supply's limit until the next bleed or a reading below p_seen (docs/controller.md). */
+#define MCK_RESP_DU 24
 #define MCK_RESP_P_MIN 20000L
 #define MCK_P_NONE 2000000L /* p_prev before the first step: no cut on the first sample */
 

@@ -8,7 +8,7 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
 from mckibben.errors import InputError, unknown_name
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
@@ -55,7 +55,9 @@ def _controller_params(opts: dict, model, p_max: float):
     from mckibben.control.core import CoreParams
     from mckibben.control.experiments import default_pid, smc_core_params
 
-    base = CoreParams(p_max=p_max)
+    from mckibben.control.controllers import with_supervisor_model
+
+    base = with_supervisor_model(CoreParams(p_max=p_max), model)
     if opts["controller"] == "smc":
         return smc_core_params(model, opts["beta"], law=opts["law"], eps=opts["eps"], ki=opts["ki"], base=base)
     return pid_params(default_pid(model, opts["lam"]), base=base)
@@ -157,15 +159,30 @@ def step_cmd(
            "model": _model_dict(model),
            "gains": _gains_dict(params, controller),
            "peak_pressure_Pa": float(rec.pressure[0].max()),
-           "faults": int(np.bitwise_or.reduce(rec.faults[0].astype(np.int64))), **m}
+           "faults": int(np.bitwise_or.reduce(rec.faults[0].astype(np.int64))),
+           "target_unreachable": rec.target_unreachable(0), **m}
     if plot:
         _plot_records(plot, rec, [f"{controller}"], hold)
+    _warn_outcome(out["faults"], out["target_unreachable"], float(rec.pressure[0, -1]), p1c)
     if json:
         emit_json(out)
         return
     print_table(f"{controller} step {p0c / 1e6:g} → {p1c / 1e6:g} MPa under {f_load:g} N"
                 + (" (clamped to --p-max)" if clamped else ""),
                 ["metric", "value"], [[k, m[k]] for k in STEP_KEYS])
+
+
+def _warn_outcome(faults: int, unreachable: bool, final_pa: float, target_pa: float) -> None:
+    """Faults and an unreachable target on stderr, whatever the output format."""
+    from mckibben.rig.protocol import fault_names
+
+    if faults:
+        err_console.print(f"warning: the supervisor reported faults: {', '.join(fault_names(faults))} "
+                          f"(flags {faults})", markup=False, highlight=False)
+    if unreachable:
+        err_console.print(f"warning: the target {target_pa / 1e6:g} MPa is unreachable: the pressure settled at "
+                          f"{final_pa / 1e6:.3f} MPa with the inlet open (supply limit?)", markup=False,
+                          highlight=False)
 
 
 def _model_dict(model) -> dict:

@@ -235,8 +235,32 @@ def smc_params(model: FirstOrderModel, beta: float, eps: float, ki: float, *, i_
     ----------
     000_909f662a44080c85.txt, eq. (5), (8), (12); signs corrected in docs/controller.md.
     """
+    if model.gain > 0:
+        base = with_supervisor_model(base, model)
     return replace(base, beta=float(beta), eps=float(eps), ki=float(ki), tau=float(model.tau),
                    g=float(model.gain), u0=float(model.lift_off), i_max=float(i_max), mode=MODE_SMC)
+
+
+def with_supervisor_model(base: CoreParams, model: FirstOrderModel) -> CoreParams:
+    """``base`` with the supervisor's valve model set from an identified model.
+
+    The response rule of the stuck-sensor check (``docs/controller.md``, supervisor 3) predicts
+    from ``p = G_s·(u − u0_s)`` whether the reading must move; it takes G and the lift-off of
+    the identification whatever law runs (the paper's law included).
+
+    Parameters
+    ----------
+    base : CoreParams
+        Core parameters. [-]
+    model : FirstOrderModel
+        Identified model (G in Pa per PWM count, lift-off in counts). [-]
+
+    Returns
+    -------
+    CoreParams
+        With ``sup_g = G`` and ``sup_u0 = u0``.
+    """
+    return replace(base, sup_g=float(model.gain), sup_u0=float(model.lift_off))
 
 
 def pid_params(design: PIDDesign, *, base: CoreParams = CoreParams()) -> CoreParams:
@@ -383,6 +407,7 @@ def supervised(func: Callable, params: CoreParams = CoreParams()) -> Callable:
 
 
 __all__ = [
-    "FirstOrderModel", "PIDDesign", "design_pid", "smc_params", "pid_params", "adc_from_pressure",
+    "FirstOrderModel", "PIDDesign", "design_pid", "smc_params", "pid_params", "with_supervisor_model",
+    "adc_from_pressure",
     "CoreLoopController", "SlidingModeController", "PIDController", "supervised", "core",
 ]  # fmt: skip

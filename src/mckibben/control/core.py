@@ -122,8 +122,9 @@ LEAD_SAMPLES = 4
 P_NONE = 2_000_000  #: IS_P_PREV before the first step: a falling 'rate', so no cut on the first sample
 #: Supervisor 3, the response rule (``docs/controller.md``): a valve counts as open from the
 #: supervisor model's lift-off u0_s plus RESP_DU counts; the inlet must raise the pressure while
-#: the model's equilibrium for its command lies above it, the bleed lower it from RESP_P_MIN up.
-RESP_DU = 4
+#: the model's equilibrium for its command (above that margin) is at least 2 p + RESP_P_MIN, the
+#: bleed lower it from RESP_P_MIN up.
+RESP_DU = 24
 RESP_P_MIN = 20_000
 
 
@@ -242,8 +243,8 @@ def _response_expected(st, ip, seen):
         return st[IS_LAST_INLET] == 0 and st[IS_LAST_BLEED] >= ip[IP_RESP_U] and p >= RESP_P_MIN
     if st[IS_LAST_INLET] < ip[IP_RESP_U] or p > seen - RESP_P_MIN:
         return False
-    # the model's equilibrium for this command, G_s (inlet - u0_s - DU), at or above p
-    return (st[IS_LAST_INLET] - ip[IP_RESP_U]) * ip[IP_GS_PA] >= p
+    # the model's equilibrium above the margin at least twice what holds p
+    return (st[IS_LAST_INLET] - ip[IP_RESP_U]) * ip[IP_GS_PA] >= 2 * p + RESP_P_MIN
 
 
 @njit(cache=True)

@@ -21,7 +21,8 @@ from functools import cached_property
 
 import numpy as np
 
-from mckibben.control.controllers import FirstOrderModel, design_pid, pid_params, smc_params
+from mckibben.control.controllers import (FirstOrderModel, design_pid, pid_params, smc_params,
+                                          with_supervisor_model)
 from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
 from mckibben.control.identify import fit_lift_off, fit_step_response
 from mckibben.control.metrics import step_metrics
@@ -84,6 +85,27 @@ class LoopRecord:
             Time of the step. [s]
         """
         return step_metrics(self.t, self.pressure[i], self.reference[i], self.command[i], t_step=t_step)
+
+    def target_unreachable(self, i: int = 0, window: float = 0.1) -> bool:
+        """Whether instance ``i`` ends settled below its reference with the inlet driving up.
+
+        The supply (or the valve at full command) is then the limit: the chamber is where it can
+        be, which is not a fault (the supervisor's response rule agrees, ``docs/controller.md``).
+
+        Parameters
+        ----------
+        i : int, default 0
+            Instance. [-]
+        window : float, default 0.1
+            The final stretch examined. [s]
+        """
+        k = max(int(round(window / (self.t[1] - self.t[0]))), 2) if self.t.size > 1 else 1
+        p, r = self.pressure[i, -k:], self.reference[i, -k:]
+        if not (np.all(np.isfinite(p)) and r.size):
+            return False
+        short = float(np.mean(r - p))
+        settled = float(np.ptp(p)) < max(5e3, 0.01 * float(np.mean(r)))
+        return bool(short > max(10e3, 0.02 * float(np.mean(r))) and settled and np.mean(self.inlet[i, -k:]) > 0)
 
 
 #: The backend behind :func:`run_closed_loop`: ``f(spec, reference, duration, plant, ts)``.
@@ -259,6 +281,7 @@ def smc_core_params(model: FirstOrderModel, beta: float | None = None, *, law: s
     eps = tuning["eps"] if eps is None else eps
     ki = tuning["ki"] if ki is None else ki
     if law == "paper":
+        base = with_supervisor_model(base, model) if model.gain > 0 else base  # the supervisor keeps it
         model = FirstOrderModel(gain=0.0, tau=0.0)  # G = 0: no model term (nor lift-off)
     return smc_params(model, beta, eps, ki, i_max=tuning["i_max"], base=base)
 
@@ -388,7 +411,8 @@ def step_size_table(model: FirstOrderModel, steps=((0.0, 0.2e6), (0.0, 0.55e6), 
     """
     plant_for_load = plant_for_load or (lambda load: plant_batch(load_N=load))
     pid = default_pid(model)
-    ctrls = {"pid": pid_params(pid), "smc": smc_core_params(model, beta),
+    ctrls = {"pid": pid_params(pid, base=with_supervisor_model(CoreParams(), model)),
+             "smc": smc_core_params(model, beta),
              "smc_paper": smc_core_params(model, 150.0, law="paper")}
     total = hold + duration
     n, _ = _steps(total)
@@ -565,7 +589,8 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
     samples = sample_plants(n, seed)
     k = len(CONTROLLER_NAMES)
     every = {key: np.concatenate([v] * k) for key, v in samples.items()}
-    params = ([pid_params(default_pid(model))] * n + [smc_core_params(model, beta)] * n
+    params = ([pid_params(default_pid(model), base=with_supervisor_model(CoreParams(), model))] * n
+              + [smc_core_params(model, beta)] * n
               + [smc_core_params(model, 150.0, law="paper")] * n)
     nn, _ = _steps(duration)
     ref = step_reference(nn, int(round(t_step / 1e-3)), 0.0, target)
