@@ -129,7 +129,9 @@ def test_result_objects_plot_and_tabulate(tmp_path):
     fig.savefig(tmp_path / "iso.png")
     assert (tmp_path / "iso.png").stat().st_size > 10_000
     df = fit.to_pandas()
-    assert np.allclose(df["force"] - df["force_fit"], df["residual"])
+    assert np.allclose(df["force_N"] - df["force_fit_N"], df["residual_N"])
+    assert df.attrs["provenance"]["call"] == "mckibben.fit.isometric.fit_isometric"
+    assert repr(fit).startswith("IsometricFit(model='spring'")
     assert fit.tare["method"] == "lowest" and len(fit.tare["per_run_N"]) == 12
 
 

@@ -5,29 +5,33 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.errors import InputError
 
 
 @app.command("identify")
 def identify_cmd(
     logs: list[str] = typer.Argument(..., help="Step-response log(s) (.csv or .parquet): time_<unit>, pressure_<unit>, "
-                                               "inlet_pwm/bleed_pwm or command_pwm. Two or more steps to different "
-                                               "commands also give the valve's lift-off."),
-    order: str = typer.Option("1", "--order", help="Model order: 1, 2 or both."),
+                                               "inlet_pwm/bleed_pwm, command_pwm or command (fraction), optional "
+                                               "trial. Two or more steps to different commands also give the "
+                                               "valve's lift-off."),
+    order: str = typer.Option("1", "--order", help="Model: 1, 2, both, fill (orifice into a volume) or all."),
     t_step: str = typer.Option(None, "--t-step", help="Time of the step, e.g. 0.1s (default: first command change)."),
+    supply: str = typer.Option(None, "--supply", help="Supply pressure, e.g. 620kPa: bounds the final pressure "
+                                                      "(and is the fill model's supply)."),
     plot: str = typer.Option(None, "--plot", help="Write a PNG of data, fit and residuals (the first log)."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """Identify gain, time constant and dead time (with standard errors) from an open-loop step;
-    from steps to several commands, the valve's lift-off u0 of ṗ = (G·(u − u0) − p)/τ too."""
-    from mckibben.control.identify import fit_lift_off, fit_step_response, read_step_log
+    """Identify gain, time constant and dead time (with standard errors) from an open-loop step, one fit per
+    trial and pooled across trials; from steps to several commands, the valve's lift-off u0 too."""
+    from mckibben.control.identify import read_step_log
     from mckibben.units import parse_quantity
 
-    orders = {"1": (1,), "2": (2,), "both": (1, 2)}.get(order)
+    orders = {"1": (1,), "2": (2,), "both": (1, 2), "fill": ("fill",), "all": (1, 2, "fill")}.get(order)
     if orders is None:
-        raise InputError(f"--order: {order!r} must be 1, 2 or both")
+        raise InputError(f"--order: {order!r} must be 1, 2, both, fill or all")
     ts = parse_quantity(t_step, "time", "--t-step") if t_step is not None else None
+    p_supply = parse_quantity(supply, "pressure", "--supply", allow_zero=False) if supply is not None else None
     if plot is not None:
         from mckibben.atomic import check_output_file
 
@@ -39,35 +43,98 @@ def identify_cmd(
             raise InputError(f"{meta['path']}: the lift-off needs the valve command (inlet_pwm/bleed_pwm or "
                              "command_pwm) in every log")
         try:
-            fits = [fit_step_response(data["time_s"], data["pressure_Pa"], data.get("command_pwm"), order=o,
-                                      t_step=ts) for o in orders]
+            per_trial = identify_log(data, orders, ts, p_supply)
         except RuntimeError as exc:  # the data give the fit nothing to converge on: the file's problem
             raise InputError(f"{meta['path']}: {exc}") from None
-        results.append((log, data, meta, fits))
+        results.append((log, data, meta, per_trial))
     lift = None
     if len(results) > 1:
-        lift = fit_lift_off([r[3][0] for r in results], [_held_command(r[1], r[3][0].t_step) for r in results])
+        from mckibben.control.identify import fit_lift_off
+
+        if any(len(r[3]) > 1 for r in results):
+            raise InputError("identify: the lift-off from several logs needs one trial per log")
+        firsts = [next(iter(r[3].values()))[1][0] for r in results]
+        if any(f.order == "fill" for f in firsts):
+            raise InputError("identify: the lift-off needs order 1 or 2 fits (--order 1, 2 or both)")
+        lift = fit_lift_off(firsts, [_held_command(r[1], f.t_step) for r, f in zip(results, firsts)])
     if plot is not None:
-        _plot(plot, results[0][1], results[0][3])
-    outs = [_log_result(data, meta, fits) for _, data, meta, fits in results]
+        trial_data, fits = next(iter(results[0][3].values()))
+        _plot(plot, trial_data, fits)
+    outs = [_log_result(data, meta, per_trial) for _, data, meta, per_trial in results]
+    flagged = [f"{o['log']}" + (f" trial {t['trial']}" if len(o.get("trials", [])) > 1 else "")
+               + f" order {m['order']} ({', '.join(m['flags'])})"
+               for o in outs for t in (o.get("trials") or [o]) for m in t["models"] if m["flags"]]
+    if flagged:
+        err_console.print(f"warning: identify: flagged: {'; '.join(flagged)}", markup=False, highlight=False)
     if json:
         emit_json(outs[0] if lift is None else {"logs": outs, "lift_off": lift})
         return
-    for (log, data, _, fits) in results:
-        rows = []
-        for f in fits:
-            for k, v in f.params.items():
-                rows.append([f"order {f.order}", k, v, f.stderr[k]])
-            rows.append([f"order {f.order}", "rmse Pa", f.rmse, ""])
-            rows.append([f"order {f.order}", "AIC", f.aic, ""])
-        print_table(f"{log}: step at {fits[0].t_step:.4g} s, input step {fits[0].input_step:g} "
-                    f"({'PWM counts' if 'command_pwm' in data else 'no input column: unit step'})",
-                    ["model", "parameter", "value", "std. error"], rows)
+    for (log, data, meta, per_trial), o in zip(results, outs):
+        for note in meta.get("notes", []):
+            console.print(f"{log}: note: {note}")
+        for tr, (trial_data, fits) in per_trial.items():
+            rows = []
+            for f in fits:
+                for k, v in f.params.items():
+                    rows.append([f"order {f.order}", k, v, f.stderr[k]])
+                rows.append([f"order {f.order}", "rmse Pa", f.rmse, ""])
+                rows.append([f"order {f.order}", "AIC", f.aic, ""])
+                rows.append([f"order {f.order}", "flags", ", ".join(f.flags) or "none", ""])
+            label = f" trial {tr}" if len(per_trial) > 1 else ""
+            print_table(f"{log}{label}: step at {fits[0].t_step:.4g} s ({_input_label(trial_data)})",
+                        ["model", "parameter", "value", "std. error"], rows)
+        if "pooled" in o:
+            rows = [[f"order {k}", name, v["mean"], v["stderr"], f"[{v['ci95'][0]:.4g}, {v['ci95'][1]:.4g}]"]
+                    for k, pooled in o["pooled"].items() for name, v in pooled.items() if isinstance(v, dict)]
+            print_table(f"{log}: pooled over {o['n_trials']} trials (mean, standard error across trials)",
+                        ["model", "parameter", "mean", "std. error", "95 % interval"], rows)
     if lift is not None:
         print_table("lift-off: p = G·(u − u0) through the final pressures",
                     ["parameter", "value", "std. error"],
                     [["G Pa/count", lift["gain_Pa_per_count"], lift["gain_Pa_per_count_stderr"]],
                      ["u0 counts", lift["lift_off_counts"], lift["lift_off_counts_stderr"]]])
+
+
+def identify_log(data: dict, orders, t_step=None, p_supply=None) -> dict:
+    """Fit every requested model to every trial of one log.
+
+    Parameters
+    ----------
+    data : dict
+        From :func:`~mckibben.control.identify.read_step_log`.
+    orders : sequence
+        1, 2 and/or ``"fill"``. [-]
+    t_step : float, optional
+        Time of the step (default: the first command change of each trial). [s]
+    p_supply : float, optional
+        Supply pressure: bound of the final pressure, the fill model's supply. [Pa]
+
+    Returns
+    -------
+    dict
+        trial -> (the trial's data, list of fits).
+    """
+    from mckibben.control.identify import fit_fill, fit_step_response, split_trials
+
+    out = {}
+    for tr, d in split_trials(data).items():
+        u = d.get("command_pwm", d.get("command"))
+        fits = []
+        for o in orders:
+            if o == "fill":
+                fits.append(fit_fill(d["time_s"], d["pressure_Pa"], u, t_step=t_step, p_supply=p_supply))
+            else:
+                fits.append(fit_step_response(d["time_s"], d["pressure_Pa"], u, order=o, t_step=t_step, p_max=p_supply))
+        out[tr] = (d, fits)
+    return out
+
+
+def _input_label(data: dict) -> str:
+    if "command_pwm" in data:
+        return "input in PWM counts"
+    if "command" in data:
+        return "input as a fraction of full scale"
+    return "no input column: unit step"
 
 
 def _held_command(data: dict, t_step: float) -> float:
@@ -78,15 +145,31 @@ def _held_command(data: dict, t_step: float) -> float:
     return float(np.median(data["command_pwm"][after]))
 
 
-def _log_result(data: dict, meta: dict, fits) -> dict:
-    input_unit = "count" if "command_pwm" in data else "step"
-    out = {"log": meta["path"], "columns": meta["columns"],
-           "models": [f.to_dict("Pa", input_unit) for f in fits]}
+def _trial_result(data: dict, fits) -> dict:
+    input_unit = "count" if "command_pwm" in data else "command" if "command" in data else "step"
+    out = {"models": [f.to_dict("Pa", input_unit) for f in fits]}
     best = min(fits, key=lambda f: f.aic)
     out["best_order"] = best.order
-    out[f"gain_Pa_per_{input_unit}"] = best.gain
-    out["time_constant_s"] = best.tau
     out["dead_time_s"] = best.dead_time
+    if best.order != "fill":
+        out[f"gain_Pa_per_{input_unit}"] = best.gain
+        out["time_constant_s"] = best.tau
+    return out
+
+
+def _log_result(data: dict, meta: dict, per_trial: dict) -> dict:
+    from mckibben.control.identify import pooled_step_parameters
+
+    out = {"log": meta["path"], "columns": meta["columns"], "notes": meta.get("notes", [])}
+    if len(per_trial) == 1:
+        (d, fits), = per_trial.values()
+        out.update(_trial_result(d, fits))
+        return out
+    out["n_trials"] = len(per_trial)
+    out["trials"] = [{"trial": tr, **_trial_result(d, fits)} for tr, (d, fits) in per_trial.items()]
+    n_models = len(next(iter(per_trial.values()))[1])
+    out["pooled"] = {str(fits_k[0].order): pooled_step_parameters(fits_k)
+                     for fits_k in ([per_trial[tr][1][k] for tr in per_trial] for k in range(n_models))}
     return out
 
 
@@ -100,8 +183,8 @@ def _plot(path: str, data: dict, fits) -> None:
     fig, (ax, axr) = plt.subplots(2, 1, sharex=True, figsize=(7, 5), gridspec_kw={"height_ratios": [3, 1]})
     ax.plot(t, data["pressure_Pa"] / 1e6, ".", ms=2, color="0.5", label="measured")
     for f in fits:
-        ax.plot(t, f.predict(t) / 1e6, label=f"order {f.order}: τ = {f.tau * 1e3:.1f} ms, "
-                                              f"θ = {f.dead_time * 1e3:.1f} ms")
+        what = (f"fill: b = {f.params['b']:.2f}" if f.order == "fill" else f"order {f.order}: τ = {f.tau * 1e3:.1f} ms")
+        ax.plot(t, f.predict(t) / 1e6, label=f"{what}, θ = {f.dead_time * 1e3:.1f} ms")
         axr.plot(t, f.residuals / 1e3, lw=0.8, label=f"order {f.order}")
     ax.set_ylabel("pressure [MPa]")
     ax.legend()

@@ -130,6 +130,11 @@ class StepFit:
         Coefficient of determination. [-]
     aic : float
         Akaike information criterion, n·ln(RSS/n) + 2k (lower is better). [-]
+    flags : tuple of str
+        Why the fit deserves doubt (empty: nothing found): ``<param>_at_lower_bound`` /
+        ``_at_upper_bound`` (a dead time of 0 is a value, not a bound), ``poor_fit_r2``
+        (R² < :data:`R2_POOR`), ``residual_runs`` (residual signs in runs: the model's shape is
+        wrong, :func:`runs_z`).
     """
 
     order: int
@@ -142,6 +147,7 @@ class StepFit:
     rmse: float
     r2: float
     aic: float
+    flags: tuple = ()
 
     @property
     def gain(self) -> float:
@@ -223,7 +229,8 @@ class StepFit:
             out[rename.get(k, k)] = v
             out[f"{rename.get(k, k)}_stderr"] = self.stderr[k]
         out.update({f"rmse{suffix}": self.rmse, "r2": self.r2, "aic": self.aic, "n_samples": int(len(self.t)),
-                    f"max_abs_residual{suffix}": float(np.max(np.abs(self.residuals)))})
+                    f"max_abs_residual{suffix}": float(np.max(np.abs(self.residuals))),
+                    "residual_runs_z": runs_z(self.residuals), "flags": list(self.flags)})
         return out
 
 
@@ -270,7 +277,7 @@ def _locate_step(t, y, u, t_step, input_step):
 
 
 def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = None,
-                      input_step: float | None = None) -> StepFit:
+                      input_step: float | None = None, p_max: float | None = None) -> StepFit:
     """Fit a first- or second-order-plus-dead-time model to one step response.
 
     Parameters
@@ -287,11 +294,15 @@ def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = No
         Time of the input step (default: the first change of ``u``, else ``t[0]``). [s]
     input_step : float, optional
         Input step size (default: from ``u``, else 1). [input]
+    p_max : float, optional
+        Upper bound of the final output p∞ of a rising step, e.g. the supply pressure: a fill
+        cannot end above its supply. Reaching it is flagged ``p_final_at_supply``. [output]
 
     Returns
     -------
     StepFit
-        Fitted parameters, standard errors, residuals and fit statistics.
+        Fitted parameters (``gain``, ``p_final`` = y0 + gain·Δu, ...), standard errors,
+        residuals, fit statistics and flags.
 
     Raises
     ------
@@ -330,27 +341,32 @@ def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = No
     dt = float(np.median(np.diff(t)))
     tau0 = max((t63 - t10) / (1 - 0.105), 2 * dt)
     theta0 = max(t63 - tau0, 0.0)
-    k_guess = dy / du
     span = float(t[-1] - t_step)
-    kmag = abs(k_guess) * 10 + 1e-12
+    pmag = abs(dy) * 10 + abs(y_before) + 1e-12
+    pf_lo, pf_hi = y_before - pmag, y_before + pmag
+    if p_max is not None:
+        if dy > 0 and not p_max > y_before:
+            raise InputError(f"identify: the supply {p_max:g} is not above the pressure before the step ({y_before:g})")
+        pf_hi = min(pf_hi, p_max) if dy > 0 else pf_hi
+    y_end = min(y_end, pf_hi - 1e-9 * abs(pf_hi))
     if order == 1:
-        names = ["gain", "tau_s", "dead_time_s", "y0"]
+        names = ["p_final", "tau_s", "dead_time_s", "y0"]
 
-        def f(tt, k, tau, th, y0):
-            return fopdt_response(tt, k, tau, th, y0, t_step, du)
+        def f(tt, pf, tau, th, y0):
+            return fopdt_response(tt, (pf - y0) / du, tau, th, y0, t_step, du)
 
-        p0 = [k_guess, tau0, theta0, y_before]
-        lo = [-kmag, dt * 1e-3, 0.0, -np.inf]
-        hi = [kmag, 10 * span, span, np.inf]
+        p0 = [y_end, tau0, theta0, y_before]
+        lo = [pf_lo, dt * 1e-3, 0.0, -np.inf]
+        hi = [pf_hi, 10 * span, span, np.inf]
     else:
-        names = ["gain", "wn_rad_s", "zeta", "dead_time_s", "y0"]
+        names = ["p_final", "wn_rad_s", "zeta", "dead_time_s", "y0"]
 
-        def f(tt, k, wn, z, th, y0):
-            return sopdt_response(tt, k, wn, z, th, y0, t_step, du)
+        def f(tt, pf, wn, z, th, y0):
+            return sopdt_response(tt, (pf - y0) / du, wn, z, th, y0, t_step, du)
 
-        p0 = [k_guess, 2.0 / tau0, 1.2, theta0, y_before]
-        lo = [-kmag, 1e-3 / span, 0.05, 0.0, -np.inf]
-        hi = [kmag, 1e3 / dt, 20.0, span, np.inf]
+        p0 = [y_end, 2.0 / tau0, 1.2, theta0, y_before]
+        lo = [pf_lo, 1e-3 / span, ZETA_BOUNDS[0], 0.0, -np.inf]
+        hi = [pf_hi, 1e3 / dt, ZETA_BOUNDS[1], span, np.inf]
     p0 = [min(max(v, a + 1e-12 if np.isfinite(a) else v), b - 1e-12 if np.isfinite(b) else v)
           for v, a, b in zip(p0, lo, hi)]
     try:
@@ -362,26 +378,294 @@ def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = No
     rss = float(np.sum(res**2))
     n = len(y)
     tss = float(np.sum((y - np.mean(y)) ** 2))
+    r2 = 1.0 - rss / tss if tss > 0 else math.nan
+    flags = _bound_flags(names, popt, lo, hi, skip=("dead_time_s", "y0"), lower_ok=("dead_time_s",))
+    if p_max is not None and pf_hi - popt[0] <= 1e-3 * abs(dy):
+        flags = tuple(fl for fl in flags if not fl.startswith("p_final")) + ("p_final_at_supply",)
+    flags += _shape_flags(res, r2)
     with np.errstate(invalid="ignore"):
         se = np.sqrt(np.clip(np.diag(pcov), 0, None))
+    values = {k: float(v) for k, v in zip(names, popt)}
+    errors = {k: float(v) for k, v in zip(names, se)}
+    # the gain from the final value: K = (p∞ − y0)/Δu, its error by the delta method
+    values["gain"] = (values["p_final"] - values["y0"]) / du
+    i_pf, i_y0 = 0, names.index("y0")
+    with np.errstate(invalid="ignore"):
+        errors["gain"] = float(np.sqrt(max(pcov[i_pf, i_pf] + pcov[i_y0, i_y0] - 2 * pcov[i_pf, i_y0], 0.0)) / abs(du))
+    order_keys = ["gain"] + [k for k in names if k != "p_final"] + ["p_final"]
     return StepFit(
         order=order,
-        params={k: float(v) for k, v in zip(names, popt)},
-        stderr={k: float(v) for k, v in zip(names, se)},
+        params={k: values[k] for k in order_keys},
+        stderr={k: errors[k] for k in order_keys},
         t_step=t_step,
         input_step=du,
         t=t,
         residuals=res,
         rmse=math.sqrt(rss / n),
-        r2=1.0 - rss / tss if tss > 0 else math.nan,
+        r2=r2,
         aic=n * math.log(max(rss, 1e-300) / n) + 2 * len(names),
+        flags=flags,
     )
+
+
+#: Bounds of the damping ratio of the order-2 fit. [-]
+ZETA_BOUNDS = (0.05, 20.0)
+#: R² below which a step-response fit is flagged ``poor_fit_r2``: a pressure step logged by a
+#: transducer of ~1 % noise explains > 99 % of its variance when the model's shape is right. [-]
+R2_POOR = 0.99
+#: Runs-test z below which residuals are flagged ``residual_runs``: fewer sign changes than
+#: chance by 3 standard deviations (p ≈ 0.001) means structure, i.e. the wrong shape. [-]
+RUNS_Z = -3.0
+
+
+def runs_z(residuals) -> float:
+    """Wald–Wolfowitz runs test of the residuals' signs: z of the number of runs.
+
+    Independent residuals give z ≈ N(0, 1); a model of the wrong shape leaves long runs of one
+    sign (z ≪ 0). Zero residuals are left out.
+
+    Parameters
+    ----------
+    residuals : array_like
+        Residuals in time order. [output]
+
+    Returns
+    -------
+    float
+        z-score (NaN with fewer than 10 non-zero residuals or one sign only). [-]
+
+    References
+    ----------
+    Wald, A., Wolfowitz, J. (1940), On a test whether two samples are from the same population,
+    Ann. Math. Stat. 11(2), 147–162.
+    """
+    r = np.asarray(residuals, dtype=float)
+    s = np.sign(r[r != 0])
+    n1, n2 = int(np.sum(s > 0)), int(np.sum(s < 0))
+    n = n1 + n2
+    if n < 10 or n1 == 0 or n2 == 0:
+        return math.nan
+    runs = 1 + int(np.sum(s[1:] != s[:-1]))
+    mu = 2.0 * n1 * n2 / n + 1.0
+    var = (mu - 1.0) * (mu - 2.0) / (n - 1.0)
+    return float((runs - mu) / math.sqrt(var)) if var > 0 else math.nan
+
+
+def _bound_flags(names, values, lo, hi, skip=(), lower_ok=()) -> tuple:
+    out = []
+    for n_, v, a, b in zip(names, values, lo, hi):
+        if n_ in skip and n_ not in lower_ok:
+            continue
+        # within 0.1 % of the bound (relative to the bound itself: some bounds span decades)
+        span = (b - a) if np.isfinite(a) and np.isfinite(b) else np.inf
+        if np.isfinite(a) and v - a <= 1e-3 * min(span, max(abs(a), 1e-12)) and n_ not in lower_ok:
+            out.append(f"{n_}_at_lower_bound")
+        elif np.isfinite(b) and b - v <= 1e-3 * min(span, max(abs(b), 1e-12)) and n_ not in skip:
+            out.append(f"{n_}_at_upper_bound")
+    return tuple(out)
+
+
+def _shape_flags(res, r2) -> tuple:
+    out = []
+    if not r2 >= R2_POOR:
+        out.append("poor_fit_r2")
+    z = runs_z(res)
+    if np.isfinite(z) and z < RUNS_Z:
+        out.append("residual_runs")
+    return tuple(out)
+
+
+def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0):
+    """Pressure of a volume filled from a supply through an orifice: choked ramp, then subsonic.
+
+    With the ISO 6358 flow of the orifice into a volume of constant size, the absolute pressure
+    ratio r = p/p_s rises as dr/dt = φ(r)/τ_fill with φ = 1 while choked (r ≤ b) and
+    φ = sqrt(1 − ((r − b)/(1 − b))²) above: a straight ramp until r = b, then
+    r = b + (1 − b)·sin(arcsin x0 + (t − t1)/(τ_fill·(1 − b))), reaching the supply in finite
+    time. The curve is a ramp bending into the supply: not a first-order step.
+
+    Parameters
+    ----------
+    t : array_like
+        Time. [s]
+    p0 : float
+        Gauge pressure before the step. [Pa]
+    p_supply : float
+        Supply gauge pressure. [Pa]
+    tau_fill : float
+        Time to fill from vacuum to the supply at the choked rate, p_s/ṗ_choked. [s]
+    b : float
+        Critical pressure ratio of the orifice, 0 < b < 1. [-]
+    dead_time : float
+        Delay from the step to the flow. [s]
+    t_step : float, default 0.0
+        Time of the valve step. [s]
+
+    Returns
+    -------
+    numpy.ndarray
+        Gauge pressure. [Pa]
+
+    References
+    ----------
+    ISO 6358 (sonic conductance C, critical ratio b); the chamber's ṗ = (n/V)·R·T·ṁ at constant
+    volume (NOTES.md, "Higher marks"); notes/lab-data.md (fills are S-shaped or ramp-then-exponential).
+    """
+    from mckibben.plant.params import P_ATM
+
+    ps = p_supply + P_ATM
+    r0 = (p0 + P_ATM) / ps
+    s = np.maximum(np.asarray(t, dtype=float) - t_step - dead_time, 0.0)
+    t1 = max(b - r0, 0.0) * tau_fill
+    x0 = min(max((r0 - b) / (1.0 - b), 0.0), 1.0)
+    arg = np.arcsin(x0) + np.maximum(s - t1, 0.0) / (tau_fill * (1.0 - b))
+    x = np.where(arg >= np.pi / 2, 1.0, np.sin(np.minimum(arg, np.pi / 2)))
+    r = np.where(s < t1, r0 + s / tau_fill, b + (1.0 - b) * x)
+    return r * ps - P_ATM
+
+
+@dataclass(frozen=True)
+class FillFit:
+    """The orifice-into-a-volume fill model fitted to a rising step (see :func:`fill_response`).
+
+    Attributes
+    ----------
+    params, stderr : dict
+        ``p0_Pa``, ``p_supply_Pa``, ``tau_fill_s``, ``b``, ``dead_time_s`` and their errors
+        (``p_supply_Pa``'s is 0 when the supply was given). [mixed]
+    t_step : float
+        Time of the step. [s]
+    t, residuals : numpy.ndarray
+        Times and residuals. [s, Pa]
+    rmse, r2, aic : float
+        As in :class:`StepFit`.
+    flags : tuple of str
+        As in :class:`StepFit`.
+    """
+
+    params: dict
+    stderr: dict
+    t_step: float
+    t: np.ndarray = field(repr=False)
+    residuals: np.ndarray = field(repr=False)
+    rmse: float
+    r2: float
+    aic: float
+    flags: tuple = ()
+    order: str = "fill"
+
+    @property
+    def dead_time(self) -> float:
+        """Dead time. [s]"""
+        return self.params["dead_time_s"]
+
+    def predict(self, t) -> np.ndarray:
+        """The fitted fill at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Time. [s]
+        """
+        p = self.params
+        return fill_response(t, p["p0_Pa"], p["p_supply_Pa"], p["tau_fill_s"], p["b"], p["dead_time_s"], self.t_step)
+
+    def to_dict(self, output_unit: str = "Pa", input_unit: str = "") -> dict:
+        """Plain dict for JSON.
+
+        Parameters
+        ----------
+        output_unit : str, default "Pa"
+            Unused (the fill model is in Pa). [-]
+        input_unit : str, default ""
+            Unused. [-]
+        """
+        out = {"order": "fill", "t_step_s": self.t_step}
+        for k, v in self.params.items():
+            out[k] = v
+            out[f"{k}_stderr"] = self.stderr[k]
+        out.update({"rmse_Pa": self.rmse, "r2": self.r2, "aic": self.aic, "n_samples": int(len(self.t)),
+                    "residual_runs_z": runs_z(self.residuals), "flags": list(self.flags)})
+        return out
+
+
+#: Bounds of the fill model's critical pressure ratio (ISO 6358 valves: ~0.1–0.6). [-]
+B_BOUNDS = (0.01, 0.99)
+
+
+def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | None = None) -> FillFit:
+    """Fit the orifice fill model (:func:`fill_response`) to a rising pressure step.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times, strictly increasing. [s]
+    y : array_like
+        Gauge pressure. [Pa]
+    u : array_like, optional
+        Valve command per sample; its first change is the step. [input]
+    t_step : float, optional
+        Time of the step (default: from ``u``, else ``t[0]``). [s]
+    p_supply : float, optional
+        Supply gauge pressure; fitted (at least the highest sample) when not given. [Pa]
+
+    Returns
+    -------
+    FillFit
+    """
+    t, y, u = _validate(t, y, u)
+    t_step, _ = _locate_step(t, y, u, t_step, None)
+    k0 = int(np.searchsorted(t, t_step))
+    p0 = float(np.mean(y[max(0, k0 - 20):k0])) if k0 > 0 else float(y[0])
+    if not np.max(y) > p0:
+        raise InputError("identify: the fill model needs a rising step")
+    ymax = float(np.max(y))
+    span = float(t[-1] - t_step)
+    dt = float(np.median(np.diff(t)))
+    names = ["p0_Pa", "tau_fill_s", "b", "dead_time_s"] + (["p_supply_Pa"] if p_supply is None else [])
+
+    def model(v):
+        ps = v[4] if p_supply is None else p_supply
+        return fill_response(t, v[0], ps, v[1], v[2], v[3], t_step)
+
+    lo = [p0 - abs(ymax - p0), dt * 1e-2, B_BOUNDS[0], 0.0] + ([0.9 * ymax] if p_supply is None else [])
+    hi = [p0 + abs(ymax - p0), 100 * span, B_BOUNDS[1], span] + ([3.0 * ymax + 1e6] if p_supply is None else [])
+    scale = np.array([max(abs(ymax - p0), 1.0), span, 1.0, span] + ([max(ymax, 1.0)] if p_supply is None else []))
+    best = None
+    for b0 in (0.2, 0.5, 0.8):
+        ps0 = ymax if p_supply is None else p_supply
+        x0 = np.array([p0, max(span / 3, 2 * dt), b0, 0.0] + ([1.05 * ps0] if p_supply is None else []))
+        x0 = np.clip(x0, np.array(lo) + 1e-9 * scale, np.array(hi) - 1e-9 * scale)
+        r = optimize.least_squares(lambda th: model(th * scale) - y, x0 / scale,
+                                   bounds=(np.array(lo) / scale, np.array(hi) / scale), method="trf", max_nfev=2000)
+        if best is None or r.cost < best.cost:
+            best = r
+    v = best.x * scale
+    res = -best.fun
+    n, k = len(y), len(names)
+    rss = float(res @ res)
+    jac = best.jac / scale
+    norms = np.linalg.norm(jac, axis=0)
+    norms[norms == 0] = 1.0
+    cov = rss / max(n - k, 1) * np.linalg.pinv((jac / norms).T @ (jac / norms)) / np.outer(norms, norms)
+    se = np.sqrt(np.clip(np.diag(cov), 0, None))
+    tss = float(np.sum((y - np.mean(y)) ** 2))
+    r2 = 1.0 - rss / tss if tss > 0 else math.nan
+    flags = _bound_flags(names, v, lo, hi, skip=("p0_Pa",), lower_ok=("dead_time_s",)) + _shape_flags(res, r2)
+    params = {nm: float(x) for nm, x in zip(names, v)}
+    errors = {nm: float(e) for nm, e in zip(names, se)}
+    if p_supply is not None:
+        params["p_supply_Pa"], errors["p_supply_Pa"] = float(p_supply), 0.0
+    return FillFit(params, errors, t_step, t, res, math.sqrt(rss / n), r2, n * math.log(max(rss, 1e-300) / n) + 2 * k,
+                   flags)
 
 
 # --- step-response logs --------------------------------------------------------------------------
 
 #: Column names of the valve commands in a step log (as in the rig's telemetry, docs/protocol.md).
 INLET_COLUMN, BLEED_COLUMN, COMMAND_COLUMN = "inlet_pwm", "bleed_pwm", "command_pwm"
+#: A valve command as a fraction of full scale (the project's step_response tables) and the trial.
+FRACTION_COLUMN, TRIAL_COLUMN = "command", "trial"
 
 
 def read_step_log(path) -> tuple[dict, dict]:
@@ -390,7 +674,11 @@ def read_step_log(path) -> tuple[dict, dict]:
     Columns follow the ``quantity_unit`` convention: a time column ``time_<unit>`` (``time_s``,
     ``time_ms``), a pressure column ``pressure_<unit>`` (``pressure_MPa``, ``pressure_kPa``, …)
     and the valve command either as ``inlet_pwm`` and ``bleed_pwm`` (counts 0..255; the signed
-    command is inlet − bleed) or as one signed ``command_pwm``. Other columns are ignored.
+    command is inlet − bleed), as one signed ``command_pwm``, or as ``command`` (a fraction of
+    full scale, the project's ``step_response`` tables). A ``trial`` column splits the log into
+    trials (time restarts per trial; :func:`split_trials`). Samples sharing a time stamp (a
+    millisecond clock at a high rate) are averaged, and ``notes`` says so. Other columns are
+    ignored.
 
     Parameters
     ----------
@@ -400,8 +688,8 @@ def read_step_log(path) -> tuple[dict, dict]:
     Returns
     -------
     tuple of dict
-        ``({"time_s", "pressure_Pa", "command_pwm"(optional)}, {"path", "columns"})``: arrays in
-        SI and where they came from. [s, Pa, counts]
+        ``({"time_s", "pressure_Pa", "command_pwm" or "command", "trial" (optional)},
+        {"path", "columns", "notes"})``: arrays in SI and where they came from. [s, Pa, counts or -]
 
     Raises
     ------
@@ -446,9 +734,6 @@ def read_step_log(path) -> tuple[dict, dict]:
 
     tcol, t = pick("time", "time")
     pcol, pressure = pick("pressure", "pressure")
-    if len(t) < 2 or not np.all(np.diff(t) > 0):
-        k = int(np.argmax(np.diff(t) <= 0)) + 2 if len(t) >= 2 else 1
-        raise InputError(f"{p}:{k}:{tcol}: time must be strictly increasing")
     from mckibben.limits import PLAUSIBLE_MAX, first_implausible
 
     for values, col, dim, unit in ((t, tcol, "time", "s"), (pressure, pcol, "pressure", "Pa")):
@@ -464,7 +749,101 @@ def read_step_log(path) -> tuple[dict, dict]:
     elif COMMAND_COLUMN in df.columns:
         data["command_pwm"] = numeric(COMMAND_COLUMN)
         cols["command"] = COMMAND_COLUMN
-    return data, {"path": str(p), "columns": cols}
+    elif FRACTION_COLUMN in df.columns:
+        data["command"] = numeric(FRACTION_COLUMN)
+        cols["command"] = FRACTION_COLUMN
+    if TRIAL_COLUMN in df.columns:
+        trial = numeric(TRIAL_COLUMN)
+        frac = np.flatnonzero(trial != np.round(trial))
+        if frac.size:
+            raise InputError(f"{p}:{frac[0] + 1}:{TRIAL_COLUMN}: {trial[frac[0]]:g} is not a whole number")
+        data["trial"] = trial.astype(int)
+        cols["trial"] = TRIAL_COLUMN
+    notes = []
+    trials = data["trial"] if "trial" in data else np.ones(len(t), int)
+    for tr in np.unique(trials):
+        idx = np.flatnonzero(trials == tr)
+        if idx.size < 2:
+            continue
+        back = np.flatnonzero(np.diff(t[idx]) < 0)
+        if back.size or not np.all(np.diff(idx) == 1):
+            k = int(idx[back[0] + 1]) + 1 if back.size else int(idx[np.flatnonzero(np.diff(idx) != 1)[0] + 1]) + 1
+            raise InputError(f"{p}:{k}:{tcol}: time goes back within trial {tr} (or the trial's rows are not"
+                             " together); time must increase within each trial")
+    # repeated time stamps (millisecond clocks): average the samples that share one
+    key = np.column_stack([trials, t])
+    uniq, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    if np.any(counts > 1):
+        inv = inv.ravel()
+        order = np.argsort(uniq[:, 0] * 0 + np.arange(len(uniq)))  # np.unique sorts by (trial, time)
+        merged = {}
+        for name, v in data.items():
+            acc = np.zeros(len(uniq))
+            np.add.at(acc, inv, v.astype(float))
+            merged[name] = acc / counts
+        merged["trial"] = uniq[:, 0].astype(int) if "trial" in data else None
+        if merged["trial"] is None:
+            del merged["trial"]
+        data = {k: (v[order].astype(int) if k == "trial" else v[order]) for k, v in merged.items()}
+        notes.append(f"{int(np.sum(counts > 1))} repeated time stamps: their {int(np.sum(counts[counts > 1]))}"
+                     " samples were averaged")
+    if len(data["time_s"]) < 2:
+        raise InputError(f"{p}:{tcol}: needs at least two time stamps")
+    return data, {"path": str(p), "columns": cols, "notes": notes}
+
+
+def split_trials(data: dict) -> dict:
+    """The log's samples per trial (one trial, 1, when the log has no ``trial`` column).
+
+    Parameters
+    ----------
+    data : dict
+        From :func:`read_step_log`.
+
+    Returns
+    -------
+    dict
+        trial -> the same dict restricted to that trial's samples (without ``trial``).
+    """
+    if "trial" not in data:
+        return {1: data}
+    out = {}
+    for tr in np.unique(data["trial"]):
+        sel = data["trial"] == tr
+        out[int(tr)] = {k: v[sel] for k, v in data.items() if k != "trial"}
+    return out
+
+
+def pooled_step_parameters(fits) -> dict:
+    """Mean of each parameter over trials with its standard error across trials (sd/√n).
+
+    Each trial is one independent realization of the step; the spread between trials is the
+    honest uncertainty of a parameter (it includes what each fit's own error leaves out: the
+    residuals of one step are correlated). 95 % intervals use t with n − 1 degrees of freedom.
+
+    Parameters
+    ----------
+    fits : sequence of StepFit
+        One fit per trial, same order. [-]
+
+    Returns
+    -------
+    dict
+        ``n_trials`` and per parameter: ``mean``, ``stderr``, ``ci95``. [parameter units]
+    """
+    fits = list(fits)
+    n = len(fits)
+    out: dict = {"n_trials": n}
+    if n < 2:
+        return out
+    q = float(stats.t.ppf(0.975, n - 1))
+    for k in fits[0].params:
+        if k in ("p_final", "p_supply_Pa"):  # set by each trial's command or supply, not a property to pool
+            continue
+        v = np.array([f.params[k] for f in fits])
+        m, se = float(np.mean(v)), float(np.std(v, ddof=1) / math.sqrt(n))
+        out[k] = {"mean": m, "stderr": se, "ci95": [m - q * se, m + q * se]}
+    return out
 
 
 def fit_lift_off(fits, commands) -> dict:

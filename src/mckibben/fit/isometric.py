@@ -53,6 +53,7 @@ from mckibben.data.io import MuscleSpec, Table, apply_tare
 from mckibben.errors import InputError, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range, linear_fit
 from mckibben.models.physical import BraidGeometry, chou_hannaford_force, tondu_lopez_force, wall_corrected_force
+from mckibben.results import Result
 from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, LOW, SpringModel, spring_force, stiffness
 
 #: Largest braid angle at rest: cos²θ = 1/3, where the ideal braid stops pulling. [rad]
@@ -264,8 +265,8 @@ SURFACE_NAMES = ("a30_N_per_MPa3", "a20_N_per_MPa2", "a10_N_per_MPa", "a00_N", "
                  "a11_N_per_MPa", "a01_N", "b0_deflate_N", "b1_deflate_N_per_MPa")
 
 
-@dataclass
-class IsometricFit:
+@dataclass(repr=False)
+class IsometricFit(Result):
     """A force model fitted to an isometric table.
 
     Attributes
@@ -288,6 +289,15 @@ class IsometricFit:
     muscle: MuscleSpec
     tare: dict
     data: pd.DataFrame = field(repr=False)
+
+    call = "mckibben.fit.isometric.fit_isometric"
+    _repr_keys = ("rmse_N", "r2", "flags")
+
+    @property
+    def arguments(self) -> dict:
+        """What was fitted: model, data file, muscle and tare."""
+        return {"model": self.model, "source": self.result.source, "muscle": self.muscle.id,
+                "tare": self.tare.get("method", "none")}
 
     @property
     def flags(self) -> list:
@@ -325,12 +335,13 @@ class IsometricFit:
         """JSON-ready: the fit's parameters, errors, flags and tare."""
         return {**self.result.to_dict(), "tare": self.tare, "bounds": BOUNDS_NOTE}
 
-    def to_pandas(self) -> pd.DataFrame:
-        """The fitted points with the model's force and the residual. [SI]"""
-        d = self.data.copy()
-        d["force_fit"] = d["force"] - self.result.residuals
-        d["residual"] = self.result.residuals
-        return d
+    def _series(self) -> pd.DataFrame:
+        """The fitted points with the model's force and the residual (``quantity_unit`` columns)."""
+        d = self.data.reset_index(drop=True)
+        return pd.DataFrame({"held_length_m": d["held_length"], "pressure_Pa": d["pressure"], "force_N": d["force"],
+                             "direction": d["direction"], "trial": d["trial"],
+                             "force_fit_N": d["force"].to_numpy() - self.result.residuals,
+                             "residual_N": self.result.residuals})
 
     def plot(self, ax=None):
         """Force against pressure per held length, inflate and deflate, with the fit and its 95 % band.
@@ -560,8 +571,8 @@ def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
 CV_METHODS = ("leave-one-length-out", "leave-one-trial-out")
 
 
-@dataclass
-class ModelComparison:
+@dataclass(repr=False)
+class ModelComparison(Result):
     """Every force model on the same isometric data and the same folds.
 
     Attributes
@@ -593,6 +604,13 @@ class ModelComparison:
     tare: dict = field(default_factory=dict)
     source: str = ""
 
+    call = "mckibben.fit.isometric.compare_isometric"
+
+    @property
+    def arguments(self) -> dict:
+        """What was compared: data file, scheme and tare."""
+        return {"source": self.source, "cv": self.cv, "tare": self.tare.get("method", "none")}
+
     @property
     def metrics(self) -> dict:
         """``best``, its ``cv_rmse_N`` and ``cv_rmse_pct_of_peak``, and the peak force."""
@@ -600,7 +618,7 @@ class ModelComparison:
         return {"best": self.best, "cv": self.cv, "cv_rmse_N": b.get("cv_rmse_N"),
                 "cv_rmse_pct_of_peak": b.get("cv_rmse_pct_of_peak"), "peak_force_N": self.peak_force}
 
-    def to_pandas(self) -> pd.DataFrame:
+    def _series(self) -> pd.DataFrame:
         """One row per model (the scores), sorted by held-out error."""
         return pd.DataFrame(self.scores).sort_values("cv_rmse_N", na_position="last").reset_index(drop=True)
 

@@ -10,8 +10,6 @@ the fitted range is flagged.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -86,24 +84,14 @@ def save_muscle_file(path, spec: MuscleSpec, fit) -> Path:
     pathlib.Path
         The file written.
     """
-    from mckibben.files import apply_umask
+    from mckibben.atomic import atomic_file
 
     p = Path(path)
     if p.suffix.lower() != ".toml":
         raise InputError(f"--save: {path} must end in .toml")
-    if not p.parent.is_dir():
-        raise InputError(f"--save: folder {p.parent} does not exist")
     text = muscle_file_text(spec, fit)
-    fd, tmp = tempfile.mkstemp(prefix=".mckibben-", suffix=".toml", dir=p.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        apply_umask(tmp, directory=False)
-        os.replace(tmp, p)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_file(p, "--save") as tmp:
+        Path(tmp).write_text(text, encoding="utf-8")
     return p
 
 
