@@ -9,7 +9,7 @@ from mckibben.datasets.campaign import BUNDLED, campaign_truth
 from tests.conftest import run_cli
 
 FIGURES = ["fig3_blocked_force.png", "fig5_force_contraction.png", "fig6_hysteresis.png", "fig9_kinematic.png",
-           "fig10_braid_angle.png", "spring_loops.png", "step_response.png"]
+           "fig10_braid_angle.png", "spring_loops.png", "step_response.png", "isometric.png"]
 
 
 @pytest.fixture(scope="module")
@@ -29,8 +29,20 @@ def test_report_files(report):
     page = (out / "index.html").read_text()
     assert "SYNTHETIC DATA" in page and page.count("<img ") == len(FIGURES)
     assert "Table I" in page and "Table II" in page and "Model comparison — mpam97" in page
+    assert "Isometric test — commercial10" in page
+
     assert json.loads((out / "summary.json").read_text())["synthetic"] is True
     assert not [p for p in out.parent.iterdir() if p.name.startswith(".report-")]  # no temp folder left
+
+
+def test_report_has_the_held_out_isometric_comparison(report):
+    _, s = report
+    (iso,) = s["isometric"]
+    assert iso["muscle"] == "commercial10" and iso["cv"] == "leave-one-length-out"
+    best = next(m for m in iso["models"] if m["model"] == iso["best"])
+    # the bundled synthetic test (seed 0): the best model within 5 % of peak on held-out lengths
+    assert best["cv_rmse_pct_of_peak"] < 5.0
+    assert all(m["cv_rmse_N"] >= best["cv_rmse_N"] for m in iso["models"])
 
 
 def test_report_tables_beside_the_published_values(report):

@@ -76,7 +76,7 @@ def reproduce_cmd(
     # steps: per muscle fits + comparison, then the figures
     from mckibben.report.figures import ALL_FIGURES
 
-    total = 2 * n_muscles + len(ALL_FIGURES)
+    total = 2 * n_muscles + len(ALL_FIGURES) + 1
     with Progress(TextColumn("{task.description:<40}"), BarColumn(), TimeElapsedColumn(), console=err_console,
                   transient=True, disable=json or not err_console.is_terminal) as bar:
         task = bar.add_task("reading data", total=total)
@@ -105,6 +105,13 @@ def reproduce_cmd(
                      f"{paper['within_20pct'] * 100:.1f}" if paper else "—"])
     print_table("Model comparison (length under load; details in the report)",
                 [" muscle", " best model (CV RMSE)", "CV RMSE mm", "paper eq. 2+3 within 20 % [%]"], rows)
+    for c in summary.get("isometric", []):
+        print_table(f"Isometric {c['muscle']}: force(P, L) models, held out {c['cv']} (peak {c['peak_force_N']:.4g} N)",
+                    [" model", "RMSE N", "CV RMSE N", "CV % of peak", " flags"],
+                    [[m["model"] + (" (best)" if m["model"] == c["best"] else ""), _g(m["rmse_N"]),
+                      _g(m["cv_rmse_N"]), f"{m['cv_rmse_pct_of_peak']:.2f}" if m["cv_rmse_pct_of_peak"] is not None
+                      else "—", ", ".join(m["flags"]) or "none"]
+                     for m in sorted(c["models"], key=lambda m: (m["cv_rmse_N"] is None, m["cv_rmse_N"] or 0))])
     console.print(f"Report: {folder / 'index.html'}")
 
 

@@ -17,6 +17,7 @@ from mckibben.datasets import MUSCLES
 from mckibben.datasets.campaign import campaign_muscle_dirs, is_synthetic
 from mckibben.fit import static
 from mckibben.fit.compare import compare_models
+from mckibben.fit.isometric import compare_isometric
 
 KINDS_ORDER = ("braid_angle", "isotonic", "blocked_force", "hysteresis", "force_length", "step_response")
 
@@ -108,4 +109,25 @@ def characterize(root=None, progress: Callable[[str], None] | None = None) -> di
             r.comparison = compare_models(r.tables["isotonic"], spec, braid)
         out.append(r)
     out.sort(key=lambda r: (r.spec.nominal_length, r.spec.id))
-    return {"muscles": out, "synthetic": synthetic, "root": str(root) if root else "bundled example campaign"}
+    isometric = []
+    for folder in _isometric_folders(root, dirs):
+        spec = read_muscle(folder / "muscle.toml")
+        synthetic = synthetic or spec.synthetic
+        say(f"{spec.id}: isometric comparison")
+        t = read_table(folder / "isometric.csv", "isometric")
+        check_muscle(t, spec)
+        isometric.append((spec, compare_isometric(t, spec, "leave-one-length-out")))
+    return {"muscles": out, "synthetic": synthetic, "root": str(root) if root else "bundled example campaign",
+            "isometric": isometric}
+
+
+def _isometric_folders(root, dirs) -> list:
+    """Folders holding ``isometric.csv`` and ``muscle.toml``: the campaign's, and the bundled
+    commercial-size test when the campaign is the bundled one."""
+    from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
+
+    found = [d for d in dirs if (d / "isometric.csv").is_file()]
+    if root is None:
+        found += sorted(p for p in BUNDLED_ISOMETRIC.iterdir() if (p / "isometric.csv").is_file()
+                        and (p / "muscle.toml").is_file())
+    return found

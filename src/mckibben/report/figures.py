@@ -274,6 +274,33 @@ def fig_step_response(results, path: Path, synthetic: bool) -> Path | None:
     return _save(fig, path, synthetic)
 
 
+def fig_isometric(isometric, path: Path, synthetic: bool) -> Path | None:
+    """Isometric test: force against pressure per held length, inflate and deflate, the model best
+    on held-out lengths with its 95 % band; beside it, held-out and in-sample error per model.
+
+    Parameters
+    ----------
+    isometric : list of (MuscleSpec, ModelComparison)
+        From :func:`~mckibben.report.characterize.characterize` (``char["isometric"]``).
+    path : pathlib.Path
+        PNG file.
+    synthetic : bool
+        Mark the figure as synthetic.
+    """
+    if not isometric:
+        return None
+    spec, comp = isometric[0]
+    fig, (ax, axc) = _figure(2, 5.0, 4.0)
+    comp.fits[comp.best].plot(ax)
+    ax.set_title(f"{spec.id}: {comp.best} (best held out), 95 % band", fontsize=9)
+    comp.plot(axc)
+    axc.set_title(f"{comp.cv}", fontsize=9)
+    return _save(fig, path, synthetic)
+
+
+#: Figures drawn from ``char["isometric"]`` rather than from the muscles.
+ISOMETRIC_FIGURES = {"isometric.png": fig_isometric}
+
 ALL_FIGURES = {
     "fig3_blocked_force.png": fig3_blocked_force,
     "fig5_force_contraction.png": fig5_force_contraction,

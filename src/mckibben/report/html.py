@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.errors import InputError
-from mckibben.report.figures import ALL_FIGURES
+from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
 
 MPA = 1e6
 
@@ -66,8 +66,9 @@ def summarize(char: dict) -> dict:
         if r.comparison is not None:
             comp[r.spec.id] = {"n_points": r.comparison["n_points"], "cv_method": r.comparison["cv_method"],
                                "models": [s.to_dict() for s in r.comparison["scores"]]}
+    iso = [{"muscle": spec.id, **c.to_dict()} for spec, c in char.get("isometric", [])]
     return {"synthetic": char["synthetic"], "data": char["root"], "table_I": t1, "table_II": t2,
-            "blocked_force": bf, "step_response": steps, "spring": spring, "comparison": comp,
+            "blocked_force": bf, "step_response": steps, "spring": spring, "comparison": comp, "isometric": iso,
             "skipped": [s for r in char["muscles"] for s in r.skipped]}
 
 
@@ -146,6 +147,17 @@ def render_html(summary: dict, figures: list[str]) -> str:
             parts.append(f"<p>{html.escape(s['muscle'])}: split {s['split_pressure_Pa'] / MPA:.3g} MPa, R² {s['r2']:.5f},"
                          f" force RMS {s['residual_rms_N'] * 1e3:.1f} mN, n {s['n_points']}</p>")
             parts.append(_table(["parameter", "value ± s.e."], [[k, _pm(v, s["stderr"][k], digits=4)] for k, v in s["parameters"].items()]))
+    for c in summary.get("isometric", []):
+        parts.append(f"<h2>Isometric test — {html.escape(c['muscle'])}: force(P, L), held out {html.escape(c['cv'])}</h2>")
+        parts.append(f"<p class='note'>Every force model fitted on the same folds; the best is picked on held-out"
+                     f" error (peak force {c['peak_force_N']:.4g} N). Flags: parameters at a physical bound, R² &lt; 0.5,"
+                     f" an ill-conditioned covariance, a load-cell zero over 5 % of the peak (docs/fit.md).</p>")
+        rows = sorted(c["models"], key=lambda m: (m["cv_rmse_N"] is None, m["cv_rmse_N"] or 0))
+        parts.append(_table(["model", "parameters", "RMSE [N]", "R²", "held-out RMSE [N]", "held-out [% of peak]",
+                             "flags"],
+                            [[m["model"] + (" (best)" if m["model"] == c["best"] else ""), m["n_parameters"],
+                              _g(m["rmse_N"]), _g(m["r2"]), _g(m["cv_rmse_N"]), _g(m["cv_rmse_pct_of_peak"], 1, 3),
+                              ", ".join(m["flags"]) or "none"] for m in rows]))
     parts.append("<h2>Figures</h2>")
     for f in figures:
         parts.append(f"<p><img src='{html.escape(f)}' alt='{html.escape(f)}'></p>")
@@ -211,6 +223,9 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
             if progress:
                 progress(f"figure {name}")
             if make(char["muscles"], tmp / name, char["synthetic"]) is not None:
+                figures.append(name)
+        for name, make in ISOMETRIC_FIGURES.items():
+            if make(char.get("isometric", []), tmp / name, char["synthetic"]) is not None:
                 figures.append(name)
         summary["figures"] = figures
         (tmp / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False), encoding="utf-8")
