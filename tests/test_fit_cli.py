@@ -112,3 +112,28 @@ def test_datasets_generate_and_list(cli, tmp_path):
     assert [f["synthetic"] for f in files if f["kind"] == "isometric"] == [True]
     r = cli("datasets", "generate", "--out", str(tmp_path / "c"), "--seed", "-1")
     assert r.code == 2 and r.err == "error: --seed: -1 must be >= 0\n"
+
+
+def test_isotonic_fits_accept_measured_loads(cli, tmp_path):
+    # a load cell reads the hanging weights (0.6 .. 2.1 N, sd 5 mN) and a transducer the pressure set
+    # points (sd 1 kPa): every value differs, yet the set points are clear
+    from mckibben.models.physical import BraidGeometry, length_under_load
+
+    r = np.random.default_rng(4)
+    geom = BraidGeometry.from_initial(0.117, 1.1e-3, np.deg2rad(20))
+    p_set = np.tile(np.linspace(0.1e6, 0.8e6, 8), 6)
+    f_set = np.repeat([0.6, 0.9, 1.2, 1.5, 1.8, 2.1], 8)
+    p = p_set + r.normal(0, 1e3, p_set.size)
+    f = f_set + r.normal(0, 5e-3, f_set.size)
+    ell, _ = length_under_load(p, f, geom)
+    (tmp_path / "isotonic.csv").write_text("pressure_kPa,load_N,length_mm\n" + "".join(
+        f"{a / 1e3:.3f},{b:.4f},{c * 1e3:.3f}\n" for a, b, c in zip(p, f, ell)))
+    (tmp_path / "muscle.toml").write_text(MUSCLE)
+    res = cli("fit", str(tmp_path / "isotonic.csv"), "--model", "cubic", "--json")
+    assert res.code == 0, res.err
+    loads = [fit["condition"]["load_N"] for fit in res.json()["fits"]]
+    # six groups, each centred on its set weight (the mean of 8 readings of sd 5 mN: within 6 mN)
+    np.testing.assert_allclose(loads, [0.6, 0.9, 1.2, 1.5, 1.8, 2.1], atol=6e-3)
+    res = cli("fit", str(tmp_path / "isotonic.csv"), "--model", "force-contraction", "--json")
+    assert res.code == 0, res.err
+    assert len(res.json()["fits"]) == 8  # one cubic per pressure set point

@@ -65,6 +65,46 @@ def _pkey(pressure):
     return np.round(np.asarray(pressure, dtype=float) / 1e3) * 1e3
 
 
+#: Measured (continuous) set points: values are split into groups where the gap between sorted
+#: neighbours exceeds this fraction of their range (a set weight read by a load cell scatters by
+#: far less; a sweep of truly continuous values leaves no such gap and stays one group). [-]
+GROUP_GAP = 0.05
+
+
+def set_point_groups(values, decimals=9):
+    """Group label per value and the groups' centres: the set points behind measured values.
+
+    Set weights (or pressures) typed in exactly group by value, as the paper's tables do. Values
+    read by an instrument (a load cell's force, a transducer's pressure) scatter around the set
+    point: when there are more distinct values than a third of the points, they are grouped by
+    gaps wider than :data:`GROUP_GAP` of their range.
+
+    Parameters
+    ----------
+    values : array_like
+        Loads [N] or pressures [Pa].
+    decimals : int, default 9
+        Rounding before exact grouping. [-]
+
+    Returns
+    -------
+    labels : numpy.ndarray
+        Group index per value. [-]
+    centres : numpy.ndarray
+        Mean of each group, sorted. [SI]
+    """
+    v = np.round(np.asarray(values, dtype=float), decimals)
+    uniq = np.unique(v)
+    if uniq.size <= max(v.size // 3, 1):
+        labels = np.searchsorted(uniq, v)
+        return labels, uniq
+    order = np.sort(uniq)
+    cuts = order[1:][np.diff(order) > GROUP_GAP * max(float(np.ptp(order)), 1e-300)]
+    labels = np.searchsorted(cuts, v, side="right")
+    centres = np.array([float(np.mean(v[labels == k])) for k in range(cuts.size + 1)])
+    return labels, centres
+
+
 def _groups(values, decimals=9):
     """Sorted distinct values (rounded, so 0.6 from grams and from newtons group together)."""
     return np.unique(np.round(np.asarray(values, dtype=float), decimals))
@@ -200,14 +240,16 @@ def fit_cubics(table: Table) -> dict[tuple, FitResult]:
                 raise InputError(f"fit cubic on {table.path}: a braid_angle table needs a {q} column for cos θ(P) per load (Table II)")
         d["cos_theta"] = np.cos(d["braid_angle"])
     out = {}
-    loads = _groups(d["load"]) if "load" in d else [None]
+    if "load" in d:
+        labels, loads = set_point_groups(d["load"])
+    else:
+        labels, loads = np.zeros(len(d), int), [None]
     directions = sorted(d["direction"].unique()) if "direction" in d else [None]
-    for load in loads:
+    for k, load in enumerate(loads):
         for direction in directions:
-            sel = np.ones(len(d), bool)
+            sel = labels == k
             cond: dict = {}
             if load is not None:
-                sel &= np.isclose(d["load"], load, rtol=0, atol=1e-9)
                 cond["load_N"] = float(load)
             if direction is not None:
                 sel &= (d["direction"] == direction).to_numpy()
@@ -215,8 +257,8 @@ def fit_cubics(table: Table) -> dict[tuple, FitResult]:
             sub = d[sel]
             if len(sub) == 0:
                 continue
-            extra = {"load": (float(load), float(load))} if load is not None else {}
-            out[(load, direction)] = fit_cubic(sub["pressure"], sub[col], what=_what("cubic", table, cond),
+            extra = {"load": (float(sub["load"].min()), float(sub["load"].max()))} if load is not None else {}
+            out[(float(load) if load is not None else None, direction)] = fit_cubic(sub["pressure"], sub[col], what=_what("cubic", table, cond),
                                                response_name=response_name, unit=unit, condition=cond,
                                                source=table.path, extra_range=extra,
                                                trials=sub["trial"].to_numpy() if sub["trial"].nunique() >= 2 else None)
@@ -289,9 +331,9 @@ def fit_force_contraction(table: Table, muscle: MuscleSpec) -> dict[float, FitRe
     d = table.data
     eps = 1.0 - d["length"].to_numpy() / muscle.nominal_length
     out = {}
-    pk = _pkey(d["pressure"])
-    for p in np.unique(pk):
-        sel = pk == p
+    labels, centres = set_point_groups(_pkey(d["pressure"]))
+    for k, p in enumerate(centres):
+        sel = labels == k
         cond = {"pressure_Pa": float(p)}
         what = _what("force-contraction", table, cond)
         require_distinct(d["load"][sel], 5, "loads", what, "a cubic in contraction (4 coefficients and a check of its fit)")
