@@ -238,3 +238,17 @@ def test_blocked_force_intercept_covers_with_per_trial_offsets():
         covered += (ci[:, 0] <= c) & (c <= ci[:, 1])
     # >= 90 % over 200 campaigns (binomial: a true 95 % rate falls below with probability ~1e-3)
     assert np.all(covered / 200 >= 0.90), covered / 200
+
+
+def test_held_lengths_read_by_an_instrument_group_into_their_set_points():
+    # an LVDT reads each held length with 20 um scatter: still four lengths, four folds, 12 runs
+    from mckibben.data.io import Table
+
+    t = read_table(ISO)
+    d = t.data.copy()
+    d["held_length"] = d["held_length"] + np.random.default_rng(5).normal(0, 2e-5, len(d))
+    noisy = Table("isometric", "lvdt.csv", d, t.columns)
+    fit = fit_isometric(noisy, read_muscle(MUSCLE), "chou-hannaford")
+    assert fit.metrics["covariance"] == "cluster-robust (12 trials)"
+    c = compare_isometric(noisy, read_muscle(MUSCLE), models=["surface"])
+    assert c.scores[0]["note"] == "" and c.scores[0]["extrapolated_folds"] == 2  # the two end lengths

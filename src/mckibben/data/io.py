@@ -296,16 +296,57 @@ def _check_plausible(data: pd.DataFrame, cols: dict, name: str, is_csv: bool) ->
                              f"{QUANTITIES[q][2].split(' (')[0]} (more than {PLAUSIBLE_MAX[dim]:g} {SI_UNIT[dim]})")
 
 
+#: Measured (continuous) set points: values are split into groups where the gap between sorted
+#: neighbours exceeds this fraction of their range (a set weight read by a load cell scatters by
+#: far less; a sweep of truly continuous values leaves no such gap and stays one group). [-]
+GROUP_GAP = 0.05
+
+
+def set_point_groups(values, decimals=9):
+    """Group label per value and the groups' centres: the set points behind measured values.
+
+    Set weights (or pressures) typed in exactly group by value, as the paper's tables do. Values
+    read by an instrument (a load cell's force, a transducer's pressure) scatter around the set
+    point: when there are more distinct values than a third of the points, they are grouped by
+    gaps wider than :data:`GROUP_GAP` of their range.
+
+    Parameters
+    ----------
+    values : array_like
+        Loads [N] or pressures [Pa].
+    decimals : int, default 9
+        Rounding before exact grouping. [-]
+
+    Returns
+    -------
+    labels : numpy.ndarray
+        Group index per value. [-]
+    centres : numpy.ndarray
+        Mean of each group, sorted. [SI]
+    """
+    v = np.round(np.asarray(values, dtype=float), decimals)
+    uniq = np.unique(v)
+    if uniq.size <= max(v.size // 3, 1):
+        labels = np.searchsorted(uniq, v)
+        return labels, uniq
+    order = np.sort(uniq)
+    cuts = order[1:][np.diff(order) > GROUP_GAP * max(float(np.ptp(order)), 1e-300)]
+    labels = np.searchsorted(cuts, v, side="right")
+    centres = np.array([float(np.mean(v[labels == k])) for k in range(cuts.size + 1)])
+    return labels, centres
+
+
 def _check_isometric(table: Table) -> None:
     """An isometric table spans two held lengths or more and two pressures or more per run."""
     d = table.data
-    lengths = np.unique(np.round(d["held_length"].to_numpy(), 9))
+    groups, lengths = set_point_groups(d["held_length"].to_numpy(), decimals=6)
     if lengths.size < 2:
         raise InputError(
             f"{table.where(None, 'held_length')}: only one held length ({lengths[0] * 1e3:g} mm); an isometric table"
             " needs two or more to fit force(P, L) (one length at rest is a blocked_force table)"
         )
-    for (ell, trial), grp in d.groupby(["held_length", "trial"], sort=True):
+    for (k, trial), grp in d.groupby([groups, d["trial"].to_numpy()], sort=True):
+        ell = lengths[k]
         if np.unique(np.round(grp["pressure"].to_numpy(), 3)).size < 2:
             r = int(grp.index[0])
             raise InputError(
@@ -325,7 +366,7 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
     length, or a negative reading on a slack muscle; ``/work/shared/notes/lab-data.md``). Two ways
     to remove it:
 
-    - ``"lowest"``: per run (held length and trial), the mean force at the run's lowest pressure
+    - ``"lowest"``: per run (held length set point and trial), the mean force at the run's lowest pressure
       (inflate and deflate rows alike) is subtracted, so every run starts at zero force. This also
       removes real pre-tension at rest length: use it when the models should see force due to
       pressure only.
@@ -365,7 +406,9 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
         report["tare_N_range"] = [float(d["tare"].min()), float(d["tare"].max())]
     else:
         runs = []
-        for (ell, trial), grp in d.groupby(["held_length", "trial"], sort=True):
+        groups, lengths = set_point_groups(d["held_length"].to_numpy(), decimals=6)
+        for (k, trial), grp in d.groupby([groups, d["trial"].to_numpy()], sort=True):
+            ell = lengths[k]
             p = grp["pressure"].to_numpy()
             zero = float(grp["force"].to_numpy()[np.isclose(p, p.min(), rtol=0, atol=1.0)].mean())
             d.loc[grp.index, "force"] = grp["force"] - zero

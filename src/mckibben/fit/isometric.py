@@ -401,9 +401,22 @@ def isometric_points(table: Table, tare: str = "none") -> tuple[pd.DataFrame, di
     return d, report
 
 
+def held_length_groups(held_length) -> np.ndarray:
+    """Group label per row: the held length's set point (an LVDT's reading scatters around it).
+
+    Parameters
+    ----------
+    held_length : array_like
+        Held lengths. [m]
+    """
+    from mckibben.data.io import set_point_groups
+
+    return set_point_groups(np.asarray(held_length, dtype=float), decimals=6)[0]
+
+
 def _runs(d: pd.DataFrame) -> np.ndarray:
     """Cluster label per row: one run = one held length and one trial."""
-    keys = np.column_stack([np.round(d["held_length"].to_numpy(dtype=float), 9), d["trial"].to_numpy(dtype=float)])
+    keys = np.column_stack([held_length_groups(d["held_length"]), d["trial"].to_numpy(dtype=float)])
     return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
 
 
@@ -684,7 +697,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     d, report = isometric_points(table, tare)
     f = d["force"].to_numpy(dtype=float)
     peak = float(np.max(np.abs(f)))
-    key = np.round(d["held_length"].to_numpy(dtype=float), 9) if cv == "leave-one-length-out" else d["trial"].to_numpy()
+    key = held_length_groups(d["held_length"]) if cv == "leave-one-length-out" else d["trial"].to_numpy()
     groups = np.unique(key)
     if groups.size < 2:
         raise InputError(f"compare on {table.path}: {cv} needs two {'held lengths' if 'length' in cv else 'trials'} or more")
@@ -705,7 +718,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
             try:
                 r = fit_points(d[~test], muscle, model, source=table.path)
             except InputError as exc:
-                notes.append(f"fold {g:g} not fitted: {exc}")
+                notes.append(f"fold {g} not fitted: {exc}")
                 continue
             sub = d[test]
             value, fl = r.predict(pressure=sub["pressure"].to_numpy(), length=sub["held_length"].to_numpy(),

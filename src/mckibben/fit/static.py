@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from mckibben.data.io import MuscleSpec, Table
+from mckibben.data.io import GROUP_GAP, MuscleSpec, Table, set_point_groups  # noqa: F401 (re-exported)
 from mckibben.errors import InputError
 from mckibben.fit.core import (FitResult, bounded_fit, data_range, linear_fit, nonlinear_fit, require_distinct,
                                require_points)
@@ -63,46 +63,6 @@ def _fmt_condition(key: str, value) -> str:
 def _pkey(pressure):
     """Pressures binned to 1 kPa (a transducer's resolution), so repeated set points group."""
     return np.round(np.asarray(pressure, dtype=float) / 1e3) * 1e3
-
-
-#: Measured (continuous) set points: values are split into groups where the gap between sorted
-#: neighbours exceeds this fraction of their range (a set weight read by a load cell scatters by
-#: far less; a sweep of truly continuous values leaves no such gap and stays one group). [-]
-GROUP_GAP = 0.05
-
-
-def set_point_groups(values, decimals=9):
-    """Group label per value and the groups' centres: the set points behind measured values.
-
-    Set weights (or pressures) typed in exactly group by value, as the paper's tables do. Values
-    read by an instrument (a load cell's force, a transducer's pressure) scatter around the set
-    point: when there are more distinct values than a third of the points, they are grouped by
-    gaps wider than :data:`GROUP_GAP` of their range.
-
-    Parameters
-    ----------
-    values : array_like
-        Loads [N] or pressures [Pa].
-    decimals : int, default 9
-        Rounding before exact grouping. [-]
-
-    Returns
-    -------
-    labels : numpy.ndarray
-        Group index per value. [-]
-    centres : numpy.ndarray
-        Mean of each group, sorted. [SI]
-    """
-    v = np.round(np.asarray(values, dtype=float), decimals)
-    uniq = np.unique(v)
-    if uniq.size <= max(v.size // 3, 1):
-        labels = np.searchsorted(uniq, v)
-        return labels, uniq
-    order = np.sort(uniq)
-    cuts = order[1:][np.diff(order) > GROUP_GAP * max(float(np.ptp(order)), 1e-300)]
-    labels = np.searchsorted(cuts, v, side="right")
-    centres = np.array([float(np.mean(v[labels == k])) for k in range(cuts.size + 1)])
-    return labels, centres
 
 
 def _groups(values, decimals=9):
