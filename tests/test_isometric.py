@@ -252,3 +252,16 @@ def test_held_lengths_read_by_an_instrument_group_into_their_set_points():
     assert fit.metrics["covariance"] == "cluster-robust (12 trials)"
     c = compare_isometric(noisy, read_muscle(MUSCLE), models=["surface"])
     assert c.scores[0]["note"] == "" and c.scores[0]["extrapolated_folds"] == 2  # the two end lengths
+
+
+def test_a_force_that_falls_with_pressure_is_flagged():
+    # forces that rise then fall with pressure (a leaking or bursting run): no muscle does that, and
+    # the data-driven surface, which follows the data anywhere, must say so
+    rng = np.random.default_rng(6)
+    d, _ = _ch_campaign(rng, 1, offset_sd=0.0)
+    x = d["pressure"].to_numpy() / 620e3
+    f = 400 * x * (1.2 - x) * d["held_length"].to_numpy() / L0 + rng.normal(0, 0.4, len(d))
+    r = fit_points(d.assign(force=f), SPEC, "surface")
+    assert "force_falls_with_pressure" in r.flags
+    clean = fit_points(d.assign(force=400 * x * d["held_length"].to_numpy() / L0), SPEC, "surface")
+    assert "force_falls_with_pressure" not in clean.flags

@@ -459,8 +459,9 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
             return sum(v * t for v, t in zip(values, terms))
 
         names = SURFACE_NAMES[: x.shape[1]]
-        return linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
-                          source=source, clusters=clusters)
+        res = linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
+                         source=source, clusters=clusters)
+        return _with_monotone_flag(res, d)
     if model in ("chou-hannaford", "wall-chou-hannaford"):
         spec = _ch_spec(muscle, fmax, model == "wall-chou-hannaford")
     elif model == "tondu-lopez":
@@ -471,9 +472,31 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
     def func(values, pressure, length, direction="inflate"):
         return spec.force(values, pressure, length, direction)
 
-    return bounded_fit(lambda v: spec.force(v, p, ell, direction), f, spec.starts, spec.names, spec.lo, spec.hi,
-                       model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
-                       source=source, physical_flags=spec.physical)
+    res = bounded_fit(lambda v: spec.force(v, p, ell, direction), f, spec.starts, spec.names, spec.lo, spec.hi,
+                      model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
+                      source=source, physical_flags=spec.physical)
+    return _with_monotone_flag(res, d)
+
+
+#: A fitted force that falls with rising pressure at a held length by more than this fraction of the
+#: peak force, inside the fitted range, is flagged ``force_falls_with_pressure``: a muscle pulls
+#: harder the more it is inflated (PyBaMM-style physics check; notes/lab-data.md). [-]
+MONOTONE_TOL = 0.02
+
+
+def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
+    from dataclasses import replace
+
+    pg = np.linspace(float(d["pressure"].min()), float(d["pressure"].max()), 41)
+    peak = float(np.max(np.abs(d["force"]))) or 1.0
+    from mckibben.data.io import set_point_groups
+
+    for ell in set_point_groups(d["held_length"].to_numpy(dtype=float), decimals=6)[1]:
+        for dn in np.unique(d["direction"]):
+            fg = np.asarray(res.func(res.values, pressure=pg, length=np.full_like(pg, ell), direction=dn), dtype=float)
+            if np.any(np.maximum.accumulate(fg) - fg > MONOTONE_TOL * peak):
+                return replace(res, flags=res.flags + ("force_falls_with_pressure",))
+    return res
 
 
 def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none") -> IsometricFit:
