@@ -137,3 +137,15 @@ def test_isotonic_fits_accept_measured_loads(cli, tmp_path):
     res = cli("fit", str(tmp_path / "isotonic.csv"), "--model", "force-contraction", "--json")
     assert res.code == 0, res.err
     assert len(res.json()["fits"]) == 8  # one cubic per pressure set point
+
+
+def test_isotonic_chou_hannaford_is_bounded_and_flagged(cli):
+    # the ideal braid cannot explain the miniature muscle (wall, elasticity, friction: 000 §III); the
+    # fit used to exit 0 with R2 = -0.73 and a strand shorter than the muscle, unflagged
+    r = cli("fit", str(BUNDLED / "mpam117" / "isotonic.csv"), "--model", "chou-hannaford", "--json")
+    assert r.code == 0
+    out = r.json()
+    assert out["parameters"]["b_m"] >= 0.117  # a strand at least as long as the muscle
+    assert 0.5 * 1.2e-3 <= out["parameters"]["d0_m"] <= 4 * 1.2e-3
+    assert out["flags"] and "r2_below_0.5" in out["flags"]
+    assert r.err.startswith("warning: fit chou-hannaford on") and r.err.count("\n") == 1

@@ -421,13 +421,20 @@ def data_range(**arrays) -> dict:
     return {k: (float(np.min(v)), float(np.max(v))) for k, v in arrays.items()}
 
 
-def cluster_covariance(jac, resid, clusters, p_scale=None):
-    """Cluster-robust (CR1) covariance of least-squares parameters.
+#: Largest cluster (points) for the CR2 correction; beyond it CR1's scalar correction is used
+#: (CR2 needs an eigendecomposition of an n_g × n_g matrix per cluster). [-]
+CR2_MAX_CLUSTER = 600
 
-    ``C = c·(JᵀJ)⁻¹·(Σ_g J_gᵀr_g·r_gᵀJ_g)·(JᵀJ)⁻¹``, c = G/(G − 1)·(n − 1)/(n − p), summing over
-    the G clusters (trials). Residuals within a trial may be correlated in any way (a per-trial
-    offset, a per-trial gain); trials are taken as independent. Intervals then use Student's t
-    with G − 1 degrees of freedom.
+
+def cluster_covariance(jac, resid, clusters, p_scale=None):
+    """Cluster-robust (CR2) covariance of least-squares parameters.
+
+    ``C = (JᵀJ)⁻¹·(Σ_g J_gᵀ·A_g·r_g·r_gᵀ·A_g·J_g)·(JᵀJ)⁻¹`` with A_g = (I − H_gg)^(-1/2), H_gg the
+    cluster's block of the hat matrix, summing over the G clusters (trials). Residuals within a
+    trial may be correlated in any way (a per-trial offset, a per-trial gain); trials are taken as
+    independent. A_g corrects the downward bias of the plain (CR1) sandwich with few clusters;
+    clusters larger than :data:`CR2_MAX_CLUSTER` points fall back to CR1,
+    c = G/(G − 1)·(n − 1)/(n − p). Intervals then use Student's t with G − 1 degrees of freedom.
 
     Parameters
     ----------
@@ -448,7 +455,9 @@ def cluster_covariance(jac, resid, clusters, p_scale=None):
     References
     ----------
     Cameron, A. C., Miller, D. L. (2015), A practitioner's guide to cluster-robust inference,
-    J. Human Resources 50(2), 317–372. doi:10.3368/jhr.50.2.317
+    J. Human Resources 50(2), 317–372. doi:10.3368/jhr.50.2.317 (§VI: few clusters, CR2).
+    Bell, R. M., McCaffrey, D. F. (2002), Bias reduction in standard errors for linear regression
+    with multi-stage samples, Survey Methodology 28(2), 169–181.
     """
     jac = np.asarray(jac, dtype=float)
     resid = np.asarray(resid, dtype=float)
@@ -459,10 +468,23 @@ def cluster_covariance(jac, resid, clusters, p_scale=None):
     norms[norms == 0] = 1.0
     js = jac / norms  # column-scaled: parameters of wildly different units stay invertible
     bread = np.linalg.pinv(js.T @ js)
+    idx = idx.ravel()
     scores = np.zeros((g, p))
-    np.add.at(scores, idx.ravel(), js * resid[:, None])
+    if np.bincount(idx).max() <= CR2_MAX_CLUSTER:
+        # CR2 (Bell & McCaffrey 2002): each cluster's residuals scaled by (I − H_gg)^(-1/2), which
+        # undoes the shrinkage of residuals by the fit's own leverage; nearly unbiased with few clusters
+        for k in range(g):
+            sel = idx == k
+            jg = js[sel]
+            h = jg @ bread @ jg.T
+            w, v = np.linalg.eigh(np.eye(h.shape[0]) - h)
+            inv_sqrt = (v / np.sqrt(np.clip(w, 1e-12, None))) @ v.T
+            scores[k] = jg.T @ (inv_sqrt @ resid[sel])
+        c = 1.0
+    else:  # very large clusters: CR1's scalar correction
+        np.add.at(scores, idx, js * resid[:, None])
+        c = g / max(g - 1, 1) * (n - 1) / max(n - p, 1)
     meat = scores.T @ scores
-    c = g / max(g - 1, 1) * (n - 1) / max(n - p, 1)
     return c * (bread @ meat @ bread) / np.outer(norms, norms)
 
 
