@@ -177,21 +177,23 @@ class Device:
             # host's: a busy host, or a device that takes a moment to start, must not cut the
             # step short. The wall clock only bounds a device that stops streaming.
             deadline = time.monotonic() + STARTUP_TIMEOUT_S + 3.0 * (d + 0.1)
-            t_set = None  # device time at which the set-point was sent
+            sent = False
+            t_step = None  # device time of the first frame that reports the new set-point
             while time.monotonic() < deadline:
                 for f in parser.feed(link.read(8192)):
                     if isinstance(f, P.Telemetry):
                         rows.append((f.t_us * 1e-6, pressure_from_adc(f.pressure_adc).item(), f.reference_pa,
                                      f.inlet_pwm - f.bleed_pwm))
+                        if t_step is None and sent and f.reference_pa > 0:
+                            t_step = rows[-1][0]
                     elif isinstance(f, P.Ack):
                         acks.append(f)
                 if not rows:
                     continue
-                now = rows[-1][0]
-                if t_set is None and now - rows[0][0] >= 0.1:
+                if not sent and rows[-1][0] - rows[0][0] >= 0.1:
                     link.write(P.set_point(3, p))
-                    t_set = now
-                elif t_set is not None and now - t_set >= d:
+                    sent = True
+                elif t_step is not None and rows[-1][0] - t_step >= d:
                     break
             link.write(P.stream(4, False, 1))
             link.write(P.set_mode(5, 0))
@@ -204,10 +206,9 @@ class Device:
             raise InputError(f"--port: only {len(rows)} telemetry frames arrived from {self.port!r}; "
                              "is it a mckibben device?")
         a = np.array(rows, dtype=float)
-        if not np.any(a[:, 2] > 0):
+        if t_step is None:
             raise InputError(f"--port: {self.port!r} stopped streaming before the step to {p:g} Pa took effect "
                              f"({len(rows)} frames, {a[-1, 0] - a[0, 0]:.3f} s of device time)")
-        t_step = a[np.argmax(a[:, 2] > 0), 0]
         return RigStepResult(a[:, 0], a[:, 1], a[:, 2], a[:, 3], float(t_step),
                              {"port": self.port, "target_Pa": p, "controller": controller, "duration_s": d},
                              {"frames": parser.frames, "missing": parser.missing})
