@@ -195,3 +195,11 @@ def test_commercial_muscle_needs_only_id_length_and_diameter(tmp_path):
         m.need("strand_length", "fit kinematic (eq. 2)")
     assert str(exc.value) == (f"{tmp_path / 'f.toml'}: key strand_length_<unit> missing; fit kinematic (eq. 2) needs it"
                               " (e.g. strand_length_mm = ...)")
+
+
+def test_isometric_pressure_slightly_below_zero_is_a_transducer_zero(tmp_path):
+    # -2 kPa against a 600 kPa top is within 1 %: read as 0; -50 kPa is not a zero error
+    t = read_table(_write(tmp_path, "iso.csv", ISO.replace("30,0,2.0,inflate", "30,-0.02,2.0,inflate")))
+    assert t.data["pressure"].iloc[0] == 0.0
+    with pytest.raises(InputError, match="row 1 \\(line 2\\), column pressure_bar: -0.5 is negative"):
+        read_table(_write(tmp_path, "iso2.csv", ISO.replace("30,0,2.0,inflate", "30,-0.5,2.0,inflate")))

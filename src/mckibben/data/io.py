@@ -24,6 +24,10 @@ from mckibben.units import G_N, UNITS, to_si, units_of
 
 NUMERIC_SUFFIXES = (".csv", ".parquet", ".pq")
 
+#: In an isometric table, pressures below zero by at most this fraction of the largest pressure
+#: (and at least 1 kPa) are a transducer's zero offset and read as 0; below that they are refused. [-]
+PRESSURE_ZERO_TOL = 0.01
+
 
 @dataclass(frozen=True)
 class Table:
@@ -223,6 +227,13 @@ def read_table(path, kind: str | None = None) -> Table:
             for r, text in bad:
                 errors.append((r, pos, f"{where(r)}: {text}"))
             dim, no_negative, _ = QUANTITIES[q]
+            if no_negative and q == "pressure" and kind == "isometric" and unit:
+                # an unzeroed transducer reads slightly below zero at zero pressure: within
+                # PRESSURE_ZERO_TOL of the largest reading that is a zero offset, read as 0
+                si = to_si(np.nan_to_num(values, nan=0.0), unit, dim)
+                tol = max(PRESSURE_ZERO_TOL * float(np.max(si, initial=0.0)), 1e3)
+                small = (si < 0) & (si >= -tol)
+                values = np.where(small, 0.0, values)
             if no_negative:
                 neg = np.flatnonzero(np.nan_to_num(values, nan=0.0) < 0)
                 if neg.size:

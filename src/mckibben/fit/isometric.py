@@ -56,6 +56,9 @@ from mckibben.models.physical import BraidGeometry, chou_hannaford_force, tondu_
 from mckibben.results import Result
 from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, LOW, SpringModel, spring_force, stiffness
 
+#: The spring model's unloaded length at zero pressure, Lu(0) = h0, further than this fraction from
+#: the nominal length (which is that length, by definition) is flagged. [-]
+NOMINAL_TOL = 0.10
 #: Largest braid angle at rest: cos²θ = 1/3, where the ideal braid stops pulling. [rad]
 THETA_MAX = float(np.arccos(1.0 / np.sqrt(3.0)))
 #: Smallest braid angle at rest allowed in a fit. [rad]
@@ -247,6 +250,8 @@ def _spring_spec(muscle: MuscleSpec, fmax: float, p, ell, f, direction) -> _Spec
         pg = np.linspace(0.0, pmax, 50)
         if np.any(np.diff(np.polyval(v[:3], pg)) > 1e-9 * l0):
             out.append("free_length_grows_with_pressure")
+        if abs(v[2] - l0) > NOMINAL_TOL * l0:
+            out.append("free_length_far_from_nominal")
         del model
         return out
 
