@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.errors import InputError, UnreachableError
+from mckibben.models import laws
 from mckibben.models.flags import Flag, flag_where, outside
 from mckibben.models.kinematic import braid_from_length, length_from_braid
 
@@ -372,26 +373,8 @@ def force_from_length(muscle: MiniatureMuscle, pressure, length) -> ForcePredict
         raise InputError(f"{muscle.name}: force needs cubics at two or more loads; it has {len(bmap.loads)}")
     pressure, length = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
     target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
-    p = pressure / MPA
-    table = np.asarray(bmap.coefficients)
     loads = np.asarray(bmap.loads)
-    cos_at = ((table[:, 0, None] * p.ravel() + table[:, 1, None]) * p.ravel() + table[:, 2, None]) * p.ravel() + table[:, 3, None]
-    cos_at = cos_at.reshape((len(loads),) + p.shape)
-    force = np.full(p.shape, np.nan)
-    # Piecewise linear in load: pick the segment whose cos θ interval holds the target; the end
-    # segments extend beyond the characterized loads.
-    nseg = len(loads) - 1
-    for i in range(nseg):
-        a, b = cos_at[i], cos_at[i + 1]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            w = (target - a) / (b - a)
-        inside = (w >= 0) & (w <= 1)
-        if i == 0:
-            inside |= w < 0
-        if i == nseg - 1:
-            inside |= w > 1
-        take = inside & np.isnan(force) & np.isfinite(w)
-        force[take] = (loads[i] + w * (loads[i + 1] - loads[i]))[take]
+    force = laws.evaluate("braid-map", pressure, length, laws.braid_map_theta(muscle))
     flags = (
         outside(pressure, *bmap.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
         | outside(np.nan_to_num(force, nan=loads[0]), loads[0], loads[-1], Flag.LOAD_OUT_OF_RANGE)

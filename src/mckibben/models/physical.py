@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mckibben.errors import InputError
+from mckibben.models import laws
 from mckibben.models.flags import Flag, flag_where
 
 
@@ -112,10 +113,6 @@ def miniature_geometry(nominal_length: float, geometry=None, wall: bool = True) 
     )
 
 
-def _cos_theta(length, geom: BraidGeometry):
-    return np.asarray(length, dtype=float) / geom.strand_length
-
-
 def chou_hannaford_force(pressure, length, geom: BraidGeometry):
     """Pulling force of the ideal thin-walled muscle.
 
@@ -139,8 +136,7 @@ def chou_hannaford_force(pressure, length, geom: BraidGeometry):
     ----------
     Chou & Hannaford (1996), eq. (6); NOTES.md.
     """
-    c = _cos_theta(length, geom)
-    return np.pi * geom.d0**2 * np.asarray(pressure, dtype=float) / 4.0 * (3.0 * c**2 - 1.0)
+    return laws.evaluate("chou-hannaford", pressure, length, laws.chou_hannaford_theta(geom.strand_length, geom.turns))
 
 
 def wall_corrected_force(pressure, length, geom: BraidGeometry):
@@ -166,11 +162,8 @@ def wall_corrected_force(pressure, length, geom: BraidGeometry):
     ----------
     Tsagarakis & Caldwell (2000); Davis et al. (2003); NOTES.md.
     """
-    p = np.asarray(pressure, dtype=float)
-    c = np.clip(_cos_theta(length, geom), -1.0, 1.0 - 1e-12)
-    s = np.sqrt(1.0 - c**2)
-    t = geom.wall_thickness
-    return chou_hannaford_force(p, length, geom) + np.pi * p * (geom.d0 * t * (2.0 * s - 1.0 / s) - t**2)
+    th = laws.chou_hannaford_theta(geom.strand_length, geom.turns, geom.wall_thickness)
+    return laws.evaluate("wall-corrected", pressure, length, th)
 
 
 def tondu_lopez_force(pressure, contraction, initial_radius, initial_angle, k=1.0):
@@ -195,16 +188,18 @@ def tondu_lopez_force(pressure, contraction, initial_radius, initial_angle, k=1.
     Returns
     -------
     numpy.ndarray
-        Force. [N]
+        Force (0 at negative gauge pressure). [N]
 
     References
     ----------
     Tondu & Lopez (2000), eq. (4); NOTES.md.
     """
-    a = 3.0 / np.tan(initial_angle) ** 2
-    b = 1.0 / np.sin(initial_angle) ** 2
     eps = np.asarray(contraction, dtype=float)
-    return np.pi * initial_radius**2 * np.asarray(pressure, dtype=float) * (a * (1.0 - k * eps) ** 2 - b)
+    th = laws.tondu_lopez_theta(initial_radius, initial_angle, k, 0.0, 1.0)
+    if th.ndim > 1:  # per-element parameters: broadcast them with the inputs
+        p, e, idx = np.broadcast_arrays(np.asarray(pressure, dtype=float), eps, np.arange(th[0].size).reshape(th.shape[1:]))
+        return laws.evaluate("tondu-lopez", p, 1.0 - e, th.reshape(laws.NTH, -1)[:, idx])
+    return laws.evaluate("tondu-lopez", pressure, 1.0 - eps, th)
 
 
 def tondu_lopez_contraction(pressure, force, initial_radius, initial_angle, k=1.0):
@@ -238,6 +233,52 @@ def tondu_lopez_contraction(pressure, force, initial_radius, initial_angle, k=1.
         eps = (1.0 - np.sqrt(q)) / k
     bad = ~(p > 0) | ~(q >= 0)
     return np.where(bad, np.nan, eps), flag_where(bad, Flag.SLACK)
+
+
+@dataclass(frozen=True)
+class TonduLopez:
+    """A Tondu–Lopez muscle with a pressure threshold: the plant's calibrated law as a static model.
+
+    F = π·r0²·max(P − P_th, 0)·[a(1 − k·ε)² − b], a = 3/tan²α0, b = 1/sin²α0, ε = 1 − l/l0.
+
+    Attributes
+    ----------
+    initial_radius : float
+        r0. [m]
+    initial_angle : float
+        α0, from the axis. [rad]
+    k : float
+        Contraction correction. [-]
+    p_threshold : float
+        Pressure the tube takes before the braid moves. [Pa]
+    nominal_length : float
+        Rest length l0. [m]
+    citation : str
+        Where the numbers come from.
+    """
+
+    initial_radius: float
+    initial_angle: float
+    k: float = 1.0
+    p_threshold: float = 0.0
+    nominal_length: float = 0.097
+    citation: str = "Tondu & Lopez (2000), eq. (4)"
+
+    def theta(self) -> np.ndarray:
+        """Parameters of :func:`mckibben.models.laws.tondu_lopez`. [SI]"""
+        return laws.tondu_lopez_theta(self.initial_radius, self.initial_angle, self.k, self.p_threshold,
+                                      self.nominal_length)
+
+    def force(self, pressure, length):
+        """Pulling force at a gauge pressure [Pa] and length [m] (the law's raw value). [N]"""
+        return laws.evaluate("tondu-lopez", pressure, length, self.theta())
+
+    def length_under_load(self, pressure, load):
+        """Equilibrium length under a hanging load [N] at a gauge pressure [Pa]; NaN with ``slack``
+        where the muscle pulls no load (P ≤ P_th). [m]"""
+        eps, flags = tondu_lopez_contraction(np.asarray(pressure, dtype=float) - self.p_threshold, load,
+                                             self.initial_radius, self.initial_angle, self.k)
+        return self.nominal_length * (1.0 - eps), flags
 
 
 def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-hannaford"):

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mckibben.errors import InputError
+from mckibben.models import laws
 from mckibben.models.flags import Flag, flag_where, outside
 
 #: The published stiffness terms (eq. 2 as read): exponents (i, j) of P^i·Ls^j for c3, c2, c1, c0.
@@ -167,8 +168,15 @@ def spring_force(length, pressure, model: SpringModel, direction=ELONGATION):
     """
     length, pressure = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(pressure, dtype=float))
     stretch = length - unstretched_length(pressure, model.h)
-    c = _coefficients_for(model, pressure, direction)
-    force = stiffness(pressure, stretch, c, model.terms) * stretch
+    if tuple(model.terms) == DEFAULT_TERMS and len(model.coefficients) == 4:
+        # the compiled law (mckibben.models.laws.spring), one coefficient set per direction
+        d = np.broadcast_to(np.asarray(direction), pressure.shape)
+        force = np.where(d == ELONGATION, laws.evaluate("spring", pressure, length, laws.spring_theta(model, ELONGATION)),
+                         laws.evaluate("spring", pressure, length, laws.spring_theta(model, CONTRACTION)))
+        force = np.where(np.isin(d, DIRECTIONS), force, np.nan)
+    else:  # other stiffness terms: the general polynomial
+        c = _coefficients_for(model, pressure, direction)
+        force = stiffness(pressure, stretch, c, model.terms) * stretch
     flags = (
         flag_where(stretch < 0, Flag.SLACK)
         | outside(pressure, *model.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)

@@ -10,8 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from mckibben.plant import params as PP
-from mckibben.plant import physics as ph
-from mckibben.plant.simulator import simulate
+from mckibben.plant.simulator import simulate, static_length
 
 #: PWM count of the open-loop calibration step: a voltage step to 2.29 V of 5 V, five counts above
 #: the valves' lift-off (112 counts, ``docs/plant.md``), whose steady pressure (≈ 0.5 MPa, where
@@ -87,7 +86,6 @@ def calibration(plant: PP.PlantParams | None = None) -> dict:
     """
     plant = plant or PP.PlantParams()
     _, step = open_loop_step(plant)
-    prm = plant.pack(1)[0]
     # The rig's own experiments, dynamically: the inlet opened fully on a sealed muscle (no
     # leak) fed at 0.8 MPa, the end blocked (load cell) or carrying 0.6 N, until it settles.
     sealed = plant.replace(leak_conductance=0.0, supply_pressure=0.8e6)
@@ -95,7 +93,7 @@ def calibration(plant: PP.PlantParams | None = None) -> dict:
     hanging_run = simulate(sealed.replace(load_kind="hanging", load_force=0.6), 0.6, inlet=255, n=1)
     blocked = float(blocked_run.force[0, -1])
     length = float(hanging_run.length[0, -1])
-    static_length = float(ph.static_length(0.8e6, sealed.replace(load_force=0.6).pack(1)[0]))
+    static = float(static_length(sealed.replace(load_force=0.6), 0.8e6)[0])
     checks = {
         "time_constant": 0.08 <= (step["time_constant_s"] or 0) <= 0.10,
         "no_overshoot": step["overshoot_pct"] < 1.0,
@@ -109,9 +107,9 @@ def calibration(plant: PP.PlantParams | None = None) -> dict:
         "paper_blocked_force_N": 4.2,
         "length_m": length,
         "paper_length_m": 78.1e-3,
-        "contraction": 1.0 - length / float(prm[PP.I_NOMINAL_LENGTH]),
+        "contraction": 1.0 - length / float(plant.nominal_length),
         "blocked_pressure_Pa": float(blocked_run.pressure[0, -1]),
-        "static_length_m": static_length,
+        "static_length_m": static,
         "paper_time_constant_s": 0.09,
         "checks": checks,
         "pass": all(checks.values()),

@@ -1,19 +1,21 @@
 """Plant parameters: a frozen dataclass in SI, packed into one float row per instance.
 
-Every parameter may be a scalar or an array of N (one value per simulated instance);
-:meth:`PlantParams.pack` broadcasts them to an ``(N, NP)`` float64 array whose columns are named
-by the ``I_*`` indices below. ``docs/plant.md`` says how each default was chosen.
+Every numeric parameter may be a scalar or an array of N (one value per simulated instance);
+:meth:`PlantParams.pack` broadcasts them to an ``(N, NP)`` float64 array whose columns are the
+members of the :class:`Col` enum. ``docs/plant.md`` says how each default was chosen.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import enum
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from mckibben import hardware as HW
 from mckibben.errors import InputError, unknown_name
+from mckibben.models import laws as LW
 from mckibben.models.mpam import MiniatureMuscle, predict_length
 
 P_ATM = 101325.0  #: atmospheric pressure [Pa]
@@ -22,22 +24,41 @@ T0 = 293.15  #: ISO 6358 reference temperature, also the supply temperature [K]
 RHO0 = 1.185  #: ISO 6358 reference density of air (ANR, 20 °C, 1 atm) [kg/m³]
 G = 9.80665  #: standard gravity [m/s²]
 
-#: Force laws, by name (see :mod:`mckibben.plant.physics`).
-FORCE_MODELS = {"calibrated": 0, "tondu-lopez": 0, "chou-hannaford": 1, "empirical": 2}
+GAMMA = 1.4  #: ratio of specific heats of air [-]
+#: Nusselt number of laminar, fully developed flow in a tube at constant wall temperature
+#: (Incropera & DeWitt, Fundamentals of Heat and Mass Transfer, §8.4.1): h = Nu·k/d.
+NUSSELT_TUBE = 3.66
+K_AIR = 0.0257  #: thermal conductivity of air at 20 °C [W/(m·K)]
+
+#: Force laws, by name: the plant's names for the registered laws of :mod:`mckibben.models.laws`.
+FORCE_MODELS = {
+    "calibrated": "tondu-lopez", "tondu-lopez": "tondu-lopez", "chou-hannaford": "chou-hannaford",
+    "wall-corrected": "wall-corrected", "empirical": "braid-map", "braid-map": "braid-map", "spring": "spring",
+}
+#: Chamber thermodynamics, by name.
+THERMAL = ("energy", "polytropic")
+
+
+class Load(enum.IntEnum):
+    """Load kinds (the ``load_kind`` column)."""
+
+    hanging = 0
+    blocked = 1
+    spring = 2
+
+
 #: Loads, by name.
-LOADS = {"hanging": 0, "blocked": 1, "spring": 2}
+LOADS = {k.name: int(k) for k in Load}
 
 _FIELDS = [
     # supply and valves
     "supply_pressure", "supply_droop", "valve_conductance", "bleed_conductance", "critical_ratio",
     "valve_tau", "dead_band", "driver_gain",
     # chamber
-    "dead_volume", "leak_conductance", "polytropic_n", "temperature",
-    # muscle geometry (volume) and force law
-    "nominal_length", "strand_length", "k1", "k2", "outer_diameter", "inner_diameter",
-    "force_model", "r0", "alpha0", "k_tl", "p_threshold", "ch_turns",
-    "emp_load_lo", "emp_load_hi", "emp_c3_lo", "emp_c2_lo", "emp_c1_lo", "emp_c0_lo",
-    "emp_c3_hi", "emp_c2_hi", "emp_c1_hi", "emp_c0_hi",
+    "dead_volume", "leak_conductance", "polytropic_n", "temperature", "tube_diameter", "heat_transfer_coefficient",
+    # muscle geometry (volume) and force law parameters
+    "nominal_length", "strand_length", "k1", "k2", "outer_diameter", "inner_diameter", "wall_thickness",
+    "r0", "alpha0", "k_tl", "p_threshold", "ch_turns",
     "passive_stiffness", "friction_force", "friction_per_pa", "friction_stiffness",
     # load
     "load_kind", "load_force", "moving_mass", "damping", "spring_stiffness", "spring_free_length",
@@ -45,10 +66,11 @@ _FIELDS = [
     "adc_zero", "pa_per_count", "encoder_resolution", "pressure_noise", "seed",
 ]
 #: Columns derived from the fields by :meth:`PlantParams.pack` (constants of the hot loop).
-_DERIVED = ["tl_a", "tl_b", "sin0", "rho_atm", "inv_valve_tau", "l_straight"]
-for _i, _name in enumerate(_FIELDS + _DERIVED):
-    globals()[f"I_{_name.upper()}"] = _i
-NP = len(_FIELDS) + len(_DERIVED)
+_DERIVED = ["inv_k1ls", "od_sin0", "wall_step", "d_min", "inv_valve_tau", "l_min", "l_max", "mobile", "inv_mass",
+            "spring_rate", "k_gas", "inflow_at_supply", "h_area", "inv_1mb", "phi_laminar", "g_supply"]
+#: The packed parameter columns: fields, then derived constants.
+Col = enum.IntEnum("Col", [(name, i) for i, name in enumerate(_FIELDS + _DERIVED)])
+NP = len(Col)
 
 
 def calibrate_force_law(muscle: MiniatureMuscle, blocked_force: float | None = None, alpha0: float | None = None):
@@ -99,7 +121,7 @@ class PlantParams:
 
     Defaults are the paper's rig with the 97 mm muscle (``docs/plant.md`` gives each choice).
     Pressures are gauge unless named otherwise. Use :meth:`for_muscle` for another muscle and
-    :func:`dataclasses.replace` (or keyword arguments) to change any parameter.
+    :meth:`replace` (or keyword arguments) to change any parameter.
 
     Attributes
     ----------
@@ -123,34 +145,35 @@ class PlantParams:
     leak_conductance : float
         Sonic conductance of the leak to atmosphere (0: no leak). [m³/(s·Pa)]
     polytropic_n : float
-        Polytropic exponent of the air in the chamber (1 isothermal … 1.4 adiabatic). [-]
+        Polytropic exponent, used by ``thermal="polytropic"`` only (1 isothermal … 1.4 adiabatic). [-]
     temperature : float
-        Supply air temperature. [K]
+        Supply air and wall (room) temperature. [K]
+    tube_diameter : float
+        Inner diameter of the tubing that makes the dead volume (its wall area exchanges heat). [m]
+    heat_transfer_coefficient : float
+        Film coefficient h between the chamber air and its walls; default Nu·k/d of laminar
+        flow in the tube (Nu = 3.66). 0 is the adiabatic chamber. [W/(m²·K)]
     nominal_length, strand_length, k1, k2 : float
         The muscle: rest length, braid strand length, eq. (2) correction. [m], [m], [-], [m]
     outer_diameter, inner_diameter : float
         Muscle outer diameter and tube lumen diameter at rest. [m]
-    force_model : float
-        0 calibrated Tondu–Lopez (with threshold), 1 Chou–Hannaford, 2 empirical map. [-]
+    wall_thickness : float
+        Tube wall thickness of the wall-corrected law. [m]
     r0, alpha0, k_tl, p_threshold : float
         Tondu–Lopez radius, rest braid angle, contraction correction, pressure threshold.
         [m], [rad], [-], [Pa]
     ch_turns : float
         Chou–Hannaford turns of one strand (its strand length is ``strand_length``). [-]
-    emp_load_lo, emp_load_hi : float
-        Empirical map: the two characterized loads. [N]
-    emp_c3_lo … emp_c0_hi : float
-        Empirical map: cubic coefficients (P in MPa) at the two loads. [-]
     passive_stiffness : float
         Axial stiffness of the tube stretched beyond its rest length. [N/m]
     friction_force, friction_per_pa : float
-        Braid friction (Dahl model) limit: F_c = friction_force + friction_per_pa·P. [N], [N/Pa]
+        Braid friction (Dahl model) limit: F_c = friction_force + friction_per_pa·P (0: none). [N], [N/Pa]
     friction_stiffness : float
         Dahl model rest stiffness σ. [N/m]
     load_kind : float
-        0 hanging mass, 1 blocked (isometric), 2 spring. [-]
+        0 hanging mass, 1 blocked (isometric), 2 spring (:class:`Load`). [-]
     load_force : float
-        Hanging weight (hanging) or the spring's preload at the rest length. [N]
+        Hanging weight (hanging) or the spring's preload at its free length. [N]
     moving_mass : float
         Pulley, belt and muscle end (the hanging mass is added to it). [kg]
     damping : float
@@ -158,13 +181,22 @@ class PlantParams:
     spring_stiffness, spring_free_length : float
         Spring load: stiffness and the muscle length at which it is relaxed. [N/m], [m]
     adc_zero, pa_per_count : float
-        Pressure transducer and 10-bit ADC: count = P/pa_per_count + adc_zero. [-], [Pa]
+        Pressure transducer and 10-bit ADC (:mod:`mckibben.hardware`). [-], [Pa]
     encoder_resolution : float
-        Belt travel per encoder count (500 counts per pulley turn). [m]
+        Belt travel per encoder count. [m]
     pressure_noise : float
         Standard deviation of the transducer noise (0: none). [Pa]
     seed : float
         Seed of the instance's noise generator. [-]
+    force_model : str or model
+        The force law: a name of :data:`FORCE_MODELS` (``"calibrated"``: Tondu–Lopez with the
+        threshold from the fields above; ``"empirical"``: the muscle's braid-angle map) or a static
+        model object (a published or fitted ``MiniatureMuscle``, ``TonduLopez``, ``BraidGeometry``,
+        ``SpringModel``; see :func:`mckibben.models.laws.law_of`).
+    thermal : str
+        ``"energy"`` (energy balance with wall heat exchange) or ``"polytropic"``.
+    muscle : MiniatureMuscle, optional
+        The muscle whose braid-angle map ``force_model="empirical"`` uses (default: ``muscle_name``'s).
     """
 
     supply_pressure: object = 0.8e6
@@ -175,32 +207,24 @@ class PlantParams:
     valve_tau: object = 3e-3
     dead_band: object = 0.63
     driver_gain: object = 1.43
-    dead_volume: object = 3.0e-7
+    dead_volume: object = 2.5e-7
     leak_conductance: object = 2.0e-11
     polytropic_n: object = 1.2
     temperature: object = T0
+    tube_diameter: object = 1.0e-3
+    heat_transfer_coefficient: object = None
     nominal_length: object = 0.097
     strand_length: object = 0.112
     k1: object = 0.92
     k2: object = 0.77e-3
     outer_diameter: object = 1.2e-3
     inner_diameter: object = 0.5e-3
-    force_model: object = 0.0
+    wall_thickness: object = 0.2e-3
     r0: object = 0.0
     alpha0: object = float(np.deg2rad(20.0))
     k_tl: object = 1.0
     p_threshold: object = 0.0
     ch_turns: object = 0.0
-    emp_load_lo: object = 0.6
-    emp_load_hi: object = 2.1
-    emp_c3_lo: object = -0.6
-    emp_c2_lo: object = 0.9
-    emp_c1_lo: object = -0.71
-    emp_c0_lo: object = 1.05
-    emp_c3_hi: object = -0.1
-    emp_c2_hi: object = 0.1
-    emp_c1_hi: object = -0.06
-    emp_c0_hi: object = 0.94
     passive_stiffness: object = 200.0
     friction_force: object = 0.01
     friction_per_pa: object = 0.2e-6
@@ -216,6 +240,9 @@ class PlantParams:
     encoder_resolution: object = HW.ENCODER_RESOLUTION
     pressure_noise: object = 0.0
     seed: object = 0.0
+    force_model: object = "calibrated"
+    thermal: str = "energy"
+    muscle: object = field(default=None, compare=False)
     muscle_name: str = field(default="mpam97", compare=False)
 
     def __post_init__(self):
@@ -231,6 +258,14 @@ class PlantParams:
             c0 = np.clip(np.asarray(self.nominal_length, dtype=float) / b, 0.0, 1.0)
             d = np.asarray(self.outer_diameter, dtype=float) - 0.1e-3
             object.__setattr__(self, "ch_turns", b * np.sqrt(1 - c0**2) / (np.pi * d))
+        if self.heat_transfer_coefficient is None:
+            d = np.asarray(self.tube_diameter, dtype=float)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                object.__setattr__(self, "heat_transfer_coefficient", NUSSELT_TUBE * K_AIR / d)
+        if isinstance(self.force_model, str) and self.force_model not in FORCE_MODELS:
+            raise unknown_name("force model", self.force_model, FORCE_MODELS)
+        if self.thermal not in THERMAL:
+            raise unknown_name("thermal model", self.thermal, THERMAL)
 
     @classmethod
     def for_muscle(cls, muscle: MiniatureMuscle, **kwargs) -> "PlantParams":
@@ -239,47 +274,33 @@ class PlantParams:
         Parameters
         ----------
         muscle : MiniatureMuscle
-            The muscle (two characterized loads needed for the empirical force law).
+            The muscle (its braid-angle map drives ``force_model="empirical"``).
         **kwargs
             Any other :class:`PlantParams` field. [SI]
         """
-        bm = muscle.braid_map
-        emp = {}
-        if len(bm.loads) >= 2:
-            (c_lo, c_hi) = bm.coefficients[0], bm.coefficients[-1]
-            emp = dict(
-                emp_load_lo=bm.loads[0], emp_load_hi=bm.loads[-1],
-                emp_c3_lo=c_lo[0], emp_c2_lo=c_lo[1], emp_c1_lo=c_lo[2], emp_c0_lo=c_lo[3],
-                emp_c3_hi=c_hi[0], emp_c2_hi=c_hi[1], emp_c1_hi=c_hi[2], emp_c0_hi=c_hi[3],
-            )
         base = dict(
             nominal_length=muscle.nominal_length, strand_length=muscle.strand_length,
             k1=muscle.k1, k2=muscle.k2, outer_diameter=muscle.geometry.outer_diameter,
-            inner_diameter=muscle.geometry.tube_inner_diameter, spring_free_length=muscle.nominal_length,
-            muscle_name="", **emp, **calibrate_force_law(muscle),
+            inner_diameter=muscle.geometry.tube_inner_diameter, wall_thickness=muscle.geometry.wall_thickness,
+            spring_free_length=muscle.nominal_length, muscle_name="", muscle=muscle, **calibrate_force_law(muscle),
         )
         base.update(kwargs)
         return cls(**base)
 
     def replace(self, **kwargs) -> "PlantParams":
-        """A copy with some fields changed (named loads and force models accepted).
+        """A copy with some fields changed (named loads accepted).
 
         Parameters
         ----------
         **kwargs
-            Fields of :class:`PlantParams`; ``force_model`` and ``load_kind`` may be names. [SI]
+            Fields of :class:`PlantParams`; ``load_kind`` may be a name. [SI]
         """
-        if isinstance(kwargs.get("force_model"), str):
-            name = kwargs["force_model"]
-            if name not in FORCE_MODELS:
-                raise unknown_name("force model", name, FORCE_MODELS)
-            kwargs["force_model"] = float(FORCE_MODELS[name])
         if isinstance(kwargs.get("load_kind"), str):
             name = kwargs["load_kind"]
             if name not in LOADS:
                 raise unknown_name("load", name, LOADS)
             kwargs["load_kind"] = float(LOADS[name])
-        bad = [k for k in kwargs if k not in _FIELDS and k != "muscle_name"]
+        bad = [k for k in kwargs if k not in _FIELDS and k not in ("muscle_name", "force_model", "thermal", "muscle")]
         if bad:
             raise unknown_name("plant parameter", bad[0], _FIELDS)
         return dataclasses.replace(self, **kwargs)
@@ -292,7 +313,7 @@ class PlantParams:
         return sizes.pop() if sizes else 1
 
     def pack(self, n: int | None = None) -> np.ndarray:
-        """The ``(N, NP)`` float64 parameter array, validated.
+        """The ``(N, NP)`` float64 parameter array (columns :class:`Col`), validated.
 
         Parameters
         ----------
@@ -309,26 +330,107 @@ class PlantParams:
                 raise InputError(f"plant parameter {name}: scalar or 1-D array, got shape {value.shape}")
             out[:, j] = np.broadcast_to(value.ravel() if value.ndim else value, (n,))
         validate(out)
-        derive(out)
+        derive(out, self.thermal)
         return out
 
+    def law(self, n: int | None = None) -> tuple[str, np.ndarray]:
+        """The force law's registry name and its parameters θ, ``(NTH, N)``.
 
-def derive(p: np.ndarray) -> None:
+        Parameters
+        ----------
+        n : int, optional
+            Number of instances; default :meth:`size`.
+        """
+        n = self.size() if n is None else int(n)
+        fm = self.force_model
+        col = {f: np.broadcast_to(np.asarray(getattr(self, f), dtype=float), (n,)) for f in
+               ("r0", "alpha0", "k_tl", "p_threshold", "nominal_length", "strand_length", "ch_turns", "wall_thickness")}
+        if not isinstance(fm, str):
+            name, th = LW.law_of(fm)
+            return name, np.repeat(th[:, None], n, axis=1)
+        name = FORCE_MODELS[fm]
+        if name == "tondu-lopez":
+            return name, LW.tondu_lopez_theta(col["r0"], col["alpha0"], col["k_tl"], col["p_threshold"],
+                                              col["nominal_length"])
+        if name in ("chou-hannaford", "wall-corrected"):
+            t = col["wall_thickness"] if name == "wall-corrected" else 0.0
+            return name, LW.chou_hannaford_theta(col["strand_length"], col["ch_turns"], t)
+        if name == "braid-map":
+            muscle = self.muscle
+            if muscle is None:
+                from mckibben.datasets import get_muscle
+
+                if not self.muscle_name:
+                    raise InputError("force_model='empirical' needs a muscle (PlantParams.for_muscle or muscle=...)")
+                muscle = get_muscle(self.muscle_name)
+            return name, np.repeat(LW.braid_map_theta(muscle)[:, None], n, axis=1)
+        raise InputError(f"force_model={fm!r} needs its model object (e.g. force_model=SpringModel(...))")
+
+    def prepare(self, n: int | None = None):
+        """Everything the integrator needs, checked: ``(prm (N, NP), law index, θ (NTH, N), law name)``.
+
+        Raises :class:`~mckibben.errors.InputError` for parameters the integrator cannot run,
+        naming the parameter, or, for the force law, the pressures and lengths where it fails
+        (:func:`check_force_law`).
+
+        Parameters
+        ----------
+        n : int, optional
+            Number of instances; default :meth:`size`.
+        """
+        prm = self.pack(n)
+        name, th = self.law(prm.shape[0])
+        th = np.ascontiguousarray(th, dtype=float)
+        check_force_law(name, prm, th, self._law_label())
+        return prm, LW.LAW_INDEX[name], th, name
+
+    def _law_label(self) -> str:
+        fm = self.force_model
+        if not isinstance(fm, str):
+            return f"{type(fm).__name__} {getattr(fm, 'name', '')}".strip()
+        who = getattr(self.muscle, "name", None) or self.muscle_name
+        return f"{fm} ({who})" if who else fm
+
+
+def derive(p: np.ndarray, thermal: str = "energy") -> None:
     """Fill the derived columns of packed, validated parameters (in place).
 
     Parameters
     ----------
     p : numpy.ndarray
         Packed ``(N, NP)`` parameters.
+    thermal : str, default "energy"
+        The chamber model (:data:`THERMAL`).
     """
-    a0 = p[:, I_ALPHA0]
-    p[:, I_TL_A] = 3.0 / np.tan(a0) ** 2
-    p[:, I_TL_B] = 1.0 / np.sin(a0) ** 2
-    c0 = np.clip((p[:, I_NOMINAL_LENGTH] - p[:, I_K2]) / (p[:, I_K1] * p[:, I_STRAND_LENGTH]), 0.05, 0.9999)
-    p[:, I_SIN0] = np.sqrt(1.0 - c0**2)
-    p[:, I_RHO_ATM] = P_ATM / (R_AIR * p[:, I_TEMPERATURE])
-    p[:, I_INV_VALVE_TAU] = 1.0 / p[:, I_VALVE_TAU]
-    p[:, I_L_STRAIGHT] = p[:, I_K1] * p[:, I_STRAND_LENGTH] + p[:, I_K2]
+    c = Col
+    k1ls = p[:, c.k1] * p[:, c.strand_length]
+    p[:, c.inv_k1ls] = 1.0 / k1ls
+    c0 = np.clip((p[:, c.nominal_length] - p[:, c.k2]) / k1ls, 0.05, 0.9999)
+    p[:, c.od_sin0] = p[:, c.outer_diameter] / np.sqrt(1.0 - c0**2)
+    p[:, c.wall_step] = p[:, c.outer_diameter] - p[:, c.inner_diameter]
+    p[:, c.d_min] = 0.1 * p[:, c.inner_diameter]
+    p[:, c.inv_valve_tau] = 1.0 / p[:, c.valve_tau]
+    # end stops: the braid's locking angle (cos θ = 1/√3, where an ideal braid's force vanishes)
+    # and the straight braid (cos θ = 1), through eq. (2)
+    p[:, c.l_min] = k1ls / np.sqrt(3.0) + p[:, c.k2]
+    p[:, c.l_max] = k1ls + p[:, c.k2]
+    kind = p[:, c.load_kind]
+    p[:, c.mobile] = np.where(kind == Load.blocked, 0.0, 1.0)
+    hang = kind == Load.hanging
+    p[:, c.inv_mass] = 1.0 / (p[:, c.moving_mass] + np.where(hang, p[:, c.load_force] / G, 0.0))
+    p[:, c.spring_rate] = np.where(kind == Load.spring, p[:, c.spring_stiffness], 0.0)
+    energy = thermal == "energy"
+    p[:, c.k_gas] = GAMMA if energy else p[:, c.polytropic_n]
+    p[:, c.inflow_at_supply] = 1.0 if energy else 0.0
+    # wall area: the tubing (4·V/d of a tube) and the muscle's lumen at rest
+    area = 4.0 * p[:, c.dead_volume] / p[:, c.tube_diameter] + np.pi * p[:, c.inner_diameter] * p[:, c.nominal_length]
+    p[:, c.h_area] = p[:, c.heat_transfer_coefficient] * area if energy else 0.0
+    # ISO 6358 constants of the flow function (critical ratio b) and √(T0/T_supply)
+    b = p[:, c.critical_ratio]
+    p[:, c.inv_1mb] = 1.0 / (1.0 - b)
+    sl = (0.999 - b) / (1.0 - b)
+    p[:, c.phi_laminar] = np.sqrt(1.0 - sl * sl) / (1.0 - 0.999)
+    p[:, c.g_supply] = np.sqrt(T0 / p[:, c.temperature])
 
 
 def validate(p: np.ndarray) -> None:
@@ -352,10 +454,11 @@ def validate(p: np.ndarray) -> None:
     for name in _FIELDS:
         check(np.isfinite(col[name]), name, "must be a finite number")
     check(col["supply_pressure"] > 0, "supply_pressure", "the supply must be above atmosphere (gauge > 0)")
-    check(col["supply_pressure"] <= 1.0e6, "supply_pressure", "the compressor gives at most 1 MPa")
+    check(col["supply_pressure"] <= HW.P_MAX_LIMIT, "supply_pressure", "the compressor gives at most 1 MPa")
     check((col["supply_droop"] >= 0) & (col["supply_droop"] < 1), "supply_droop", "must be in [0, 1)")
     for name in ("valve_conductance", "bleed_conductance", "leak_conductance", "friction_force", "friction_per_pa",
-                 "passive_stiffness", "damping", "spring_stiffness", "pressure_noise", "p_threshold"):
+                 "passive_stiffness", "damping", "spring_stiffness", "pressure_noise", "p_threshold",
+                 "heat_transfer_coefficient", "wall_thickness"):
         check(col[name] >= 0, name, "must be >= 0")
     check((col["critical_ratio"] > 0) & (col["critical_ratio"] < 1), "critical_ratio", "must be in (0, 1)")
     check(col["valve_tau"] > 0, "valve_tau", "must be > 0")
@@ -365,18 +468,73 @@ def validate(p: np.ndarray) -> None:
     check((col["polytropic_n"] >= 1) & (col["polytropic_n"] <= 1.4), "polytropic_n", "must be in [1, 1.4]")
     check(col["temperature"] > 0, "temperature", "must be > 0 K")
     for name in ("nominal_length", "strand_length", "outer_diameter", "inner_diameter", "k1", "moving_mass",
-                 "pa_per_count", "encoder_resolution", "friction_stiffness", "r0"):
+                 "pa_per_count", "encoder_resolution", "friction_stiffness", "r0", "tube_diameter"):
         check(col[name] > 0, name, "must be > 0")
     check(col["nominal_length"] < col["strand_length"] * col["k1"] + col["k2"], "nominal_length",
           "must be shorter than the straightened braid k1·Ls + k2")
+    check(col["nominal_length"] > col["strand_length"] * col["k1"] / np.sqrt(3.0) + col["k2"], "nominal_length",
+          "must be longer than the braid at its locking angle k1·Ls/√3 + k2")
     check(col["inner_diameter"] < col["outer_diameter"], "inner_diameter", "must be below the outer diameter")
     check((col["alpha0"] > 0) & (col["alpha0"] < np.pi / 2), "alpha0", "must be in (0, 90°)")
-    check(np.isin(col["force_model"], [0, 1, 2]), "force_model", "must be 0, 1 or 2 (see FORCE_MODELS)")
-    check(np.isin(col["load_kind"], [0, 1, 2]), "load_kind", "must be 0, 1 or 2 (see LOADS)")
+    check(np.isin(col["load_kind"], list(LOADS.values())), "load_kind", "must be 0, 1 or 2 (see LOADS)")
     check(col["load_force"] >= 0, "load_force", "a hanging weight must be >= 0")
-    check(col["emp_load_hi"] > col["emp_load_lo"], "emp_load_hi", "must exceed emp_load_lo")
+
+
+def check_force_law(name: str, prm: np.ndarray, theta: np.ndarray, label: str = "") -> None:
+    """Refuse a force law the integrator cannot run over the operating range, naming where.
+
+    The operating range of an instance is its pressures 0..supply and its lengths between the
+    end stops. Over a grid of it (17 pressures × 97 lengths), wherever the law pulls (its value
+    is positive), its force must be finite and must not fall as the muscle lengthens: with a
+    negative stiffness a hanging load has no stable rest (the published 97 and 117 mm maps below
+    ~0.23 MPa: a heavier load would give a *shorter* muscle) and the dynamics run away.
+    Instances with equal law, geometry and supply are checked once.
+
+    Parameters
+    ----------
+    name : str
+        Law name (:data:`mckibben.models.laws.LAWS`).
+    prm : numpy.ndarray
+        Packed ``(N, NP)`` parameters.
+    theta : numpy.ndarray
+        The law's ``(NTH, N)`` parameters.
+    label : str
+        How to name the law in the message.
+    """
+    c = Col
+    key = np.concatenate([theta.T, prm[:, [c.supply_pressure, c.l_min, c.l_max]]], axis=1)
+    uniq, first = np.unique(key, axis=0, return_index=True)
+    if len(first) > 64:  # many different instances (a sweep): the envelope of each law vector
+        key2 = np.concatenate([theta.T, prm[:, [c.l_min, c.l_max]]], axis=1)
+        _, first = np.unique(key2, axis=0, return_index=True)
+    np_, nl = 17, 97
+    for i in np.sort(first)[:256]:
+        supply = float(prm[i, c.supply_pressure]) if len(first) <= 64 else HW.P_MAX_LIMIT
+        pg = np.linspace(0.0, supply, np_)[:, None]
+        ln = np.linspace(prm[i, c.l_min], prm[i, c.l_max], nl)[None, :]
+        f = LW.evaluate(name, pg, ln, theta[:, i])
+        active = f > 0
+        if not np.all(np.isfinite(f[active])) or np.any(np.isnan(f)):
+            bad = ~np.isfinite(f)
+            where = _range_text(pg[:, 0], ln[0], bad)
+            raise InputError(f"force law {label or name} (instance {i}): no finite force at {where}")
+        both = active[:, 1:] & active[:, :-1]
+        falls = both & (np.diff(f, axis=1) < -1e-9 * np.maximum(np.abs(f[:, 1:]), 1e-12))
+        if np.any(falls):
+            where = _range_text(pg[:, 0], 0.5 * (ln[0, 1:] + ln[0, :-1]), falls)
+            raise InputError(
+                f"force law {label or name} (instance {i}): the muscle pulls less when stretched (negative "
+                f"stiffness) at {where}, inside its operating range 0..{supply / 1e6:g} MPa × "
+                f"{prm[i, c.l_min] * 1e3:.1f}..{prm[i, c.l_max] * 1e3:.1f} mm: a load has no stable rest there; "
+                "use another force law or a map that rises with length")
+
+
+def _range_text(p, length, mask) -> str:
+    rows, cols = np.nonzero(mask)
+    return (f"{p[rows.min()] / 1e6:.3g}..{p[rows.max()] / 1e6:.3g} MPa, "
+            f"{length[cols.min()] * 1e3:.1f}..{length[cols.max()] * 1e3:.1f} mm")
 
 
 def field_names() -> list[str]:
-    """The packed parameter columns, in order."""
+    """The packed parameter columns set from fields, in order."""
     return list(_FIELDS)

@@ -1,7 +1,17 @@
-"""The rig's components as Numba functions of one instance's state and parameter row.
+"""The rig's physics for a block of instances: structure of arrays, instances innermost.
 
-State of one instance (``NS`` values): air mass in the chamber m [kg], inlet and bleed valve
-openings x_in, x_bl [-], muscle length l [m], its rate v [m/s], braid friction force z [N].
+A *block* holds up to :data:`W` instances ("lanes") in one flat float64 array: its parameters
+(rows of :class:`~mckibben.plant.params.Col`), its force law's parameters
+(:mod:`mckibben.models.laws`), its state with the four Runge–Kutta slopes and a scratch area, each
+row W lanes long (:data:`OFF_P`, :data:`OFF_TH`, :data:`OFF_ST`, :data:`OFF_SC`). Every function
+here loops over the lanes innermost with no branch the compiler cannot turn into a select, and
+addresses every row at a compile-time offset from the one base pointer: LLVM then proves the
+rows independent without run-time alias checks and vectorizes each loop across instances (with
+2-D arrays whose strides are run-time values it did not; ``docs/plant.md``).
+
+State of one lane (``NS`` rows): absolute chamber pressure p [Pa], gas temperature T [K], inlet
+and bleed valve openings x_in, x_bl [-], muscle length l [m], its rate v [m/s], braid friction
+force z [N].
 
 Components (``docs/plant.md`` gives the parameters and why):
 
@@ -9,292 +19,380 @@ Components (``docs/plant.md`` gives the parameters and why):
 - valves: ISO 6358 flow through a sonic conductance C·x with critical pressure ratio b (choked
   below b, elliptic subsonic branch above, linearised in the last 0.1 % before equal pressures so
   the flow stays Lipschitz); opening x follows the coil current with a first-order lag; the coil
-  current is the Arduino's PWM duty through the LM358 driver (gain, saturating at full current);
-  below the dead band the valve stays shut;
-- chamber: ideal gas, polytropic: p/ρⁿ constant for the gas in the chamber, so
-  ṗ = (n/V)(R·T·ṁ − p·V̇) with T the gas temperature; volume = tubing dead volume + the tube lumen
-  of the braid's diameter at the actual braid angle (eq. 2 gives θ from l); optional leak;
-- muscle force: a named static law (calibrated Tondu–Lopez, Chou–Hannaford, or the empirical
-  map of eq. 2+3 solved for the load), never pushing; passive tube stiffness beyond the rest
-  length; braid friction as a Dahl element (rate-independent hysteresis: inflating needs more
-  pressure than deflating);
+  current is the Arduino's PWM duty through the LM358 driver; below the dead band the valve stays
+  shut;
+- chamber: ideal gas with *pressure* as the state (no ``pow`` in the right-hand side). Energy
+  balance with wall heat exchange (Richer & Hurmuzlu 2000, eq. 9–10; inflow at the supply
+  temperature, outflow at the chamber's):
+
+      ṗ = (γ/V)·(R·Σ ṁ_k·T_k − p·V̇) + ((γ − 1)/V)·h·A·(T_w − T)
+      Ṫ = (T/(p·V))·(V·ṗ + p·V̇ − R·T·ṁ)
+
+  h·A = 0 is the adiabatic chamber, h·A → ∞ the isothermal one. The *polytropic* option (the
+  previous model, kept for comparison) is the same equations with γ → n, every T_k = T and
+  h·A = 0, which is exactly p/ρⁿ = const;
+- volume: tubing dead volume plus the tube lumen of the braid's diameter at the actual braid
+  angle (eq. 2 gives θ from l); optional leak;
+- muscle force: a registered law of :mod:`mckibben.models.laws` (the static models' own kernel),
+  never pushing; passive tube stiffness beyond the rest length; braid friction as a Dahl element;
+  *end stops*: the length stays between the braid's locking length (cos θ = 1/√3) and its
+  straight length (cos θ = 1), where the load rests on the braid instead of stretching it;
 - load: hanging mass over the pulley (gravity, damping), a blocked end, or a spring.
 
 References
 ----------
-ISO 6358-1:2013 (flow through pneumatic components); Tondu & Lopez (2000); Chou & Hannaford
-(1996); 000_909f662a44080c85.txt eq. (2)–(3), §III–IV; Dahl, P. R. (1968), A solid friction model.
+ISO 6358-1:2013; Richer, E., Hurmuzlu, Y. (2000), A high performance pneumatic force actuator
+system, ASME J. Dyn. Syst. Meas. Control 122(3), 416–425; Tondu & Lopez (2000); Chou &
+Hannaford (1996); 000_909f662a44080c85.txt eq. (2)–(3), §III–IV; Dahl, P. R. (1968).
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
+from mckibben.models import laws as LW
 from mckibben.plant import params as P
 
-NS = 6
-S_MASS, S_XIN, S_XBL, S_LEN, S_VEL, S_FRIC = range(NS)
-
-# column indices, as module constants Numba can fold
-I_SUPPLY = P.I_SUPPLY_PRESSURE
-I_DROOP = P.I_SUPPLY_DROOP
-I_CIN = P.I_VALVE_CONDUCTANCE
-I_CBL = P.I_BLEED_CONDUCTANCE
-I_B = P.I_CRITICAL_RATIO
-I_TAUV = P.I_VALVE_TAU
-I_DB = P.I_DEAD_BAND
-I_DRV = P.I_DRIVER_GAIN
-I_VDEAD = P.I_DEAD_VOLUME
-I_CLEAK = P.I_LEAK_CONDUCTANCE
-I_N = P.I_POLYTROPIC_N
-I_T = P.I_TEMPERATURE
-I_L0 = P.I_NOMINAL_LENGTH
-I_LS = P.I_STRAND_LENGTH
-I_K1 = P.I_K1
-I_K2 = P.I_K2
-I_OD = P.I_OUTER_DIAMETER
-I_ID = P.I_INNER_DIAMETER
-I_FM = P.I_FORCE_MODEL
-I_R0 = P.I_R0
-I_A0 = P.I_ALPHA0
-I_KTL = P.I_K_TL
-I_PTH = P.I_P_THRESHOLD
-I_NCH = P.I_CH_TURNS
-I_ELO = P.I_EMP_LOAD_LO
-I_EHI = P.I_EMP_LOAD_HI
-I_C3LO = P.I_EMP_C3_LO
-I_C3HI = P.I_EMP_C3_HI
-I_KP = P.I_PASSIVE_STIFFNESS
-I_F0 = P.I_FRICTION_FORCE
-I_F1 = P.I_FRICTION_PER_PA
-I_SIG = P.I_FRICTION_STIFFNESS
-I_LOAD = P.I_LOAD_KIND
-I_LF = P.I_LOAD_FORCE
-I_MASS = P.I_MOVING_MASS
-I_DAMP = P.I_DAMPING
-I_KS = P.I_SPRING_STIFFNESS
-I_LFREE = P.I_SPRING_FREE_LENGTH
-I_TLA = P.I_TL_A
-I_TLB = P.I_TL_B
-I_SIN0 = P.I_SIN0
-I_RHOATM = P.I_RHO_ATM
-I_INVTAU = P.I_INV_VALVE_TAU
+W = 32  #: lanes per block (instances innermost; 32–64 vectorize, 8 did not)
+NS = 7
+S_P, S_T, S_XIN, S_XBL, S_LEN, S_VEL, S_FRIC = range(NS)
+# stages of the block's state area: the state, the four RK4 slopes, the stage state
+ST_S, ST_K1, ST_K2, ST_K3, ST_K4, ST_TMP = range(6)
+NST = 6
+# rows of the scratch area
+SC_PG, SC_LE, SC_FL, SC_LOLD, SC_XIN, SC_XBL, SC_FORCE, SC_MASS = range(8)
+NSC = 8
+NP = P.NP
+NTH = LW.NTH
+#: Offsets of the areas of a block array (in float64 elements).
+OFF_P = 0
+OFF_TH = OFF_P + NP * W
+OFF_ST = OFF_TH + NTH * W
+OFF_SC = OFF_ST + NST * NS * W
+BLOCK = OFF_SC + NSC * W  #: length of a block array
 
 P_ATM = P.P_ATM
 R_AIR = P.R_AIR
 T0 = P.T0
 RHO0 = P.RHO0
-GRAV = P.G
 LAMINAR = 0.999  # pressure ratio above which the subsonic flow is linearised to zero
 
 
-@njit(cache=True)
+def _row(col) -> int:
+    return OFF_P + int(col) * W
+
+
+# parameter rows (IntEnum members as plain int offsets: Numba folds module-level ints)
+_C = P.Col
+X_SUPPLY = _row(_C.supply_pressure)
+X_DROOP = _row(_C.supply_droop)
+X_CIN = _row(_C.valve_conductance)
+X_CBL = _row(_C.bleed_conductance)
+X_B = _row(_C.critical_ratio)
+X_DB = _row(_C.dead_band)
+X_DRV = _row(_C.driver_gain)
+X_VDEAD = _row(_C.dead_volume)
+X_CLEAK = _row(_C.leak_conductance)
+X_TS = _row(_C.temperature)
+X_L0 = _row(_C.nominal_length)
+X_KP = _row(_C.passive_stiffness)
+X_F0 = _row(_C.friction_force)
+X_F1 = _row(_C.friction_per_pa)
+X_SIG = _row(_C.friction_stiffness)
+X_LF = _row(_C.load_force)
+X_DAMP = _row(_C.damping)
+X_LFREE = _row(_C.spring_free_length)
+X_K2 = _row(_C.k2)
+X_INV_K1LS = _row(_C.inv_k1ls)
+X_OD_SIN0 = _row(_C.od_sin0)
+X_WALLD = _row(_C.wall_step)
+X_DMIN = _row(_C.d_min)
+X_INVTAU = _row(_C.inv_valve_tau)
+X_LMIN = _row(_C.l_min)
+X_LMAX = _row(_C.l_max)
+X_MOB = _row(_C.mobile)
+X_INVM = _row(_C.inv_mass)
+X_KS = _row(_C.spring_rate)
+X_KGAS = _row(_C.k_gas)
+X_INFLOW_T = _row(_C.inflow_at_supply)
+X_HA = _row(_C.h_area)
+X_INV1MB = _row(_C.inv_1mb)
+X_PHILAM = _row(_C.phi_laminar)
+X_GSUP = _row(_C.g_supply)
+
+
+def st_row(stage: int, r: int) -> int:
+    """Offset of state row r of a stage in a block array."""
+    return OFF_ST + (stage * NS + r) * W
+
+
+def sc_row(r: int) -> int:
+    """Offset of scratch row r in a block array."""
+    return OFF_SC + r * W
+
+
+Y_PG, Y_LE, Y_FL, Y_LOLD, Y_XIN, Y_XBL, Y_FORCE, Y_MASS = (sc_row(r) for r in range(NSC))
+Z_P, Z_T, Z_XIN, Z_XBL, Z_LEN, Z_VEL, Z_FRIC = (st_row(ST_S, r) for r in range(NS))
+
+_TL, _CH, _WC, _BM, _SP = (LW.LAW_INDEX[k] for k in ("tondu-lopez", "chou-hannaford", "wall-corrected",
+                                                       "braid-map", "spring"))
+assert len(LW.LAW_NAMES) == 5, "a new law in mckibben.models.laws needs its branch in law_force"
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def law_force(law, n, bk):
+    """The registered law ``law`` (index in :data:`~mckibben.models.laws.LAW_NAMES`) for lanes 0..n-1.
+
+    Reads gauge pressure [Pa] and length [m] from scratch rows ``SC_PG``, ``SC_LE`` of the block
+    array ``bk``, θ from its ``OFF_TH`` area; writes the force [N] into row ``SC_FL``.
+    """
+    if law == _TL:
+        for j in range(n):
+            bk[Y_FL + j] = LW.tondu_lopez(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+    elif law == _CH:
+        for j in range(n):
+            bk[Y_FL + j] = LW.chou_hannaford(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+    elif law == _WC:
+        for j in range(n):
+            bk[Y_FL + j] = LW.wall_corrected(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+    elif law == _BM:
+        for j in range(n):
+            bk[Y_FL + j] = LW.braid_map(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+    else:
+        for j in range(n):
+            bk[Y_FL + j] = LW.spring(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def flow_function(r, b, inv_1mb, phi_lam):
+    """ISO 6358 flow function φ of the pressure ratio r = p_down/p_up ≤ 1. [-]
+
+    1 when choked (r ≤ b), the ellipse √(1 − ((r − b)/(1 − b))²) above, and a straight line to 0
+    over the last 0.1 % (r ≥ 0.999, slope ``phi_lam`` = φ(0.999)/0.001) so the flow is Lipschitz.
+    ``inv_1mb`` = 1/(1 − b).
+    """
+    s = (r - b) * inv_1mb
+    phi = math.sqrt(1.0 - s * s) if r < LAMINAR else phi_lam * (1.0 - r)
+    return 1.0 if r <= b else phi
+
+
+@njit(cache=True, error_model="numpy")
 def iso6358_flow(c, p1, t1, p2, t2, b):
     """Signed mass flow from p1 to p2 through sonic conductance c (ISO 6358). [kg/s]
 
-    Parameters: c [m³/(s·Pa)], p1, p2 absolute [Pa], t1, t2 upstream temperatures [K], b [-].
+    Parameters: c [m³/(s·Pa)], p1, p2 absolute [Pa], t1, t2 their temperatures [K] (the upstream
+    one counts), b [-]. (The integrator computes the same with its per-instance constants.)
     """
-    if c <= 0.0:
-        return 0.0
-    sign = 1.0
-    if p2 > p1:
-        p1, p2 = p2, p1
-        t1 = t2
-        sign = -1.0
-    r = p2 / p1
-    if r <= b:
-        phi = 1.0
-    elif r < LAMINAR:
-        s = (r - b) / (1.0 - b)
-        phi = math.sqrt(1.0 - s * s)
-    else:
-        s = (LAMINAR - b) / (1.0 - b)
-        phi = math.sqrt(1.0 - s * s) * (1.0 - r) / (1.0 - LAMINAR)
-    return sign * c * RHO0 * p1 * math.sqrt(T0 / t1) * phi
+    rev = p2 > p1
+    hi = p2 if rev else p1
+    lo = p1 if rev else p2
+    tu = t2 if rev else t1
+    sl = (LAMINAR - b) / (1.0 - b)
+    q = c * RHO0 * hi * math.sqrt(T0 / tu) * flow_function(lo / hi, b, 1.0 / (1.0 - b),
+                                                            math.sqrt(1.0 - sl * sl) / (1.0 - LAMINAR))
+    return -q if rev else q
 
 
-@njit(cache=True)
-def valve_target(pwm, p):
+@njit(cache=True, error_model="numpy")
+def valve_target(pwm, drv, db):
     """Valve opening commanded by a PWM count through the driver and dead band. [-]"""
-    duty = pwm / 255.0
-    current = duty * p[I_DRV]
-    if current > 1.0:
-        current = 1.0
-    db = p[I_DB]
-    if current <= db:
-        return 0.0
-    return (current - db) / (1.0 - db)
+    current = pwm / 255.0 * drv
+    current = 1.0 if current > 1.0 else current
+    return (current - db) / (1.0 - db) if current > db else 0.0
 
 
-@njit(cache=True)
-def cos_theta_of(length, p):
-    """cos θ of the braid from the length, eq. (2), kept inside (0.05, 0.9999). [-]"""
-    c = (length - p[I_K2]) / (p[I_K1] * p[I_LS])
-    if c < 0.05:
-        c = 0.05
-    if c > 0.9999:
-        c = 0.9999
-    return c
+@njit(cache=True, error_model="numpy", inline="always")
+def volume(length, bk, j):
+    """Chamber volume and its derivative in length at a length: (V [m³], dV/dl [m²])."""
+    ik = bk[X_INV_K1LS + j]
+    c = (length - bk[X_K2 + j]) * ik
+    free = c > 0.05 and c < 0.9999
+    c = 0.05 if c < 0.05 else (0.9999 if c > 0.9999 else c)
+    sn = math.sqrt(1.0 - c * c)
+    ods = bk[X_OD_SIN0 + j]
+    d = ods * sn - bk[X_WALLD + j]
+    dd = -ods * c / sn * ik if free else 0.0
+    dmin = bk[X_DMIN + j]
+    low = d < dmin
+    d = dmin if low else d
+    dd = 0.0 if low else dd
+    return (bk[X_VDEAD + j] + 0.25 * math.pi * d * d * length,
+            0.25 * math.pi * (2.0 * d * dd * length + d * d))
 
 
-@njit(cache=True)
-def chamber_volume(length, p):
-    """Tubing dead volume plus the tube lumen at the braid's actual diameter. [m³]"""
-    c = cos_theta_of(length, p)
-    s = math.sqrt(1.0 - c * c)
-    d = p[I_OD] * s / p[I_SIN0] - (p[I_OD] - p[I_ID])
-    if d < 0.1 * p[I_ID]:
-        d = 0.1 * p[I_ID]
-    return p[I_VDEAD] + 0.25 * math.pi * d * d * length
+@njit(cache=True, error_model="numpy", inline="always")
+def clamp_length(n, bk, k):
+    """Gauge pressure and the length the force law sees (inside the end stops) of stage k, per lane."""
+    zp = OFF_ST + (k * NS + S_P) * W
+    zl = OFF_ST + (k * NS + S_LEN) * W
+    for j in range(n):
+        x = bk[zl + j]
+        lo = bk[X_LMIN + j]
+        hi = bk[X_LMAX + j]
+        bk[Y_LE + j] = lo if x < lo else (hi if x > hi else x)
+        bk[Y_PG + j] = bk[zp + j] - P_ATM
 
 
-@njit(cache=True)
-def gauge_pressure(mass, length, p):
-    """Gauge pressure of the chamber air (polytropic, p/ρⁿ fixed at the atmospheric state). [Pa]"""
-    rho = mass / chamber_volume(length, p)
-    return P_ATM * (rho / p[I_RHOATM]) ** p[I_N] - P_ATM
+@njit(cache=True, error_model="numpy", inline="always")
+def muscle_force(fl, length, bk, j):
+    """Pulling force from the law's value ``fl``: never pushing, plus the tube beyond its rest length. [N]"""
+    stretch = length - bk[X_L0 + j]
+    return (fl if fl > 0.0 else 0.0) + bk[X_KP + j] * (stretch if stretch > 0.0 else 0.0)
 
 
-@njit(cache=True)
-def muscle_force(pg, length, p):
-    """Pulling force of the muscle at gauge pressure pg and length. [N] (never negative)"""
-    model = int(p[I_FM])
-    pos = pg if pg > 0.0 else 0.0
-    if model == 0:  # Tondu–Lopez with a pressure threshold
-        a = p[I_TLA]
-        b = p[I_TLB]
-        eps = 1.0 - length / p[I_L0]
-        dp = pos - p[I_PTH]
-        if dp < 0.0:
-            dp = 0.0
-        q = 1.0 - p[I_KTL] * eps
-        f = math.pi * p[I_R0] * p[I_R0] * dp * (a * q * q - b)
-    elif model == 1:  # Chou–Hannaford, strand b = Ls, n turns
-        bs = p[I_LS]
-        c = length / bs
-        n = p[I_NCH]
-        f = bs * bs * pos * (3.0 * c * c - 1.0) / (4.0 * math.pi * n * n)
-    else:  # empirical map, eq. (2)+(3) solved for the load (linear in load)
-        target = (length - p[I_K2]) / (p[I_K1] * p[I_LS])
-        x = pos * 1e-6
-        lo = ((p[I_C3LO] * x + p[I_C3LO + 1]) * x + p[I_C3LO + 2]) * x + p[I_C3LO + 3]
-        hi = ((p[I_C3HI] * x + p[I_C3HI + 1]) * x + p[I_C3HI + 2]) * x + p[I_C3HI + 3]
-        den = hi - lo
-        if abs(den) < 1e-9:
-            den = 1e-9 if den >= 0 else -1e-9
-        f = p[I_ELO] + (p[I_EHI] - p[I_ELO]) * (target - lo) / den
-    if f < 0.0:
-        f = 0.0
-    if length > p[I_L0]:
-        f += p[I_KP] * (length - p[I_L0])
-    return f
+@njit(cache=True, error_model="numpy", inline="always")
+def rhs(n, bk, k, dk, law):
+    """Time derivatives of stage ``k``'s states into stage ``dk`` (friction row held: see :func:`rk4_step`).
 
-
-@njit(cache=True)
-def derivatives(s, p, xin_t, xbl_t, out):
-    """Time derivatives of one instance's state ``s`` into ``out``; returns the gauge pressure."""
-    mass = s[S_MASS]
-    length = s[S_LEN]
-    v = s[S_VEL]
-    z = s[S_FRIC]
-    xin = s[S_XIN]
-    xbl = s[S_XBL]
-    vol = chamber_volume(length, p)
-    t_gas_ref = p[I_T]
-    rho = mass / vol
-    p_abs = P_ATM * (rho / p[I_RHOATM]) ** p[I_N]
-    t_gas = p_abs / (rho * R_AIR)
-    pg = p_abs - P_ATM
-    x_open = xin if xin > 0.0 else 0.0
-    p_sup = P_ATM + p[I_SUPPLY] * (1.0 - p[I_DROOP] * x_open)
-    b = p[I_B]
-    q_in = iso6358_flow(p[I_CIN] * x_open, p_sup, t_gas_ref, p_abs, t_gas, b)
-    q_bl = iso6358_flow(p[I_CBL] * (xbl if xbl > 0.0 else 0.0), p_abs, t_gas, P_ATM, t_gas_ref, b)
-    q_lk = iso6358_flow(p[I_CLEAK], p_abs, t_gas, P_ATM, t_gas_ref, b)
-    out[S_MASS] = q_in - q_bl - q_lk
-    inv_tau = p[I_INVTAU]
-    out[S_XIN] = (xin_t - xin) * inv_tau
-    out[S_XBL] = (xbl_t - xbl) * inv_tau
-    kind = int(p[I_LOAD])
-    if kind == 1:  # blocked: the end does not move
-        out[S_LEN] = 0.0
-        out[S_VEL] = 0.0
-        out[S_FRIC] = 0.0
-        return pg
-    fm = muscle_force(pg, length, p)
-    out[S_FRIC] = 0.0  # the friction state is advanced exactly after each step (see rk4_step)
-    if kind == 0:
-        mass_moving = p[I_MASS] + p[I_LF] / GRAV
-        f_ext = p[I_LF]
-    else:
-        mass_moving = p[I_MASS]
-        f_ext = p[I_LF] - p[I_KS] * (length - p[I_LFREE])
-    out[S_LEN] = v
-    out[S_VEL] = (f_ext - fm - z - p[I_DAMP] * v) / mass_moving
-    return pg
-
-
-@njit(cache=True)
-def rk4_step(s, p, xin_t, xbl_t, dt, k1, k2, k3, k4, tmp):
-    """One step of size dt, in place: classical Runge–Kutta, then the exact Dahl friction update.
-
-    The Dahl element ż = σ(v − |v|·z/F_c) is stiff when F_c is small and the end moves fast
-    (a vented muscle stretched by its load: σ|v|/F_c ≈ 3·10⁴ 1/s, beyond RK4's stability at
-    dt = 0.1 ms). It is split off: the Runge–Kutta stages hold z, and z is then advanced by the
-    exact solution of the linear ODE for the step's mean velocity v̄ = Δl/dt,
-    z ← F_c·sgn v̄ + (z − F_c·sgn v̄)·exp(−σ|v̄|dt/F_c), which is stable at any step.
+    Valve targets come from scratch rows ``SC_XIN``, ``SC_XBL``.
     """
-    derivatives(s, p, xin_t, xbl_t, k1)
-    for j in range(NS):
-        tmp[j] = s[j] + 0.5 * dt * k1[j]
-    derivatives(tmp, p, xin_t, xbl_t, k2)
-    for j in range(NS):
-        tmp[j] = s[j] + 0.5 * dt * k2[j]
-    derivatives(tmp, p, xin_t, xbl_t, k3)
-    for j in range(NS):
-        tmp[j] = s[j] + dt * k3[j]
-    derivatives(tmp, p, xin_t, xbl_t, k4)
-    length0 = s[S_LEN]
-    for j in range(NS):
-        s[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-    if int(p[I_LOAD]) == 1:
-        return
-    vbar = (s[S_LEN] - length0) / dt
-    pg = gauge_pressure(s[S_MASS], s[S_LEN], p)
-    fc = p[I_F0] + p[I_F1] * (pg if pg > 0.0 else 0.0)
-    z_ss = fc if vbar >= 0.0 else -fc
-    s[S_FRIC] = z_ss + (s[S_FRIC] - z_ss) * math.exp(-p[I_SIG] * abs(vbar) * dt / fc)
+    clamp_length(n, bk, k)
+    law_force(law, n, bk)
+    a = OFF_ST + k * NS * W
+    o = OFF_ST + dk * NS * W
+    for j in range(n):
+        p = bk[a + S_P * W + j]
+        t = bk[a + S_T * W + j]
+        xin = bk[a + S_XIN * W + j]
+        xbl = bk[a + S_XBL * W + j]
+        length = bk[a + S_LEN * W + j]
+        v = bk[a + S_VEL * W + j]
+        mob = bk[X_MOB + j]
+        vol, dvdl = volume(bk[Y_LE + j], bk, j)
+        vdot = dvdl * v * mob
+        ts = bk[X_TS + j]
+        b = bk[X_B + j]
+        i1mb = bk[X_INV1MB + j]
+        plam = bk[X_PHILAM + j]
+        xo = xin if xin > 0.0 else 0.0
+        xb = xbl if xbl > 0.0 else 0.0
+        gt = math.sqrt(T0 / t)  # ISO 6358's √(T0/T_up) for air leaving the chamber
+        # inlet: supply ↔ chamber (air from the supply at its temperature, back-flow at the chamber's)
+        psup = P_ATM + bk[X_SUPPLY + j] * (1.0 - bk[X_DROOP + j] * xo)
+        fwd = psup >= p
+        hi = psup if fwd else p
+        lo = p if fwd else psup
+        q = bk[X_CIN + j] * xo * RHO0 * hi * (bk[X_GSUP + j] if fwd else gt) * flow_function(lo / hi, b, i1mb, plam)
+        m_in = q if fwd else -q
+        # bleed and leak: chamber ↔ atmosphere, one pressure ratio for both
+        out = p >= P_ATM
+        hi = p if out else P_ATM
+        lo = P_ATM if out else p
+        q = (bk[X_CBL + j] * xb + bk[X_CLEAK + j]) * RHO0 * hi * (gt if out else bk[X_GSUP + j]) * flow_function(
+            lo / hi, b, i1mb, plam)
+        m_out = -q if out else q
+        mdot = m_in + m_out
+        inflow = (m_in if m_in > 0.0 else 0.0) + (m_out if m_out > 0.0 else 0.0)
+        enth = t * mdot + bk[X_INFLOW_T + j] * (ts - t) * inflow  # Σ ṁ_k·T_k
+        kg = bk[X_KGAS + j]
+        iv = 1.0 / vol
+        dp = kg * iv * (R_AIR * enth - p * vdot) + (kg - 1.0) * iv * bk[X_HA + j] * (ts - t)
+        bk[o + S_P * W + j] = dp
+        bk[o + S_T * W + j] = t * (dp / p + iv * vdot - iv * R_AIR * t * mdot / p)
+        inv_tau = bk[X_INVTAU + j]
+        bk[o + S_XIN * W + j] = (bk[Y_XIN + j] - xin) * inv_tau
+        bk[o + S_XBL * W + j] = (bk[Y_XBL + j] - xbl) * inv_tau
+        fm = muscle_force(bk[Y_FL + j], length, bk, j)
+        f_ext = bk[X_LF + j] - bk[X_KS + j] * (length - bk[X_LFREE + j])
+        acc = (f_ext - fm - bk[a + S_FRIC * W + j] - bk[X_DAMP + j] * v) * bk[X_INVM + j]
+        bk[o + S_LEN * W + j] = mob * v
+        bk[o + S_VEL * W + j] = mob * acc
+        bk[o + S_FRIC * W + j] = 0.0
 
 
-@njit(cache=True)
-def static_length(pg, p):
-    """Equilibrium length under the load at a fixed gauge pressure (bisection). [m]
+@njit(cache=True, error_model="numpy", inline="always")
+def _stage(n, bk, h, dk):
+    a = OFF_ST + ST_S * NS * W
+    t = OFF_ST + ST_TMP * NS * W
+    d = OFF_ST + dk * NS * W
+    for r in range(NS):
+        for j in range(n):
+            bk[t + r * W + j] = bk[a + r * W + j] + h * bk[d + r * W + j]
 
-    The force balance ignores friction (the middle of the hysteresis band).
+
+@njit(cache=True, error_model="numpy")
+def rk4_step(n, bk, law, dt):
+    """One step of size dt for every lane of the block array ``bk``, in place: classical
+    Runge–Kutta, then the end stops and the friction.
+
+    The Dahl element ż = σ(v − |v|·z/F_c) is stiff when F_c is small and the end moves fast; it is
+    split off: the Runge–Kutta stages hold z, then z takes one backward-Euler step with the step's
+    mean velocity v̄ = Δl/dt, z ← F_c·(z + σ·v̄·dt)/(F_c + σ·|v̄|·dt): stable at any step, exact in
+    both limits (v̄ = 0 keeps z, large σ|v̄|dt/F_c gives F_c·sgn v̄), and F_c = 0 gives z = 0 (no
+    friction). Its local error against the exact exponential solution is (σ|v̄|dt/F_c)²/2 of
+    the gap z − F_c·sgn v̄ (backward Euler's), and it needs no ``exp``, so the loop vectorizes.
+    The end stops project the length back inside [l_min, l_max] and stop any motion outward.
     """
-    kind = int(p[I_LOAD])
-    l0 = p[I_L0]
-    if kind == 1:
-        return l0
-    lo = 0.3 * l0
-    hi = (p[I_K1] * p[I_LS] + p[I_K2]) * 0.999
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        if kind == 0:
-            f_ext = p[I_LF]
-        else:
-            f_ext = p[I_LF] - p[I_KS] * (mid - p[I_LFREE])
-        if muscle_force(pg, mid, p) > f_ext:
-            hi = mid
-        else:
-            lo = mid
-    return 0.5 * (lo + hi)
+    rhs(n, bk, ST_S, ST_K1, law)
+    _stage(n, bk, 0.5 * dt, ST_K1)
+    rhs(n, bk, ST_TMP, ST_K2, law)
+    _stage(n, bk, 0.5 * dt, ST_K2)
+    rhs(n, bk, ST_TMP, ST_K3, law)
+    _stage(n, bk, dt, ST_K3)
+    rhs(n, bk, ST_TMP, ST_K4, law)
+    for j in range(n):
+        bk[Y_LOLD + j] = bk[Z_LEN + j]
+    h6 = dt / 6.0
+    k1 = OFF_ST + ST_K1 * NS * W
+    k2 = OFF_ST + ST_K2 * NS * W
+    k3 = OFF_ST + ST_K3 * NS * W
+    k4 = OFF_ST + ST_K4 * NS * W
+    for r in range(NS):
+        for j in range(n):
+            q = r * W + j
+            bk[Z_P + q] += h6 * (bk[k1 + q] + 2.0 * bk[k2 + q] + 2.0 * bk[k3 + q] + bk[k4 + q])
+    for j in range(n):
+        x = bk[Z_LEN + j]
+        v = bk[Z_VEL + j]
+        lo = bk[X_LMIN + j]
+        hi = bk[X_LMAX + j]
+        over = x > hi
+        under = x < lo
+        x = hi if over else (lo if under else x)
+        bk[Z_LEN + j] = x
+        v = (v if v < 0.0 else 0.0) if over else v
+        v = (v if v > 0.0 else 0.0) if under else v
+        bk[Z_VEL + j] = v
+        vbar = (x - bk[Y_LOLD + j]) / dt
+        pg = bk[Z_P + j] - P_ATM
+        fc = bk[X_F0 + j] + bk[X_F1 + j] * (pg if pg > 0.0 else 0.0)
+        sv = bk[X_SIG + j] * dt
+        den = fc + sv * abs(vbar)
+        z = fc * (bk[Z_FRIC + j] + sv * vbar) / den if den > 0.0 else 0.0
+        bk[Z_FRIC + j] = z * bk[X_MOB + j]
 
 
-@njit(cache=True)
-def mass_for_pressure(pg, length, p):
-    """Air mass that gives gauge pressure pg at a length (inverse of :func:`gauge_pressure`). [kg]"""
-    rho = p[I_RHOATM] * ((pg + P_ATM) / P_ATM) ** (1.0 / p[I_N])
-    return rho * chamber_volume(length, p)
+@njit(cache=True, error_model="numpy")
+def advance(n, bk, law, dt, substeps):
+    """``substeps`` RK4 steps of dt for every lane (valve targets held in the scratch rows)."""
+    for _ in range(substeps):
+        rk4_step(n, bk, law, dt)
+
+
+@njit(cache=True, error_model="numpy")
+def outputs(n, bk, law):
+    """Muscle force [N] and air mass [kg] of the lanes now, into scratch rows ``SC_FORCE``, ``SC_MASS``."""
+    clamp_length(n, bk, ST_S)
+    law_force(law, n, bk)
+    for j in range(n):
+        bk[Y_FORCE + j] = muscle_force(bk[Y_FL + j], bk[Z_LEN + j], bk, j)
+        vol, _ = volume(bk[Y_LE + j], bk, j)
+        bk[Y_MASS + j] = bk[Z_P + j] * vol / (R_AIR * bk[Z_T + j])
+
+
+@njit(cache=True, error_model="numpy")
+def load_block(b0, nl, prm, theta, s0, bk):
+    """Copy instances b0..b0+nl-1 (rows of ``prm`` (N, NP), columns of ``theta`` (NTH, N), rows of
+    ``s0`` (N, NS)) into the block array ``bk``."""
+    for c in range(prm.shape[1]):
+        for j in range(nl):
+            bk[OFF_P + c * W + j] = prm[b0 + j, c]
+    for r in range(theta.shape[0]):
+        for j in range(nl):
+            bk[OFF_TH + r * W + j] = theta[r, b0 + j]
+    for r in range(NS):
+        for j in range(nl):
+            bk[Z_P + r * W + j] = s0[b0 + j, r]
