@@ -142,7 +142,7 @@ _TL, _CH, _WC, _BM, _SP = (LW.LAW_INDEX[k] for k in ("tondu-lopez", "chou-hannaf
 assert len(LW.LAW_NAMES) == 5, "a new law in mckibben.models.laws needs its branch in law_force"
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def law_force(law, n, bk):
     """The registered law ``law`` (index in :data:`~mckibben.models.laws.LAW_NAMES`) for lanes 0..n-1.
 

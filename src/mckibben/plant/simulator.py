@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from mckibben import hardware as HW
 from mckibben.errors import InputError, UnreachableError
@@ -228,17 +228,42 @@ def _run_block(kernel, use_kernel, b0, nl, istate, iparams, fstate, fparams, sch
                 flags[i] |= FLAG_END_STOP
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _run(kernel, use_kernel, istate, iparams, fstate, fparams, schedule, prm, theta, law, s0, ref, n_steps, substeps,
-         ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault, out_adc, out_enc, flags):
+@njit(cache=True, nogil=True, error_model="numpy")
+def _run_blocks(kernel, use_kernel, blk0, blk1, istate, iparams, fstate, fparams, schedule, prm, theta, law, s0, ref,
+                n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault, out_adc,
+                out_enc, flags):
+    """Blocks blk0..blk1-1, one after the other (one thread's share); the GIL is released."""
     n = prm.shape[0]
-    nb = (n + W - 1) // W
-    for b in prange(nb):
+    for b in range(blk0, blk1):
         b0 = b * W
-        nl = min(W, n - b0)
-        _run_block(kernel, use_kernel, b0, nl, istate, iparams, fstate, fparams, schedule, prm, theta, law, s0, ref,
-                   n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault,
+        _run_block(kernel, use_kernel, b0, min(W, n - b0), istate, iparams, fstate, fparams, schedule, prm, theta, law,
+                   s0, ref, n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault,
                    out_adc, out_enc, flags)
+
+
+def _run(kernel, use_kernel, *args):
+    """Every block, spread over ``numba.get_num_threads()`` threads in contiguous shares.
+
+    Each instance is computed by the same code whatever its share, so the results do not depend
+    on the number of threads. (Threads over a ``nogil`` function rather than ``prange``: a
+    ``parallel=True`` function taking the controller kernel is compiled again in every process,
+    since a kernel's type never matches Numba's on-disk cache; this costs 3 s less per process.)
+    """
+    import numba
+
+    n = args[5].shape[0]
+    nb = (n + W - 1) // W
+    threads = max(1, min(numba.get_num_threads(), nb))
+    if threads == 1:
+        _run_blocks(kernel, use_kernel, 0, nb, *args)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    edges = [nb * k // threads for k in range(threads + 1)]
+    with ThreadPoolExecutor(threads) as pool:
+        futures = [pool.submit(_run_blocks, kernel, use_kernel, edges[k], edges[k + 1], *args) for k in range(threads)]
+        for f in futures:
+            f.result()
 
 
 @njit(cache=True, error_model="numpy")
@@ -598,6 +623,8 @@ class PlantStepper:
         ph.load_block(0, 1, prm, theta, s0, self.bk)
         self.ts, self.substeps = float(ts), int(substeps)
         self.t = 0.0
+        # compile (or load) the integrator now, not in the first real-time period
+        ph.advance(1, self.bk.copy(), self.law, self.ts / self.substeps, 0)
         self._rng = np.array([np.uint64(int(self.p[PP.Col.seed]) * 2654435761 + 1)], dtype=np.uint64)
 
     @property
