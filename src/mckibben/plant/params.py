@@ -207,8 +207,8 @@ class PlantParams:
     valve_tau: object = 3e-3
     dead_band: object = 0.63
     driver_gain: object = 1.43
-    dead_volume: object = 2.5e-7
-    leak_conductance: object = 2.0e-11
+    dead_volume: object = 2.3e-7
+    leak_conductance: object = 1.7e-11
     polytropic_n: object = 1.2
     temperature: object = T0
     tube_diameter: object = 1.0e-3
