@@ -114,3 +114,10 @@ def test_bad_design_inputs():
         design_pid(FirstOrderModel(-1.0, 0.09), 0.03)
     with pytest.raises(InputError, match="beta"):
         SlidingModeController(smc_params(MODEL, beta=400, eps=20e3, ki=10))
+
+
+def test_a_dead_time_zero_to_round_off_designs_like_none():
+    # an identification can return θ = 1e-26 s; its Padé poles at 1e26/s overflowed the design
+    a = design_pid(FirstOrderModel(6.3e4, 0.108, 1e-26), 0.036)
+    b = design_pid(FirstOrderModel(6.3e4, 0.108, 0.0), 0.036)
+    assert a.kp == b.kp and a.predicted == b.predicted

@@ -102,7 +102,8 @@ class FirstOrderModel:
             Padé order (0: no dead time). [-]
         """
         sys = control.tf([self.gain], [self.tau, 1.0])
-        if pade_order > 0 and self.dead_time > 0:
+        # a dead time that is zero to round-off (a fit's 1e-26 s) would put Padé poles at 1e26/s
+        if pade_order > 0 and self.dead_time > 1e-9 * self.tau:
             sys = sys * control.tf(*control.pade(self.dead_time, pade_order))
         return sys
 
