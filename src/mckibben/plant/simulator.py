@@ -623,8 +623,12 @@ class PlantStepper:
         ph.load_block(0, 1, prm, theta, s0, self.bk)
         self.ts, self.substeps = float(ts), int(substeps)
         self.t = 0.0
-        # compile (or load) the integrator now, not in the first real-time period
+        # compile (or load) the integrator and the sensor model now, not in the first real-time period
         ph.advance(1, self.bk.copy(), self.law, self.ts / self.substeps, 0)
+        HW.adc_count(0.0, HW.PA_PER_COUNT, 0.0)
+        HW.encoder_count(0.0, 0.0, 1.0)
+        ph.valve_target(0.0, 1.0, 0.5)
+        _gauss(np.zeros(1, dtype=np.uint64), 0)
         self._rng = np.array([np.uint64(int(self.p[PP.Col.seed]) * 2654435761 + 1)], dtype=np.uint64)
 
     @property
