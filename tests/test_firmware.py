@@ -170,3 +170,46 @@ def test_firmware_image_builds(tmp_path):
     assert m and int(m.group(1)) < 256 * 1024, r.stdout  # fits the ATmega2560's flash
     m = re.search(r"Data:\s+(\d+) bytes", r.stdout)
     assert m and int(m.group(1)) < 8 * 1024, r.stdout  # fits its 8 KB of SRAM
+
+
+@pytest.mark.skipif(shutil.which("avr-gcc") is None, reason="avr-gcc not installed")
+def test_upload_calls_avrdude_with_the_megas_bootloader_settings(tmp_path):
+    # a dry run: make prints what it would do, nothing is flashed
+    r = subprocess.run(["make", "-n", "-C", str(FIRMWARE), "upload", "PORT=/dev/ttyACM0", f"BUILD={tmp_path}"],
+                       capture_output=True, text=True, timeout=60, check=True)
+    line = [ln for ln in r.stdout.splitlines() if ln.startswith("avrdude ")]
+    assert line == [f"avrdude -p atmega2560 -c wiring -P /dev/ttyACM0 -b 115200 -D -U flash:w:{tmp_path}/mckibben.hex:i"]
+    # the image it uploads is the one `make` builds (the hex is a prerequisite)
+    assert "avr-objcopy -O ihex" in r.stdout
+    # without PORT: a clear error, after building the image
+    r = subprocess.run(["make", "-s", "-C", str(FIRMWARE), "upload", f"BUILD={tmp_path}"], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode != 0 and "make upload PORT=/dev/ttyACM0" in r.stderr
+    assert (tmp_path / "mckibben.hex").stat().st_size > 0
+
+
+@pytest.mark.skipif(shutil.which("avr-gcc") is None, reason="avr-gcc not installed")
+@pytest.mark.parametrize("n", [1, 2])
+def test_firmware_builds_for_fewer_channels(tmp_path, n):
+    subprocess.run(["make", "-s", "-C", str(FIRMWARE), f"BUILD={tmp_path}", f"N_CHANNELS={n}"], capture_output=True,
+                   text=True, timeout=120, check=True)
+    assert (tmp_path / "mckibben.hex").stat().st_size > 0
+
+
+@pytest.mark.skipif(shutil.which("avr-gcc") is None, reason="avr-gcc not installed")
+def test_sketch_folder_holds_the_same_sources_and_builds(tmp_path):
+    subprocess.run(["make", "-s", "-C", str(FIRMWARE), "sketch", f"BUILD={tmp_path}"], capture_output=True,
+                   text=True, timeout=60, check=True)
+    sketch = tmp_path / "sketch" / "mckibben"
+    assert (sketch / "mckibben.ino").is_file()  # a sketch: a folder with a same-named .ino
+    for rel in ("src/main.c", "core/controller.c", "core/controller.h", "core/protocol.c", "core/protocol.h"):
+        assert (sketch / "src" / Path(rel).name).read_bytes() == (FIRMWARE / rel).read_bytes()
+    # self-contained: its sources build as they are (the IDE compiles src/ recursively)
+    srcs = sorted(str(p) for p in (sketch / "src").glob("*.c"))
+    subprocess.run(["avr-gcc", "-std=gnu11", "-mmcu=atmega2560", "-DF_CPU=16000000UL", "-Os", "-o",
+                    str(tmp_path / "sketch.elf"), *srcs], check=True, capture_output=True, timeout=120)
+    if shutil.which("arduino-cli") is None:
+        pytest.skip("arduino-cli not installed: the sketch was checked with avr-gcc only")
+    r = subprocess.run(["arduino-cli", "compile", "--fqbn", "arduino:avr:mega", str(sketch)], capture_output=True,
+                       text=True, timeout=600)
+    assert r.returncode == 0, r.stderr

@@ -68,3 +68,21 @@ def test_encoder_counts_shortening_from_the_rest_length():
     q = HW.quantize_length(x, l0)
     assert np.max(np.abs(q - x)) <= 0.5 * res + 1e-12
     assert [HW.encoder_count(v, l0, res) for v in x] == HW.encoder_from_length(x, l0).tolist()
+
+
+def test_bench_constants_equal_the_firmware_main():
+    main = (FIRMWARE / "src" / "main.c").read_text()
+    assert HW.N_CHANNELS == _define(main, "MCK_N_CHANNELS")
+    assert HW.BAUD == _define(main, "BAUD")
+    ubrr = _define(main, "UBRR_VALUE")
+    assert 16_000_000 / (8 * (ubrr + 1)) == HW.BAUD  # U2X: 0 % error
+    # the pin map of the header comment, channel by channel, and the compare unit of each pin
+    for i in range(HW.N_CHANNELS):
+        assert f"A{i}" == HW.PIN_MAP["pressure"][i]
+        inlet, bleed = HW.PIN_MAP["inlet"][i], HW.PIN_MAP["bleed"][i]
+        line = re.search(rf"\*\s+{inlet}, {bleed}\s+channel {i} inlet, bleed\s+\((\w+), (\w+)\)", main)
+        assert line, f"channel {i} pins not in main.c's header"
+        assert (line.group(1), line.group(2)) == (HW.PWM_UNIT[inlet], HW.PWM_UNIT[bleed])
+        # and set_valves writes those compare registers for that channel
+        for unit, side in ((HW.PWM_UNIT[inlet], "inlet"), (HW.PWM_UNIT[bleed], "bleed")):
+            assert re.search(rf"PWM_OUT\(OCR{unit[2:]}, TCCR{unit[2]}A, COM{unit[2:]}1, o\[{i}\]\.{side}\)", main)

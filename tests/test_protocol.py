@@ -33,8 +33,30 @@ def _telemetry(seq, **kw):
     return P.Telemetry(seq, **base)
 
 
-def test_telemetry_frame_is_30_bytes_on_the_wire():
-    assert len(P.encode_telemetry(_telemetry(7))) == 30  # docs/protocol.md baud arithmetic
+def _three(seq, t_us=123456):
+    chans = [P.ChannelTelemetry(563 + i, 200 - i, i, 1, i, 550000 + i, -1234 * i) for i in range(3)]
+    return P.Telemetry.of_channels(seq, t_us, -42, chans)
+
+
+def test_telemetry_frame_sizes_on_the_wire():
+    # docs/protocol.md baud arithmetic: 9 + 14 n body bytes, 8 of framing
+    assert len(P.encode_telemetry(_telemetry(7))) == 31 == P.telemetry_wire_bytes(1)
+    assert len(P.encode_telemetry(_three(7))) == 59 == P.telemetry_wire_bytes(3)
+    # 1 kHz of three-channel frames at 10 bits per byte fits 1 Mbaud with room for ACKs
+    assert P.telemetry_wire_bytes(3) * 10 * 1000 <= 0.6 * 1_000_000
+
+
+def test_three_channel_frame_round_trip_and_version_1_still_read():
+    t = _three(9)
+    got = P.Parser().feed(P.encode_telemetry(t))
+    assert got == [t] and len(got[0].channels) == 3 and got[0].pressure_adc == 563
+    # an old one-channel stream (protocol version 1) parses into the same shape
+    old = P.Parser()
+    v1 = old.feed(P.encode_telemetry_v1(_telemetry(3)) + P.encode_telemetry_v1(_telemetry(4)))
+    assert [f.seq for f in v1] == [3, 4] and old.bad_version == 0 and v1[0] == _telemetry(3)
+    # HELLO and the ACK's value
+    assert P.Parser().feed(P.encode_hello(0, 3, 1000, 1_000_000, 20)) == [P.Hello(0, 3, 1000, 1_000_000, 20)]
+    assert P.Parser().feed(P.encode_ack(5, 6, P.GET_GAIN, 0, -7)) == [P.Ack(5, 6, P.GET_GAIN, 0, -7)]
 
 
 def test_parser_resynchronizes_and_counts():
@@ -58,7 +80,7 @@ def test_missing_counts_across_the_16_bit_wrap():
 
 def test_bad_version_and_wrong_length_are_counted():
     p = P.Parser()
-    raw = bytes([2, P.TELEMETRY, 0, 0]) + bytes(22)
+    raw = bytes([3, P.TELEMETRY, 0, 0]) + bytes(22)
     raw += P.crc16(raw).to_bytes(2, "little")
     p.feed(P.cobs_encode(raw) + b"\x00")
     assert p.bad_version == 1 and p.frames == 0
@@ -112,10 +134,15 @@ class RxC(ctypes.Structure):
                 ("body_len", ctypes.c_uint8), ("frames", ctypes.c_uint16), ("corrupt", ctypes.c_uint16)]
 
 
+class ChannelC(ctypes.Structure):
+    _fields_ = [("pressure_adc", ctypes.c_uint16), ("inlet_pwm", ctypes.c_uint8), ("bleed_pwm", ctypes.c_uint8),
+                ("mode", ctypes.c_uint8), ("faults", ctypes.c_uint8), ("reference_pa", ctypes.c_int32),
+                ("surface_pa", ctypes.c_int32)]
+
+
 class TelemetryC(ctypes.Structure):
-    _fields_ = [("t_us", ctypes.c_uint32), ("pressure_adc", ctypes.c_uint16), ("encoder", ctypes.c_int32),
-                ("inlet_pwm", ctypes.c_uint8), ("bleed_pwm", ctypes.c_uint8), ("mode", ctypes.c_uint8),
-                ("faults", ctypes.c_uint8), ("reference_pa", ctypes.c_int32), ("surface_pa", ctypes.c_int32)]
+    _fields_ = [("t_us", ctypes.c_uint32), ("encoder", ctypes.c_int32), ("n", ctypes.c_uint8),
+                ("ch", ChannelC * 3)]
 
 
 @pytest.fixture(scope="module")
@@ -127,6 +154,7 @@ def clib(tmp_path_factory):
     lib.mck_crc16.restype = ctypes.c_uint16
     lib.mck_encode_telemetry.restype = ctypes.c_size_t
     lib.mck_encode_ack.restype = ctypes.c_size_t
+    lib.mck_encode_hello.restype = ctypes.c_size_t
     lib.mck_rx_feed.restype = ctypes.c_int
     return lib
 
@@ -136,34 +164,41 @@ def test_c_crc_matches(clib):
 
 
 @settings(max_examples=100, deadline=None)
-@given(seq=st.integers(0, 65535), t=st.integers(0, 2**32 - 1), adc=st.integers(0, 1023), enc=st.integers(-2**31, 2**31 - 1),
-       inlet=st.integers(0, 255), bleed=st.integers(0, 255), ref=st.integers(-2**31, 2**31 - 1),
-       s=st.integers(-2**31, 2**31 - 1))
-def test_c_telemetry_is_byte_for_byte_the_python_one(clib, seq, t, adc, enc, inlet, bleed, ref, s):
-    tc = TelemetryC(t, adc, enc, inlet, bleed, 1, 3, ref, s)
+@given(seq=st.integers(0, 65535), t=st.integers(0, 2**32 - 1), enc=st.integers(-2**31, 2**31 - 1),
+       n=st.integers(1, 3),
+       chans=st.lists(st.tuples(st.integers(0, 1023), st.integers(0, 255), st.integers(0, 255), st.integers(0, 3),
+                                st.integers(0, 31), st.integers(-2**31, 2**31 - 1), st.integers(-2**31, 2**31 - 1)),
+                      min_size=3, max_size=3))
+def test_c_telemetry_is_byte_for_byte_the_python_one(clib, seq, t, enc, n, chans):
+    tc = TelemetryC(t, enc, n, (ChannelC * 3)(*[ChannelC(*c) for c in chans]))
     buf = (ctypes.c_uint8 * 80)()
-    n = clib.mck_encode_telemetry(ctypes.byref(tc), seq, buf, 80)
-    py = P.encode_telemetry(P.Telemetry(seq, t, adc, enc, inlet, bleed, 1, 3, ref, s))
-    assert bytes(buf[:n]) == py
-    assert P.Parser().feed(py)[0] == P.Telemetry(seq, t, adc, enc, inlet, bleed, 1, 3, ref, s)
+    k = clib.mck_encode_telemetry(ctypes.byref(tc), seq, buf, 80)
+    tp = P.Telemetry.of_channels(seq, t, enc, [P.ChannelTelemetry(*c) for c in chans[:n]])
+    py = P.encode_telemetry(tp)
+    assert bytes(buf[:k]) == py
+    assert P.Parser().feed(py)[0] == tp
 
 
-def test_c_ack_matches(clib):
+def test_c_ack_and_hello_match(clib):
     buf = (ctypes.c_uint8 * 32)()
-    n = clib.mck_encode_ack(9, 513, P.SET_GAIN, 4, buf, 32)
-    assert bytes(buf[:n]) == P.encode_ack(9, 513, P.SET_GAIN, 4)
+    n = clib.mck_encode_ack(9, 513, P.GET_GAIN, 4, ctypes.c_int32(-5), buf, 32)
+    assert bytes(buf[:n]) == P.encode_ack(9, 513, P.GET_GAIN, 4, -5)
+    n = clib.mck_encode_hello(0, 3, 1000, ctypes.c_uint32(1_000_000), 20, buf, 32)
+    assert bytes(buf[:n]) == P.encode_hello(0, 3, 1000, 1_000_000, 20)
 
 
 @pytest.mark.parametrize(
     "packet, kind, body",
     [
-        (P.set_point(3, 550000), P.SET_POINT, (550000).to_bytes(4, "little", signed=True)),
-        (P.set_gain(4, 7, -5), P.SET_GAIN, bytes([7]) + (-5).to_bytes(4, "little", signed=True)),
-        (P.set_mode(5, 2), P.SET_MODE, bytes([2])),
-        (P.set_max_pressure(6, 800000), P.SET_MAX_PRESSURE, (800000).to_bytes(4, "little", signed=True)),
-        (P.vent(7), P.VENT, b""),
+        (P.set_point(3, 550000, 2), P.SET_POINT, bytes([2]) + (550000).to_bytes(4, "little", signed=True)),
+        (P.set_points(3, [1, -2, 3]), P.SET_POINTS, b"".join(v.to_bytes(4, "little", signed=True) for v in (1, -2, 3))),
+        (P.set_gain(4, 7, -5, 1), P.SET_GAIN, bytes([1, 7]) + (-5).to_bytes(4, "little", signed=True)),
+        (P.get_gain(4, 19, 2), P.GET_GAIN, bytes([2, 19])),
+        (P.set_mode(5, 2), P.SET_MODE, bytes([P.ALL, 2])),
+        (P.set_max_pressure(6, 800000), P.SET_MAX_PRESSURE, bytes([P.ALL]) + (800000).to_bytes(4, "little", signed=True)),
+        (P.vent(7), P.VENT, bytes([P.ALL])),
         (P.stream(8, True, 3), P.STREAM, bytes([1, 3])),
-        (P.set_open_loop(9, 40, 0), P.SET_OPEN_LOOP, bytes([40, 0])),
+        (P.set_open_loop(9, 40, 0, 1), P.SET_OPEN_LOOP, bytes([1, 40, 0])),
     ],
 )
 def test_python_commands_decode_in_c(clib, packet, kind, body):

@@ -1,4 +1,4 @@
-/* mckibben serial protocol, version 1 (docs/protocol.md): COBS frames with CRC-16/CCITT-FALSE.
+/* mckibben serial protocol, version 2 (docs/protocol.md): COBS frames with CRC-16/CCITT-FALSE.
  * Portable C99, no allocation; builds for the ATmega2560 and for the host tests. */
 #include "protocol.h"
 
@@ -94,26 +94,46 @@ static void put_u32(uint8_t *p, uint32_t v)
 
 size_t mck_encode_telemetry(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap)
 {
-    uint8_t b[22]; /* docs/protocol.md, TELEMETRY body */
+    uint8_t b[9u + 14u * MCK_MAX_CHANNELS_WIRE]; /* docs/protocol.md, TELEMETRY body */
+    uint8_t i, n = t->n;
+    if (n < 1u || n > MCK_MAX_CHANNELS_WIRE) return 0;
     put_u32(b, t->t_us);
-    put_u16(b + 4, t->pressure_adc);
-    put_u32(b + 6, (uint32_t)t->encoder);
-    b[10] = t->inlet_pwm;
-    b[11] = t->bleed_pwm;
-    b[12] = t->mode;
-    b[13] = t->faults;
-    put_u32(b + 14, (uint32_t)t->reference_pa);
-    put_u32(b + 18, (uint32_t)t->surface_pa);
-    return mck_encode_frame(MCK_TELEMETRY, seq, b, sizeof b, out, cap);
+    put_u32(b + 4, (uint32_t)t->encoder);
+    b[8] = n;
+    for (i = 0; i < n; i++) {
+        uint8_t *c = b + 9u + 14u * i;
+        const mck_channel_telemetry_t *ch = &t->ch[i];
+        put_u16(c, ch->pressure_adc);
+        c[2] = ch->inlet_pwm;
+        c[3] = ch->bleed_pwm;
+        c[4] = ch->mode;
+        c[5] = ch->faults;
+        put_u32(c + 6, (uint32_t)ch->reference_pa);
+        put_u32(c + 10, (uint32_t)ch->surface_pa);
+    }
+    return mck_encode_frame(MCK_TELEMETRY, seq, b, 9u + 14u * n, out, cap);
 }
 
-size_t mck_encode_ack(uint16_t seq, uint16_t cmd_seq, uint8_t cmd_type, uint8_t status, uint8_t *out, size_t cap)
+size_t mck_encode_ack(uint16_t seq, uint16_t cmd_seq, uint8_t cmd_type, uint8_t status, int32_t value,
+                      uint8_t *out, size_t cap)
 {
-    uint8_t b[4];
+    uint8_t b[8];
     put_u16(b, cmd_seq);
     b[2] = cmd_type;
     b[3] = status;
+    put_u32(b + 4, (uint32_t)value);
     return mck_encode_frame(MCK_ACK, seq, b, sizeof b, out, cap);
+}
+
+size_t mck_encode_hello(uint16_t seq, uint8_t n_channels, uint16_t ts_us, uint32_t baud, uint8_t n_gains,
+                        uint8_t *out, size_t cap)
+{
+    uint8_t b[8];
+    b[0] = n_channels;
+    put_u16(b + 1, ts_us);
+    put_u32(b + 3, baud);
+    b[7] = n_gains;
+    return mck_encode_frame(MCK_HELLO, seq, b, sizeof b, out, cap);
 }
 
 void mck_rx_init(mck_rx_t *rx)

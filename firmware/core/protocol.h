@@ -1,4 +1,4 @@
-/* mckibben serial protocol, version 1 (docs/protocol.md): COBS frames with CRC-16/CCITT-FALSE.
+/* mckibben serial protocol, version 2 (docs/protocol.md): COBS frames with CRC-16/CCITT-FALSE.
  * Portable C99: built for the ATmega2560 and, in the tests, for the host. */
 #ifndef MCK_PROTOCOL_H
 #define MCK_PROTOCOL_H
@@ -6,13 +6,15 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define MCK_PROTOCOL_VERSION 1u
+#define MCK_PROTOCOL_VERSION 2u
+#define MCK_MAX_CHANNELS_WIRE 3u /* channels a TELEMETRY frame can carry */
 #define MCK_MAX_FRAME 64u  /* largest decoded frame (version..crc) */
 #define MCK_MAX_PACKET (MCK_MAX_FRAME + MCK_MAX_FRAME / 254u + 2u) /* COBS + delimiter */
 
 enum mck_type {
     MCK_TELEMETRY = 0x01,
     MCK_ACK = 0x02,
+    MCK_HELLO = 0x03,
     MCK_SET_POINT = 0x10,
     MCK_SET_GAIN = 0x11,
     MCK_SET_MODE = 0x12,
@@ -20,18 +22,27 @@ enum mck_type {
     MCK_VENT = 0x14,
     MCK_STREAM = 0x15,
     MCK_SET_OPEN_LOOP = 0x16,
+    MCK_SET_POINTS = 0x17,
+    MCK_GET_GAIN = 0x18,
 };
+#define MCK_ALL_CHANNELS 0xFFu /* channel byte of SET_MODE and VENT: every channel */
 
+/* One channel's part of a TELEMETRY frame (14 bytes on the wire). */
 typedef struct {
-    uint32_t t_us;
     uint16_t pressure_adc;
-    int32_t encoder;
     uint8_t inlet_pwm;
     uint8_t bleed_pwm;
     uint8_t mode;
     uint8_t faults;
     int32_t reference_pa;
     int32_t surface_pa;
+} mck_channel_telemetry_t;
+
+typedef struct {
+    uint32_t t_us;
+    int32_t encoder;
+    uint8_t n;          /* channels 1..MCK_MAX_CHANNELS_WIRE */
+    mck_channel_telemetry_t ch[MCK_MAX_CHANNELS_WIRE];
 } mck_telemetry_t;
 
 /* CRC-16/CCITT-FALSE over len bytes. */
@@ -42,12 +53,18 @@ uint16_t mck_crc16(const uint8_t *data, size_t len);
 size_t mck_encode_frame(uint8_t type, uint16_t seq, const uint8_t *body, size_t body_len,
                         uint8_t *out, size_t cap);
 
-/* Encode a telemetry frame (30 bytes). */
+/* Encode a telemetry frame: body 9 + 14 n bytes (n = 3: 51; 59 bytes on the wire). */
 size_t mck_encode_telemetry(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap);
 
-/* Encode an acknowledgement for the command (cmd_seq, cmd_type) with a status code. */
-size_t mck_encode_ack(uint16_t seq, uint16_t cmd_seq, uint8_t cmd_type, uint8_t status,
+/* Encode an acknowledgement for the command (cmd_seq, cmd_type) with a status code and a value
+ * (GET_GAIN: the gain; otherwise 0). */
+size_t mck_encode_ack(uint16_t seq, uint16_t cmd_seq, uint8_t cmd_type, uint8_t status, int32_t value,
                       uint8_t *out, size_t cap);
+
+/* Encode the HELLO frame the firmware sends once it runs: its channels, control period, baud
+ * rate and number of gains. */
+size_t mck_encode_hello(uint16_t seq, uint8_t n_channels, uint16_t ts_us, uint32_t baud, uint8_t n_gains,
+                        uint8_t *out, size_t cap);
 
 /* Incremental receiver: feed bytes one at a time. */
 typedef struct {

@@ -236,3 +236,21 @@ def quantize_length(length, nominal_length, resolution=ENCODER_RESOLUTION):
         Belt travel per count. [m/count]
     """
     return length_from_encoder(encoder_from_length(length, nominal_length, resolution), nominal_length, resolution)
+
+
+# --- the three-channel bench (firmware/src/main.c) -------------------------------------------
+
+#: Pressure channels of the firmware (``MCK_N_CHANNELS``): the endoscope's three muscles.
+N_CHANNELS = 3
+#: Serial line rate (``BAUD``): 16 MHz / (8·(UBRR + 1)) with U2X and UBRR = 1, 0 % error. [1/s]
+BAUD = 1_000_000
+#: Arduino pin of each signal (``firmware/src/main.c``; ``docs/firmware.md``, "Pin map").
+PIN_MAP = {
+    "pressure": ("A0", "A1", "A2"),
+    "inlet": ("D6", "D8", "D45"),
+    "bleed": ("D7", "D46", "D44"),
+    "encoder": ("D2", "D3"),
+    "serial": ("D0", "D1"),
+}
+#: The timer output compare unit behind each valve pin (Timers 4 and 5, 8-bit fast PWM).
+PWM_UNIT = {"D6": "OC4A", "D7": "OC4B", "D8": "OC4C", "D46": "OC5A", "D45": "OC5B", "D44": "OC5C"}

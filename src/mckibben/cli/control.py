@@ -117,6 +117,8 @@ def step_cmd(
     duration: str = typer.Option("1s", "--duration", help="Time after the step."),
     plot: str = typer.Option(None, "--plot", help="Write a PNG of pressure and commands."),
     force: bool = FORCE_OPTION,
+    save_design: str = typer.Option(None, "--save-design", help="Write the controller design (JSON) for "
+                                                                 "mckibben rig gains --from."),
     json: bool = JSON_OPTION,
 ) -> None:
     """A pressure step on the calibrated plant under the firmware's controller."""
@@ -132,6 +134,10 @@ def step_cmd(
     total = hold + dur
     check_budget("--duration", total / 1e-3, force=force)
     _png(plot)
+    if save_design:
+        from mckibben.atomic import check_output_file
+
+        check_output_file(save_design, "--save-design", (".json",))
     if p0 == p1:
         raise InputError("--target: equals --from, there is no step")
     (p0c, p1c), clamped = clamp_pressure([p0, p1], pmax, "--target/--from")
@@ -150,6 +156,11 @@ def step_cmd(
     plant = plant_batch(**plant_kw)
     _, model, _ = identify_plant()
     params = _controller_params(opts, model, pmax)
+    if save_design:
+        from mckibben.control.core import save_design as _save_design
+
+        _save_design(params, save_design, note=f"control step {controller} ({opts['law']} law) on the calibrated "
+                                                f"plant's identified model")
     n = int(round(total / 1e-3))
     ref = step_reference(n, int(round(hold / 1e-3)), p0c, p1c)
     rec = run_closed_loop(core_spec(params), ref, total, plant)

@@ -17,7 +17,7 @@ from mckibben.units import parse_quantity
 rig_app = typer.Typer(help="The rig over its serial link: record, step, emulate.", no_args_is_help=True)
 app.add_typer(rig_app, name="rig")
 
-from mckibben.rig.device import BAUD, open_port as _open
+from mckibben.rig.device import BAUD, connect as _connect
 
 
 def _duration(text: str, name: str = "--duration", limit: float = 24 * 3600) -> float:
@@ -36,7 +36,7 @@ def record_cmd(
     nominal_length: str = typer.Option("97mm", "--nominal-length", help="Muscle rest length, for length_m."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """Record telemetry; a kill -9 loses at most the last quarter second (see docs/rig.md)."""
+    """Record telemetry (every channel); a kill -9 loses at most the last 0.2 s (see docs/rig.md)."""
     from rich.live import Live
 
     from mckibben.rig import protocol as P
@@ -47,8 +47,13 @@ def record_cmd(
         raise InputError(f"--decimation: {decimation} must be in 1..255")
     l0 = parse_quantity(nominal_length, "length", "--nominal-length", allow_zero=False)
     rec_out = check_output_file(out, "--out", (".parquet",))
-    link = _open(port)
-    rec = Recorder(rec_out, meta={"port": port, "baud": BAUD}, nominal_length=l0)
+    link, hello, _ = _connect(port)  # the device resets on open: nothing older than this run is kept
+    try:
+        rec = Recorder(rec_out, meta={"port": port, "baud": BAUD, "n_channels": hello.n_channels},
+                       nominal_length=l0)
+    except BaseException:
+        link.close()
+        raise
     link.write(P.stream(0, True, decimation))
     t0 = time.monotonic()
     show = not json and sys.stderr.isatty()
@@ -60,14 +65,38 @@ def record_cmd(
         return (f"{c['frames'] / dt:7.0f} frames/s   missing {c['missing']}   corrupt {c['corrupt']}   "
                 f"pressure {p:.3f} MPa   {dt:5.1f}/{d:g} s")
 
+    # A reader thread drains the port while the journal is written: the serial driver buffers
+    # only ~4 KB (70 ms of three-channel telemetry at 1 kHz), less than a journal part may take.
+    import collections
+    import threading
+
+    chunks = collections.deque()
+    stop = threading.Event()
+
+    def reader():
+        while not stop.is_set():
+            data = link.read(8192)
+            if data:
+                chunks.append(data)
+
+    thread = threading.Thread(target=reader, name="mckibben-record-reader", daemon=True)
+    thread.start()
     try:
         with Live(view(), console=err_console, refresh_per_second=4, transient=True) if show else _Null() as live:
             while time.monotonic() - t0 < d:
-                rec.feed(link.read(8192))
+                data = b"".join(chunks.popleft() for _ in range(len(chunks)))
+                rec.feed(data)
+                if not data:
+                    time.sleep(0.005)
                 if show:
                     live.update(view())
+        stop.set()
+        thread.join(timeout=5)
+        rec.feed(b"".join(chunks))
         link.write(P.stream(1, False, 1))
     finally:
+        stop.set()
+        thread.join(timeout=5)
         link.close()
     df = rec.close()
     c = rec.parser.counters()
@@ -118,6 +147,7 @@ def step_cmd(
     from mckibben.rig import Device
 
     res = Device(port).step(target, controller=controller, duration=duration)
+    _warn_faults(res.counters.get("faults", 0))
     if json:
         emit_json(res.to_dict())
         return
@@ -126,19 +156,64 @@ def step_cmd(
                 [[k, f"{v:.4g}"] for k, v in res.metrics.items()])
 
 
+def _warn_faults(faults: int) -> None:
+    """The device's faults on stderr, whatever the output format."""
+    from mckibben.rig.protocol import fault_names
+
+    if faults:
+        err_console.print(f"warning: the device reported faults: {', '.join(fault_names(faults))} (flags {faults})",
+                          markup=False, highlight=False)
+
+
+@rig_app.command("gains")
+def gains_cmd(
+    port: str = typer.Option(..., "--port", help="Serial port of the device or emulator."),
+    source: str = typer.Option(..., "--from", help="Controller design (JSON) written by control step --save-design "
+                                                   "or mckibben.control.core.save_design."),
+    channel: str = typer.Option("all", "--channel", help="Channel to write (0, 1, 2) or all."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Send a controller design's gains to the device, read them back and verify them."""
+    from mckibben.control.core import load_design
+    from mckibben.rig import Device
+
+    params = load_design(source)  # bad files fail before the port is touched
+    if channel == "all":
+        chans = None
+    elif channel.isdigit():
+        chans = [int(channel)]
+    else:
+        raise InputError(f"--channel: {channel!r} must be a channel number or all")
+    res = Device(port).set_gains(params, chans)
+    if not res.verified:
+        raise InputError(f"--port: the gains read back from {port!r} differ from those sent")
+    if json:
+        emit_json({**res.to_dict(), "from": source})
+        return
+    print_table(f"Gains from {source} on {port}", ["channel", "gains", "verified"],
+                [[str(c), str(len(v)), "yes"] for c, v in res.read_back.items()])
+
+
 @rig_app.command("emulate")
 def emulate_cmd(
     duration: str = typer.Option(None, "--duration", help="Stop after this long (default: until Ctrl-C)."),
     link: str = typer.Option(None, "--link", help="Also make a symbolic link to the port at this path."),
+    channels: int = typer.Option(3, "--channels", help="Pressure channels of the emulated device (1..3)."),
+    boot_time: str = typer.Option("0.3s", "--boot-time", help="Bootloader time after each reset (a Mega: 1-2 s)."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """A virtual device on a pseudo-terminal: the firmware core on the plant simulator, in real time."""
+    """A virtual device on a pseudo-terminal: the firmware core on N plants, in real time; it resets when opened."""
     import os
 
     from mckibben.rig.emulator import Emulator
 
     d = _duration(duration) if duration else None
-    em = Emulator()
+    if not 1 <= channels <= 3:
+        raise InputError(f"--channels: {channels} must be 1, 2 or 3")
+    boot = parse_quantity(boot_time, "time", "--boot-time")
+    if boot > 10:
+        raise InputError(f"--boot-time: {boot_time!r} is longer than 10 s")
+    em = Emulator(n_channels=channels, boot_time=boot)
     if link:
         try:
             if os.path.islink(link):
@@ -148,7 +223,7 @@ def emulate_cmd(
             em.stop()
             raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
     if json:
-        emit_json({"port": em.port, "link": link, "baud": BAUD})
+        emit_json({"port": em.port, "link": link, "baud": BAUD, "channels": channels})
     else:
         err_console.print(f"emulated device on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
     try:

@@ -861,3 +861,87 @@ def counts_from_command(u) -> tuple[np.ndarray, np.ndarray]:
     """
     r = np.floor(np.asarray(u, dtype=float) + 0.5)
     return np.clip(r, 0, 255).astype(np.int64), np.clip(-r, 0, 255).astype(np.int64)
+
+
+# --- controller designs on disk (``--save-design``, ``rig gains --from``) ---------------------
+
+#: The ``format`` key of a design file.
+DESIGN_FORMAT = "mckibben.controller-design"
+
+
+def save_design(params: CoreParams, path, note: str = "") -> None:
+    """Write a controller design as JSON (atomically): every :class:`CoreParams` field, SI.
+
+    The file is what ``mckibben control step --save-design`` writes and ``mckibben rig gains
+    --from`` sends to the device: the physical values and, for checking, the SET_GAIN integers
+    they become (``gains``).
+
+    Parameters
+    ----------
+    params : CoreParams
+        The design; its values must fit the firmware's ranges (checked). [SI]
+    path : str or os.PathLike
+        A ``.json`` file. [-]
+    note : str, optional
+        Free text kept in the file (what it was designed on). [-]
+    """
+    import dataclasses
+    import json
+
+    from mckibben.atomic import atomic_file, check_output_file
+
+    check_output_file(path, "--save-design", (".json",))
+    values = gain_values(params)
+    doc = {"format": DESIGN_FORMAT, "version": 1, "note": note,
+           "params": {f.name: getattr(params, f.name) for f in dataclasses.fields(params)},
+           "gains": {g.name: int(values[g.id]) for g in GAINS}}
+    with atomic_file(path, "--save-design") as tmp:
+        tmp.write_text(json.dumps(doc, indent=2) + "\n")
+
+
+def load_design(path) -> CoreParams:
+    """Read a design written by :func:`save_design`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The JSON file. [-]
+
+    Returns
+    -------
+    CoreParams
+        The design, range-checked against the firmware's gains.
+
+    Raises
+    ------
+    InputError
+        The file is missing, not JSON, not a design, or names an unknown or out-of-range value.
+    """
+    import dataclasses
+    import json
+    from pathlib import Path
+
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text())
+    except FileNotFoundError:
+        raise InputError(f"--from: {str(p)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"--from: cannot read {str(p)!r} ({exc})") from None
+    except ValueError as exc:
+        raise InputError(f"--from: {str(p)!r} is not JSON ({exc.args[0].split(':')[0]})") from None
+    if not isinstance(doc, dict) or doc.get("format") != DESIGN_FORMAT or not isinstance(doc.get("params"), dict):
+        raise InputError(f"--from: {str(p)!r} is not a controller design (no format {DESIGN_FORMAT!r})")
+    names = {f.name for f in dataclasses.fields(CoreParams)}
+    unknown = sorted(set(doc["params"]) - names)
+    if unknown:
+        raise InputError(f"--from: {str(p)!r}: unknown parameter {unknown[0]!r}")
+    for k, v in doc["params"].items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise InputError(f"--from: {str(p)!r}: parameter {k!r} is not a number")
+    params = CoreParams(**doc["params"])
+    try:
+        pack_params(params)
+    except InputError as exc:
+        raise InputError(f"--from: {str(p)!r}: {exc}") from None
+    return params

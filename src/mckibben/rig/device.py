@@ -13,14 +13,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.errors import InputError
+from mckibben.hardware import BAUD as _HW_BAUD
 from mckibben.hardware import P_MAX_DEFAULT, pressure_from_adc
 from mckibben.results import Result
 from mckibben.rig import protocol as P
 
-__all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "RigStepResult", "open_port"]
+__all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "GainsResult", "RigStepResult", "connect", "open_port"]
 
-#: Baud rate of the serial link (``docs/protocol.md``).
-BAUD = 500000
+#: Baud rate of the serial link (``docs/protocol.md``; :data:`mckibben.hardware.BAUD`).
+BAUD = _HW_BAUD
+#: How long :func:`connect` waits for the firmware's HELLO after opening the port: a Mega resets
+#: on open and its bootloader listens for 1-2 s before the firmware starts. [s]
+HELLO_TIMEOUT_S = 4.0
 #: The paper's safe limit: no step above it is sent to the device. [Pa]
 SAFE_MAX_PRESSURE_PA = float(P_MAX_DEFAULT)
 #: How long :meth:`Device.step` waits for the first telemetry frame. [s]
@@ -45,6 +49,134 @@ def open_port(port: str, timeout: float = 0.02):
         return serial.serial_for_url(port, baudrate=BAUD, timeout=timeout)
     except (serial.SerialException, ValueError, OSError) as exc:
         raise InputError(f"--port: cannot open {port!r} ({exc})") from None
+
+
+def connect(port: str, hello_timeout: float | None = None, timeout: float = 0.02):
+    """Open the link and wait for the firmware's HELLO frame; return ``(link, hello, parser)``.
+
+    Opening the port of a Mega resets it into its bootloader, which swallows whatever arrives
+    for about a second; the firmware announces itself with a HELLO frame once it runs. Bytes
+    that arrive before it (a previous session's frames) are discarded, so nothing the caller
+    sends is lost and nothing it reads is stale.
+
+    Parameters
+    ----------
+    port : str
+        Device path or pyserial URL. [-]
+    hello_timeout : float, optional
+        How long to wait for HELLO; default :data:`HELLO_TIMEOUT_S`. [s]
+    timeout : float, default 0.02
+        Read timeout of the link. [s]
+
+    Raises
+    ------
+    InputError
+        The port cannot be opened, or no HELLO arrives in time (not a mckibben device, or one
+        running firmware older than protocol version 2).
+    """
+    hello_timeout = HELLO_TIMEOUT_S if hello_timeout is None else float(hello_timeout)
+    link = open_port(port, timeout)
+    parser = P.Parser()
+    try:
+        link.reset_input_buffer()
+        end = time.monotonic() + hello_timeout
+        while time.monotonic() < end:
+            for f in parser.feed(link.read(4096)):
+                if isinstance(f, P.Hello):
+                    return link, f, P.Parser()  # a fresh parser: counters start at the hello
+    except BaseException:
+        link.close()
+        raise
+    link.close()
+    raise InputError(f"--port: no HELLO frame from {port!r} within {hello_timeout:g} s after opening it; is it a "
+                     f"mckibben device running firmware with protocol version {P.VERSION}?")
+
+
+#: Commands in flight at once: the firmware's receive ring holds 128 bytes and SET_GAIN takes it
+#: ~1 ms to compute, while the line brings 100 bytes per ms; and its 256-byte transmit queue
+#: drops an ACK that does not fit.
+WINDOW = 4
+
+
+def command(link, parser: P.Parser, packets, timeout: float = 2.0, on_frame=None) -> list:
+    """Send commands, at most :data:`WINDOW` unacknowledged at a time; return their ACKs in order.
+
+    Parameters
+    ----------
+    link : serial.Serial
+        The open link. [-]
+    parser : Parser
+        The link's parser (other frames arriving meanwhile go to ``on_frame``). [-]
+    packets : list of (int, bytes)
+        ``(seq, packet)`` pairs. [-]
+    timeout : float, default 2.0
+        How long to wait for each window's ACKs. [s]
+    on_frame : callable, optional
+        Called with every other frame. [-]
+    """
+    acks = {}
+    for i in range(0, len(packets), WINDOW):
+        window = packets[i:i + WINDOW]
+        want = {seq for seq, _ in window}
+        for _, pkt in window:
+            link.write(pkt)
+        end = time.monotonic() + timeout
+        while want - set(acks) and time.monotonic() < end:
+            for f in parser.feed(link.read(4096)):
+                if isinstance(f, P.Ack) and f.cmd_seq in want:
+                    acks[f.cmd_seq] = f
+                elif on_frame is not None:
+                    on_frame(f)
+        if want - set(acks):
+            raise InputError(f"--port: the device did not acknowledge {len(want - set(acks))} commands within "
+                             f"{timeout:g} s")
+    return [acks[seq] for seq, _ in packets]
+
+
+@dataclass(frozen=True, repr=False)
+class GainsResult(Result):
+    """Gains sent to the device's channels and read back.
+
+    Attributes
+    ----------
+    gains : dict
+        Gain name -> the SET_GAIN integer sent (``mckibben.control.core.GAINS``). [-]
+    read_back : dict
+        Channel -> gain name -> the integer the device reports. [-]
+    arguments : dict
+        Port, channels, design file, p_max [Pa]. [-]
+    """
+
+    gains: dict
+    read_back: dict
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.rig.Device.set_gains"
+
+    @property
+    def verified(self) -> bool:
+        """Every channel reports exactly the gains sent."""
+        return all(rb == self.gains for rb in self.read_back.values())
+
+    @property
+    def metrics(self) -> dict:
+        """Channels written and whether the read-back matched."""
+        return {"channels": len(self.read_back), "gains_per_channel": len(self.gains), "verified": self.verified}
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the gains, the read-back per channel, and the verdict."""
+        return {**self.arguments, "gains": self.gains, "read_back": {str(k): v for k, v in self.read_back.items()},
+                "verified": self.verified}
+
+    def _series(self):
+        import pandas as pd
+
+        rows = [{"channel": ch, "gain": name, "sent": self.gains[name], "read_back": v}
+                for ch, got in self.read_back.items() for name, v in got.items()]
+        return pd.DataFrame(rows)
+
+    def plot(self, ax=None):
+        """Nothing to draw: raises ``NotImplementedError``."""
+        raise NotImplementedError("GainsResult has no plot")
 
 
 @dataclass(frozen=True, repr=False)
@@ -166,8 +298,7 @@ class Device:
         d = quantity(duration, "time", "--duration", allow_zero=False)
         if d > 60:
             raise InputError(f"--duration: {duration!r} is longer than 60 s")
-        link = open_port(self.port)
-        parser = P.Parser()
+        link, _, parser = connect(self.port)
         rows = []
         acks = []
         try:
@@ -183,7 +314,7 @@ class Device:
                 for f in parser.feed(link.read(8192)):
                     if isinstance(f, P.Telemetry):
                         rows.append((f.t_us * 1e-6, pressure_from_adc(f.pressure_adc).item(), f.reference_pa,
-                                     f.inlet_pwm - f.bleed_pwm))
+                                     f.inlet_pwm - f.bleed_pwm, f.faults))
                         if t_step is None and sent and f.reference_pa > 0:
                             t_step = rows[-1][0]
                     elif isinstance(f, P.Ack):
@@ -209,6 +340,68 @@ class Device:
         if t_step is None:
             raise InputError(f"--port: {self.port!r} stopped streaming before the step to {p:g} Pa took effect "
                              f"({len(rows)} frames, {a[-1, 0] - a[0, 0]:.3f} s of device time)")
+        faults = int(np.bitwise_or.reduce(a[:, 4].astype(np.int64)))
         return RigStepResult(a[:, 0], a[:, 1], a[:, 2], a[:, 3], float(t_step),
                              {"port": self.port, "target_Pa": p, "controller": controller, "duration_s": d},
-                             {"frames": parser.frames, "missing": parser.missing})
+                             {"frames": parser.frames, "missing": parser.missing, "faults": faults})
+
+    def set_gains(self, design, channels=None) -> GainsResult:
+        """Send a controller design to the device's channels, read every gain back and compare.
+
+        Parameters
+        ----------
+        design : CoreParams or str or os.PathLike
+            The design, or a design file (:func:`mckibben.control.core.save_design`). [-]
+        channels : sequence of int, optional
+            Channels to write; default every channel the device announces. [-]
+
+        Returns
+        -------
+        GainsResult
+            What was sent and what each channel reports; ``verified`` when they agree.
+
+        Raises
+        ------
+        InputError
+            A bad design, a channel the device does not have, or a refused command.
+        """
+        from mckibben.control.core import GAINS, CoreParams, gain_values, load_design
+
+        params = design if isinstance(design, CoreParams) else load_design(design)
+        values = gain_values(params)
+        link, hello, parser = connect(self.port)
+        try:
+            chans = list(range(hello.n_channels)) if channels is None else [int(c) for c in channels]
+            bad = [c for c in chans if not 0 <= c < hello.n_channels]
+            if bad:
+                raise InputError(f"--channel: {bad[0]} is not a channel of the device (0..{hello.n_channels - 1})")
+            seq = 0
+            packets = []
+            for c in chans:
+                for g in GAINS:
+                    packets.append((seq, P.set_gain(seq, g.id, int(values[g.id]), c)))
+                    seq += 1
+                packets.append((seq, P.set_max_pressure(seq, params.p_max, c)))
+                seq += 1
+            acks = command(link, parser, packets)
+            refused = [a for a in acks if a.status != 0]
+            if refused:
+                raise InputError(f"the device refused command type 0x{refused[0].cmd_type:02x} "
+                                 f"(status {refused[0].status})")
+            reads = []
+            for c in chans:
+                for g in GAINS:
+                    reads.append((seq, P.get_gain(seq, g.id, c)))
+                    seq += 1
+            acks = command(link, parser, reads)
+        finally:
+            link.close()
+        read_back = {}
+        k = 0
+        for c in chans:
+            read_back[c] = {}
+            for g in GAINS:
+                read_back[c][g.name] = int(acks[k].value)
+                k += 1
+        return GainsResult({g.name: int(values[g.id]) for g in GAINS}, read_back,
+                           {"port": self.port, "channels": chans, "p_max_Pa": float(params.p_max)})

@@ -1,11 +1,20 @@
-"""A virtual Arduino on a pseudo-terminal: the protocol, the firmware core, the plant, in real time.
+"""A virtual Arduino on a pseudo-terminal: the protocol, the firmware core, N plants, in real time.
 
 The emulator opens a pty pair and behaves like the device at the other end of the serial link:
-it runs the controller core (:class:`mckibben.control.core.CoreController`, bit-exact with
-``firmware/core``) at 1 kHz on the plant simulator (:class:`mckibben.plant.PlantStepper`),
-answers every command with an ACK, and streams telemetry frames. It wakes every few
-milliseconds, runs the control periods that are due, and writes their frames, so its average
-rate is the device's. For tests it can inject garbage and cut frames into the stream.
+it runs the controller core of every channel (:class:`mckibben.control.core.CoreBank`,
+bit-exact with ``firmware/core``, shared supply check included) at 1 kHz on one plant per
+channel (:class:`mckibben.plant.PlantStepper`), answers every command with an ACK, and streams
+telemetry frames. Like the device it is honest about time and the link:
+
+- **Reset on open.** A Mega resets when the host opens its port (DTR). The emulator watches its
+  pty: whenever a process opens the port after nobody had it open, the device resets — every
+  channel's controller back to its defaults and off, streaming off — and for ``boot_time`` the
+  bootloader swallows whatever arrives; then the firmware sends its HELLO frame.
+- **A clock that follows wall time.** The control periods that are due run whether or not
+  anyone reads. Frames go through a UART model: a 256-byte transmit queue drained at the line
+  rate (``baud``/10 bytes per second) into the pty; a frame that does not fit the queue is
+  dropped whole and counted (``dropped``), and its sequence number is spent, so a host sees the
+  gap, as with the firmware.
 """
 
 from __future__ import annotations
@@ -19,104 +28,162 @@ import tty
 
 from mckibben.rig import protocol as P
 
+#: The firmware's transmit ring (``TX_SIZE`` in firmware/src/main.c). [bytes]
+TX_QUEUE = 256
+
 
 class Emulator:
     """The virtual device. ``start()`` runs it in a thread; ``port`` is the path to open.
 
     Parameters
     ----------
-    plant : PlantParams, optional
-        The rig; default the calibrated one.
+    plant : PlantParams or sequence of PlantParams, optional
+        The rig of every channel, or one per channel; default the calibrated one.
     controller : CoreParams, optional
-        The core's initial parameters (mode, gains, limits).
+        The cores' parameters after a reset (mode, gains, limits); default the firmware's.
+    n_channels : int, default 3
+        Channels of the device (1..3), as ``MCK_N_CHANNELS`` of the firmware.
     ts : float, default 1e-3
         Control period. [s]
-    wake : float, default 0.005
+    wake : float, default 0.002
         How often the emulator wakes to run the due periods. [s]
+    baud : int, default 1000000
+        Line rate of the UART model. [1/s]
+    boot_time : float, default 0.3
+        How long the bootloader holds after a reset before the firmware runs (a Mega: 1-2 s). [s]
     garbage_every : int, default 0
         Insert a burst of garbage after every k-th telemetry frame (0: never). [-]
     cut_every : int, default 0
         Send only the first half of every k-th telemetry frame (0: never); that frame is lost. [-]
     """
 
-    def __init__(self, plant=None, controller=None, ts: float = 1e-3, wake: float = 0.005, garbage_every: int = 0,
-                 cut_every: int = 0):
-        from mckibben.control.core import CoreController, CoreParams
-        from mckibben.plant import PlantStepper
+    def __init__(self, plant=None, controller=None, n_channels: int = 3, ts: float = 1e-3, wake: float = 0.002,
+                 baud: int = 1_000_000, boot_time: float = 0.3, garbage_every: int = 0, cut_every: int = 0):
+        from mckibben.control.core import CoreParams
+        from mckibben.errors import InputError
 
-        self.plant = PlantStepper(plant, ts=ts)
-        self.ctrl = CoreController(controller or CoreParams(mode=0))
-        self.ts, self.wake = ts, wake
+        if not 1 <= int(n_channels) <= P.MAX_CHANNELS:
+            raise InputError(f"Emulator: n_channels {n_channels!r} must be 1..{P.MAX_CHANNELS}")
+        self.n = int(n_channels)
+        plants = list(plant) if isinstance(plant, (list, tuple)) else [plant] * self.n
+        if len(plants) != self.n:
+            raise InputError(f"Emulator: {len(plants)} plants for {self.n} channels")
+        self._plant_params = plants
+        self._controller = controller or CoreParams(mode=0)
+        self.ts, self.wake, self.baud, self.boot_time = ts, wake, int(baud), float(boot_time)
         self.garbage_every, self.cut_every = garbage_every, cut_every
-        self.master, self.slave = os.openpty()
-        tty.setraw(self.slave)
+        self.master, slave = os.openpty()
+        tty.setraw(slave)
         tty.setraw(self.master)
-        self.port = os.ttyname(self.slave)
-        self.p_ref = 0.0
-        self.streaming, self.decimation = False, 1
-        self.tx_seq = 0
+        self.port = os.ttyname(slave)
+        os.close(slave)  # the port is "closed" until a host opens it: the pty hangs up meanwhile
+        os.set_blocking(self.master, False)
+        self.resets = 0
+        self.host_present = False  # a process has the port open (a reopen within one wake is not seen)
         self.steps = 0
         self.sent_telemetry = 0
+        self.dropped = 0
         self.cut = 0
         self.garbage = 0
-        self.rx = P.Parser()
         self._stop = threading.Event()
         self._thread = None
+        self._lock = threading.Lock()
+        self._boot()
 
     # -- device behaviour ------------------------------------------------------------------
+    def _boot(self) -> None:
+        """Power-on / reset: plants keep their air, the firmware starts afresh."""
+        from mckibben.control.core import CoreBank
+        from mckibben.plant import PlantStepper
+
+        if not hasattr(self, "plants"):
+            self.plants = [PlantStepper(p, ts=self.ts) for p in self._plant_params]
+        self.bank = CoreBank([self._controller] * self.n)
+        self.ctrl = self.bank[0]
+        self.p_ref = [0.0] * self.n
+        self.streaming, self.decimation = False, 1
+        self.tx_seq = 0
+        self.rx = P.Parser()
+        self._queue = bytearray()
+        self._booting_until = time.monotonic() + self.boot_time
+        self._hello_sent = False
+        self._t_dev = 0  # device clock since reset [periods]
+
     def _handle(self, frame) -> None:
         kind = getattr(frame, "kind", None)
-        status = 0
+        status, value = 0, 0
         body = getattr(frame, "body", b"")
-        c = self.ctrl
-        if kind == P.SET_POINT:
-            self.p_ref = float(struct.unpack("<i", body)[0])
+        ch = body[0] if body else 0
+        targets = range(self.n) if ch == P.ALL else [ch]
+        if kind in (P.SET_POINT, P.SET_GAIN, P.GET_GAIN, P.SET_OPEN_LOOP) and ch >= self.n:
+            status = 3
+        elif kind in (P.SET_MODE, P.SET_MAX_PRESSURE, P.VENT) and ch >= self.n and ch != P.ALL:
+            status = 3
+        elif kind == P.SET_POINT:
+            self.p_ref[ch] = float(struct.unpack("<i", body[1:])[0])
+        elif kind == P.SET_POINTS:
+            if len(body) != 4 * self.n:
+                status = 2
+            else:
+                self.p_ref = [float(v) for v in struct.unpack(f"<{self.n}i", body)]
         elif kind == P.SET_GAIN:
-            gid, value = struct.unpack("<Bi", body)
-            status = c.set_gain(gid, value)
+            gid, v = struct.unpack("<Bi", body[1:])
+            status = self.bank[ch].set_gain(gid, v)
+        elif kind == P.GET_GAIN:
+            from mckibben.control.core import IP_GAIN0, N_GAINS
+
+            gid = body[1]
+            if gid >= N_GAINS:
+                status = 4
+            else:
+                value = int(self.bank[ch].iparams[IP_GAIN0 + gid])
         elif kind == P.SET_MODE:
-            status = c.set_mode(body[0])
+            for i in targets:
+                status |= self.bank[i].set_mode(body[1])
         elif kind == P.SET_MAX_PRESSURE:
-            status = c.set_max_pressure(struct.unpack("<i", body)[0])
+            for i in targets:
+                status |= self.bank[i].set_max_pressure(struct.unpack("<i", body[1:])[0])
         elif kind == P.VENT:
-            c.vent()
+            for i in targets:
+                self.bank[i].vent()
         elif kind == P.STREAM:
             if body[1] == 0:
                 status = 3
             else:
                 self.streaming, self.decimation = bool(body[0]), body[1]
         elif kind == P.SET_OPEN_LOOP:
-            c.set_open_loop(body[0], body[1])
+            self.bank[ch].set_open_loop(body[1], body[2])
         else:
             status = 1
-        self._write(P.encode_ack(self._next_seq(), frame.seq, kind if kind is not None else 0, status))
+        self._send(P.encode_ack(self._next_seq(), frame.seq, kind if kind is not None else 0, status, value))
 
     def _next_seq(self) -> int:
         s = self.tx_seq
         self.tx_seq = (self.tx_seq + 1) & 0xFFFF
         return s
 
-    def _write(self, data: bytes) -> None:
-        view = memoryview(data)
-        while view and not self._stop.is_set():
-            try:
-                n = os.write(self.master, view)
-                view = view[n:]
-            except BlockingIOError:
-                time.sleep(0.001)
-            except OSError:
-                return
+    def _send(self, pkt: bytes) -> bool:
+        """Queue a whole packet or drop it (the firmware's uart_send)."""
+        if len(self._queue) + len(pkt) > TX_QUEUE - 1:
+            return False
+        self._queue += pkt
+        return True
 
-    def step(self) -> bytes:
-        """Run one control period; return the telemetry packet it streams (or b"")."""
-        adc, enc = self.plant.sense()
-        inlet, bleed, faults = self.ctrl.step(adc, True, self.p_ref)
-        self.plant.advance(inlet, bleed)
+    def step(self) -> None:
+        """Run one control period of every channel; queue the telemetry frame it streams."""
+        sensed = [pl.sense() for pl in self.plants]
+        adcs = [a for a, _ in sensed]
+        out = self.bank.step(adcs, [True] * self.n, self.p_ref)
+        for pl, (inlet, bleed, _) in zip(self.plants, out, strict=True):
+            pl.advance(inlet, bleed)
         self.steps += 1
-        if not self.streaming or self.steps % self.decimation:
-            return b""
-        t = P.Telemetry(self._next_seq(), int(round(self.steps * self.ts * 1e6)) & 0xFFFFFFFF, adc, enc, inlet, bleed,
-                        self.ctrl.mode, faults, self.ctrl.reference_pa, self.ctrl.surface_pa)
+        self._t_dev += 1
+        if not self.streaming or self._t_dev % self.decimation:
+            return
+        chans = [P.ChannelTelemetry(adcs[i], out[i][0], out[i][1], self.bank[i].mode, out[i][2],
+                                    self.bank[i].reference_pa, self.bank[i].surface_pa) for i in range(self.n)]
+        t = P.Telemetry.of_channels(self._next_seq(), int(round(self._t_dev * self.ts * 1e6)) & 0xFFFFFFFF,
+                                    sensed[0][1], chans)
         pkt = P.encode_telemetry(t)
         self.sent_telemetry += 1
         if self.cut_every and self.sent_telemetry % self.cut_every == 0:
@@ -125,7 +192,25 @@ class Emulator:
         if self.garbage_every and self.sent_telemetry % self.garbage_every == 0:
             self.garbage += 1
             pkt += b"\x7f\x13\x88garbage\x01\x02\x00"
-        return pkt
+        if not self._send(pkt):
+            self.dropped += 1
+
+    def _host_present(self) -> bool:
+        """True while some process has the port open (the pty's master does not hang up)."""
+        r = select.poll()
+        r.register(self.master, select.POLLHUP | select.POLLIN)
+        return not any(ev & select.POLLHUP for _, ev in r.poll(0))
+
+    def _drain(self, budget: int) -> int:
+        """Move up to ``budget`` queued bytes onto the line; what the pty refuses stays queued."""
+        if not self._queue or budget <= 0:
+            return 0
+        try:
+            n = os.write(self.master, bytes(self._queue[:budget]))
+        except (BlockingIOError, OSError):
+            return 0
+        del self._queue[:n]
+        return n
 
     def run(self, duration: float | None = None) -> None:
         """Run in the calling thread until :meth:`stop` (or for ``duration`` seconds).
@@ -136,25 +221,64 @@ class Emulator:
             Wall-clock time to run. [s]
         """
         t0 = time.monotonic()
+        present = self._host_present()
+        credit = 0.0
         while not self._stop.is_set():
-            now = time.monotonic() - t0
+            now_abs = time.monotonic()
+            now = now_abs - t0
             if duration is not None and now >= duration:
                 break
-            r, _, _ = select.select([self.master], [], [], 0)
-            if r:
-                try:
-                    data = os.read(self.master, 4096)
-                except OSError:
-                    data = b""
-                for frame in self.rx.feed(data):
-                    self._handle(frame)
-            due = int(now / self.ts) - self.steps
-            out = bytearray()
-            for _ in range(max(due, 0)):
-                out += self.step()
-            if out:
-                self._write(bytes(out))
+            with self._lock:
+                was, present = present, self._host_present()
+                self.host_present = present
+                if present and not was:  # the host opened the port: DTR resets the board
+                    self.resets += 1
+                    self._boot()
+                data = b""
+                if present:
+                    try:
+                        data = os.read(self.master, 4096)
+                    except (BlockingIOError, OSError):
+                        data = b""
+                booting = now_abs < self._booting_until
+                if not booting:
+                    if not self._hello_sent:
+                        self._send(P.encode_hello(self._next_seq(), self.n, int(round(self.ts * 1e6)), self.baud,
+                                                  self._n_gains()))
+                        self._hello_sent = True
+                    for frame in self.rx.feed(data):  # the bootloader swallows what came before
+                        self._handle(frame)
+                due = int(now / self.ts) - self.steps
+                per_period = self.baud / 10.0 * self.ts  # bytes the line carries in one period
+                for _ in range(max(due, 0)):
+                    if booting:  # the board is in its bootloader: valves shut, no telemetry
+                        for pl in self.plants:
+                            pl.advance(0, 0)
+                        self.steps += 1
+                    else:
+                        self.step()
+                    # the UART shifts out one period's worth of the queue, heard or not
+                    credit = min(credit + per_period, per_period)
+                    if present:
+                        credit -= self._drain(int(credit))
+                    else:
+                        take = min(len(self._queue), int(credit))
+                        del self._queue[:take]
+                        credit -= take
+                if due <= 0 and present:  # acknowledgements between periods
+                    self._drain(int(per_period))
             time.sleep(self.wake)
+
+    @property
+    def device_time(self) -> float:
+        """The device's clock: time since its last reset, as its telemetry reports it. [s]"""
+        return self._t_dev * self.ts
+
+    @staticmethod
+    def _n_gains() -> int:
+        from mckibben.control.core import N_GAINS
+
+        return N_GAINS
 
     def start(self) -> "Emulator":
         """Run in a background thread."""
@@ -167,11 +291,10 @@ class Emulator:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
-        for fd in (self.master, self.slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+        try:
+            os.close(self.master)
+        except OSError:
+            pass
 
     def __enter__(self):
         return self.start()

@@ -1,9 +1,10 @@
-"""The serial protocol, version 1, host side (``docs/protocol.md``; the C side is
+"""The serial protocol, version 2, host side (``docs/protocol.md``; the C side is
 ``firmware/core/protocol.c``).
 
 Frames are ``COBS(version | type | seq | body | crc16) 0x00``, little-endian, CRC-16/CCITT-FALSE.
 :class:`Parser` takes any bytes in any pieces and never raises: it resynchronizes at the next
-delimiter after garbage or a cut frame and counts what it skipped.
+delimiter after garbage or a cut frame and counts what it skipped. It reads version 1 frames
+too (one channel: recordings and captures made before the three-channel firmware).
 """
 
 from __future__ import annotations
@@ -11,19 +12,42 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass, field
 
-VERSION = 1
+VERSION = 2
+#: Versions the parser reads: 1 (one channel, 500000 baud) and 2.
+VERSIONS_READ = (1, 2)
 MAX_FRAME = 64  #: largest decoded frame (version..crc) [bytes]
 MAX_PACKET = MAX_FRAME + MAX_FRAME // 254 + 2  #: largest COBS packet with its delimiter [bytes]
+MAX_CHANNELS = 3  #: channels a TELEMETRY frame carries at most
+ALL = 0xFF  #: channel byte of SET_MODE, SET_MAX_PRESSURE and VENT: every channel
 
-TELEMETRY, ACK = 0x01, 0x02
+TELEMETRY, ACK, HELLO = 0x01, 0x02, 0x03
 SET_POINT, SET_GAIN, SET_MODE, SET_MAX_PRESSURE, VENT, STREAM, SET_OPEN_LOOP = 0x10, 0x11, 0x12, 0x13, 0x14, 0x15, 0x16
+SET_POINTS, GET_GAIN = 0x17, 0x18
 MODES = {"off": 0, "smc": 1, "pid": 2, "open-loop": 3}
 
-_TELEMETRY = struct.Struct("<IHiBBBBii")  # 22 bytes
-_ACK = struct.Struct("<HBB")
-#: Body length of each type (None: any length up to the frame limit).
-BODY_LENGTH = {TELEMETRY: _TELEMETRY.size, ACK: _ACK.size, SET_POINT: 4, SET_GAIN: 5, SET_MODE: 1,
-               SET_MAX_PRESSURE: 4, VENT: 0, STREAM: 2, SET_OPEN_LOOP: 2}
+_TELEMETRY_V1 = struct.Struct("<IHiBBBBii")  # 22 bytes, version 1
+_TELEMETRY_HEAD = struct.Struct("<IiB")  # t_us, encoder, n: 9 bytes
+_CHANNEL = struct.Struct("<HBBBBii")  # 14 bytes per channel
+_ACK_V1 = struct.Struct("<HBB")
+_ACK = struct.Struct("<HBBi")  # 8 bytes
+_HELLO = struct.Struct("<BHIB")  # 8 bytes
+#: Body length of each type (None: variable, checked by the decoder).
+BODY_LENGTH = {TELEMETRY: None, ACK: _ACK.size, HELLO: _HELLO.size, SET_POINT: 5, SET_GAIN: 6, SET_MODE: 2,
+               SET_MAX_PRESSURE: 5, VENT: 1, STREAM: 2, SET_OPEN_LOOP: 3, SET_POINTS: None, GET_GAIN: 2}
+BODY_LENGTH_V1 = {TELEMETRY: _TELEMETRY_V1.size, ACK: _ACK_V1.size, SET_POINT: 4, SET_GAIN: 5, SET_MODE: 1,
+                  SET_MAX_PRESSURE: 4, VENT: 0, STREAM: 2, SET_OPEN_LOOP: 2}
+
+
+def telemetry_wire_bytes(n_channels: int) -> int:
+    """Bytes on the wire of one TELEMETRY frame: header 4, body 9 + 14 n, CRC 2, COBS 1, delimiter 1.
+
+    Parameters
+    ----------
+    n_channels : int
+        Channels in the frame, 1..3. [-]
+    """
+    return 4 + _TELEMETRY_HEAD.size + _CHANNEL.size * n_channels + 2 + 1 + 1
+
 
 FAULT_NAMES = ("overpressure", "adc_out_of_range", "sensor_stuck", "sample_missing", "vent_commanded")
 
@@ -92,7 +116,7 @@ def cobs_decode(data: bytes) -> bytes | None:
     return bytes(out)
 
 
-def encode_frame(kind: int, seq: int, body: bytes = b"") -> bytes:
+def encode_frame(kind: int, seq: int, body: bytes = b"", version: int = VERSION) -> bytes:
     """One packet ready for the wire: COBS of the frame, then the 0x00 delimiter.
 
     Parameters
@@ -103,8 +127,10 @@ def encode_frame(kind: int, seq: int, body: bytes = b"") -> bytes:
         Sequence number (taken modulo 65536). [-]
     body : bytes
         The type's body. [-]
+    version : int, default VERSION
+        Protocol version byte (1 only to reproduce old streams). [-]
     """
-    raw = struct.pack("<BBH", VERSION, kind, seq & 0xFFFF) + bytes(body)
+    raw = struct.pack("<BBH", version, kind, seq & 0xFFFF) + bytes(body)
     raw += struct.pack("<H", crc16(raw))
     if len(raw) > MAX_FRAME:
         raise ValueError(f"frame of {len(raw)} bytes exceeds {MAX_FRAME}")
@@ -112,8 +138,25 @@ def encode_frame(kind: int, seq: int, body: bytes = b"") -> bytes:
 
 
 @dataclass(frozen=True)
+class ChannelTelemetry:
+    """One channel's values in a telemetry frame (raw counts and Pa)."""
+
+    pressure_adc: int
+    inlet_pwm: int
+    bleed_pwm: int
+    mode: int
+    faults: int
+    reference_pa: int
+    surface_pa: int
+
+
+@dataclass(frozen=True)
 class Telemetry:
-    """One telemetry frame's values (raw counts; SI conversion in the recorder)."""
+    """One telemetry frame's values (raw counts; SI conversion in the recorder).
+
+    The scalar fields are channel 0's (the only one of a version 1 frame); ``channels`` holds
+    every channel of the frame, channel 0 first.
+    """
 
     seq: int
     t_us: int
@@ -125,21 +168,56 @@ class Telemetry:
     faults: int
     reference_pa: int
     surface_pa: int
+    channels: tuple = ()
+
+    def __post_init__(self):
+        if not self.channels:
+            object.__setattr__(self, "channels", (ChannelTelemetry(self.pressure_adc, self.inlet_pwm, self.bleed_pwm,
+                                                                   self.mode, self.faults, self.reference_pa,
+                                                                   self.surface_pa),))
+
+    @classmethod
+    def of_channels(cls, seq: int, t_us: int, encoder: int, channels) -> "Telemetry":
+        """A frame from its channels (channel 0 first).
+
+        Parameters
+        ----------
+        seq, t_us, encoder : int
+            Sequence number [-], device time [µs], encoder count [count].
+        channels : sequence of ChannelTelemetry
+            1..3 channels. [-]
+        """
+        chans = tuple(channels)
+        c = chans[0]
+        return cls(seq, t_us, c.pressure_adc, encoder, c.inlet_pwm, c.bleed_pwm, c.mode, c.faults, c.reference_pa,
+                   c.surface_pa, chans)
 
 
 @dataclass(frozen=True)
 class Ack:
-    """A device's answer to a command."""
+    """A device's answer to a command; ``value`` carries GET_GAIN's gain (0 otherwise)."""
 
     seq: int
     cmd_seq: int
     cmd_type: int
     status: int
+    value: int = 0
+
+
+@dataclass(frozen=True)
+class Hello:
+    """The frame the firmware sends once it runs (after a reset)."""
+
+    seq: int
+    n_channels: int
+    ts_us: int
+    baud: int
+    n_gains: int
 
 
 @dataclass(frozen=True)
 class Frame:
-    """Any valid frame: its type, sequence number and body."""
+    """Any other valid frame: its type, sequence number and body."""
 
     kind: int
     seq: int
@@ -152,47 +230,81 @@ def encode_telemetry(t: Telemetry) -> bytes:
     Parameters
     ----------
     t : Telemetry
-        The values. [-]
+        The values; every channel of ``t.channels`` goes in. [-]
     """
-    body = _TELEMETRY.pack(t.t_us & 0xFFFFFFFF, t.pressure_adc, t.encoder, t.inlet_pwm, t.bleed_pwm, t.mode,
-                           t.faults, t.reference_pa, t.surface_pa)
+    if not 1 <= len(t.channels) <= MAX_CHANNELS:
+        raise ValueError(f"a telemetry frame carries 1..{MAX_CHANNELS} channels, not {len(t.channels)}")
+    body = _TELEMETRY_HEAD.pack(t.t_us & 0xFFFFFFFF, t.encoder, len(t.channels))
+    for c in t.channels:
+        body += _CHANNEL.pack(c.pressure_adc, c.inlet_pwm, c.bleed_pwm, c.mode, c.faults, c.reference_pa, c.surface_pa)
     return encode_frame(TELEMETRY, t.seq, body)
 
 
-def encode_ack(seq: int, cmd_seq: int, cmd_type: int, status: int) -> bytes:
+def encode_telemetry_v1(t: Telemetry) -> bytes:
+    """Packet of a version 1 telemetry frame (channel 0 only), as the one-channel firmware sent.
+
+    Parameters
+    ----------
+    t : Telemetry
+        The values. [-]
+    """
+    body = _TELEMETRY_V1.pack(t.t_us & 0xFFFFFFFF, t.pressure_adc, t.encoder, t.inlet_pwm, t.bleed_pwm, t.mode,
+                              t.faults, t.reference_pa, t.surface_pa)
+    return encode_frame(TELEMETRY, t.seq, body, version=1)
+
+
+def encode_ack(seq: int, cmd_seq: int, cmd_type: int, status: int, value: int = 0) -> bytes:
     """Packet of an acknowledgement.
 
     Parameters
     ----------
     seq, cmd_seq, cmd_type, status : int
         The ACK's sequence number, and the command's sequence number, type and status. [-]
+    value : int, default 0
+        GET_GAIN's gain value. [-]
     """
-    return encode_frame(ACK, seq, _ACK.pack(cmd_seq & 0xFFFF, cmd_type, status))
+    return encode_frame(ACK, seq, _ACK.pack(cmd_seq & 0xFFFF, cmd_type, status, value))
 
 
-def set_point(seq: int, pressure_pa: float) -> bytes:
-    """SET_POINT command. Parameters: seq [-], pressure_pa: the set-point [Pa]."""
-    return encode_frame(SET_POINT, seq, struct.pack("<i", int(round(pressure_pa))))
+def encode_hello(seq: int, n_channels: int, ts_us: int, baud: int, n_gains: int) -> bytes:
+    """Packet of the HELLO frame. Parameters: seq [-], n_channels [-], ts_us [µs], baud [1/s], n_gains [-]."""
+    return encode_frame(HELLO, seq, _HELLO.pack(n_channels, ts_us, baud, n_gains))
 
 
-def set_gain(seq: int, gain_id: int, value: int) -> bytes:
-    """SET_GAIN command. Parameters: seq, gain_id [-], value in the gain's fixed-point scale [-]."""
-    return encode_frame(SET_GAIN, seq, struct.pack("<Bi", gain_id, value))
+def set_point(seq: int, pressure_pa: float, channel: int = 0) -> bytes:
+    """SET_POINT command. Parameters: seq [-], pressure_pa: the set-point [Pa], channel [-]."""
+    return encode_frame(SET_POINT, seq, struct.pack("<Bi", channel, int(round(pressure_pa))))
 
 
-def set_mode(seq: int, mode: int) -> bytes:
-    """SET_MODE command. Parameters: seq [-], mode 0 off, 1 smc, 2 pid, 3 open loop [-]."""
-    return encode_frame(SET_MODE, seq, struct.pack("<B", mode))
+def set_points(seq: int, pressures_pa) -> bytes:
+    """SET_POINTS command: one set-point per channel, channel 0 first. Parameters: seq [-], pressures_pa [Pa]."""
+    values = [int(round(p)) for p in pressures_pa]
+    return encode_frame(SET_POINTS, seq, struct.pack(f"<{len(values)}i", *values))
 
 
-def set_max_pressure(seq: int, pressure_pa: float) -> bytes:
-    """SET_MAX_PRESSURE command. Parameters: seq [-], pressure_pa: the limit [Pa]."""
-    return encode_frame(SET_MAX_PRESSURE, seq, struct.pack("<i", int(round(pressure_pa))))
+def set_gain(seq: int, gain_id: int, value: int, channel: int = 0) -> bytes:
+    """SET_GAIN command. Parameters: seq, gain_id [-], value in the gain's fixed-point scale [-], channel [-]."""
+    return encode_frame(SET_GAIN, seq, struct.pack("<BBi", channel, gain_id, value))
 
 
-def vent(seq: int) -> bytes:
-    """VENT command (latched until the next SET_MODE). Parameters: seq [-]."""
-    return encode_frame(VENT, seq)
+def get_gain(seq: int, gain_id: int, channel: int = 0) -> bytes:
+    """GET_GAIN command: the ACK's value is the gain. Parameters: seq, gain_id, channel [-]."""
+    return encode_frame(GET_GAIN, seq, struct.pack("<BB", channel, gain_id))
+
+
+def set_mode(seq: int, mode: int, channel: int = ALL) -> bytes:
+    """SET_MODE command. Parameters: seq [-], mode 0 off, 1 smc, 2 pid, 3 open loop [-], channel [-]."""
+    return encode_frame(SET_MODE, seq, struct.pack("<BB", channel, mode))
+
+
+def set_max_pressure(seq: int, pressure_pa: float, channel: int = ALL) -> bytes:
+    """SET_MAX_PRESSURE command. Parameters: seq [-], pressure_pa: the limit [Pa], channel [-]."""
+    return encode_frame(SET_MAX_PRESSURE, seq, struct.pack("<Bi", channel, int(round(pressure_pa))))
+
+
+def vent(seq: int, channel: int = ALL) -> bytes:
+    """VENT command (latched until the next SET_MODE). Parameters: seq [-], channel [-]."""
+    return encode_frame(VENT, seq, struct.pack("<B", channel))
 
 
 def stream(seq: int, on: bool, decimation: int = 1) -> bytes:
@@ -200,9 +312,9 @@ def stream(seq: int, on: bool, decimation: int = 1) -> bytes:
     return encode_frame(STREAM, seq, struct.pack("<BB", 1 if on else 0, decimation))
 
 
-def set_open_loop(seq: int, inlet: int, bleed: int) -> bytes:
-    """SET_OPEN_LOOP command. Parameters: seq [-], inlet, bleed PWM counts 0..255 [counts]."""
-    return encode_frame(SET_OPEN_LOOP, seq, struct.pack("<BB", inlet, bleed))
+def set_open_loop(seq: int, inlet: int, bleed: int, channel: int = 0) -> bytes:
+    """SET_OPEN_LOOP command. Parameters: seq [-], inlet, bleed PWM counts 0..255 [counts], channel [-]."""
+    return encode_frame(SET_OPEN_LOOP, seq, struct.pack("<BBB", channel, inlet, bleed))
 
 
 @dataclass
@@ -265,12 +377,12 @@ class Parser:
             self.corrupt += 1
             return None
         version, kind, seq = struct.unpack_from("<BBH", raw)
-        if version != VERSION:
+        if version not in VERSIONS_READ:
             self.bad_version += 1
             return None
         body = raw[4:-2]
-        want = BODY_LENGTH.get(kind)
-        if want is not None and len(body) != want:
+        frame = _decode_body(version, kind, seq, body)
+        if frame is None:
             self.corrupt += 1
             return None
         if self._last_seq is not None:
@@ -279,16 +391,44 @@ class Parser:
                 self.missing += gap
         self._last_seq = seq
         self.frames += 1
-        if kind == TELEMETRY:
-            return Telemetry(seq, *_TELEMETRY.unpack(body))
-        if kind == ACK:
-            return Ack(seq, *_ACK.unpack(body))
-        return Frame(kind, seq, body)
+        return frame
 
     def counters(self) -> dict:
         """The counters as a dict."""
         return {"frames": self.frames, "corrupt": self.corrupt, "bad_version": self.bad_version,
                 "missing": self.missing, "bytes": self.bytes}
+
+
+def _decode_body(version: int, kind: int, seq: int, body: bytes):
+    """The frame of a checked packet, or None when its body has the wrong length."""
+    if version == 1:
+        want = BODY_LENGTH_V1.get(kind)
+        if want is not None and len(body) != want:
+            return None
+        if kind == TELEMETRY:
+            return Telemetry(seq, *_TELEMETRY_V1.unpack(body))
+        if kind == ACK:
+            return Ack(seq, *_ACK_V1.unpack(body))
+        return Frame(kind, seq, body)
+    if kind == TELEMETRY:
+        if len(body) < _TELEMETRY_HEAD.size:
+            return None
+        t_us, enc, n = _TELEMETRY_HEAD.unpack_from(body)
+        if not 1 <= n <= MAX_CHANNELS or len(body) != _TELEMETRY_HEAD.size + n * _CHANNEL.size:
+            return None
+        chans = tuple(ChannelTelemetry(*_CHANNEL.unpack_from(body, _TELEMETRY_HEAD.size + i * _CHANNEL.size))
+                      for i in range(n))
+        return Telemetry.of_channels(seq, t_us, enc, chans)
+    want = BODY_LENGTH.get(kind)
+    if want is not None and len(body) != want:
+        return None
+    if kind == SET_POINTS and not (4 <= len(body) <= 4 * MAX_CHANNELS and len(body) % 4 == 0):
+        return None
+    if kind == ACK:
+        return Ack(seq, *_ACK.unpack(body))
+    if kind == HELLO:
+        return Hello(seq, *_HELLO.unpack(body))
+    return Frame(kind, seq, body)
 
 
 def fault_names(faults: int) -> list[str]:

@@ -1,7 +1,7 @@
 """The telemetry recorder: crash-safe by construction.
 
 Frames are parsed as they arrive and written, at least every ``flush_interval`` (default
-0.25 s), as a new Parquet part in a journal folder ``OUT.journal/``: each part is written to a
+0.2 s), as a new Parquet part in a journal folder ``OUT.journal/``: each part is written to a
 temporary name, fsynced, renamed, and the folder fsynced, so a part is complete or absent. A
 ``kill -9`` at any moment therefore loses at most the frames of the last interval (and what the
 serial driver still buffered). A normal end joins the parts into ``OUT`` (atomically) and removes
@@ -9,7 +9,9 @@ the journal; after a crash, ``mckibben rig recover OUT.journal --out OUT`` does 
 
 Columns (SI, unit-suffixed): ``seq``, ``time_s`` (device clock, wrap-corrected), ``pressure_Pa``,
 ``pressure_adc``, ``encoder_count``, ``length_m``, ``inlet_pwm``, ``bleed_pwm``, ``mode``,
-``faults``, ``reference_Pa``, ``surface_Pa``. The file's metadata holds the port, baud rate,
+``faults``, ``reference_Pa``, ``surface_Pa`` (channel 0), then the same per further channel with
+``ch1_``, ``ch2_`` in front (:func:`channel_columns`); a one-channel recording of protocol
+version 1 reads the same way. The file's metadata holds the port, baud rate,
 protocol version, conversion constants and the parser's counters.
 """
 
@@ -31,6 +33,21 @@ from mckibben.rig import protocol as P
 
 COLUMNS = ["seq", "time_s", "pressure_Pa", "pressure_adc", "encoder_count", "length_m", "inlet_pwm", "bleed_pwm",
            "mode", "faults", "reference_Pa", "surface_Pa"]
+#: Per-channel columns; channel 0's are the plain names of :data:`COLUMNS` (as in one-channel
+#: recordings of protocol version 1), channel i > 0 adds ``ch{i}_`` in front.
+CHANNEL_COLUMNS = ["pressure_Pa", "pressure_adc", "inlet_pwm", "bleed_pwm", "mode", "faults", "reference_Pa",
+                   "surface_Pa"]
+
+
+def channel_columns(n_channels: int) -> list[str]:
+    """The columns of a recording of ``n_channels`` channels (:data:`COLUMNS` first).
+
+    Parameters
+    ----------
+    n_channels : int
+        Channels in the telemetry (1..3). [-]
+    """
+    return COLUMNS + [f"ch{i}_{c}" for i in range(1, n_channels) for c in CHANNEL_COLUMNS]
 
 
 def _fsync_dir(path: Path) -> None:
@@ -76,7 +93,8 @@ class Recorder:
     pa_per_count: float = HW.PA_PER_COUNT
     nominal_length: float = 0.097
     encoder_resolution: float = HW.ENCODER_RESOLUTION
-    flush_interval: float = 0.25
+    flush_interval: float = 0.2
+    n_channels: int | None = None
     parser: P.Parser = field(default_factory=P.Parser)
     rows: list = field(default_factory=list)
     part: int = 0
@@ -121,9 +139,19 @@ class Recorder:
                     self._t_wrap += 2**32
                 self._t_prev = f.t_us
                 self.last = f
-                self.rows.append((f.seq, (f.t_us + self._t_wrap) * 1e-6, HW.adc_pressure(f.pressure_adc, self.pa_per_count, 0.0),
-                                  f.pressure_adc, f.encoder, HW.encoder_length(f.encoder, self.nominal_length, self.encoder_resolution),
-                                  f.inlet_pwm, f.bleed_pwm, f.mode, f.faults, float(f.reference_pa), float(f.surface_pa)))
+                row = [f.seq, (f.t_us + self._t_wrap) * 1e-6, HW.adc_pressure(f.pressure_adc, self.pa_per_count, 0.0),
+                       f.pressure_adc, f.encoder,
+                       HW.encoder_length(f.encoder, self.nominal_length, self.encoder_resolution),
+                       f.inlet_pwm, f.bleed_pwm, f.mode, f.faults, float(f.reference_pa), float(f.surface_pa)]
+                if self.n_channels is None:
+                    self.n_channels = len(f.channels)
+                for c in f.channels[1:self.n_channels]:
+                    row += [HW.adc_pressure(c.pressure_adc, self.pa_per_count, 0.0), c.pressure_adc, c.inlet_pwm,
+                            c.bleed_pwm, c.mode, c.faults, float(c.reference_pa), float(c.surface_pa)]
+                if len(row) != len(channel_columns(self.n_channels)):
+                    self.parser.corrupt += 1  # a frame with fewer channels than the recording's
+                    continue
+                self.rows.append(tuple(row))
         if time.monotonic() - self._flushed_at >= self.flush_interval:
             self.flush()
         return frames
@@ -133,7 +161,7 @@ class Recorder:
         self._flushed_at = time.monotonic()
         if not self.rows:
             return
-        df = pd.DataFrame(self.rows, columns=COLUMNS)
+        df = pd.DataFrame(self.rows, columns=channel_columns(self.n_channels or 1))
         self.rows = []
         self.part += 1
         table = pa.Table.from_pandas(df, preserve_index=False)
