@@ -98,6 +98,11 @@ class Emulator:
 
         if not hasattr(self, "plants"):
             self.plants = [PlantStepper(p, ts=self.ts) for p in self._plant_params]
+            # compile the kernels now, before the clock starts (a first call inside the loop
+            # would stall it for seconds)
+            scratch = PlantStepper(self._plant_params[0], ts=self.ts)
+            scratch.advance(0, 0)
+            CoreBank([self._controller]).step([scratch.sense()[0]], [True], [0.0])
         self.bank = CoreBank([self._controller] * self.n)
         self.ctrl = self.bank[0]
         self.p_ref = [0.0] * self.n
@@ -250,6 +255,8 @@ class Emulator:
                         self._handle(frame)
                 due = int(now / self.ts) - self.steps
                 per_period = self.baud / 10.0 * self.ts  # bytes the line carries in one period
+                if present and self._queue and due <= 0:
+                    self._drain(int(per_period))
                 for _ in range(max(due, 0)):
                     if booting:  # the board is in its bootloader: valves shut, no telemetry
                         for pl in self.plants:
@@ -265,8 +272,6 @@ class Emulator:
                         take = min(len(self._queue), int(credit))
                         del self._queue[:take]
                         credit -= take
-                if due <= 0 and present:  # acknowledgements between periods
-                    self._drain(int(per_period))
             time.sleep(self.wake)
 
     @property
