@@ -7,9 +7,11 @@ against the paper. See ``docs/plant.md``.
 
 from mckibben.plant.calibration import CALIBRATION_PWM, calibration, open_loop_step
 from mckibben.plant.params import FORCE_MODELS, LOADS, THERMAL, Col, Load, PlantParams, calibrate_force_law
+from mckibben.plant.linear import LinearPlant, linearize
 from mckibben.plant.simulator import PlantStepper, SimResult, simulate, static_length
 
 __all__ = [
     "CALIBRATION_PWM", "FORCE_MODELS", "LOADS", "PlantParams", "PlantStepper", "SimResult", "calibrate_force_law",
     "calibration", "open_loop_step", "simulate", "static_length", "Col", "Load", "THERMAL",
+    "LinearPlant", "linearize",
 ]

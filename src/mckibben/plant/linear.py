@@ -1,0 +1,165 @@
+"""The plant linearized at an operating point: a python-control ``StateSpace`` for control design.
+
+:func:`linearize` holds the chamber at a gauge pressure with the inlet valve open just enough to
+balance the leak (the muscle at its static length under the load, the gas at the wall
+temperature), and differentiates the integrator's own right-hand side there (central
+differences): states p, T, x_in, x_bl, l, v (the friction element, non-smooth at rest, is left
+out), input the inlet's PWM command above the lift-off [counts], outputs the gauge pressure [Pa]
+and the length [m]. ``.pressure`` (command → pressure) and ``.length`` (pressure → length) are
+the two paths as transfer functions. ``docs/plant.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from mckibben.errors import InputError
+from mckibben.plant import params as PP
+from mckibben.plant import physics as ph
+from mckibben.plant.simulator import _default_plant, _prepared, initial_states, static_equilibrium
+
+#: The states kept in the linear model (the friction row is left out).
+STATES = ("pressure_Pa", "temperature_K", "inlet_opening", "bleed_opening", "length_m", "velocity_m_per_s")
+_K1 = ph.st_row(ph.ST_K1, 0)
+
+
+@njit(cache=True, error_model="numpy")
+def _f(bk, law, x, xin_t, out):
+    for r in range(6):
+        bk[ph.Z_P + r * ph.W] = x[r]
+    bk[ph.Z_FRIC] = 0.0
+    bk[ph.Y_XIN] = xin_t
+    bk[ph.Y_XBL] = 0.0
+    ph.rhs(1, bk, ph.ST_S, ph.ST_K1, law)
+    for r in range(6):
+        out[r] = bk[_K1 + r * ph.W]
+
+
+@dataclass(frozen=True)
+class LinearPlant:
+    """A plant linearized at an operating point (result of :func:`linearize`).
+
+    Attributes
+    ----------
+    ss : control.StateSpace
+        Input: inlet PWM command [counts]; outputs: gauge pressure [Pa], length [m].
+    pressure_Pa : float
+        Operating gauge pressure. [Pa]
+    length_m : float
+        Static length there. [m]
+    command_counts : float
+        The inlet command that holds the pressure against the leak. [counts]
+    lift_off_counts : float
+        The command below which the inlet stays shut (the model holds above it). [counts]
+    """
+
+    ss: object
+    pressure_Pa: float
+    length_m: float
+    command_counts: float
+    lift_off_counts: float
+
+    @property
+    def pressure(self):
+        """Command → gauge pressure transfer function. [Pa/count]"""
+        import control
+
+        return control.ss2tf(self.ss[0, 0])
+
+    @property
+    def length(self):
+        """Gauge pressure → length transfer function (the muscle and its load). [m/Pa]"""
+        import control
+
+        return control.minreal(control.ss2tf(self.ss[1, 0]) / control.ss2tf(self.ss[0, 0]), verbose=False)
+
+    @property
+    def metrics(self) -> dict:
+        """The operating point and the command → pressure path's DC gain and slowest time constant."""
+        import control
+
+        poles = np.asarray(control.poles(self.ss[0, 0]))
+        slow = float(-1.0 / np.max(poles.real)) if np.all(poles.real < 0) else math.inf
+        return {"pressure_Pa": self.pressure_Pa, "length_m": self.length_m, "command_counts": self.command_counts,
+                "lift_off_counts": self.lift_off_counts,
+                "dc_gain_Pa_per_count": float(control.dcgain(self.ss[0, 0])),
+                "slowest_time_constant_s": slow}
+
+
+def linearize(plant: PP.PlantParams | None = None, pressure: float = 0.55e6) -> LinearPlant:
+    """Linearize one rig at a held gauge pressure.
+
+    Parameters
+    ----------
+    plant : PlantParams, optional
+        One rig (scalar parameters); default the calibrated one.
+    pressure : float, default 0.55e6
+        Operating gauge pressure, above 0 and below the supply. [Pa]
+
+    Returns
+    -------
+    LinearPlant
+        The ``StateSpace`` and the operating point.
+    """
+    plant = plant or _default_plant()
+    if plant.size() != 1:
+        raise InputError("linearize: one rig (scalar parameters) only")
+    prm, law, th = _prepared(plant, 1)
+    c = PP.Col
+    supply = float(prm[0, c.supply_pressure])
+    if not (math.isfinite(pressure) and 0 < pressure < supply):
+        raise InputError(f"pressure = {pressure / 1e6:g} MPa: the operating point must be above 0 and below the supply "
+                         f"({supply / 1e6:g} MPa)")
+    length = float(static_equilibrium(prm, law, th, pressure)[0][0])
+    s0 = initial_states(prm, law, th, pressure, length, "energy" if plant.thermal == "energy" else "polytropic")
+    bk = np.zeros(ph.BLOCK)
+    ph.load_block(0, 1, prm, th, s0, bk)
+    x0 = s0[0, :6].copy()
+    d = np.empty(6)
+
+    def dp(xin):
+        x = x0.copy()
+        x[ph.S_XIN] = xin
+        _f(bk, law, x, xin, d)
+        return d[ph.S_P]
+
+    if dp(1.0) <= 0:
+        raise InputError(f"pressure = {pressure:g} Pa: the open inlet cannot hold it against the leak")
+    lo, hi = 0.0, 1.0
+    if dp(0.0) < 0:
+        for _ in range(80):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if dp(mid) < 0 else (lo, mid)
+    xin = 0.5 * (lo + hi) if dp(0.0) < 0 else 0.0
+    x0[ph.S_XIN] = xin
+    drv, db = float(prm[0, c.driver_gain]), float(prm[0, c.dead_band])
+    lift_off = 255.0 * db / drv
+    command = 255.0 * (db + xin * (1.0 - db)) / drv
+    dxdu = drv / (255.0 * (1.0 - db))  # valve opening per count above the lift-off
+    scale = np.array([max(abs(v), 1.0) for v in x0]) * 1e-6
+    scale[ph.S_XIN] = scale[ph.S_XBL] = 1e-6
+    a = np.empty((6, 6))
+    for k in range(6):
+        xp, xm = x0.copy(), x0.copy()
+        xp[k] += scale[k]
+        xm[k] -= scale[k]
+        fp, fm = np.empty(6), np.empty(6)
+        _f(bk, law, xp, xin, fp)
+        _f(bk, law, xm, xin, fm)
+        a[:, k] = (fp - fm) / (2 * scale[k])
+    fp, fm = np.empty(6), np.empty(6)
+    _f(bk, law, x0, xin + 1e-6, fp)
+    _f(bk, law, x0, xin - 1e-6, fm)
+    b = ((fp - fm) / 2e-6 * dxdu)[:, None]
+    cmat = np.zeros((2, 6))
+    cmat[0, ph.S_P] = 1.0
+    cmat[1, ph.S_LEN] = 1.0
+    import control
+
+    ss = control.ss(a, b, cmat, np.zeros((2, 1)), inputs=["command_counts"], outputs=["pressure_Pa", "length_m"],
+                    states=list(STATES))
+    return LinearPlant(ss, float(pressure), length, float(command), float(lift_off))
