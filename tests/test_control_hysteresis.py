@@ -102,7 +102,7 @@ def test_cli_json(cli, tmp_path):
     (("--period", "0s"), "--period"),
     (("--period", "120s"), "--period"),
     (("--sweep-period", "5kg"), "--sweep-period"),
-    (("--plot", "loop.jpg"), "--plot"),
+    (("--plot", "loop.xyz"), "--plot"),
 ])
 def test_cli_bad_input_exits_2(cli, args, message):
     r = cli("control", "hysteresis", *args)

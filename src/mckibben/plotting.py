@@ -1,10 +1,36 @@
-"""Writing figures: atomically, so a failed or interrupted save leaves nothing half-written."""
+"""Writing figures: any format Matplotlib writes, atomically, with the user's umask.
+
+Nothing here (nor anywhere in the library) switches Matplotlib's backend: figures show inline in
+Jupyter, and a script without a display gets Matplotlib's own non-interactive default.
+"""
 
 from __future__ import annotations
 
 import os
 
-from mckibben.atomic import atomic_file
+from mckibben.atomic import atomic_file, check_output_file
+
+__all__ = ["figure_formats", "check_figure_path", "save_figure"]
+
+
+def figure_formats() -> tuple[str, ...]:
+    """The file suffixes Matplotlib can write (``.png``, ``.pdf``, ``.svg``, ``.eps``, ...)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return tuple(f".{s}" for s in sorted(FigureCanvasBase.get_supported_filetypes()))
+
+
+def check_figure_path(path, name: str = "--plot") -> str:
+    """Refuse, before anything runs, a figure path with no format Matplotlib writes or no folder.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file; its suffix picks the format. [-]
+    name : str, default "--plot"
+        The argument's name, for the message. [-]
+    """
+    return os.fspath(check_output_file(path, name, suffixes=figure_formats()))
 
 
 def save_figure(fig, path, dpi: int = 120, name: str = "--plot") -> None:

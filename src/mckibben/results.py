@@ -32,7 +32,6 @@ from typing import Any
 
 import numpy as np
 
-from mckibben.errors import InputError
 
 __all__ = ["Result", "to_jsonable", "write_table", "read_provenance", "SERIES_SUFFIXES"]
 
@@ -81,7 +80,7 @@ def provenance(call: str, arguments: dict | None = None) -> dict:
 
 
 def check_table_path(path, name: str = "--out") -> str:
-    """Refuse a path whose suffix is not .csv or .parquet, or whose folder does not exist.
+    """Refuse, before any work, a table path that is not .csv or .parquet or cannot be written.
 
     Parameters
     ----------
@@ -90,16 +89,12 @@ def check_table_path(path, name: str = "--out") -> str:
     name : str, default "--out"
         The argument's name, for the message. [-]
     """
-    path = os.fspath(path)
-    if not path.lower().endswith(SERIES_SUFFIXES):
-        raise InputError(f"{name}: {path!r} must end in {' or '.join(SERIES_SUFFIXES)}")
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise InputError(f"{name}: folder {folder!r} does not exist")
-    return path
+    from mckibben.atomic import check_output_file
+
+    return os.fspath(check_output_file(path, name, suffixes=SERIES_SUFFIXES))
 
 
-def write_table(df, path, meta: dict | None = None) -> str:
+def write_table(df, path, meta: dict | None = None, name: str = "--out") -> str:
     """Write a table as CSV or Parquet, atomically and with the user's umask.
 
     Parameters
@@ -111,24 +106,20 @@ def write_table(df, path, meta: dict | None = None) -> str:
     meta : dict, optional
         Provenance; default ``df.attrs["provenance"]``. Parquet stores it as JSON under the
         schema metadata key ``mckibben``; CSV has no place for it. [-]
+    name : str, default "--out"
+        The argument's name, for error messages. [-]
 
     Returns
     -------
     str
         The path written.
     """
-    import tempfile
+    from mckibben.atomic import atomic_file
 
-    from mckibben.files import apply_umask
-
-    path = check_table_path(path)
+    path = check_table_path(path, name)
     meta = meta if meta is not None else df.attrs.get("provenance", {})
-    folder = os.path.dirname(os.path.abspath(path))
-    suffix = os.path.splitext(path)[1].lower()
-    fd, tmp = tempfile.mkstemp(suffix=suffix, prefix=".mckibben-", dir=folder)
-    os.close(fd)
-    try:
-        if suffix == ".csv":
+    with atomic_file(path, name) as tmp:
+        if path.lower().endswith(".csv"):
             df.to_csv(tmp, index=False)
         else:
             import pyarrow as pa
@@ -138,12 +129,6 @@ def write_table(df, path, meta: dict | None = None) -> str:
             md = dict(table.schema.metadata or {})
             md[b"mckibben"] = json.dumps(to_jsonable(meta), allow_nan=False).encode()
             pq.write_table(table.replace_schema_metadata(md), tmp)
-        apply_umask(tmp, directory=False)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
     return path
 
 

@@ -2,51 +2,15 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
-from mckibben.errors import InputError
-from mckibben.units import parse_quantity
+from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, write_plot
 
 simulate_app = typer.Typer(help="Simulate the rig: valves, chamber, muscle, load, sensors.", no_args_is_help=True)
 app.add_typer(simulate_app, name="simulate")
-
-
-def _check_plot_path(plot: str | None) -> Path | None:
-    if plot is None:
-        return None
-    from mckibben.atomic import check_output_file
-
-    return check_output_file(plot, "--plot", (".png", ".pdf", ".svg"))
-
-
-def _save_plot(path: Path, t, pressure, title: str, metrics: dict) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6, 3.6), dpi=120)
-    ax.plot(t, pressure / 1e6, lw=1.5, label="chamber pressure (simulated)")
-    tau = metrics.get("time_constant_s")
-    if tau:
-        ax.axvline(tau, color="0.5", ls="--", lw=1, label=f"63 % at {tau * 1e3:.0f} ms")
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("gauge pressure [MPa]")
-    ax.set_title(title, fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(loc="lower right", fontsize=8)
-    fig.tight_layout()
-    from mckibben.plotting import save_figure
-
-    try:
-        save_figure(fig, path)
-    finally:
-        plt.close(fig)
 
 
 @simulate_app.command("open-loop")
@@ -56,47 +20,35 @@ def open_loop_cmd(
     duration: str = typer.Option("0.5s", "--duration", help="Simulated time, e.g. 0.5s."),
     supply: str = typer.Option("0.8MPa", "--supply", help="Supply pressure (gauge), ≤ 1 MPa."),
     load: str = typer.Option("0.6N", "--load", help="Hanging load."),
-    plot: str = typer.Option(None, "--plot", help="Save a figure of the response (.png/.pdf/.svg)."),
+    plot: str = plot_option("a figure of the response"),
+    dpi: int = DPI_OPTION,
+    out: str = OUT_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """An open-loop inlet-valve step from rest: time constant, rise time, final pressure."""
-    from mckibben.plant import CALIBRATION_PWM, PlantParams, open_loop_step
+    from mckibben.control import open_loop
 
-    valve = CALIBRATION_PWM if valve is None else valve
-    if not 0 <= valve <= 255:
-        raise InputError(f"--valve: {valve} must be a PWM count in 0..255")
-    d = parse_quantity(duration, "time", "--duration", allow_zero=False)
-    steps = d / 1e-3
-    if abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
-        raise InputError(f"--duration: {duration!r} must be a whole number of 1 ms control periods")
-    if d > 60:
-        raise InputError(f"--duration: {duration!r} is longer than 60 s")
-    s = parse_quantity(supply, "pressure", "--supply", allow_zero=False)
-    if s > 1e6:
-        raise InputError(f"--supply: {supply!r} is above the compressor's 1 MPa")
-    from mckibben.datasets import get_muscle
-    from mckibben.limits import check_load
-
-    f = check_load(parse_quantity(load, "force", "--load"), get_muscle(PlantParams().muscle_name))
-    path = _check_plot_path(plot)
-    res, m = open_loop_step(PlantParams(supply_pressure=s, load_force=f), valve=valve, duration=d)
-    out = {"valve_pwm": valve, "supply_Pa": s, "load_N": f, "duration_s": d, **m,
-           "final_length_m": float(res.length[0, -1])}
-    if path is not None:
-        _save_plot(path, res.t, res.pressure[0], f"open-loop step, inlet PWM {valve}, supply {s / 1e6:g} MPa", m)
-        out["plot"] = str(path)
+    check_outputs(plot, dpi, out)
+    res = open_loop(valve, supply=supply, load=load, duration=duration)
+    d = res.to_dict()
+    if plot:
+        write_plot(res.plot(), plot, dpi)
+        d["plot"] = plot
+    if out:
+        res.to_file(out)
     if json:
-        emit_json(out)
+        emit_json(d)
         return
-    fmt = lambda v, k=1.0, u="": "—" if v is None else f"{v * k:.4g}{u}"  # noqa: E731
+    m = res.metrics
+    fmt = lambda v, k=1.0, u="": "—" if v is None or not np.isfinite(v) else f"{v * k:.4g}{u}"  # noqa: E731
     print_table(
-        f"Open-loop step, inlet PWM {valve}",
+        f"Open-loop step, inlet PWM {d['valve_pwm']}",
         ["metric", "value"],
         [["time constant (63 %)", fmt(m["time_constant_s"], 1e3, " ms")],
          ["rise time (10–90 %)", fmt(m["rise_time_s"], 1e3, " ms")],
          ["overshoot", fmt(m["overshoot_pct"], 1, " %")],
          ["final pressure", fmt(m["final_pressure_Pa"], 1e-6, " MPa")],
-         ["final length", fmt(out["final_length_m"], 1e3, " mm")]],
+         ["final length", fmt(m["final_length_m"], 1e3, " mm")]],
     )
 
 

@@ -26,14 +26,13 @@ from mckibben.control.controllers import (FirstOrderModel, design_pid, pid_param
 from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
 from mckibben.control.identify import fit_lift_off, fit_step_response
 from mckibben.control.metrics import step_metrics
+from mckibben.datasets.paper_points import FIG13 as _FIG13
 from mckibben.errors import InputError, unknown_name
 
-#: The paper's Fig. 13 (000_909f662a44080c85.txt, §IV.B): step to 0.55 MPa (80 psi).
-PAPER_FIG13 = {
-    120.0: {"time_constant_s": 0.06, "overshoot_pct": math.nan},
-    150.0: {"time_constant_s": 0.01, "overshoot_pct": 7.0},
-}
-FIG13_TARGET_PA = 0.55e6
+#: The paper's Fig. 13 (:data:`mckibben.datasets.paper_points.FIG13`): β -> time constant, overshoot.
+PAPER_FIG13 = _FIG13["points"]
+#: Fig. 13's step target, 0.55 MPa (80 psi). [Pa]
+FIG13_TARGET_PA = _FIG13["target_Pa"]
 
 
 @dataclass(frozen=True)
@@ -548,7 +547,7 @@ CONTROLLER_NAMES = ("pid", "smc", "smc_paper")
 
 
 def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float | None = None,
-               target: float = FIG13_TARGET_PA, duration: float = 0.6, t_step: float = 0.05):
+               target: float = FIG13_TARGET_PA, duration: float = 0.6, t_step: float = 0.05, samples=None):
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same N plants.
 
     The controllers are designed once, on the model identified on the nominal plant; each plant
@@ -571,6 +570,8 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
         Record length. [s]
     t_step : float, default 0.05
         Time of the step. [s]
+    samples : dict, optional
+        The n plants (:func:`sample_plants`); default drawn from ``seed``. [-]
 
     Returns
     -------
@@ -586,7 +587,7 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
     from mckibben.limits import check_budget
 
     check_budget("n", 3 * n * duration / 1e-3, force=True)
-    samples = sample_plants(n, seed)
+    samples = sample_plants(n, seed) if samples is None else samples
     k = len(CONTROLLER_NAMES)
     every = {key: np.concatenate([v] * k) for key, v in samples.items()}
     params = ([pid_params(default_pid(model), base=with_supervisor_model(CoreParams(), model))] * n

@@ -117,6 +117,23 @@ class HysteresisBenefit:
         """Maximum length error with branches over without. [-]"""
         return float(self.max_error[1] / self.max_error[0])
 
+    @property
+    def metrics(self) -> dict:
+        """The numbers (:meth:`summary`), SI with unit-suffixed keys."""
+        return self.summary()
+
+    def plot(self, ax=None):
+        """The sweep with both branch fits, and the tracking errors; return the Figure.
+
+        Parameters
+        ----------
+        ax : pair of matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+        """
+        from mckibben.control.plots import plot_hysteresis
+
+        return plot_hysteresis(self, ax=ax)
+
     def summary(self) -> dict:
         """The numbers, SI with unit-suffixed keys (what ``--json`` prints)."""
         return {

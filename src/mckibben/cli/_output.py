@@ -1,0 +1,38 @@
+"""Options and writers shared by the commands that draw figures or write time series."""
+
+from __future__ import annotations
+
+import typer
+
+from mckibben.errors import InputError
+from mckibben.plotting import check_figure_path, save_figure
+from mckibben.results import check_table_path
+
+DPI_OPTION = typer.Option(120, "--dpi", help="Resolution of raster figures (PNG, JPEG...), dots per inch.")
+OUT_OPTION = typer.Option(None, "--out", help="Write the time series: .csv or .parquet (SI, unit-suffixed "
+                                               "columns; Parquet carries the provenance).")
+
+
+def plot_option(what: str):
+    """A ``--plot FILE`` option; any format Matplotlib writes (by suffix)."""
+    return typer.Option(None, "--plot", help=f"Write {what} (.png, .pdf, .svg, ... any Matplotlib format).")
+
+
+def check_outputs(plot: str | None = None, dpi: int | None = None, out: str | None = None) -> None:
+    """Refuse bad --plot, --dpi and --out before anything runs."""
+    if plot is not None:
+        check_figure_path(plot)
+    if dpi is not None and not 10 <= dpi <= 2400:
+        raise InputError(f"--dpi: {dpi} must be between 10 and 2400")
+    if out is not None:
+        check_table_path(out)
+
+
+def write_plot(fig, path: str, dpi: int) -> None:
+    """Save the figure atomically and close it."""
+    import matplotlib.pyplot as plt
+
+    try:
+        save_figure(fig, path, dpi=dpi)
+    finally:
+        plt.close(fig)

@@ -1,0 +1,922 @@
+"""Closed-loop experiments on the simulated plant, one public call each, returning result objects.
+
+Every function here takes quantities as SI numbers or as text with a unit (``"0.55MPa"``,
+``0.55e6``), identifies the calibrated plant when no model is given (§IV.A of
+000_909f662a44080c85.txt, :func:`~mckibben.control.experiments.identify_plant`), designs the
+controller with the documented tuning (``docs/control.md``) and runs the firmware core on the
+batch plant simulator (:func:`~mckibben.control.experiments.run_closed_loop`). The command line
+(``mckibben control ...``) is a thin shell over these calls.
+
+>>> from mckibben.control import step_response          # doctest: +SKIP
+>>> res = step_response("smc", target="0.55MPa", law="paper", beta=150)   # doctest: +SKIP
+>>> res.metrics["time_constant_s"], res.to_pandas().columns[:3].tolist()   # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+from mckibben.control.controllers import FirstOrderModel, pid_params, with_supervisor_model
+from mckibben.control.core import CoreParams, core_spec
+from mckibben.control.experiments import (
+    CONTROLLER_NAMES,
+    LAWS,
+    LoopRecord,
+    default_pid,
+    plant_batch,
+    run_closed_loop,
+    smc_core_params,
+    step_reference,
+)
+from mckibben.control.experiments import fig13 as _fig13_runs
+from mckibben.control.experiments import robustness as _robustness_runs
+from mckibben.control.experiments import step_size_table as _step_size_rows
+from mckibben.control.metrics import tracking_metrics
+from mckibben.errors import InputError, unknown_name
+from mckibben.limits import check_budget, check_p_max, clamp_pressure
+from mckibben.results import Result, to_jsonable
+from mckibben.units import parse_quantity, quantity
+
+__all__ = [
+    "CONTROLLERS", "CompareResult", "Fig13Result", "OpenLoopResult", "RobustnessResult", "StepResult",
+    "TrackResult", "compare", "controller_params", "fig13", "hysteresis_compensation", "identified_model", "open_loop",
+    "plant_load",
+    "pressure_reference",
+    "robustness", "step_response", "track",
+]
+
+#: Controllers the firmware core runs.
+CONTROLLERS = ("smc", "pid")
+#: Control period of the core and of every record. [s]
+TS = 1e-3
+
+
+@lru_cache(maxsize=1)
+def _default_identification():
+    from mckibben.control.experiments import identify_plant
+
+    return identify_plant()
+
+
+def identified_model() -> FirstOrderModel:
+    """The first-order model (with the valves' lift-off) identified on the calibrated plant.
+
+    Two open-loop inlet steps, as the paper did with one voltage step (§IV.A of
+    000_909f662a44080c85.txt); computed once per process.
+
+    Returns
+    -------
+    FirstOrderModel
+        Gain [Pa/count], time constant [s], dead time [s], lift-off [PWM counts].
+    """
+    return _default_identification()[1]
+
+
+def _beta(beta) -> float | None:
+    if beta is None:
+        return None
+    b = float(beta)
+    if not (math.isfinite(b) and 0 <= b <= 255):
+        raise InputError(f"--beta: {beta!r} must be in 0..255 PWM counts")
+    return b
+
+
+def _ki(ki) -> float | None:
+    if ki is None:
+        return None
+    k = float(ki)
+    if not (math.isfinite(k) and k >= 0):
+        raise InputError(f"--ki: {ki!r} must be >= 0 (1/s)")
+    return k
+
+
+def _periods(value, name: str) -> float:
+    """A positive time that is a whole number of 1 ms control periods. [s]"""
+    d = quantity(value, "time", name, allow_zero=False)
+    steps = d / TS
+    if steps >= 1 and abs(steps - round(steps)) > 1e-6 * steps:
+        raise InputError(f"{name}: {value!r} must be a whole number of 1 ms control periods")
+    if steps < 1 - 1e-9:
+        raise InputError(f"{name}: {value!r} is shorter than one 1 ms control period")
+    return d
+
+
+def controller_params(controller: str = "smc", model: FirstOrderModel | None = None, *, law: str = "model",
+                      beta=None, eps=None, ki=None, lam=None, p_max="0.8MPa") -> CoreParams:
+    """The firmware core's parameters for a controller with the documented tuning.
+
+    Parameters
+    ----------
+    controller : {"smc", "pid"}, default "smc"
+        Sliding mode (eq. 9–12, §IV.A of 000_909f662a44080c85.txt) or the lambda-tuned PID the
+        paper found wanting. [-]
+    model : FirstOrderModel, optional
+        Model the controller is designed on; default :func:`identified_model`. [-]
+    law : {"model", "paper"}, default "model"
+        Sliding-mode law: ours (model term with the valves' lift-off) or the paper's
+        β·tanh(S/ε) alone. [-]
+    beta : float, optional
+        Switching gain; default 50 (``model``) or 150 (``paper``). [PWM counts]
+    eps : float or str, optional
+        Boundary layer; default the law's tuning. [Pa]
+    ki : float, optional
+        Surface integral weight; default the law's tuning. [1/s]
+    lam : float or str, optional
+        PID closed-loop time constant; default τ/3. [s]
+    p_max : float or str, default "0.8MPa"
+        Supervisor's maximum pressure. [Pa]
+
+    Returns
+    -------
+    CoreParams
+    """
+    if controller not in CONTROLLERS:
+        raise unknown_name("controller", controller, CONTROLLERS)
+    if law not in LAWS:
+        raise unknown_name("--law", law, LAWS)
+    b, k = _beta(beta), _ki(ki)
+    e = quantity(eps, "pressure", "--eps", allow_zero=False) if eps is not None else None
+    lm = quantity(lam, "time", "--lambda", allow_zero=False) if lam is not None else None
+    model = identified_model() if model is None else model
+    # the supervisor's valve model (G, lift-off) comes from the identification too
+    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "--p-max",
+                                                                       allow_zero=False))), model)
+    if controller == "smc":
+        return smc_core_params(model, b, law=law, eps=e, ki=k, base=base)
+    return pid_params(default_pid(model, lm), base=base)
+
+
+def _model_dict(model: FirstOrderModel) -> dict:
+    return {"gain_Pa_per_count": model.gain, "tau_s": model.tau, "dead_time_s": model.dead_time,
+            "lift_off_counts": model.lift_off}
+
+
+def _gains_dict(params: CoreParams, controller: str) -> dict:
+    if controller == "smc":
+        return {"law": "paper" if params.g == 0 else "model", "beta_counts": params.beta, "eps_Pa": params.eps,
+                "ki_per_s": params.ki, "tau_s": params.tau, "g_Pa_per_count": params.g, "lift_off_counts": params.u0}
+    return {"kp_counts_per_Pa": params.kp, "ki_counts_per_Pa_s": params.ki_pid, "kd_counts_s_per_Pa": params.kd,
+            "tf_s": params.tf}
+
+
+def _record_frame(rec: LoopRecord, i: int = 0):
+    import pandas as pd
+
+    return pd.DataFrame({
+        "time_s": rec.t, "reference_Pa": rec.reference[i], "pressure_Pa": rec.pressure[i],
+        "inlet_pwm": rec.inlet[i], "bleed_pwm": rec.bleed[i], "command_pwm": rec.command[i],
+        "length_m": rec.length[i], "fault_flags": rec.faults[i],
+    })
+
+
+@dataclass(frozen=True, repr=False)
+class StepResult(Result):
+    """A closed-loop pressure step on the simulated plant (:func:`step_response`).
+
+    Attributes
+    ----------
+    record : LoopRecord
+        The sampled run (one instance). [-]
+    step_time : float
+        Time of the step. [s]
+    model : FirstOrderModel
+        The identified model the controller was designed on. [-]
+    params : CoreParams
+        The controller's parameters. [-]
+    arguments : dict
+        Controller, target [Pa], start [Pa], load [N], p_max [Pa], step time [s]. [-]
+    """
+
+    record: LoopRecord
+    step_time: float
+    model: FirstOrderModel
+    params: CoreParams
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.control.step_response"
+    _repr_keys = ("time_constant_s", "overshoot_pct", "settling_time_s", "steady_state_error_Pa")
+
+    @property
+    def metrics(self) -> dict:
+        """Step metrics (:func:`~mckibben.control.metrics.step_metrics`) from the step on. [SI]"""
+        return self.record.metrics(0, self.step_time)
+
+    def to_dict(self) -> dict:
+        """What ``mckibben control step --json`` prints."""
+        a = self.arguments
+        return to_jsonable({
+            "controller": a["controller"], "target_Pa": a["target_Pa"], "from_Pa": a["from_Pa"],
+            "load_N": a["load_N"], "p_max_Pa": a["p_max_Pa"], "requested_target_Pa": a["requested_target_Pa"],
+            "requested_from_Pa": a["requested_from_Pa"], "reference_clamped": a["reference_clamped"],
+            "step_time_s": self.step_time,
+            "model": _model_dict(self.model), "gains": _gains_dict(self.params, a["controller"]),
+            "peak_pressure_Pa": float(np.nanmax(self.record.pressure[0])),
+            "faults": self.faults, "target_unreachable": self.target_unreachable, **self.metrics})
+
+    @property
+    def faults(self) -> int:
+        """OR of the supervisor's fault flags over the run (0: none). [-]"""
+        return int(np.bitwise_or.reduce(self.record.faults[0].astype(np.int64)))
+
+    @property
+    def target_unreachable(self) -> bool:
+        """Whether the run ended settled below the target with the inlet open (the supply's limit)."""
+        return bool(self.record.target_unreachable(0))
+
+    def _series(self):
+        return _record_frame(self.record)
+
+    def plot(self, ax=None):
+        """Pressure against reference, and the valve command; return the Figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes or pair of Axes, optional
+            One Axes: the pressure only; two: pressure and command; default a new figure. [-]
+        """
+        from mckibben.control.plots import plot_record
+
+        return plot_record(self.record, [self.arguments["controller"]], ax=ax)
+
+
+def plant_load(load) -> float:
+    """The hanging load of the calibrated plant's muscle, checked against what it can lift.
+
+    Parameters
+    ----------
+    load : float or str
+        The load. [N]
+    """
+    from mckibben.datasets import get_muscle
+    from mckibben.limits import check_load
+    from mckibben.plant import PlantParams
+
+    return check_load(quantity(load, "force", "--load"), get_muscle(PlantParams().muscle_name))
+
+
+def _step_args(controller, target, start, load, supply, duration, p_max, force):
+    """Check a step's numbers, limits first: a refusal comes before any plant is built."""
+    dur = _periods(duration, "--duration")
+    pmax = check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
+    p1 = quantity(target, "pressure", "--target")
+    p0 = quantity(start, "pressure", "--from")
+    hold = 0.5 if p0 > 0 else 0.05
+    check_budget("--duration", (hold + dur) / TS, force=force)
+    if p0 == p1:
+        raise InputError("--target: equals --from, there is no step")
+    (p0c, p1c), clamped = clamp_pressure([p0, p1], pmax, "--target/--from")
+    if p0c == p1c:
+        raise InputError(f"--target: {target!r} and --from {start!r} are both clamped to {p1c / 1e6:g} MPa "
+                         "(--p-max): there is no step")
+    args = {"controller": controller, "target_Pa": float(p1c), "from_Pa": float(p0c),
+            "load_N": plant_load(load), "p_max_Pa": pmax, "duration_s": dur,
+            "requested_target_Pa": p1, "requested_from_Pa": p0, "reference_clamped": clamped,
+            "step_time_s": hold}
+    if supply is not None:
+        args["supply_Pa"] = quantity(supply, "pressure", "--supply", allow_zero=False)
+    return args
+
+
+def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", load="0.6N", supply=None,
+                  duration="1s", p_max="0.8MPa", law: str = "model", beta=None, eps=None, ki=None, lam=None,
+                  model: FirstOrderModel | None = None, force: bool = False) -> StepResult:
+    """A pressure step on the calibrated plant under the firmware's controller.
+
+    The pressure ``start`` is held (0.05 s from rest, 0.5 s from a back pressure), then the
+    reference steps to ``target``; a reference outside [0, p_max] is clamped as the supervisor
+    would (one warning, ``reference_clamped``), and scored as commanded; Fig. 13 of 000_909f662a44080c85.txt is this experiment with
+    ``law="paper"``, ``beta`` 120 or 150 and ``target`` 0.55 MPa.
+
+    Parameters
+    ----------
+    controller : {"smc", "pid"}, default "smc"
+        The controller (:func:`controller_params`). [-]
+    target : float or str, default "0.55MPa"
+        Pressure after the step. [Pa]
+    start : float or str, default "0MPa"
+        Pressure held before the step. [Pa]
+    load : float or str, default "0.6N"
+        Hanging load. [N]
+    supply : float or str, optional
+        Supply pressure; default the calibrated plant's. [Pa]
+    duration : float or str, default "1s"
+        Time after the step. [s]
+    p_max : float or str, default "0.8MPa"
+        Supervisor's maximum pressure. [Pa]
+    law : {"model", "paper"}, default "model"
+        Sliding-mode law. [-]
+    beta : float, optional
+        Switching gain. [PWM counts]
+    eps : float or str, optional
+        Boundary layer. [Pa]
+    ki : float, optional
+        Surface integral weight. [1/s]
+    lam : float or str, optional
+        PID closed-loop time constant. [s]
+    model : FirstOrderModel, optional
+        Design model; default :func:`identified_model`. [-]
+    force : bool, default False
+        Run past the documented size limits (:mod:`mckibben.limits`). [-]
+
+    Returns
+    -------
+    StepResult
+        ``.metrics`` (time constant, rise, overshoot, settling, errors, effort), ``.to_pandas()``
+        (``time_s``, ``reference_Pa``, ``pressure_Pa``, ``inlet_pwm``, ``bleed_pwm``,
+        ``command_pwm``, ``length_m``, ``fault_flags``), ``.plot()``.
+    """
+    args = _step_args(controller, target, start, load, supply, duration, p_max, force)
+    params_model = identified_model() if model is None else model
+    params = controller_params(controller, params_model, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=p_max)
+    plant_kw = {"load_N": args["load_N"]}
+    if "supply_Pa" in args:
+        plant_kw["supply_Pa"] = args["supply_Pa"]
+    hold = args["step_time_s"]
+    total = hold + args["duration_s"]
+    n = int(round(total / TS))
+    ref = step_reference(n, int(round(hold / TS)), args["from_Pa"], args["target_Pa"])
+    rec = run_closed_loop(core_spec(params), ref, total, plant_batch(**plant_kw))
+    args.update(law=law if controller == "smc" else None)
+    return StepResult(rec, hold, params_model, params, args)
+
+
+def pressure_reference(reference, duration="2s", *, force: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """A pressure reference sampled at the control period.
+
+    Parameters
+    ----------
+    reference : str or array_like
+        ``"sine:MEAN,AMPLITUDE,FREQUENCY"`` (e.g. ``"sine:0.4MPa,0.2MPa,2Hz"``), a CSV/Parquet
+        file with ``time_<unit>`` and ``pressure_<unit>`` columns (resampled), or one pressure
+        per control period. [Pa]
+    duration : float or str, default "2s"
+        Length of a sine reference. [s]
+    force : bool, default False
+        Go past the documented size limits (:mod:`mckibben.limits`). [-]
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Times [s] and pressures [Pa].
+    """
+    if not isinstance(reference, str):
+        p = np.asarray(reference, dtype=float)
+        if p.ndim != 1 or p.size < 10 or not np.all(np.isfinite(p)):
+            raise InputError("--reference: an array reference must be 1-D, finite, at least 10 samples")
+        return np.arange(p.size) * TS, p
+    if reference.startswith("sine:"):
+        parts = reference[5:].split(",")
+        if len(parts) != 3:
+            raise InputError(f"--reference: {reference!r} must be sine:MEAN,AMPLITUDE,FREQUENCY")
+        mean = parse_quantity(parts[0], "pressure", "--reference mean")
+        amp = parse_quantity(parts[1], "pressure", "--reference amplitude")
+        freq = parse_quantity(parts[2], "frequency", "--reference frequency", allow_zero=False)
+        d = _periods(duration, "--duration")
+        check_budget("--duration", d / TS, force=force)
+        if freq > 500:
+            raise InputError(f"--reference frequency: {parts[2]!r} is above the 500 Hz a 1 kHz controller can follow")
+        t = np.arange(int(round(d / TS))) * TS
+        return t, mean + amp * np.sin(2 * np.pi * freq * t)
+    from mckibben.control.identify import read_step_log
+
+    data, _ = read_step_log(reference)
+    t0 = data["time_s"] - data["time_s"][0]
+    check_budget(f"--reference {reference}", float(t0[-1]) / TS, force=force, what="control periods (the file's span)")
+    t = np.arange(int(t0[-1] / TS) + 1) * TS
+    if t.size < 10:
+        raise InputError(f"--reference: {reference!r} is shorter than 10 ms")
+    return t, np.interp(t, t0, data["pressure_Pa"])
+
+
+@dataclass(frozen=True, repr=False)
+class TrackResult(Result):
+    """A pressure trajectory followed on the simulated plant (:func:`track`).
+
+    Attributes
+    ----------
+    record : LoopRecord
+        The sampled run. [-]
+    model : FirstOrderModel
+        Design model. [-]
+    params : CoreParams
+        Controller parameters. [-]
+    arguments : dict
+        Controller, reference, load [N], p_max [Pa]. [-]
+    """
+
+    record: LoopRecord
+    model: FirstOrderModel
+    params: CoreParams
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.control.track"
+
+    @property
+    def metrics(self) -> dict:
+        """RMS and maximum error, valve effort (:func:`~mckibben.control.metrics.tracking_metrics`). [SI]"""
+        r = self.record
+        return tracking_metrics(r.t, r.pressure[0], r.reference[0], r.command[0])
+
+    def to_dict(self) -> dict:
+        """What ``mckibben control track --json`` prints."""
+        a = self.arguments
+        return to_jsonable({"controller": a["controller"], "load_N": a["load_N"], "p_max_Pa": a["p_max_Pa"],
+                            "reference_clamped": a["reference_clamped"],
+                            "gains": _gains_dict(self.params, a["controller"]), **self.metrics})
+
+    def _series(self):
+        return _record_frame(self.record)
+
+    def plot(self, ax=None):
+        """Reference, pressure and command against time; return the Figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes or pair of Axes, optional
+            Where to draw; default a new figure. [-]
+        """
+        from mckibben.control.plots import plot_record
+
+        return plot_record(self.record, [self.arguments["controller"]], ax=ax)
+
+
+def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_max="0.8MPa", law: str = "model",
+          beta=None, eps=None, ki=None, lam=None, model: FirstOrderModel | None = None,
+          force: bool = False) -> TrackResult:
+    """Track a pressure trajectory on the calibrated plant.
+
+    Parameters
+    ----------
+    reference : str or array_like
+        See :func:`pressure_reference`. [Pa]
+    controller : {"smc", "pid"}, default "smc"
+        The controller. [-]
+    duration : float or str, default "2s"
+        Length of a sine reference. [s]
+    load : float or str, default "0.6N"
+        Hanging load. [N]
+    p_max : float or str, default "0.8MPa"
+        Supervisor's maximum pressure. [Pa]
+    law : {"model", "paper"}, default "model"
+        Sliding-mode law. [-]
+    beta : float, optional
+        Switching gain. [PWM counts]
+    eps : float or str, optional
+        Boundary layer. [Pa]
+    ki : float, optional
+        Surface integral weight. [1/s]
+    lam : float or str, optional
+        PID closed-loop time constant. [s]
+    model : FirstOrderModel, optional
+        Design model; default :func:`identified_model`. [-]
+    force : bool, default False
+        Run past the documented size limits (:mod:`mckibben.limits`). [-]
+
+    Returns
+    -------
+    TrackResult
+        A reference outside [0, p_max] is clamped as the supervisor would (``reference_clamped``).
+    """
+    pmax = check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
+    f_load = plant_load(load)
+    _, ref = pressure_reference(reference, duration, force=force)
+    ref, clamped = clamp_pressure(ref, pmax, "--reference")
+    m = identified_model() if model is None else model
+    params = controller_params(controller, m, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax)
+    rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant_batch(load_N=f_load))
+    args = {"controller": controller, "reference": reference if isinstance(reference, str) else "array",
+            "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
+            "law": law if controller == "smc" else None}
+    return TrackResult(rec, m, params, args)
+
+
+@dataclass(frozen=True, repr=False)
+class Fig13Result(Result):
+    """The paper's Fig. 13 on the plant (:func:`fig13`): each (law, β) beside the paper's values.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One per (law, β): step metrics beside ``paper_time_constant_s``, ``paper_overshoot_pct``. [-]
+    record : LoopRecord
+        The runs, one instance per row. [-]
+    model : FirstOrderModel
+        Identified model. [-]
+    tau_stderr : float
+        Standard error of the identified τ. [s]
+    arguments : dict
+        β values, laws, ε, Ki. [-]
+    """
+
+    rows: list
+    record: LoopRecord
+    model: FirstOrderModel
+    tau_stderr: float
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.control.fig13"
+
+    @property
+    def metrics(self) -> dict:
+        """Step metrics per case, keyed ``"law@β"`` (e.g. ``"paper@150"``). [SI]"""
+        return {f"{r['law']}@{r['beta_counts']:g}": r for r in self.rows}
+
+    def __repr__(self) -> str:
+        cases = ", ".join(f"{k}: τ={v['time_constant_s']:.4g} s" for k, v in self.metrics.items())
+        return f"Fig13Result({cases})"
+
+    def to_dict(self) -> dict:
+        """What ``mckibben control fig13 --json`` prints."""
+        return to_jsonable({"model": {**_model_dict(self.model), "tau_s_stderr": self.tau_stderr}, "rows": self.rows})
+
+    def _series(self):
+        import pandas as pd
+
+        frames = []
+        for i, r in enumerate(self.rows):
+            df = _record_frame(self.record, i)
+            df.insert(0, "beta_counts", r["beta_counts"])
+            df.insert(0, "law", r["law"])
+            frames.append(df)
+        return pd.concat(frames, ignore_index=True)
+
+    def tau_against_beta(self, betas=None):
+        """The paper's law's time constant against β on the plant (τ falls once β exceeds the
+        holding command, eq. 11 of 000_909f662a44080c85.txt).
+
+        Parameters
+        ----------
+        betas : array_like, optional
+            Switching gains; default 110–200 in steps of 2. [PWM counts]
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``beta_counts``, ``time_constant_s``, ``overshoot_pct``.
+        """
+        import pandas as pd
+
+        betas = np.arange(110.0, 201.0, 2.0) if betas is None else np.asarray(betas, dtype=float)
+        rows, _ = _fig13_runs(self.model, betas=betas, laws=("paper",))
+        return pd.DataFrame({"beta_counts": [r["beta_counts"] for r in rows],
+                             "time_constant_s": [r["time_constant_s"] for r in rows],
+                             "overshoot_pct": [r["overshoot_pct"] for r in rows]})
+
+    def plot(self, ax=None):
+        """The step responses and τ against β beside the paper's points; return the Figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes or pair of Axes, optional
+            One Axes: the responses only; two: responses and τ(β); default a new figure with both. [-]
+        """
+        from mckibben.control.plots import plot_fig13
+
+        return plot_fig13(self, ax=ax)
+
+
+def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None) -> Fig13Result:
+    """The paper's Fig. 13 on the plant: sliding mode, step 0 → 0.55 MPa, each law and β.
+
+    000_909f662a44080c85.txt §IV.B measured the ``paper`` law at β = 120 (τ ≈ 0.06 s) and 150
+    (τ ≈ 0.01 s, ~7 % overshoot); those values come from
+    :data:`mckibben.datasets.paper_points.FIG13`. The ``model`` law at the same β shows what our
+    model term changes.
+
+    Parameters
+    ----------
+    betas : sequence of float, default (120, 150)
+        Switching gains. [PWM counts]
+    laws : sequence of str, default ("model", "paper")
+        Sliding-mode laws. [-]
+    eps : float or str, optional
+        Boundary layer; default each law's tuning. [Pa]
+    ki : float, optional
+        Surface integral weight; default each law's tuning. [1/s]
+
+    Returns
+    -------
+    Fig13Result
+    """
+    e = quantity(eps, "pressure", "--eps", allow_zero=False) if eps is not None else None
+    k = _ki(ki)
+    betas = tuple(_beta(b) for b in betas)
+    for law in laws:
+        if law not in LAWS:
+            raise unknown_name("--law", law, LAWS)
+    fit, model, _ = _default_identification()
+    rows, rec = _fig13_runs(model, betas=betas, laws=tuple(laws), eps=e, ki=k)
+    return Fig13Result(rows, rec, model, float(fit.stderr["tau_s"]),
+                       {"betas_counts": list(betas), "laws": list(laws), "eps_Pa": e, "ki_per_s": k})
+
+
+@dataclass(frozen=True, repr=False)
+class CompareResult(Result):
+    """PID against both sliding-mode laws over step sizes and loads (:func:`compare`).
+
+    Attributes
+    ----------
+    rows : list of dict
+        One per (controller, step, load) with the step metrics. [-]
+    arguments : dict
+        β of our law. [-]
+    """
+
+    rows: list
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.control.compare"
+
+    @property
+    def metrics(self) -> dict:
+        """Per controller: median time constant [s], overshoot [%], |steady-state error| [Pa] over the runs."""
+        out = {}
+        for c in CONTROLLER_NAMES:
+            rs = [r for r in self.rows if r["controller"] == c]
+            out[c] = {k: float(np.nanmedian([abs(r[k]) if k.startswith("steady") else r[k] for r in rs]))
+                      for k in ("time_constant_s", "overshoot_pct", "steady_state_error_Pa")}
+        return out
+
+    def __repr__(self) -> str:
+        body = ", ".join(f"{c}: τ={v['time_constant_s']:.3g} s" for c, v in self.metrics.items())
+        return f"CompareResult({len(self.rows)} runs; median {body})"
+
+    def to_dict(self) -> dict:
+        """What ``mckibben control compare --json`` prints."""
+        return to_jsonable({"rows": self.rows})
+
+    def _series(self):
+        import pandas as pd
+
+        return pd.DataFrame(self.rows)
+
+    def plot(self, ax=None):
+        """Time constant of each controller for each step and load; return the Figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+        """
+        from mckibben.control.plots import plot_compare
+
+        return plot_compare(self, ax=ax)
+
+
+def compare(beta=None) -> CompareResult:
+    """PID (lambda-tuned on the first-order model) against both sliding-mode laws (§IV.A).
+
+    Steps 0→0.2, 0→0.55, 0.3→0.7 and 0.55→0.2 MPa under 0, 1.5 and 3 N: the paper found the PID's
+    performance "varied with different step size and back pressure".
+
+    Parameters
+    ----------
+    beta : float, optional
+        Switching gain of our law (default 50). [PWM counts]
+
+    Returns
+    -------
+    CompareResult
+    """
+    b = _beta(beta)
+    return CompareResult(_step_size_rows(identified_model(), beta=b), {"beta_counts": b})
+
+
+@dataclass(frozen=True, repr=False)
+class RobustnessResult(Result):
+    """Monte Carlo over plant uncertainty (:func:`robustness`).
+
+    Attributes
+    ----------
+    samples : dict of str to numpy.ndarray
+        The plant factors of each random plant. [-]
+    per_plant : dict
+        {controller: {metric: array over plants}}. [SI]
+    summary : dict
+        {controller: {metric: median, p5, p95, n_undefined}}. [SI]
+    arguments : dict
+        n, seed, β. [-]
+    """
+
+    samples: dict
+    per_plant: dict
+    summary: dict
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.control.robustness"
+
+    @property
+    def metrics(self) -> dict:
+        """The summary: per controller and metric, median, 5 % and 95 % and the undefined count."""
+        return self.summary
+
+    def __repr__(self) -> str:
+        body = ", ".join(f"{c}: τ median {s['time_constant_s']['median']:.3g} s" for c, s in self.summary.items())
+        return f"RobustnessResult(n={self.arguments['n']}, seed={self.arguments['seed']}; {body})"
+
+    def to_dict(self) -> dict:
+        """What ``mckibben control robustness --json`` prints."""
+        return to_jsonable({"n": self.arguments["n"], "seed": self.arguments["seed"], "summary": self.summary})
+
+    def _series(self):
+        import pandas as pd
+
+        frames = []
+        for c in CONTROLLER_NAMES:
+            df = pd.DataFrame({"controller": c, "plant": np.arange(self.arguments["n"]), **self.samples,
+                               **self.per_plant[c]})
+            frames.append(df)
+        return pd.concat(frames, ignore_index=True)
+
+    def plot(self, ax=None):
+        """Distributions of time constant, overshoot and steady-state error; return the Figure.
+
+        Parameters
+        ----------
+        ax : sequence of three matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+        """
+        from mckibben.control.plots import plot_robustness
+
+        return plot_robustness(self, ax=ax)
+
+
+#: Record length of each robustness run. [s]
+ROBUSTNESS_DURATION = 0.6
+
+
+def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force: bool = False) -> RobustnessResult:
+    """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same n plants.
+
+    ±30 % on valve gain, dead band, volumes and leak, supply 0.6–1.0 MPa, load 0–3 N
+    (:func:`~mckibben.control.experiments.sample_plants`); the controllers are designed once on
+    the nominal plant's identified model.
+
+    Parameters
+    ----------
+    n : int, default 1000
+        Number of random plants. [-]
+    seed : int, default 0
+        Random seed. [-]
+    beta : float, optional
+        Switching gain of our law (default 50). [PWM counts]
+    progress : callable, optional
+        ``progress(done, total)`` after each chunk of plants. [-]
+    force : bool, default False
+        Run past the documented size limits (:mod:`mckibben.limits`). [-]
+
+    Returns
+    -------
+    RobustnessResult
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise InputError(f"--n: {n!r} must be at least 1")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
+        raise InputError(f"--seed: {seed!r} must be in 0..2**63-1")
+    check_budget("--n", 3 * n * ROBUSTNESS_DURATION / TS, force=force,
+                 what="control periods (3 controllers × --n plants × 0.6 s)")
+    b = _beta(beta)
+    model = identified_model()
+    from mckibben.control.experiments import sample_plants
+
+    samples = sample_plants(int(n), seed)
+    chunk = max(1, min(int(n), 250))
+    per_plant = {c: {} for c in CONTROLLER_NAMES}
+    for lo in range(0, int(n), chunk):
+        hi = min(int(n), lo + chunk)
+        part = _robustness_runs(model, n=hi - lo, seed=seed, beta=b, samples={k: v[lo:hi] for k, v in samples.items()})
+        for c in CONTROLLER_NAMES:
+            for k, v in part["metrics"][c].items():
+                per_plant[c][k] = np.concatenate([per_plant[c].get(k, np.empty(0)), v])
+        if progress is not None:
+            progress(hi, int(n))
+    from mckibben.control.experiments import _pct
+
+    summary = {c: {k: _pct(v) for k, v in per_plant[c].items()} for c in CONTROLLER_NAMES}
+    return RobustnessResult(samples, per_plant, summary, {"n": int(n), "seed": seed, "beta_counts": b})
+
+
+@dataclass(frozen=True, repr=False)
+class OpenLoopResult(Result):
+    """An open-loop inlet-valve step from rest on the plant (:func:`open_loop`).
+
+    Attributes
+    ----------
+    time, pressure, length : numpy.ndarray
+        Samples [s], gauge pressure [Pa], muscle length [m].
+    step_metrics : dict
+        Time constant, rise time, overshoot, final pressure. [SI]
+    arguments : dict
+        Valve [PWM counts], supply [Pa], load [N], duration [s]. [-]
+    """
+
+    time: np.ndarray
+    pressure: np.ndarray
+    length: np.ndarray
+    step_metrics: dict
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.control.open_loop"
+
+    @property
+    def metrics(self) -> dict:
+        """Time constant (63 %), rise time (10–90 %), overshoot, final pressure and length. [SI]"""
+        return {**self.step_metrics, "final_length_m": float(self.length[-1])}
+
+    def to_dict(self) -> dict:
+        """What ``mckibben simulate open-loop --json`` prints."""
+        a = self.arguments
+        return to_jsonable({"valve_pwm": a["valve_pwm"], "supply_Pa": a["supply_Pa"], "load_N": a["load_N"],
+                            "duration_s": a["duration_s"], **self.metrics})
+
+    def _series(self):
+        import pandas as pd
+
+        return pd.DataFrame({"time_s": self.time, "pressure_Pa": self.pressure, "length_m": self.length})
+
+    def plot(self, ax=None):
+        """The pressure rise with its 63 % time; return the Figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+        """
+        from mckibben.control.plots import plot_open_loop
+
+        return plot_open_loop(self, ax=ax)
+
+
+def open_loop(valve: int | None = None, *, supply="0.8MPa", load="0.6N", duration="0.5s") -> OpenLoopResult:
+    """An open-loop inlet-valve step from rest (bleed shut): the identification experiment of §IV.A.
+
+    Parameters
+    ----------
+    valve : int, optional
+        Inlet PWM count, 0..255; default the calibration step. [PWM counts]
+    supply : float or str, default "0.8MPa"
+        Supply pressure (gauge), at most 1 MPa. [Pa]
+    load : float or str, default "0.6N"
+        Hanging load. [N]
+    duration : float or str, default "0.5s"
+        Simulated time, whole control periods, at most 60 s. [s]
+
+    Returns
+    -------
+    OpenLoopResult
+    """
+    from mckibben.plant import CALIBRATION_PWM, PlantParams, open_loop_step
+
+    valve = CALIBRATION_PWM if valve is None else valve
+    if isinstance(valve, bool) or not isinstance(valve, (int, np.integer)) or not 0 <= valve <= 255:
+        raise InputError(f"--valve: {valve!r} must be a PWM count in 0..255")
+    d = quantity(duration, "time", "--duration", allow_zero=False)
+    steps = d / TS
+    if abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
+        raise InputError(f"--duration: {duration!r} must be a whole number of 1 ms control periods")
+    if d > 60:
+        raise InputError(f"--duration: {duration!r} is longer than 60 s")
+    s = quantity(supply, "pressure", "--supply", allow_zero=False)
+    if s > 1e6:
+        raise InputError(f"--supply: {supply!r} is above the compressor's 1 MPa")
+    f = plant_load(load)
+    res, m = open_loop_step(PlantParams(supply_pressure=s, load_force=f), valve=int(valve), duration=d)
+    return OpenLoopResult(res.t, res.pressure[0], res.length[0], m,
+                          {"valve_pwm": int(valve), "supply_Pa": s, "load_N": f, "duration_s": d})
+
+
+def hysteresis_compensation(period="4s", *, sweep_period=None):
+    """Length tracking with and without hysteresis compensation (inflate/deflate branches).
+
+    Identifies the plant (:func:`identified_model`), records a quasi-static pressure triangle,
+    fits one cubic per branch and one through both, then tracks a length sinusoid with each
+    (:func:`~mckibben.control.hysteresis.hysteresis_benefit`).
+
+    Parameters
+    ----------
+    period : float or str, default "4s"
+        Period of the length sinusoid, 1 to 60 s. [s]
+    sweep_period : float or str, optional
+        Period of the identification triangle, 1 to 600 s; default 8 × ``period``. [s]
+
+    Returns
+    -------
+    HysteresisBenefit
+        ``.summary()``, ``.plot()``.
+    """
+    from mckibben.control.hysteresis import (
+        PERIOD_MAX,
+        PERIOD_MIN,
+        SWEEP_PERIOD_MAX,
+        SWEEP_PERIOD_MIN,
+        hysteresis_benefit,
+    )
+
+    per = quantity(period, "time", "--period", allow_zero=False)
+    if not PERIOD_MIN <= per <= PERIOD_MAX:
+        raise InputError(f"--period: {period!r} must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")
+    sweep = None
+    if sweep_period is not None:
+        sweep = quantity(sweep_period, "time", "--sweep-period", allow_zero=False)
+        if not SWEEP_PERIOD_MIN <= sweep <= SWEEP_PERIOD_MAX:
+            raise InputError(f"--sweep-period: {sweep_period!r} must be between {SWEEP_PERIOD_MIN:g} s and "
+                             f"{SWEEP_PERIOD_MAX:g} s")
+    return hysteresis_benefit(identified_model(), period=per, sweep_period=sweep)
