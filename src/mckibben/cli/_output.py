@@ -36,3 +36,16 @@ def write_plot(fig, path: str, dpi: int) -> None:
         save_figure(fig, path, dpi=dpi)
     finally:
         plt.close(fig)
+
+
+def progress_bar(label: str, json: bool):
+    """A Rich progress bar on stderr, shown only on a terminal (and never with --json)."""
+    import sys
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    from mckibben.cli._common import err_console
+
+    return Progress(TextColumn(label), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                    TimeElapsedColumn(), TimeRemainingColumn(), console=err_console, transient=True,
+                    disable=json or not sys.stderr.isatty())

@@ -5,13 +5,11 @@ Each command parses its options, makes one call of :mod:`mckibben.control` and p
 
 from __future__ import annotations
 
-import sys
-
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
-from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, write_plot
+from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, progress_bar, write_plot
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
                           no_args_is_help=True)
@@ -154,15 +152,6 @@ def compare_cmd(
                 ["controller", "from MPa", "to MPa", "load N", "τ s", "overshoot %", "settling s", "ss error kPa"],
                 [[r["controller"], r["from_Pa"] / 1e6, r["to_Pa"] / 1e6, r["load_N"], r["time_constant_s"],
                   r["overshoot_pct"], r["settling_time_s"], r["steady_state_error_Pa"] / 1e3] for r in res.rows])
-
-
-def progress_bar(label: str, json: bool):
-    """A Rich progress bar on stderr, shown only on a terminal (and never with --json)."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
-    return Progress(TextColumn(label), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                    TimeRemainingColumn(), console=err_console, transient=True,
-                    disable=json or not sys.stderr.isatty())
 
 
 @control_app.command("robustness")

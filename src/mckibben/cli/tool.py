@@ -7,10 +7,8 @@ import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, print_table
-from mckibben.datasets import get_muscle
-from mckibben.atomic import check_output_file
+from mckibben.cli._output import check_outputs, plot_option, progress_bar, write_plot
 from mckibben.errors import InputError
-from mckibben.units import parse_quantity, parse_values
 
 tool_app = typer.Typer(help="The three-muscle endoscope: kinematics, pressures for a tip, workspace, tracking.",
                        no_args_is_help=True)
@@ -24,86 +22,12 @@ KB_OPTION = typer.Option("2e-4Nm2", "--bending-stiffness", help="Backbone bendin
 KA_OPTION = typer.Option("0N", "--axial-stiffness", help="Backbone axial stiffness Ka (force per unit strain), e.g. 50N.")
 PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Highest pressure allowed in any muscle.")
 
-def _discs(text: str):
-    if text.strip().lower() in ("continuous", "none", "inf"):
-        return None
-    try:
-        n = int(text)
-    except ValueError:
-        raise InputError(f"--discs: {text!r} is not a whole number of discs (or 'continuous')") from None
-    if n < 2:
-        raise InputError(f"--discs: {text!r} must be at least 2 (base and tip)")
-    return n
-
-
 def build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max):
-    """The :class:`~mckibben.tool.geometry.Tool` from the command-line options (strings with units)."""
-    from mckibben.tool.geometry import StackLoad, Tool, ToolGeometry
+    """The tool from the shared options (:func:`mckibben.tool.make_tool`)."""
+    from mckibben.tool import make_tool
 
-    geo = ToolGeometry(
-        pitch_radius=parse_quantity(pitch_radius, "length", "--pitch-radius", allow_zero=False) if pitch_radius else None,
-        n_discs=_discs(discs),
-    )
-    load = StackLoad(
-        preload=parse_quantity(preload, "force", "--preload"),
-        bending_stiffness=parse_quantity(bending_stiffness, "bending_stiffness", "--bending-stiffness",
-                                         default_unit="Nm2"),
-        axial_stiffness=parse_quantity(axial_stiffness, "force", "--axial-stiffness"),
-    )
-    from mckibben.limits import check_p_max
-
-    pmax = check_p_max(parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    try:
-        return Tool(get_muscle(muscle), geo, load, pmax)
-    except InputError as exc:  # the library names its field; the command line names the option
-        msg = str(exc)
-        raise InputError("--" + msg if msg.startswith("discs:") else msg) from None
-
-
-def tool_json(tool) -> dict:
-    """The tool's parameters as a JSON-ready dict (SI, unit-suffixed keys)."""
-    g, ld = tool.geometry, tool.load
-    return {
-        "muscle": tool.muscle.name,
-        "disc_diameter_m": g.disc_diameter,
-        "hole_diameter_m": g.hole_diameter,
-        "channel_diameter_m": g.channel_diameter,
-        "pitch_radius_m": g.pitch_radius,
-        "n_discs": g.n_discs,
-        "muscle_angles_rad": [0.0, 2 * np.pi / 3, 4 * np.pi / 3],
-        "preload_N": ld.preload,
-        "bending_stiffness_Nm2": ld.bending_stiffness,
-        "axial_stiffness_N": ld.axial_stiffness,
-        "reference_length_m": tool.reference_length,
-        "p_max_Pa": tool.p_max,
-    }
-
-
-def state_json(state) -> dict:
-    """A single pose of a :class:`~mckibben.tool.statics.ToolState` as a JSON-ready dict."""
-    arc = state.arc
-    return {
-        "arc_length_m": float(arc.arc_length),
-        "curvature_per_m": float(arc.curvature),
-        "bend_angle_rad": float(arc.theta),
-        "bend_plane_angle_rad": float(arc.phi),
-        "theta_x_rad": float(arc.theta_x),
-        "theta_y_rad": float(arc.theta_y),
-        "tip_m": state.tip.tolist(),
-        "tip_direction": state.rotation[:, 2].tolist(),
-        "tip_rotation": state.rotation.tolist(),
-        "lengths_m": state.lengths.tolist(),
-        "tensions_N": state.tensions.tolist(),
-        "pressures_Pa": state.pressures.tolist(),
-        "flags": state.flag_lists(),
-        "reachable": bool(state.reachable),
-    }
-
-
-def _three(values: np.ndarray, text: str, name: str) -> np.ndarray:
-    if values.shape != (3,) or ":" in text:
-        raise InputError(f"{name}: need exactly 3 comma-separated values (muscles 1, 2, 3), got {text!r}")
-    return values
+    return make_tool(muscle, pitch_radius=pitch_radius, discs=discs, preload=preload,
+                     bending_stiffness=bending_stiffness, axial_stiffness=axial_stiffness, p_max=p_max)
 
 
 def _print_state(title: str, st: dict) -> None:
@@ -136,27 +60,14 @@ def fk_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Forward kinematics: three muscle lengths (or pressures) → arc → tip position and orientation."""
-    from mckibben.tool.statics import pressures_for_tip, tip_from_pressures
+    from mckibben.tool import forward, state_dict, tool_dict
 
     if (lengths is None) == (pressures is None):
         raise InputError("tool fk: give exactly one of --lengths or --pressures")
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
-    geo = tool.geometry
-    if lengths is not None:
-        from mckibben.tool.kinematics import arc_from_lengths, tip_position
-
-        ls = _three(parse_values(lengths, "length", "--lengths", allow_zero=False), lengths, "--lengths")
-        arc = arc_from_lengths(ls, geo.pitch_radius, geo.n_gaps)
-        # the pressures that hold these lengths, through the same path as `tool ik`
-        state = pressures_for_tip(tip_position(arc), tool)
-        source = "lengths"
-    else:
-        ps = _three(parse_values(pressures, "pressure", "--pressures"), pressures, "--pressures")
-        state = tip_from_pressures(ps, tool)
-        if not bool(state.converged):
-            raise InputError(f"--pressures: the static equilibrium did not converge for {pressures!r}")
-        source = "pressures"
-    out = {"input": source, **state_json(state), "tool": tool_json(tool)}
+    state = forward(tool, lengths=lengths, pressures=pressures)
+    source = "lengths" if lengths is not None else "pressures"
+    out = {"input": source, **state_dict(state), "tool": tool_dict(tool)}
     if json:
         emit_json(out)
         return
@@ -176,13 +87,11 @@ def ik_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Inverse: a tip position → arc → muscle lengths → tensions → pressures (unreachable: exit 2)."""
-    from mckibben.tool.statics import pressures_for_tip, require_reachable_tip
+    from mckibben.tool import inverse, state_dict, tool_dict
 
-    p = _three(parse_values(tip, "length", "--tip", allow_negative=True), tip, "--tip")
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
-    state = pressures_for_tip(p, tool)
-    require_reachable_tip(state, tool)
-    out = {**state_json(state), "tool": tool_json(tool)}
+    state = inverse(tip, tool)
+    out = {**state_dict(state), "tool": tool_dict(tool)}
     if json:
         emit_json(out)
         return
@@ -191,7 +100,9 @@ def ik_cmd(
 
 @tool_app.command("workspace")
 def workspace_cmd(
-    plot: str = typer.Option(None, "--plot", help="Write the workspace figure to this file (PNG)."),
+    plot: str = plot_option("the workspace figure"),
+    dpi: int = typer.Option(110, "--dpi", help="Resolution of raster figures, dots per inch."),
+    out: str = typer.Option(None, "--out", help="Write the sampled grid (pressures, tips): .csv or .parquet."),
     grid: int = typer.Option(15, "--grid", help="Pressure grid points per muscle (2..101)."),
     muscle: str = MUSCLE_OPTION,
     pitch_radius: str = PITCH_OPTION,
@@ -203,17 +114,18 @@ def workspace_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Sample the pressure box [0, p_max]³, report the reachable tip set's extent, optionally plot it."""
-    from mckibben.tool.workspace import plot_workspace, sample_workspace
+    from mckibben.tool import map_workspace
 
-    if plot:
-        check_output_file(plot, "--plot")
+    check_outputs(plot, dpi, out)
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
-    ws = sample_workspace(tool, grid)
-    ext = ws.extent()
+    res = map_workspace(tool, grid)
+    ext = res.metrics
     if plot:
-        plot_workspace(ws, tool, plot)
+        write_plot(res.plot(), plot, dpi)
+    if out:
+        res.to_file(out)
     if json:
-        emit_json({**ext, "grid": grid, "plot": plot, "tool": tool_json(tool)})
+        emit_json({**res.to_dict(), "plot": plot})
         return
     rows = [
         ["lateral reach", f"{ext['lateral_reach_m'] * 1e3:.2f} mm"],
@@ -228,19 +140,16 @@ def workspace_cmd(
         console.print(f"wrote {plot}")
 
 
-#: Cost of one 1 ms sample of `tool track`: IK and static inverse, three controlled muscles; the
-#: memory of the reference and record. Measured on the reference machine with headroom. [B], [s]
-TRACK_BYTES_PER_SAMPLE = 4096
-TRACK_SECONDS_PER_SAMPLE = {False: 400e-6, True: 100e-6}
-
-
 @tool_app.command("track")
 def track_cmd(
     path: str = typer.Option(..., "--path", help="Tip path: circle:radius=5mm,period=2s[,z=..,cx=..,cy=..,cycles=2] or figure8:size=5mm,period=2s[,...]."),
     periods: str = typer.Option(None, "--periods", help="Run the path at several periods (speeds), e.g. 4s,2s,1s,0.5s."),
     reference_only: bool = typer.Option(False, "--reference-only", help="Only compute the pressure references (no simulation)."),
     force: bool = typer.Option(False, "--force", help="Run past the documented size limits (mckibben.limits)."),
-    plot: str = typer.Option(None, "--plot", help="Write the target-vs-achieved figure to this file (PNG)."),
+    plot: str = plot_option("the target-vs-achieved figure"),
+    dpi: int = typer.Option(110, "--dpi", help="Resolution of raster figures, dots per inch."),
+    out: str = typer.Option(None, "--out", help="Write the time series of every run (targets, references, "
+                                                "achieved tips, pressures): .csv or .parquet."),
     beta: float = typer.Option(None, "--beta", help="Sliding-mode switching gain of the three controllers [PWM counts] "
                                                     "(our law, docs/control.md; default TRACKING_BETA, 50)."),
     muscle: str = MUSCLE_OPTION,
@@ -253,56 +162,22 @@ def track_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Follow a tip path: IK + static inverse → pressure references → three controlled muscles (plant)."""
-    from mckibben.tool.paths import parse_path
-    from mckibben.tool.tracking import resolve_path, tip_reference
+    from mckibben.tool import track
 
-    if plot:
-        check_output_file(plot, "--plot")
-    from mckibben.limits import check_budget
-
+    check_outputs(plot, dpi, out)
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
-    spec = parse_path(path)
-    period_list = parse_values(periods, "time", "--periods", allow_zero=False) if periods else np.array([spec.period])
-    samples = float(np.sum(period_list)) * spec.cycles / 1e-3
-    check_budget("--path/--periods" if periods else "--path", samples, force=force, what="1 ms samples",
-                 bytes_per_sample=TRACK_BYTES_PER_SAMPLE,
-                 seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)])
-    base = resolve_path(spec, tool)
-    runs = []
-    for period in period_list:
-        p = base.with_period(float(period))
-        ref = tip_reference(tool, p)
-        runs.append((p, ref))
-    if not reference_only:
-        from mckibben.tool.tracking import TRACKING_BETA, simulate_tracking
-
-        beta = TRACKING_BETA if beta is None else beta
-        if not 0 < beta <= 255:
-            raise InputError(f"--beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
-        results = simulate_tracking(tool, runs, beta=beta)
-    else:
-        results = None
-    out_runs = []
-    for k, (p, ref) in enumerate(runs):
-        entry = {
-            "period_s": p.period,
-            "mean_speed_m_per_s": p.mean_speed,
-            "samples": int(ref.time.size),
-            "reference_pressure_min_Pa": ref.pressures.min(axis=0).tolist(),
-            "reference_pressure_max_Pa": ref.pressures.max(axis=0).tolist(),
-            "reference_flags": sorted({f for row in ref.state.flag_lists() for m in row for f in m}),
-        }
-        if results is not None:
-            entry.update(results[k].summary())
-        out_runs.append(entry)
-    if plot and results is not None:
-        from mckibben.tool.tracking import plot_tracking
-
-        plot_tracking(runs, results, tool, plot)
+    with progress_bar("periods", json) as bar:
+        task = bar.add_task("periods", total=None)
+        res = track(path, periods=periods, tool=tool, beta=beta, reference_only=reference_only, force=force,
+                    progress=lambda done, total: bar.update(task, completed=done, total=total))
+    simulated = res.results is not None
+    if plot and simulated:
+        write_plot(res.plot(), plot, dpi)
+    if out:
+        res.to_file(out)
+    base, out_runs = res.path, res.per_run
     if json:
-        emit_json({"path": {"kind": base.kind, "size_m": base.size, "z_m": base.z, "cx_m": base.cx, "cy_m": base.cy,
-                            "cycles": base.cycles}, "runs": out_runs, "simulated": results is not None,
-                   "plot": plot if results is not None else None, "tool": tool_json(tool)})
+        emit_json({**res.to_dict(), "plot": plot if simulated else None})
         return
     rows = []
     for e in out_runs:

@@ -291,7 +291,7 @@ def simulate_tracking(tool: Tool, runs, *, beta: float = TRACKING_BETA) -> list[
     return results
 
 
-def plot_tracking(runs, results, tool: Tool, path) -> None:
+def plot_tracking(runs, results, tool: Tool, ax=None):
     """Figure: target vs achieved tip path (top view) per speed, tip error over time, error vs speed.
 
     Parameters
@@ -302,18 +302,21 @@ def plot_tracking(runs, results, tool: Tool, path) -> None:
         Their simulations.
     tool : Tool
         The tool (for the title).
-    path : str or os.PathLike
-        Output file (PNG). [-]
-    """
-    import matplotlib
+    ax : sequence of three matplotlib.axes.Axes, optional
+        Where to draw; default a new figure. [-]
 
-    matplotlib.use("Agg")
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     import matplotlib.pyplot as plt
 
-    from mckibben.tool.workspace import save_figure
-
     k = len(results)
-    fig, axes = plt.subplots(1, 3, figsize=(15, 5))
+    if ax is None:
+        fig, axes = plt.subplots(1, 3, figsize=(15, 5))
+    else:
+        axes = list(ax)
+        fig = axes[0].figure
     ax = axes[0]
     colors = plt.cm.viridis(np.linspace(0, 0.85, k))
     for (p, _), r, c in zip(runs, results, colors):
@@ -350,6 +353,6 @@ def plot_tracking(runs, results, tool: Tool, path) -> None:
     p0 = runs[0][0]
     fig.suptitle(f"Tracking a {p0.kind} ({p0.size * 1e3:g} mm, z = {p0.z * 1e3:.1f} mm) with three simulated"
                  f" {tool.muscle.name} muscles, sliding mode β = {results[0].beta:g}", fontsize=10)
-    fig.tight_layout()
-    save_figure(fig, path)
-    plt.close(fig)
+    if ax is None:
+        fig.tight_layout()
+    return fig

@@ -13,7 +13,6 @@ import numpy as np
 
 from mckibben.errors import InputError
 from mckibben.models.flags import FLAG_NAMES, Flag
-from mckibben.plotting import save_figure as _save_figure
 from mckibben.tool.geometry import Tool
 from mckibben.tool.statics import ToolState, tip_from_pressures
 
@@ -103,11 +102,8 @@ def _faces(array):
     ]
 
 
-def plot_workspace(ws: Workspace, tool: Tool, path) -> None:
-    """Draw the reachable tip surface (3-D), its top view and side view, and write a PNG.
-
-    The file is written atomically (a temporary file renamed into place), so an error leaves
-    nothing half-written.
+def plot_workspace(ws: Workspace, tool: Tool, fig=None):
+    """Draw the reachable tip surface (3-D), its top view and side view; return the Figure.
 
     Parameters
     ----------
@@ -115,19 +111,21 @@ def plot_workspace(ws: Workspace, tool: Tool, path) -> None:
         The sampled workspace.
     tool : Tool
         The tool (for the title and the muscle directions).
-    path : str or os.PathLike
-        Output file (PNG, or any format Matplotlib infers from the suffix). [-]
+    fig : matplotlib.figure.Figure, optional
+        An empty figure to draw into; default a new one. [-]
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib import cm
 
     tip = ws.state.tip * 1e3  # mm for the figure
     theta = np.degrees(ws.state.arc.theta)
     ext = ws.extent()
-    fig = plt.figure(figsize=(14, 5.2))
+    fig = plt.figure(figsize=(14, 5.2)) if fig is None else fig
     ax3 = fig.add_subplot(1, 3, 1, projection="3d")
     norm = matplotlib.colors.Normalize(0, max(float(theta.max()), 1e-9))
     for (_, face), (_, th) in zip(_faces(tip), _faces(theta)):
@@ -178,18 +176,4 @@ def plot_workspace(ws: Workspace, tool: Tool, path) -> None:
         f" {g.n_discs or 'continuous'} discs, P ∈ [0, {tool.p_max / 1e6:g}] MPa, preload {tool.load.preload:g} N,"
         f" Kb = {tool.load.bending_stiffness:g} N·m²", fontsize=10)
     fig.tight_layout()
-    save_figure(fig, path)
-    plt.close(fig)
-
-
-def save_figure(fig, path) -> None:
-    """Save a Matplotlib figure atomically at 110 dpi (:func:`mckibben.plotting.save_figure`).
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-        The figure. [-]
-    path : str or os.PathLike
-        Output file. [-]
-    """
-    _save_figure(fig, path, dpi=110)
+    return fig

@@ -1,0 +1,447 @@
+"""The three-muscle endoscope from Python: build a tool, pose it, sample its workspace, steer its tip.
+
+Each function takes quantities as SI numbers or as text with a unit and returns a result; the
+``mckibben tool`` commands are one call each.
+
+>>> import mckibben.tool as mt                                   # doctest: +SKIP
+>>> tool = mt.make_tool("mpam117", preload="1N")                 # doctest: +SKIP
+>>> res = mt.track("circle:radius=5mm,period=2s", tool=tool)    # doctest: +SKIP
+>>> res.metrics, res.to_pandas().head(), res.plot()               # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mckibben.errors import InputError
+from mckibben.results import Result, to_jsonable
+from mckibben.tool.geometry import StackLoad, Tool, ToolGeometry
+from mckibben.units import parse_values, quantity
+
+__all__ = ["ToolTrackResult", "WorkspaceResult", "forward", "inverse", "make_tool", "map_workspace", "state_dict",
+           "tool_dict", "track"]
+
+
+def _discs(discs):
+    if discs is None:
+        return None
+    if isinstance(discs, str):
+        if discs.strip().lower() in ("continuous", "none", "inf"):
+            return None
+        try:
+            int(discs)
+        except ValueError:
+            raise InputError(f"--discs: {discs!r} is not a whole number of discs (or 'continuous')") from None
+    if isinstance(discs, bool) or not isinstance(discs, (int, np.integer, str)):
+        raise InputError(f"--discs: {discs!r} is not a whole number of discs (or 'continuous')")
+    n = int(discs)
+    if n < 2:
+        raise InputError(f"--discs: {discs!r} must be at least 2 (base and tip)")
+    return n
+
+
+def make_tool(muscle="mpam117", *, pitch_radius=None, discs=13, preload="1N", bending_stiffness="2e-4Nm2",
+              axial_stiffness="0N", p_max="0.8MPa") -> Tool:
+    """The three-muscle tool of §V of 000_909f662a44080c85.txt with its stack's load model.
+
+    Parameters
+    ----------
+    muscle : str or MiniatureMuscle, default "mpam117"
+        Parameter set of the three muscles (``mpam97``, ``mpam117``, ``mpam143``). [-]
+    pitch_radius : float or str, optional
+        Radius of the muscle holes' circle; default the middle of the 12 mm disc's ring (4 mm). [m]
+    discs : int or "continuous", default 13
+        Spacer discs including base and tip. [-]
+    preload : float or str, default "1N"
+        Tension of each muscle in the straight tool, F0. [N]
+    bending_stiffness : float or str, default "2e-4Nm2"
+        Backbone bending stiffness Kb. [N·m²]
+    axial_stiffness : float or str, default "0N"
+        Backbone axial stiffness Ka (force per unit strain). [N]
+    p_max : float or str, default "0.8MPa"
+        Highest pressure allowed in any muscle. [Pa]
+
+    Returns
+    -------
+    Tool
+    """
+    from mckibben.datasets import get_muscle
+
+    m = get_muscle(muscle) if isinstance(muscle, str) else muscle
+    geo = ToolGeometry(
+        pitch_radius=quantity(pitch_radius, "length", "--pitch-radius", allow_zero=False)
+        if pitch_radius is not None else None,
+        n_discs=_discs(discs),
+    )
+    kb = (quantity(bending_stiffness, "bending_stiffness", "--bending-stiffness")
+          if not isinstance(bending_stiffness, str) else
+          _parse_kb(bending_stiffness))
+    load = StackLoad(preload=quantity(preload, "force", "--preload"), bending_stiffness=kb,
+                     axial_stiffness=quantity(axial_stiffness, "force", "--axial-stiffness"))
+    from mckibben.limits import check_p_max
+
+    pmax = check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
+    try:
+        return Tool(m, geo, load, pmax)
+    except InputError as exc:  # the Tool names its field; a caller of make_tool gave --discs
+        msg = str(exc)
+        raise InputError("--" + msg if msg.startswith("discs:") else msg) from None
+
+
+def _parse_kb(text: str) -> float:
+    from mckibben.units import parse_quantity
+
+    return parse_quantity(text, "bending_stiffness", "--bending-stiffness", default_unit="Nm2")
+
+
+def tool_dict(tool: Tool) -> dict:
+    """The tool's parameters, JSON-ready (SI, unit-suffixed keys).
+
+    Parameters
+    ----------
+    tool : Tool
+        The tool. [-]
+    """
+    g, ld = tool.geometry, tool.load
+    return {
+        "muscle": tool.muscle.name,
+        "disc_diameter_m": g.disc_diameter,
+        "hole_diameter_m": g.hole_diameter,
+        "channel_diameter_m": g.channel_diameter,
+        "pitch_radius_m": g.pitch_radius,
+        "n_discs": g.n_discs,
+        "muscle_angles_rad": [0.0, 2 * np.pi / 3, 4 * np.pi / 3],
+        "preload_N": ld.preload,
+        "bending_stiffness_Nm2": ld.bending_stiffness,
+        "axial_stiffness_N": ld.axial_stiffness,
+        "reference_length_m": tool.reference_length,
+        "p_max_Pa": tool.p_max,
+    }
+
+
+def state_dict(state) -> dict:
+    """One pose (:class:`~mckibben.tool.statics.ToolState`), JSON-ready (SI, unit-suffixed keys).
+
+    Parameters
+    ----------
+    state : ToolState
+        A single pose. [-]
+    """
+    arc = state.arc
+    return to_jsonable({
+        "arc_length_m": float(arc.arc_length),
+        "curvature_per_m": float(arc.curvature),
+        "bend_angle_rad": float(arc.theta),
+        "bend_plane_angle_rad": float(arc.phi),
+        "theta_x_rad": float(arc.theta_x),
+        "theta_y_rad": float(arc.theta_y),
+        "tip_m": state.tip.tolist(),
+        "tip_direction": state.rotation[:, 2].tolist(),
+        "tip_rotation": state.rotation.tolist(),
+        "lengths_m": state.lengths.tolist(),
+        "tensions_N": state.tensions.tolist(),
+        "pressures_Pa": state.pressures.tolist(),
+        "flags": state.flag_lists(),
+        "reachable": bool(state.reachable),
+    })
+
+
+def _three(value, dimension: str, name: str, **kw) -> np.ndarray:
+    if isinstance(value, str):
+        v = parse_values(value, dimension, name, **kw)
+        if ":" in value:
+            v = np.empty(0)
+    else:
+        v = np.array([quantity(x, dimension, name, **kw) for x in np.ravel(np.asarray(value, dtype=object))])
+    if v.shape != (3,):
+        raise InputError(f"{name}: need exactly 3 comma-separated values (muscles 1, 2, 3), got {value!r}")
+    return v
+
+
+def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
+    """Forward kinematics: three muscle lengths, or three pressures (static equilibrium), to the pose.
+
+    Parameters
+    ----------
+    tool : Tool, optional
+        Default :func:`make_tool`'s. [-]
+    lengths : sequence of 3 float or str, optional
+        Muscle lengths (e.g. ``"117mm,112mm,115mm"``). [m]
+    pressures : sequence of 3 float or str, optional
+        Muscle pressures (e.g. ``"0.4MPa,0,0.2MPa"``). [Pa]
+
+    Returns
+    -------
+    ToolState
+        Arc, tip, rotation, lengths, tensions, pressures and flags (:func:`state_dict`).
+    """
+    from mckibben.tool.statics import pressures_for_tip, tip_from_pressures
+
+    tool = make_tool() if tool is None else tool
+    if (lengths is None) == (pressures is None):
+        raise InputError("tool fk: give exactly one of --lengths or --pressures")
+    if lengths is not None:
+        from mckibben.tool.kinematics import arc_from_lengths, tip_position
+
+        ls = _three(lengths, "length", "--lengths", allow_zero=False)
+        arc = arc_from_lengths(ls, tool.geometry.pitch_radius, tool.geometry.n_gaps)
+        return pressures_for_tip(tip_position(arc), tool)  # the pressures holding them, as `inverse` finds them
+    ps = _three(pressures, "pressure", "--pressures")
+    state = tip_from_pressures(ps, tool)
+    if not bool(state.converged):
+        raise InputError(f"--pressures: the static equilibrium did not converge for {pressures!r}")
+    return state
+
+
+def inverse(tip, tool: Tool | None = None):
+    """A tip position → arc → muscle lengths → tensions → pressures; an unreachable tip is an error.
+
+    Parameters
+    ----------
+    tip : sequence of 3 float or str
+        Target tip X, Y, Z (e.g. ``"20mm,0mm,110mm"``). [m]
+    tool : Tool, optional
+        Default :func:`make_tool`'s. [-]
+
+    Returns
+    -------
+    ToolState
+    """
+    from mckibben.tool.statics import pressures_for_tip, require_reachable_tip
+
+    tool = make_tool() if tool is None else tool
+    p = _three(tip, "length", "--tip", allow_negative=True)
+    state = pressures_for_tip(p, tool)
+    require_reachable_tip(state, tool)
+    return state
+
+
+@dataclass(frozen=True, repr=False)
+class WorkspaceResult(Result):
+    """The tips the pressure box [0, p_max]³ reaches (:func:`map_workspace`).
+
+    Attributes
+    ----------
+    samples : Workspace
+        Pressures and poses on the grid. [-]
+    tool : Tool
+        The tool. [-]
+    arguments : dict
+        Grid points per muscle. [-]
+    """
+
+    samples: object
+    tool: Tool
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.tool.map_workspace"
+    _repr_keys = ("lateral_reach_m", "tip_angle_max_rad", "z_min_m", "z_max_m")
+
+    @property
+    def metrics(self) -> dict:
+        """Extent: lateral reach [m], tip angles [rad], heights [m], arc lengths [m], counts."""
+        return self.samples.extent()
+
+    def to_dict(self) -> dict:
+        """What ``mckibben tool workspace --json`` prints."""
+        return to_jsonable({**self.metrics, "grid": self.arguments["grid"], "tool": tool_dict(self.tool)})
+
+    def _series(self):
+        import pandas as pd
+
+        p = self.samples.pressures.reshape(-1, 3)
+        tip = self.samples.state.tip.reshape(-1, 3)
+        return pd.DataFrame({"pressure_1_Pa": p[:, 0], "pressure_2_Pa": p[:, 1], "pressure_3_Pa": p[:, 2],
+                             "tip_x_m": tip[:, 0], "tip_y_m": tip[:, 1], "tip_z_m": tip[:, 2],
+                             "bend_angle_rad": np.ravel(self.samples.state.arc.theta)})
+
+    def plot(self, ax=None):
+        """The reachable tip surface (3-D), top and side views; return the Figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.figure.Figure, optional
+            A figure to draw into; default a new one. [-]
+        """
+        from mckibben.tool.workspace import plot_workspace
+
+        return plot_workspace(self.samples, self.tool, fig=ax)
+
+
+def map_workspace(tool: Tool | None = None, grid: int = 15) -> WorkspaceResult:
+    """Sample the pressure box [0, p_max]³ through the forward static equilibrium.
+
+    Parameters
+    ----------
+    tool : Tool, optional
+        Default :func:`make_tool`'s. [-]
+    grid : int, default 15
+        Pressure grid points per muscle, 2..101. [-]
+
+    Returns
+    -------
+    WorkspaceResult
+    """
+    from mckibben.tool.workspace import sample_workspace
+
+    tool = make_tool() if tool is None else tool
+    return WorkspaceResult(sample_workspace(tool, grid), tool, {"grid": grid})
+
+
+@dataclass(frozen=True, repr=False)
+class ToolTrackResult(Result):
+    """A tip path followed by three simulated muscles, at one or several speeds (:func:`track`).
+
+    Attributes
+    ----------
+    path : TipPath
+        The path (height resolved). [-]
+    runs : list of (TipPath, TipReference)
+        Each period's path and pressure references. [-]
+    results : list of TrackingResult or None
+        Their simulations (None with ``reference_only``). [-]
+    tool : Tool
+        The tool. [-]
+    arguments : dict
+        Path text, periods [s], β. [-]
+    """
+
+    path: object
+    runs: list
+    results: list | None
+    tool: Tool
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.tool.track"
+
+    @property
+    def per_run(self) -> list:
+        """One dict per period: speed, reference pressure range and flags, and (simulated) errors."""
+        out = []
+        for k, (p, ref) in enumerate(self.runs):
+            entry = {
+                "period_s": p.period,
+                "mean_speed_m_per_s": p.mean_speed,
+                "samples": int(ref.time.size),
+                "reference_pressure_min_Pa": ref.pressures.min(axis=0).tolist(),
+                "reference_pressure_max_Pa": ref.pressures.max(axis=0).tolist(),
+                "reference_flags": sorted({f for row in ref.state.flag_lists() for m in row for f in m}),
+            }
+            if self.results is not None:
+                entry.update(self.results[k].summary())
+            out.append(entry)
+        return out
+
+    @property
+    def metrics(self) -> dict:
+        """Worst run's RMS and maximum tip error [m] (NaN without simulation), and the number of runs."""
+        runs = self.per_run
+        return {"runs": len(runs),
+                "rms_error_m": max((r.get("rms_error_m", np.nan) for r in runs), default=np.nan),
+                "max_error_m": max((r.get("max_error_m", np.nan) for r in runs), default=np.nan)}
+
+    def to_dict(self) -> dict:
+        """What ``mckibben tool track --json`` prints."""
+        b = self.path
+        return to_jsonable({"path": {"kind": b.kind, "size_m": b.size, "z_m": b.z, "cx_m": b.cx, "cy_m": b.cy,
+                                     "cycles": b.cycles},
+                            "runs": self.per_run, "simulated": self.results is not None, "tool": tool_dict(self.tool)})
+
+    def _series(self):
+        import pandas as pd
+
+        frames = []
+        for k, (p, ref) in enumerate(self.runs):
+            d = {"period_s": p.period, "time_s": ref.time,
+                 "target_x_m": ref.target[:, 0], "target_y_m": ref.target[:, 1], "target_z_m": ref.target[:, 2]}
+            for i in range(3):
+                d[f"reference_{i + 1}_Pa"] = ref.pressures[:, i]
+            if self.results is not None:
+                r = self.results[k]
+                d.update({"achieved_x_m": r.achieved[:, 0], "achieved_y_m": r.achieved[:, 1],
+                          "achieved_z_m": r.achieved[:, 2]})
+                for i in range(3):
+                    d[f"pressure_{i + 1}_Pa"] = r.pressure[:, i]
+            frames.append(pd.DataFrame(d))
+        return pd.concat(frames, ignore_index=True)
+
+    def plot(self, ax=None):
+        """Target against achieved tip (top view), tip error over time, error against speed.
+
+        Parameters
+        ----------
+        ax : sequence of three matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+        """
+        from mckibben.tool.tracking import plot_tracking
+
+        if self.results is None:
+            raise InputError("tool track: nothing simulated to plot (reference_only=True)")
+        return plot_tracking(self.runs, self.results, self.tool, ax=ax)
+
+
+#: Cost of one 1 ms sample of :func:`track`: IK and static inverse, three controlled muscles; the
+#: memory of the reference and record. Measured on the reference machine with headroom. [B], [s]
+TRACK_BYTES_PER_SAMPLE = 4096
+TRACK_SECONDS_PER_SAMPLE = {False: 400e-6, True: 100e-6}
+
+
+def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_only: bool = False,
+          progress=None, force: bool = False) -> ToolTrackResult:
+    """Follow a tip path: IK and static inverse → pressure references → three controlled muscles.
+
+    Parameters
+    ----------
+    path : str or TipPath
+        ``circle:radius=5mm,period=2s[,z=..,cx=..,cy=..,cycles=2]`` or
+        ``figure8:size=5mm,period=2s[,...]``. [-]
+    periods : sequence of float or str, optional
+        Run the path at several periods (speeds), e.g. ``"4s,2s,1s"``; default the path's. [s]
+    tool : Tool, optional
+        Default :func:`make_tool`'s. [-]
+    beta : float, optional
+        Switching gain of the three sliding-mode controllers (our law); default 50. [PWM counts]
+    reference_only : bool, default False
+        Only compute the pressure references (no simulation). [-]
+    progress : callable, optional
+        ``progress(done, total)`` after each period. [-]
+    force : bool, default False
+        Run past the documented size limits (:mod:`mckibben.limits`). [-]
+
+    Returns
+    -------
+    ToolTrackResult
+    """
+    from mckibben.tool.paths import TipPath, parse_path
+    from mckibben.tool.tracking import TRACKING_BETA, resolve_path, simulate_tracking, tip_reference
+
+    from mckibben.limits import check_budget
+
+    tool = make_tool() if tool is None else tool
+    spec = path if isinstance(path, TipPath) else parse_path(path)
+    if periods is None:
+        period_list = np.array([spec.period])
+    elif isinstance(periods, str):
+        period_list = parse_values(periods, "time", "--periods", allow_zero=False)
+    else:
+        period_list = np.array([quantity(p, "time", "--periods", allow_zero=False) for p in np.ravel(periods)])
+    check_budget("--path/--periods" if periods is not None else "--path",
+                 float(np.sum(period_list)) * spec.cycles / 1e-3, force=force, what="1 ms samples",
+                 bytes_per_sample=TRACK_BYTES_PER_SAMPLE, seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)])
+    base = resolve_path(spec, tool)
+    b = None
+    if not reference_only:
+        b = TRACKING_BETA if beta is None else float(beta)
+        if not 0 < b <= 255:
+            raise InputError(f"--beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
+    runs = [(p, tip_reference(tool, p)) for p in (base.with_period(float(t)) for t in period_list)]
+    results = None
+    if not reference_only:
+        results = []
+        for k, run in enumerate(runs):
+            results += simulate_tracking(tool, [run], beta=b)
+            if progress is not None:
+                progress(k + 1, len(runs))
+    return ToolTrackResult(base, runs, results, tool,
+                           {"path": path if isinstance(path, str) else base.kind,
+                            "periods_s": [float(t) for t in period_list], "beta_counts": b})
