@@ -21,11 +21,17 @@ def test_version_and_short_help(cli):
     assert r.code == 0 and "--target" in r.out
 
 
-def test_shell_completion_script(cli):
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    r = subprocess.run([sys.executable, "-m", "mckibben.cli", "--show-completion", "bash"], capture_output=True,
-                       text=True, env=env, timeout=120)
-    assert r.returncode == 0 and "_MCKIBBEN_COMPLETE" in r.stdout
+def test_shell_completion_script(cli, tmp_path):
+    r = cli("completion", "bash")
+    assert r.code == 0 and "_MCKIBBEN_COMPLETE=complete_bash" in r.out
+    # the script really completes: bash asks the program, which answers with the commands
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path), "_MCKIBBEN_COMPLETE": "complete_bash",
+           "COMP_WORDS": "mckibben cont", "COMP_CWORD": "1"}
+    done = subprocess.run([sys.executable, "-m", "mckibben.cli"], capture_output=True, text=True, env=env,
+                          timeout=120, cwd=tmp_path)
+    assert "control" in done.stdout.split()
+    r = cli("completion", "tcsh")
+    assert r.code == 2 and "unknown shell 'tcsh'" in r.err and r.err.count("\n") == 1
 
 
 def test_piped_tables_are_plain_and_never_cut(cli):

@@ -2,8 +2,20 @@
 
 characterize -> fit -> predict -> simulate -> control -> deploy -> steer a three-muscle tool.
 
-SI units inside every function (Pa, m, N, s, rad); units appear only at the edges (CLI
-arguments, file columns named ``quantity_unit``, plots and reports).
+SI units inside every function (Pa, m, N, s, rad); every public function also takes quantities
+as text with a unit (``"0.8MPa"``, ``"97mm"``). The main entry points are here::
+
+    import mckibben as mk
+    muscle = mk.get_muscle("mpam97")                          # a published set (Table I, II)
+    mk.predict_length(muscle, 0.8e6, 0.6).length              # eq. 2 and 3 -> 0.0781 m
+    step = mk.step_response("smc", target="0.55MPa", law="paper", beta=150)
+    step.metrics, step.to_pandas(), step.plot()               # result objects
+    mk.track_tip("circle:radius=5mm,period=2s").plot()        # the three-muscle tool
+
+Subpackages: :mod:`~mckibben.models`, :mod:`~mckibben.data`, :mod:`~mckibben.datasets`,
+:mod:`~mckibben.fit`, :mod:`~mckibben.plant`, :mod:`~mckibben.control`, :mod:`~mckibben.rig`,
+:mod:`~mckibben.tool`, :mod:`~mckibben.sweep`, :mod:`~mckibben.report`. They are imported on
+first use, so ``import mckibben`` stays quick.
 """
 
 from importlib.metadata import PackageNotFoundError, version
@@ -19,4 +31,49 @@ try:
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+unknown"
 
-__all__ = ["InputError", "__version__"]
+#: Top-level name -> (module, attribute): imported on first use (PEP 562).
+_ENTRY_POINTS = {
+    "quantity": ("mckibben.units", "quantity"),
+    "get_muscle": ("mckibben.datasets", "get_muscle"),
+    "list_muscles": ("mckibben.datasets", "list_muscles"),
+    "read_table": ("mckibben.data", "read_table"),
+    "read_muscle": ("mckibben.data", "read_muscle"),
+    "predict_length": ("mckibben.models", "predict_length"),
+    "pressure_for_length": ("mckibben.models", "pressure_for_length"),
+    "force_from_length": ("mckibben.models", "force_from_length"),
+    "open_loop": ("mckibben.control", "open_loop"),
+    "identify_plant": ("mckibben.control", "identify_plant"),
+    "step_response": ("mckibben.control", "step_response"),
+    "track_pressure": ("mckibben.control", "track"),
+    "fig13": ("mckibben.control", "fig13"),
+    "robustness": ("mckibben.control", "robustness"),
+    "make_tool": ("mckibben.tool", "make_tool"),
+    "track_tip": ("mckibben.tool", "track"),
+    "Device": ("mckibben.rig", "Device"),
+    "load_sweep": ("mckibben.sweep", "load_sweep"),
+    "run_sweep": ("mckibben.sweep", "run_sweep"),
+    "reproduce": ("mckibben.report", "reproduce"),
+}
+_SUBPACKAGES = ("control", "data", "datasets", "fit", "models", "plant", "report", "rig", "sweep", "tool", "units",
+                "results")
+
+
+def __getattr__(name: str):
+    import importlib
+
+    if name in _ENTRY_POINTS:
+        module, attr = _ENTRY_POINTS[name]
+        value = getattr(importlib.import_module(module), attr)
+    elif name in _SUBPACKAGES:
+        value = importlib.import_module(f"mckibben.{name}")
+    else:
+        raise AttributeError(f"module 'mckibben' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_ENTRY_POINTS) | set(_SUBPACKAGES))
+
+
+__all__ = ["InputError", "__version__", *_ENTRY_POINTS, *_SUBPACKAGES]

@@ -24,6 +24,9 @@ import numpy as np
 
 from mckibben.errors import InputError
 
+__all__ = ["G_N", "SI_UNIT", "UNITS", "parse_quantity", "parse_values", "quantity", "split_column", "to_si",
+           "units_of"]
+
 #: Standard gravity [m/s^2] (for gram-force and hanging masses).
 G_N = 9.80665
 

@@ -33,9 +33,9 @@ def identify_cmd(
     ts = parse_quantity(t_step, "time", "--t-step") if t_step is not None else None
     p_supply = parse_quantity(supply, "pressure", "--supply", allow_zero=False) if supply is not None else None
     if plot is not None:
-        from mckibben.atomic import check_output_file
+        from mckibben.plotting import check_figure_path
 
-        check_output_file(plot, "--plot", (".png",))
+        check_figure_path(plot)
     results = []
     for log in logs:
         data, meta = read_step_log(log)
@@ -174,25 +174,10 @@ def _log_result(data: dict, meta: dict, per_trial: dict) -> dict:
 
 
 def _plot(path: str, data: dict, fits) -> None:
-    import matplotlib
+    from mckibben.cli._output import write_plot
+    from mckibben.control import plot_step_fit
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    t = data["time_s"]
-    fig, (ax, axr) = plt.subplots(2, 1, sharex=True, figsize=(7, 5), gridspec_kw={"height_ratios": [3, 1]})
-    ax.plot(t, data["pressure_Pa"] / 1e6, ".", ms=2, color="0.5", label="measured")
-    for f in fits:
-        what = (f"fill: b = {f.params['b']:.2f}" if f.order == "fill" else f"order {f.order}: τ = {f.tau * 1e3:.1f} ms")
-        ax.plot(t, f.predict(t) / 1e6, label=f"{what}, θ = {f.dead_time * 1e3:.1f} ms")
-        axr.plot(t, f.residuals / 1e3, lw=0.8, label=f"order {f.order}")
-    ax.set_ylabel("pressure [MPa]")
-    ax.legend()
-    axr.set_ylabel("residual [kPa]")
-    axr.set_xlabel("time [s]")
-    fig.tight_layout()
-    save_png(fig, path)
-    plt.close(fig)
+    write_plot(plot_step_fit(data["time_s"], data["pressure_Pa"], fits), path, 120)
 
 
 def save_png(fig, path: str) -> None:

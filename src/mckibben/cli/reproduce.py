@@ -15,26 +15,6 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.datasets import MUSCLES
-from mckibben.models.flags import flag_names
-from mckibben.models.mpam import predict_length
-
-
-def _published_length_tables() -> dict:
-    pressures = np.linspace(0.0, 0.8e6, 9)
-    tables = {}
-    for name, m in MUSCLES.items():
-        for load in m.braid_map.loads:
-            r = predict_length(m, pressures, load)
-            tables[f"{name}@{load:g}N"] = {
-                "muscle": name,
-                "load_N": load,
-                "pressure_Pa": pressures.tolist(),
-                "length_m": r.length.tolist(),
-                "contraction": r.contraction.tolist(),
-                "cos_theta": r.cos_theta.tolist(),
-                "flags": [flag_names(x) for x in r.flags],
-            }
-    return tables
 
 
 def _print_published(tables: dict) -> None:
@@ -66,26 +46,16 @@ def reproduce_cmd(
     """Characterize the campaign: fit every model, compare them, write the HTML report with figures."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from mckibben.datasets.campaign import campaign_muscle_dirs
-    from mckibben.report.characterize import characterize
-    from mckibben.report.html import check_report_folder, write_report
+    from mckibben.report import reproduce
 
-    check_report_folder(out)
-    tables = _published_length_tables()
-    n_muscles = len(campaign_muscle_dirs(data))
-    # steps: per muscle fits + comparison, then the figures
-    from mckibben.report.figures import ALL_FIGURES
-
-    total = 2 * n_muscles + len(ALL_FIGURES) + 1
     with Progress(TextColumn("{task.description:<40}"), BarColumn(), TimeElapsedColumn(), console=err_console,
                   transient=True, disable=json or not err_console.is_terminal) as bar:
-        task = bar.add_task("reading data", total=total)
+        task = bar.add_task("reading data", total=None)
 
-        def step(msg: str) -> None:
-            bar.update(task, description=msg, advance=1)
+        def step(msg: str, done: int, total: int) -> None:
+            bar.update(task, description=msg, completed=done, total=total)
 
-        char = characterize(data, progress=step)
-        folder, summary = write_report(char, out, progress=step)
+        folder, summary, tables = reproduce(out, data=data, progress=step)
     if json:
         emit_json({"out": str(folder), "report_html": str(folder / "index.html"), **summary, "length_tables": tables})
         return

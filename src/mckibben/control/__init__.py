@@ -26,6 +26,7 @@ from mckibben.control.plots import (
     plot_open_loop,
     plot_record,
     plot_robustness,
+    plot_step_fit,
 )
 from mckibben.control.simulation import (
     CONTROLLERS,
@@ -51,7 +52,7 @@ __all__ = [
     "CONTROLLERS", "LAWS", "CompareResult", "CoreParams", "Fig13Result", "FirstOrderModel", "OpenLoopResult",
     "PIDDesign", "RobustnessResult", "StepResult", "TrackResult", "compare", "controller_params", "design_pid",
     "fig13", "fit_step_response", "hysteresis_compensation", "identified_model", "identify_plant", "open_loop", "pid_params",
-    "plot_compare", "plot_fig13", "plot_hysteresis", "plot_open_loop", "plot_record", "plot_robustness",
+    "plot_compare", "plot_fig13", "plot_hysteresis", "plot_open_loop", "plot_record", "plot_robustness", "plot_step_fit",
     "pressure_reference", "read_step_log", "robustness", "run_closed_loop", "smc_params", "step_metrics",
     "step_response", "track",
     "tracking_metrics",

@@ -11,7 +11,7 @@ import numpy as np
 
 from mckibben.datasets.paper_points import FIG13
 
-__all__ = ["plot_record", "plot_fig13", "plot_robustness", "plot_compare", "plot_open_loop", "plot_hysteresis"]
+__all__ = ["plot_step_fit", "plot_record", "plot_fig13", "plot_robustness", "plot_compare", "plot_open_loop", "plot_hysteresis"]
 
 
 def _axes(ax, n: int, **subplots):
@@ -246,6 +246,45 @@ def plot_hysteresis(result, ax=None):
     axe.set_ylabel("length − target [mm]")
     axe.set_title(f"tracking {res.mean * 1e3:.1f} ± {res.amplitude * 1e3:.1f} mm, period {res.period:g} s")
     axe.legend(fontsize=8)
+    if ax is None:
+        fig.tight_layout()
+    return fig
+
+
+def plot_step_fit(time, pressure, fits, ax=None):
+    """A measured step response with its FOPDT/SOPDT fits (top) and their residuals (bottom).
+
+    Parameters
+    ----------
+    time : array_like
+        Sample times. [s]
+    pressure : array_like
+        Measured pressure. [Pa]
+    fits : sequence of StepFit
+        From :func:`mckibben.control.identify.fit_step_response`. [-]
+    ax : pair of matplotlib.axes.Axes, optional
+        Where to draw; default a new figure. [-]
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    t = np.asarray(time, dtype=float)
+    if ax is None:
+        fig, (a, axr) = plt.subplots(2, 1, sharex=True, figsize=(7, 5), gridspec_kw={"height_ratios": [3, 1]})
+    else:
+        fig, (a, axr) = _axes(ax, 2)
+    a.plot(t, np.asarray(pressure, dtype=float) / 1e6, ".", ms=2, color="0.5", label="measured")
+    for f in fits:
+        what = f"fill: b = {f.params['b']:.2f}" if f.order == "fill" else f"order {f.order}: τ = {f.tau * 1e3:.1f} ms"
+        a.plot(t, f.predict(t) / 1e6, label=f"{what}, θ = {f.dead_time * 1e3:.1f} ms")
+        axr.plot(t, f.residuals / 1e3, lw=0.8, label=f"order {f.order}")
+    a.set_ylabel("pressure [MPa]")
+    a.legend()
+    axr.set_ylabel("residual [kPa]")
+    axr.set_xlabel("time [s]")
     if ax is None:
         fig.tight_layout()
     return fig

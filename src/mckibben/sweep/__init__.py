@@ -4,7 +4,14 @@ See ``docs/sweep.md``."""
 
 from mckibben.sweep.run import read_results, run_sweep
 from mckibben.sweep.spec import Sweep, load_sweep
-from mckibben.sweep.summary import best_setting, pareto_front, sensitivity, settings_table
+from mckibben.sweep.summary import (
+    best_setting,
+    pareto_front,
+    plot_pareto,
+    plot_sensitivity,
+    sensitivity,
+    settings_table,
+)
 
-__all__ = ["Sweep", "best_setting", "load_sweep", "pareto_front", "read_results", "run_sweep", "sensitivity",
-           "settings_table"]
+__all__ = ["Sweep", "best_setting", "load_sweep", "pareto_front", "plot_pareto", "plot_sensitivity", "read_results",
+           "run_sweep", "sensitivity", "settings_table"]

@@ -141,6 +141,75 @@ def sensitivity(table: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+def plot_pareto(table: pd.DataFrame, quantile: float = 0.95, ax=None):
+    """Settings: median time constant against median valve effort, coloured by the overshoot
+    quantile, with the Pareto front; return the Figure (None when the metrics are missing).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Sweep results.
+    quantile : float, default 0.95
+        Quantile used for the overshoot colour. [-]
+    ax : matplotlib.axes.Axes, optional
+        Where to draw; default a new figure. [-]
+    """
+    import matplotlib.pyplot as plt
+
+    s = settings_table(table, quantile)
+    qn = int(round(quantile * 100))
+    if not {"time_constant_s_median", "valve_effort_counts_median"} <= set(s.columns):
+        return None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=120)
+    fig = ax.figure
+    color = s.get(f"overshoot_pct_q{qn}", pd.Series(np.zeros(len(s))))
+    sc = ax.scatter(s["time_constant_s_median"] * 1e3, s["valve_effort_counts_median"], c=color, cmap="viridis", s=36)
+    objs = ["time_constant_s_median", "valve_effort_counts_median"] + ([f"overshoot_pct_q{qn}"] if f"overshoot_pct_q{qn}" in s else [])
+    front = pareto_front(s, objs).sort_values("time_constant_s_median")
+    ax.plot(front["time_constant_s_median"] * 1e3, front["valve_effort_counts_median"], "r-o", mfc="none", ms=9,
+            label="Pareto front")
+    fig.colorbar(sc, ax=ax, label=f"overshoot, {qn}th percentile of plants [%]")
+    ax.set_xlabel("time constant, median over plants [ms]")
+    ax.set_ylabel("valve effort Σ|PWM|, median [counts]")
+    ax.set_title("Settings: speed vs air used vs overshoot", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_sensitivity(table: pd.DataFrame, ax=None):
+    """Spearman rank correlation of each metric with each swept parameter, as a heat map; return
+    the Figure (None when nothing varies).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Sweep results.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw; default a new figure. [-]
+    """
+    import matplotlib.pyplot as plt
+
+    sens = sensitivity(table)
+    if sens.empty:
+        return None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(1.6 + 1.3 * len(sens.columns), 1.2 + 0.5 * len(sens.index)), dpi=120)
+    fig = ax.figure
+    im = ax.imshow(sens.to_numpy(dtype=float), cmap="coolwarm", vmin=-1, vmax=1)
+    ax.set_xticks(range(len(sens.columns)), [c.replace("_", " ") for c in sens.columns], rotation=30, ha="right", fontsize=8)
+    ax.set_yticks(range(len(sens.index)), sens.index, fontsize=8)
+    for (i, j), v in np.ndenumerate(sens.to_numpy(dtype=float)):
+        if np.isfinite(v):
+            ax.text(j, i, f"{v:+.2f}", ha="center", va="center", fontsize=7)
+    fig.colorbar(im, ax=ax, label="Spearman rank correlation")
+    ax.set_title("Sensitivity of each metric to each parameter", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
 def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
     """Pareto scatter and sensitivity heatmap as PNGs in ``folder``; returns their paths.
 
@@ -153,11 +222,6 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
     quantile : float, default 0.95
         Quantile used for the overshoot colour. [-]
     """
-    from pathlib import Path
-
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from mckibben.atomic import check_output_dir
@@ -168,42 +232,10 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
     except OSError as exc:
         raise InputError(f"--plots: cannot create folder {str(folder)!r} ({exc.strerror})") from None
     paths = []
-    s = settings_table(table, quantile)
-    qn = int(round(quantile * 100))
-    if {"time_constant_s_median", "valve_effort_counts_median"} <= set(s.columns):
-        fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=120)
-        color = s.get(f"overshoot_pct_q{qn}", pd.Series(np.zeros(len(s))))
-        sc = ax.scatter(s["time_constant_s_median"] * 1e3, s["valve_effort_counts_median"], c=color, cmap="viridis", s=36)
-        objs = ["time_constant_s_median", "valve_effort_counts_median"] + ([f"overshoot_pct_q{qn}"] if f"overshoot_pct_q{qn}" in s else [])
-        front = pareto_front(s, objs).sort_values("time_constant_s_median")
-        ax.plot(front["time_constant_s_median"] * 1e3, front["valve_effort_counts_median"], "r-o", mfc="none", ms=9,
-                label="Pareto front")
-        fig.colorbar(sc, label=f"overshoot, {qn}th percentile of plants [%]")
-        ax.set_xlabel("time constant, median over plants [ms]")
-        ax.set_ylabel("valve effort Σ|PWM|, median [counts]")
-        ax.set_title("Settings: speed vs air used vs overshoot", fontsize=10)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        p = folder / "pareto.png"
-        try:
-            save_figure(fig, p, name="--plots")
-        finally:
-            plt.close(fig)
-        paths.append(str(p))
-    sens = sensitivity(table)
-    if not sens.empty:
-        fig, ax = plt.subplots(figsize=(1.6 + 1.3 * len(sens.columns), 1.2 + 0.5 * len(sens.index)), dpi=120)
-        im = ax.imshow(sens.to_numpy(dtype=float), cmap="coolwarm", vmin=-1, vmax=1)
-        ax.set_xticks(range(len(sens.columns)), [c.replace("_", " ") for c in sens.columns], rotation=30, ha="right", fontsize=8)
-        ax.set_yticks(range(len(sens.index)), sens.index, fontsize=8)
-        for (i, j), v in np.ndenumerate(sens.to_numpy(dtype=float)):
-            if np.isfinite(v):
-                ax.text(j, i, f"{v:+.2f}", ha="center", va="center", fontsize=7)
-        fig.colorbar(im, label="Spearman rank correlation")
-        ax.set_title("Sensitivity of each metric to each parameter", fontsize=10)
-        fig.tight_layout()
-        p = folder / "sensitivity.png"
+    for name, fig in (("pareto.png", plot_pareto(table, quantile)), ("sensitivity.png", plot_sensitivity(table))):
+        if fig is None:
+            continue
+        p = folder / name
         try:
             save_figure(fig, p, name="--plots")
         finally:
