@@ -8,7 +8,7 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, progress_bar, write_plot
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
