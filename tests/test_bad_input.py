@@ -138,7 +138,7 @@ INPUT_COMMANDS = [
     (["compare", "{f}"], "csv"),
     (["identify", "{f}"], "csv"),
     (["control", "track", "--reference", "{f}"], "csv"),
-    (["sweep", "run", "{f}"], "toml"),
+    (["sweep", "run", "{f}", "--out", "{f}-results"], "toml"),
     (["fit", "{f}", "--model", "cubic"], "parquet"),
 ]
 

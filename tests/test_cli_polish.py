@@ -61,3 +61,49 @@ def test_files_and_folders_follow_the_umask(cli, tmp_path, umask022):
     assert stat.S_IMODE(out.stat().st_mode) == 0o755
     modes = {stat.S_IMODE(p.stat().st_mode) for p in out.rglob("*") if p.is_file()}
     assert modes == {0o644}
+
+
+def test_examples_ship_in_the_package_and_copy_out(cli, tmp_path):
+    r = cli("examples", "list", "--json")
+    assert r.code == 0 and "sweep.toml" in r.json()["examples"]
+    r = cli("examples", "copy", "sweep.toml", str(tmp_path))
+    assert r.code == 0, r.err
+    from mckibben.sweep import load_sweep
+
+    assert load_sweep(tmp_path / "sweep.toml").n_runs > 0  # the copy is a valid sweep
+    r = cli("examples", "copy", "sweep.toml", str(tmp_path))
+    assert r.code == 2 and "exists" in r.err and r.err.count("\n") == 1
+    r = cli("examples", "copy", "swep.toml", str(tmp_path))
+    assert r.code == 2 and "Did you mean sweep.toml?" in r.err
+
+
+def test_sweep_run_writes_only_where_asked(cli, tmp_path):
+    r = cli("sweep", "run", "sweep.toml")
+    assert r.code == 2 and "--out" in r.err
+
+
+OUT_COMMANDS = [
+    ["simulate", "open-loop"],
+    ["control", "step"],
+    ["control", "track", "--reference", "sine:0.4MPa,0.1MPa,2Hz"],
+    ["control", "fig13"],
+    ["control", "compare"],
+    ["control", "robustness", "--n", "2"],
+    ["tool", "workspace", "--grid", "3"],
+    ["tool", "track", "--path", "circle:radius=3mm,period=1s"],
+]
+
+
+@pytest.mark.parametrize("cmd", OUT_COMMANDS, ids=lambda c: "-".join(c[:2]))
+@pytest.mark.parametrize("option, value, says", [("--out", "x.xlsx", "must end in .csv or .parquet"),
+                                                 ("--out", "nodir/x.csv", "does not exist"),
+                                                 ("--plot", "x.docx", "must end in .avif, .eps"),
+                                                 ("--dpi", "5", "--dpi")])
+def test_outputs_refused_before_any_work(cli, tmp_path, cmd, option, value, says):
+    if option == "--dpi":
+        args = [*cmd, "--plot", str(tmp_path / "f.png"), "--dpi", value]
+    else:
+        args = [*cmd, option, str(tmp_path / value)]
+    r = cli(*args)
+    assert r.code == 2 and says in r.err and r.err.count("\n") == 1, r.err
+    assert list(tmp_path.iterdir()) == []  # nothing written

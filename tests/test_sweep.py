@@ -158,13 +158,14 @@ def test_cli_run_and_summarize(cli, tmp_path):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["sweep", "run", "/no/such.toml"], "error: /no/such.toml: no such sweep file"),
-        (["sweep", "run", "{toml}", "--workers", "0"], "error: --workers: 0 must be between 1 and 256"),
-        (["sweep", "run", "{toml}", "--scheduler", "localhost:8786"], "error: --scheduler: 'localhost:8786' must look like tcp://HOST:PORT"),
-        (["sweep", "run", "{toml}", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "error: --workers and --scheduler: give one, not both"),
-        (["sweep", "run", "{toml}", "--scheduler", "tcp://127.0.0.1:1"], "error: --scheduler: cannot reach tcp://127.0.0.1:1"),
+        (["sweep", "run", "/no/such.toml", "--out", "{tmp}/results"], "error: /no/such.toml: no such sweep file"),
+        (["sweep", "run", "{toml}", "--workers", "0", "--out", "{tmp}/results"], "error: --workers: 0 must be between 1 and 256"),
+        (["sweep", "run", "{toml}", "--scheduler", "localhost:8786", "--out", "{tmp}/results"], "error: --scheduler: 'localhost:8786' must look like tcp://HOST:PORT"),
+        (["sweep", "run", "{toml}", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1", "--out", "{tmp}/results"], "error: --workers and --scheduler: give one, not both"),
+        (["sweep", "run", "{toml}", "--scheduler", "tcp://127.0.0.1:1", "--out", "{tmp}/results"], "error: --scheduler: cannot reach tcp://127.0.0.1:1"),
         (["sweep", "run", "{toml}", "--out", "/proc/forbidden"], "error: --out: cannot write in folder '/proc'"),
         (["sweep", "summarize", "{tmp}"], "error: '{tmp}': no sweep results (chunk-*.parquet) there"),
+        (["sweep", "run", "{toml}"], "error (mckibben sweep run): Missing option '--out'"),
     ],
 )
 def test_cli_bad_input(cli, tmp_path, args, message):

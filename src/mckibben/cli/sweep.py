@@ -21,14 +21,13 @@ _SCHEDULER = re.compile(r"^tcp://[A-Za-z0-9_.\-\[\]:]+:\d{1,5}$")
 @sweep_app.command("run")
 def run_cmd(
     file: str = typer.Argument(..., help="The sweep description (TOML)."),
-    out: str = typer.Option(None, "--out", help="Results folder (default: next to FILE, FILE-results/)."),
+    out: str = typer.Option(..., "--out", help="Results folder (chunks already there are kept: a rerun resumes)."),
     workers: int = typer.Option(None, "--workers", help="Run on a local Dask cluster with N worker processes."),
     scheduler: str = typer.Option(None, "--scheduler", help="Run on an existing Dask scheduler, tcp://HOST:PORT."),
     force: bool = typer.Option(False, "--force", help="Run past the documented size limits (mckibben.limits)."),
     json: bool = JSON_OPTION,
 ) -> None:
     """Run a sweep; chunks already written are skipped (resume)."""
-    from pathlib import Path
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
@@ -48,7 +47,6 @@ def run_cmd(
     check_budget(f"{file} (samples × grid × duration, chunk_size)", sweep.n_runs * steps, force=force,
                  memory_samples=min(sweep.chunk_size, sweep.n_runs) * steps * (workers or 1),
                  seconds_per_sample=SECONDS_PER_SAMPLE / (workers or 1))
-    out = out or str(Path(file).with_suffix("")) + "-results"
     t0 = time.perf_counter()
     show = not json and sys.stderr.isatty()
     progress = Progress(TextColumn("sweep"), BarColumn(), TextColumn("{task.completed}/{task.total} runs"),
