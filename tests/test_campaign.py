@@ -2,7 +2,6 @@
 parameters it was generated from (coverage over 20 seeds, see tests/test_fit.py for the rule)."""
 
 import tomllib
-from pathlib import Path
 
 import numpy as np
 import pandas as pd

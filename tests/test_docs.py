@@ -41,7 +41,6 @@ def test_every_public_argument_is_documented_with_a_unit(qualname, func):
         return
     section = doc.split("Parameters\n----------", 1)
     assert len(section) == 2, f"{qualname}: no numpydoc Parameters section"
-    text = section[1].split("\n\n    ")[0]
     for p in params:
         assert re.search(rf"^{p}\b|, {p}\b|^{p},", section[1], re.M), f"{qualname}: argument {p!r} is undocumented"
 

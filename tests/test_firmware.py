@@ -45,7 +45,6 @@ def bench_checksum() -> int:
     ctrl.set_open_loop(200, 30)
     phase_mode = [1, 2, 1, 2, 3, 0]
     h, pref = 0, 0
-    m32 = 0xFFFFFFFF
     for k in range(3000):
         if k % 500 == 0:
             ctrl.set_mode(phase_mode[k // 500])

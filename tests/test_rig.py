@@ -4,7 +4,6 @@ Real ptys, real processes and signals. Waits are bounded and generous; assertion
 and contents, not on how long something took.
 """
 
-import json
 import os
 import signal
 import subprocess
@@ -21,7 +20,7 @@ from mckibben.errors import InputError
 from mckibben.rig import protocol as P
 from mckibben.rig.device import connect
 from mckibben.rig.emulator import Emulator
-from mckibben.rig.recorder import Recorder, read_recording, recover
+from mckibben.rig.recorder import Recorder, read_recording
 
 
 def _wait(cond, timeout=30.0, every=0.02):

@@ -288,7 +288,7 @@ def parse_values(
         1-D array of values in SI. [SI]
     """
     text = text.strip()
-    kw = dict(allow_negative=allow_negative, allow_zero=allow_zero)
+    kw: dict = dict(allow_negative=allow_negative, allow_zero=allow_zero)
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
@@ -333,13 +333,13 @@ def _example(dimension: str) -> str:
 def split_column(column: str) -> tuple[str, str]:
     """Split a file column name ``quantity_unit`` into ``(quantity, unit)``.
 
+    ``"pressure_MPa"`` gives ``("pressure", "MPa")``; a name without a known unit suffix, such
+    as ``"trial"``, gives the name and an empty unit.
+
     Parameters
     ----------
     column : str
         A column name such as ``"pressure_MPa"``. [-]
-
-    ``"pressure_MPa"`` -> ``("pressure", "MPa")``; a name without a known unit suffix
-    (``"trial"``) -> ``(name, "")``.
     """
     if "_" in column:
         quantity, unit = column.rsplit("_", 1)

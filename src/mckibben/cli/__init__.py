@@ -30,7 +30,7 @@ _NO_ARGS = tuple({click.exceptions.NoArgsIsHelpError, getattr(_tclick, "NoArgsIs
 _EXITS = (click.exceptions.Exit, typer.Exit)
 _ABORTS = (click.Abort, typer.Abort)
 
-from mckibben.errors import InputError
+from mckibben.errors import InputError  # noqa: E402  (after the Click/Typer compatibility shims)
 
 app = typer.Typer(
     name="mckibben",

@@ -11,12 +11,12 @@ from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
 from mckibben.atomic import check_output_file
 from mckibben.errors import InputError
+from mckibben.rig.device import BAUD
+from mckibben.rig.device import connect as _connect
 from mckibben.units import parse_quantity
 
 rig_app = typer.Typer(help="The rig over its serial link: record, step, emulate.", no_args_is_help=True)
 app.add_typer(rig_app, name="rig")
-
-from mckibben.rig.device import BAUD, connect as _connect
 
 
 def _duration(text: str, name: str = "--duration", limit: float = 24 * 3600) -> float:

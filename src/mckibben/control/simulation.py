@@ -629,7 +629,7 @@ class CompareResult(Result):
 
     @property
     def metrics(self) -> dict:
-        """Per controller: median time constant [s], overshoot [%], |steady-state error| [Pa] over the runs."""
+        """Per controller: median time constant [s], overshoot [%] and absolute steady-state error [Pa] over the runs."""
         out = {}
         for c in CONTROLLER_NAMES:
             rs = [r for r in self.rows if r["controller"] == c]
@@ -780,7 +780,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
 
     samples = sample_plants(int(n), seed)
     chunk = max(1, min(int(n), 250))
-    per_plant = {c: {} for c in CONTROLLER_NAMES}
+    per_plant: dict[str, dict[str, np.ndarray]] = {c: {} for c in CONTROLLER_NAMES}
     for lo in range(0, int(n), chunk):
         hi = min(int(n), lo + chunk)
         part = _robustness_runs(model, n=hi - lo, seed=seed, beta=b, samples={k: v[lo:hi] for k, v in samples.items()})

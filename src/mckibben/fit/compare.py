@@ -40,7 +40,6 @@ from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
-import pandas as pd
 
 from mckibben.data.io import MuscleSpec, Table
 from mckibben.errors import InputError

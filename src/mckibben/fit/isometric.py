@@ -204,7 +204,6 @@ def _spring_model(v, l0, pmax) -> SpringModel:
 def _spring_spec(muscle: MuscleSpec, fmax: float, p, ell, f, direction) -> _Spec:
     l0 = muscle.nominal_length
     pmax = float(np.max(p)) or 1.0
-    lspan = float(np.ptp(ell)) or 0.1 * l0
     lo = np.array([-np.inf, -np.inf, 0.5 * l0] + [-np.inf] * 8)
     hi = np.array([np.inf, np.inf, 1.5 * l0] + [np.inf] * 8)
     dirs = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)

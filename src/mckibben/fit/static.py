@@ -35,7 +35,7 @@ from mckibben.fit.core import (FitResult, bounded_fit, data_range, linear_fit, n
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import BraidAngleMap, MiniatureMuscle
 from mckibben.models.physical import BraidGeometry, length_under_load, tondu_lopez_contraction
-from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel, spring_force
+from mckibben.models.spring import DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel, spring_force
 
 MPA = 1e6
 

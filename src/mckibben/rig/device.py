@@ -299,8 +299,8 @@ class Device:
         if d > 60:
             raise InputError(f"--duration: {duration!r} is longer than 60 s")
         link, _, parser = connect(self.port)
-        rows = []
-        acks = []
+        rows: list[tuple[float, float, float, float]] = []
+        acks: list = []
         try:
             for pkt in (P.set_point(0, 0), P.set_mode(1, P.MODES[controller]), P.stream(2, True, 1)):
                 link.write(pkt)

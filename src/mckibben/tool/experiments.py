@@ -18,6 +18,8 @@ import numpy as np
 from mckibben.errors import InputError
 from mckibben.results import Result, to_jsonable
 from mckibben.tool.geometry import StackLoad, Tool, ToolGeometry
+from mckibben.tool.paths import TipPath
+from mckibben.tool.workspace import Workspace
 from mckibben.units import parse_values, quantity
 
 __all__ = ["ToolTrackResult", "WorkspaceResult", "forward", "inverse", "make_tool", "map_workspace", "state_dict",
@@ -232,7 +234,7 @@ class WorkspaceResult(Result):
         Grid points per muscle. [-]
     """
 
-    samples: object
+    samples: Workspace
     tool: Tool
     arguments: dict = field(default_factory=dict)
     call = "mckibben.tool.map_workspace"
@@ -307,7 +309,7 @@ class ToolTrackResult(Result):
         Path text, periods [s], β. [-]
     """
 
-    path: object
+    path: TipPath
     runs: list
     results: list | None
     tool: Tool
@@ -412,7 +414,7 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     -------
     ToolTrackResult
     """
-    from mckibben.tool.paths import TipPath, parse_path
+    from mckibben.tool.paths import parse_path
     from mckibben.tool.tracking import TRACKING_BETA, resolve_path, simulate_tracking, tip_reference
 
     from mckibben.limits import check_budget
@@ -429,7 +431,7 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
                  float(np.sum(period_list)) * spec.cycles / 1e-3, force=force, what="1 ms samples",
                  bytes_per_sample=TRACK_BYTES_PER_SAMPLE, seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)])
     base = resolve_path(spec, tool)
-    b = None
+    b = TRACKING_BETA
     if not reference_only:
         b = TRACKING_BETA if beta is None else float(beta)
         if not 0 < b <= 255:
@@ -444,4 +446,5 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
                 progress(k + 1, len(runs))
     return ToolTrackResult(base, runs, results, tool,
                            {"path": path if isinstance(path, str) else base.kind,
-                            "periods_s": [float(t) for t in period_list], "beta_counts": b})
+                            "periods_s": [float(t) for t in period_list],
+                            "beta_counts": None if reference_only else b})

@@ -44,7 +44,6 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mckibben.errors import InputError, UnreachableError
-from mckibben.tool.geometry import MUSCLE_ANGLES
 
 # cos and sin of 0°, 120°, 240° written exactly, so that equal lengths give exactly θ = 0
 # (np.cos(2π/3) is −0.4999999999999998, which would leave a 1e-15 rad bend).
