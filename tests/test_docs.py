@@ -11,7 +11,7 @@ import pytest
 import mckibben
 
 MODEL_MODULES = ["mckibben.units", "mckibben.models.kinematic", "mckibben.models.mpam", "mckibben.models.physical",
-                 "mckibben.models.spring"]
+                 "mckibben.models.spring", "mckibben.models.static"]
 
 
 @pytest.mark.parametrize("name", MODEL_MODULES)

@@ -1,5 +1,9 @@
 """Static muscle models: parameters as frozen dataclasses, evaluation as functions of arrays.
 
+One calling convention for every family (:mod:`~mckibben.models.static`):
+``length(pressure, load, muscle, model=...)`` and ``force(pressure, length, muscle, model=...)``
+return a :class:`StaticResult` whatever the model.
+
 Modules: :mod:`~mckibben.models.kinematic` (eq. 1–2), :mod:`~mckibben.models.mpam` (braid-angle
 cubics, length and its inverse), :mod:`~mckibben.models.spring` (F = K(P, Ls)·Ls),
 :mod:`~mckibben.models.physical` (Chou–Hannaford, Tondu–Lopez, wall thickness).
@@ -28,8 +32,10 @@ from mckibben.models.physical import (
     wall_corrected_force,
 )
 from mckibben.models.spring import SpringModel, spring_force, spring_length, stiffness, unstretched_length
+from mckibben.models.static import FORCE_MODELS, LENGTH_MODELS, StaticResult, force, length
 
 __all__ = [
+    "FORCE_MODELS", "LENGTH_MODELS", "StaticResult", "force", "length",
     "BraidAngleMap", "BraidGeometry", "Flag", "ForcePrediction", "LengthPrediction", "MiniatureGeometry",
     "MiniatureMuscle", "SpringModel", "braid_cos_theta", "braid_from_length", "chou_hannaford_force", "flag_names",
     "force_from_length", "length_from_braid", "length_under_load", "miniature_geometry", "predict_length",

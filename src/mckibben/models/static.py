@@ -1,0 +1,284 @@
+"""One calling convention for the static models, one result type (pvlib's ``calcparams_*`` habit).
+
+Every length model is ``length_<model>(pressure, load, muscle) -> StaticResult`` and every force
+model ``force_<model>(pressure, length, muscle) -> StaticResult``; :func:`length` and
+:func:`force` pick one by name (:data:`LENGTH_MODELS`, :data:`FORCE_MODELS`). Inputs are arrays
+(broadcast together) in SI, or single quantities as text with a unit (``"0.8MPa"``). The result
+carries the inputs, the outputs, the contraction and the flags (:mod:`mckibben.models.flags`)
+of every element, whatever the model.
+
+The models themselves stay where they are written once: :mod:`~mckibben.models.mpam` (eq. 2
+with eq. 3 of 000_909f662a44080c85.txt) and :mod:`~mckibben.models.physical` (Chou–Hannaford,
+with and without the tube wall, on the muscle's construction, §II).
+
+>>> from mckibben.datasets import get_muscle
+>>> r = length(0.8e6, 0.6, get_muscle("mpam97"), model="mpam")
+>>> round(float(r.length) * 1e3, 1)
+78.1
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from mckibben.errors import unknown_name
+from mckibben.models.flags import flag_names
+
+__all__ = ["FORCE_MODELS", "LENGTH_MODELS", "StaticResult", "force", "force_chou_hannaford", "force_mpam",
+           "force_wall_corrected", "length", "length_chou_hannaford", "length_mpam", "length_wall_corrected"]
+
+
+@dataclass(frozen=True)
+class StaticResult:
+    """A static model evaluated on arrays: what went in, what came out, and the flags.
+
+    Attributes
+    ----------
+    model : str
+        The model's name (a key of :data:`LENGTH_MODELS` or :data:`FORCE_MODELS`). [-]
+    pressure : numpy.ndarray
+        Gauge pressure. [Pa]
+    load : numpy.ndarray
+        Axial force: the hanging load (length models) or the force the muscle pulls with
+        (force models). [N]
+    length : numpy.ndarray
+        Muscle length. [m]
+    contraction : numpy.ndarray
+        1 − length / nominal length. [-]
+    flags : numpy.ndarray
+        :class:`~mckibben.models.flags.Flag` mask per element. [-]
+    """
+
+    model: str
+    pressure: np.ndarray
+    load: np.ndarray
+    length: np.ndarray
+    contraction: np.ndarray
+    flags: np.ndarray
+
+    def to_pandas(self):
+        """One row per element: ``pressure_Pa``, ``load_N``, ``length_m``, ``contraction``, ``flags``."""
+        import pandas as pd
+
+        b = np.broadcast_arrays(self.pressure, self.load, self.length, self.contraction, self.flags)
+        return pd.DataFrame({"pressure_Pa": b[0].ravel(), "load_N": b[1].ravel(), "length_m": b[2].ravel(),
+                             "contraction": b[3].ravel(),
+                             "flags": [", ".join(flag_names(int(f))) for f in b[4].ravel()]})
+
+    def __repr__(self) -> str:
+        n = int(np.size(self.length))
+        if n == 1:
+            return (f"StaticResult(model={self.model!r}, pressure={float(self.pressure):.4g} Pa, "
+                    f"load={float(self.load):.4g} N, length={float(self.length):.5g} m, "
+                    f"flags={flag_names(int(self.flags))})")
+        return f"StaticResult(model={self.model!r}, {n} points, {int(np.count_nonzero(self.flags))} flagged)"
+
+
+def _si(value, dimension: str, name: str):
+    from mckibben.units import quantity
+
+    if isinstance(value, str):
+        return quantity(value, dimension, name, allow_negative=False)
+    return np.asarray(value, dtype=float)
+
+
+def _geometry(muscle, wall: bool):
+    from mckibben.models.physical import miniature_geometry
+
+    return miniature_geometry(muscle.nominal_length, muscle.geometry, wall=wall)
+
+
+def length_mpam(pressure, load, muscle) -> StaticResult:
+    """Length under a hanging load from the braid-angle cubics and the fitted pantograph.
+
+    Parameters
+    ----------
+    pressure : array_like or str
+        Gauge pressure. [Pa]
+    load : array_like or str
+        Hanging load. [N]
+    muscle : MiniatureMuscle
+        A published or fitted set (``get_muscle("mpam97")``). [-]
+
+    Returns
+    -------
+    StaticResult
+
+    References
+    ----------
+    000_909f662a44080c85.txt, eq. (2) with (3), Tables I and II.
+    """
+    from mckibben.models.mpam import predict_length
+
+    r = predict_length(muscle, _si(pressure, "pressure", "pressure"), _si(load, "force", "load"))
+    return StaticResult("mpam", r.pressure, r.load, r.length, r.contraction, r.flags)
+
+
+def _length_physical(pressure, load, muscle, wall: bool, name: str) -> StaticResult:
+    from mckibben.models.physical import length_under_load
+
+    p, f = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(load, "force", "load"))
+    ell, flags = length_under_load(p, f, _geometry(muscle, wall), "wall-corrected" if wall else "chou-hannaford")
+    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)
+
+
+def length_chou_hannaford(pressure, load, muscle) -> StaticResult:
+    """Length under a hanging load from the thin-walled Chou–Hannaford force law.
+
+    Parameters
+    ----------
+    pressure : array_like or str
+        Gauge pressure. [Pa]
+    load : array_like or str
+        Hanging load. [N]
+    muscle : MiniatureMuscle
+        The muscle (its nominal length and construction, §II of 000_909f662a44080c85.txt). [-]
+
+    Returns
+    -------
+    StaticResult
+    """
+    return _length_physical(pressure, load, muscle, False, "chou-hannaford")
+
+
+def length_wall_corrected(pressure, load, muscle) -> StaticResult:
+    """Length under a hanging load from the Chou–Hannaford law with the tube wall's thickness.
+
+    Parameters
+    ----------
+    pressure : array_like or str
+        Gauge pressure. [Pa]
+    load : array_like or str
+        Hanging load. [N]
+    muscle : MiniatureMuscle
+        The muscle (its nominal length and construction). [-]
+
+    Returns
+    -------
+    StaticResult
+    """
+    return _length_physical(pressure, load, muscle, True, "wall-corrected")
+
+
+def force_mpam(pressure, length, muscle) -> StaticResult:
+    """Force the muscle pulls with at a pressure and length: the empirical model solved for the load.
+
+    Parameters
+    ----------
+    pressure : array_like or str
+        Gauge pressure. [Pa]
+    length : array_like or str
+        Muscle length. [m]
+    muscle : MiniatureMuscle
+        A published or fitted set. [-]
+
+    Returns
+    -------
+    StaticResult
+
+    References
+    ----------
+    000_909f662a44080c85.txt, eq. (2) with (3), Tables I and II.
+    """
+    from mckibben.models.mpam import force_from_length
+
+    p, ell = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(length, "length", "length"))
+    r = force_from_length(muscle, p, ell)
+    return StaticResult("mpam", p, np.asarray(r.force, dtype=float), ell, 1.0 - ell / muscle.nominal_length,
+                        np.asarray(r.flags))
+
+
+def _force_physical(pressure, length, muscle, wall: bool, name: str) -> StaticResult:
+    from mckibben.models.physical import chou_hannaford_force, wall_corrected_force
+
+    p, ell = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(length, "length", "length"))
+    law = wall_corrected_force if wall else chou_hannaford_force
+    f = np.asarray(law(p, ell, _geometry(muscle, wall)), dtype=float)
+    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, np.zeros(p.shape, dtype=np.uint16))
+
+
+def force_chou_hannaford(pressure, length, muscle) -> StaticResult:
+    """Force from the thin-walled Chou–Hannaford law at a pressure and length.
+
+    Parameters
+    ----------
+    pressure : array_like or str
+        Gauge pressure. [Pa]
+    length : array_like or str
+        Muscle length. [m]
+    muscle : MiniatureMuscle
+        The muscle (its nominal length and construction). [-]
+
+    Returns
+    -------
+    StaticResult
+    """
+    return _force_physical(pressure, length, muscle, False, "chou-hannaford")
+
+
+def force_wall_corrected(pressure, length, muscle) -> StaticResult:
+    """Force from the Chou–Hannaford law with the tube wall's thickness at a pressure and length.
+
+    Parameters
+    ----------
+    pressure : array_like or str
+        Gauge pressure. [Pa]
+    length : array_like or str
+        Muscle length. [m]
+    muscle : MiniatureMuscle
+        The muscle (its nominal length and construction). [-]
+
+    Returns
+    -------
+    StaticResult
+    """
+    return _force_physical(pressure, length, muscle, True, "wall-corrected")
+
+
+#: Length models by name: ``f(pressure, load, muscle) -> StaticResult``.
+LENGTH_MODELS: dict[str, Callable[..., StaticResult]] = {
+    "mpam": length_mpam, "chou-hannaford": length_chou_hannaford, "wall-corrected": length_wall_corrected}
+#: Force models by name: ``f(pressure, length, muscle) -> StaticResult``.
+FORCE_MODELS: dict[str, Callable[..., StaticResult]] = {
+    "mpam": force_mpam, "chou-hannaford": force_chou_hannaford, "wall-corrected": force_wall_corrected}
+
+
+def length(pressure, load, muscle, model: str = "mpam") -> StaticResult:
+    """Length under a hanging load from the named model (:data:`LENGTH_MODELS`).
+
+    Parameters
+    ----------
+    pressure : array_like or str
+        Gauge pressure. [Pa]
+    load : array_like or str
+        Hanging load. [N]
+    muscle : MiniatureMuscle
+        The muscle. [-]
+    model : str, default "mpam"
+        ``mpam``, ``chou-hannaford`` or ``wall-corrected``. [-]
+    """
+    if model not in LENGTH_MODELS:
+        raise unknown_name("length model", model, LENGTH_MODELS)
+    return LENGTH_MODELS[model](pressure, load, muscle)
+
+
+def force(pressure, length, muscle, model: str = "mpam") -> StaticResult:
+    """Force at a pressure and length from the named model (:data:`FORCE_MODELS`).
+
+    Parameters
+    ----------
+    pressure : array_like or str
+        Gauge pressure. [Pa]
+    length : array_like or str
+        Muscle length. [m]
+    muscle : MiniatureMuscle
+        The muscle. [-]
+    model : str, default "mpam"
+        ``mpam``, ``chou-hannaford`` or ``wall-corrected``. [-]
+    """
+    if model not in FORCE_MODELS:
+        raise unknown_name("force model", model, FORCE_MODELS)
+    return FORCE_MODELS[model](pressure, length, muscle)
