@@ -55,13 +55,16 @@ scores[["n_parameters", "rmse_m", "cv_rmse_m", "within_20pct"]]"""),
         ("code", """fig, ax = plt.subplots()
 (scores["cv_rmse_m"] * 1e3).sort_values().plot.barh(ax=ax)
 ax.set_xlabel("cross-validated RMSE of the length [mm]");"""),
-        ("md", "## Predict\n\nThe published muscle under 0.6 N, eq. 2 and 3, beside the campaign's measurements."),
-        ("code", """muscle = mk.get_muscle("mpam97")
-pressure = np.linspace(0, 0.8e6, 81)
-pred = mk.predict_length(muscle, pressure, 0.6)
+        ("md", "## Predict\n\nThe published muscle under 0.6 N, from every static model through one calling convention (`mckibben.models.length`), beside the campaign's measurements."),
+        ("code", """from mckibben.models import LENGTH_MODELS, length
+
+muscle = mk.get_muscle("mpam97")
+pressure = np.linspace(0.05e6, 0.8e6, 76)
 measured = iso.data[np.isclose(iso.data["load"], 0.6)]
 fig, ax = plt.subplots()
-ax.plot(pressure / 1e6, pred.length * 1e3, label="eq. 2 and 3 (published)")
+for name in LENGTH_MODELS:
+    pred = length(pressure, "0.6N", muscle, model=name)
+    ax.plot(pressure / 1e6, pred.length * 1e3, label=name)
 ax.plot(measured["pressure"] / 1e6, measured["length"] * 1e3, ".", label="campaign (synthetic)")
 ax.set_xlabel("pressure [MPa]"); ax.set_ylabel("length [mm]"); ax.legend();"""),
         ("md", "## Simulate an open-loop step\n\nThe inlet valve steps from rest; the paper measured a time constant of about 0.09 s (§IV.A)."),
