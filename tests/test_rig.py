@@ -4,6 +4,7 @@ Real ptys, real processes and signals. Waits are bounded and generous; assertion
 and contents, not on how long something took.
 """
 
+import json
 import os
 import signal
 import subprocess

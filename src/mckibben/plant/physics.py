@@ -50,7 +50,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 from mckibben.models import laws as LW

@@ -114,7 +114,7 @@ def command(link, parser: P.Parser, packets, timeout: float = 2.0, on_frame=None
     on_frame : callable, optional
         Called with every other frame. [-]
     """
-    acks = {}
+    acks: dict = {}
     for i in range(0, len(packets), WINDOW):
         window = packets[i:i + WINDOW]
         want = {seq for seq, _ in window}
@@ -299,7 +299,7 @@ class Device:
         if d > 60:
             raise InputError(f"--duration: {duration!r} is longer than 60 s")
         link, _, parser = connect(self.port)
-        rows: list[tuple[float, float, float, float]] = []
+        rows: list = []
         acks: list = []
         try:
             for pkt in (P.set_point(0, 0), P.set_mode(1, P.MODES[controller]), P.stream(2, True, 1)):
@@ -396,7 +396,7 @@ class Device:
             acks = command(link, parser, reads)
         finally:
             link.close()
-        read_back = {}
+        read_back: dict = {}
         k = 0
         for c in chans:
             read_back[c] = {}
