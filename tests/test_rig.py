@@ -153,6 +153,7 @@ def test_kill_9_loses_at_most_a_quarter_second_and_the_next_recorder_keeps_nothi
         time.sleep(0.13)  # an arbitrary moment between journal parts
         device_time_at_kill = em.device_time
         rec.send_signal(signal.SIGKILL)
+        dropped_by_device = em.dropped  # frames the UART model dropped while the recorder lagged
         rec.wait(timeout=10)
         # a recorder started after the crash: the device resets when it opens the port, and the
         # recorder keeps nothing from before its start
@@ -166,7 +167,10 @@ def test_kill_9_loses_at_most_a_quarter_second_and_the_next_recorder_keeps_nothi
     assert main(["rig", "recover", str(journal), "--out", str(out), "--json"]) == 0
     df, meta = read_recording(out)
     assert len(df) > 1000
-    assert np.all(np.diff(df["seq"].to_numpy()) == 1)  # what was kept is whole
+    gaps = np.diff(df["seq"].to_numpy()) - 1
+    # what was kept is whole: the only gaps are frames the device itself dropped (its transmit
+    # queue overflows when a recorder starved of CPU stops reading, as a real UART's would)
+    assert np.all(gaps >= 0) and gaps.sum() <= dropped_by_device
     assert device_time_at_kill - df["time_s"].max() <= 0.25  # at most a quarter second lost
     assert r2.returncode == 0, r2.stderr
     after, _ = read_recording(tmp_path / "after.parquet")
