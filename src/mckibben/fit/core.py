@@ -33,6 +33,23 @@ COND_MAX = 1e10
 #: of the data, so the intervals are not to be trusted even if the fit converged.
 COND_FLAG = 1e6
 
+#: Fewest trials (clusters) for a cluster-robust covariance. With fewer, its variance estimate has
+#: too few degrees of freedom to be trusted draw by draw (Cameron & Miller 2015, §VI), and the
+#: ordinary covariance is used; the JSON's ``covariance`` says which. [-]
+MIN_CLUSTERS = 5
+
+
+def use_clusters(clusters) -> bool:
+    """Whether a fit with these trial labels gets the cluster-robust covariance (≥ :data:`MIN_CLUSTERS`).
+
+    Parameters
+    ----------
+    clusters : array_like or None
+        Trial label per point. [-]
+    """
+    return clusters is not None and np.unique(clusters).size >= MIN_CLUSTERS
+
+
 #: R² below which a fit is flagged ``r2_below_0.5``: the model explains less than half the variance.
 R2_FLAG = 0.5
 
@@ -310,7 +327,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
     scale : array_like, optional
         Multiply the fitted β (and its covariance) by this to get the reported values. [-]
     clusters : array_like, optional
-        Trial label per row: with two or more trials the covariance is cluster-robust
+        Trial label per row: with five or more trials (:data:`MIN_CLUSTERS`) the covariance is cluster-robust
         (:func:`cluster_covariance`) and the intervals use t with (trials − 1) degrees of freedom.
         [-]
 
@@ -333,7 +350,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
     cov_s = s2 * np.linalg.inv(xs.T @ xs)
     cov = cov_s / np.outer(norms, norms)
     t_dof, method = None, "ols"
-    if clusters is not None and np.unique(clusters).size >= 2:
+    if use_clusters(clusters):
         cov = cluster_covariance(x, resid, clusters)
         t_dof = int(np.unique(clusters).size - 1)
         method = f"cluster-robust ({t_dof + 1} trials)"
@@ -349,7 +366,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
 
 def nonlinear_fit(residual, x0, names, *, model: str, response: str, what: str, valid_range: dict,
                   scale, func: Callable | None = None, condition: dict | None = None, source: str = "",
-                  bounds=(-np.inf, np.inf), y=None, n_points=None) -> FitResult:
+                  bounds=(-np.inf, np.inf), y=None, n_points=None, clusters=None) -> FitResult:
     """Nonlinear least squares (:func:`scipy.optimize.least_squares`) with standard errors.
 
     Parameters
@@ -379,6 +396,10 @@ def nonlinear_fit(residual, x0, names, *, model: str, response: str, what: str, 
         The measured response, for R². [response unit]
     n_points : int, optional
         Number of points (default: the number of residuals).
+    clusters : array_like, optional
+        Trial label per residual: with five or more trials (:data:`MIN_CLUSTERS`) the covariance is cluster-robust
+        (:func:`cluster_covariance`) and the intervals use t with (trials − 1) degrees of freedom.
+        [-]
 
     Returns
     -------
@@ -402,12 +423,18 @@ def nonlinear_fit(residual, x0, names, *, model: str, response: str, what: str, 
     norms = np.linalg.norm(jac, axis=0)
     js = jac / norms
     cov_t = s2 * np.linalg.inv(js.T @ js) / np.outer(norms, norms)
+    t_dof, method = None, "ols"
+    if use_clusters(clusters):
+        cov_t = cluster_covariance(jac, resid, clusters)
+        t_dof = int(np.unique(clusters).size - 1)
+        method = f"cluster-robust ({t_dof + 1} trials)"
     sc = np.asarray(scale, dtype=float)
     values = res.x * sc
     cov = cov_t * np.outer(sc, sc)
     r2 = _r2(np.asarray(y, dtype=float), resid) if y is not None else float("nan")
+    flags = ("r2_below_0.5",) if y is not None and not r2 >= R2_FLAG else ()
     return FitResult(model, tuple(names), values, cov, dof, n, resid, response, r2, dict(valid_range), cond,
-                     dict(condition or {}), func, source)
+                     dict(condition or {}), func, source, flags, t_dof, method)
 
 
 def data_range(**arrays) -> dict:
@@ -556,7 +583,7 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     func : callable
         ``func(values, **inputs)``, for :meth:`FitResult.predict`.
     clusters : array_like, optional
-        Trial label per point: with two or more trials the covariance is cluster-robust
+        Trial label per point: with five or more trials (:data:`MIN_CLUSTERS`) the covariance is cluster-robust
         (:func:`cluster_covariance`), else s²·(JᵀJ)⁻¹. [-]
     condition : dict, optional
         The condition the data were restricted to.
@@ -622,7 +649,7 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
         if np.all(norms > 0):
             cond = float(np.linalg.cond(jf / norms))
             labels = np.unique(clusters) if clusters is not None else np.array([0])
-            if clusters is not None and labels.size >= 2:
+            if use_clusters(clusters):
                 cf = cluster_covariance(jf, resid, clusters)
                 t_dof = int(labels.size - 1)
                 method = f"cluster-robust ({labels.size} trials)"

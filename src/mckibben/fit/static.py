@@ -104,6 +104,7 @@ def fit_kinematic(table: Table, muscle: MuscleSpec) -> FitResult:
     require_distinct(d["braid_angle"], 3, "braid angles", what, "a straight line with a check of its fit")
     x = np.column_stack([muscle.need("strand_length", "fit kinematic (eq. 2)") * cos_t, np.ones_like(cos_t)])
     return linear_fit(x, d["length"].to_numpy(), ("k1", "k2_m"), model="kinematic", response="length_m", what=what,
+                      clusters=_clusters(d),
                       valid_range=data_range(cos_theta=cos_t, length=d["length"]), func=_kinematic_func,
                       source=table.path)
 
@@ -153,7 +154,7 @@ def fit_cubic(pressure, response, *, what: str, response_name: str, unit: str, c
     extra_range : dict, optional
         More entries of the valid range (e.g. the load). [SI]
     trials : array_like, optional
-        Trial per point: with two trials or more the covariance is cluster-robust by trial
+        Trial per point: with five trials or more the covariance is cluster-robust by trial
         (a per-trial offset shifts every point of a trial alike; :func:`~mckibben.fit.core.cluster_covariance`).
         [-]
 
@@ -300,6 +301,7 @@ def fit_force_contraction(table: Table, muscle: MuscleSpec) -> dict[float, FitRe
         e = eps[sel]
         x = np.column_stack([e**3, e**2, e, np.ones_like(e)])
         out[float(p)] = linear_fit(x, d["load"].to_numpy()[sel], ("c3_N", "c2_N", "c1_N", "c0_N"), model="force-contraction",
+                                   clusters=_clusters(d[sel]),
                                    response="force_N", what=what, valid_range=data_range(contraction=e),
                                    func=_fc_func, condition=cond, source=table.path)
     return out
@@ -356,6 +358,7 @@ def fit_surface(table: Table, load_degree: int = 1) -> FitResult:
         return sum(v * t for v, t in zip(values, terms))
 
     return linear_fit(x, d["length"].to_numpy(), _surface_names(load_degree), model="surface", response="length_m",
+                      clusters=_clusters(d),
                       what=what, valid_range=data_range(pressure=d["pressure"], load=d["load"]), func=func,
                       source=table.path)
 
@@ -491,7 +494,7 @@ def fit_spring(table: Table, terms=DEFAULT_TERMS, split_pressure: float | None =
     def func(values, length, pressure, direction=ELONGATION):
         return spring_force(length, pressure, model_of(values), direction)[0]
 
-    res = nonlinear_fit(residual, theta0, names, model="spring", response="force_N", what=what,
+    res = nonlinear_fit(residual, theta0, names, model="spring", response="force_N", what=what, clusters=_clusters(d),
                         valid_range=data_range(pressure=p, length=ell), scale=scale, func=func,
                         source=table.path, y=force)
     stretch = ell - np.polyval(res.values[:3], p)
@@ -674,11 +677,13 @@ def fit_first_order(table: Table) -> dict[float, FitResult]:
         if changed.size == 0:
             raise InputError(f"{table.where(int(grp.index[0]), 'command')}: trial {trial} has no command step")
         i = changed[0]
-        rows.append((round(float(cmd[i]), 9), grp["time"].to_numpy() - grp["time"].to_numpy()[i], grp["pressure"].to_numpy()))
+        rows.append((round(float(cmd[i]), 9), grp["time"].to_numpy() - grp["time"].to_numpy()[i], grp["pressure"].to_numpy(),
+                     np.full(len(grp), trial)))
     out = {}
     for cmd in sorted({r[0] for r in rows}):
         t = np.concatenate([r[1] for r in rows if r[0] == cmd])
         pr = np.concatenate([r[2] for r in rows if r[0] == cmd])
+        trials = np.concatenate([r[3] for r in rows if r[0] == cmd])
         cond = {"command": cmd}
         what = _what("first-order", table, cond)
         after = t > 0
@@ -696,6 +701,7 @@ def fit_first_order(table: Table) -> dict[float, FitResult]:
                                  ("p0_Pa", "p_final_Pa", "tau_s"), model="first-order", response="pressure_Pa",
                                  what=what, valid_range=data_range(time=t), scale=scale, func=func,
                                  condition=cond, source=table.path, y=pr,
+                                 clusters=trials if np.unique(trials).size >= 2 else None,
                                  bounds=([-np.inf, -np.inf, 1e-6], [np.inf, np.inf, np.inf]))
     return out
 
