@@ -378,7 +378,8 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
     to remove it:
 
     - ``"lowest"``: per run (held length set point and trial), the mean force at the run's lowest pressure
-      (inflate and deflate rows alike) is subtracted, so every run starts at zero force. This also
+      (inflate and deflate rows alike, within 1 % of the run's pressure span or 2 kPa) is
+      subtracted, so every run starts at zero force. This also
       removes real pre-tension at rest length: use it when the models should see force due to
       pressure only.
     - ``"column"``: the table's ``tare`` column (a tare run's reading) is subtracted row by row.
@@ -421,7 +422,9 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
         for (k, trial), grp in d.groupby([groups, d["trial"].to_numpy()], sort=True):
             ell = lengths[k]
             p = grp["pressure"].to_numpy()
-            zero = float(grp["force"].to_numpy()[np.isclose(p, p.min(), rtol=0, atol=1.0)].mean())
+            # the rows at the run's lowest pressure set point: within 1 % of the run's span (2 kPa at least)
+            near = p <= p.min() + max(0.01 * float(np.ptp(p)), 2e3)
+            zero = float(grp["force"].to_numpy()[near].mean())
             d.loc[grp.index, "force"] = grp["force"] - zero
             runs.append({"held_length_m": float(ell), "trial": int(trial), "tare_N": zero})
         report["per_run_N"] = runs
