@@ -308,3 +308,32 @@ def test_tondu_lopez_and_spring_cover_with_per_trial_offsets():
     # test holds; a coverage below it would mean the intervals are wrong, not unlucky (binomial sd 2 %)
     assert np.all(covered / 200 >= 0.85), covered / 200
     assert np.mean(covered / 200) >= 0.90  # over all eleven parameters: measured 93 %
+
+
+@pytest.mark.parametrize("model", ["chou-hannaford", "wall-chou-hannaford", "tondu-lopez", "spring"])
+def test_a_saved_force_law_runs_in_the_plants_registry(tmp_path, model):
+    # fit -> muscle file -> the plant's compiled law: the same force, less the load cell's zero
+    from mckibben.fit.muscle_file import muscle_force_law, save_muscle_file
+    from mckibben.models.laws import evaluate
+
+    fit = fit_isometric(read_table(ISO), read_muscle(MUSCLE), model)
+    law = muscle_force_law(read_muscle(save_muscle_file(tmp_path / "mine.toml", read_muscle(MUSCLE), fit)))
+    name, theta = law.plant_law("inflate")
+    p, ell = fit.data["pressure"].to_numpy(), fit.data["held_length"].to_numpy()
+    ours = fit.result.func(fit.result.values, pressure=p, length=ell, direction="inflate")
+    offset = fit.result["offset_N"] if "offset_N" in fit.result.names else 0.0
+    plant = evaluate(name, p, ell, theta)
+    if model == "spring":
+        plant = np.maximum(plant, 0.0)  # the plant adds "never pushing" itself
+    # the same law in two implementations (NumPy face, compiled kernel): agreement to round-off
+    np.testing.assert_allclose(plant, ours - offset, rtol=1e-9, atol=1e-9)
+
+
+def test_the_data_driven_surface_has_no_plant_law(tmp_path):
+    from mckibben.errors import InputError
+    from mckibben.fit.muscle_file import muscle_force_law, save_muscle_file
+
+    fit = fit_isometric(read_table(ISO), read_muscle(MUSCLE), "surface")
+    law = muscle_force_law(read_muscle(save_muscle_file(tmp_path / "s.toml", read_muscle(MUSCLE), fit)))
+    with pytest.raises(InputError, match="has no physical law the plant can run"):
+        law.plant_law()

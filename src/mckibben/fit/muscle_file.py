@@ -150,6 +150,69 @@ class MuscleForceLaw:
         return np.asarray(f, dtype=float), flags
 
 
+    def static_model(self, direction: str = "inflate"):
+        """The fitted law as the static model object the plant's registry runs.
+
+        :func:`mckibben.models.laws.law_of` turns the object into ``(name, θ)``, which is how a
+        measured muscle drives the plant with its own force law. The load cell's zero
+        (``offset_N``) is left out: it is the instrument's, not the muscle's.
+
+        Parameters
+        ----------
+        direction : {"inflate", "deflate"}, default "inflate"
+            The spring model's branch (its hysteresis); the other laws have one. [-]
+
+        Returns
+        -------
+        BraidGeometry, TonduLopez or SpringModel
+
+        Raises
+        ------
+        InputError
+            For the data-driven ``surface``: it has no physical law to run.
+        """
+        from mckibben.models.physical import BraidGeometry, TonduLopez
+        from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel
+
+        v, spec = self.parameters, self.spec
+        l0 = spec.nominal_length
+        if self.model in ("chou-hannaford", "wall-chou-hannaford"):
+            th = v.get("theta0_rad", spec.braid_angle)
+            b = l0 / np.cos(th)
+            t = 0.0
+            if self.model == "wall-chou-hannaford":
+                t = v.get("wall_m", 0.5 * ((spec.tube_outer_diameter or 0.0) - (spec.tube_inner_diameter or 0.0)))
+            return BraidGeometry(float(b), float(b / (np.pi * v["d0_m"])), float(t))
+        if self.model == "tondu-lopez":
+            return TonduLopez(float(v["r0_m"]), float(v.get("alpha0_rad", spec.braid_angle)), float(v["k"]), 0.0, l0,
+                              citation=f"fitted: {spec.path or spec.id}")
+        if self.model == "spring":
+            key = "deflate" if direction == "deflate" else "inflate"
+            c = tuple(float(v[f"c{k}_{key}"]) for k in (3, 2, 1, 0))
+            dn = CONTRACTION if key == "deflate" else ELONGATION
+            h = (float(v["h2_m_per_Pa2"]), float(v["h1_m_per_Pa"]), float(v["h0_m"]))
+            # one range: the same coefficients below and above an infinite split
+            return SpringModel(l0, h, {(dn, LOW): c, (dn, HIGH): c}, DEFAULT_TERMS, np.inf,
+                               self.valid_range.get("pressure", (0.0, np.inf)), (0.0, np.inf),
+                               f"fitted: {spec.path or spec.id}")
+        raise InputError(f"{spec.path or spec.id}: the data-driven {self.model} force law has no physical law the plant"
+                         " can run; fit spring, chou-hannaford, wall-chou-hannaford or tondu-lopez")
+
+    def plant_law(self, direction: str = "inflate") -> tuple:
+        """``(name, θ)`` of the plant's law registry (:func:`mckibben.models.laws.law_of`).
+
+        Parameters
+        ----------
+        direction : {"inflate", "deflate"}, default "inflate"
+            The spring model's branch. [-]
+        """
+        from mckibben.models.laws import law_of
+        from mckibben.models.spring import CONTRACTION, ELONGATION
+
+        obj = self.static_model(direction)
+        return law_of(obj, direction=CONTRACTION if direction == "deflate" else ELONGATION)
+
+
 def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     """The fitted force law of a muscle file (its ``[force_model]`` table), checked.
 
