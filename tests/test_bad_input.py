@@ -222,6 +222,7 @@ def test_kill_9_leaves_a_temporary_that_the_next_run_removes(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["campaign"]
 
 
+@pytest.mark.slow  # a reproduce started, killed, and run again in full (~10 s)
 def test_reproduce_killed_with_sigkill_then_rerun_leaves_only_the_report(tmp_path):
     out = tmp_path / "report"
     proc = subprocess.Popen([sys.executable, "-m", "mckibben.cli", "reproduce", "--out", str(out), "--json"],
@@ -274,3 +275,294 @@ def test_failed_sweep_leaves_the_folder_reusable(tmp_path):
     assert r.code == 0, r.err
     assert r.json()["computed"] == 1
     assert not [p for p in out.iterdir() if TMP_TAG in p.name]
+
+
+# ---------------------------------------------------------------------------------------------
+# Values: huge, tiny, NaN/inf, negative, wrong dimension, garbage — every command, the option named
+
+VALUE_CASES = [
+    # predict
+    (["predict", "length", "--pressure", "nan MPa"], "--pressure"),
+    (["predict", "length", "--pressure", "inf"], "--pressure"),
+    (["predict", "length", "--pressure", "0.5mm"], "--pressure"),
+    (["predict", "length", "--pressure", "0:0.8MPa:100000000"], "--pressure"),
+    (["predict", "length", "--pressure", "0.5MPa", "--load", "1e6N"], "--load"),
+    (["predict", "length", "--pressure", "0.5MPa", "--load", "5MPa"], "--load"),
+    (["predict", "length", "--pressure", "0.5MPa", "--muscle", "mpam98"], "mpam98"),
+    (["predict", "pressure", "--length", "0mm"], "--length"),
+    (["predict", "pressure", "--length", "90mm", "--p-max", "5MPa"], "--p-max"),
+    (["predict", "pressure", "--length", "90mm", "--p-max", "-1MPa"], "--p-max"),
+    (["predict", "pressure", "--length", "1e300m,"], "--length"),
+    (["predict", "force", "--pressure", "0.8MPa", "--length", "1000m"], "--length"),
+    (["predict", "force", "--pressure", "0.8MPa", "--model", "tondu-lopez", "--k", "-5"], "--k"),
+    (["predict", "force", "--pressure", "0.8MPa", "--model", "tondu-lopez", "--k", "nan"], "--k"),
+    (["predict", "force", "--pressure", "0.8MPa", "--model", "wall-corrected", "--diameter", "1e-300mm"], "--diameter"),
+    (["predict", "force", "--pressure", "0.8MPa", "--braid-angle", "90deg"], "--braid-angle"),
+    (["predict", "force", "--pressure", "0.8MPa", "--braid-angle", "20mm"], "--braid-angle"),
+    (["predict", "force", "--pressure", "0.8MPa", "--rest-length", "0mm"], "--rest-length"),
+    (["predict", "force", "--pressure", "0.8MPa", "--diameter", "200mm"], "--diameter"),
+    (["predict", "force", "--pressure", "0.8MPa", "--model", "hooke"], "hooke"),
+    # simulate
+    (["simulate", "open-loop", "--load", "1e6N"], "--load"),
+    (["simulate", "open-loop", "--load", "nanN"], "--load"),
+    (["simulate", "open-loop", "--duration", "1e9s"], "--duration"),
+    (["simulate", "open-loop", "--duration", "0.0001s"], "--duration"),
+    (["simulate", "open-loop", "--duration", "1Hz"], "--duration"),
+    (["simulate", "open-loop", "--supply", "5MPa"], "--supply"),
+    (["simulate", "open-loop", "--valve", "-1"], "--valve"),
+    (["simulate", "open-loop", "--valve", "1e9"], "--valve"),
+    # control
+    (["control", "step", "--duration", "1e6s"], "--duration"),
+    (["control", "step", "--duration", "0.0001s"], "--duration"),
+    (["control", "step", "--duration", "0.5005s"], "--duration"),
+    (["control", "step", "--duration", "-1s"], "--duration"),
+    (["control", "step", "--p-max", "5MPa"], "--p-max"),
+    (["control", "step", "--p-max", "inf MPa"], "--p-max"),
+    (["control", "step", "--target", "-0.1MPa"], "--target"),
+    (["control", "step", "--target", "nanMPa"], "--target"),
+    (["control", "step", "--target", "0.5N"], "--target"),
+    (["control", "step", "--load", "1e6N"], "--load"),
+    (["control", "step", "--beta", "nan"], "--beta"),
+    (["control", "step", "--beta", "1e300"], "--beta"),
+    (["control", "step", "--ki", "-1"], "--ki"),
+    (["control", "step", "--eps", "0kPa"], "--eps"),
+    (["control", "step", "--lambda", "0ms", "--controller", "pid"], "--lambda"),
+    (["control", "step", "--controller", "lqr"], "lqr"),
+    (["control", "step", "--law", "magic"], "--law"),
+    (["control", "track", "--reference", "sine:0.4MPa,0.2MPa,2Hz", "--duration", "1e9s"], "--duration"),
+    (["control", "track", "--reference", "sine:0.4MPa,0.2MPa"], "--reference"),
+    (["control", "track", "--reference", "sine:0.4MPa,0.2MPa,0Hz"], "--reference"),
+    (["control", "track", "--reference", "sine:0.4MPa,0.2MPa,1e9Hz"], "--reference"),
+    (["control", "track", "--reference", "sine:nanMPa,0.2MPa,2Hz"], "--reference"),
+    (["control", "track", "--reference", "sine:0.4MPa,0.2MPa,2Hz", "--p-max", "5MPa"], "--p-max"),
+    (["control", "robustness", "--n", "100000000"], "--n"),
+    (["control", "robustness", "--n", "0"], "--n"),
+    (["control", "robustness", "--n", "1e3"], "--n"),
+    (["control", "robustness", "--seed", "-1", "--n", "2"], "--seed"),
+    (["control", "robustness", "--seed", str(2**70), "--n", "2"], "--seed"),
+    (["control", "compare", "--beta", "-3"], "--beta"),
+    (["control", "fig13", "--ki", "inf"], "--ki"),
+    (["control", "fig13", "--eps", "1e300Pa"], "--eps"),
+    (["control", "hysteresis", "--period", "1e9s"], "--period"),
+    (["control", "hysteresis", "--period", "0.001s"], "--period"),
+    (["control", "hysteresis", "--sweep-period", "1e9s"], "--sweep-period"),
+    # tool
+    (["tool", "fk", "--discs", "1000000", "--lengths", "117mm,112mm,115mm"], "--discs"),
+    (["tool", "fk", "--discs", "-3", "--lengths", "117mm,112mm,115mm"], "--discs"),
+    (["tool", "fk", "--discs", "many", "--lengths", "117mm,112mm,115mm"], "--discs"),
+    (["tool", "fk", "--p-max", "5MPa", "--lengths", "117mm,112mm,115mm"], "--p-max"),
+    (["tool", "fk", "--lengths", "117mm,112mm"], "--lengths"),
+    (["tool", "fk", "--lengths", "nanmm,112mm,115mm"], "--lengths"),
+    (["tool", "fk", "--pressures", "5MPa,0MPa,0MPa"], "--pressures"),
+    (["tool", "fk", "--lengths", "117mm,112mm,115mm", "--pressures", "0,0,0MPa"], "--lengths"),
+    (["tool", "fk", "--lengths", "117mm,112mm,115mm", "--pitch-radius", "1e300mm"], "pitch radius"),
+    (["tool", "fk", "--lengths", "117mm,112mm,115mm", "--bending-stiffness", "-1Nm2"], "--bending-stiffness"),
+    (["tool", "fk", "--lengths", "117mm,112mm,115mm", "--bending-stiffness", "lots"], "--bending-stiffness"),
+    (["tool", "fk", "--lengths", "117mm,112mm,115mm", "--preload", "nanN"], "--preload"),
+    (["tool", "ik", "--tip", "1e300mm,0mm,110mm"], "--tip"),
+    (["tool", "ik", "--tip", "0mm,0mm"], "--tip"),
+    (["tool", "ik", "--tip", "nanmm,0mm,110mm"], "--tip"),
+    (["tool", "ik", "--tip", "3mm,0mm,110mm", "--p-max", "5MPa"], "--p-max"),
+    (["tool", "workspace", "--grid", "1000000"], "--grid"),
+    (["tool", "workspace", "--grid", "1"], "--grid"),
+    (["tool", "workspace", "--p-max", "5MPa"], "--p-max"),
+    (["tool", "track", "--path", "circle:radius=2mm,period=2s,cycles=1000000000"], "--path"),
+    (["tool", "track", "--path", "circle:radius=2mm,period=2s", "--periods", "1e9s"], "--periods"),
+    (["tool", "track", "--path", "circle:radius=2mm,period=1e12s"], "--path"),
+    (["tool", "track", "--path", "circle:radius=1e300mm,period=2s"], "--path"),
+    (["tool", "track", "--path", "square:side=2mm,period=2s"], "--path"),
+    (["tool", "track", "--path", "circle:radius=2mm,period=2s", "--beta", "nan"], "--beta"),
+    (["tool", "track", "--path", "circle:radius=2mm,period=2s", "--p-max", "5MPa"], "--p-max"),
+    # datasets, params, rig, sweep, identify
+    (["datasets", "generate", "--seed", "-1"], "--seed"),
+    (["params", "show", "mpam1000"], "mpam1000"),
+    (["rig", "step", "--port", "/nonexistent/tty", "--target", "5MPa"], "--target"),
+    (["rig", "step", "--port", "/nonexistent/tty"], "--port"),
+    (["rig", "step", "--port", "/nonexistent/tty", "--duration", "1e9s"], "--duration"),
+    (["rig", "record", "--port", "/nonexistent/tty", "--out", "x.parquet", "--duration", "1e9s"], "--duration"),
+    (["rig", "record", "--port", "/nonexistent/tty", "--out", "x.csv"], "--out"),
+    (["rig", "record", "--port", "/nonexistent/tty", "--out", "x.parquet", "--decimation", "0"], "--decimation"),
+    (["rig", "emulate", "--duration", "1e9s"], "--duration"),
+    (["rig", "emulate", "--duration", "0s"], "--duration"),
+    (["identify", "{step}", "--order", "3"], "--order"),
+    (["identify", "{step}", "--t-step", "1e9s"], "--t-step"),
+    (["identify", "{step}", "--t-step", "nans"], "--t-step"),
+    (["sweep", "run", "{sweep}", "--workers", "100000"], "--workers"),
+    (["sweep", "run", "{sweep}", "--scheduler", "localhost"], "--scheduler"),
+    (["sweep", "summarize", "{tmp}", "--quantile", "2"], "{tmp}"),
+    (["fit", "{iso}", "--model", "spring", "--split-pressure", "5MPa"], "--split-pressure"),
+    (["fit", "{fl}", "--model", "spring", "--split-pressure", "5MPa"], "--split-pressure"),
+    (["fit", "{fl}", "--model", "spring", "--split-pressure", "5mm"], "--split-pressure"),
+    (["fit", "{iso}", "--model", "quintic"], "quintic"),
+    (["fit", "{iso}", "--model", "cubic", "--kind", "nonsense"], "nonsense"),
+    (["fit", "{iso}", "--model", "kinematic", "--muscle", "{tmp}/none.toml"], "none.toml"),
+    (["unknown-command"], "unknown-command"),
+    (["rig", "emulate", "--duration", ""], "--duration"),
+    (["control", "step", "--eps="], "--eps"),
+    (["predict", "force", "--pressure", "0.8MPa", "--wall", ""], "--wall"),
+    (["control", "step", "--no-such-option"], "--no-such-option"),
+]
+
+
+@pytest.fixture
+def places(tmp_path):
+    from mckibben.datasets.campaign import BUNDLED
+
+    step = tmp_path / "step.csv"
+    step.write_text("time_s,pressure_MPa,command_pwm\n" + "".join(
+        f"{i * 1e-3:.3f},{0.0 if i < 50 else 0.5 * (1 - 2.718281828 ** (-(i - 50) / 60.0)):.5f},{0 if i < 50 else 150}\n"
+        for i in range(400)))
+    sweep = tmp_path / "s.toml"
+    sweep.write_text("[sweep]\nsamples = 2\nchunk_size = 2\n[scenario]\nduration = \"0.02s\"\n")
+    return {"tmp": str(tmp_path), "step": str(step), "sweep": str(sweep),
+            "iso": str(BUNDLED / "mpam97" / "isotonic.csv"), "fl": str(BUNDLED / "mpam97" / "force_length.csv")}
+
+
+@pytest.mark.parametrize("args, named", VALUE_CASES, ids=[" ".join(a) for a, _ in VALUE_CASES])
+def test_bad_value_names_the_option(places, tmp_path, monkeypatch, args, named):
+    monkeypatch.chdir(tmp_path)
+    before = listing(tmp_path)
+    r = run_cli(*[a.format(**places) for a in args])
+    assert_refused(r, named.format(**places))
+    assert listing(tmp_path) == before
+
+
+# ---------------------------------------------------------------------------------------------
+# Files: empty, garbage, BOM, ragged, header only, implausible, too short — named with the file
+
+FILE_CASES = {
+    "empty.csv": "",
+    "garbage.csv": None,  # random bytes
+    "ragged.csv": "pressure_kPa,load_N,length_mm\n0,0.6\n100,0.6,95,4,5\n",
+    "header.csv": "pressure_kPa,load_N,length_mm\n",
+    "text.csv": "pressure_kPa,load_N,length_mm\n0,0.6,ninety\n",
+    "nan.csv": "pressure_kPa,load_N,length_mm\n0,0.6,nan\n",
+    "huge.csv": "pressure_kPa,load_N,length_mm\n1e300,0.6,97\n",
+    "units.csv": "pressure_mm,load_N,length_mm\n0,0.6,97\n",
+    "bom.csv": "\ufeffpressure_kPa,load_N,length_mm\n0,0.6,97\n",
+    "latin1.csv": None,
+}
+
+
+def _write(path: Path, text):
+    if path.name == "garbage.csv":
+        path.write_bytes(bytes(range(256)) * 3)
+    elif path.name == "latin1.csv":
+        path.write_bytes("pressure_kPa,load_N,length_mm\n0,0.6,97\xb0\n".encode("latin-1"))
+    else:
+        path.write_text(text, encoding="utf-8")
+
+
+@pytest.mark.parametrize("name", list(FILE_CASES))
+@pytest.mark.parametrize("cmd", [["fit", "{f}", "--model", "cubic"], ["compare", "{f}"],
+                                 ["control", "track", "--reference", "{f}"], ["identify", "{f}"]],
+                         ids=lambda c: c[0] if c[0] != "control" else "track")
+def test_bad_file_names_the_file(tmp_path, monkeypatch, name, cmd):
+    monkeypatch.chdir(tmp_path)
+    f = tmp_path / name
+    _write(f, FILE_CASES[name])
+    before = listing(tmp_path)
+    r = run_cli(*[a.format(f=f) for a in cmd])
+    assert_refused(r, str(f))
+    assert listing(tmp_path) == before
+
+
+@pytest.mark.parametrize("content, says", [
+    ("time_s,pressure_MPa\n0,0.1\n1000000,0.2\n", "control periods"),
+    ("time_s,pressure_MPa\n0,0\n0.1,1e300\n0.2,0.5\n", "not a plausible"),
+    ("time_s,pressure_MPa\n0,0\n0.001,0.5\n", "shorter than 10 ms"),
+    ("time_s,pressure_MPa\n0,0\n0,0.5\n", "increasing"),
+])
+def test_reference_file_sizes_and_values(tmp_path, content, says):
+    f = tmp_path / "ref.csv"
+    f.write_text(content)
+    assert_refused(run_cli("control", "track", "--reference", str(f)), str(f), says)
+
+
+def test_sweep_with_a_target_above_p_max_is_refused(tmp_path):
+    f = tmp_path / "high.toml"
+    f.write_text("[scenario]\ntarget = \"5MPa\"\n")
+    assert_refused(run_cli("sweep", "run", str(f), "--out", str(tmp_path / "r")), str(f), "target")
+    assert listing(tmp_path) == ["high.toml"]
+
+
+def test_sweep_too_big_is_refused_with_the_estimate(tmp_path):
+    f = tmp_path / "big.toml"
+    f.write_text("[sweep]\nsamples = 1000000\nchunk_size = 1000000\n[scenario]\nduration = \"10s\"\n")
+    assert_refused(run_cli("sweep", "run", str(f), "--out", str(tmp_path / "r")), str(f), "GiB")
+    assert listing(tmp_path) == ["big.toml"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Random strings at every option of every command (discovered from the app, not hand-listed)
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fuzz"))
+import fuzz_cli  # noqa: E402
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+COMMANDS = fuzz_cli.discover()
+OPTIONS = [(path, p) for path, params in COMMANDS for p in params if not getattr(p, "is_flag", False)]
+
+
+def test_every_command_and_option_is_fuzzed():
+    names = {" ".join(path) for path, _ in COMMANDS}
+    assert {"predict force", "control step", "tool track", "sweep run", "reproduce", "rig record"} <= names
+    assert len(OPTIONS) > 100
+
+
+#: For the commands that run long when every value is accepted, an option that fails cheaply and is
+#: checked after the others: the fuzzed option is still validated, the long run is not made.
+CHEAP_FAILURE = {
+    ("reproduce",): [("--data", "/nonexistent-campaign")],
+    ("tool", "track"): [("--path", "circle:radius=1e300mm,period=2s")],
+    ("control", "robustness"): [("--beta", "-1")],
+    ("control", "fig13"): [("--ki", "-1")],
+}
+
+RANDOM_TEXT = st.one_of(
+    st.text(alphabet=st.characters(blacklist_characters="\x00", blacklist_categories=("Cs",)), max_size=40),
+    st.text(alphabet="0123456789.,:-+eE naifMPamNsgdrHz%/", max_size=24),
+    st.builds(lambda n, u: n + u, st.sampled_from(fuzz_cli.NUMBERS), st.sampled_from(fuzz_cli.UNITS)),
+    st.sampled_from(fuzz_cli.GARBAGE),
+)
+
+
+@pytest.mark.parametrize("option", range(len(OPTIONS)),
+                         ids=[" ".join(path) + " " + (p.opts[0] if p.param_type_name == "option" else p.name)
+                              for path, p in OPTIONS])
+@settings(max_examples=3, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(data=st.data())
+def test_random_strings_at_every_option(tmp_path_factory, option, data):
+    path, param = OPTIONS[option]
+    value = data.draw(RANDOM_TEXT, label="value")
+    work = tmp_path_factory.mktemp("fuzz")
+    files = {"isotonic": str(Path(fuzz_cli.__file__).parents[1] / "src/mckibben/datasets/campaign/mpam97/isotonic.csv")}
+    args = list(path)
+    for p in dict(COMMANDS)[path]:
+        if p is param or getattr(p, "is_flag", False) or not p.required:
+            continue
+        key = p.opts[0] if p.param_type_name == "option" else p.name
+        plausible = fuzz_cli.PLAUSIBLE.get(key, ["x"])[0]
+        plausible = files.get(plausible.strip("{}"), str(work / "missing") if plausible.startswith("{") else plausible)
+        args += [p.opts[0], plausible] if p.param_type_name == "option" else [plausible]
+    key = param.opts[0] if param.param_type_name == "option" else param.name
+    for opt, bad in CHEAP_FAILURE.get(path, ()):
+        if opt != key:  # checked after the fuzzed option, so a long run stops there instead
+            args = [a for i, a in enumerate(args) if not (a == opt or (i and args[i - 1] == opt))] + [opt, bad]
+    args += [param.opts[0], value] if param.param_type_name == "option" else [value]
+    if path == ("rig", "emulate") and "--duration" not in args:
+        args += ["--duration", "0.2s"]  # a server: without a duration it runs until Ctrl-C, by design
+    cwd = os.getcwd()
+    os.chdir(work)
+    try:
+        r = fuzz_cli.run_line(args, timeout=60.0)
+    finally:
+        os.chdir(cwd)
+    assert r["code"] in (0, 2), (args, r)
+    assert "Traceback" not in r["err"], (args, r["err"])
+    if r["code"] == 2:
+        assert r["err"].count("\n") == 1, (args, r["err"])
+    assert not [p for p in work.rglob("*") if TMP_TAG in p.name]

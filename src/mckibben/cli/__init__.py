@@ -102,7 +102,21 @@ def main(argv: list[str] | None = None) -> int:
     return _exit(code)
 
 
+def _empty_value(args: list[str]) -> str | None:
+    """The option given an empty value (``--plot ""`` or ``--plot=``), if any: it would silently
+    mean "the default" to code that tests the value for truth."""
+    for i, a in enumerate(args):
+        if a.startswith("--") and a.endswith("=") and len(a) > 3:
+            return a[:-1]
+        if a == "" and i > 0 and args[i - 1].startswith("--") and "=" not in args[i - 1] and args[i - 1] != "--":
+            return args[i - 1]
+    return None
+
+
 def _run(args: list[str], debug: bool) -> int:
+    empty = _empty_value(args)
+    if empty is not None:
+        return _fail(f"error: {empty}: an empty value; give one, or leave the option out for its default", 2)
     try:
         result = app(args=args, prog_name="mckibben", standalone_mode=False)
     except InputError as exc:

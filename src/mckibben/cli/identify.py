@@ -42,6 +42,9 @@ def identify_cmd(
         if len(logs) > 1 and "command_pwm" not in data:
             raise InputError(f"{meta['path']}: the lift-off needs the valve command (inlet_pwm/bleed_pwm or "
                              "command_pwm) in every log")
+        if ts is not None and not float(data["time_s"][0]) < ts < float(data["time_s"][-1]):
+            raise InputError(f"--t-step: {t_step!r} is outside the time of {meta['path']} "
+                             f"({data['time_s'][0]:g}..{data['time_s'][-1]:g} s)")
         try:
             per_trial = identify_log(data, orders, ts, p_supply)
         except RuntimeError as exc:  # the data give the fit nothing to converge on: the file's problem
