@@ -471,7 +471,7 @@ def test_bad_file_names_the_file(tmp_path, monkeypatch, name, cmd):
     ("time_s,pressure_MPa\n0,0.1\n1000000,0.2\n", "control periods"),
     ("time_s,pressure_MPa\n0,0\n0.1,1e300\n0.2,0.5\n", "not a plausible"),
     ("time_s,pressure_MPa\n0,0\n0.001,0.5\n", "shorter than 10 ms"),
-    ("time_s,pressure_MPa\n0,0\n0,0.5\n", "increasing"),
+    ("time_s,pressure_MPa\n0,0\n0.02,0.5\n0.01,0.4\n", "time goes back"),
 ])
 def test_reference_file_sizes_and_values(tmp_path, content, says):
     f = tmp_path / "ref.csv"
