@@ -227,16 +227,21 @@ def test_reproduce_killed_with_sigkill_then_rerun_leaves_only_the_report(tmp_pat
     out = tmp_path / "report"
     proc = subprocess.Popen([sys.executable, "-m", "mckibben.cli", "reproduce", "--out", str(out), "--json"],
                             env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    seen = False
     try:
         import time
 
         deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and not any(TMP_TAG in p.name for p in tmp_path.iterdir()):
-            time.sleep(0.05)
-        assert any(TMP_TAG in p.name for p in tmp_path.iterdir()), "reproduce never started its report"
+        while time.monotonic() < deadline and proc.poll() is None:
+            if any(TMP_TAG in p.name for p in tmp_path.iterdir()):
+                proc.send_signal(signal.SIGKILL)  # while it writes its report
+                seen = True
+                break
+            time.sleep(0.01)
     finally:
         proc.kill()
         proc.wait()
+    assert seen, "reproduce was never caught writing its report"
     # the next run into the same folder removes what the killed one left
     r = run_cli("reproduce", "--out", str(out), "--json")
     assert r.code == 0, r.err
@@ -387,8 +392,8 @@ VALUE_CASES = [
     (["identify", "{step}", "--order", "3"], "--order"),
     (["identify", "{step}", "--t-step", "1e9s"], "--t-step"),
     (["identify", "{step}", "--t-step", "nans"], "--t-step"),
-    (["sweep", "run", "{sweep}", "--workers", "100000"], "--workers"),
-    (["sweep", "run", "{sweep}", "--scheduler", "localhost"], "--scheduler"),
+    (["sweep", "run", "{sweep}", "--out", "r", "--workers", "100000"], "--workers"),
+    (["sweep", "run", "{sweep}", "--out", "r", "--scheduler", "localhost"], "--scheduler"),
     (["sweep", "summarize", "{tmp}", "--quantile", "2"], "{tmp}"),
     (["fit", "{iso}", "--model", "spring", "--split-pressure", "5MPa"], "--split-pressure"),
     (["fit", "{fl}", "--model", "spring", "--split-pressure", "5MPa"], "--split-pressure"),

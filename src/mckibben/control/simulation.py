@@ -139,7 +139,7 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     if law not in LAWS:
         raise unknown_name("--law", law, LAWS)
     b, k = _beta(beta), _ki(ki)
-    e = quantity(eps, "pressure", "--eps", allow_zero=False) if eps is not None else None
+    e = boundary_layer(eps)
     lm = quantity(lam, "time", "--lambda", allow_zero=False) if lam is not None else None
     model = identified_model() if model is None else model
     # the supervisor's valve model (G, lift-off) comes from the identification too
@@ -240,6 +240,25 @@ class StepResult(Result):
         from mckibben.control.plots import plot_record
 
         return plot_record(self.record, [self.arguments["controller"]], ax=ax)
+
+
+def boundary_layer(eps) -> float | None:
+    """The sliding-mode boundary layer ε, checked to lie in 1 Pa .. :data:`~mckibben.hardware.P_MAX_LIMIT`.
+
+    Parameters
+    ----------
+    eps : float or str or None
+        The boundary layer; None for the default. [Pa]
+    """
+    if eps is None:
+        return None
+    from mckibben.hardware import P_MAX_LIMIT
+
+    e = quantity(eps, "pressure", "--eps", allow_zero=False)
+    if not 1.0 <= e <= P_MAX_LIMIT:
+        raise InputError(f"--eps: {eps!r} must be between 1 Pa and {P_MAX_LIMIT / 1e6:g} MPa (the supervisor's "
+                         "ceiling)")
+    return e
 
 
 def plant_load(load) -> float:
@@ -599,7 +618,7 @@ def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None) -> Fig13Result:
     -------
     Fig13Result
     """
-    e = quantity(eps, "pressure", "--eps", allow_zero=False) if eps is not None else None
+    e = boundary_layer(eps)
     k = _ki(ki)
     betas = tuple(_beta(b) for b in betas)
     for law in laws:

@@ -162,6 +162,15 @@ def _three(value, dimension: str, name: str, **kw) -> np.ndarray:
     return v
 
 
+def _within_reach(point: np.ndarray, tool: Tool, name: str, what: str) -> None:
+    """Refuse a target farther from the base than the tool's muscles are long (before any solve)."""
+    reach = tool.muscle.strand_length
+    dist = float(np.linalg.norm(point)) if np.all(np.isfinite(point)) else float("inf")
+    if not dist <= reach:
+        raise InputError(f"{name}: {what} {dist * 1e3:.4g} mm from the base is farther than the tool reaches "
+                         f"(its muscles' strands are {reach * 1e3:g} mm)")
+
+
 def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
     """Forward kinematics: three muscle lengths, or three pressures (static equilibrium), to the pose.
 
@@ -191,6 +200,8 @@ def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
         arc = arc_from_lengths(ls, tool.geometry.pitch_radius, tool.geometry.n_gaps)
         return pressures_for_tip(tip_position(arc), tool)  # the pressures holding them, as `inverse` finds them
     ps = _three(pressures, "pressure", "--pressures")
+    if np.any(ps > tool.p_max):
+        raise InputError(f"--pressures: {pressures!r} is above p_max ({tool.p_max / 1e6:g} MPa, --p-max)")
     state = tip_from_pressures(ps, tool)
     if not bool(state.converged):
         raise InputError(f"--pressures: the static equilibrium did not converge for {pressures!r}")
@@ -215,6 +226,7 @@ def inverse(tip, tool: Tool | None = None):
 
     tool = make_tool() if tool is None else tool
     p = _three(tip, "length", "--tip", allow_negative=True)
+    _within_reach(p, tool, "--tip", "a tip")
     state = pressures_for_tip(p, tool)
     require_reachable_tip(state, tool)
     return state
@@ -288,6 +300,8 @@ def map_workspace(tool: Tool | None = None, grid: int = 15) -> WorkspaceResult:
     from mckibben.tool.workspace import sample_workspace
 
     tool = make_tool() if tool is None else tool
+    if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or not 2 <= grid <= 101:
+        raise InputError(f"--grid: {grid!r} must be a whole number of points per muscle in 2..101")
     return WorkspaceResult(sample_workspace(tool, grid), tool, {"grid": grid})
 
 
@@ -430,12 +444,13 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     check_budget("--path/--periods" if periods is not None else "--path",
                  float(np.sum(period_list)) * spec.cycles / 1e-3, force=force, what="1 ms samples",
                  bytes_per_sample=TRACK_BYTES_PER_SAMPLE, seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)])
-    base = resolve_path(spec, tool)
     b = TRACKING_BETA
     if not reference_only:
         b = TRACKING_BETA if beta is None else float(beta)
-        if not 0 < b <= 255:
+        if not (np.isfinite(b) and 0 < b <= 255):
             raise InputError(f"--beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
+    _within_reach(np.array([spec.size]), tool, "--path", f"a {spec.kind} of")
+    base = resolve_path(spec, tool)
     runs = [(p, tip_reference(tool, p)) for p in (base.with_period(float(t)) for t in period_list)]
     results = None
     if not reference_only:
