@@ -19,18 +19,19 @@
 #include "plant_index.h"
 
 #define NS 7
-#define W 32
+#define INLINE static inline __attribute__((always_inline))
+#define W 64
 static const double P_ATM = 101325.0, R_AIR = 287.05, T0 = 293.15, RHO0 = 1.185, LAMINAR = 0.999;
 
 static double prm[NP_TOTAL], th[NTH_TOTAL], s0[NS];
 
-static inline double phi_of(double r, double b, double i1mb, double plam) {
+INLINE double phi_of(double r, double b, double i1mb, double plam) {
     double s = (r - b) * i1mb;
     double phi = r < LAMINAR ? sqrt(1.0 - s * s) : plam * (1.0 - r);
     return r <= b ? 1.0 : phi;
 }
 
-static inline double valve_target(double pwm) {
+INLINE double valve_target(double pwm) {
     double cur = pwm / 255.0 * prm[I_DRIVER_GAIN];
     cur = cur > 1.0 ? 1.0 : cur;
     double db = prm[I_DEAD_BAND];
@@ -38,8 +39,8 @@ static inline double valve_target(double pwm) {
 }
 
 /* derivatives of one lane: x = (p, T, xin, xbl, l, v, z); the same formulas as physics.rhs */
-static inline void deriv(const double *restrict x, double xin_t, double xbl_t, double *restrict d) {
-    double p = x[0], t = x[1], xin = x[2], xbl = x[3], len = x[4], v = x[5], z = x[6];
+INLINE void deriv(const double *restrict x, long sx, double xin_t, double xbl_t, double *restrict d, long sd) {
+    double p = x[0], t = x[sx], xin = x[2 * sx], xbl = x[3 * sx], len = x[4 * sx], v = x[5 * sx], z = x[6 * sx];
     double lo = prm[I_L_MIN], hi = prm[I_L_MAX];
     double le = len < lo ? lo : (len > hi ? hi : len);
     double pg = p - P_ATM;
@@ -85,40 +86,40 @@ static inline void deriv(const double *restrict x, double xin_t, double xbl_t, d
     double kg = prm[I_K_GAS];
     double iv = 1.0 / vol;
     double dp = kg * iv * (R_AIR * enth - p * vdot) + (kg - 1.0) * iv * prm[I_H_AREA] * (ts - t);
-    d[0] = dp;
-    d[1] = t * (dp / p + iv * vdot - iv * R_AIR * t * mdot / p);
+    d[0 * sd] = dp;
+    d[1 * sd] = t * (dp / p + iv * vdot - iv * R_AIR * t * mdot / p);
     double inv_tau = prm[I_INV_VALVE_TAU];
-    d[2] = (xin_t - xin) * inv_tau;
-    d[3] = (xbl_t - xbl) * inv_tau;
+    d[2 * sd] = (xin_t - xin) * inv_tau;
+    d[3 * sd] = (xbl_t - xbl) * inv_tau;
     double st = len - prm[I_NOMINAL_LENGTH];
     double fm = (fl > 0.0 ? fl : 0.0) + prm[I_PASSIVE_STIFFNESS] * (st > 0.0 ? st : 0.0);
     double f_ext = prm[I_LOAD_FORCE] - prm[I_SPRING_RATE] * (len - prm[I_SPRING_FREE_LENGTH]);
     double acc = (f_ext - fm - z - prm[I_DAMPING] * v) * prm[I_INV_MASS];
-    d[4] = mob * v;
-    d[5] = mob * acc;
-    d[6] = 0.0;
+    d[4 * sd] = mob * v;
+    d[5 * sd] = mob * acc;
+    d[6 * sd] = 0.0;
 }
 
 /* end stops and the Dahl element after a step (physics.rk4_step) */
-static inline void after_step(double *restrict x, double l_old, double dt) {
-    double len = x[4], v = x[5], lo = prm[I_L_MIN], hi = prm[I_L_MAX];
+INLINE void after_step(double *restrict x, long sx, double l_old, double dt) {
+    double len = x[4 * sx], v = x[5 * sx], lo = prm[I_L_MIN], hi = prm[I_L_MAX];
     int over = len > hi, under = len < lo;
     len = over ? hi : (under ? lo : len);
     v = over ? (v < 0.0 ? v : 0.0) : v;
     v = under ? (v > 0.0 ? v : 0.0) : v;
-    x[4] = len;
-    x[5] = v;
+    x[4 * sx] = len;
+    x[5 * sx] = v;
     double vbar = (len - l_old) / dt;
     double pg = x[0] - P_ATM;
     double fc = prm[I_FRICTION_FORCE] + prm[I_FRICTION_PER_PA] * (pg > 0.0 ? pg : 0.0);
     double sv = prm[I_FRICTION_STIFFNESS] * dt;
     double den = fc + sv * fabs(vbar);
-    double z = den > 0.0 ? fc * (x[6] + sv * vbar) / den : 0.0;
-    x[6] = z * prm[I_MOBILE];
+    double z = den > 0.0 ? fc * (x[6 * sx] + sv * vbar) / den : 0.0;
+    x[6 * sx] = z * prm[I_MOBILE];
 }
 
 /* the PI law of bench_plant.py on the ADC reading (mckibben.hardware: nearest count, halves up) */
-static inline void pi_law(double pg, double *integ, double ts, double *xin_t, double *xbl_t) {
+INLINE void pi_law(double pg, double *integ, double ts, double *xin_t, double *xbl_t) {
     double a = floor(pg / prm[I_PA_PER_COUNT] + prm[I_ADC_ZERO] + 0.5);
     a = a < 0.0 ? 0.0 : (a > 1023.0 ? 1023.0 : a);
     double meas = (a - prm[I_ADC_ZERO]) * prm[I_PA_PER_COUNT];
@@ -139,16 +140,16 @@ static void run_scalar(long n, long steps, long sub, double ts, double *finalp) 
         for (long k = 0; k < steps; k++) {
             pi_law(x[0] - P_ATM, &integ, ts, &xin_t, &xbl_t);
             for (long q = 0; q < sub; q++) {
-                deriv(x, xin_t, xbl_t, k1);
+                deriv(x, 1, xin_t, xbl_t, k1, 1);
                 for (int j = 0; j < NS; j++) tmp[j] = x[j] + 0.5 * dt * k1[j];
-                deriv(tmp, xin_t, xbl_t, k2);
+                deriv(tmp, 1, xin_t, xbl_t, k2, 1);
                 for (int j = 0; j < NS; j++) tmp[j] = x[j] + 0.5 * dt * k2[j];
-                deriv(tmp, xin_t, xbl_t, k3);
+                deriv(tmp, 1, xin_t, xbl_t, k3, 1);
                 for (int j = 0; j < NS; j++) tmp[j] = x[j] + dt * k3[j];
-                deriv(tmp, xin_t, xbl_t, k4);
+                deriv(tmp, 1, xin_t, xbl_t, k4, 1);
                 double l_old = x[4];
                 for (int j = 0; j < NS; j++) x[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
-                after_step(x, l_old, dt);
+                after_step(x, 1, l_old, dt);
             }
         }
         finalp[i] = x[0] - P_ATM;
@@ -167,12 +168,7 @@ static void run_block(long nl, long steps, long sub, double ts, double *finalp) 
         for (long j = 0; j < nl; j++) pi_law(s[0][j] - P_ATM, &integ[j], ts, &xin_t[j], &xbl_t[j]);
         for (long q = 0; q < sub; q++) {
 #define STAGE(SRC, DST)                                                                  \
-    _Pragma("omp simd") for (long j = 0; j < nl; j++) {                                  \
-        double xx[NS], dd[NS];                                                           \
-        for (int r = 0; r < NS; r++) xx[r] = SRC[r][j];                                  \
-        deriv(xx, xin_t[j], xbl_t[j], dd);                                               \
-        for (int r = 0; r < NS; r++) DST[r][j] = dd[r];                                  \
-    }
+    _Pragma("omp simd") for (long j = 0; j < nl; j++) deriv(&SRC[0][j], W, xin_t[j], xbl_t[j], &DST[0][j], W);
             STAGE(s, k1)
             for (int r = 0; r < NS; r++)
                 for (long j = 0; j < nl; j++) tmp[r][j] = s[r][j] + 0.5 * dt * k1[r][j];
@@ -188,12 +184,7 @@ static void run_block(long nl, long steps, long sub, double ts, double *finalp) 
                 for (long j = 0; j < nl; j++)
                     s[r][j] += dt / 6.0 * (k1[r][j] + 2.0 * k2[r][j] + 2.0 * k3[r][j] + k4[r][j]);
 #pragma omp simd
-            for (long j = 0; j < nl; j++) {
-                double xx[NS];
-                for (int r = 0; r < NS; r++) xx[r] = s[r][j];
-                after_step(xx, lold[j], dt);
-                for (int r = 0; r < NS; r++) s[r][j] = xx[r];
-            }
+            for (long j = 0; j < nl; j++) after_step(&s[0][j], W, lold[j], dt);
         }
     }
     for (long j = 0; j < nl; j++) finalp[j] = s[0][j] - P_ATM;
