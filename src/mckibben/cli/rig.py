@@ -199,6 +199,9 @@ def emulate_cmd(
     link: str = typer.Option(None, "--link", help="Also make a symbolic link to the port at this path."),
     channels: int = typer.Option(3, "--channels", help="Pressure channels of the emulated device (1..3)."),
     boot_time: str = typer.Option("0.3s", "--boot-time", help="Bootloader time after each reset (a Mega: 1-2 s)."),
+    tool_path: str = typer.Option(None, "--tool-path", help="Emulate the default tool's three muscles, each hanging "
+                                                           "its mean tension on this tip path (as tool track "
+                                                           "--port steers it), e.g. circle:radius=10mm,period=1s."),
     json: bool = JSON_OPTION,
 ) -> None:
     """A virtual device on a pseudo-terminal: the firmware core on N plants, in real time; it resets when opened."""
@@ -212,7 +215,20 @@ def emulate_cmd(
     boot = parse_quantity(boot_time, "time", "--boot-time")
     if boot > 10:
         raise InputError(f"--boot-time: {boot_time!r} is longer than 10 s")
-    em = Emulator(n_channels=channels, boot_time=boot)
+    plants = None
+    if tool_path is not None:
+        from mckibben.cli import tool as T
+        from mckibben.plant import PlantParams
+        from mckibben.tool.paths import parse_path
+        from mckibben.tool.tracking import resolve_path, tip_reference
+
+        if channels != 3:
+            raise InputError("--tool-path: the tool has three muscles; leave --channels at 3")
+        tool = T.build_tool(*(o.default for o in (T.MUSCLE_OPTION, T.PITCH_OPTION, T.DISCS_OPTION, T.PRELOAD_OPTION,
+                                                  T.KB_OPTION, T.KA_OPTION, T.PMAX_OPTION)))  # tool track's defaults
+        ref = tip_reference(tool, resolve_path(parse_path(tool_path), tool))
+        plants = [PlantParams.for_muscle(tool.muscle, load_force=float(f)) for f in ref.state.tensions.mean(axis=0)]
+    em = Emulator(plant=plants, n_channels=channels, boot_time=boot)
     if link:
         try:
             if os.path.islink(link):

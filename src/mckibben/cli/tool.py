@@ -6,7 +6,7 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, console, emit_json, print_table
+from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.cli._output import check_outputs, plot_option, progress_bar, write_plot
 from mckibben.errors import InputError
 
@@ -159,13 +159,25 @@ def track_cmd(
     bending_stiffness: str = KB_OPTION,
     axial_stiffness: str = KA_OPTION,
     p_max: str = PMAX_OPTION,
+    port: str = typer.Option(None, "--port", help="Steer the three muscles of a device (or rig emulate) over this "
+                                                  "serial port, and compare with the simulation of the same path."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """Follow a tip path: IK + static inverse → pressure references → three controlled muscles (plant)."""
+    """Follow a tip path: IK + static inverse → pressure references → three controlled muscles (plant or device)."""
     from mckibben.tool import track
 
+    if port is not None and (periods or reference_only):
+        raise InputError("--port: runs one path on the device; it takes neither --periods nor --reference-only")
     check_outputs(plot, dpi, out)
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
+    link_out = None
+    if port is not None:
+        from mckibben.rig.track import track_over_link
+        from mckibben.tool.paths import parse_path
+        from mckibben.tool.tracking import resolve_path, tip_reference
+
+        p0 = resolve_path(parse_path(path), tool)
+        link_res, link_info = track_over_link(port, tool, p0, tip_reference(tool, p0), beta=beta)
     with progress_bar("periods", json) as bar:
         task = bar.add_task("periods", total=None)
         res = track(path, periods=periods, tool=tool, beta=beta, reference_only=reference_only, force=force,
@@ -176,9 +188,24 @@ def track_cmd(
     if out:
         res.to_file(out)
     base, out_runs = res.path, res.per_run
+    if port is not None:
+        link_out = {"port": port, **link_res.summary(), **link_info,
+                    "rms_error_ratio_to_simulation": link_res.summary()["rms_error_m"] / out_runs[0]["rms_error_m"]}
+        if link_res.faults:
+            from mckibben.rig.protocol import fault_names
+
+            err_console.print(f"warning: the device reported faults: {', '.join(fault_names(link_res.faults))} "
+                              f"(flags {link_res.faults})", markup=False, highlight=False)
     if json:
-        emit_json({**res.to_dict(), "plot": plot if simulated else None})
+        emit_json({**res.to_dict(), "plot": plot if simulated else None,
+                   **({"link": link_out} if link_out is not None else {})})
         return
+    if link_out is not None:
+        print_table(f"through the link on {port}", ["", "RMS error mm", "max error mm", "frames", "missing"],
+                    [["device", f"{link_out['rms_error_m'] * 1e3:.3f}", f"{link_out['max_error_m'] * 1e3:.3f}",
+                      str(link_out["frames"]), str(link_out["missing"])],
+                     ["simulation", f"{out_runs[0]['rms_error_m'] * 1e3:.3f}",
+                      f"{out_runs[0]['max_error_m'] * 1e3:.3f}", "", ""]])
     rows = []
     for e in out_runs:
         rows.append([f"{e['period_s']:.3g}", f"{e['mean_speed_m_per_s'] * 1e3:.2f}",

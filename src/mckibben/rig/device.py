@@ -18,7 +18,7 @@ from mckibben.hardware import P_MAX_DEFAULT, pressure_from_adc
 from mckibben.results import Result
 from mckibben.rig import protocol as P
 
-__all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "GainsResult", "RigStepResult", "connect", "open_port"]
+__all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "GainsResult", "RigStepResult", "connect", "open_port", "write_gains"]
 
 #: Baud rate of the serial link (``docs/protocol.md``; :data:`mckibben.hardware.BAUD`).
 BAUD = _HW_BAUD
@@ -365,43 +365,68 @@ class Device:
         InputError
             A bad design, a channel the device does not have, or a refused command.
         """
-        from mckibben.control.core import GAINS, CoreParams, gain_values, load_design
+        from mckibben.control.core import CoreParams, load_design
 
         params = design if isinstance(design, CoreParams) else load_design(design)
-        values = gain_values(params)
         link, hello, parser = connect(self.port)
         try:
-            chans = list(range(hello.n_channels)) if channels is None else [int(c) for c in channels]
-            bad = [c for c in chans if not 0 <= c < hello.n_channels]
-            if bad:
-                raise InputError(f"--channel: {bad[0]} is not a channel of the device (0..{hello.n_channels - 1})")
-            seq = 0
-            packets = []
-            for c in chans:
-                for g in GAINS:
-                    packets.append((seq, P.set_gain(seq, g.id, int(values[g.id]), c)))
-                    seq += 1
-                packets.append((seq, P.set_max_pressure(seq, params.p_max, c)))
-                seq += 1
-            acks = command(link, parser, packets)
-            refused = [a for a in acks if a.status != 0]
-            if refused:
-                raise InputError(f"the device refused command type 0x{refused[0].cmd_type:02x} "
-                                 f"(status {refused[0].status})")
-            reads = []
-            for c in chans:
-                for g in GAINS:
-                    reads.append((seq, P.get_gain(seq, g.id, c)))
-                    seq += 1
-            acks = command(link, parser, reads)
+            return write_gains(link, parser, hello, params, channels, self.port)
         finally:
             link.close()
-        read_back: dict = {}
-        k = 0
-        for c in chans:
-            read_back[c] = {}
-            for g in GAINS:
-                read_back[c][g.name] = int(acks[k].value)
-                k += 1
-        return GainsResult({g.name: int(values[g.id]) for g in GAINS}, read_back,
-                           {"port": self.port, "channels": chans, "p_max_Pa": float(params.p_max)})
+
+
+def write_gains(link, parser: P.Parser, hello: P.Hello, params, channels=None, port: str = "",
+                first_seq: int = 0) -> GainsResult:
+    """:meth:`Device.set_gains` on a link already open (after :func:`connect`).
+
+    Parameters
+    ----------
+    link : serial.Serial
+        The open link. [-]
+    parser : Parser
+        Its parser. [-]
+    hello : Hello
+        The device's HELLO. [-]
+    params : CoreParams
+        The design. [-]
+    channels : sequence of int, optional
+        Channels to write; default all. [-]
+    port : str, optional
+        For the result. [-]
+    first_seq : int, default 0
+        Sequence number of the first command. [-]
+    """
+    from mckibben.control.core import GAINS, gain_values
+
+    values = gain_values(params)
+    chans = list(range(hello.n_channels)) if channels is None else [int(c) for c in channels]
+    bad = [c for c in chans if not 0 <= c < hello.n_channels]
+    if bad:
+        raise InputError(f"--channel: {bad[0]} is not a channel of the device (0..{hello.n_channels - 1})")
+    seq = first_seq
+    packets = []
+    for c in chans:
+        for g in GAINS:
+            packets.append((seq, P.set_gain(seq, g.id, int(values[g.id]), c)))
+            seq += 1
+        packets.append((seq, P.set_max_pressure(seq, params.p_max, c)))
+        seq += 1
+    acks = command(link, parser, packets)
+    refused = [a for a in acks if a.status != 0]
+    if refused:
+        raise InputError(f"the device refused command type 0x{refused[0].cmd_type:02x} (status {refused[0].status})")
+    reads = []
+    for c in chans:
+        for g in GAINS:
+            reads.append((seq, P.get_gain(seq, g.id, c)))
+            seq += 1
+    acks = command(link, parser, reads)
+    read_back: dict = {}
+    k = 0
+    for c in chans:
+        read_back[c] = {}
+        for g in GAINS:
+            read_back[c][g.name] = int(acks[k].value)
+            k += 1
+    return GainsResult({g.name: int(values[g.id]) for g in GAINS}, read_back,
+                       {"port": port, "channels": chans, "p_max_Pa": float(params.p_max)})

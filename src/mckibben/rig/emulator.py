@@ -251,13 +251,20 @@ class Emulator:
                         self._send(P.encode_hello(self._next_seq(), self.n, int(round(self.ts * 1e6)), self.baud,
                                                   self._n_gains()))
                         self._hello_sent = True
-                    for frame in self.rx.feed(data):  # the bootloader swallows what came before
-                        self._handle(frame)
+                frames = [] if booting else self.rx.feed(data)  # the bootloader swallows what came before
                 due = int(now / self.ts) - self.steps
                 per_period = self.baud / 10.0 * self.ts  # bytes the line carries in one period
+                # The commands read at this wake arrived over the periods since the last one: apply
+                # them spread over those periods, in order, as the firmware would have met them.
+                for frame in frames[:len(frames) - max(due, 0) * len(frames) // max(due, 1)] if due > 0 else frames:
+                    self._handle(frame)
+                pending = frames[len(frames) - max(due, 0) * len(frames) // max(due, 1):] if due > 0 else []
                 if present and self._queue and due <= 0:
                     self._drain(int(per_period))
-                for _ in range(max(due, 0)):
+                for i in range(max(due, 0)):
+                    upto = (i + 1) * len(pending) // due
+                    for frame in pending[i * len(pending) // due:upto]:
+                        self._handle(frame)
                     if booting:  # the board is in its bootloader: valves shut, no telemetry
                         for pl in self.plants:
                             pl.advance(0, 0)

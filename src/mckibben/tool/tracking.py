@@ -241,6 +241,47 @@ def identify_muscle_plant(plant_params, pwm: int | None = None):
     return identify_plant(plant_params, u1=pwm)[1]
 
 
+def tracking_setup(tool: Tool, ref: TipReference, beta: float = TRACKING_BETA, cache: dict | None = None):
+    """The three muscles' plants, their controllers' parameters and model for one run.
+
+    Each muscle's plant is the tool's muscle (:meth:`PlantParams.for_muscle`) hanging that
+    muscle's mean tension along the path; the controllers' model is identified on the plant with
+    the mean of the three loads (one open-loop step), the same for the three channels, and their
+    supervisor takes it too.
+
+    Parameters
+    ----------
+    tool : Tool
+        The tool.
+    ref : TipReference
+        The run's references.
+    beta : float, default TRACKING_BETA
+        Switching gain. [PWM counts]
+    cache : dict, optional
+        Identified models by loads, reused across calls. [-]
+
+    Returns
+    -------
+    tuple
+        ``(plants, params, model, loads)``: a :class:`PlantParams` of three instances, the
+        :class:`CoreParams` of the three controllers, the :class:`FirstOrderModel`, the loads [N].
+    """
+    from mckibben.control.experiments import smc_core_params
+    from mckibben.plant import PlantParams
+
+    cache = {} if cache is None else cache
+    loads = ref.state.tensions.mean(axis=0)
+    plants = PlantParams.for_muscle(tool.muscle, load_force=loads)
+    key = tuple(np.round(loads, 12))
+    if key not in cache:
+        one = PlantParams.for_muscle(tool.muscle, load_force=float(loads.mean()))
+        cache[key] = identify_muscle_plant(one)
+    model = cache[key]
+    params = smc_core_params(model, beta, **TRACKING_SMC)
+    params = type(params)(**{**params.__dict__, "p_max": tool.p_max})
+    return plants, params, model, loads
+
+
 def simulate_tracking(tool: Tool, runs, *, beta: float = TRACKING_BETA) -> list[TrackingResult]:
     """Follow each run's pressure references with three plant instances and their controllers.
 
@@ -267,21 +308,12 @@ def simulate_tracking(tool: Tool, runs, *, beta: float = TRACKING_BETA) -> list[
         One per run.
     """
     from mckibben.control.core import core_spec
-    from mckibben.control.experiments import smc_core_params
-    from mckibben.plant import PlantParams, simulate
+    from mckibben.plant import simulate
 
     results = []
     models = {}
     for path, ref in runs:
-        loads = ref.state.tensions.mean(axis=0)
-        plants = PlantParams.for_muscle(tool.muscle, load_force=loads)
-        key = tuple(np.round(loads, 12))
-        if key not in models:
-            one = PlantParams.for_muscle(tool.muscle, load_force=float(loads.mean()))
-            models[key] = identify_muscle_plant(one)
-        model = models[key]
-        params = smc_core_params(model, beta, **TRACKING_SMC)
-        params = type(params)(**{**params.__dict__, "p_max": tool.p_max})
+        plants, params, model, loads = tracking_setup(tool, ref, beta, models)
         sim = simulate(plants, ref.time.size * 1e-3, controller=core_spec(params, 3), reference=ref.pressures.T,
                        initial_pressure=ref.pressures[0])
         pressure = sim.pressure.T
