@@ -52,8 +52,23 @@ def telemetry_wire_bytes(n_channels: int) -> int:
 FAULT_NAMES = ("overpressure", "adc_out_of_range", "sensor_stuck", "sample_missing", "vent_commanded")
 
 
+def _crc_table() -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+        table.append(crc)
+    return tuple(table)
+
+
+_CRC_TABLE = _crc_table()
+
+
 def crc16(data: bytes) -> int:
     """CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF); ``crc16(b"123456789") == 0x29B1``.
+
+    Table-driven (one lookup per byte): the host parses 1,000 frames a second.
 
     Parameters
     ----------
@@ -61,10 +76,9 @@ def crc16(data: bytes) -> int:
         The bytes to check. [-]
     """
     crc = 0xFFFF
+    table = _CRC_TABLE
     for byte in data:
-        crc ^= byte << 8
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+        crc = ((crc << 8) & 0xFFFF) ^ table[(crc >> 8) ^ byte]
     return crc
 
 
