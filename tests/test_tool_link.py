@@ -6,14 +6,12 @@ sends late): the assertions bound it loosely and check that the circle was follo
 measured ratio to the simulation is recorded in benchmarks/RESULTS.md.
 """
 
-import json
 import os
 import signal
 import subprocess
 import sys
 import time
 
-import numpy as np
 import pytest
 
 PATH = "circle:radius=10mm,period=1s"
