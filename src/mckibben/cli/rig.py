@@ -218,16 +218,13 @@ def emulate_cmd(
     plants = None
     if tool_path is not None:
         from mckibben.cli import tool as T
-        from mckibben.plant import PlantParams
-        from mckibben.tool.paths import parse_path
-        from mckibben.tool.tracking import resolve_path, tip_reference
+        from mckibben.rig.track import tool_plants
 
         if channels != 3:
             raise InputError("--tool-path: the tool has three muscles; leave --channels at 3")
         tool = T.build_tool(*(o.default for o in (T.MUSCLE_OPTION, T.PITCH_OPTION, T.DISCS_OPTION, T.PRELOAD_OPTION,
                                                   T.KB_OPTION, T.KA_OPTION, T.PMAX_OPTION)))  # tool track's defaults
-        ref = tip_reference(tool, resolve_path(parse_path(tool_path), tool))
-        plants = [PlantParams.for_muscle(tool.muscle, load_force=float(f)) for f in ref.state.tensions.mean(axis=0)]
+        plants = tool_plants(tool, tool_path)
     em = Emulator(plant=plants, n_channels=channels, boot_time=boot)
     if link:
         try:

@@ -173,11 +173,8 @@ def track_cmd(
     link_out = None
     if port is not None:
         from mckibben.rig.track import track_over_link
-        from mckibben.tool.paths import parse_path
-        from mckibben.tool.tracking import resolve_path, tip_reference
 
-        p0 = resolve_path(parse_path(path), tool)
-        link_res, link_info = track_over_link(port, tool, p0, tip_reference(tool, p0), beta=beta)
+        link_res, link_info = track_over_link(port, tool, path, beta=beta)
     with progress_bar("periods", json) as bar:
         task = bar.add_task("periods", total=None)
         res = track(path, periods=periods, tool=tool, beta=beta, reference_only=reference_only, force=force,

@@ -27,7 +27,41 @@ from mckibben.rig.device import command, connect
 SETTLE_S = 0.5
 
 
-def track_over_link(port: str, tool, path, ref, *, beta: float | None = None, models: dict | None = None):
+def _resolve(tool, path, ref=None):
+    from mckibben.tool.paths import parse_path
+    from mckibben.tool.tracking import resolve_path, tip_reference
+
+    if isinstance(path, str):
+        path = parse_path(path)
+    path = resolve_path(path, tool)
+    return path, (tip_reference(tool, path) if ref is None else ref)
+
+
+def tool_plants(tool, path) -> list:
+    """The three plants of the tool's muscles on a path, as the emulator should run them.
+
+    Each is the tool's muscle hanging its mean tension along the path, the plants
+    :func:`mckibben.tool.tracking.simulate_tracking` simulates.
+
+    Parameters
+    ----------
+    tool : Tool
+        The tool. [-]
+    path : TipPath or str
+        The path, or its text (``circle:radius=10mm,period=1s``). [-]
+
+    Returns
+    -------
+    list of PlantParams
+        One plant per channel. [-]
+    """
+    from mckibben.plant import PlantParams
+
+    _, ref = _resolve(tool, path)
+    return [PlantParams.for_muscle(tool.muscle, load_force=float(f)) for f in ref.state.tensions.mean(axis=0)]
+
+
+def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = None, models: dict | None = None):
     """Follow one tip path with the device's three channels.
 
     Parameters
@@ -36,10 +70,10 @@ def track_over_link(port: str, tool, path, ref, *, beta: float | None = None, mo
         Serial port of the device or emulator. [-]
     tool : Tool
         The tool. [-]
-    path : TipPath
-        The path (resolved). [-]
-    ref : TipReference
-        Its references (:func:`mckibben.tool.tracking.tip_reference`). [-]
+    path : TipPath or str
+        The path, or its text. [-]
+    ref : TipReference, optional
+        Its references (default :func:`mckibben.tool.tracking.tip_reference` of the path). [-]
     beta : float, optional
         Switching gain; default :data:`mckibben.tool.tracking.TRACKING_BETA`. [PWM counts]
     models : dict, optional
@@ -56,6 +90,7 @@ def track_over_link(port: str, tool, path, ref, *, beta: float | None = None, mo
     from mckibben.tool.tracking import TRACKING_BETA, TrackingResult, tracking_setup
 
     beta = TRACKING_BETA if beta is None else float(beta)
+    path, ref = _resolve(tool, path, ref)
     _, params, model, loads = tracking_setup(tool, ref, beta, models)
     link, hello, parser = connect(port)
     if hello.n_channels < 3:
