@@ -174,8 +174,11 @@ def test_kill_9_loses_at_most_a_quarter_second_and_the_next_recorder_keeps_nothi
     assert device_time_at_kill - df["time_s"].max() <= 0.25  # at most a quarter second lost
     assert r2.returncode == 0, r2.stderr
     after, _ = read_recording(tmp_path / "after.parquet")
-    assert 500 <= len(after) <= 1100
-    assert after["time_s"].max() <= 1.1 < device_time_at_kill  # device time since this run's reset
+    assert len(after) >= 100
+    # it starts with the first telemetry frame after its own reset (HELLO is seq 0, the STREAM
+    # ACK seq 1): nothing of the killed session's stream, whose seqs ran into the thousands
+    assert after["seq"].iloc[0] <= 5 and after["time_s"].iloc[0] < 0.1
+    assert np.all(np.diff(after["time_s"].to_numpy()) > 0)
 
 
 def test_rig_step_metrics_over_the_link(cli):
