@@ -38,6 +38,20 @@ FORCE_MODELS = {
 #: Chamber thermodynamics, by name.
 THERMAL = ("energy", "polytropic")
 
+# --- the rig of a muscle file's own force law (PlantParams.from_muscle_file; docs/plant.md) ---------
+#: Rest braid angle assumed when neither the file nor its fitted law gives one: the project's
+#: construction angle (the default ``alpha0``). It only shapes the chamber volume's change with
+#: length and the end stops; the fitted law itself does not use it. [rad]
+FILE_BRAID_ANGLE = float(np.deg2rad(20.0))
+#: Lumen over outer diameter when the file gives no tube: a 10 mm bore in a 12 mm sleeve, the
+#: commercial 10 mm class. Only the chamber volume depends on it. [-]
+FILE_LUMEN_FRACTION = 10.0 / 12.0
+#: Tubing between the valves and a commercial muscle: 0.5 m of 4 mm bore (the 6 mm tube a 1/8"
+#: valve port takes). [m], [m]
+FILE_TUBE_BORE, FILE_TUBE_LENGTH = 4.0e-3, 0.5
+#: Moving mass of a commercial rig: rod end, clevis and load-cell fixture. [kg]
+FILE_MOVING_MASS = 0.1
+
 
 class Load(enum.IntEnum):
     """Load kinds (the ``load_kind`` column)."""
@@ -287,6 +301,105 @@ class PlantParams:
         base.update(kwargs)
         return cls(**base)
 
+    @classmethod
+    def from_muscle_file(cls, muscle, direction: str = "inflate", **kwargs) -> "PlantParams":
+        """Plant with a muscle file's own fitted force law, on a rig sized for that muscle.
+
+        The force law is the file's ``[force_model]`` (written by ``mckibben fit … --save``),
+        run through the law registry (:meth:`mckibben.fit.muscle_file.MuscleForceLaw.static_model`,
+        :func:`mckibben.models.laws.law_of`); the surface model has no physical law and is refused.
+        The rig around it is sized from the file's geometry (``docs/plant.md``, "A muscle file's
+        plant", gives each choice and its reason):
+
+        - braid: an ideal braid (eq. 2 with k1 = 1, k2 = 0) of strand length ``strand_length_mm``,
+          else L0/cos θ0 with the fitted θ0 (Chou–Hannaford, Tondu–Lopez), the file's
+          ``braid_angle_deg`` or :data:`FILE_BRAID_ANGLE`: it sets the chamber volume's change
+          with length and the end stops;
+        - lumen: ``tube_inner_diameter_mm``, else the outer diameter less the fitted wall (wall-
+          corrected fit), else :data:`FILE_LUMEN_FRACTION` of the outer diameter;
+        - tubing: :data:`FILE_TUBE_LENGTH` of :data:`FILE_TUBE_BORE` bore;
+        - valves and leak: the calibrated rig's sonic conductances scaled by the ratio of the
+          chamber volumes at rest, so the fill keeps the calibrated rig's time constant
+          (≈ 0.09 s) that the controllers' gains were chosen for;
+        - passive stiffness and friction 0: the fitted law is the whole measured force, the tube's
+          elasticity included, and one branch of it (the spring model's inflate or deflate);
+        - moving mass :data:`FILE_MOVING_MASS`; damping critical for that mass on the law's
+          steepest stiffness at the supply pressure;
+        - supply: the top of the fitted pressure range (the law is not known above it), ≤ 1 MPa.
+
+        Parameters
+        ----------
+        muscle : str, pathlib.Path or MuscleSpec
+            A muscle file with a ``[force_model]`` table, or the spec read from one. [-]
+        direction : {"inflate", "deflate"}, default "inflate"
+            The spring model's branch (its hysteresis); the other laws have one. [-]
+        **kwargs
+            Any other :class:`PlantParams` field, applied last (e.g. ``load_force``,
+            ``valve_conductance`` of the lab's own valve). [SI]
+
+        Returns
+        -------
+        PlantParams
+            Checked: the integrator can run its law over the operating range.
+
+        Raises
+        ------
+        InputError
+            One line naming the file and what is wrong: no ``[force_model]``, a missing geometry
+            key, a law the plant cannot run (the surface model; a law that pulls less when
+            stretched inside the operating range).
+        """
+        from mckibben.data.io import MuscleSpec, read_muscle
+        from mckibben.fit.muscle_file import muscle_force_law
+        from mckibben.models.physical import BraidGeometry, TonduLopez
+
+        if direction not in ("inflate", "deflate"):
+            raise InputError(f"direction: {direction!r} must be inflate or deflate")
+        spec = muscle if isinstance(muscle, MuscleSpec) else read_muscle(muscle)
+        where = spec.path or spec.id
+        fl = muscle_force_law(spec)
+        obj = fl.static_model(direction)
+        l0 = float(spec.nominal_length)
+        od = spec.need("outer_diameter", "the plant's chamber volume")
+        # the braid that moves the chamber: the law's own when it has one
+        if isinstance(obj, BraidGeometry):
+            b = obj.strand_length
+        elif spec.strand_length is not None:
+            b = float(spec.strand_length)
+        else:
+            th0 = obj.initial_angle if isinstance(obj, TonduLopez) else spec.braid_angle
+            b = l0 / np.cos(FILE_BRAID_ANGLE if th0 is None else float(th0))
+        wall = float(obj.wall_thickness) if isinstance(obj, BraidGeometry) else 0.0
+        if spec.tube_inner_diameter is not None:
+            inner = float(spec.tube_inner_diameter)
+        elif wall > 0:
+            inner = od - 2.0 * wall
+        else:
+            inner = FILE_LUMEN_FRACTION * od
+        dead = 0.25 * np.pi * FILE_TUBE_BORE**2 * FILE_TUBE_LENGTH
+        base = cls()
+        v_ref = base.dead_volume + 0.25 * np.pi * base.inner_diameter**2 * base.nominal_length
+        scale = (dead + 0.25 * np.pi * inner**2 * l0) / v_ref
+        supply = min(fl.valid_range.get("pressure", (0.0, base.supply_pressure))[1], HW.P_MAX_LIMIT)
+        fields = dict(
+            nominal_length=l0, strand_length=float(b), k1=1.0, k2=0.0, outer_diameter=od, inner_diameter=inner,
+            wall_thickness=0.5 * (od - inner), r0=float(obj.initial_radius) if isinstance(obj, TonduLopez) else 0.0,
+            alpha0=float(np.arccos(min(l0 / b, 1.0))) or base.alpha0, k_tl=1.0, p_threshold=0.0,
+            dead_volume=dead, tube_diameter=FILE_TUBE_BORE, valve_conductance=base.valve_conductance * scale,
+            bleed_conductance=base.bleed_conductance * scale, leak_conductance=base.leak_conductance * scale,
+            passive_stiffness=0.0, friction_force=0.0, friction_per_pa=0.0, moving_mass=FILE_MOVING_MASS,
+            supply_pressure=supply if supply > 0 else base.supply_pressure, spring_free_length=l0,
+            load_force=0.0, force_model=obj, muscle_name="", muscle=None,
+        )
+        fields["damping"] = _critical_damping(obj, fields, direction)
+        plant = cls(**fields)
+        plant = plant.replace(**kwargs) if kwargs else plant
+        try:
+            plant.prepare()
+        except InputError as exc:
+            raise InputError(f"{where} (fitted {fl.model} force law): {exc}") from None
+        return plant
+
     def replace(self, **kwargs) -> "PlantParams":
         """A copy with some fields changed (named loads accepted).
 
@@ -329,7 +442,7 @@ class PlantParams:
             if value.ndim > 1:
                 raise InputError(f"plant parameter {name}: scalar or 1-D array, got shape {value.shape}")
             out[:, j] = np.broadcast_to(value.ravel() if value.ndim else value, (n,))
-        validate(out)
+        validate(out, law_fields=isinstance(self.force_model, str))
         derive(out, self.thermal)
         return out
 
@@ -433,13 +546,16 @@ def derive(p: np.ndarray, thermal: str = "energy") -> None:
     p[:, c.g_supply] = np.sqrt(T0 / p[:, c.temperature])
 
 
-def validate(p: np.ndarray) -> None:
+def validate(p: np.ndarray, law_fields: bool = True) -> None:
     """Refuse physically wrong parameter rows with one line naming the parameter and instance.
 
     Parameters
     ----------
     p : numpy.ndarray
         Packed ``(N, NP)`` parameters.
+    law_fields : bool, default True
+        Check the fields only the named force laws read (the Tondu–Lopez radius ``r0``); False
+        when the law is a model object (:meth:`PlantParams.from_muscle_file`), which carries its own. [-]
     """
     if p.ndim != 2 or p.shape[1] < len(_FIELDS):
         raise InputError(f"packed plant parameters: shape {p.shape}, want (N, {NP})")
@@ -468,8 +584,10 @@ def validate(p: np.ndarray) -> None:
     check((col["polytropic_n"] >= 1) & (col["polytropic_n"] <= 1.4), "polytropic_n", "must be in [1, 1.4]")
     check(col["temperature"] > 0, "temperature", "must be > 0 K")
     for name in ("nominal_length", "strand_length", "outer_diameter", "inner_diameter", "k1", "moving_mass",
-                 "pa_per_count", "encoder_resolution", "friction_stiffness", "r0", "tube_diameter"):
+                 "pa_per_count", "encoder_resolution", "friction_stiffness", "tube_diameter"):
         check(col[name] > 0, name, "must be > 0")
+    if law_fields:
+        check(col["r0"] > 0, "r0", "must be > 0")
     check(col["nominal_length"] < col["strand_length"] * col["k1"] + col["k2"], "nominal_length",
           "must be shorter than the straightened braid k1·Ls + k2")
     check(col["nominal_length"] > col["strand_length"] * col["k1"] / np.sqrt(3.0) + col["k2"], "nominal_length",
@@ -533,6 +651,22 @@ def _range_text(p, length, mask) -> str:
     rows, cols = np.nonzero(mask)
     return (f"{p[rows.min()] / 1e6:.3g}..{p[rows.max()] / 1e6:.3g} MPa, "
             f"{length[cols.min()] * 1e3:.1f}..{length[cols.max()] * 1e3:.1f} mm")
+
+
+def _critical_damping(model, fields: dict, direction: str) -> float:
+    """Damping [N·s/m] critical for the moving mass on a law's steepest stiffness at the supply.
+
+    The stiffness is the largest rise of the law's force per metre over the lengths between the
+    ideal braid's end stops (k1 = 1, k2 = 0) at the supply pressure.
+    """
+    from mckibben.models.spring import CONTRACTION, ELONGATION
+
+    name, th = LW.law_of(model, direction=CONTRACTION if direction == "deflate" else ELONGATION)
+    b = fields["strand_length"]
+    ell = np.linspace(b / np.sqrt(3.0), b, 201)
+    f = np.nan_to_num(LW.evaluate(name, fields["supply_pressure"], ell, th))
+    k = float(np.max(np.diff(np.maximum(f, 0.0)) / np.diff(ell), initial=0.0))
+    return 2.0 * np.sqrt(max(k, 0.0) * fields["moving_mass"])
 
 
 def field_names() -> list[str]:
