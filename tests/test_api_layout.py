@@ -27,7 +27,6 @@ EXPERIMENT_CALLS = {"run_closed_loop", "simulate", "core_spec", "step_reference"
 
 #: Commands whose experiment still lives in the CLI, with where it is going. Empty is the goal.
 PENDING = {
-    "identify.py": "step-response identification of logs: a library call beside fit's registry (#15)",
     "fit.py": "the fit registry moves into mckibben.fit (#15)",
 }
 

@@ -24,7 +24,7 @@ def identify_cmd(
 ) -> None:
     """Identify gain, time constant and dead time (with standard errors) from an open-loop step, one fit per
     trial and pooled across trials; from steps to several commands, the valve's lift-off u0 too."""
-    from mckibben.control.identify import read_step_log
+    from mckibben.control.identify import identify_logs
     from mckibben.units import parse_quantity
 
     orders = {"1": (1,), "2": (2,), "both": (1, 2), "fill": ("fill",), "all": (1, 2, "fill")}.get(order)
@@ -36,34 +36,13 @@ def identify_cmd(
         from mckibben.plotting import check_figure_path
 
         check_figure_path(plot)
-    results = []
-    for log in logs:
-        data, meta = read_step_log(log)
-        if len(logs) > 1 and "command_pwm" not in data:
-            raise InputError(f"{meta['path']}: the lift-off needs the valve command (inlet_pwm/bleed_pwm or "
-                             "command_pwm) in every log")
-        if ts is not None and not float(data["time_s"][0]) < ts < float(data["time_s"][-1]):
-            raise InputError(f"--t-step: {t_step!r} is outside the time of {meta['path']} "
-                             f"({data['time_s'][0]:g}..{data['time_s'][-1]:g} s)")
-        try:
-            per_trial = identify_log(data, orders, ts, p_supply)
-        except RuntimeError as exc:  # the data give the fit nothing to converge on: the file's problem
-            raise InputError(f"{meta['path']}: {exc}") from None
-        results.append((log, data, meta, per_trial))
-    lift = None
-    if len(results) > 1:
-        from mckibben.control.identify import fit_lift_off
-
-        if any(len(r[3]) > 1 for r in results):
-            raise InputError("identify: the lift-off from several logs needs one trial per log")
-        firsts = [next(iter(r[3].values()))[1][0] for r in results]
-        if any(f.order == "fill" for f in firsts):
-            raise InputError("identify: the lift-off needs order 1 or 2 fits (--order 1, 2 or both)")
-        lift = fit_lift_off(firsts, [_held_command(r[1], f.t_step) for r, f in zip(results, firsts)])
+    res = identify_logs(logs, orders, ts, p_supply)
+    results = [(log, r.data, r.meta, r.trials) for log, r in zip(logs, res.logs)]
+    lift = res.lift_off
     if plot is not None:
         trial_data, fits = next(iter(results[0][3].values()))
         _plot(plot, trial_data, fits)
-    outs = [_log_result(data, meta, per_trial) for _, data, meta, per_trial in results]
+    outs = [r.to_dict() for r in res.logs]
     flagged = [f"{o['log']}" + (f" trial {t['trial']}" if len(o.get("trials", [])) > 1 else "")
                + f" order {m['order']} ({', '.join(m['flags'])})"
                for o in outs for t in (o.get("trials") or [o]) for m in t["models"] if m["flags"]]
@@ -98,82 +77,12 @@ def identify_cmd(
                      ["u0 counts", lift["lift_off_counts"], lift["lift_off_counts_stderr"]]])
 
 
-def identify_log(data: dict, orders, t_step=None, p_supply=None) -> dict:
-    """Fit every requested model to every trial of one log.
-
-    Parameters
-    ----------
-    data : dict
-        From :func:`~mckibben.control.identify.read_step_log`.
-    orders : sequence
-        1, 2 and/or ``"fill"``. [-]
-    t_step : float, optional
-        Time of the step (default: the first command change of each trial). [s]
-    p_supply : float, optional
-        Supply pressure: bound of the final pressure, the fill model's supply. [Pa]
-
-    Returns
-    -------
-    dict
-        trial -> (the trial's data, list of fits).
-    """
-    from mckibben.control.identify import fit_fill, fit_step_response, split_trials
-
-    out = {}
-    for tr, d in split_trials(data).items():
-        u = d.get("command_pwm", d.get("command"))
-        fits = []
-        for o in orders:
-            if o == "fill":
-                fits.append(fit_fill(d["time_s"], d["pressure_Pa"], u, t_step=t_step, p_supply=p_supply))
-            else:
-                fits.append(fit_step_response(d["time_s"], d["pressure_Pa"], u, order=o, t_step=t_step, p_max=p_supply))
-        out[tr] = (d, fits)
-    return out
-
-
 def _input_label(data: dict) -> str:
     if "command_pwm" in data:
         return "input in PWM counts"
     if "command" in data:
         return "input as a fraction of full scale"
     return "no input column: unit step"
-
-
-def _held_command(data: dict, t_step: float) -> float:
-    """The command held after the step: the median from the step on. [PWM counts]"""
-    import numpy as np
-
-    after = data["time_s"] >= t_step
-    return float(np.median(data["command_pwm"][after]))
-
-
-def _trial_result(data: dict, fits) -> dict:
-    input_unit = "count" if "command_pwm" in data else "command" if "command" in data else "step"
-    out = {"models": [f.to_dict("Pa", input_unit) for f in fits]}
-    best = min(fits, key=lambda f: f.aic)
-    out["best_order"] = best.order
-    out["dead_time_s"] = best.dead_time
-    if best.order != "fill":
-        out[f"gain_Pa_per_{input_unit}"] = best.gain
-        out["time_constant_s"] = best.tau
-    return out
-
-
-def _log_result(data: dict, meta: dict, per_trial: dict) -> dict:
-    from mckibben.control.identify import pooled_step_parameters
-
-    out = {"log": meta["path"], "columns": meta["columns"], "notes": meta.get("notes", [])}
-    if len(per_trial) == 1:
-        (d, fits), = per_trial.values()
-        out.update(_trial_result(d, fits))
-        return out
-    out["n_trials"] = len(per_trial)
-    out["trials"] = [{"trial": tr, **_trial_result(d, fits)} for tr, (d, fits) in per_trial.items()]
-    n_models = len(next(iter(per_trial.values()))[1])
-    out["pooled"] = {str(fits_k[0].order): pooled_step_parameters(fits_k)
-                     for fits_k in ([per_trial[tr][1][k] for tr in per_trial] for k in range(n_models))}
-    return out
 
 
 def _plot(path: str, data: dict, fits) -> None:
