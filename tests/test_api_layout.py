@@ -26,9 +26,7 @@ EXPERIMENT_CALLS = {"run_closed_loop", "simulate", "core_spec", "step_reference"
                     "characterize", "write_report"}
 
 #: Commands whose experiment still lives in the CLI, with where it is going. Empty is the goal.
-PENDING = {
-    "fit.py": "the fit registry moves into mckibben.fit (#15)",
-}
+PENDING: dict = {}
 
 
 def _imports(path: pathlib.Path):

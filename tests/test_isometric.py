@@ -337,3 +337,19 @@ def test_the_data_driven_surface_has_no_plant_law(tmp_path):
     law = muscle_force_law(read_muscle(save_muscle_file(tmp_path / "s.toml", read_muscle(MUSCLE), fit)))
     with pytest.raises(InputError, match="has no physical law the plant can run"):
         law.plant_law()
+
+
+def test_fit_table_and_compare_table_are_library_calls(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from mckibben.fit.registry import compare_table, fit_table
+
+    f = fit_table(ISO, "spring")
+    assert f.metrics["r2"] > 0.99 and f.metrics["flags"] == [] and f.summary["muscle"] == "commercial10"
+    assert set(f.to_pandas()["parameter"]) == set(f.summary["parameters"])
+    f.plot().savefig(tmp_path / "f.png")
+    c = compare_table(ISO, cv="leave-one-trial-out")
+    assert c.metrics["best"] == "spring" and len(c.to_pandas()) == len(FORCE_MODELS)
+    c.plot().savefig(tmp_path / "c.png")
+    assert (tmp_path / "c.png").stat().st_size > 5_000

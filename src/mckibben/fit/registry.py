@@ -1,0 +1,372 @@
+"""The fit registry: every ``mckibben fit`` model and ``mckibben compare`` as library calls.
+
+:func:`fit_table` fits one model to one experiment table (any kind it applies to) and returns a
+:class:`TableFit`; :func:`compare_table` fits every applicable model to the same data and scores
+it on held-out data (:class:`TableComparison`). Both find the muscle file beside the data when
+none is given, and say whether the data are synthetic. Their ``to_dict()`` is what ``--json``
+prints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mckibben.errors import InputError, unknown_name
+from mckibben.results import Result
+
+FIT_MODELS = {
+    "kinematic": "eq. 2, l = k1·Ls·cos θ + k2, on braid_angle data (needs the muscle file)",
+    "cubic": "one cubic in pressure per load/direction (isotonic, hysteresis, braid_angle, blocked_force)",
+    "surface": "one cubic-in-pressure, linear-in-load surface of the length (isotonic)",
+    "force-contraction": "one cubic of load vs contraction per pressure, Fig. 5 (isotonic; muscle file)",
+    "spring": "Lu(P) and K(P, Ls) per direction and pressure range (force_length, isotonic or isometric)",
+    "chou-hannaford": "fitted braid geometry: length under load (isotonic) or force(P, L) (isometric); muscle file",
+    "wall-chou-hannaford": "Chou-Hannaford with the tube wall: force(P, L) (isometric; muscle file)",
+    "tondu-lopez": "fitted k and r0 (and alpha0 if unknown): isotonic or isometric; muscle file",
+    "first-order": "p0, p_final, tau of pressure step responses (step_response)",
+}
+NEEDS_MUSCLE = {"kinematic", "force-contraction", "chou-hannaford", "wall-chou-hannaford", "tondu-lopez"}
+
+
+def load_muscle(data: Path, muscle: str | None, required: bool, what: str):
+    """The muscle file given with --muscle, else ``muscle.toml`` beside the data (or None)."""
+    from mckibben.data import find_muscle_file, read_muscle
+
+    path = Path(muscle) if muscle else find_muscle_file(data)
+    if path is None:
+        if required:
+            raise InputError(f"{what}: needs a muscle file; give --muscle FILE.toml or put muscle.toml beside {data}")
+        return None
+    return read_muscle(path)
+
+
+def _synthetic(data: Path, spec) -> bool:
+    from mckibben.datasets.campaign import is_synthetic
+
+    folder = data if data.is_dir() else data.parent
+    return bool(spec is not None and spec.synthetic) or is_synthetic(folder) or is_synthetic(folder.parent)
+
+
+def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None = None,
+             split_pressure: float | None = None, tare: str = "none", save: str | None = None) -> tuple[dict, list]:
+    """One fit: the JSON-ready dict and the fit objects."""
+    from mckibben.data import check_muscle, read_table
+    from mckibben.fit import static
+
+    if model not in FIT_MODELS:
+        raise unknown_name("model", model, FIT_MODELS)
+    table = read_table(data, kind)
+    isometric = table.kind == "isometric"
+    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}")
+    if spec is not None:
+        check_muscle(table, spec)
+    if tare != "none" and not isometric:
+        raise InputError(f"--tare: applies to isometric tables; {data} is a {table.kind} table")
+    if save is not None and not isometric:
+        raise InputError(f"--save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
+    extra: dict = {}
+    if isometric:
+        from mckibben.fit.isometric import FORCE_MODELS, fit_isometric
+
+        if model not in FORCE_MODELS:
+            raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(FORCE_MODELS)}")
+        fit = fit_isometric(table, spec, model, tare)
+        out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
+               "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
+        out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
+        if save is not None:
+            from mckibben.fit.muscle_file import save_muscle_file
+
+            out["saved"] = str(save_muscle_file(save, spec, fit))
+        return out, [fit]
+    if model == "kinematic":
+        fits = [static.fit_kinematic(table, spec)]
+    elif model == "cubic":
+        fits = list(static.fit_cubics(table).values())
+    elif model == "surface":
+        fits = [static.fit_surface(table)]
+    elif model == "force-contraction":
+        fits = list(static.fit_force_contraction(table, spec).values())
+    elif model == "spring":
+        if split_pressure is not None:
+            p = table.data["pressure"].to_numpy()
+            if not float(p.min()) <= split_pressure < float(p.max()):
+                raise InputError(f"--split-pressure: {split_pressure / 1e6:g} MPa is outside the pressures of {data} "
+                                 f"({p.min() / 1e6:g}..{p.max() / 1e6:g} MPa): one range would get no point")
+        sf = static.fit_spring(table, split_pressure=split_pressure,
+                               nominal_length=spec.nominal_length if spec else None)
+        fits = [sf.result]
+        extra = {"split_pressure_Pa": sf.model.split_pressure, "blocks": [list(b) for b in sf.blocks],
+                 "terms_P_Ls_exponents": [list(t) for t in sf.model.terms]}
+    elif model == "chou-hannaford":
+        fits = [static.fit_chou_hannaford(table, spec)]
+    elif model == "tondu-lopez":
+        fits = [static.fit_tondu_lopez(table, spec)]
+    elif model == "wall-chou-hannaford":
+        raise InputError(f"fit wall-chou-hannaford: needs an isometric table; {data} is a {table.kind} table")
+    else:
+        fits = list(static.fit_first_order(table).values())
+    out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id if spec else None,
+           "synthetic": _synthetic(data, spec), **extra, "fits": [f.to_dict() for f in fits]}
+    if len(fits) == 1:
+        out.update({k: v for k, v in fits[0].to_dict().items() if k not in ("model",)})
+    else:
+        out["flags"] = sorted({fl for f in fits for fl in f.flags})
+    return out, fits
+
+
+def _isometric_table(data: Path):
+    """The table if DATA is an isometric table file, else None (a folder or another kind)."""
+    from mckibben.data import read_table
+
+    data = Path(data)
+    if data.is_dir():
+        return None
+    table = read_table(data)
+    return table if table.kind == "isometric" else None
+
+
+def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str) -> dict:
+    """Compare every force model on an isometric table; return the JSON-ready result."""
+    from mckibben.data import check_muscle
+    from mckibben.fit.isometric import compare_isometric
+
+    spec = load_muscle(data, muscle, True, "compare")
+    check_muscle(table, spec)
+    res = compare_isometric(table, spec, cv, tare)
+    return {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
+            "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
+
+
+#: Distinct pressures (above 0) an isotonic table needs for `compare`: a cubic in pressure and a
+#: check of its fit (as :func:`mckibben.fit.static.fit_cubics` requires), plus one left out by CV.
+COMPARE_MIN_PRESSURES = 6
+
+
+def _compare_isotonic(data: Path, muscle: str | None = None) -> dict:
+    """Run the comparison; return the JSON-ready result."""
+    from mckibben.data import check_muscle, read_table
+    from mckibben.fit.compare import compare_models
+
+    data = Path(data)
+    folder = data if data.is_dir() else data.parent
+    iso_path = folder / "isotonic.csv" if data.is_dir() else data
+    if data.is_dir() and not iso_path.is_file():
+        raise InputError(f"compare: {data} holds no isotonic.csv")
+    table = read_table(iso_path)
+    spec = load_muscle(iso_path, muscle, True, "compare")
+    check_muscle(table, spec)
+    braid = None
+    braid_path = folder / "braid_angle.csv"
+    if braid_path.is_file():
+        b = read_table(braid_path)
+        if {"pressure", "load"} <= set(b.data.columns):
+            check_muscle(b, spec)
+            braid = b
+    pressures = table.data["pressure"].to_numpy()
+    distinct = np.unique(np.round(pressures[pressures > 0], 3)).size
+    if distinct < COMPARE_MIN_PRESSURES:
+        raise InputError(f"compare: {iso_path} has {distinct} distinct pressures above 0; comparing the models "
+                         f"(cubics in pressure, cross-validated) needs at least {COMPARE_MIN_PRESSURES}")
+    res = compare_models(table, spec, braid)
+    return {"file": str(iso_path), "muscle": spec.id, "synthetic": _synthetic(iso_path, spec),
+            "quantity": "length under load at a pressure (rows with P > 0); relative errors on contraction",
+            "n_points": res["n_points"], "cv_method": res["cv_method"],
+            "models": [s.to_dict() for s in res["scores"]]}
+
+
+@dataclass(repr=False)
+class TableFit(Result):
+    """One model fitted to one experiment table (:func:`fit_table`).
+
+    Attributes
+    ----------
+    summary : dict
+        What ``mckibben fit --json`` prints: file, kind, model, muscle, synthetic, the fits'
+        parameters, standard errors, intervals, statistics and flags.
+    fits : list
+        The fit objects (:class:`~mckibben.fit.core.FitResult` or
+        :class:`~mckibben.fit.isometric.IsometricFit`).
+    """
+
+    summary: dict
+    fits: list = field(default_factory=list)
+
+    call = "mckibben.fit.registry.fit_table"
+
+    @property
+    def arguments(self) -> dict:
+        """The data file and the model."""
+        return {"file": self.summary["file"], "model": self.summary["model"]}
+
+    @property
+    def flags(self) -> list:
+        """The fit's flags (all fits' for a per-load or per-pressure model)."""
+        return list(self.summary.get("flags", []))
+
+    @property
+    def metrics(self) -> dict:
+        """R², RMS residual, number of points and flags (of a single fit; else the flags)."""
+        keys = [k for k in self.summary if k.startswith(("rmse", "residual_rms"))] + ["r2", "n_points", "flags"]
+        return {k: self.summary[k] for k in keys if k in self.summary}
+
+    def to_dict(self) -> dict:
+        """JSON-ready (what ``--json`` prints)."""
+        from mckibben.results import to_jsonable
+
+        return to_jsonable(self.summary)
+
+    def _series(self):
+        import pandas as pd
+
+        rows = [{"condition": str(f["condition"]), "parameter": n, "value": v, "stderr": f["stderr"][n],
+                 "ci95_low": f["ci95"][n][0], "ci95_high": f["ci95"][n][1]}
+                for f in self.summary["fits"] for n, v in f["parameters"].items()]
+        return pd.DataFrame(rows)
+
+    def plot(self, ax=None):
+        """An isometric fit's force curves (:meth:`IsometricFit.plot`); else the residuals per point.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt
+
+        from mckibben.fit.isometric import IsometricFit
+
+        if self.fits and isinstance(self.fits[0], IsometricFit):
+            return self.fits[0].plot(ax)
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 3.5))
+        for f in self.fits:
+            ax.plot(f.residuals, ".", ms=3, label=str(f.condition) if f.condition else None)
+        ax.set(xlabel="point", ylabel=f"residual [{self.fits[0].response}]" if self.fits else "residual")
+        return ax.figure
+
+
+def fit_table(data, model: str, muscle: str | None = None, kind: str | None = None,
+              split_pressure: float | None = None, tare: str = "none", save: str | None = None) -> TableFit:
+    """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
+
+    Parameters
+    ----------
+    data : str or pathlib.Path
+        The table (.csv or .parquet). [-]
+    model : str
+        A key of :data:`FIT_MODELS`. [-]
+    muscle : str, optional
+        Muscle file (TOML); default ``muscle.toml`` beside the data. [-]
+    kind : str, optional
+        Experiment kind, if neither the file name nor its columns tell. [-]
+    split_pressure : float, optional
+        Spring model: the low/high range split (default: the median pressure). [Pa]
+    tare : {"none", "lowest", "column"}, default "none"
+        Isometric tables: :func:`mckibben.data.io.apply_tare`. [-]
+    save : str, optional
+        Isometric tables: write a muscle file with the fitted force law here. [-]
+
+    Returns
+    -------
+    TableFit
+    """
+    out, fits = _run_fit(Path(data), model, muscle, kind, split_pressure, tare, save)
+    return TableFit(out, fits)
+
+
+@dataclass(repr=False)
+class TableComparison(Result):
+    """Every applicable model on the same data, scored on held-out data (:func:`compare_table`).
+
+    Attributes
+    ----------
+    summary : dict
+        What ``mckibben compare --json`` prints.
+    """
+
+    summary: dict
+
+    call = "mckibben.fit.registry.compare_table"
+
+    @property
+    def arguments(self) -> dict:
+        """The data file."""
+        return {"file": self.summary["file"]}
+
+    @property
+    def metrics(self) -> dict:
+        """The best model on held-out data (isometric), the number of points (isotonic)."""
+        return {k: self.summary[k] for k in ("best", "cv", "cv_method", "peak_force_N", "n_points") if k in self.summary}
+
+    def to_dict(self) -> dict:
+        """JSON-ready (what ``--json`` prints)."""
+        from mckibben.results import to_jsonable
+
+        return to_jsonable(self.summary)
+
+    def _series(self):
+        import pandas as pd
+
+        return pd.DataFrame(self.summary["models"])
+
+    def plot(self, ax=None):
+        """Held-out error per model (bar chart).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 3.5))
+        df = self._series()
+        key = "cv_rmse_pct_of_peak" if "cv_rmse_pct_of_peak" in df else "cv_rmse_m"
+        ax.bar(df["model"], df[key].astype(float))
+        ax.set_ylabel(key)
+        ax.tick_params(axis="x", labelrotation=20)
+        return ax.figure
+
+
+def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none") -> TableComparison:
+    """Fit every applicable model to the same data and score it on held-out data.
+
+    An isometric table: every force model, folds by held length (default) or trial
+    (:func:`mckibben.fit.isometric.compare_isometric`). An isotonic table or a muscle folder
+    holding ``isotonic.csv`` (and ``braid_angle.csv``): the length models
+    (:func:`mckibben.fit.compare.compare_models`).
+
+    Parameters
+    ----------
+    data : str or pathlib.Path
+        A table or a muscle folder. [-]
+    muscle : str, optional
+        Muscle file; default ``muscle.toml`` beside the data. [-]
+    cv : {"leave-one-length-out", "leave-one-trial-out"}, optional
+        Isometric tables only. [-]
+    tare : {"none", "lowest", "column"}, default "none"
+        Isometric tables only. [-]
+
+    Returns
+    -------
+    TableComparison
+    """
+    iso = _isometric_table(Path(data))
+    if iso is not None:
+        return TableComparison(_compare_isometric(iso, Path(data), muscle, cv or "leave-one-length-out", tare))
+    if cv is not None or tare != "none":
+        raise InputError("--cv/--tare: apply to isometric tables; the isotonic comparison chooses its own folds")
+    return TableComparison(_compare_isotonic(Path(data), muscle))
