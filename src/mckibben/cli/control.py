@@ -28,6 +28,8 @@ LAMBDA_OPTION = typer.Option(None, "--lambda", help="PID closed-loop time consta
 PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Supervisor's maximum pressure.")
 LOAD_OPTION = typer.Option("0.6N", "--load", help="Hanging load, e.g. 0.6N.")
 SUPPLY_OPTION = typer.Option(None, "--supply", help="Supply pressure (default: the calibrated plant's).")
+MUSCLE_FILE_OPTION = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law (mckibben fit "
+                                                                "… --save): control that muscle's plant.")
 FORCE_OPTION = typer.Option(False, "--force", help="Run past the documented size limits (4 GiB, 10 min; "
                                                    "mckibben.limits); never past the memory available.")
 
@@ -60,6 +62,7 @@ def step_cmd(
     save_design: str = typer.Option(None, "--save-design", help="Write the controller design (JSON) for "
                                                                  "mckibben rig gains --from."),
     force: bool = FORCE_OPTION,
+    muscle_file: str = MUSCLE_FILE_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """A pressure step on the calibrated plant under the firmware's controller."""
@@ -71,7 +74,7 @@ def step_cmd(
 
         check_output_file(save_design, "--save-design", (".json",))
     res = step_response(controller, target, start=start, load=load, supply=supply, duration=duration, p_max=p_max,
-                        law=law, beta=beta, eps=eps, ki=ki, lam=lam, force=force)
+                        law=law, beta=beta, eps=eps, ki=ki, lam=lam, force=force, muscle_file=muscle_file)
     _finish(res, plot, dpi, out)
     if save_design:
         from mckibben.control.core import save_design as write_design
@@ -202,6 +205,7 @@ def track_cmd(
     dpi: int = DPI_OPTION,
     out: str = OUT_OPTION,
     force: bool = FORCE_OPTION,
+    muscle_file: str = MUSCLE_FILE_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Track a pressure trajectory: RMS and maximum error, valve effort."""
@@ -209,7 +213,7 @@ def track_cmd(
 
     check_outputs(plot, dpi, out)
     res = track(reference, controller, duration=duration, load=load, p_max=p_max, law=law, beta=beta, eps=eps,
-                ki=ki, lam=lam, force=force)
+                ki=ki, lam=lam, force=force, muscle_file=muscle_file)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())

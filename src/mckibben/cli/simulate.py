@@ -18,8 +18,11 @@ def open_loop_cmd(
     valve: int = typer.Option(None, "--valve", help="Inlet PWM step, 0..255 counts (bleed shut); default the "
                                                     "calibration step (117 counts; the valves lift off at 112)."),
     duration: str = typer.Option("0.5s", "--duration", help="Simulated time, e.g. 0.5s."),
-    supply: str = typer.Option("0.8MPa", "--supply", help="Supply pressure (gauge), ≤ 1 MPa."),
+    supply: str = typer.Option(None, "--supply", help="Supply pressure (gauge), ≤ 1 MPa (default 0.8MPa; with "
+                                                      "--muscle-file the top of its fitted pressures)."),
     load: str = typer.Option("0.6N", "--load", help="Hanging load."),
+    muscle_file: str = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law "
+                                                                "(mckibben fit … --save): simulate that muscle."),
     plot: str = plot_option("a figure of the response"),
     dpi: int = DPI_OPTION,
     out: str = OUT_OPTION,
@@ -29,7 +32,7 @@ def open_loop_cmd(
     from mckibben.control import open_loop
 
     check_outputs(plot, dpi, out)
-    res = open_loop(valve, supply=supply, load=load, duration=duration)
+    res = open_loop(valve, supply=supply, load=load, duration=duration, muscle_file=muscle_file)
     d = res.to_dict()
     if plot:
         write_plot(res.plot(), plot, dpi)

@@ -214,7 +214,9 @@ class StepResult(Result):
             "step_time_s": self.step_time,
             "model": _model_dict(self.model), "gains": _gains_dict(self.params, a["controller"]),
             "peak_pressure_Pa": float(np.nanmax(self.record.pressure[0])),
-            "faults": self.faults, "target_unreachable": self.target_unreachable, **self.metrics})
+            "faults": self.faults, "target_unreachable": self.target_unreachable,
+            **({"muscle_file": a["muscle_file"], "supply_Pa": a["supply_Pa"]} if "muscle_file" in a else {}),
+            **self.metrics})
 
     @property
     def faults(self) -> int:
@@ -276,8 +278,56 @@ def plant_load(load) -> float:
     return check_load(quantity(load, "force", "--load"), get_muscle(PlantParams().muscle_name))
 
 
-def _step_args(controller, target, start, load, supply, duration, p_max, force):
-    """Check a step's numbers, limits first: a refusal comes before any plant is built."""
+def muscle_file_plant(path, load="0.6N", supply=None):
+    """The plant of a muscle file's own fitted force law (:meth:`PlantParams.from_muscle_file`), loaded.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A muscle file with a ``[force_model]`` table (``mckibben fit … --save``). [-]
+    load : float or str, default "0.6N"
+        Hanging load: at most the law's force at the rest length and the supply (a heavier load
+        would stretch the muscle past the lengths it was fitted on). [N]
+    supply : float or str, optional
+        Supply pressure (gauge); default the top of the fitted pressure range. [Pa]
+
+    Returns
+    -------
+    PlantParams
+
+    Raises
+    ------
+    InputError
+        One line starting ``--muscle-file`` and naming the file (missing, no force law, a law the
+        plant cannot run) or ``--load``/``--supply``.
+    """
+    from mckibben.models import laws as LW
+    from mckibben.plant import PlantParams
+
+    f = quantity(load, "force", "--load")
+    kw = {}
+    if supply is not None:
+        kw["supply_pressure"] = quantity(supply, "pressure", "--supply", allow_zero=False)
+        if kw["supply_pressure"] > 1e6:
+            raise InputError(f"--supply: {supply!r} is above the compressor's 1 MPa")
+    try:
+        plant = PlantParams.from_muscle_file(path, **kw)
+    except InputError as exc:
+        raise InputError(f"--muscle-file {path}: {exc}") from None
+    name, th = plant.law(1)
+    most = float(np.maximum(LW.evaluate(name, plant.supply_pressure, plant.nominal_length, th[:, 0]), 0.0))
+    if not (math.isfinite(f) and 0 <= f <= most):
+        raise InputError(f"--load: {f:g} N is more than the muscle of {path} pulls at its rest length at "
+                         f"{plant.supply_pressure / 1e6:g} MPa ({most:.4g} N, its fitted law)")
+    return plant.replace(load_force=f)
+
+
+def _step_args(controller, target, start, load, supply, duration, p_max, force, muscle_file=None):
+    """Check a step's numbers, limits first: a refusal comes before any plant is built.
+
+    With a muscle file, its plant's load check replaces the calibrated muscle's (the caller
+    builds that plant).
+    """
     dur = _periods(duration, "--duration")
     pmax = check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
     p1 = quantity(target, "pressure", "--target")
@@ -291,7 +341,8 @@ def _step_args(controller, target, start, load, supply, duration, p_max, force):
         raise InputError(f"--target: {target!r} and --from {start!r} are both clamped to {p1c / 1e6:g} MPa "
                          "(--p-max): there is no step")
     args = {"controller": controller, "target_Pa": float(p1c), "from_Pa": float(p0c),
-            "load_N": plant_load(load), "p_max_Pa": pmax, "duration_s": dur,
+            "load_N": plant_load(load) if muscle_file is None else quantity(load, "force", "--load"),
+            "p_max_Pa": pmax, "duration_s": dur,
             "requested_target_Pa": p1, "requested_from_Pa": p0, "reference_clamped": clamped,
             "step_time_s": hold}
     if supply is not None:
@@ -301,7 +352,7 @@ def _step_args(controller, target, start, load, supply, duration, p_max, force):
 
 def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", load="0.6N", supply=None,
                   duration="1s", p_max="0.8MPa", law: str = "model", beta=None, eps=None, ki=None, lam=None,
-                  model: FirstOrderModel | None = None, force: bool = False) -> StepResult:
+                  model: FirstOrderModel | None = None, force: bool = False, muscle_file=None) -> StepResult:
     """A pressure step on the calibrated plant under the firmware's controller.
 
     The pressure ``start`` is held (0.05 s from rest, 0.5 s from a back pressure), then the
@@ -339,6 +390,9 @@ def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", lo
         Design model; default :func:`identified_model`. [-]
     force : bool, default False
         Run past the documented size limits (:mod:`mckibben.limits`). [-]
+    muscle_file : str or pathlib.Path, optional
+        Run a muscle file's own fitted force law (:func:`muscle_file_plant`) instead of the
+        calibrated plant; the design model is identified on that plant. [-]
 
     Returns
     -------
@@ -347,17 +401,25 @@ def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", lo
         (``time_s``, ``reference_Pa``, ``pressure_Pa``, ``inlet_pwm``, ``bleed_pwm``,
         ``command_pwm``, ``length_m``, ``fault_flags``), ``.plot()``.
     """
-    args = _step_args(controller, target, start, load, supply, duration, p_max, force)
-    params_model = identified_model() if model is None else model
+    args = _step_args(controller, target, start, load, supply, duration, p_max, force, muscle_file)
+    if muscle_file is not None:
+        from mckibben.control.experiments import identify_plant
+
+        plant = muscle_file_plant(muscle_file, load, supply)
+        params_model = identify_plant(plant)[1] if model is None else model
+        args.update(muscle_file=str(muscle_file), supply_Pa=float(plant.supply_pressure))
+    else:
+        plant_kw = {"load_N": args["load_N"]}
+        if "supply_Pa" in args:
+            plant_kw["supply_Pa"] = args["supply_Pa"]
+        plant = plant_batch(**plant_kw)
+        params_model = identified_model() if model is None else model
     params = controller_params(controller, params_model, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=p_max)
-    plant_kw = {"load_N": args["load_N"]}
-    if "supply_Pa" in args:
-        plant_kw["supply_Pa"] = args["supply_Pa"]
     hold = args["step_time_s"]
     total = hold + args["duration_s"]
     n = int(round(total / TS))
     ref = step_reference(n, int(round(hold / TS)), args["from_Pa"], args["target_Pa"])
-    rec = run_closed_loop(core_spec(params), ref, total, plant_batch(**plant_kw))
+    rec = run_closed_loop(core_spec(params), ref, total, plant)
     args.update(law=law if controller == "smc" else None)
     return StepResult(rec, hold, params_model, params, args)
 
@@ -463,7 +525,7 @@ class TrackResult(Result):
 
 def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_max="0.8MPa", law: str = "model",
           beta=None, eps=None, ki=None, lam=None, model: FirstOrderModel | None = None,
-          force: bool = False) -> TrackResult:
+          force: bool = False, muscle_file=None) -> TrackResult:
     """Track a pressure trajectory on the calibrated plant.
 
     Parameters
@@ -492,6 +554,9 @@ def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_m
         Design model; default :func:`identified_model`. [-]
     force : bool, default False
         Run past the documented size limits (:mod:`mckibben.limits`). [-]
+    muscle_file : str or pathlib.Path, optional
+        Run a muscle file's own fitted force law (:func:`muscle_file_plant`); the design model is
+        identified on that plant. [-]
 
     Returns
     -------
@@ -499,12 +564,19 @@ def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_m
         A reference outside [0, p_max] is clamped as the supervisor would (``reference_clamped``).
     """
     pmax = check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    f_load = plant_load(load)
+    f_load = plant_load(load) if muscle_file is None else quantity(load, "force", "--load")
     _, ref = pressure_reference(reference, duration, force=force)
     ref, clamped = clamp_pressure(ref, pmax, "--reference")
-    m = identified_model() if model is None else model
+    if muscle_file is not None:
+        from mckibben.control.experiments import identify_plant
+
+        plant = muscle_file_plant(muscle_file, load)
+        m = identify_plant(plant)[1] if model is None else model
+    else:
+        plant = plant_batch(load_N=f_load)
+        m = identified_model() if model is None else model
     params = controller_params(controller, m, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax)
-    rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant_batch(load_N=f_load))
+    rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant)
     args = {"controller": controller, "reference": reference if isinstance(reference, str) else "array",
             "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
             "law": law if controller == "smc" else None}
@@ -843,8 +915,9 @@ class OpenLoopResult(Result):
     def to_dict(self) -> dict:
         """What ``mckibben simulate open-loop --json`` prints."""
         a = self.arguments
+        extra = {"muscle_file": a["muscle_file"]} if "muscle_file" in a else {}
         return to_jsonable({"valve_pwm": a["valve_pwm"], "supply_Pa": a["supply_Pa"], "load_N": a["load_N"],
-                            "duration_s": a["duration_s"], **self.metrics})
+                            "duration_s": a["duration_s"], **extra, **self.metrics})
 
     def _series(self):
         import pandas as pd
@@ -864,19 +937,23 @@ class OpenLoopResult(Result):
         return plot_open_loop(self, ax=ax)
 
 
-def open_loop(valve: int | None = None, *, supply="0.8MPa", load="0.6N", duration="0.5s") -> OpenLoopResult:
+def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0.5s",
+              muscle_file=None) -> OpenLoopResult:
     """An open-loop inlet-valve step from rest (bleed shut): the identification experiment of §IV.A.
 
     Parameters
     ----------
     valve : int, optional
         Inlet PWM count, 0..255; default the calibration step. [PWM counts]
-    supply : float or str, default "0.8MPa"
-        Supply pressure (gauge), at most 1 MPa. [Pa]
+    supply : float or str, optional
+        Supply pressure (gauge), at most 1 MPa; default 0.8 MPa, or a muscle file's top fitted
+        pressure. [Pa]
     load : float or str, default "0.6N"
         Hanging load. [N]
     duration : float or str, default "0.5s"
         Simulated time, whole control periods, at most 60 s. [s]
+    muscle_file : str or pathlib.Path, optional
+        Run a muscle file's own fitted force law (:func:`muscle_file_plant`). [-]
 
     Returns
     -------
@@ -893,13 +970,20 @@ def open_loop(valve: int | None = None, *, supply="0.8MPa", load="0.6N", duratio
         raise InputError(f"--duration: {duration!r} must be a whole number of 1 ms control periods")
     if d > 60:
         raise InputError(f"--duration: {duration!r} is longer than 60 s")
-    s = quantity(supply, "pressure", "--supply", allow_zero=False)
-    if s > 1e6:
-        raise InputError(f"--supply: {supply!r} is above the compressor's 1 MPa")
-    f = plant_load(load)
-    res, m = open_loop_step(PlantParams(supply_pressure=s, load_force=f), valve=int(valve), duration=d)
+    extra = {}
+    if muscle_file is not None:
+        plant = muscle_file_plant(muscle_file, load, supply)
+        s, f = float(plant.supply_pressure), float(plant.load_force)
+        extra["muscle_file"] = str(muscle_file)
+    else:
+        s = quantity("0.8MPa" if supply is None else supply, "pressure", "--supply", allow_zero=False)
+        if s > 1e6:
+            raise InputError(f"--supply: {supply!r} is above the compressor's 1 MPa")
+        f = plant_load(load)
+        plant = PlantParams(supply_pressure=s, load_force=f)
+    res, m = open_loop_step(plant, valve=int(valve), duration=d)
     return OpenLoopResult(res.t, res.pressure[0], res.length[0], m,
-                          {"valve_pwm": int(valve), "supply_Pa": s, "load_N": f, "duration_s": d})
+                          {"valve_pwm": int(valve), "supply_Pa": s, "load_N": f, "duration_s": d, **extra})
 
 
 def hysteresis_compensation(period="4s", *, sweep_period=None):
