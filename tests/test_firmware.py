@@ -187,6 +187,39 @@ def test_upload_calls_avrdude_with_the_megas_bootloader_settings(tmp_path):
     assert (tmp_path / "mckibben.hex").stat().st_size > 0
 
 
+@pytest.mark.skipif(shutil.which("avr-gcc") is None or shutil.which("avrdude") is None,
+                    reason="avr-gcc or avrdude not installed (the README's test command installs both)")
+def test_upload_speaks_the_bootloaders_protocol_on_the_port(tmp_path):
+    # The real avrdude, started by `make upload`, on a pseudo-terminal standing in for the Mega's
+    # port: its first message must be the STK500v2 CMD_SIGN_ON that the Mega's bootloader answers
+    # (MESSAGE_START 0x1B, sequence 1, size 1, TOKEN 0x0E, CMD_SIGN_ON 0x01, XOR checksum 0x14).
+    import os
+    import select
+    import signal
+    import time
+    import tty
+
+    master, slave = os.openpty()
+    tty.setraw(master)
+    tty.setraw(slave)
+    proc = subprocess.Popen(["make", "-s", "-C", str(FIRMWARE), "upload", f"PORT={os.ttyname(slave)}",
+                             f"BUILD={tmp_path}"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            start_new_session=True)  # make and its avrdude, stopped together below
+    got = b""
+    try:
+        deadline = time.monotonic() + 120  # generous: the image is built first
+        while len(got) < 6 and time.monotonic() < deadline:
+            if select.select([master], [], [], 0.5)[0]:
+                got += os.read(master, 64)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out = proc.communicate(timeout=30)[0].decode(errors="replace")
+        os.close(master)
+        os.close(slave)
+    assert got[:7] == bytes([0x1B, 0x01, 0x00, 0x01, 0x0E, 0x01, 0x14]), (got.hex(), out)
+    assert (tmp_path / "mckibben.hex").stat().st_size > 0  # what it was about to flash
+
+
 @pytest.mark.skipif(shutil.which("avr-gcc") is None, reason="avr-gcc not installed")
 @pytest.mark.parametrize("n", [1, 2])
 def test_firmware_builds_for_fewer_channels(tmp_path, n):
