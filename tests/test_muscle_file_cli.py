@@ -39,15 +39,24 @@ def test_simulate_open_loop_runs_the_fitted_muscle(cli, files):
     assert 0.245 < d["final_length_m"] < 0.300
 
 
-def test_control_step_on_the_fitted_muscle_reaches_its_target(cli, files):
+def test_control_step_on_the_fitted_muscle_reaches_its_target(cli, files, tmp_path):
+    design = tmp_path / "design.json"
     r = cli("control", "step", "--muscle-file", files["spring"], "--load", "100N", "--target", "0.4MPa",
-            "--duration", "1s", "--json")
+            "--duration", "1s", "--save-design", str(design), "--json")
     assert r.code == 0, r.err
     d = r.json()
     assert d["muscle_file"] == files["spring"] and d["faults"] == 0 and not d["target_unreachable"]
     # the loop closes on the file's plant (design model identified on it): held within 2 % of the
     # 0.4 MPa target (1.1 kPa measured); a loose bound, the tuning is not what is tested here
     assert abs(d["steady_state_error_Pa"]) < 0.02 * 0.4e6
+    assert files["spring"] in design.read_text()  # the saved design says which plant it was made on
+
+
+def test_control_track_reports_the_muscle_file(cli, files):
+    r = cli("control", "track", "--muscle-file", files["spring"], "--load", "100N", "--reference",
+            "sine:0.3MPa,0.1MPa,1Hz", "--duration", "1s", "--json")
+    assert r.code == 0, r.err
+    assert r.json()["muscle_file"] == files["spring"]
 
 
 @pytest.mark.parametrize("command", [("simulate", "open-loop"), ("control", "step"),

@@ -79,8 +79,9 @@ def step_cmd(
     if save_design:
         from mckibben.control.core import save_design as write_design
 
-        write_design(res.params, save_design, note=f"control step {controller} ({law} law) on the calibrated "
-                                                   f"plant's identified model")
+        plant = f"the plant of {muscle_file}" if muscle_file else "the calibrated plant"
+        write_design(res.params, save_design, note=f"control step {controller} ({law} law) on {plant}'s identified "
+                                                   "model")
     _warn_outcome(res.faults, res.target_unreachable, float(res.record.pressure[0, -1]), res.arguments["target_Pa"])
     if json:
         emit_json(res.to_dict())

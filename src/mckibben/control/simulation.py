@@ -505,6 +505,7 @@ class TrackResult(Result):
         a = self.arguments
         return to_jsonable({"controller": a["controller"], "load_N": a["load_N"], "p_max_Pa": a["p_max_Pa"],
                             "reference_clamped": a["reference_clamped"],
+                            **({"muscle_file": a["muscle_file"]} if "muscle_file" in a else {}),
                             "gains": _gains_dict(self.params, a["controller"]), **self.metrics})
 
     def _series(self):
@@ -580,6 +581,8 @@ def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_m
     args = {"controller": controller, "reference": reference if isinstance(reference, str) else "array",
             "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
             "law": law if controller == "smc" else None}
+    if muscle_file is not None:
+        args["muscle_file"] = str(muscle_file)
     return TrackResult(rec, m, params, args)
 
 
