@@ -34,6 +34,22 @@ FORCE_OPTION = typer.Option(False, "--force", help="Run past the documented size
                                                    "mckibben.limits); never past the memory available.")
 
 
+def _size_first(option: str, seconds_text: str | None, instances: float = 1.0, force: bool = False,
+                extra: float = 0.5) -> None:
+    """Refuse an oversized job before the control package (python-control, SciPy) is even imported,
+    so a refusal takes well under a second; the library checks the same again."""
+    from mckibben.limits import check_budget
+    from mckibben.units import parse_quantity
+
+    if seconds_text is None:
+        return
+    try:
+        seconds = parse_quantity(seconds_text, "time", option, allow_zero=False)
+    except Exception:  # noqa: BLE001 - the library gives the precise message
+        return
+    check_budget(option, instances * (seconds + extra) / 1e-3, force=force)
+
+
 def _finish(res, plot, dpi, out, plot_kw=None) -> None:
     """Write the figure and the time series a command was asked for."""
     if plot:
@@ -66,6 +82,7 @@ def step_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """A pressure step on the calibrated plant under the firmware's controller."""
+    _size_first("--duration", duration, force=force)
     from mckibben.control import step_response
 
     check_outputs(plot, dpi, out)
@@ -170,6 +187,8 @@ def robustness_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws, median and 5–95 % of each metric."""
+    if n >= 1:
+        _size_first("--n", "0.6s", instances=3 * n, force=force, extra=0.0)  # 3 controllers, 0.6 s each
     from mckibben.control import robustness
 
     check_outputs(plot, dpi, out)
@@ -210,6 +229,8 @@ def track_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Track a pressure trajectory: RMS and maximum error, valve effort."""
+    if reference.startswith("sine:"):
+        _size_first("--duration", duration, force=force, extra=0.0)
     from mckibben.control import track
 
     check_outputs(plot, dpi, out)

@@ -11,8 +11,6 @@ from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
 from mckibben.atomic import check_output_file
 from mckibben.errors import InputError
-from mckibben.rig.device import BAUD
-from mckibben.rig.device import connect as _connect
 from mckibben.units import parse_quantity
 
 rig_app = typer.Typer(help="The rig over its serial link: record, step, emulate.", no_args_is_help=True)
@@ -46,7 +44,9 @@ def record_cmd(
         raise InputError(f"--decimation: {decimation} must be in 1..255")
     l0 = parse_quantity(nominal_length, "length", "--nominal-length", allow_zero=False)
     rec_out = check_output_file(out, "--out", (".parquet",))
-    link, hello, _ = _connect(port)  # the device resets on open: nothing older than this run is kept
+    from mckibben.rig.device import BAUD, connect
+
+    link, hello, _ = connect(port)  # the device resets on open: nothing older than this run is kept
     try:
         rec = Recorder(rec_out, meta={"port": port, "baud": BAUD, "n_channels": hello.n_channels},
                        nominal_length=l0)
@@ -235,6 +235,8 @@ def emulate_cmd(
             em.stop()
             raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
     if json:
+        from mckibben.rig.device import BAUD
+
         emit_json({"port": em.port, "link": link, "baud": BAUD, "channels": channels})
     else:
         err_console.print(f"emulated device on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
