@@ -140,14 +140,18 @@ INPUT_COMMANDS = [
     (["control", "track", "--reference", "{f}"], "csv"),
     (["sweep", "run", "{f}", "--out", "{f}-results"], "toml"),
     (["fit", "{f}", "--model", "cubic"], "parquet"),
+    (["rig", "gains", "--port", "/nonexistent/tty", "--from", "{f}"], "json"),
+    (["predict", "force", "--pressure", "0.5MPa", "--muscle-file", "{f}"], "toml"),
 ]
 
 
 @pytest.mark.parametrize("args, ext", INPUT_COMMANDS, ids=lambda a: "-".join(a) if isinstance(a, list) else a)
 @pytest.mark.parametrize("kind, says", [("d", "is a folder"), ("f", "FIFO"), ("missing", "no such")])
 def test_input_file_is_named_for_what_it_is(special, args, ext, kind, says):
-    if kind == "f" and ext == "parquet":
-        os.mkfifo(special / "f.parquet")
+    if kind == "f" and not (special / f"f.{ext}").exists():
+        os.mkfifo(special / f"f.{ext}")
+    if kind == "d":
+        (special / f"d.{ext}").mkdir(exist_ok=True)
     f = special / f"{kind}.{ext}"
     if args[0] == "compare" and kind == "d":
         says = "holds no isotonic.csv"  # compare takes a muscle folder too

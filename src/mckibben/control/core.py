@@ -921,7 +921,9 @@ def load_design(path) -> CoreParams:
     import json
     from pathlib import Path
 
-    p = Path(path)
+    from mckibben.atomic import check_input_file
+
+    p = check_input_file(Path(path), "--from", "controller design")  # a FIFO would block the read
     try:
         doc = json.loads(p.read_text())
     except FileNotFoundError:

@@ -196,10 +196,12 @@ def recover(journal: str | Path, out: str | Path, counters: dict | None = None) 
     if not out.parent.is_dir():
         raise InputError(f"--out: folder {str(out.parent)!r} does not exist")
     try:
-        meta = json.loads(meta_file.read_text())
+        from mckibben.atomic import check_input_file
+
+        meta = json.loads(check_input_file(meta_file, None, "journal metadata file").read_text())
     except (OSError, ValueError):
         raise InputError(f"{str(meta_file)!r}: unreadable journal metadata") from None
-    parts = sorted(journal.glob("part-*.parquet"))
+    parts = sorted(p for p in journal.glob("part-*.parquet") if p.is_file())  # never open a FIFO
     tables = []
     for p in parts:
         try:

@@ -186,7 +186,7 @@ def prepare_output(out: str | Path, sweep: Sweep) -> Path:
             "chunks": sweep.n_chunks, "chunk_size": sweep.chunk_size}
     if manifest.exists():
         try:
-            old = json.loads(manifest.read_text())
+            old = json.loads(manifest.read_text()) if manifest.is_file() else {}
         except (OSError, ValueError):
             old = {}
         other = old.get("sweep_sha256")
@@ -292,7 +292,7 @@ def read_results(out: str | Path) -> pd.DataFrame:
         Results folder.
     """
     out = Path(out)
-    files = sorted(out.glob("chunk-*.parquet"))
+    files = sorted(f for f in out.glob("chunk-*.parquet") if f.is_file())  # never open a FIFO
     if not out.is_dir() or not files:
         raise InputError(f"{str(out)!r}: no sweep results (chunk-*.parquet) there")
     try:
