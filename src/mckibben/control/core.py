@@ -923,7 +923,10 @@ def load_design(path) -> CoreParams:
 
     from mckibben.atomic import check_input_file
 
-    p = check_input_file(Path(path), "--from", "controller design")  # a FIFO would block the read
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"--from: {str(p)!r} does not exist")
+    check_input_file(p, "--from", "controller design")  # a folder or a FIFO (which would block the read)
     try:
         doc = json.loads(p.read_text())
     except FileNotFoundError:
