@@ -1,6 +1,6 @@
 """Pressure control: identification, PID and sliding mode, the firmware's core, experiments.
 
-The experiments of 000_909f662a44080c85.txt §IV on the simulated plant, one call each, returning
+The experiments of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV on the simulated plant, one call each, returning
 result objects (``.metrics``, ``.to_pandas()``, ``.plot(ax=None)``):
 
 >>> import mckibben.control as mc                                  # doctest: +SKIP

@@ -1,7 +1,7 @@
 """Measured benefit of hysteresis compensation for length control, on the plant simulator.
 
 The muscle needs more pressure inflating than deflating for the same contraction (§III of
-000_909f662a44080c85.txt; in :mod:`mckibben.plant` a Dahl friction element on the braid gives
+“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt); in :mod:`mckibben.plant` a Dahl friction element on the braid gives
 this rate-independent hysteresis). :func:`hysteresis_benefit` measures what the per-branch
 feed-forward of :mod:`mckibben.control.length` buys over a single static map:
 
@@ -204,7 +204,7 @@ def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = 
 
     References
     ----------
-    000_909f662a44080c85.txt, §III (hysteresis: one cubic per branch).
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III (hysteresis: one cubic per branch).
     """
     from mckibben.control.core import core_spec
     from mckibben.control.experiments import run_closed_loop, smc_core_params

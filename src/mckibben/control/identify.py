@@ -1,7 +1,7 @@
 """Identification of low-order models from an open-loop step response.
 
 The paper identifies the pressure loop of its 100 mm muscle from "a voltage step input to the
-driver circuit": first order, τ ≈ 0.09 s, no overshoot (000_909f662a44080c85.txt, §IV.A). We fit
+driver circuit": first order, τ ≈ 0.09 s, no overshoot (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §IV.A). We fit
 
 - first order plus dead time (FOPDT): ``y = y0 + K·Δu·(1 − exp(−(t − t_step − θ)/τ))`` for
   ``t ≥ t_step + θ``, else ``y0``;
@@ -314,7 +314,7 @@ def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = No
 
     References
     ----------
-    000_909f662a44080c85.txt, §IV.A (first-order model from an open-loop step).
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §IV.A (first-order model from an open-loop step).
 
     Examples
     --------

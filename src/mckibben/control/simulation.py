@@ -2,7 +2,7 @@
 
 Every function here takes quantities as SI numbers or as text with a unit (``"0.55MPa"``,
 ``0.55e6``), identifies the calibrated plant when no model is given (§IV.A of
-000_909f662a44080c85.txt, :func:`~mckibben.control.experiments.identify_plant`), designs the
+“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), :func:`~mckibben.control.experiments.identify_plant`), designs the
 controller with the documented tuning (``docs/control.md``) and runs the firmware core on the
 batch plant simulator (:func:`~mckibben.control.experiments.run_closed_loop`). The command line
 (``mckibben control ...``) is a thin shell over these calls.
@@ -66,7 +66,7 @@ def identified_model() -> FirstOrderModel:
     """The first-order model (with the valves' lift-off) identified on the calibrated plant.
 
     Two open-loop inlet steps, as the paper did with one voltage step (§IV.A of
-    000_909f662a44080c85.txt); computed once per process.
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)); computed once per process.
 
     Returns
     -------
@@ -112,7 +112,7 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     Parameters
     ----------
     controller : {"smc", "pid"}, default "smc"
-        Sliding mode (eq. 9–12, §IV.A of 000_909f662a44080c85.txt) or the lambda-tuned PID the
+        Sliding mode (eq. 9–12, §IV.A of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)) or the lambda-tuned PID the
         paper found wanting. [-]
     model : FirstOrderModel, optional
         Model the controller is designed on; default :func:`identified_model`. [-]
@@ -357,7 +357,7 @@ def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", lo
 
     The pressure ``start`` is held (0.05 s from rest, 0.5 s from a back pressure), then the
     reference steps to ``target``; a reference outside [0, p_max] is clamped as the supervisor
-    would (one warning, ``reference_clamped``), and scored as commanded; Fig. 13 of 000_909f662a44080c85.txt is this experiment with
+    would (one warning, ``reference_clamped``), and scored as commanded; Fig. 13 of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) is this experiment with
     ``law="paper"``, ``beta`` 120 or 150 and ``target`` 0.55 MPa.
 
     Parameters
@@ -637,7 +637,7 @@ class Fig13Result(Result):
 
     def tau_against_beta(self, betas=None):
         """The paper's law's time constant against β on the plant (τ falls once β exceeds the
-        holding command, eq. 11 of 000_909f662a44080c85.txt).
+        holding command, eq. 11 of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)).
 
         Parameters
         ----------
@@ -673,7 +673,7 @@ class Fig13Result(Result):
 def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None) -> Fig13Result:
     """The paper's Fig. 13 on the plant: sliding mode, step 0 → 0.55 MPa, each law and β.
 
-    000_909f662a44080c85.txt §IV.B measured the ``paper`` law at β = 120 (τ ≈ 0.06 s) and 150
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV.B measured the ``paper`` law at β = 120 (τ ≈ 0.06 s) and 150
     (τ ≈ 0.01 s, ~7 % overshoot); those values come from
     :data:`mckibben.datasets.paper_points.FIG13`. The ``model`` law at the same β shows what our
     model term changes.

@@ -2,7 +2,7 @@
 
 A user without a rig can run every command on it. It is generated deterministically
 (``mckibben datasets generate [--out DIR] [--seed N]``) from the published parameter sets of
-000_909f662a44080c85.txt (Tables I and II, eq. 3) with the paper's instrument limits; the bundled
+“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) (Tables I and II, eq. 3) with the paper's instrument limits; the bundled
 copy (``mckibben/datasets/campaign/``) is ``--seed 0``. It is marked synthetic in its
 ``campaign.toml``, its README, every ``muscle.toml`` and in every report that uses it.
 
@@ -60,7 +60,7 @@ BUNDLED = Path(__file__).with_name("campaign")
 
 CAMPAIGN_MUSCLES = ("mpam97", "mpam117", "mpam143")
 
-# instrument limits of 000_909f662a44080c85.txt
+# instrument limits of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)
 ENCODER_STEP = ENCODER_RESOLUTION  #: pulley encoder [m per count] (§III.B, mckibben.hardware)
 LENGTH_TRIAL_SD = 0.3e-3  #: trial-to-trial length scatter [m] (max contraction sd 0.003, §III.B)
 PHOTO_LENGTH_SD = 0.8e-3  #: length error of the photographs [m] (§III.C, Fig. 9)

@@ -2,7 +2,7 @@
 
 Plots and tables read these values from here; no plotting routine holds a paper's number.
 
-``FIG13``: the sliding-mode pressure step of 000_909f662a44080c85.txt, §IV.B and Fig. 13: a step
+``FIG13``: the sliding-mode pressure step of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §IV.B and Fig. 13: a step
 to 0.55 MPa (80 psi) under the paper's law β·tanh(S/ε); "the time constant of the controller
 response is found to be ~0.06 s for the low gain [β = 120]. By choosing β to be 150, the response
 time can be further reduced to 0.01 s with a small increase in overshoot (~7 %)". The overshoot

@@ -2,7 +2,7 @@
 
 References
 ----------
-000_909f662a44080c85.txt, §III.C: eq. (1) l = Ls·cos θ, eq. (2) l = k1·Ls·cos θ + k2, Table I.
+“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III.C: eq. (1) l = Ls·cos θ, eq. (2) l = k1·Ls·cos θ + k2, Table I.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def length_from_braid(cos_theta, strand_length, k1=1.0, k2=0.0):
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (1) and (2), Table I.
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (1) and (2), Table I.
 
     Examples
     --------
@@ -62,6 +62,6 @@ def braid_from_length(length, strand_length, k1=1.0, k2=0.0):
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (2) solved for cos θ.
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) solved for cos θ.
     """
     return (np.asarray(length, dtype=float) - k2) / (k1 * np.asarray(strand_length, dtype=float))

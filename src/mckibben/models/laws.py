@@ -43,7 +43,7 @@ def tondu_lopez(pressure, length, th, o, w):
     """Tondu–Lopez force with a pressure threshold. [N]
 
     F = π·r0²·max(P − P_th, 0)·[a(1 − k·ε)² − b], ε = 1 − l/l0, a = 3/tan²α0, b = 1/sin²α0.
-    Tondu & Lopez (2000), eq. (4); the threshold: 000_909f662a44080c85.txt Fig. 10.
+    Tondu & Lopez (2000), eq. (4); the threshold: “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) Fig. 10.
     """
     r0 = th[o + (TL_R0) * w]
     dp = pressure - th[o + (TL_PTH) * w]
@@ -100,7 +100,7 @@ def braid_map(pressure, length, th, o, w):
 
     cos θ is a cubic in P per characterized load and linear in load between them (the end
     segments extended); the segment whose cos θ interval holds the target gives the load.
-    NaN where no segment does (two loads with the same cos θ). 000_909f662a44080c85.txt,
+    NaN where no segment does (two loads with the same cos θ). “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt),
     eq. (2)–(3), Tables I–II.
     """
     target = (length - th[o + (BM_K2) * w]) / (th[o + (BM_K1) * w] * th[o + (BM_LS) * w])
@@ -118,7 +118,7 @@ def braid_map(pressure, length, th, o, w):
     return out
 
 
-# --- the spring model F = K(P, Ls)·Ls (eq. 1–2 of 001_9d98bcef9f07dbeb.txt) -------------------------
+# --- the spring model F = K(P, Ls)·Ls (eq. 1–2 of Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt)) -------------------------
 # θ: h2, h1, h0 (Lu = h2·P² + h1·P + h0), split pressure, low c3, c2, c1, c0, high c3, c2, c1, c0
 SP_H2, SP_H1, SP_H0, SP_SPLIT, SP_LOW, SP_HIGH = 0, 1, 2, 3, 4, 8
 
@@ -128,7 +128,7 @@ def spring(pressure, length, th, o, w):
     """Spring model: stretch Ls = l − Lu(P), F = (c3·P + c2·P·Ls + c1·Ls + c0)·Ls, 0 when slack. [N]
 
     One coefficient set per pressure range (low ≤ split < high), one direction chosen when θ was
-    built. 001_9d98bcef9f07dbeb.txt, eq. (1)–(2), Table 1.
+    built. Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1)–(2), Table 1.
     """
     p = pressure
     s = length - ((th[o + (SP_H2) * w] * p + th[o + (SP_H1) * w]) * p + th[o + (SP_H0) * w])

@@ -1,6 +1,6 @@
 """The miniature muscle's empirical model: braid-angle cubics and the kinematic length map.
 
-Length under a hanging load follows from two fits of 000_909f662a44080c85.txt: the braid angle
+Length under a hanging load follows from two fits of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt): the braid angle
 as a cubic in pressure per load (eq. 3, Table II) and the fitted pantograph (eq. 2, Table I).
 
 Loads between and beyond the characterized ones
@@ -109,7 +109,7 @@ def braid_cos_theta(pressure, load, braid_map: BraidAngleMap):
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (3) and Table II (P in MPa).
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (3) and Table II (P in MPa).
     """
     pressure, load = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
     c = braid_map.coefficients_at(load)
@@ -223,7 +223,7 @@ def predict_length(muscle: MiniatureMuscle, pressure, load) -> LengthPrediction:
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (2) with (3) and Tables I–II.
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3) and Tables I–II.
 
     Examples
     --------
@@ -265,7 +265,7 @@ def pressure_for_length(muscle: MiniatureMuscle, length, load, p_max: float = 0.
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (2) and (3) inverted; §IV uses it as the feed-forward.
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) and (3) inverted; §IV uses it as the feed-forward.
     """
     length, load = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(load, dtype=float))
     target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
@@ -366,7 +366,7 @@ def force_from_length(muscle: MiniatureMuscle, pressure, length) -> ForcePredict
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (2) and (3), Tables I–II, solved for the load.
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) and (3), Tables I–II, solved for the load.
     """
     bmap = muscle.braid_map
     if len(bmap.loads) < 2:

@@ -12,7 +12,7 @@ N/(m·Pa^i·m^j) for the term P^i·Ls^j. The paper's bar and cm are converted at
 
 References
 ----------
-001_9d98bcef9f07dbeb.txt (Wickramatunge & Leephakpreeda, Int. J. Eng. Sci. 48, 2010), eq. (1)
+Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt) (Wickramatunge & Leephakpreeda, Int. J. Eng. Sci. 48, 2010), eq. (1)
 and (2), Tables 1 and 2, §5. Its coefficient tables are unreadable in our copy: fit them from
 data (``mckibben fit --model spring``).
 """
@@ -94,7 +94,7 @@ def unstretched_length(pressure, h):
 
     References
     ----------
-    001_9d98bcef9f07dbeb.txt, Table 1.
+    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), Table 1.
     """
     p = np.asarray(pressure, dtype=float)
     return (h[0] * p + h[1]) * p + h[2]
@@ -122,7 +122,7 @@ def stiffness(pressure, stretch, coefficients, terms=DEFAULT_TERMS):
 
     References
     ----------
-    001_9d98bcef9f07dbeb.txt, eq. (2).
+    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (2).
     """
     p = np.asarray(pressure, dtype=float)
     s = np.asarray(stretch, dtype=float)
@@ -164,7 +164,7 @@ def spring_force(length, pressure, model: SpringModel, direction=ELONGATION):
 
     References
     ----------
-    001_9d98bcef9f07dbeb.txt, eq. (1) with (2) and Table 1.
+    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1) with (2) and Table 1.
     """
     length, pressure = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(pressure, dtype=float))
     stretch = length - unstretched_length(pressure, model.h)
@@ -214,7 +214,7 @@ def spring_length(force, pressure, model: SpringModel, direction=ELONGATION, max
 
     References
     ----------
-    001_9d98bcef9f07dbeb.txt, eq. (1) solved for L (§5, "determine the position/length of the
+    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1) solved for L (§5, "determine the position/length of the
     PAM when the pulling force exerts on the PAM").
     """
     force, pressure = np.broadcast_arrays(np.asarray(force, dtype=float), np.asarray(pressure, dtype=float))
@@ -280,7 +280,7 @@ def spring_length_series(pressure, force, model: SpringModel, initial_direction=
 
     References
     ----------
-    001_9d98bcef9f07dbeb.txt, §5 and Fig. 8.
+    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), §5 and Fig. 8.
     """
     p = np.asarray(pressure, dtype=float).ravel()
     f = np.asarray(force, dtype=float).ravel()

@@ -8,7 +8,7 @@ carries the inputs, the outputs, the contraction and the flags (:mod:`mckibben.m
 of every element, whatever the model.
 
 The models themselves stay where they are written once: :mod:`~mckibben.models.mpam` (eq. 2
-with eq. 3 of 000_909f662a44080c85.txt) and :mod:`~mckibben.models.physical` (Chou–Hannaford,
+with eq. 3 of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)) and :mod:`~mckibben.models.physical` (Chou–Hannaford,
 with and without the tube wall, on the muscle's construction, §II).
 
 >>> from mckibben.datasets import get_muscle
@@ -109,7 +109,7 @@ def length_mpam(pressure, load, muscle) -> StaticResult:
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (2) with (3), Tables I and II.
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
     """
     from mckibben.models.mpam import predict_length
 
@@ -135,7 +135,7 @@ def length_chou_hannaford(pressure, load, muscle) -> StaticResult:
     load : array_like or str
         Hanging load. [N]
     muscle : MiniatureMuscle
-        The muscle (its nominal length and construction, §II of 000_909f662a44080c85.txt). [-]
+        The muscle (its nominal length and construction, §II of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)). [-]
 
     Returns
     -------
@@ -181,7 +181,7 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (2) with (3), Tables I and II.
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
     """
     from mckibben.models.mpam import force_from_length
 

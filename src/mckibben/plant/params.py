@@ -112,7 +112,7 @@ def calibrate_force_law(muscle: MiniatureMuscle, blocked_force: float | None = N
 
     References
     ----------
-    Tondu & Lopez (2000), eq. (4); 000_909f662a44080c85.txt, §III.A, eq. (2)–(3), Tables I–II.
+    Tondu & Lopez (2000), eq. (4); “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III.A, eq. (2)–(3), Tables I–II.
     """
     f_b = blocked_force if blocked_force is not None else dict(muscle.blocked_force)[0.8e6]
     a0 = muscle.geometry.braid_angle if alpha0 is None else alpha0

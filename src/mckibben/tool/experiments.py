@@ -46,7 +46,7 @@ def _discs(discs):
 
 def make_tool(muscle="mpam117", *, pitch_radius=None, discs=13, preload="1N", bending_stiffness="2e-4Nm2",
               axial_stiffness="0N", p_max="0.8MPa") -> Tool:
-    """The three-muscle tool of §V of 000_909f662a44080c85.txt with its stack's load model.
+    """The three-muscle tool of §V of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) with its stack's load model.
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """The three-muscle endoscope: its geometry and the load model its muscles share.
 
-The tool of 000_909f662a44080c85.txt §V (Fig. 14): a stack of spacer discs 12 mm across, each
+The tool of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §V (Fig. 14): a stack of spacer discs 12 mm across, each
 with three peripheral holes 2.2 mm across, 120° apart, and a 4 mm central channel for a
 fibre-optic camera or an instrument. One miniature muscle runs through each ring of holes; the
 three are pressurized independently and bend the stack.
@@ -83,7 +83,7 @@ def pitch_radius_limits(disc_diameter: float, hole_diameter: float, channel_diam
 
 @dataclass(frozen=True)
 class ToolGeometry:
-    """The spacer-disc stack of the endoscope (000_909f662a44080c85.txt §V).
+    """The spacer-disc stack of the endoscope (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §V).
 
     Attributes
     ----------
