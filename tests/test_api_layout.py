@@ -25,9 +25,6 @@ EXPERIMENT_CALLS = {"run_closed_loop", "simulate", "core_spec", "step_reference"
                     "fit_chou_hannaford", "fit_tondu_lopez", "fit_first_order", "compare_models", "fit_lift_off",
                     "characterize", "write_report"}
 
-#: Commands whose experiment still lives in the CLI, with where it is going. Empty is the goal.
-PENDING: dict = {}
-
 
 def _imports(path: pathlib.Path):
     tree = ast.parse(path.read_text(encoding="utf-8"))
@@ -51,7 +48,7 @@ def test_cli_modules_use_only_public_library_names(path):
         assert not private, f"{path.name} imports private {module}.{name}"
 
 
-@pytest.mark.parametrize("path", [p for p in CLI_FILES if p.name not in PENDING], ids=lambda p: p.name)
+@pytest.mark.parametrize("path", CLI_FILES, ids=lambda p: p.name)
 def test_cli_modules_hold_no_experiment(path):
     tree = ast.parse(path.read_text(encoding="utf-8"))
     called = {n.func.id if isinstance(n.func, ast.Name) else n.func.attr
@@ -81,12 +78,3 @@ def test_public_names_are_exported_and_exist(package):
     assert names, f"{package} exports nothing"
     for name in names:
         assert getattr(mod, name) is not None, f"{package}.{name}"
-
-
-@pytest.mark.parametrize("name", sorted(PENDING))
-def test_pending_commands_still_hold_their_experiment(name):
-    """When one of them becomes a thin shell, remove it from PENDING (this test says so)."""
-    tree = ast.parse((SRC / "cli" / name).read_text(encoding="utf-8"))
-    called = {n.func.id if isinstance(n.func, ast.Name) else n.func.attr
-              for n in ast.walk(tree) if isinstance(n, ast.Call) and isinstance(n.func, (ast.Name, ast.Attribute))}
-    assert called & EXPERIMENT_CALLS, f"cli/{name} is thin now: remove it from PENDING"
