@@ -8,9 +8,41 @@ what ``mckibben fit``/``compare`` run) and :mod:`mckibben.fit.muscle_file` (fitt
 muscle files).
 """
 
-from mckibben.fit.core import COND_MAX, FitResult, bounded_fit, cluster_covariance, linear_fit, nonlinear_fit
-from mckibben.fit.isometric import compare_isometric, fit_isometric
-from mckibben.fit.registry import compare_table, fit_table
+import importlib
+from typing import TYPE_CHECKING
 
-__all__ = ["COND_MAX", "FitResult", "bounded_fit", "cluster_covariance", "compare_isometric", "compare_table",
-           "fit_isometric", "fit_table", "linear_fit", "nonlinear_fit"]
+#: Where each public name lives. The submodules load on first use (PEP 562): importing
+#: ``mckibben.fit.registry`` for its model names, as every ``mckibben`` command does at start-up,
+#: must not pull in SciPy's optimizers and statistics.
+_EXPORTS = {
+    "COND_MAX": "core", "FitResult": "core", "bounded_fit": "core", "cluster_covariance": "core",
+    "linear_fit": "core", "nonlinear_fit": "core",
+    "compare_isometric": "isometric", "fit_isometric": "isometric",
+    "compare_table": "registry", "fit_table": "registry",
+}
+
+__all__ = sorted(_EXPORTS)
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
+    from mckibben.fit.core import COND_MAX as COND_MAX
+    from mckibben.fit.core import FitResult as FitResult
+    from mckibben.fit.core import bounded_fit as bounded_fit
+    from mckibben.fit.core import cluster_covariance as cluster_covariance
+    from mckibben.fit.core import linear_fit as linear_fit
+    from mckibben.fit.core import nonlinear_fit as nonlinear_fit
+    from mckibben.fit.isometric import compare_isometric as compare_isometric
+    from mckibben.fit.isometric import fit_isometric as fit_isometric
+    from mckibben.fit.registry import compare_table as compare_table
+    from mckibben.fit.registry import fit_table as fit_table
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'mckibben.fit' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"mckibben.fit.{_EXPORTS[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
