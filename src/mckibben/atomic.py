@@ -112,6 +112,18 @@ def _probe(folder: Path, name: str) -> None:
         pass
 
 
+def _stat_destination(p: Path, name: str) -> os.stat_result | None:
+    """What stands at an output path now (None: nothing); a path that cannot be one is refused."""
+    try:
+        return p.stat()
+    except FileNotFoundError:
+        return None
+    except NotADirectoryError:
+        raise InputError(f"{name}: {str(p)!r}: a part of the path is a file, not a folder") from None
+    except OSError as exc:
+        raise InputError(f"{name}: {str(p)!r}: {_why(exc)}") from None
+
+
 def check_output_file(path, name: str = "--out", suffixes: tuple[str, ...] | None = None) -> Path:
     """Check, before any work, that a file can be written at ``path``; return it as a Path.
 
@@ -130,14 +142,7 @@ def check_output_file(path, name: str = "--out", suffixes: tuple[str, ...] | Non
     if suffixes is not None and p.suffix.lower() not in suffixes:
         listed = suffixes[0] if len(suffixes) == 1 else f"{', '.join(suffixes[:-1])} or {suffixes[-1]}"
         raise InputError(f"{name}: {str(path)!r} must end in {listed}")
-    try:
-        st = p.stat()
-    except FileNotFoundError:
-        st = None
-    except NotADirectoryError:
-        raise InputError(f"{name}: {str(p)!r}: a part of the path is a file, not a folder") from None
-    except OSError as exc:
-        raise InputError(f"{name}: {str(p)!r}: {_why(exc)}") from None
+    st = _stat_destination(p, name)
     if st is not None and not stat.S_ISREG(st.st_mode):
         raise InputError(f"{name}: {str(p)!r} is {_kind(st.st_mode)}; give a file name")
     _check_parent(p, name)
@@ -160,14 +165,7 @@ def check_output_dir(path, name: str = "--out") -> Path:
     p = Path(os.fspath(path))
     if str(path) == "":
         raise InputError(f"{name}: an empty folder name")
-    try:
-        st = p.stat()
-    except FileNotFoundError:
-        st = None
-    except NotADirectoryError:
-        raise InputError(f"{name}: {str(p)!r}: a part of the path is a file, not a folder") from None
-    except OSError as exc:
-        raise InputError(f"{name}: {str(p)!r}: {_why(exc)}") from None
+    st = _stat_destination(p, name)
     if st is not None and not stat.S_ISDIR(st.st_mode):
         raise InputError(f"{name}: {str(p)!r} is {_kind(st.st_mode)}, not a folder")
     if p.resolve().parent == p.resolve():
