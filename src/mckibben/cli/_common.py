@@ -25,6 +25,19 @@ console = Console(soft_wrap=True)
 err_console = Console(stderr=True, soft_wrap=True)
 
 JSON_OPTION = typer.Option(False, "--json", help="Print one JSON object on stdout (SI units).")
+#: The two branches of a fitted force law (the spring model's hysteresis; the other laws have one).
+DIRECTIONS = ("inflate", "deflate")
+#: ``--direction`` of every command that takes ``--muscle-file``; check it with :func:`check_direction`.
+DIRECTION_OPTION = typer.Option("inflate", "--direction", help="--muscle-file: the fitted law's inflate or deflate "
+                                                                "branch (a spring law's hysteresis; the other laws "
+                                                                "have one).")
+
+
+def check_direction(direction: str) -> str:
+    """``--direction``, checked: ``inflate`` or ``deflate`` (else one line, exit 2)."""
+    if direction not in DIRECTIONS:
+        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
+    return direction
 
 
 def emit_json(obj: dict) -> None:

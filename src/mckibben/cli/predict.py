@@ -6,7 +6,7 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, check_direction, emit_json, print_table
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
 from mckibben.limits import check_load, check_p_max
@@ -114,7 +114,7 @@ def force_cmd(
     muscle_file: str = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law "
                                                                 "(mckibben fit ISO.csv --save FILE.toml); "
                                                                 "replaces --model and --muscle."),
-    direction: str = typer.Option("inflate", "--direction", help="--muscle-file: inflate or deflate branch."),
+    direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Pulling force from pressure and length: empirical map, a physical model, or a muscle file's fitted law."""
@@ -194,8 +194,7 @@ def _force_from_muscle_file(path: str, pressure: str, length: str | None, direct
     from mckibben.data import read_muscle
     from mckibben.fit.muscle_file import muscle_force_law
 
-    if direction not in ("inflate", "deflate"):
-        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
+    check_direction(direction)
     law = muscle_force_law(read_muscle(path))
     p = parse_values(pressure, "pressure", "--pressure")
     ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else law.spec.nominal_length
