@@ -8,7 +8,7 @@ result objects (``.metrics``, ``.to_pandas()``, ``.plot(ax=None)``):
 >>> mc.fig13().plot()                                               # doctest: +SKIP
 
 Building blocks: :func:`identify_plant` (FOPDT fit and the valves' lift-off, §IV.A),
-:func:`design_pid`, :func:`smc_params`, :func:`controller_params`, :func:`step_metrics`,
+:func:`design_pid`, :func:`smc_params`, :func:`controller_params`, :func:`step_metrics` (and :func:`step_metrics_batch` for N runs),
 :func:`run_closed_loop`. Modules: :mod:`~mckibben.control.core` (the controller core shared
 with the firmware), :mod:`~mckibben.control.identify`, :mod:`~mckibben.control.metrics`,
 :mod:`~mckibben.control.hysteresis`, :mod:`~mckibben.control.length`.
@@ -18,7 +18,7 @@ from mckibben.control.controllers import FirstOrderModel, PIDDesign, design_pid,
 from mckibben.control.core import CoreParams
 from mckibben.control.experiments import LAWS, identify_plant, run_closed_loop
 from mckibben.control.identify import fit_step_response, read_step_log
-from mckibben.control.metrics import step_metrics, tracking_metrics
+from mckibben.control.metrics import step_metrics, step_metrics_batch, tracking_metrics, tracking_metrics_batch
 from mckibben.control.plots import (
     plot_compare,
     plot_fig13,
@@ -54,6 +54,6 @@ __all__ = [
     "fig13", "fit_step_response", "hysteresis_compensation", "identified_model", "identify_plant", "open_loop", "pid_params",
     "plot_compare", "plot_fig13", "plot_hysteresis", "plot_open_loop", "plot_record", "plot_robustness", "plot_step_fit",
     "pressure_reference", "read_step_log", "robustness", "run_closed_loop", "smc_params", "step_metrics",
-    "step_response", "track",
-    "tracking_metrics",
+    "step_metrics_batch", "step_response", "track",
+    "tracking_metrics", "tracking_metrics_batch",
 ]

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import math
 
-import control
 import numpy as np
 
 from mckibben.errors import InputError
@@ -54,6 +53,20 @@ def _as_1d(name: str, x, n: int | None = None) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise InputError(f"step metrics: {name} contains NaN or infinite values")
     return a
+
+
+def _first_crossings(t: np.ndarray, y: np.ndarray, level: np.ndarray) -> np.ndarray:
+    """Per row of ``y`` (N, n): the interpolated time of the first sample at or above ``level[i]``."""
+    hit = y >= level[:, None]
+    k = hit.argmax(axis=1)
+    rows = np.arange(y.shape[0])
+    km = np.maximum(k - 1, 0)
+    yk, ykm = y[rows, k], y[rows, km]
+    tk, tkm = t[k], t[km]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inner = tkm + (level - ykm) * (tk - tkm) / (yk - ykm)
+    out = np.where((k == 0) | (yk == ykm), tk, inner)
+    return np.where(hit.any(axis=1), out, np.nan)
 
 
 def crossing_time(t, y, level: float) -> float:
@@ -80,13 +93,171 @@ def crossing_time(t, y, level: float) -> float:
     """
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
-    idx = np.flatnonzero(y >= level)
-    if idx.size == 0:
-        return math.nan
-    k = int(idx[0])
-    if k == 0 or y[k] == y[k - 1]:
-        return float(t[k])
-    return float(t[k - 1] + (level - y[k - 1]) * (t[k] - t[k - 1]) / (y[k] - y[k - 1]))
+    return float(_first_crossings(t, y[None, :], np.array([float(level)]))[0])
+
+
+def _last_true(mask: np.ndarray) -> np.ndarray:
+    """Per row: index of the last True, -1 if none."""
+    n = mask.shape[1]
+    last = n - 1 - mask[:, ::-1].argmax(axis=1)
+    return np.where(mask.any(axis=1), last, -1)
+
+
+def step_metrics_batch(
+    t,
+    y,
+    reference=None,
+    commands=None,
+    *,
+    t_step: float | None = None,
+    final: str = "reference",
+    unit: str = "Pa",
+    steady_fraction: float = 0.1,
+    settling_threshold: float = 0.02,
+) -> dict[str, np.ndarray]:
+    """Metrics of N sampled step responses on one time axis, all at once (NumPy over rows).
+
+    The definitions are those of :func:`step_metrics` (which calls this function on one row):
+    rise time, settling time and overshoot are ``control.step_info``'s, computed row-wise with
+    the same floating-point operations, so each row gives the numbers ``control.step_info``
+    gives for it (tested against it). A row whose response is not finite everywhere (a run the
+    simulator flagged) or whose step size is zero gets NaN for every metric.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times, strictly increasing, shape (n,). [s]
+    y : array_like
+        Measured outputs, shape (N, n). [unit]
+    reference : float or array_like, optional
+        Reference: a constant, (n,) shared by every row, or (N, n). Required unless
+        ``final="measured"``. [unit]
+    commands : array_like, optional
+        Valve commands: (N, n) signed (positive inlet, negative bleed) or (N, n, 2) (inlet,
+        bleed) counts. Without it the valve effort is NaN. [PWM counts]
+    t_step : float, optional
+        Time of the step, common to every row. Default: the first change of the reference (the
+        same in every row), else ``t[0]``. [s]
+    final : {"reference", "measured"}, default "reference"
+        What each response is scored against: the final reference or its last sample. [-]
+    unit : str, default "Pa"
+        Unit of y, used in the key names (``steady_state_error_Pa``). [-]
+    steady_fraction : float, default 0.1
+        Trailing fraction of the record averaged for the steady-state value. [-]
+    settling_threshold : float, default 0.02
+        Half-width of the settling band, as a fraction of the step. [-]
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        The keys of :func:`step_metrics`, each an (N,) float array. [s, %, unit, counts]
+
+    Raises
+    ------
+    InputError
+        Arrays of mismatched shape, a time axis that does not increase, a non-finite reference,
+        rows whose references step at different times (give ``t_step``), or a step time that
+        leaves fewer than 3 samples.
+    """
+    t = _as_1d("time", t)
+    n = t.shape[0]
+    if n < 3:
+        raise InputError(f"step metrics: need at least 3 samples, got {n}")
+    if not np.all(np.diff(t) > 0):
+        raise InputError("step metrics: time must be strictly increasing")
+    y = np.asarray(y, dtype=float)
+    if y.ndim != 2 or y.shape[1] != n:
+        raise InputError(f"step metrics: y must have shape (N, {n}), got {y.shape}")
+    nrow = y.shape[0]
+    if final not in ("reference", "measured"):
+        raise InputError(f"step metrics: final={final!r} must be 'reference' or 'measured'")
+    if reference is None:
+        if final == "reference":
+            raise InputError("step metrics: a reference is required unless final='measured'")
+        r = None
+    else:
+        r = np.asarray(reference, dtype=float)
+        if r.ndim < 2:
+            r = _as_1d("reference", r, n)[None, :]
+        elif r.shape != (nrow, n):
+            raise InputError(f"step metrics: reference must be a constant, ({n},) or ({nrow}, {n}), got {r.shape}")
+        elif not np.all(np.isfinite(r)):
+            raise InputError("step metrics: reference contains NaN or infinite values")
+    if not 0.0 < steady_fraction <= 1.0:
+        raise InputError(f"step metrics: steady_fraction={steady_fraction!r} must be in (0, 1]")
+
+    if t_step is None:
+        t_step = float(t[0])
+        if r is not None:
+            changed = r != r[:, :1]
+            first = np.where(changed.any(axis=1), changed.argmax(axis=1), 0)
+            if np.any(first != first[0]):
+                raise InputError("step metrics: the rows' references step at different times; give t_step")
+            t_step = float(t[int(first[0])])
+    k0 = int(np.searchsorted(t, t_step, side="left"))
+    if k0 >= n - 2:
+        raise InputError(f"step metrics: step time {t_step!r} s leaves fewer than 3 samples")
+    # the value the step starts from: the last sample before it (or the first one)
+    base = y[:, k0 - 1] if k0 > 0 else y[:, 0]
+    tt = t[k0:] - t_step
+    yk = y[:, k0:]
+    yy = yk - base[:, None]
+    n_ss = max(1, int(round(steady_fraction * yy.shape[1])))
+    y_ss = np.mean(yk[:, -n_ss:], axis=1)
+    target = np.broadcast_to(r[:, -1], (nrow,)) if final == "reference" else y[:, -1]
+    step = target - base
+    good = np.all(np.isfinite(y), axis=1) & (step != 0.0)
+    nan = np.full(nrow, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        sgn = np.copysign(1.0, step)
+        sy = sgn[:, None] * yy
+        abs_step = np.abs(step)
+        tc = _first_crossings(tt, sy, ONE_MINUS_INV_E * abs_step)
+        # control.step_info (python-control, time-response data with final_output=step): rise
+        # time 10-90 %, settling time (first sample after the last one outside the band),
+        # overshoot; undefined (NaN) unless the response reaches 90 % of the step.
+        reached = np.any(sy >= (0.9 * abs_step)[:, None], axis=1) & good
+        s_col = step[:, None]
+        sg_col = np.sign(step)[:, None]
+        lo = (sg_col * (yy - 0.1 * s_col) >= 0).argmax(axis=1)
+        up = (sg_col * (yy - 0.9 * s_col) >= 0).argmax(axis=1)
+        rise = tt[up] - tt[lo]
+        settled = _last_true(np.abs(yy / s_col - 1) >= settling_threshold) + 1
+        m = tt.shape[0]
+        settling = np.where(settled < m, tt[np.minimum(settled, m - 1)], np.nan)
+        dy_os = np.abs(sy.max(axis=1)) - abs_step
+        overshoot = np.where(dy_os > 0, np.abs(100.0 * dy_os / step), 0.0)
+        peak = tt[sy.argmax(axis=1)]
+    out = {
+        "time_constant_s": np.where(good, tc, nan),
+        "rise_time_s": np.where(reached, rise, nan),
+        "settling_time_s": np.where(reached, settling, nan),
+        "overshoot_pct": np.where(reached, overshoot, nan),
+        "peak_time_s": np.where(reached, peak, nan),
+    }
+    if r is not None:
+        out[f"steady_state_error_{unit}"] = np.where(good, r[:, -1] - y_ss, nan)
+        with np.errstate(invalid="ignore", over="ignore"):
+            rms = np.sqrt(np.mean((r[:, k0:] - yk) ** 2, axis=1))
+        out[f"rms_error_{unit}"] = np.where(good, rms, nan)
+    else:
+        out[f"steady_state_error_{unit}"] = nan.copy()
+        out[f"rms_error_{unit}"] = nan.copy()
+    out["valve_effort_counts"] = np.where(good, _effort(commands, nrow, n, k0), nan)
+    out[f"step_size_{unit}"] = np.where(good, step, nan)
+    return out
+
+
+def _effort(commands, nrow: int, n: int, k0: int) -> np.ndarray:
+    """Σ |PWM| per row from sample k0 on (NaN without commands)."""
+    if commands is None:
+        return np.full(nrow, np.nan)
+    c = np.asarray(commands, dtype=float)
+    if c.shape == (nrow, n):
+        return np.abs(c[:, k0:]).sum(axis=1)
+    if c.shape == (nrow, n, 2):
+        return np.abs(c[:, k0:]).reshape(nrow, -1).sum(axis=1)
+    raise InputError(f"step metrics: commands must have shape ({nrow}, {n}) or ({nrow}, {n}, 2), got {c.shape}")
 
 
 def step_metrics(
@@ -148,72 +319,69 @@ def step_metrics(
     n = t.shape[0]
     if n < 3:
         raise InputError(f"step metrics: need at least 3 samples, got {n}")
-    if not np.all(np.diff(t) > 0):
-        raise InputError("step metrics: time must be strictly increasing")
     y = _as_1d("y", y, n)
-    if final not in ("reference", "measured"):
-        raise InputError(f"step metrics: final={final!r} must be 'reference' or 'measured'")
-    if reference is None:
-        if final == "reference":
-            raise InputError("step metrics: a reference is required unless final='measured'")
-        r = None
-    else:
-        r = _as_1d("reference", reference, n)
-    if not 0.0 < steady_fraction <= 1.0:
-        raise InputError(f"step metrics: steady_fraction={steady_fraction!r} must be in (0, 1]")
-
-    if t_step is None:
-        if r is not None and np.any(r != r[0]):
-            t_step = float(t[int(np.flatnonzero(r != r[0])[0])])
-        else:
-            t_step = float(t[0])
-    k0 = int(np.searchsorted(t, t_step, side="left"))
-    if k0 >= n - 2:
-        raise InputError(f"step metrics: step time {t_step!r} s leaves fewer than 3 samples")
-    # the value the step starts from: the last sample before it (or the first one)
-    base = float(y[k0 - 1] if k0 > 0 else y[0])
-    tt = t[k0:] - t_step
-    yy = y[k0:] - base
-    n_ss = max(1, int(round(steady_fraction * yy.shape[0])))
-    y_ss = float(np.mean(y[k0:][-n_ss:]))
-    target = float(r[-1]) if final == "reference" else float(y[-1])
-    step = target - base
-    if step == 0.0:
-        raise InputError("step metrics: the step size is zero (final value equals the start)")
-    sgn = math.copysign(1.0, step)
-
-    out = {
-        "time_constant_s": crossing_time(tt, sgn * yy, ONE_MINUS_INV_E * abs(step)),
-        "rise_time_s": math.nan,
-        "settling_time_s": math.nan,
-        "overshoot_pct": math.nan,
-        "peak_time_s": math.nan,
-    }
-    # control.step_info indexes the first 90 % crossing without a guard: only call it when the
-    # response gets there (else rise time, settling and overshoot are undefined -> NaN).
-    if np.any(sgn * yy >= 0.9 * abs(step)):
-        info = control.step_info(yy, timepts=tt, final_output=step,
-                                 SettlingTimeThreshold=settling_threshold)
-        out["rise_time_s"] = info["RiseTime"]
-        out["settling_time_s"] = info["SettlingTime"]
-        out["overshoot_pct"] = info["Overshoot"]
-        out["peak_time_s"] = float(tt[int(np.argmax(sgn * yy))])
-    if r is not None:
-        out[f"steady_state_error_{unit}"] = float(r[-1]) - y_ss
-        out[f"rms_error_{unit}"] = float(np.sqrt(np.mean((r[k0:] - y[k0:]) ** 2)))
-    else:
-        out[f"steady_state_error_{unit}"] = math.nan
-        out[f"rms_error_{unit}"] = math.nan
-    if commands is None:
-        out["valve_effort_counts"] = math.nan
-    else:
+    r = None if reference is None else _as_1d("reference", reference, n)
+    c = None
+    if commands is not None:
         c = np.asarray(commands, dtype=float)
         if c.ndim == 1:
             c = _as_1d("commands", c, n)
         elif c.ndim != 2 or c.shape[0] != n or c.shape[1] != 2:
             raise InputError(f"step metrics: commands must have shape ({n},) or ({n}, 2), got {c.shape}")
-        out["valve_effort_counts"] = float(np.abs(c[k0:]).sum())
-    out[f"step_size_{unit}"] = step
+        c = c[None]
+    out = step_metrics_batch(t, y[None, :], r, c, t_step=t_step, final=final, unit=unit,
+                             steady_fraction=steady_fraction, settling_threshold=settling_threshold)
+    if math.isnan(out[f"step_size_{unit}"][0]):
+        raise InputError("step metrics: the step size is zero (final value equals the start)")
+    return {k: float(v[0]) for k, v in out.items()}
+
+
+def tracking_metrics_batch(t, y, reference, commands=None, *, unit: str = "Pa") -> dict[str, np.ndarray]:
+    """Metrics of N tracking records on one time axis, all at once (NumPy over rows).
+
+    The definitions of :func:`tracking_metrics` (which calls this function on one row). A row
+    whose output is not finite everywhere (a run the simulator flagged) gets NaN.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times, strictly increasing, shape (n,). [s]
+    y : array_like
+        Measured outputs, shape (N, n). [unit]
+    reference : array_like
+        Reference, (n,) shared by every row or (N, n). [unit]
+    commands : array_like, optional
+        (N, n) signed commands or (N, n, 2) (inlet, bleed) counts. [PWM counts]
+    unit : str, default "Pa"
+        Unit of y, used in the key names. [-]
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        The keys of :func:`tracking_metrics`, each an (N,) float array. [unit, counts, s]
+    """
+    t = _as_1d("time", t)
+    n = t.shape[0]
+    y = np.asarray(y, dtype=float)
+    if y.ndim != 2 or y.shape[1] != n:
+        raise InputError(f"tracking metrics: y must have shape (N, {n}), got {y.shape}")
+    nrow = y.shape[0]
+    r = np.asarray(reference, dtype=float)
+    if r.ndim < 2:
+        r = _as_1d("reference", r, n)[None, :]
+    elif r.shape != (nrow, n) or not np.all(np.isfinite(r)):
+        raise InputError(f"tracking metrics: reference must be finite, ({n},) or ({nrow}, {n}), got {r.shape}")
+    good = np.all(np.isfinite(y), axis=1)
+    nan = np.full(nrow, np.nan)
+    with np.errstate(invalid="ignore", over="ignore"):
+        e = r - y
+        out = {
+            f"rms_error_{unit}": np.where(good, np.sqrt(np.mean(e**2, axis=1)), nan),
+            f"max_abs_error_{unit}": np.where(good, np.max(np.abs(e), axis=1), nan),
+            f"mean_error_{unit}": np.where(good, np.mean(e, axis=1), nan),
+            "valve_effort_counts": np.where(good, _effort(commands, nrow, n, 0), nan),
+            "duration_s": np.where(good, float(t[-1] - t[0]), nan),
+        }
     return out
 
 
@@ -243,12 +411,6 @@ def tracking_metrics(t, y, reference, commands=None, *, unit: str = "Pa") -> dic
     n = t.shape[0]
     y = _as_1d("y", y, n)
     r = _as_1d("reference", reference, n)
-    e = r - y
-    out = {
-        f"rms_error_{unit}": float(np.sqrt(np.mean(e**2))),
-        f"max_abs_error_{unit}": float(np.max(np.abs(e))),
-        f"mean_error_{unit}": float(np.mean(e)),
-        "valve_effort_counts": math.nan if commands is None else float(np.abs(np.asarray(commands, float)).sum()),
-        "duration_s": float(t[-1] - t[0]),
-    }
-    return out
+    c = None if commands is None else np.asarray(commands, dtype=float)[None]
+    out = tracking_metrics_batch(t, y[None, :], r, c, unit=unit)
+    return {k: float(v[0]) for k, v in out.items()}
