@@ -279,3 +279,96 @@ def test_held_at_target_with_a_steady_command_is_not_stuck():
     adc = round(0.55e6 / (1e6 / 1023))
     out = [ctrl.step(adc, True, 0.55e6) for _ in range(3000)]
     assert not any(f for _, _, f in out)
+
+
+# --- packing a batch column by column equals packing it run by run -----------------------------
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_SWEPT = ("beta", "eps", "ki", "tau", "g", "i_max", "kp", "ki_pid", "kd", "tf", "p_max", "margin", "u0", "ts", "mode")
+
+
+def _value(name):
+    """Values of one parameter, mostly inside the firmware's range, sometimes outside or not finite."""
+    if name == "ts":
+        return st.sampled_from([1e-3, 5e-4, 1e-4, 1e-2, 2.5e-4, 1.5e-7, 0.02])
+    if name == "mode":
+        return st.sampled_from([0, 1, 2, 3, 5])
+    if name == "p_max":
+        return st.floats(-1e4, 1.1e6)
+    g = core.GAINS[core.GAIN_IDS["smc_" + name if "smc_" + name in core.GAIN_IDS else "pid_" + name.replace("_pid", "")
+                                 if name in ("kp", "ki_pid", "kd", "tf") else name]]
+    inside = st.integers(g.lo, g.hi).map(lambda v, g=g: v / g.scale)
+    return st.one_of(inside, inside, inside, st.floats(allow_nan=True, allow_infinity=True))
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_pack_batch_equals_pack_params_run_by_run(data):
+    n = data.draw(st.integers(1, 5))
+    names = data.draw(st.lists(st.sampled_from(_SWEPT), unique=True, max_size=6))
+    cols = {name: data.draw(st.lists(_value(name), min_size=n, max_size=n)) for name in names}
+    runs = [core.CoreParams(**{k: v[i] for k, v in cols.items()}) for i in range(n)]
+    errors = []
+    for p in runs:
+        try:
+            core.pack_params(p)
+        except InputError as exc:
+            errors.append(str(exc))
+    arrays = {k: np.array(v) for k, v in cols.items()}  # ints stay ints: the messages show values as given
+    if errors:  # the first bad run is named, with the per-run message
+        for given_as in (arrays, runs):
+            with pytest.raises(InputError) as info:
+                core.core_spec(given_as, n=n)
+            assert str(info.value) == errors[0]
+        return
+    one_by_one = [core.pack_params(p) for p in runs]
+    for given_as in (arrays, runs):
+        packed = core.core_spec(given_as, n=n)[1:]
+        for k in range(4):
+            np.testing.assert_array_equal(packed[k], np.stack([pk[k] for pk in one_by_one]))
+
+
+def _derive_bigint(g, ts):
+    """derive() of controller.c in Python's unbounded integers: the oracle for the int64 arrays."""
+    def rdiv(n, d):
+        return (n + d // 2) // d
+
+    beta, eps, ki, tau, gg, imax = g[:6]
+    c = {"ppc_q8": rdiv(g[11] * 256, 1000), "beta_q8": rdiv(beta * 256, 1000)}
+    if gg == 0:
+        c["c_p"] = c["c_dref"] = c["c_e"] = c["c_u0"] = 0
+    else:
+        c["c_u0"] = rdiv(g[17] * 256, 1000)
+        c["c_p"] = min(rdiv(1000 << 24, gg), 1 << 24)
+        c["c_dref"] = min(rdiv((tau * 1000) << 24, gg * ts), (1 << 27) - 1)
+        c["c_e"] = min(rdiv((tau * ki) << 18, gg * 15625), (1 << 25) - 1)
+    c["c_ki"] = rdiv((ki * ts) << 15, 1953125)
+    c["c_eps"] = (1 << 28) // eps
+    c["s_sat"] = 8 * eps
+    lim = rdiv(imax * 1000, ts)
+    if c["c_ki"] > 0 and (1 << 46) // c["c_ki"] < lim:
+        lim = (1 << 46) // c["c_ki"]
+    c["isum_max"] = min(lim, 1 << 30)
+    c["c_kp"] = min(rdiv(g[6] << 15, 1953125), 1 << 24)
+    c["c_kip"] = min(rdiv((g[7] * ts) << 17, 30517578125), (1 << 25) - 1)
+    c["c_kd"] = min(rdiv(g[8] << 14, ts * 15625), (1 << 20) - 1)
+    c["alpha"] = rdiv(ts << 16, g[9] + ts)
+    c["gs_pa"] = rdiv(g[18], 1000)
+    c["resp_u"] = rdiv(g[19], 1000) + core.RESP_DU
+    return c
+
+
+def test_derive_arrays_equal_unbounded_integer_arithmetic_over_the_gain_ranges():
+    rng = np.random.default_rng(1)
+    lo = np.array([g.lo for g in core.GAINS])
+    hi = np.array([g.hi for g in core.GAINS])
+    pick = rng.integers(0, 4, (400, core.N_GAINS))  # each gain at its bounds or anywhere between
+    gains = np.where(pick == 0, lo, np.where(pick == 1, hi, rng.integers(lo, hi + 1, (400, core.N_GAINS))))
+    gains[:, core.GAIN_IDS["smc_eps"]] = np.maximum(gains[:, core.GAIN_IDS["smc_eps"]], 1)
+    ts = rng.choice([core.TS_US_MIN, core.TS_US_MAX, 1000, 250, 7777], 400)
+    batch = core.derive_arrays(gains, ts)
+    for i in range(400):
+        assert {k: int(v[i]) for k, v in batch.items()} == _derive_bigint([int(v) for v in gains[i]], int(ts[i]))
+        assert core.derive(gains[i].tolist(), int(ts[i])) == _derive_bigint([int(v) for v in gains[i]], int(ts[i]))

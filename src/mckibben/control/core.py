@@ -25,15 +25,15 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from mckibben import hardware as HW
-from mckibben.errors import InputError
+from mckibben.errors import InputError, unknown_name
 from mckibben.hardware import ADC_MAX
 
 # --- modes and fault flags (firmware/core/controller.h, docs/protocol.md) ---------------------
@@ -370,8 +370,55 @@ def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa)
 # --- gains -> coefficients (mirror of derive() in controller.c) -------------------------------
 
 
-def _rdiv(n: int, d: int) -> int:
+def _rdiv(n, d):
     return (n + d // 2) // d
+
+
+def derive_arrays(gains, ts_us) -> dict[str, np.ndarray]:
+    """The derived coefficients of the fixed-point law for many gain sets at once.
+
+    The integer formulas of ``derive()`` in ``firmware/core/controller.c`` in ``int64`` NumPy
+    arithmetic (exact: with every gain inside its SET_GAIN range no intermediate exceeds
+    2^62, so the values equal the C core's unsigned 64-bit ones).
+
+    Parameters
+    ----------
+    gains : array_like of int
+        Gain values in their SET_GAIN scale (``GAINS``), shape (..., N_GAINS). [-]
+    ts_us : array_like of int
+        Control period, shape (...). [us]
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Coefficient name -> ``int64`` values of shape (...). [-]
+    """
+    g = np.asarray(gains, dtype=np.int64)
+    ts = np.asarray(ts_us, dtype=np.int64)
+    beta, eps, ki, tau, gg, imax = (g[..., k] for k in range(6))
+    c = {}
+    c["ppc_q8"] = _rdiv(g[..., 11] * 256, 1000)
+    c["beta_q8"] = _rdiv(beta * 256, 1000)
+    model = gg != 0  # gg == 0: no model term, u = beta tanh(S/eps) alone
+    gs = np.where(model, gg, 1)
+    c["c_p"] = np.where(model, np.minimum(_rdiv(1000 << 24, gs), 1 << 24), 0)
+    c["c_dref"] = np.where(model, np.minimum(_rdiv((tau * 1000) << 24, gs * ts), (1 << 27) - 1), 0)
+    c["c_e"] = np.where(model, np.minimum(_rdiv((tau * ki) << 18, gs * 15625), (1 << 25) - 1), 0)
+    c["c_u0"] = np.where(model, _rdiv(g[..., 17] * 256, 1000), 0)
+    c["c_ki"] = _rdiv((ki * ts) << 15, 1953125)
+    c["c_eps"] = (1 << 28) // eps
+    c["s_sat"] = 8 * eps
+    lim = _rdiv(imax * 1000, ts)
+    cap = (1 << 46) // np.maximum(c["c_ki"], 1)
+    lim = np.where((c["c_ki"] > 0) & (cap < lim), cap, lim)
+    c["isum_max"] = np.minimum(lim, 1 << 30)
+    c["c_kp"] = np.minimum(_rdiv(g[..., 6] << 15, 1953125), 1 << 24)
+    c["c_kip"] = np.minimum(_rdiv((g[..., 7] * ts) << 17, 30517578125), (1 << 25) - 1)
+    c["c_kd"] = np.minimum(_rdiv(g[..., 8] << 14, ts * 15625), (1 << 20) - 1)
+    c["alpha"] = _rdiv(ts << 16, g[..., 9] + ts)
+    c["gs_pa"] = _rdiv(g[..., 18], 1000)
+    c["resp_u"] = _rdiv(g[..., 19], 1000) + RESP_DU
+    return {k: np.asarray(v, dtype=np.int64) for k, v in c.items()}
 
 
 def derive(gains: Sequence[int], ts_us: int) -> dict[str, int]:
@@ -380,42 +427,17 @@ def derive(gains: Sequence[int], ts_us: int) -> dict[str, int]:
     Parameters
     ----------
     gains : sequence of int
-        The 18 gain values in their SET_GAIN scale (``GAINS``). [-]
+        The gain values in their SET_GAIN scale (``GAINS``). [-]
     ts_us : int
         Control period. [us]
 
     Returns
     -------
     dict of str to int
-        Coefficient name -> integer value, as ``derive()`` in ``firmware/core/controller.c``. [-]
+        Coefficient name -> integer value, as ``derive()`` in ``firmware/core/controller.c``
+        (:func:`derive_arrays` on one gain set). [-]
     """
-    g = [int(v) for v in gains]
-    ts = int(ts_us)
-    beta, eps, ki, tau, gg, imax = g[0], g[1], g[2], g[3], g[4], g[5]
-    c = {}
-    c["ppc_q8"] = _rdiv(g[11] * 256, 1000)
-    c["beta_q8"] = _rdiv(beta * 256, 1000)
-    if gg == 0:  # no model term: u = beta tanh(S/eps) alone
-        c["c_p"] = c["c_dref"] = c["c_e"] = c["c_u0"] = 0
-    else:
-        c["c_u0"] = _rdiv(g[17] * 256, 1000)
-        c["c_p"] = min(_rdiv(1000 << 24, gg), 1 << 24)
-        c["c_dref"] = min(_rdiv((tau * 1000) << 24, gg * ts), (1 << 27) - 1)
-        c["c_e"] = min(_rdiv((tau * ki) << 18, gg * 15625), (1 << 25) - 1)
-    c["c_ki"] = _rdiv((ki * ts) << 15, 1953125)
-    c["c_eps"] = (1 << 28) // eps
-    c["s_sat"] = 8 * eps
-    lim = _rdiv(imax * 1000, ts)
-    if c["c_ki"] > 0 and (1 << 46) // c["c_ki"] < lim:
-        lim = (1 << 46) // c["c_ki"]
-    c["isum_max"] = min(lim, 1 << 30)
-    c["c_kp"] = min(_rdiv(g[6] << 15, 1953125), 1 << 24)
-    c["c_kip"] = min(_rdiv((g[7] * ts) << 17, 30517578125), (1 << 25) - 1)
-    c["c_kd"] = min(_rdiv(g[8] << 14, ts * 15625), (1 << 20) - 1)
-    c["alpha"] = _rdiv(ts << 16, g[9] + ts)
-    c["gs_pa"] = _rdiv(g[18], 1000)
-    c["resp_u"] = _rdiv(g[19], 1000) + RESP_DU
-    return c
+    return {k: int(v) for k, v in derive_arrays([int(v) for v in gains], int(ts_us)).items()}
 
 
 _COEF_INDEX = {
@@ -427,14 +449,15 @@ _COEF_INDEX = {
 
 
 def _fill_coefficients(ip: np.ndarray) -> None:
-    gains = ip[IP_GAIN0 : IP_GAIN0 + N_GAINS]
-    for name, value in derive(gains, int(ip[IP_TS_US])).items():
-        ip[_COEF_INDEX[name]] = value
+    """Fill the derived fields of iparams, one instance (N_IPARAMS,) or many (N, N_IPARAMS)."""
+    gains = ip[..., IP_GAIN0 : IP_GAIN0 + N_GAINS]
+    for name, value in derive_arrays(gains, ip[..., IP_TS_US]).items():
+        ip[..., _COEF_INDEX[name]] = value
     # the supervisor's settings in the step's fields (derive() in controller.c)
-    ip[IP_P_OVER] = ip[IP_P_MAX] + gains[GAIN_IDS["margin"]]
+    ip[..., IP_P_OVER] = ip[..., IP_P_MAX] + gains[..., GAIN_IDS["margin"]]
     for name, index in (("adc_zero", IP_ADC_ZERO), ("adc_min", IP_ADC_MIN), ("adc_max", IP_ADC_MAX),
                         ("n_stuck", IP_N_STUCK), ("n_missing", IP_N_MISSING)):
-        ip[index] = gains[GAIN_IDS[name]]
+        ip[..., index] = gains[..., GAIN_IDS[name]]
 
 
 # --- physical parameters ----------------------------------------------------------------------
@@ -544,24 +567,134 @@ def gain_values(params: CoreParams) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        18 ``int64`` values in id order (``GAINS``). [-]
+        ``N_GAINS`` ``int64`` values in id order (``GAINS``). [-]
 
     Raises
     ------
     InputError
         A parameter is not finite or outside the range its fixed-point scale can carry.
     """
-    out = np.zeros(N_GAINS, dtype=np.int64)
-    for gain, name in zip(GAINS, _PARAM_OF_GAIN, strict=True):
-        x = float(getattr(params, name))
-        v = round(x * gain.scale) if math.isfinite(x) else None
-        if v is None or not gain.lo <= v <= gain.hi:
-            raise InputError(
-                f"controller parameter {name}={x!r} outside "
-                f"[{gain.lo / gain.scale:g}, {gain.hi / gain.scale:g}] {gain.unit}"
-            )
-        out[gain.id] = v
-    return out
+    return _Columns(_fields_of(params), 1).gains()[0]
+
+
+def _fields_of(params: CoreParams) -> dict:
+    return {f.name: getattr(params, f.name) for f in fields(CoreParams)}
+
+
+class _Columns:
+    """Parameter columns of N instances (scalars or sequences of N), checked in pack_params' order."""
+
+    def __init__(self, values: Mapping[str, object], n: int | None):
+        names = [f.name for f in fields(CoreParams)]
+        unknown = sorted(set(values) - set(names))
+        if unknown:
+            raise unknown_name("controller parameter", unknown[0], names)
+        defaults = CoreParams()
+        self.raw = {name: values.get(name, getattr(defaults, name)) for name in names}
+        sizes = {len(v) for v in self.raw.values() if np.ndim(v) == 1}
+        if any(np.ndim(v) > 1 for v in self.raw.values()) or len(sizes) > 1:
+            raise InputError("controller parameters: scalars or 1-D sequences of one length")
+        self.n = int(n) if n is not None else (sizes.pop() if sizes else 1)
+        if self.n < 1 or (sizes and sizes != {self.n}):
+            raise InputError(f"controller parameters: {sorted(sizes)} instances, {self.n} were asked for")
+        self.col = {}
+        for name, v in self.raw.items():
+            try:
+                self.col[name] = np.broadcast_to(np.asarray(v, dtype=float), (self.n,))
+            except (TypeError, ValueError):
+                raise InputError(f"controller parameter {name}={v!r} is not a number") from None
+        self.checks: list[tuple[np.ndarray, object]] = []
+
+    def value(self, name: str, row: int):
+        """The parameter as given (scalar or element), for messages."""
+        v = self.raw[name]
+        if np.ndim(v) == 0:
+            return v
+        v = v[row]
+        return v.item() if isinstance(v, np.generic) else v
+
+    def check(self, bad: np.ndarray, message) -> None:
+        self.checks.append((np.asarray(bad, dtype=bool), message))
+
+    def raise_first(self) -> None:
+        """Raise for the first instance that fails a check (and its first failing check)."""
+        if not self.checks:
+            return
+        bad = np.stack([b for b, _ in self.checks])
+        if bad.any():
+            row = int(bad.any(axis=0).argmax())
+            k = int(bad[:, row].argmax())
+            raise InputError(self.checks[k][1](row))
+
+    def gains(self, check_now: bool = True) -> np.ndarray:
+        out = np.zeros((self.n, N_GAINS), dtype=np.int64)
+        for gain, name in zip(GAINS, _PARAM_OF_GAIN, strict=True):
+            x = self.col[name]
+            with np.errstate(invalid="ignore", over="ignore"):
+                v = np.rint(x * gain.scale)
+                bad = ~np.isfinite(v) | (v < gain.lo) | (v > gain.hi)
+            self.check(bad, lambda row, gain=gain, name=name: (
+                f"controller parameter {name}={float(self.col[name][row])!r} outside "
+                f"[{gain.lo / gain.scale:g}, {gain.hi / gain.scale:g}] {gain.unit}"))
+            out[:, gain.id] = np.where(bad, 0, v).astype(np.int64)
+        if check_now:
+            self.raise_first()
+        return out
+
+
+def pack_batch(params: Mapping[str, object] | None = None, n: int | None = None):
+    """Arrays of N controller instances for :func:`core_kernel`, built column by column.
+
+    The same packing as :func:`pack_params` (which is this function on one instance), from
+    arrays of physical parameters rather than one :class:`CoreParams` per instance.
+
+    Parameters
+    ----------
+    params : mapping of str to float or array_like, optional
+        :class:`CoreParams` field -> a scalar (shared) or N values; missing fields take the
+        defaults. [SI]
+    n : int, optional
+        Number of instances; default the length of the array values (1 if all are scalars). [-]
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(istate0[N, N_ISTATE], iparams[N, N_IPARAMS], fstate0[N, 1], fparams[N, 1])``. [-]
+
+    Raises
+    ------
+    InputError
+        A parameter is out of range: the first instance that has one, named with its value.
+    """
+    cols = _Columns(params or {}, n)
+    gains = cols.gains(check_now=False)
+    c = cols.col
+    with np.errstate(invalid="ignore", over="ignore"):
+        ts_us = np.where(np.isfinite(c["ts"]), np.rint(c["ts"] * 1e6), -1.0)
+        cols.check((ts_us < TS_US_MIN) | (ts_us > TS_US_MAX) | (np.abs(ts_us - c["ts"] * 1e6) > 1e-6),
+                   lambda row: (f"controller parameter ts={cols.value('ts', row)!r} must be a whole number of "
+                                f"microseconds in [{TS_US_MIN}, {TS_US_MAX}] us"))
+        p_max = np.where(np.isfinite(c["p_max"]), np.rint(c["p_max"]), -1.0)
+        cols.check((p_max < 0) | (p_max > P_MAX_LIMIT),
+                   lambda row: f"controller parameter p_max={cols.value('p_max', row)!r} outside [0, {P_MAX_LIMIT}] Pa")
+        for name, lo, hi in (("mode", 0, 3), ("open_loop_inlet", 0, 255), ("open_loop_bleed", 0, 255)):
+            v = c[name]
+            cols.check(~np.isfinite(v) | (np.floor(v) != v) | (v < lo) | (v > hi),
+                       lambda row, name=name, lo=lo, hi=hi: (f"controller parameter {name}={cols.value(name, row)!r} "
+                                                              f"outside the integers {lo}..{hi}"))
+    cols.raise_first()
+    ip = np.zeros((cols.n, N_IPARAMS), dtype=np.int64)
+    ip[:, IP_P_MAX] = p_max
+    ip[:, IP_TS_US] = ts_us
+    ip[:, IP_OL_INLET] = c["open_loop_inlet"]
+    ip[:, IP_OL_BLEED] = c["open_loop_bleed"]
+    ip[:, IP_GAIN0 : IP_GAIN0 + N_GAINS] = gains
+    _fill_coefficients(ip)
+    st = np.zeros((cols.n, N_ISTATE), dtype=np.int64)
+    st[:, IS_MODE] = c["mode"]
+    st[:, IS_P_PREV] = P_NONE
+    st[:, IS_FIRST] = 1
+    return st, ip, np.zeros((cols.n, 1)), np.zeros((cols.n, 1))
 
 
 def pack_params(params: CoreParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -583,52 +716,35 @@ def pack_params(params: CoreParams) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     InputError
         A parameter is out of range (named in the message).
     """
-    gains = gain_values(params)
-    ts_us = round(float(params.ts) * 1e6) if math.isfinite(float(params.ts)) else -1
-    if not TS_US_MIN <= ts_us <= TS_US_MAX or abs(ts_us - params.ts * 1e6) > 1e-6:
-        raise InputError(f"controller parameter ts={params.ts!r} must be a whole number of "
-                         f"microseconds in [{TS_US_MIN}, {TS_US_MAX}] us")
-    p_max = round(float(params.p_max)) if math.isfinite(float(params.p_max)) else -1
-    if not 0 <= p_max <= P_MAX_LIMIT:
-        raise InputError(f"controller parameter p_max={params.p_max!r} outside [0, {P_MAX_LIMIT}] Pa")
-    for name, lo, hi in (("mode", 0, 3), ("open_loop_inlet", 0, 255), ("open_loop_bleed", 0, 255)):
-        v = getattr(params, name)
-        if int(v) != v or not lo <= v <= hi:
-            raise InputError(f"controller parameter {name}={v!r} outside the integers {lo}..{hi}")
-    ip = np.zeros(N_IPARAMS, dtype=np.int64)
-    ip[IP_P_MAX] = p_max
-    ip[IP_TS_US] = ts_us
-    ip[IP_OL_INLET] = int(params.open_loop_inlet)
-    ip[IP_OL_BLEED] = int(params.open_loop_bleed)
-    ip[IP_GAIN0 : IP_GAIN0 + N_GAINS] = gains
-    _fill_coefficients(ip)
-    st = np.zeros(N_ISTATE, dtype=np.int64)
-    st[IS_MODE] = int(params.mode)
-    st[IS_P_PREV] = P_NONE
-    st[IS_FIRST] = 1
-    return st, ip, np.zeros(1), np.zeros(1)
+    st, ip, fs, fp = pack_batch(_fields_of(params), 1)
+    return st[0], ip[0], fs[0], fp[0]
 
 
-def core_spec(params: CoreParams | Sequence[CoreParams] = CoreParams(), n: int = 1):
+def core_spec(params: CoreParams | Sequence[CoreParams] | Mapping[str, object] = CoreParams(), n: int = 1):
     """Controller spec for the batch simulator: the kernel and per-instance arrays.
 
     Parameters
     ----------
-    params : CoreParams or sequence of CoreParams
-        One parameter set (repeated ``n`` times) or one per instance. [SI]
+    params : CoreParams, sequence of CoreParams, or mapping of str to array_like
+        One parameter set (repeated ``n`` times), one per instance, or :class:`CoreParams`
+        field -> scalar or N values (:func:`pack_batch`; missing fields take the defaults). [SI]
     n : int, default 1
-        Number of instances when ``params`` is a single set. [-]
+        Number of instances when ``params`` is a single set (or a mapping of scalars). [-]
 
     Returns
     -------
     tuple
         ``(core_kernel, istate0[N, ·], iparams[N, ·], fstate0[N, 1], fparams[N, 1])``. [-]
     """
-    plist = [params] * int(n) if isinstance(params, CoreParams) else list(params)
+    if isinstance(params, CoreParams):
+        return (core_kernel,) + pack_batch(_fields_of(params), int(n))
+    if isinstance(params, Mapping):
+        return (core_kernel,) + pack_batch(params, None if any(np.ndim(v) for v in params.values()) else int(n))
+    plist = list(params)
     if not plist:
         raise InputError("core_spec needs at least one parameter set")
-    packs = [pack_params(p) for p in plist]
-    return (core_kernel,) + tuple(np.stack([pk[i] for pk in packs]) for i in range(4))
+    cols = {f.name: [getattr(p, f.name) for p in plist] for f in fields(CoreParams)}
+    return (core_kernel,) + pack_batch(cols, len(plist))
 
 
 class CoreController:
