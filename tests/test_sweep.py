@@ -180,3 +180,54 @@ def test_bad_toml_syntax(tmp_path):
     p = write(tmp_path, "[sweep\nseed=1")
     with pytest.raises(InputError, match=r"not valid TOML"):
         load_sweep(p)
+
+
+MIXED = """
+[sweep]
+seed = 8
+samples = 5
+chunk_size = 10
+
+[scenario]
+kind = "step"
+target = "0.3MPa"
+duration = "0.02s"
+
+[plant]
+muscle = { choice = ["mpam97", "mpam117", "mpam143"] }
+supply_pressure = { uniform = ["0.6MPa", "1.0MPa"] }
+pressure_noise = "1kPa"
+
+[controller]
+kind = "pid"
+kp = { uniform = [2e-4, 3e-3] }
+ki_pid = { grid = [0.0, 0.011] }
+p_max = "0.7MPa"
+"""
+
+
+def test_a_chunk_is_packed_as_its_runs_would_be_one_by_one(tmp_path):
+    from dataclasses import fields
+
+    from mckibben.control.core import MODE_PID, CoreParams, core_spec
+    from mckibben.datasets import get_muscle
+    from mckibben.plant import PlantParams
+    from mckibben.plant.params import _FIELDS
+    from mckibben.sweep.run import _controllers, _plants
+
+    rows = load_sweep(write(tmp_path, MIXED)).chunk(0)
+    assert rows["plant.muscle"].nunique() > 1
+    names = {f.name for f in fields(CoreParams)}
+    one_by_one = core_spec([CoreParams(mode=MODE_PID, **{c[11:]: float(v) for c, v in row.items()
+                                                          if c.startswith("controller.") and c[11:] in names})
+                            for _, row in rows.iterrows()])
+    for a, b in zip(_controllers(rows, "pid")[1:], one_by_one[1:], strict=True):
+        np.testing.assert_array_equal(a, b)
+    per_row = []
+    for _, row in rows.iterrows():
+        base = PlantParams.for_muscle(get_muscle(row["plant.muscle"]))
+        values = {f: float(np.asarray(getattr(base, f))) for f in _FIELDS}
+        values.update({c[6:]: float(v) for c, v in row.items() if c.startswith("plant.") and c != "plant.muscle"})
+        values["seed"] = float(row["noise_seed"])
+        per_row.append(PlantParams(**values, muscle_name="").pack(1)[0])
+    np.testing.assert_array_equal(_plants(rows).pack(), np.stack(per_row))
