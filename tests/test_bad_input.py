@@ -142,6 +142,7 @@ INPUT_COMMANDS = [
     (["fit", "{f}", "--model", "cubic"], "parquet"),
     (["rig", "gains", "--port", "/nonexistent/tty", "--from", "{f}"], "json"),
     (["predict", "force", "--pressure", "0.5MPa", "--muscle-file", "{f}"], "toml"),
+    (["tool", "ik", "--tip", "0mm,0mm,250mm", "--muscle-file", "{f}"], "toml"),
 ]
 
 

@@ -6,7 +6,15 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
+from mckibben.cli._common import (
+    DIRECTION_OPTION,
+    JSON_OPTION,
+    check_direction,
+    console,
+    emit_json,
+    err_console,
+    print_table,
+)
 from mckibben.cli._output import check_outputs, plot_option, progress_bar, write_plot
 from mckibben.errors import InputError
 
@@ -14,20 +22,32 @@ tool_app = typer.Typer(help="The three-muscle endoscope: kinematics, pressures f
                        no_args_is_help=True)
 app.add_typer(tool_app, name="tool")
 
-MUSCLE_OPTION = typer.Option("mpam117", "--muscle", help="Parameter set of the three muscles (mpam97, mpam117, mpam143).")
-PITCH_OPTION = typer.Option(None, "--pitch-radius", help="Radius of the muscle holes' circle (default 4mm, the middle of the 12 mm disc's ring).")
+MUSCLE_OPTION = typer.Option(None, "--muscle", help="Parameter set of the three muscles (mpam97, mpam117, mpam143; "
+                                                     "default mpam117).")
+MUSCLE_FILE_OPTION = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law (mckibben fit … "
+                                                               "--save): three of that muscle in the paper's disc "
+                                                               "stack scaled to it (docs/tool.md).")
+PITCH_OPTION = typer.Option(None, "--pitch-radius", help="Radius of the muscle holes' circle (default the middle of the disc's ring: 4mm on the 12 mm disc).")
 DISCS_OPTION = typer.Option("13", "--discs", help="Number of spacer discs incl. base and tip, or 'continuous'.")
-PRELOAD_OPTION = typer.Option("1N", "--preload", help="Tension of each muscle in the straight tool, F0.")
-KB_OPTION = typer.Option("2e-4Nm2", "--bending-stiffness", help="Backbone bending stiffness Kb in N·m² (e.g. 2e-4Nm2).")
-KA_OPTION = typer.Option("0N", "--axial-stiffness", help="Backbone axial stiffness Ka (force per unit strain), e.g. 50N.")
-PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Highest pressure allowed in any muscle.")
+PRELOAD_OPTION = typer.Option(None, "--preload", help="Tension of each muscle in the straight tool, F0 (default 1N; "
+                                                      "--muscle-file: docs/tool.md).")
+KB_OPTION = typer.Option(None, "--bending-stiffness", help="Backbone bending stiffness Kb in N·m², e.g. 2e-4Nm2 "
+                                                           "(the default; --muscle-file: docs/tool.md).")
+KA_OPTION = typer.Option(None, "--axial-stiffness", help="Backbone axial stiffness Ka (force per unit strain), e.g. "
+                                                         "50N (default 0N; --muscle-file: docs/tool.md).")
+PMAX_OPTION = typer.Option(None, "--p-max", help="Highest pressure allowed in any muscle (default 0.8MPa; "
+                                                 "--muscle-file: at most the top of its fitted pressures).")
 
-def build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max):
+
+def build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file=None,
+               direction="inflate"):
     """The tool from the shared options (:func:`mckibben.tool.make_tool`)."""
     from mckibben.tool import make_tool
 
-    return make_tool(muscle, pitch_radius=pitch_radius, discs=discs, preload=preload,
-                     bending_stiffness=bending_stiffness, axial_stiffness=axial_stiffness, p_max=p_max)
+    check_direction(direction)
+    return make_tool(muscle, muscle_file=muscle_file, direction=direction, pitch_radius=pitch_radius, discs=discs,
+                     preload=preload, bending_stiffness=bending_stiffness, axial_stiffness=axial_stiffness,
+                     p_max=p_max)
 
 
 def _print_state(title: str, st: dict) -> None:
@@ -57,6 +77,8 @@ def fk_cmd(
     bending_stiffness: str = KB_OPTION,
     axial_stiffness: str = KA_OPTION,
     p_max: str = PMAX_OPTION,
+    muscle_file: str = MUSCLE_FILE_OPTION,
+    direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Forward kinematics: three muscle lengths (or pressures) → arc → tip position and orientation."""
@@ -64,7 +86,8 @@ def fk_cmd(
 
     if (lengths is None) == (pressures is None):
         raise InputError("tool fk: give exactly one of --lengths or --pressures")
-    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
+    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
+                      direction)
     state = forward(tool, lengths=lengths, pressures=pressures)
     source = "lengths" if lengths is not None else "pressures"
     out = {"input": source, **state_dict(state), "tool": tool_dict(tool)}
@@ -84,12 +107,15 @@ def ik_cmd(
     bending_stiffness: str = KB_OPTION,
     axial_stiffness: str = KA_OPTION,
     p_max: str = PMAX_OPTION,
+    muscle_file: str = MUSCLE_FILE_OPTION,
+    direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Inverse: a tip position → arc → muscle lengths → tensions → pressures (unreachable: exit 2)."""
     from mckibben.tool import inverse, state_dict, tool_dict
 
-    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
+    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
+                      direction)
     state = inverse(tip, tool)
     out = {**state_dict(state), "tool": tool_dict(tool)}
     if json:
@@ -111,13 +137,16 @@ def workspace_cmd(
     bending_stiffness: str = KB_OPTION,
     axial_stiffness: str = KA_OPTION,
     p_max: str = PMAX_OPTION,
+    muscle_file: str = MUSCLE_FILE_OPTION,
+    direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Sample the pressure box [0, p_max]³, report the reachable tip set's extent, optionally plot it."""
     from mckibben.tool import map_workspace
 
     check_outputs(plot, dpi, out)
-    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
+    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
+                      direction)
     res = map_workspace(tool, grid)
     ext = res.metrics
     if plot:
@@ -159,6 +188,8 @@ def track_cmd(
     bending_stiffness: str = KB_OPTION,
     axial_stiffness: str = KA_OPTION,
     p_max: str = PMAX_OPTION,
+    muscle_file: str = MUSCLE_FILE_OPTION,
+    direction: str = DIRECTION_OPTION,
     port: str = typer.Option(None, "--port", help="Steer the three muscles of a device (or rig emulate) over this "
                                                   "serial port, and compare with the simulation of the same path."),
     json: bool = JSON_OPTION,
@@ -169,7 +200,8 @@ def track_cmd(
     if port is not None and (periods or reference_only):
         raise InputError("--port: runs one path on the device; it takes neither --periods nor --reference-only")
     check_outputs(plot, dpi, out)
-    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max)
+    tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
+                      direction)
     link_out = None
     if port is not None:
         from mckibben.rig.track import track_over_link

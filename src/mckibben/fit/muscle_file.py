@@ -189,10 +189,12 @@ class MuscleForceLaw:
         if self.model == "spring":
             key = "deflate" if direction == "deflate" else "inflate"
             c = tuple(float(v[f"c{k}_{key}"]) for k in (3, 2, 1, 0))
-            dn = CONTRACTION if key == "deflate" else ELONGATION
             h = (float(v["h2_m_per_Pa2"]), float(v["h1_m_per_Pa"]), float(v["h0_m"]))
-            # one range: the same coefficients below and above an infinite split
-            return SpringModel(l0, h, {(dn, LOW): c, (dn, HIGH): c}, DEFAULT_TERMS, np.inf,
+            # one range: the same coefficients below and above an infinite split; the chosen branch
+            # under both direction keys, so whoever reads the model (the plant's law_of, without a
+            # direction) runs that branch
+            coef = {(dn, rng): c for dn in (CONTRACTION, ELONGATION) for rng in (LOW, HIGH)}
+            return SpringModel(l0, h, coef, DEFAULT_TERMS, np.inf,
                                self.valid_range.get("pressure", (0.0, np.inf)), (0.0, np.inf),
                                f"fitted: {spec.path or spec.id}")
         raise InputError(f"{spec.path or spec.id}: the data-driven {self.model} force law has no physical law the plant"

@@ -191,6 +191,37 @@ class MiniatureMuscle:
     citation: str = ""
     synthetic: bool = False
 
+    @property
+    def outer_diameter(self) -> float:
+        """Outer diameter of the braided muscle (its construction's). [m]"""
+        return self.geometry.outer_diameter
+
+    def length_for_pressure(self, pressure, load) -> "LengthPrediction":
+        """Length at a pressure under a hanging load: :func:`predict_length` (the muscle statics' interface).
+
+        Parameters
+        ----------
+        pressure : array_like
+            Gauge pressure. [Pa]
+        load : array_like
+            Hanging load. [N]
+        """
+        return predict_length(self, pressure, load)
+
+    def pressure_for_length(self, length, load, p_max: float = 0.8e6) -> "LengthPrediction":
+        """The pressure that holds a length under a load: :func:`pressure_for_length` (the muscle statics' interface).
+
+        Parameters
+        ----------
+        length : array_like
+            Target length. [m]
+        load : array_like
+            Hanging load. [N]
+        p_max : float, default 0.8e6
+            Highest pressure allowed. [Pa]
+        """
+        return pressure_for_length(self, length, load, p_max)
+
 
 @dataclass(frozen=True)
 class LengthPrediction:

@@ -55,10 +55,10 @@ def tool_plants(tool, path) -> list:
     list of PlantParams
         One plant per channel. [-]
     """
-    from mckibben.plant import PlantParams
+    from mckibben.tool.tracking import muscle_plants
 
     _, ref = _resolve(tool, path)
-    return [PlantParams.for_muscle(tool.muscle, load_force=float(f)) for f in ref.state.tensions.mean(axis=0)]
+    return [muscle_plants(tool, float(f)) for f in ref.state.tensions.mean(axis=0)]
 
 
 def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = None, models: dict | None = None):

@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.errors import InputError
+from mckibben.models.law_statics import LawMuscle
+from mckibben.models.mpam import MiniatureMuscle
 from mckibben.results import Result, to_jsonable
 from mckibben.tool.geometry import StackLoad, Tool, ToolGeometry
 from mckibben.tool.paths import TipPath
@@ -44,47 +46,85 @@ def _discs(discs):
     return n
 
 
-def make_tool(muscle="mpam117", *, pitch_radius=None, discs=13, preload="1N", bending_stiffness="2e-4Nm2",
-              axial_stiffness="0N", p_max="0.8MPa") -> Tool:
+def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radius=None, discs=13, preload=None,
+              bending_stiffness=None, axial_stiffness=None, p_max=None) -> Tool:
     """The three-muscle tool of §V of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) with its stack's load model.
+
+    With ``muscle_file``, the three muscles are a lab's own (a muscle file with a fitted force
+    law, ``mckibben fit … --save``) in the paper's disc stack scaled to their outer diameter, with
+    a load model that spans the lengths the law was fitted on (:mod:`mckibben.tool.muscles`;
+    docs/tool.md, "A lab's own muscle"). Every default below is then the file's.
 
     Parameters
     ----------
-    muscle : str or MiniatureMuscle, default "mpam117"
-        Parameter set of the three muscles (``mpam97``, ``mpam117``, ``mpam143``). [-]
+    muscle : str or MiniatureMuscle, optional
+        Parameter set of the three muscles (``mpam97``, ``mpam117``, ``mpam143``); default
+        ``mpam117``. [-]
+    muscle_file : str or pathlib.Path, optional
+        A muscle file with a ``[force_model]`` table: its fitted law is the muscles' statics and
+        its plant the tracking plant (not with ``muscle``). [-]
+    direction : {"inflate", "deflate"}, default "inflate"
+        ``muscle_file``: the spring law's branch (its hysteresis); the other laws have one. [-]
     pitch_radius : float or str, optional
-        Radius of the muscle holes' circle; default the middle of the 12 mm disc's ring (4 mm). [m]
+        Radius of the muscle holes' circle; default the middle of the disc's ring (4 mm on the
+        paper's 12 mm disc). [m]
     discs : int or "continuous", default 13
         Spacer discs including base and tip. [-]
-    preload : float or str, default "1N"
-        Tension of each muscle in the straight tool, F0. [N]
-    bending_stiffness : float or str, default "2e-4Nm2"
-        Backbone bending stiffness Kb. [N·m²]
-    axial_stiffness : float or str, default "0N"
-        Backbone axial stiffness Ka (force per unit strain). [N]
-    p_max : float or str, default "0.8MPa"
-        Highest pressure allowed in any muscle. [Pa]
+    preload : float or str, optional
+        Tension of each muscle in the straight tool, F0; default 1 N, or a file's
+        :func:`~mckibben.tool.muscles.file_load`. [N]
+    bending_stiffness : float or str, optional
+        Backbone bending stiffness Kb; default 2e-4 N·m², or a file's. [N·m²]
+    axial_stiffness : float or str, optional
+        Backbone axial stiffness Ka (force per unit strain); default 0 N, or a file's. [N]
+    p_max : float or str, optional
+        Highest pressure allowed in any muscle; default 0.8 MPa
+        (:data:`mckibben.hardware.P_MAX_DEFAULT`), for a file at most the top of its fitted
+        pressures (a larger ``p_max`` is refused). [Pa]
 
     Returns
     -------
     Tool
     """
     from mckibben.datasets import get_muscle
+    from mckibben.hardware import P_MAX_DEFAULT
+    from mckibben.limits import check_p_max
 
-    m = get_muscle(muscle) if isinstance(muscle, str) else muscle
-    geo = ToolGeometry(
-        pitch_radius=quantity(pitch_radius, "length", "--pitch-radius", allow_zero=False)
-        if pitch_radius is not None else None,
-        n_discs=_discs(discs),
-    )
+    n_discs = _discs(discs)
+    radius = (quantity(pitch_radius, "length", "--pitch-radius", allow_zero=False)
+              if pitch_radius is not None else None)
+    pmax = None if p_max is None else check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
+    if direction not in ("inflate", "deflate"):
+        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
+    if muscle_file is not None:
+        from mckibben.tool.muscles import file_geometry, file_load, file_muscle
+
+        if muscle is not None:
+            raise InputError("--muscle-file: give either --muscle (a published set) or --muscle-file, not both")
+        fm = file_muscle(muscle_file, direction)
+        top = float(fm.pressure_range[1])
+        if pmax is None:
+            pmax = min(float(P_MAX_DEFAULT), top)
+        elif pmax > top:
+            raise InputError(f"--p-max: {pmax / 1e6:g} MPa is above the top of the pressures the force law of "
+                             f"{muscle_file} was fitted on ({top / 1e6:g} MPa): the law is not known there")
+        geo = file_geometry(fm, radius, n_discs)
+        dflt = file_load(fm, float(geo.pitch_radius or 0.0), pmax)
+        s_ref = dflt["reference_length"]
+        m: MiniatureMuscle | LawMuscle = fm
+    else:
+        m = get_muscle("mpam117" if muscle is None else muscle) if isinstance(muscle, (str, type(None))) else muscle
+        pmax = float(P_MAX_DEFAULT) if pmax is None else pmax
+        geo = ToolGeometry(pitch_radius=radius, n_discs=n_discs)
+        dflt, s_ref = {"preload": "1N", "bending_stiffness": "2e-4Nm2", "axial_stiffness": "0N"}, None
+    preload = dflt["preload"] if preload is None else preload
+    bending_stiffness = dflt["bending_stiffness"] if bending_stiffness is None else bending_stiffness
+    axial_stiffness = dflt["axial_stiffness"] if axial_stiffness is None else axial_stiffness
     kb = (quantity(bending_stiffness, "bending_stiffness", "--bending-stiffness")
           if not isinstance(bending_stiffness, str) else
           _parse_kb(bending_stiffness))
     load = StackLoad(preload=quantity(preload, "force", "--preload"), bending_stiffness=kb,
-                     axial_stiffness=quantity(axial_stiffness, "force", "--axial-stiffness"))
-    from mckibben.limits import check_p_max
-
-    pmax = check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
+                     axial_stiffness=quantity(axial_stiffness, "force", "--axial-stiffness"), reference_length=s_ref)
     try:
         return Tool(m, geo, load, pmax)
     except InputError as exc:  # the Tool names its field; a caller of make_tool gave --discs
@@ -120,7 +160,15 @@ def tool_dict(tool: Tool) -> dict:
         "axial_stiffness_N": ld.axial_stiffness,
         "reference_length_m": tool.reference_length,
         "p_max_Pa": tool.p_max,
+        **(_file_dict(tool.muscle) if isinstance(tool.muscle, LawMuscle) else {}),
     }
+
+
+def _file_dict(m: LawMuscle) -> dict:
+    """What a tool of a muscle file adds to :func:`tool_dict`: the file, its law and where it holds."""
+    return {"muscle_file": str(getattr(m.source, "path", "") or m.name), "force_law": m.law, "direction": m.direction,
+            "fitted_pressure_range_Pa": list(m.pressure_range), "fitted_length_range_m": list(m.length_range),
+            "strand_length_m": m.strand_length}
 
 
 def state_dict(state) -> dict:

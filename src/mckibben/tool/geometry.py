@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.errors import InputError
+from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
 
 PAPER = "000_909f662a44080c85.txt"
@@ -196,19 +197,26 @@ class StackLoad:
 class Tool:
     """A three-muscle endoscope: geometry, the three (identical) muscles, load model, pressure limit.
 
+    The muscles' statics are the muscle object's own: ``muscle.pressure_for_length(lengths,
+    tensions, p_max)`` and ``muscle.length_for_pressure(pressures, tensions)``, a braid-angle map
+    inverted for a miniature muscle (eq. 2+3), a force law solved by root finding for a lab's
+    fitted muscle file (:class:`~mckibben.models.law_statics.LawMuscle`).
+
     Attributes
     ----------
-    muscle : MiniatureMuscle
-        The parameter set of each of the three muscles (e.g. ``get_muscle("mpam117")``).
+    muscle : MiniatureMuscle or LawMuscle
+        The parameter set of each of the three muscles (e.g. ``get_muscle("mpam117")``, or
+        :func:`mckibben.tool.muscles.file_muscle`).
     geometry : ToolGeometry
         The disc stack.
     load : StackLoad
         The tension model shared by the three muscles.
     p_max : float, default 0.8e6
-        Highest pressure allowed in any muscle (the paper's safe limit). [Pa]
+        Highest pressure allowed in any muscle (the paper's safe limit); for a
+        :class:`LawMuscle` at most the top of the pressures its law was fitted on. [Pa]
     """
 
-    muscle: MiniatureMuscle
+    muscle: MiniatureMuscle | LawMuscle
     geometry: ToolGeometry = field(default_factory=ToolGeometry)
     load: StackLoad = field(default_factory=StackLoad)
     p_max: float = 0.8e6
@@ -219,6 +227,14 @@ class Tool:
         if not (isinstance(self.p_max, (int, float)) and math.isfinite(self.p_max)):
             raise InputError(f"p_max: {self.p_max!r} must be a pressure > 0 Pa")
         check_p_max(float(self.p_max), "p_max")
+        m = self.muscle
+        if isinstance(m, LawMuscle) and self.p_max > m.pressure_range[1]:
+            raise InputError(f"p_max: {self.p_max / 1e6:g} MPa is above the top of the pressures {m.name}'s force law was"
+                             f" fitted on ({m.pressure_range[1] / 1e6:g} MPa): the law is not known there")
+        hole = self.geometry.hole_diameter
+        if m.outer_diameter > hole:
+            raise InputError(f"hole diameter: {hole * 1e3:.4g} mm holes do not pass the {m.outer_diameter * 1e3:.4g} mm"
+                             f" muscle {m.name}; give a geometry with holes at least its outer diameter")
         gaps = self.geometry.n_gaps
         if gaps is not None and self.reference_length / gaps < MIN_DISC_GAP:
             most = int(self.reference_length / MIN_DISC_GAP) + 1

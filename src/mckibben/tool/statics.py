@@ -3,9 +3,10 @@
 Inverse (target → pressures), closed form except for each muscle's cubic:
 tip → arc (unique, :func:`~mckibben.tool.kinematics.arc_from_tip`) → muscle lengths → the
 tension each muscle must carry (:func:`muscle_tensions`, the shared load model) → each
-muscle's pressure from its inverse static model
-(:func:`mckibben.models.mpam.pressure_for_length`) at that length under that tension, within
-``p_max``.
+muscle's pressure from its inverse static model at that length under that tension, within
+``p_max``: the muscle object's ``pressure_for_length`` (the miniature's braid-angle map inverted,
+:func:`mckibben.models.mpam.pressure_for_length`; a fitted law solved for the pressure,
+:meth:`mckibben.models.law_statics.LawMuscle.pressure_for_length`).
 
 Forward (pressures → tip): the lengths depend on the tensions and the tensions on the pose, so
 the pose is the solution of three equations ``l_i(s, θx, θy) = L(P_i, F_i(s, θx, θy))``
@@ -20,7 +21,6 @@ import numpy as np
 
 from mckibben.errors import InputError, UnreachableError
 from mckibben.models.flags import Flag, flag_names, flag_where
-from mckibben.models.mpam import predict_length, pressure_for_length
 from mckibben.tool.geometry import MUSCLE_ANGLES, Tool
 from mckibben.tool.kinematics import Arc, arc_from_lengths, arc_from_tip, lengths_from_arc, tip_position, tip_rotation
 
@@ -132,7 +132,7 @@ def pressures_for_tip(tip, tool: Tool) -> ToolState:
     geo = tool.geometry
     lengths = lengths_from_arc(arc, geo.pitch_radius, geo.n_gaps)
     tensions = muscle_tensions(arc, tool)
-    result = pressure_for_length(tool.muscle, lengths, tensions, tool.p_max)
+    result = tool.muscle.pressure_for_length(lengths, tensions, tool.p_max)
     slack = tensions < 0
     pressures = np.where(slack, np.nan, result.pressure)
     flags = (result.flags | flag_where(slack, Flag.SLACK) | flag_where(slack, Flag.UNREACHABLE)).astype(np.uint16)
@@ -157,7 +157,7 @@ def length_span(tool: Tool, tension, n: int = 801) -> tuple[float, float]:
     tuple of float
         (shortest, longest) length. [m]
     """
-    lengths = predict_length(tool.muscle, np.linspace(0.0, tool.p_max, n), tension).length
+    lengths = tool.muscle.length_for_pressure(np.linspace(0.0, tool.p_max, n), tension).length
     return float(lengths.min()), float(lengths.max())
 
 
@@ -255,6 +255,7 @@ def tip_from_pressures(pressures, tool: Tool, *, tol: float = 1e-12, max_iter: i
     p = p.reshape(-1, 3)
     geo = tool.geometry
     r, n = geo.pitch_radius, geo.n_gaps
+    muscle = tool.muscle
 
     def unpack(x):
         return Arc(x[:, 0], x[:, 1], x[:, 2])
@@ -262,9 +263,9 @@ def tip_from_pressures(pressures, tool: Tool, *, tol: float = 1e-12, max_iter: i
     def residual(x, rows=slice(None)):
         arc = unpack(x)
         f = muscle_tensions(arc, tool)
-        return lengths_from_arc(arc, r, n) - predict_length(tool.muscle, p[rows], f).length
+        return lengths_from_arc(arc, r, n) - muscle.length_for_pressure(p[rows], f).length
 
-    start = predict_length(tool.muscle, p, tool.load.preload).length
+    start = muscle.length_for_pressure(p, tool.load.preload).length
     a0 = arc_from_lengths(start, r, n)
     x = np.column_stack([a0.arc_length, a0.theta_x, a0.theta_y])
     res = residual(x)
@@ -301,7 +302,7 @@ def tip_from_pressures(pressures, tool: Tool, *, tol: float = 1e-12, max_iter: i
         converged = np.max(np.abs(res), axis=1) < tol
     arc = unpack(x)
     tensions = muscle_tensions(arc, tool)
-    pred = predict_length(tool.muscle, p, tensions)
+    pred = muscle.length_for_pressure(p, tensions)
     flags = (pred.flags | flag_where(tensions < 0, Flag.SLACK)).astype(np.uint16)
     lengths = lengths_from_arc(arc, r, n)
     arc = Arc(arc.arc_length.reshape(shape), arc.theta_x.reshape(shape), arc.theta_y.reshape(shape))

@@ -241,10 +241,37 @@ def identify_muscle_plant(plant_params, pwm: int | None = None):
     return identify_plant(plant_params, u1=pwm)[1]
 
 
+def muscle_plants(tool: Tool, load_force):
+    """The plant of the tool's muscle hanging loads: one instance per load.
+
+    A miniature muscle runs the plant's calibrated law (:meth:`PlantParams.for_muscle`); a muscle
+    file's runs its own fitted law on a rig sized for it (:meth:`PlantParams.from_muscle_file`,
+    the same branch as the tool's statics).
+
+    Parameters
+    ----------
+    tool : Tool
+        The tool. [-]
+    load_force : float or array_like
+        Hanging load of each instance. [N]
+
+    Returns
+    -------
+    PlantParams
+    """
+    from mckibben.models.law_statics import LawMuscle
+    from mckibben.plant import PlantParams
+
+    m = tool.muscle
+    if isinstance(m, LawMuscle):
+        return PlantParams.from_muscle_file(m.source, m.direction, load_force=load_force)
+    return PlantParams.for_muscle(m, load_force=load_force)
+
+
 def tracking_setup(tool: Tool, ref: TipReference, beta: float = TRACKING_BETA, cache: dict | None = None):
     """The three muscles' plants, their controllers' parameters and model for one run.
 
-    Each muscle's plant is the tool's muscle (:meth:`PlantParams.for_muscle`) hanging that
+    Each muscle's plant is the tool's muscle (:func:`muscle_plants`) hanging that
     muscle's mean tension along the path; the controllers' model is identified on the plant with
     the mean of the three loads (one open-loop step), the same for the three channels, and their
     supervisor takes it too.
@@ -267,14 +294,13 @@ def tracking_setup(tool: Tool, ref: TipReference, beta: float = TRACKING_BETA, c
         :class:`CoreParams` of the three controllers, the :class:`FirstOrderModel`, the loads [N].
     """
     from mckibben.control.experiments import smc_core_params
-    from mckibben.plant import PlantParams
 
     cache = {} if cache is None else cache
     loads = ref.state.tensions.mean(axis=0)
-    plants = PlantParams.for_muscle(tool.muscle, load_force=loads)
+    plants = muscle_plants(tool, loads)
     key = tuple(np.round(loads, 12))
     if key not in cache:
-        one = PlantParams.for_muscle(tool.muscle, load_force=float(loads.mean()))
+        one = muscle_plants(tool, float(loads.mean()))
         cache[key] = identify_muscle_plant(one)
     model = cache[key]
     params = smc_core_params(model, beta, **TRACKING_SMC)
@@ -286,7 +312,7 @@ def simulate_tracking(tool: Tool, runs, *, beta: float = TRACKING_BETA) -> list[
     """Follow each run's pressure references with three plant instances and their controllers.
 
     Each muscle is one instance of the batch plant (:func:`mckibben.plant.simulate`) with the
-    tool's muscle (:meth:`PlantParams.for_muscle`, the plant's calibrated force law), hanging the
+    tool's muscle (:func:`muscle_plants`: the plant's calibrated force law, or a muscle file's own), hanging the
     muscle's mean tension along the path, and its own
     sliding-mode pressure controller (the firmware core, :func:`mckibben.control.core.core_spec`)
     whose model term is identified on that plant by an open-loop step. The run starts at the

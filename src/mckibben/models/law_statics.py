@@ -1,0 +1,201 @@
+"""Statics of a muscle from any registered force law F(P, l): length under a load, pressure for a length.
+
+A muscle known only by its force law (a lab's fitted muscle file, :mod:`mckibben.fit.muscle_file`)
+has no braid-angle map to invert. Its statics are the law's two inverses, found by bracketed
+root finding (Chandrupatla's method, :func:`scipy.optimize.elementwise.find_root`, all elements
+at once) on the law's own kernel (:func:`mckibben.models.laws.evaluate`): no formula is written
+twice.
+
+- **Pressure for a length under a load** (:meth:`LawMuscle.pressure_for_length`): the root of
+  ``F(P, l) − load`` in ``[0, p_max]``. The law pulls harder at higher pressure, so the muscle's
+  pull at 0 Pa above the load means the length is longer than the unpressurized muscle holds
+  under that load (it can only shorten), and its pull at ``p_max`` below the load means more
+  pressure than ``p_max``: both are NaN and flagged ``unreachable``.
+- **Length at a pressure under a load** (:meth:`LawMuscle.length_for_pressure`): the root of
+  ``F(P, l) − load`` between the braid's end stops, the locking angle ``b/√3`` and the straight
+  braid ``b`` (the ideal braid, eq. 2 with k1 = 1, k2 = 0, of the muscle's strand length ``b``:
+  the same end stops the plant runs, :meth:`mckibben.plant.PlantParams.from_muscle_file`). The
+  plant refuses a law whose pull falls as the muscle lengthens inside that range, so the root is
+  unique. A load the law does not reach before the straight braid leaves the muscle on that end
+  stop (flag ``cos_theta_above_one``); a muscle that pulls more than the load even at the
+  locking angle rests on it (flag ``negative_length``); a slack muscle (load ≤ 0) is at the
+  length where it just becomes taut.
+
+Both flag lengths and pressures outside the range the law was fitted on (``length_out_of_range``,
+``pressure_out_of_range``): the law is not known there.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mckibben.errors import InputError
+from mckibben.models import laws
+from mckibben.models.flags import Flag, flag_where, outside
+from mckibben.models.mpam import LengthPrediction
+
+#: Tension at which a slack muscle is taken as just taut: a slack muscle's length is where its
+#: law first pulls this much. [N]
+TAUT_FORCE = 1e-6
+#: How far past 0 and p_max a pressure root is still taken as reached (then clipped), as the
+#: miniature's inverse (:func:`mckibben.models.mpam.pressure_for_length`, 1e-9 MPa). [Pa]
+PRESSURE_TOL = 1e-3
+
+
+def _root(func, lo, hi, args) -> np.ndarray:
+    """Roots of ``func(x, *args)`` in the brackets ``[lo, hi]`` (sign change given), element-wise."""
+    from scipy.optimize.elementwise import find_root
+
+    if np.size(args[0]) == 0:
+        return np.empty(0)
+    return np.asarray(find_root(func, (lo, hi), args=args).x, dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class LawMuscle:
+    """A muscle whose statics come from a registered force law (e.g. a lab's fitted muscle file).
+
+    Attributes
+    ----------
+    name : str
+        The muscle's id.
+    nominal_length : float
+        Un-pressurized length L0. [m]
+    law : str
+        A name of :data:`mckibben.models.laws.LAWS`.
+    theta : numpy.ndarray
+        The law's parameters, shape ``(NTH,)``. [SI]
+    strand_length : float
+        Strand length of the ideal braid (eq. 2, k1 = 1, k2 = 0) that sets the end stops
+        ``b/√3`` and ``b``. [m]
+    pressure_range : tuple of float
+        Pressures the law was fitted on. [Pa]
+    length_range : tuple of float
+        Lengths the law was fitted on. [m]
+    outer_diameter : float
+        Outer diameter at rest. [m]
+    direction : str, default "inflate"
+        Which branch of the law (a spring law's hysteresis). [-]
+    source : object, optional
+        Where the law comes from (the :class:`~mckibben.data.io.MuscleSpec` of a muscle file),
+        for building the same muscle's plant. [-]
+    citation : str
+        Where the law comes from, in words.
+    """
+
+    name: str
+    nominal_length: float
+    law: str
+    theta: np.ndarray
+    strand_length: float
+    pressure_range: tuple
+    length_range: tuple
+    outer_diameter: float
+    direction: str = "inflate"
+    source: object = None
+    citation: str = ""
+
+    def __post_init__(self):
+        if self.law not in laws.LAWS:
+            raise InputError(f"law: {self.law!r} is not one of {', '.join(laws.LAWS)}")
+        if np.shape(self.theta) != (laws.NTH,):
+            raise InputError(f"theta: shape {np.shape(self.theta)}, want ({laws.NTH},)")
+        b, l0 = self.strand_length, self.nominal_length
+        if not (math.isfinite(b) and math.isfinite(l0) and b / math.sqrt(3.0) < l0 < b):
+            raise InputError(f"strand length: {b * 1e3:.4g} mm must hold the nominal {l0 * 1e3:.4g} mm between the"
+                             " braid's end stops b/√3 and b")
+
+    @property
+    def length_stops(self) -> tuple[float, float]:
+        """The braid's end stops: locking angle ``b/√3`` and straight braid ``b``. [m]"""
+        return self.strand_length / math.sqrt(3.0), self.strand_length
+
+    def force(self, pressure, length) -> np.ndarray:
+        """The law's pull at pressures and lengths (negative where it would push). [N]
+
+        Parameters
+        ----------
+        pressure : array_like
+            Gauge pressure. [Pa]
+        length : array_like
+            Muscle length. [m]
+        """
+        return laws.evaluate(self.law, pressure, length, self.theta)
+
+    def _range_flags(self, pressure, length) -> np.ndarray:
+        return (outside(pressure, *self.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
+                | outside(length, *self.length_range, Flag.LENGTH_OUT_OF_RANGE)).astype(np.uint16)
+
+    def _prediction(self, pressure, load, length, flags) -> LengthPrediction:
+        return LengthPrediction(pressure, load, length, 1.0 - length / self.nominal_length,
+                                length / self.strand_length, flags.astype(np.uint16))
+
+    def length_for_pressure(self, pressure, load) -> LengthPrediction:
+        """The length at which the muscle, at a pressure, pulls a load: the law solved for the length.
+
+        Parameters
+        ----------
+        pressure : array_like
+            Gauge pressure. [Pa]
+        load : array_like
+            Tension (hanging load). [N]
+
+        Returns
+        -------
+        LengthPrediction
+            Length [m], contraction 1 − l/L0 [-], cos θ = l/b of the ideal braid [-] and flags.
+        """
+        p, w = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+        lo, hi = self.length_stops
+        taut = np.maximum(w, TAUT_FORCE)
+        g_lo = self.force(p, lo) - taut
+        g_hi = self.force(p, hi) - taut
+        length = np.where(g_lo >= 0, lo, hi)
+        inside = (g_lo < 0) & (g_hi > 0)
+        length[inside] = _root(lambda ell, pp, ww: self.force(pp, ell) - ww, lo, hi, (p[inside], taut[inside]))
+        flags = (self._range_flags(p, length) | flag_where(~inside & (g_lo >= 0), Flag.NEGATIVE_LENGTH)
+                 | flag_where(~inside & (g_lo < 0), Flag.COS_THETA_ABOVE_ONE))
+        return self._prediction(p, w, length, flags)
+
+    def pressure_for_length(self, length, load, p_max: float) -> LengthPrediction:
+        """The pressure that holds the muscle at a length under a load: the law solved for the pressure.
+
+        Parameters
+        ----------
+        length : array_like
+            Target length. [m]
+        load : array_like
+            Tension (hanging load). [N]
+        p_max : float
+            Highest pressure allowed. [Pa]
+
+        Returns
+        -------
+        LengthPrediction
+            The pressure [Pa] (NaN where no pressure in ``[0, p_max]`` holds the length, or the
+            length is past the braid's end stops: flag ``unreachable``) with length, contraction,
+            cos θ = l/b and flags.
+        """
+        ell, w = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(load, dtype=float))
+        lo, hi = self.length_stops
+        on_braid = (ell >= lo) & (ell <= hi)
+        # the bracket reaches PRESSURE_TOL past both ends, the root is clipped back into [0, p_max]:
+        # a length held at exactly 0 Pa or p_max (the workspace's faces) stays reachable after
+        # round-off, as the miniature's inverse (its 1e-9 MPa tolerance)
+        p_lo, p_hi = -PRESSURE_TOL, p_max + PRESSURE_TOL
+        g_lo = np.where(on_braid, self.force(p_lo, ell) - w, np.nan)
+        g_hi = np.where(on_braid, self.force(p_hi, ell) - w, np.nan)
+        pressure = np.full(ell.shape, np.nan)
+        pressure[g_lo == 0] = p_lo
+        pressure[(g_hi == 0) & (g_lo != 0)] = p_hi
+        inside = (g_lo < 0) & (g_hi > 0)
+        pressure[inside] = _root(lambda pp, el, ww: self.force(pp, el) - ww, p_lo, p_hi, (ell[inside], w[inside]))
+        pressure = np.clip(pressure, 0.0, p_max)
+        reached = np.isfinite(pressure)
+        flags = (self._range_flags(np.where(reached, pressure, self.pressure_range[0]), ell)
+                 | flag_where(~reached, Flag.UNREACHABLE) | flag_where(ell < lo, Flag.NEGATIVE_LENGTH)
+                 | flag_where(ell > hi, Flag.COS_THETA_ABOVE_ONE))
+        return self._prediction(pressure, w, ell, flags)
