@@ -173,3 +173,17 @@ def test_results_do_not_depend_on_the_number_of_threads():
         numba.set_num_threads(before)
     for name in ("pressure", "length", "temperature", "adc", "inlet"):
         np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+
+
+def test_the_force_law_check_groups_instances_as_np_unique_does():
+    # the guard checks each distinct (law, geometry, supply) once: its grouping equals np.unique's rows
+    rng = np.random.default_rng(4)
+    key = np.repeat(rng.random((1, 9)), 500, axis=0)
+    key[:, 3] = rng.choice([0.6e6, 0.8e6, 1.0e6], 500)  # a few supplies, many repeats
+    key[::7, 5] = rng.random(key[::7].shape[0])  # and some distinct geometries
+    key[10], key[11], key[12, 2] = np.nan, np.nan, -0.0
+    key[13] = key[12]
+    key[13, 2] = 0.0
+    want = np.sort(np.unique(key, axis=0, return_index=True)[1])
+    np.testing.assert_array_equal(np.sort(PP._first_of_each_row(key)), want)
+    assert 3 < len(want) < 500
