@@ -231,3 +231,21 @@ def test_a_chunk_is_packed_as_its_runs_would_be_one_by_one(tmp_path):
         values["seed"] = float(row["noise_seed"])
         per_row.append(PlantParams(**values, muscle_name="").pack(1)[0])
     np.testing.assert_array_equal(_plants(rows).pack(), np.stack(per_row))
+
+
+def test_a_sweep_gives_the_same_numbers_on_one_and_two_threads(tmp_path):
+    import numba
+
+    # 130 runs in one chunk: three blocks of the simulator, shared between the threads
+    p = write(tmp_path, SMALL.replace("samples = 3", "samples = 65").replace("chunk_size = 4", "chunk_size = 130")
+              .replace('duration = "0.08s"', 'duration = "0.03s"'))
+    sweep = load_sweep(p)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        run_sweep(sweep, tmp_path / "one")
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        run_sweep(sweep, tmp_path / "two")
+    finally:
+        numba.set_num_threads(before)
+    pd.testing.assert_frame_equal(read_results(tmp_path / "one"), read_results(tmp_path / "two"))
