@@ -5,16 +5,23 @@ The sweep: the paper's sliding-mode law at four β (120–180 counts) × 25,000 
 (supply 0.6–1.0 MPa, load 0–3 N, dead band ±30 %, valve conductance ±30 %), a step to 0.55 MPa
 simulated for 0.2 s (200 control periods, RK4 at 10 kHz), step metrics kept; chunks of 2,000.
 
+The in-process run also reports its CPU time (all threads) and how it splits between the
+simulator (``mckibben.plant.simulate``, timed around each chunk's call) and the rest (design rows,
+controller packing, metrics, Parquet): the split is less affected by a shared machine's load than
+the wall clock, and the load average is printed with it.
+
 Run: ``python benchmarks/bench_sweep.py [--runs 100000]`` (a few minutes on 2 cores).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 from pathlib import Path
 
+import mckibben.plant
 from mckibben.sweep import load_sweep, read_results, run_sweep
 
 TEMPLATE = """
@@ -40,6 +47,21 @@ keep = ["time_constant_s", "overshoot_pct", "steady_state_error_Pa", "valve_effo
 """
 
 
+class _Timed:
+    """``mckibben.plant.simulate`` with its wall-clock and CPU time summed (the sweep imports it per chunk)."""
+
+    def __init__(self, simulate):
+        self.simulate, self.wall, self.cpu = simulate, 0.0, 0.0
+
+    def __call__(self, *args, **kwargs):
+        w, c = time.perf_counter(), time.process_time()
+        try:
+            return self.simulate(*args, **kwargs)
+        finally:
+            self.wall += time.perf_counter() - w
+            self.cpu += time.process_time() - c
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--runs", type=int, default=100_000)
@@ -54,10 +76,19 @@ def main() -> None:
         run_sweep(load_sweep(warm), Path(d) / "warm")
         rows = []
         for label, kw in (("in-process", {}), ("local cluster, 2 workers", {"workers": 2})):
-            t = time.perf_counter()
-            stats = run_sweep(sweep, Path(d) / label.split(",")[0].replace(" ", "-"), **kw)
-            sec = time.perf_counter() - t
+            timed = _Timed(mckibben.plant.simulate)
+            if not kw:
+                mckibben.plant.simulate = timed
+            load = os.getloadavg()[0]
+            t, c = time.perf_counter(), time.process_time()
+            try:
+                stats = run_sweep(sweep, Path(d) / label.split(",")[0].replace(" ", "-"), **kw)
+            finally:
+                mckibben.plant.simulate = timed.simulate
+            sec, cpu = time.perf_counter() - t, time.process_time() - c
             rows.append((label, stats["computed_runs"], sec, stats["computed_runs"] / sec))
+            if not kw:
+                split = (sec, cpu, timed.wall, timed.cpu, load, os.getloadavg()[0])
         a = read_results(Path(d) / "in-process")
         b = read_results(Path(d) / "local-cluster")
         same = a.equals(b)
@@ -65,6 +96,10 @@ def main() -> None:
     for label, runs, sec, rate in rows:
         print(f"{label:<26} | {runs:>7} | {sec:>8.1f} | {rate:>7.0f}")
     print(f"results identical in-process and on the cluster: {same}")
+    sec, cpu, sim_wall, sim_cpu, load0, load1 = split
+    print(f"in-process: wall {sec:.1f} s = simulate() {sim_wall:.1f} s + the rest {sec - sim_wall:.1f} s; "
+          f"CPU {cpu:.1f} s = simulate() {sim_cpu:.1f} s + the rest {cpu - sim_cpu:.1f} s "
+          f"(load average {load0:.2f} before, {load1:.2f} after)")
 
 
 if __name__ == "__main__":
