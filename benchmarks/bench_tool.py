@@ -1,5 +1,8 @@
 """Benchmark the tool's batch computations: forward equilibrium (workspace), IK + static inverse.
 
+Also for a tool of a fitted muscle file (the spring law fitted to the bundled SYNTHETIC
+commercial campaign), whose statics solve the law by bracketed root finding.
+
 Run: python benchmarks/bench_tool.py
 """
 
@@ -32,6 +35,33 @@ def main():
     tips = tip_from_pressures(rng.uniform(0, 0.8e6, size=(1000, 3)), tool).tip
     t = best(lambda: pressures_for_tip(tips, tool), repeat=3)
     print(f"pressures_for_tip, 1000 tips: {t * 1e3:.1f} ms ({t / 1e3 * 1e6:.0f} us/tip; 3 cubic roots each)")
+    file_tool()
+
+
+def file_tool():
+    """The same on a tool of a muscle file (spring law fitted to the bundled commercial campaign)."""
+    import tempfile
+    from pathlib import Path
+
+    from mckibben.data import read_muscle, read_table
+    from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
+    from mckibben.fit.isometric import fit_isometric
+    from mckibben.fit.muscle_file import save_muscle_file
+    from mckibben.tool import make_tool
+
+    folder = BUNDLED_ISOMETRIC / "commercial10"
+    table, spec = read_table(folder / "isometric.csv"), read_muscle(folder / "muscle.toml")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = save_muscle_file(Path(tmp) / "mine.toml", spec, fit_isometric(table, spec, "spring"))
+        tool = make_tool(muscle_file=path)
+    for n in (15, 21):
+        t = best(lambda: sample_workspace(tool, n))
+        print(f"muscle file: workspace {n}^3 = {n**3} equilibria: {t * 1e3:.1f} ms ({t / n**3 * 1e6:.1f} us/pose)")
+    rng = np.random.default_rng(0)
+    tips = tip_from_pressures(rng.uniform(0, tool.p_max, size=(1000, 3)), tool).tip
+    t = best(lambda: pressures_for_tip(tips, tool), repeat=3)
+    print(f"muscle file: pressures_for_tip, 1000 tips: {t * 1e3:.1f} ms ({t / 1e3 * 1e6:.0f} us/tip; "
+          "3 bracketed roots each)")
 
 
 if __name__ == "__main__":
