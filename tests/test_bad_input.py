@@ -143,6 +143,7 @@ INPUT_COMMANDS = [
     (["rig", "gains", "--port", "/nonexistent/tty", "--from", "{f}"], "json"),
     (["predict", "force", "--pressure", "0.5MPa", "--muscle-file", "{f}"], "toml"),
     (["tool", "ik", "--tip", "0mm,0mm,250mm", "--muscle-file", "{f}"], "toml"),
+    (["control", "compare", "--muscle-file", "{f}"], "toml"),
 ]
 
 
@@ -358,6 +359,20 @@ VALUE_CASES = [
     (["control", "hysteresis", "--period", "1e9s"], "--period"),
     (["control", "hysteresis", "--period", "0.001s"], "--period"),
     (["control", "hysteresis", "--sweep-period", "1e9s"], "--sweep-period"),
+    # --muscle-file and --direction (the file plant's own cases: tests/test_muscle_file_cli.py)
+    (["predict", "force", "--pressure", "0.5MPa", "--muscle-file", "{tmp}/none.toml", "--direction", "up"],
+     "--direction"),
+    (["simulate", "open-loop", "--direction", "up"], "--direction"),
+    (["simulate", "open-loop", "--direction", "deflate"], "--direction"),
+    (["control", "step", "--direction", "sideways"], "--direction"),
+    (["control", "step", "--direction", "deflate"], "--direction"),
+    (["control", "track", "--reference", "sine:0.4MPa,0.2MPa,2Hz", "--direction", "in"], "--direction"),
+    (["control", "compare", "--direction", "out"], "--direction"),
+    (["control", "compare", "--muscle-file", "{tmp}/none.toml"], "none.toml"),
+    (["control", "robustness", "--n", "2", "--direction", "INFLATE"], "--direction"),
+    (["control", "robustness", "--n", "2", "--muscle-file", "{tmp}/none.toml"], "none.toml"),
+    (["control", "fig13", "--muscle-file", "{tmp}/none.toml"], "--muscle-file"),
+    (["control", "hysteresis", "--muscle-file", "{tmp}/none.toml"], "--muscle-file"),
     # tool
     (["tool", "fk", "--discs", "1000000", "--lengths", "117mm,112mm,115mm"], "--discs"),
     (["tool", "fk", "--discs", "-3", "--lengths", "117mm,112mm,115mm"], "--discs"),

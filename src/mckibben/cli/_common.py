@@ -25,8 +25,6 @@ console = Console(soft_wrap=True)
 err_console = Console(stderr=True, soft_wrap=True)
 
 JSON_OPTION = typer.Option(False, "--json", help="Print one JSON object on stdout (SI units).")
-#: The two branches of a fitted force law (the spring model's hysteresis; the other laws have one).
-DIRECTIONS = ("inflate", "deflate")
 #: ``--direction`` of every command that takes ``--muscle-file``; check it with :func:`check_direction`.
 DIRECTION_OPTION = typer.Option("inflate", "--direction", help="--muscle-file: the fitted law's inflate or deflate "
                                                                 "branch (a spring law's hysteresis; the other laws "
@@ -34,10 +32,14 @@ DIRECTION_OPTION = typer.Option("inflate", "--direction", help="--muscle-file: t
 
 
 def check_direction(direction: str) -> str:
-    """``--direction``, checked: ``inflate`` or ``deflate`` (else one line, exit 2)."""
-    if direction not in DIRECTIONS:
-        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
-    return direction
+    """``--direction``, checked: ``inflate`` or ``deflate`` (else one line, exit 2).
+
+    The value only; :func:`mckibben.fit.muscle_file.check_direction` (the one check) also refuses
+    ``deflate`` for a file whose law has one branch, given the law.
+    """
+    from mckibben.fit.muscle_file import check_direction as check
+
+    return check(direction)
 
 
 def emit_json(obj: dict) -> None:

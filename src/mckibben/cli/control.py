@@ -8,7 +8,7 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, err_console, print_table
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, progress_bar, write_plot
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
@@ -79,6 +79,7 @@ def step_cmd(
                                                                  "mckibben rig gains --from."),
     force: bool = FORCE_OPTION,
     muscle_file: str = MUSCLE_FILE_OPTION,
+    direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """A pressure step on the calibrated plant under the firmware's controller."""
@@ -91,15 +92,17 @@ def step_cmd(
 
         check_output_file(save_design, "--save-design", (".json",))
     res = step_response(controller, target, start=start, load=load, supply=supply, duration=duration, p_max=p_max,
-                        law=law, beta=beta, eps=eps, ki=ki, lam=lam, force=force, muscle_file=muscle_file)
+                        law=law, beta=beta, eps=eps, ki=ki, lam=lam, force=force, muscle_file=muscle_file,
+                        direction=direction)
     _finish(res, plot, dpi, out)
     if save_design:
         from mckibben.control.core import save_design as write_design
 
-        plant = f"the plant of {muscle_file}" if muscle_file else "the calibrated plant"
-        write_design(res.params, save_design, note=f"control step {controller} ({law} law) on {plant}'s identified "
-                                                   "model")
+        how = (f"tuned on the plant of {muscle_file} ({direction})" if muscle_file
+               else "on the calibrated plant's identified model")
+        write_design(res.params, save_design, note=f"control step {controller} ({law} law) {how}")
     _warn_outcome(res.faults, res.target_unreachable, float(res.record.pressure[0, -1]), res.arguments["target_Pa"])
+    _warn_tuning(res.tuning)
     if json:
         emit_json(res.to_dict())
         return
@@ -122,6 +125,15 @@ def _warn_outcome(faults: int, unreachable: bool, final_pa: float, target_pa: fl
                           highlight=False)
 
 
+def _warn_tuning(tuning) -> None:
+    """One line on stderr when no candidate gains met the design bar on a muscle file's plant."""
+    if tuning is not None and not tuning.met:
+        worst = max(s["overshoot_pct"] for s in tuning.steps)
+        err_console.print(f"warning: no tuned {tuning.controller} gains met the design bar on every design step of "
+                          f"this plant (worst overshoot {worst:.0f} %); the nearest were used (--json: tuning)",
+                          markup=False, highlight=False)
+
+
 @control_app.command("fig13")
 def fig13_cmd(
     eps: str = EPS_OPTION,
@@ -129,6 +141,8 @@ def fig13_cmd(
     plot: str = plot_option("the step responses and τ against β"),
     dpi: int = DPI_OPTION,
     out: str = OUT_OPTION,
+    muscle_file: str = typer.Option(None, "--muscle-file", help="Refused: Fig. 13 is the paper's miniature muscle "
+                                                                "(use control step --muscle-file)."),
     json: bool = JSON_OPTION,
 ) -> None:
     """The paper's Fig. 13: sliding mode, step to 0.55 MPa, β = 120 and 150, paper vs ours.
@@ -139,7 +153,7 @@ def fig13_cmd(
     from mckibben.control import fig13
 
     check_outputs(plot, dpi, out)
-    res = fig13(eps=eps, ki=ki)
+    res = fig13(eps=eps, ki=ki, muscle_file=muscle_file)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
@@ -158,18 +172,22 @@ def compare_cmd(
     plot: str = plot_option("the time constants"),
     dpi: int = DPI_OPTION,
     out: str = typer.Option(None, "--out", help="Write the table of runs: .csv or .parquet."),
+    muscle_file: str = MUSCLE_FILE_OPTION,
+    direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """PID tuned on the first-order model vs both sliding-mode laws, over step sizes and loads (§IV.A)."""
     from mckibben.control import compare
 
     check_outputs(plot, dpi, out)
-    res = compare(beta)
+    res = compare(beta, muscle_file=muscle_file, direction=direction)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
         return
-    print_table("PID (lambda-tuned on the first-order model) vs sliding mode (smc: ours, smc_paper: β = 150)",
+    print_table("PID (lambda-tuned on the first-order model) vs sliding mode (smc: ours, smc_paper: β = 150)"
+                if muscle_file is None else f"PID vs sliding mode (smc: ours, smc_paper: the paper's law), each "
+                                            f"tuned on the plant of {muscle_file} under each load",
                 ["controller", "from MPa", "to MPa", "load N", "τ s", "overshoot %", "settling s", "ss error kPa"],
                 [[r["controller"], r["from_Pa"] / 1e6, r["to_Pa"] / 1e6, r["load_N"], r["time_constant_s"],
                   r["overshoot_pct"], r["settling_time_s"], r["steady_state_error_Pa"] / 1e3] for r in res.rows])
@@ -184,6 +202,8 @@ def robustness_cmd(
     dpi: int = DPI_OPTION,
     out: str = typer.Option(None, "--out", help="Write one row per plant and controller: .csv or .parquet."),
     force: bool = FORCE_OPTION,
+    muscle_file: str = MUSCLE_FILE_OPTION,
+    direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws, median and 5–95 % of each metric."""
@@ -194,7 +214,7 @@ def robustness_cmd(
     check_outputs(plot, dpi, out)
     with progress_bar("plants", json) as bar:
         task = bar.add_task("plants", total=n)
-        res = robustness(n, seed=seed, beta=beta, force=force,
+        res = robustness(n, seed=seed, beta=beta, force=force, muscle_file=muscle_file, direction=direction,
                          progress=lambda done, total: bar.update(task, completed=done))
     _finish(res, plot, dpi, out)
     if json:
@@ -204,8 +224,10 @@ def robustness_cmd(
     for ctl, s in res.summary.items():
         for k, v in s.items():
             rows.append([ctl, k, v["median"], v["p5"], v["p95"], v["n_undefined"]])
-    print_table(f"robustness over {n} plants (±30 % valve gain, dead band, volumes, leak; supply 0.6–1.0 MPa; "
-                "load 0–3 N)", ["controller", "metric", "median", "5 %", "95 %", "undefined"], rows)
+    where = ("supply 0.6–1.0 MPa; load 0–3 N" if muscle_file is None else
+             f"around the plant of {muscle_file}: supply 0.75–1 × its top, load 0–½ its pull at rest")
+    print_table(f"robustness over {n} plants (±30 % valve gain, dead band, volumes, leak; {where})",
+                ["controller", "metric", "median", "5 %", "95 %", "undefined"], rows)
 
 
 @control_app.command("track")
@@ -226,6 +248,7 @@ def track_cmd(
     out: str = OUT_OPTION,
     force: bool = FORCE_OPTION,
     muscle_file: str = MUSCLE_FILE_OPTION,
+    direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Track a pressure trajectory: RMS and maximum error, valve effort."""
@@ -235,8 +258,9 @@ def track_cmd(
 
     check_outputs(plot, dpi, out)
     res = track(reference, controller, duration=duration, load=load, p_max=p_max, law=law, beta=beta, eps=eps,
-                ki=ki, lam=lam, force=force, muscle_file=muscle_file)
+                ki=ki, lam=lam, force=force, muscle_file=muscle_file, direction=direction)
     _finish(res, plot, dpi, out)
+    _warn_tuning(res.tuning)
     if json:
         emit_json(res.to_dict())
         return
@@ -250,13 +274,15 @@ def hysteresis_cmd(
                                      help="Period of the identification triangle (default 8 × --period)."),
     plot: str = plot_option("the sweep loop and the tracking errors"),
     dpi: int = DPI_OPTION,
+    muscle_file: str = typer.Option(None, "--muscle-file", help="Refused: a muscle file's plant runs one branch of "
+                                                                "its law, with no friction loop to compensate."),
     json: bool = JSON_OPTION,
 ) -> None:
     """Length tracking with and without hysteresis compensation (inflate/deflate branches)."""
     from mckibben.control import hysteresis_compensation, plot_hysteresis
 
     check_outputs(plot, dpi)
-    res = hysteresis_compensation(period, sweep_period=sweep_period)
+    res = hysteresis_compensation(period, sweep_period=sweep_period, muscle_file=muscle_file)
     if plot:
         write_plot(plot_hysteresis(res), plot, dpi)
     if json:

@@ -6,7 +6,7 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, check_direction, emit_json, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, print_table
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
 from mckibben.limits import check_load, check_p_max
@@ -192,18 +192,18 @@ def force_cmd(
 def _force_from_muscle_file(path: str, pressure: str, length: str | None, direction: str, json: bool) -> None:
     """``predict force --muscle-file``: the file's fitted force law at the given pressures."""
     from mckibben.data import read_muscle
-    from mckibben.fit.muscle_file import muscle_force_law
+    from mckibben.fit.muscle_file import check_direction, muscle_force_law
 
     check_direction(direction)
     law = muscle_force_law(read_muscle(path))
+    check_direction(direction, law)
     p = parse_values(pressure, "pressure", "--pressure")
     ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else law.spec.nominal_length
     force, flags = law.force(p, ell, direction)
     names = [flag_names(x) for x in flags]
     if json:
         out = {"model": law.model, "muscle": law.spec.id, "muscle_file": path, "direction": direction,
-               "length_m": ell, "pressure_Pa": p.tolist(), "force_N": force.tolist(), "flags": names,
-               "fit_flags": list(law.flags)}
+               "length_m": ell, "pressure_Pa": p.tolist(), "force_N": force.tolist(), "flags": names}
         scalar = len(p) == 1 and "," not in pressure and ":" not in pressure
         emit_json(_rows_or_scalars(out, scalar) | {"fit_flags": list(law.flags)})
         return

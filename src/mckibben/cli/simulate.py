@@ -6,7 +6,7 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, print_table
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, write_plot
 
 simulate_app = typer.Typer(help="Simulate the rig: valves, chamber, muscle, load, sensors.", no_args_is_help=True)
@@ -23,6 +23,7 @@ def open_loop_cmd(
     load: str = typer.Option("0.6N", "--load", help="Hanging load."),
     muscle_file: str = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law "
                                                                 "(mckibben fit … --save): simulate that muscle."),
+    direction: str = DIRECTION_OPTION,
     plot: str = plot_option("a figure of the response"),
     dpi: int = DPI_OPTION,
     out: str = OUT_OPTION,
@@ -32,7 +33,7 @@ def open_loop_cmd(
     from mckibben.control import open_loop
 
     check_outputs(plot, dpi, out)
-    res = open_loop(valve, supply=supply, load=load, duration=duration, muscle_file=muscle_file)
+    res = open_loop(valve, supply=supply, load=load, duration=duration, muscle_file=muscle_file, direction=direction)
     d = res.to_dict()
     if plot:
         write_plot(res.plot(), plot, dpi)

@@ -46,6 +46,7 @@ from mckibben.control.simulation import (
     robustness,
     step_response,
     track,
+    tuned_controller,
 )
 
 __all__ = [
@@ -55,5 +56,5 @@ __all__ = [
     "plot_compare", "plot_fig13", "plot_hysteresis", "plot_open_loop", "plot_record", "plot_robustness", "plot_step_fit",
     "pressure_reference", "read_step_log", "robustness", "run_closed_loop", "smc_params", "step_metrics",
     "step_metrics_batch", "step_response", "track",
-    "tracking_metrics", "tracking_metrics_batch",
+    "tracking_metrics", "tracking_metrics_batch", "tuned_controller",
 ]

@@ -143,7 +143,7 @@ class PIDDesign:
 
 
 def design_pid(model: FirstOrderModel, closed_loop_tau: float, *, derivative: bool = False,
-               ts: float = 1e-3) -> PIDDesign:
+               ts: float = 1e-3, verdict: bool = True) -> PIDDesign:
     """Lambda (IMC / SIMC) tuning of a PI or PID on a first-order-plus-dead-time model.
 
     ``Kp = τ/(G(λ + θ))``, ``Ti = min(τ, 4(λ + θ))``, ``Ki = Kp/Ti``; with ``derivative`` a
@@ -163,6 +163,9 @@ def design_pid(model: FirstOrderModel, closed_loop_tau: float, *, derivative: bo
         Add the derivative term. [-]
     ts : float, default 1e-3
         Control period (lower bound of the filter time constant). [s]
+    verdict : bool, default True
+        Compute python-control's margins and predicted step (False: NaN and an empty dict, for
+        screening many candidates). [-]
 
     Returns
     -------
@@ -185,6 +188,8 @@ def design_pid(model: FirstOrderModel, closed_loop_tau: float, *, derivative: bo
     td = theta / 2.0 if derivative else 0.0
     kd = kp * td
     tf = max(td / 10.0, ts)
+    if not verdict:
+        return PIDDesign(kp, ki, kd, tf, lam, math.nan, math.nan, {})
     s = control.tf("s")
     c = kp + ki / s + kd * s / (tf * s + 1)
     loop = c * model.transfer_function(2)

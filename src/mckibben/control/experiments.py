@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import operator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -312,6 +312,159 @@ def default_pid(model: FirstOrderModel, closed_loop_tau: float | None = None,
     return design_pid(model.through_origin(operating_point), lam)
 
 
+#: Design steps of a plant tuned by :func:`tune_gains`, as fractions of its top pressure
+#: min(supply, p_max): three rises from rest and one fall from a held back pressure.
+TUNING_STEPS = ((0.0, 0.25), (0.0, 0.5), (0.0, 0.75), (0.75, 0.25))
+#: What a tuned design must meet on every design step: overshoot [%], steady-state error
+#: [fraction of the step] and settling (±2 %) within the record.
+TUNING_BAR = {"overshoot_pct": 10.0, "steady_state_error": 0.02}
+#: The candidate gains :func:`tune_gains` tries (a value given by the caller replaces its list):
+#: sliding mode, law ``model`` (β [counts], ε [Pa], Ki [1/s] and the model term's τ as fractions
+#: of the identified one); law ``paper`` (no model term); the PID's design τ (fractions of the
+#: identified one) and λ (multiples of that τ). The design τ goes down to the fast phase of a
+#: muscle file's plant (the chamber at the braid's straight stop fills in milliseconds), which a
+#: first-order fit of the whole step puts at the slow phase (tenths of a second).
+TUNING_CANDIDATES = {
+    "model": {"beta": (10.0, 20.0, 50.0), "eps": (50e3, 100e3, 200e3, 400e3), "ki": (1.0, 2.5, 5.0),
+              "tau_factor": (1.0, 1 / 4, 1 / 16, 1 / 64, 1 / 256)},
+    "paper": {"beta": (115.0, 120.0, 130.0, 150.0, 175.0, 200.0), "eps": (25e3, 50e3, 100e3, 200e3),
+              "ki": (4.0, 12.0, 24.0)},
+    "pid": {"tau_factor": (1.0, 1 / 4, 1 / 16, 1 / 64), "lam_factor": (1 / 4, 1 / 2, 1.0, 2.0, 4.0)},
+}
+
+@dataclass(frozen=True)
+class GainTuning:
+    """Gains chosen for one plant by :func:`tune_gains`, with what they did on the design steps.
+
+    Attributes
+    ----------
+    controller : str
+        ``"smc"`` or ``"pid"``. [-]
+    law : str or None
+        The sliding-mode law (None for the PID). [-]
+    gains : dict
+        The chosen free gains: ``beta_counts``, ``eps_Pa``, ``ki_per_s`` or ``lambda_s``. [SI]
+    params : CoreParams
+        The core's parameters with those gains. [-]
+    steps : list of dict
+        Per design step: ``from_Pa``, ``to_Pa`` and the step metrics of the chosen gains. [SI]
+    met : bool
+        Whether the chosen gains meet :data:`TUNING_BAR` on every design step. [-]
+    candidates : int
+        Number of candidate gain sets simulated. [-]
+    """
+
+    controller: str
+    law: str | None
+    gains: dict
+    params: CoreParams
+    steps: list
+    met: bool
+    candidates: int
+
+    def to_dict(self) -> dict:
+        """The tuning as JSON-ready numbers (the design steps' main metrics)."""
+        keys = ("overshoot_pct", "settling_time_s", "steady_state_error_Pa")
+        return {"method": "simulated design steps on the plant", "bar_met": self.met, "candidates": self.candidates,
+                **self.gains, "overshoot_max_pct": TUNING_BAR["overshoot_pct"],
+                "steps": [{"from_Pa": s["from_Pa"], "to_Pa": s["to_Pa"], **{k: s[k] for k in keys}} for s in self.steps]}
+
+
+def tune_gains(plant, model: FirstOrderModel, controller: str = "smc", *, law: str = "model",
+               base: CoreParams = CoreParams(), beta: float | None = None, eps: float | None = None,
+               ki: float | None = None, lam: float | None = None, hold: float = 0.3,
+               duration: float = 1.0) -> GainTuning:
+    """Choose a controller's free gains for one plant: the fastest that meets :data:`TUNING_BAR`.
+
+    The model term (sliding mode, law ``model``) and the PID's line through the origin still come
+    from the identified ``model``; what a first-order model cannot set on a plant whose dynamics
+    change along a step (a muscle file's plant: the chamber at the braid's straight stop fills in
+    milliseconds, then grows severalfold as the muscle contracts) is chosen by simulation: every
+    candidate of :data:`TUNING_CANDIDATES` runs the design steps :data:`TUNING_STEPS` on the plant
+    in one batch, and the candidate with the shortest worst settling time among those meeting the
+    bar on every step wins; if none does, the one nearest to it (fewest steps missing it, then
+    the smallest sum of the ratios of each metric to its bar beyond 1), with ``met`` False.
+
+    Parameters
+    ----------
+    plant : PlantParams or dict
+        The plant (one rig; :func:`run_closed_loop`). [-]
+    model : FirstOrderModel
+        The model identified on it (:func:`identify_plant`). [-]
+    controller : {"smc", "pid"}, default "smc"
+        The controller. [-]
+    law : {"model", "paper"}, default "model"
+        Sliding-mode law. [-]
+    base : CoreParams, optional
+        Supervisor settings (p_max, the supervisor's valve model). [-]
+    beta, eps, ki : float, optional
+        Sliding-mode gains to hold fixed instead of tuning. [PWM counts, Pa, 1/s]
+    lam : float, optional
+        PID closed-loop time constant to hold fixed. [s]
+    hold : float, default 0.3
+        Time at the back pressure before a step. [s]
+    duration : float, default 1.0
+        Time after the step; a step settles within it. [s]
+
+    Returns
+    -------
+    GainTuning
+    """
+    import itertools
+
+    if controller not in ("smc", "pid"):
+        raise unknown_name("controller", controller, ("smc", "pid"))
+    if law not in LAWS:
+        raise unknown_name("sliding-mode law", law, LAWS)
+    top = min(float(to_plant_params(plant).supply_pressure), float(base.p_max))
+    if controller == "smc":
+        grid = TUNING_CANDIDATES[law]
+        given = {"beta": beta, "eps": eps, "ki": ki}
+        axes = [(v,) if given[k] is not None else grid[k] for k, v in given.items()]
+        axes.append(grid.get("tau_factor", (1.0,)))
+        cands = [dict(zip(("beta_counts", "eps_Pa", "ki_per_s", "tau_s"), (*map(float, c[:3]), c[3] * model.tau)))
+                 for c in itertools.product(*axes)]
+        params = [smc_core_params(replace(model, tau=c["tau_s"]), c["beta_counts"], law=law, eps=c["eps_Pa"],
+                                  ki=c["ki_per_s"], base=base) for c in cands]
+        if law == "paper":  # no model term: τ plays no part
+            cands = [{k: v for k, v in c.items() if k != "tau_s"} for c in cands]
+    else:
+        op = 0.5 * top
+        grid = TUNING_CANDIDATES["pid"]
+        cands = [{"tau_s": f * model.tau, "lambda_s": float(lam) if lam is not None else g * f * model.tau}
+                 for f in grid["tau_factor"] for g in ((1.0,) if lam is not None else grid["lam_factor"])]
+        params = [pid_params(design_pid(replace(model, tau=c["tau_s"]).through_origin(op), c["lambda_s"],
+                                        verdict=False), base=base) for c in cands]
+    total = hold + duration
+    n, _ = _steps(total)
+    k = int(round(hold / 1e-3))
+    steps = [(a * top, b * top) for a, b in TUNING_STEPS]
+    refs = np.array([step_reference(n, k, p0, p1) for _ in params for p0, p1 in steps])
+    rec = run_closed_loop(core_spec([p for p in params for _ in steps]), refs, total, plant)
+    best, best_key = 0, None
+    table = []
+    for i in range(len(params)):
+        rows = [{"from_Pa": p0, "to_Pa": p1, **rec.metrics(i * len(steps) + j, hold)}
+                for j, (p0, p1) in enumerate(steps)]
+        table.append(rows)
+        short = [_shortfall(r, duration) for r in rows]
+        settle = max(r["settling_time_s"] if math.isfinite(r["settling_time_s"]) else duration for r in rows)
+        key = (sum(x > 1.0 for x in short), sum(max(x - 1.0, 0.0) for x in short), settle)
+        if best_key is None or key < best_key:
+            best, best_key = i, key
+    return GainTuning(controller, law if controller == "smc" else None, cands[best], params[best], table[best],
+                      best_key[0] == 0, len(params))
+
+
+def _shortfall(m: dict, duration: float) -> float:
+    """How far one design step is from :data:`TUNING_BAR`: the largest ratio of a metric to its bar
+    (overshoot, steady-state error per step size, settling time per record; 2 if it never settles)."""
+    over = m["overshoot_pct"] / TUNING_BAR["overshoot_pct"] if math.isfinite(m["overshoot_pct"]) else 2.0
+    err = abs(m["steady_state_error_Pa"]) / abs(m["to_Pa"] - m["from_Pa"]) / TUNING_BAR["steady_state_error"]
+    settle = m["settling_time_s"] / duration if math.isfinite(m["settling_time_s"]) else 2.0
+    return max(over, err if math.isfinite(err) else 2.0, settle)
+
+
 def step_reference(n: int, t_step_index: int, p0: float, p1: float) -> np.ndarray:
     """A pressure step ``p0 → p1`` at sample ``t_step_index``.
 
@@ -377,9 +530,9 @@ def fig13(model: FirstOrderModel, plant=None, betas=(120.0, 150.0), *, laws=LAWS
     return rows, rec
 
 
-def step_size_table(model: FirstOrderModel, steps=((0.0, 0.2e6), (0.0, 0.55e6), (0.3e6, 0.7e6), (0.55e6, 0.2e6)),
+def step_size_table(model: FirstOrderModel | None, steps=((0.0, 0.2e6), (0.0, 0.55e6), (0.3e6, 0.7e6), (0.55e6, 0.2e6)),
                     loads=(0.0, 1.5, 3.0), beta: float | None = None, plant_for_load=None, hold: float = 0.5,
-                    duration: float = 0.6):
+                    duration: float = 0.6, controllers_for_load=None):
     """PID (lambda-tuned on the first-order model) against both sliding-mode laws over steps and loads.
 
     Each run holds the starting pressure (the "back pressure") for ``hold`` seconds under the
@@ -388,8 +541,8 @@ def step_size_table(model: FirstOrderModel, steps=((0.0, 0.2e6), (0.0, 0.55e6), 
 
     Parameters
     ----------
-    model : FirstOrderModel
-        Identified model the controllers are designed on. [-]
+    model : FirstOrderModel or None
+        Identified model the controllers are designed on (None with ``controllers_for_load``). [-]
     steps : sequence of (float, float)
         (from, to) pressures. [Pa]
     loads : sequence of float
@@ -402,6 +555,9 @@ def step_size_table(model: FirstOrderModel, steps=((0.0, 0.2e6), (0.0, 0.55e6), 
         Time at the starting pressure before the step. [s]
     duration : float, default 0.6
         Time after the step. [s]
+    controllers_for_load : callable, optional
+        ``(load, plant) -> {name: CoreParams}`` for :data:`CONTROLLER_NAMES`; default the
+        documented design on ``model`` for every load. [-]
 
     Returns
     -------
@@ -409,22 +565,28 @@ def step_size_table(model: FirstOrderModel, steps=((0.0, 0.2e6), (0.0, 0.55e6), 
         One row per (controller, step, load) with the step metrics.
     """
     plant_for_load = plant_for_load or (lambda load: plant_batch(load_N=load))
-    pid = default_pid(model)
-    ctrls = {"pid": pid_params(pid, base=with_supervisor_model(CoreParams(), model)),
-             "smc": smc_core_params(model, beta),
-             "smc_paper": smc_core_params(model, 150.0, law="paper")}
+    if controllers_for_load is None:
+        if model is None:
+            raise InputError("step_size_table: give a model or controllers_for_load")
+        pid = default_pid(model)
+        fixed = {"pid": pid_params(pid, base=with_supervisor_model(CoreParams(), model)),
+                 "smc": smc_core_params(model, beta),
+                 "smc_paper": smc_core_params(model, 150.0, law="paper")}
+        controllers_for_load = lambda load, plant: fixed  # noqa: E731
     total = hold + duration
     n, _ = _steps(total)
     k = int(round(hold / 1e-3))
     rows = []
     for load in loads:
+        plant = plant_for_load(load)
+        ctrls = controllers_for_load(load, plant)
         refs, params, labels = [], [], []
         for p0, p1 in steps:
             for name, cp in ctrls.items():
                 refs.append(step_reference(n, k, p0, p1))
                 params.append(cp)
                 labels.append((name, p0, p1))
-        rec = run_closed_loop(core_spec(params), np.array(refs), total, plant_for_load(load))
+        rec = run_closed_loop(core_spec(params), np.array(refs), total, plant)
         for i, (name, p0, p1) in enumerate(labels):
             m = rec.metrics(i, hold)
             rows.append({"controller": name, "from_Pa": p0, "to_Pa": p1, "load_N": load, **m})
@@ -463,7 +625,7 @@ def plant_batch(**kwargs) -> dict:
     return out
 
 
-def to_plant_params(plant=None):
+def to_plant_params(plant=None, base=None):
     """:class:`~mckibben.plant.PlantParams` from a :func:`plant_batch` dict (or pass one through).
 
     The factors scale the calibrated default plant: ``valve_gain`` both valves' sonic
@@ -475,6 +637,8 @@ def to_plant_params(plant=None):
     ----------
     plant : dict or PlantParams or None
         None: the calibrated default plant. [-]
+    base : PlantParams, optional
+        The plant the factors scale; default the calibrated one. [-]
 
     Returns
     -------
@@ -483,11 +647,11 @@ def to_plant_params(plant=None):
     from mckibben.plant import PlantParams
 
     if plant is None:
-        return PlantParams()
+        return PlantParams() if base is None else base
     if isinstance(plant, PlantParams):
         return plant
     f = plant_batch(**plant)
-    base = PlantParams()
+    base = PlantParams() if base is None else base
     kw = {}
     if "valve_gain" in f:
         kw["valve_conductance"] = base.valve_conductance * f["valve_gain"]
@@ -547,7 +711,8 @@ CONTROLLER_NAMES = ("pid", "smc", "smc_paper")
 
 
 def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float | None = None,
-               target: float = FIG13_TARGET_PA, duration: float = 0.6, t_step: float = 0.05, samples=None):
+               target: float = FIG13_TARGET_PA, duration: float = 0.6, t_step: float = 0.05, samples=None,
+               base_plant=None, controllers=None):
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same N plants.
 
     The controllers are designed once, on the model identified on the nominal plant; each plant
@@ -572,6 +737,11 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
         Time of the step. [s]
     samples : dict, optional
         The n plants (:func:`sample_plants`); default drawn from ``seed``. [-]
+    base_plant : PlantParams, optional
+        The nominal plant the factors scale; default the calibrated one. [-]
+    controllers : dict, optional
+        ``{name: CoreParams}`` for :data:`CONTROLLER_NAMES`; default the documented design on
+        ``model``. [-]
 
     Returns
     -------
@@ -590,12 +760,14 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
     samples = sample_plants(n, seed) if samples is None else samples
     k = len(CONTROLLER_NAMES)
     every = {key: np.concatenate([v] * k) for key, v in samples.items()}
-    params = ([pid_params(default_pid(model), base=with_supervisor_model(CoreParams(), model))] * n
-              + [smc_core_params(model, beta)] * n
-              + [smc_core_params(model, 150.0, law="paper")] * n)
+    if controllers is None:
+        controllers = {"pid": pid_params(default_pid(model), base=with_supervisor_model(CoreParams(), model)),
+                       "smc": smc_core_params(model, beta), "smc_paper": smc_core_params(model, 150.0, law="paper")}
+    params = [controllers[name] for name in CONTROLLER_NAMES for _ in range(n)]
     nn, _ = _steps(duration)
     ref = step_reference(nn, int(round(t_step / 1e-3)), 0.0, target)
-    rec = run_closed_loop(core_spec(params), ref, duration, plant_batch(**every))
+    plant = plant_batch(**every) if base_plant is None else to_plant_params(plant_batch(**every), base_plant)
+    rec = run_closed_loop(core_spec(params), ref, duration, plant)
     keys = ("time_constant_s", "overshoot_pct", "steady_state_error_Pa", "settling_time_s", "valve_effort_counts")
     metrics, summary = {}, {}
     for j, name in enumerate(CONTROLLER_NAMES):

@@ -25,6 +25,7 @@ from mckibben.control.core import CoreParams, core_spec
 from mckibben.control.experiments import (
     CONTROLLER_NAMES,
     LAWS,
+    GainTuning,
     LoopRecord,
     default_pid,
     plant_batch,
@@ -46,7 +47,7 @@ __all__ = [
     "TrackResult", "compare", "controller_params", "fig13", "hysteresis_compensation", "identified_model", "open_loop",
     "plant_load",
     "pressure_reference",
-    "robustness", "step_response", "track",
+    "robustness", "step_response", "track", "tuned_controller",
 ]
 
 #: Controllers the firmware core runs.
@@ -189,6 +190,8 @@ class StepResult(Result):
         The controller's parameters. [-]
     arguments : dict
         Controller, target [Pa], start [Pa], load [N], p_max [Pa], step time [s]. [-]
+    tuning : GainTuning or None
+        How the gains were tuned on a muscle file's plant (None: the documented gains). [-]
     """
 
     record: LoopRecord
@@ -196,6 +199,7 @@ class StepResult(Result):
     model: FirstOrderModel
     params: CoreParams
     arguments: dict = field(default_factory=dict)
+    tuning: GainTuning | None = None
     call = "mckibben.control.step_response"
     _repr_keys = ("time_constant_s", "overshoot_pct", "settling_time_s", "steady_state_error_Pa")
 
@@ -215,7 +219,9 @@ class StepResult(Result):
             "model": _model_dict(self.model), "gains": _gains_dict(self.params, a["controller"]),
             "peak_pressure_Pa": float(np.nanmax(self.record.pressure[0])),
             "faults": self.faults, "target_unreachable": self.target_unreachable,
-            **({"muscle_file": a["muscle_file"], "supply_Pa": a["supply_Pa"]} if "muscle_file" in a else {}),
+            **({"muscle_file": a["muscle_file"], "direction": a["direction"], "supply_Pa": a["supply_Pa"]}
+               if "muscle_file" in a else {}),
+            **({"tuning": self.tuning.to_dict()} if self.tuning is not None else {}),
             **self.metrics})
 
     @property
@@ -278,7 +284,7 @@ def plant_load(load) -> float:
     return check_load(quantity(load, "force", "--load"), get_muscle(PlantParams().muscle_name))
 
 
-def muscle_file_plant(path, load="0.6N", supply=None):
+def muscle_file_plant(path, load="0.6N", supply=None, direction: str = "inflate"):
     """The plant of a muscle file's own fitted force law (:meth:`PlantParams.from_muscle_file`), loaded.
 
     Parameters
@@ -287,9 +293,13 @@ def muscle_file_plant(path, load="0.6N", supply=None):
         A muscle file with a ``[force_model]`` table (``mckibben fit … --save``). [-]
     load : float or str, default "0.6N"
         Hanging load: at most the law's force at the rest length and the supply (a heavier load
-        would stretch the muscle past the lengths it was fitted on). [N]
+        would stretch the muscle past the lengths it was fitted on). Its mass moves with the
+        muscle (and is critically damped, ``docs/plant.md``). [N]
     supply : float or str, optional
         Supply pressure (gauge); default the top of the fitted pressure range. [Pa]
+    direction : {"inflate", "deflate"}, default "inflate"
+        The branch of the law (:func:`~mckibben.fit.muscle_file.check_direction`: a spring fit
+        has two, the other laws one). [-]
 
     Returns
     -------
@@ -299,27 +309,145 @@ def muscle_file_plant(path, load="0.6N", supply=None):
     ------
     InputError
         One line starting ``--muscle-file`` and naming the file (missing, no force law, a law the
-        plant cannot run) or ``--load``/``--supply``.
+        plant cannot run) or ``--load``/``--supply``/``--direction``.
     """
-    from mckibben.models import laws as LW
+    from mckibben.data.io import read_muscle
+    from mckibben.fit.muscle_file import check_direction, muscle_force_law
     from mckibben.plant import PlantParams
 
     f = quantity(load, "force", "--load")
+    check_direction(direction)
     kw = {}
     if supply is not None:
         kw["supply_pressure"] = quantity(supply, "pressure", "--supply", allow_zero=False)
         if kw["supply_pressure"] > 1e6:
             raise InputError(f"--supply: {supply!r} is above the compressor's 1 MPa")
     try:
-        plant = PlantParams.from_muscle_file(path, **kw)
+        spec = read_muscle(path)
+        law = muscle_force_law(spec)
     except InputError as exc:
         raise InputError(f"--muscle-file {path}: {exc}") from None
-    name, th = plant.law(1)
-    most = float(np.maximum(LW.evaluate(name, plant.supply_pressure, plant.nominal_length, th[:, 0]), 0.0))
+    check_direction(direction, law)
+    if math.isfinite(f) and f >= 0:
+        kw["load_force"] = f  # its mass moves with the muscle: the plant damps it
+    try:
+        plant = PlantParams.from_muscle_file(spec, direction, **kw)
+    except InputError as exc:
+        raise InputError(f"--muscle-file {path}: {exc}") from None
+    most = rest_pull(plant)
     if not (math.isfinite(f) and 0 <= f <= most):
         raise InputError(f"--load: {f:g} N is more than the muscle of {path} pulls at its rest length at "
-                         f"{plant.supply_pressure / 1e6:g} MPa ({most:.4g} N, its fitted law)")
-    return plant.replace(load_force=f)
+                         f"{float(np.asarray(plant.supply_pressure)) / 1e6:g} MPa ({most:.4g} N, its fitted law)")
+    return plant
+
+
+def rest_pull(plant) -> float:
+    """What a plant's muscle pulls at its rest length and supply pressure: the heaviest load it lifts. [N]
+
+    Parameters
+    ----------
+    plant : PlantParams
+        One rig. [-]
+    """
+    from mckibben.models import laws as LW
+
+    name, th = plant.law(1)
+    return float(np.maximum(LW.evaluate(name, plant.supply_pressure, plant.nominal_length, th[:, 0]), 0.0))
+
+
+#: Record length of a muscle file plant's identification: a large muscle under a load takes
+#: seconds to settle, and the two steps' final pressures give the static gain and lift-off. [s]
+FILE_IDENTIFICATION_S = 2.0
+
+
+def identify_file_plant(plant) -> FirstOrderModel:
+    """The first-order model of a muscle file's plant: :func:`~mckibben.control.experiments.identify_plant`
+    over :data:`FILE_IDENTIFICATION_S`.
+
+    Parameters
+    ----------
+    plant : PlantParams
+        One rig. [-]
+
+    Returns
+    -------
+    FirstOrderModel
+        Gain [Pa/count], time constant [s], dead time [s], lift-off [PWM counts].
+    """
+    from mckibben.control.experiments import identify_plant
+
+    return identify_plant(plant, duration=FILE_IDENTIFICATION_S)[1]
+
+
+def _file_controllers(plant, beta=None) -> dict:
+    """The three controllers of :func:`compare` and :func:`robustness`, tuned on a muscle file's plant:
+    ``pid``, ``smc`` (our law; ``beta`` held when given) and ``smc_paper`` (the paper's law)."""
+    m = identify_file_plant(plant)
+    return {"pid": tuned_controller("pid", m, plant).params, "smc": tuned_controller("smc", m, plant, beta=beta).params,
+            "smc_paper": tuned_controller("smc", m, plant, law="paper").params}
+
+
+def _refuse_muscle_file(command: str, muscle_file, why: str) -> None:
+    if muscle_file is not None:
+        raise InputError(f"--muscle-file {muscle_file}: control {command} {why}")
+
+
+def _no_direction(direction: str, muscle_file) -> None:
+    """``--direction`` is the branch of a muscle file's law: refuse it (or a bad value) without one."""
+    from mckibben.fit.muscle_file import check_direction
+
+    check_direction(direction)
+    if muscle_file is None and direction != "inflate":
+        raise InputError(f"--direction {direction}: picks the branch of a --muscle-file's fitted law; the "
+                         "calibrated plant runs both branches through its braid friction")
+
+
+def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str = "model", beta=None, eps=None,
+                     ki=None, lam=None, p_max="0.8MPa"):
+    """A controller whose free gains are tuned on a plant (:func:`~mckibben.control.experiments.tune_gains`).
+
+    What a muscle file's plant gets instead of the calibrated rig's gains (``docs/control.md``,
+    "Gains for a muscle file's plant"): the model term and the supervisor's valve model come from
+    ``model``; β, ε, Ki (sliding mode) or λ and the design τ (PID) are chosen by simulating
+    design steps on ``plant``. A gain given here is held, the others are tuned.
+
+    Parameters
+    ----------
+    controller : {"smc", "pid"}
+        The controller. [-]
+    model : FirstOrderModel
+        The model identified on ``plant``. [-]
+    plant : PlantParams
+        The plant (one rig). [-]
+    law : {"model", "paper"}, default "model"
+        Sliding-mode law. [-]
+    beta : float, optional
+        Switching gain to hold. [PWM counts]
+    eps : float or str, optional
+        Boundary layer to hold. [Pa]
+    ki : float, optional
+        Surface integral weight to hold. [1/s]
+    lam : float or str, optional
+        PID closed-loop time constant to hold. [s]
+    p_max : float or str, default "0.8MPa"
+        Supervisor's maximum pressure (the design steps stay below it). [Pa]
+
+    Returns
+    -------
+    GainTuning
+        ``.params`` (the core's parameters), ``.gains``, ``.steps``, ``.met``.
+    """
+    from mckibben.control.experiments import tune_gains
+
+    if controller not in CONTROLLERS:
+        raise unknown_name("controller", controller, CONTROLLERS)
+    if law not in LAWS:
+        raise unknown_name("--law", law, LAWS)
+    b, k, e = _beta(beta), _ki(ki), boundary_layer(eps)
+    lm = quantity(lam, "time", "--lambda", allow_zero=False) if lam is not None else None
+    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "--p-max",
+                                                                       allow_zero=False))), model)
+    return tune_gains(plant, model, controller, law=law, base=base, beta=b, eps=e, ki=k, lam=lm)
 
 
 def _step_args(controller, target, start, load, supply, duration, p_max, force, muscle_file=None):
@@ -352,7 +480,8 @@ def _step_args(controller, target, start, load, supply, duration, p_max, force, 
 
 def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", load="0.6N", supply=None,
                   duration="1s", p_max="0.8MPa", law: str = "model", beta=None, eps=None, ki=None, lam=None,
-                  model: FirstOrderModel | None = None, force: bool = False, muscle_file=None) -> StepResult:
+                  model: FirstOrderModel | None = None, force: bool = False, muscle_file=None,
+                  direction: str = "inflate") -> StepResult:
     """A pressure step on the calibrated plant under the firmware's controller.
 
     The pressure ``start`` is held (0.05 s from rest, 0.5 s from a back pressure), then the
@@ -392,7 +521,10 @@ def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", lo
         Run past the documented size limits (:mod:`mckibben.limits`). [-]
     muscle_file : str or pathlib.Path, optional
         Run a muscle file's own fitted force law (:func:`muscle_file_plant`) instead of the
-        calibrated plant; the design model is identified on that plant. [-]
+        calibrated plant; the design model is identified on that plant and the gains not given
+        are tuned on it (:func:`tuned_controller`). [-]
+    direction : {"inflate", "deflate"}, default "inflate"
+        With ``muscle_file``: the branch of its law. [-]
 
     Returns
     -------
@@ -401,27 +533,30 @@ def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", lo
         (``time_s``, ``reference_Pa``, ``pressure_Pa``, ``inlet_pwm``, ``bleed_pwm``,
         ``command_pwm``, ``length_m``, ``fault_flags``), ``.plot()``.
     """
+    _no_direction(direction, muscle_file)
     args = _step_args(controller, target, start, load, supply, duration, p_max, force, muscle_file)
+    tuning = None
     if muscle_file is not None:
-        from mckibben.control.experiments import identify_plant
-
-        plant = muscle_file_plant(muscle_file, load, supply)
-        params_model = identify_plant(plant)[1] if model is None else model
-        args.update(muscle_file=str(muscle_file), supply_Pa=float(plant.supply_pressure))
+        plant = muscle_file_plant(muscle_file, load, supply, direction)
+        params_model = identify_file_plant(plant) if model is None else model
+        tuning = tuned_controller(controller, params_model, plant, law=law, beta=beta, eps=eps, ki=ki, lam=lam,
+                                  p_max=p_max)
+        params = tuning.params
+        args.update(muscle_file=str(muscle_file), direction=direction, supply_Pa=float(plant.supply_pressure))
     else:
         plant_kw = {"load_N": args["load_N"]}
         if "supply_Pa" in args:
             plant_kw["supply_Pa"] = args["supply_Pa"]
         plant = plant_batch(**plant_kw)
         params_model = identified_model() if model is None else model
-    params = controller_params(controller, params_model, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=p_max)
+        params = controller_params(controller, params_model, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=p_max)
     hold = args["step_time_s"]
     total = hold + args["duration_s"]
     n = int(round(total / TS))
     ref = step_reference(n, int(round(hold / TS)), args["from_Pa"], args["target_Pa"])
     rec = run_closed_loop(core_spec(params), ref, total, plant)
     args.update(law=law if controller == "smc" else None)
-    return StepResult(rec, hold, params_model, params, args)
+    return StepResult(rec, hold, params_model, params, args, tuning)
 
 
 def pressure_reference(reference, duration="2s", *, force: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -486,12 +621,15 @@ class TrackResult(Result):
         Controller parameters. [-]
     arguments : dict
         Controller, reference, load [N], p_max [Pa]. [-]
+    tuning : GainTuning or None
+        How the gains were tuned on a muscle file's plant (None: the documented gains). [-]
     """
 
     record: LoopRecord
     model: FirstOrderModel
     params: CoreParams
     arguments: dict = field(default_factory=dict)
+    tuning: GainTuning | None = None
     call = "mckibben.control.track"
 
     @property
@@ -505,7 +643,9 @@ class TrackResult(Result):
         a = self.arguments
         return to_jsonable({"controller": a["controller"], "load_N": a["load_N"], "p_max_Pa": a["p_max_Pa"],
                             "reference_clamped": a["reference_clamped"],
-                            **({"muscle_file": a["muscle_file"]} if "muscle_file" in a else {}),
+                            **({"muscle_file": a["muscle_file"], "direction": a["direction"]}
+                               if "muscle_file" in a else {}),
+                            **({"tuning": self.tuning.to_dict()} if self.tuning is not None else {}),
                             "gains": _gains_dict(self.params, a["controller"]), **self.metrics})
 
     def _series(self):
@@ -526,7 +666,7 @@ class TrackResult(Result):
 
 def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_max="0.8MPa", law: str = "model",
           beta=None, eps=None, ki=None, lam=None, model: FirstOrderModel | None = None,
-          force: bool = False, muscle_file=None) -> TrackResult:
+          force: bool = False, muscle_file=None, direction: str = "inflate") -> TrackResult:
     """Track a pressure trajectory on the calibrated plant.
 
     Parameters
@@ -557,33 +697,46 @@ def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_m
         Run past the documented size limits (:mod:`mckibben.limits`). [-]
     muscle_file : str or pathlib.Path, optional
         Run a muscle file's own fitted force law (:func:`muscle_file_plant`); the design model is
-        identified on that plant. [-]
+        identified on that plant and the gains not given are tuned on it (:func:`tuned_controller`). [-]
+    direction : {"inflate", "deflate"}, default "inflate"
+        With ``muscle_file``: the branch of its law. [-]
 
     Returns
     -------
     TrackResult
         A reference outside [0, p_max] is clamped as the supervisor would (``reference_clamped``).
     """
+    _no_direction(direction, muscle_file)
     pmax = check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
     f_load = plant_load(load) if muscle_file is None else quantity(load, "force", "--load")
     _, ref = pressure_reference(reference, duration, force=force)
     ref, clamped = clamp_pressure(ref, pmax, "--reference")
+    tuning = None
     if muscle_file is not None:
-        from mckibben.control.experiments import identify_plant
-
-        plant = muscle_file_plant(muscle_file, load)
-        m = identify_plant(plant)[1] if model is None else model
+        plant = muscle_file_plant(muscle_file, load, None, direction)
+        m = identify_file_plant(plant) if model is None else model
+        tuning = tuned_controller(controller, m, plant, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax)
+        params = tuning.params
     else:
         plant = plant_batch(load_N=f_load)
         m = identified_model() if model is None else model
-    params = controller_params(controller, m, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax)
+        params = controller_params(controller, m, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax)
     rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant)
     args = {"controller": controller, "reference": reference if isinstance(reference, str) else "array",
             "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
             "law": law if controller == "smc" else None}
     if muscle_file is not None:
-        args["muscle_file"] = str(muscle_file)
-    return TrackResult(rec, m, params, args)
+        args.update(muscle_file=str(muscle_file), direction=direction)
+    return TrackResult(rec, m, params, args, tuning)
+
+
+#: Why ``control fig13`` and ``control hysteresis`` refuse a muscle file.
+FIG13_REFUSAL = ("is the paper's Fig. 13 on its miniature muscle: the β of 120 and 150 counts sit just above that "
+                 "rig's holding command and the paper's points are that muscle's; run control step --muscle-file "
+                 "(gains tuned for the file's plant) or control compare --muscle-file")
+HYSTERESIS_REFUSAL = ("compensates the hysteresis of the calibrated muscle's braid friction; a muscle file's plant "
+                      "runs one branch of its fitted law (--direction) without friction, so it has no loop to "
+                      "compensate")
 
 
 @dataclass(frozen=True, repr=False)
@@ -670,7 +823,7 @@ class Fig13Result(Result):
         return plot_fig13(self, ax=ax)
 
 
-def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None) -> Fig13Result:
+def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=None) -> Fig13Result:
     """The paper's Fig. 13 on the plant: sliding mode, step 0 → 0.55 MPa, each law and β.
 
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV.B measured the ``paper`` law at β = 120 (τ ≈ 0.06 s) and 150
@@ -688,11 +841,16 @@ def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None) -> Fig13Result:
         Boundary layer; default each law's tuning. [Pa]
     ki : float, optional
         Surface integral weight; default each law's tuning. [1/s]
+    muscle_file : str or pathlib.Path, optional
+        Refused: Fig. 13 is the miniature muscle's (its β sit just above that rig's holding
+        command, its points are that muscle's); ``step_response(..., muscle_file=)`` tunes a
+        muscle file's controller instead. [-]
 
     Returns
     -------
     Fig13Result
     """
+    _refuse_muscle_file("fig13", muscle_file, FIG13_REFUSAL)
     e = boundary_layer(eps)
     k = _ki(ki)
     betas = tuple(_beta(b) for b in betas)
@@ -757,23 +915,50 @@ class CompareResult(Result):
         return plot_compare(self, ax=ax)
 
 
-def compare(beta=None) -> CompareResult:
+#: The comparison's steps (0→0.2, 0→0.55, 0.3→0.7 and 0.55→0.2 MPa) as fractions of the 0.8 MPa
+#: they are taken under; a muscle file's comparison scales them to min(its supply, 0.8 MPa).
+COMPARE_STEPS = tuple((a / 0.8e6, b / 0.8e6) for a, b in ((0.0, 0.2e6), (0.0, 0.55e6), (0.3e6, 0.7e6),
+                                                          (0.55e6, 0.2e6)))
+#: A muscle file's comparison loads, as fractions of what it pulls at rest length and supply
+#: (:func:`rest_pull`).
+COMPARE_LOADS = (0.0, 0.25, 0.5)
+
+
+def compare(beta=None, *, muscle_file=None, direction: str = "inflate") -> CompareResult:
     """PID (lambda-tuned on the first-order model) against both sliding-mode laws (§IV.A).
 
     Steps 0→0.2, 0→0.55, 0.3→0.7 and 0.55→0.2 MPa under 0, 1.5 and 3 N: the paper found the PID's
-    performance "varied with different step size and back pressure".
+    performance "varied with different step size and back pressure". With a muscle file, the same
+    steps scaled to its top pressure (:data:`COMPARE_STEPS`) under 0, 1/4 and 1/2 of what it pulls
+    at rest (:data:`COMPARE_LOADS`), each controller tuned on each loaded plant
+    (:func:`tuned_controller`; ``smc_paper`` is the paper's law with β tuned too).
 
     Parameters
     ----------
     beta : float, optional
-        Switching gain of our law (default 50). [PWM counts]
+        Switching gain of our law (default 50; tuned with a muscle file). [PWM counts]
+    muscle_file : str or pathlib.Path, optional
+        Compare on a muscle file's plant (:func:`muscle_file_plant`). [-]
+    direction : {"inflate", "deflate"}, default "inflate"
+        With ``muscle_file``: the branch of its law. [-]
 
     Returns
     -------
     CompareResult
     """
+    _no_direction(direction, muscle_file)
     b = _beta(beta)
-    return CompareResult(_step_size_rows(identified_model(), beta=b), {"beta_counts": b})
+    if muscle_file is None:
+        return CompareResult(_step_size_rows(identified_model(), beta=b), {"beta_counts": b})
+    plant = muscle_file_plant(muscle_file, 0.0, None, direction)
+    top = min(float(plant.supply_pressure), 0.8e6)
+    most = rest_pull(plant)
+    loads = tuple(round(f * most, 1) for f in COMPARE_LOADS)
+    plants = {w: muscle_file_plant(muscle_file, w, None, direction) for w in loads}
+    rows = _step_size_rows(None, steps=tuple((a * top, c * top) for a, c in COMPARE_STEPS), loads=loads,
+                           plant_for_load=plants.__getitem__,
+                           controllers_for_load=lambda w, pl: _file_controllers(pl, b))
+    return CompareResult(rows, {"beta_counts": b, "muscle_file": str(muscle_file), "direction": direction})
 
 
 @dataclass(frozen=True, repr=False)
@@ -838,12 +1023,16 @@ class RobustnessResult(Result):
 ROBUSTNESS_DURATION = 0.6
 
 
-def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force: bool = False) -> RobustnessResult:
+def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force: bool = False, muscle_file=None,
+               direction: str = "inflate") -> RobustnessResult:
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same n plants.
 
     ±30 % on valve gain, dead band, volumes and leak, supply 0.6–1.0 MPa, load 0–3 N
     (:func:`~mckibben.control.experiments.sample_plants`); the controllers are designed once on
-    the nominal plant's identified model.
+    the nominal plant's identified model. With a muscle file: the same factors around its plant,
+    supply 0.75–1 × its top fitted pressure, load 0–1/2 of what it pulls at rest, step to 0.55/0.8
+    of min(supply, 0.8 MPa); the controllers tuned once on the nominal plant (1/4 of that pull)
+    (:func:`tuned_controller`).
 
     Parameters
     ----------
@@ -857,6 +1046,10 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
         ``progress(done, total)`` after each chunk of plants. [-]
     force : bool, default False
         Run past the documented size limits (:mod:`mckibben.limits`). [-]
+    muscle_file : str or pathlib.Path, optional
+        Random plants around a muscle file's plant (:func:`muscle_file_plant`). [-]
+    direction : {"inflate", "deflate"}, default "inflate"
+        With ``muscle_file``: the branch of its law. [-]
 
     Returns
     -------
@@ -868,16 +1061,28 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
         raise InputError(f"--seed: {seed!r} must be in 0..2**63-1")
     check_budget("--n", 3 * n * ROBUSTNESS_DURATION / TS, force=force,
                  what="control periods (3 controllers × --n plants × 0.6 s)")
+    _no_direction(direction, muscle_file)
     b = _beta(beta)
-    model = identified_model()
-    from mckibben.control.experiments import sample_plants
+    from mckibben.control.experiments import FIG13_TARGET_PA, sample_plants
 
-    samples = sample_plants(int(n), seed)
+    extra: dict = {}
+    if muscle_file is None:
+        model = identified_model()
+        samples = sample_plants(int(n), seed)
+    else:
+        nominal = muscle_file_plant(muscle_file, 0.0, None, direction)
+        top, most = float(nominal.supply_pressure), rest_pull(nominal)
+        nominal = muscle_file_plant(muscle_file, 0.25 * most, None, direction)
+        model = FirstOrderModel(1.0, 1.0)  # unused: the controllers are tuned on the plant
+        samples = sample_plants(int(n), seed, supply=(0.75 * top, top), load=(0.0, 0.5 * most))
+        extra = {"base_plant": nominal, "controllers": _file_controllers(nominal, b),
+                 "target": float(np.asarray(FIG13_TARGET_PA)) / 0.8e6 * min(top, 0.8e6)}
     chunk = max(1, min(int(n), 250))
     per_plant: dict[str, dict[str, np.ndarray]] = {c: {} for c in CONTROLLER_NAMES}
     for lo in range(0, int(n), chunk):
         hi = min(int(n), lo + chunk)
-        part = _robustness_runs(model, n=hi - lo, seed=seed, beta=b, samples={k: v[lo:hi] for k, v in samples.items()})
+        part = _robustness_runs(model, n=hi - lo, seed=seed, beta=b, samples={k: v[lo:hi] for k, v in samples.items()},
+                                **extra)
         for c in CONTROLLER_NAMES:
             for k, v in part["metrics"][c].items():
                 per_plant[c][k] = np.concatenate([per_plant[c].get(k, np.empty(0)), v])
@@ -886,7 +1091,9 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
     from mckibben.control.experiments import _pct
 
     summary = {c: {k: _pct(v) for k, v in per_plant[c].items()} for c in CONTROLLER_NAMES}
-    return RobustnessResult(samples, per_plant, summary, {"n": int(n), "seed": seed, "beta_counts": b})
+    where = {} if muscle_file is None else {"muscle_file": str(muscle_file), "direction": direction,
+                                            "target_Pa": extra["target"]}
+    return RobustnessResult(samples, per_plant, summary, {"n": int(n), "seed": seed, "beta_counts": b, **where})
 
 
 @dataclass(frozen=True, repr=False)
@@ -918,7 +1125,7 @@ class OpenLoopResult(Result):
     def to_dict(self) -> dict:
         """What ``mckibben simulate open-loop --json`` prints."""
         a = self.arguments
-        extra = {"muscle_file": a["muscle_file"]} if "muscle_file" in a else {}
+        extra = {"muscle_file": a["muscle_file"], "direction": a["direction"]} if "muscle_file" in a else {}
         return to_jsonable({"valve_pwm": a["valve_pwm"], "supply_Pa": a["supply_Pa"], "load_N": a["load_N"],
                             "duration_s": a["duration_s"], **extra, **self.metrics})
 
@@ -941,7 +1148,7 @@ class OpenLoopResult(Result):
 
 
 def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0.5s",
-              muscle_file=None) -> OpenLoopResult:
+              muscle_file=None, direction: str = "inflate") -> OpenLoopResult:
     """An open-loop inlet-valve step from rest (bleed shut): the identification experiment of §IV.A.
 
     Parameters
@@ -957,6 +1164,8 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
         Simulated time, whole control periods, at most 60 s. [s]
     muscle_file : str or pathlib.Path, optional
         Run a muscle file's own fitted force law (:func:`muscle_file_plant`). [-]
+    direction : {"inflate", "deflate"}, default "inflate"
+        With ``muscle_file``: the branch of its law. [-]
 
     Returns
     -------
@@ -964,6 +1173,7 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
     """
     from mckibben.plant import CALIBRATION_PWM, PlantParams, open_loop_step
 
+    _no_direction(direction, muscle_file)
     valve = CALIBRATION_PWM if valve is None else valve
     if isinstance(valve, bool) or not isinstance(valve, (int, np.integer)) or not 0 <= valve <= 255:
         raise InputError(f"--valve: {valve!r} must be a PWM count in 0..255")
@@ -973,11 +1183,11 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
         raise InputError(f"--duration: {duration!r} must be a whole number of 1 ms control periods")
     if d > 60:
         raise InputError(f"--duration: {duration!r} is longer than 60 s")
-    extra = {}
+    extra: dict = {}
     if muscle_file is not None:
-        plant = muscle_file_plant(muscle_file, load, supply)
+        plant = muscle_file_plant(muscle_file, load, supply, direction)
         s, f = float(plant.supply_pressure), float(plant.load_force)
-        extra["muscle_file"] = str(muscle_file)
+        extra.update(muscle_file=str(muscle_file), direction=direction)
     else:
         s = quantity("0.8MPa" if supply is None else supply, "pressure", "--supply", allow_zero=False)
         if s > 1e6:
@@ -989,7 +1199,7 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
                           {"valve_pwm": int(valve), "supply_Pa": s, "load_N": f, "duration_s": d, **extra})
 
 
-def hysteresis_compensation(period="4s", *, sweep_period=None):
+def hysteresis_compensation(period="4s", *, sweep_period=None, muscle_file=None):
     """Length tracking with and without hysteresis compensation (inflate/deflate branches).
 
     Identifies the plant (:func:`identified_model`), records a quasi-static pressure triangle,
@@ -1002,12 +1212,15 @@ def hysteresis_compensation(period="4s", *, sweep_period=None):
         Period of the length sinusoid, 1 to 60 s. [s]
     sweep_period : float or str, optional
         Period of the identification triangle, 1 to 600 s; default 8 × ``period``. [s]
+    muscle_file : str or pathlib.Path, optional
+        Refused (:data:`HYSTERESIS_REFUSAL`): a muscle file's plant has no friction loop. [-]
 
     Returns
     -------
     HysteresisBenefit
         ``.summary()``, ``.plot()``.
     """
+    _refuse_muscle_file("hysteresis", muscle_file, HYSTERESIS_REFUSAL)
     from mckibben.control.hysteresis import (
         PERIOD_MAX,
         PERIOD_MIN,

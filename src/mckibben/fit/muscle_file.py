@@ -253,3 +253,37 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
                 raise InputError(f"{where}: key force_model.valid_{q}_{unit}: must be [min, max]")
             vr[q] = (float(v[0]), float(v[1]))
     return MuscleForceLaw(spec, model, dict(params), vr, tuple(fm.get("flags", ())))
+
+
+#: The branches of a fitted force law: the spring model has one per direction of travel (its
+#: hysteresis); every other model has one, the same for both.
+DIRECTIONS = ("inflate", "deflate")
+
+
+def check_direction(direction: str, law: MuscleForceLaw | None = None) -> str:
+    """The branch of a muscle file's law to run, checked (``--direction``).
+
+    Parameters
+    ----------
+    direction : {"inflate", "deflate"}
+        The branch: inflating (pressure rising) or deflating. [-]
+    law : MuscleForceLaw, optional
+        The file's law: only the spring model has a deflate branch of its own. [-]
+
+    Returns
+    -------
+    str
+        ``direction``.
+
+    Raises
+    ------
+    InputError
+        An unknown direction, or ``deflate`` for a law with one branch (asking for a branch the
+        fit does not have would silently run the inflate one).
+    """
+    if direction not in DIRECTIONS:
+        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
+    if direction == "deflate" and law is not None and law.model != "spring":
+        raise InputError(f"--direction deflate: the {law.model} force law of {law.spec.path or law.spec.id} has one "
+                         "branch for both directions; only a spring fit has a deflate branch")
+    return direction

@@ -323,8 +323,8 @@ class PlantParams:
           (≈ 0.09 s) that the controllers' gains were chosen for;
         - passive stiffness and friction 0: the fitted law is the whole measured force, the tube's
           elasticity included, and one branch of it (the spring model's inflate or deflate);
-        - moving mass :data:`FILE_MOVING_MASS`; damping critical for that mass on the law's
-          steepest stiffness at the supply pressure;
+        - moving mass :data:`FILE_MOVING_MASS`; damping critical for that mass and a hanging
+          load's (``load_force``/g) on the law's steepest stiffness at the supply pressure;
         - supply: the top of the fitted pressure range (the law is not known above it), ≤ 1 MPa.
 
         Parameters
@@ -391,9 +391,15 @@ class PlantParams:
             supply_pressure=supply if supply > 0 else base.supply_pressure, spring_free_length=l0,
             load_force=0.0, force_model=obj, muscle_name="", muscle=None,
         )
-        fields["damping"] = _critical_damping(obj, fields, direction)
         plant = cls(**fields)
         plant = plant.replace(**kwargs) if kwargs else plant
+        hung = np.where(np.asarray(plant.load_kind) == Load.hanging, np.asarray(plant.load_force, float) / G, 0.0)
+        mass = np.asarray(plant.moving_mass, float) + np.maximum(hung, 0.0)
+        if "damping" not in kwargs and np.all(mass > 0):  # (a bad mass is named by the validation below)
+            # critical for everything that moves: the fixture's mass and a hanging load's
+            mass = float(mass) if mass.ndim == 0 else mass
+            now = {k: getattr(plant, k) for k in ("strand_length", "supply_pressure") if np.ndim(getattr(plant, k)) == 0}
+            plant = plant.replace(damping=_critical_damping(obj, {**fields, **now, "moving_mass": mass}, direction))
         try:
             plant.prepare()
         except InputError as exc:
