@@ -25,7 +25,7 @@ from mckibben.control.controllers import (FirstOrderModel, design_pid, pid_param
                                           with_supervisor_model)
 from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
 from mckibben.control.identify import fit_lift_off, fit_step_response
-from mckibben.control.metrics import step_metrics
+from mckibben.control.metrics import step_metrics, step_metrics_batch
 from mckibben.datasets.paper_points import FIG13 as _FIG13
 from mckibben.errors import InputError, unknown_name
 
@@ -441,10 +441,11 @@ def tune_gains(plant, model: FirstOrderModel, controller: str = "smc", *, law: s
     steps = [(a * top, b * top) for a, b in TUNING_STEPS]
     refs = np.array([step_reference(n, k, p0, p1) for _ in params for p0, p1 in steps])
     rec = run_closed_loop(core_spec([p for p in params for _ in steps]), refs, total, plant)
+    every = step_metrics_batch(rec.t, rec.pressure, rec.reference, rec.command, t_step=hold)
     best, best_key = 0, None
     table = []
     for i in range(len(params)):
-        rows = [{"from_Pa": p0, "to_Pa": p1, **rec.metrics(i * len(steps) + j, hold)}
+        rows = [{"from_Pa": p0, "to_Pa": p1, **{k: float(v[i * len(steps) + j]) for k, v in every.items()}}
                 for j, (p0, p1) in enumerate(steps)]
         table.append(rows)
         short = [_shortfall(r, duration) for r in rows]
