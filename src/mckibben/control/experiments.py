@@ -770,10 +770,10 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
     plant = plant_batch(**every) if base_plant is None else to_plant_params(plant_batch(**every), base_plant)
     rec = run_closed_loop(core_spec(params), ref, duration, plant)
     keys = ("time_constant_s", "overshoot_pct", "steady_state_error_Pa", "settling_time_s", "valve_effort_counts")
+    scored = step_metrics_batch(rec.t, rec.pressure, rec.reference, rec.command, t_step=t_step)  # every run at once
     metrics, summary = {}, {}
     for j, name in enumerate(CONTROLLER_NAMES):
-        ms = [rec.metrics(j * n + i, t_step) for i in range(n)]
-        metrics[name] = {key: np.array([m[key] for m in ms]) for key in keys}
+        metrics[name] = {key: scored[key][j * n:(j + 1) * n].copy() for key in keys}
         summary[name] = {key: _pct(metrics[name][key]) for key in keys}
     return {"samples": samples, "metrics": metrics, "summary": summary}
 
