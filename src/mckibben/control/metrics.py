@@ -1,11 +1,14 @@
 """Step-response and tracking metrics, one code for simulation and bench.
 
-:func:`step_metrics` scores a sampled response ``(t, y, reference, commands)`` with
-python-control's :func:`control.step_info` (rise time 10–90 %, settling time 2 %, overshoot) and
-adds what the surgical tool cares about: the 63 % time constant, the steady-state error, the RMS
-tracking error and the valve effort (the sum of |PWM| counts over the record: air a controller
-wastes). The same function scores a simulated closed loop (``mckibben control step``) and a
-recording from the rig (``mckibben rig step``).
+:func:`step_metrics` scores a sampled response ``(t, y, reference, commands)`` by the definitions
+of python-control's :func:`control.step_info` (rise time 10–90 %, settling time 2 %, overshoot)
+and adds what the surgical tool cares about: the 63 % time constant, the steady-state error, the
+RMS tracking error and the valve effort (the sum of |PWM| counts over the record: air a
+controller wastes). The same function scores a simulated closed loop (``mckibben control step``)
+and a recording from the rig (``mckibben rig step``). :func:`step_metrics_batch` is the one
+implementation: it scores N runs on one time axis at once (sweeps, Monte Carlo), with
+``step_info``'s operations row-wise, and :func:`step_metrics` calls it on one row; a test holds
+every row equal to ``control.step_info``'s numbers.
 
 Keys of the returned dict (SI, unit-suffixed; ``{u}`` is the ``unit`` argument, ``Pa`` by
 default):
