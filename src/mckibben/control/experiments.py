@@ -363,18 +363,26 @@ class GainTuning:
     candidates: int
 
     def to_dict(self) -> dict:
-        """The tuning as JSON-ready numbers (the design steps' main metrics)."""
+        """The tuning as JSON-ready numbers (the design steps' or sines' main metrics)."""
+        if self.steps and "reference" in self.steps[0]:
+            return {"method": "simulated design sines on the plant", "objective": "track",
+                    "candidates": self.candidates, **self.gains, "references": self.steps}
         keys = ("overshoot_pct", "settling_time_s", "steady_state_error_Pa")
-        return {"method": "simulated design steps on the plant", "bar_met": self.met, "candidates": self.candidates,
-                **self.gains, "overshoot_max_pct": TUNING_BAR["overshoot_pct"],
+        return {"method": "simulated design steps on the plant", "objective": "step", "bar_met": self.met,
+                "candidates": self.candidates, **self.gains, "overshoot_max_pct": TUNING_BAR["overshoot_pct"],
                 "steps": [{"from_Pa": s["from_Pa"], "to_Pa": s["to_Pa"], **{k: s[k] for k in keys}} for s in self.steps]}
 
 
 def tune_gains(plant, model: FirstOrderModel, controller: str = "smc", *, law: str = "model",
                base: CoreParams = CoreParams(), beta: float | None = None, eps: float | None = None,
                ki: float | None = None, lam: float | None = None, hold: float = 0.3,
-               duration: float = 1.0) -> GainTuning:
+               duration: float = 1.0, objective: str = "step") -> GainTuning:
     """Choose a controller's free gains for one plant: the fastest that meets :data:`TUNING_BAR`.
+
+    With ``objective="track"`` the candidates follow the design sines :data:`TUNING_SINES`
+    instead, and the smallest worst RMS error (after :data:`TUNING_SETTLE_S`) wins: gains that
+    step without overshoot (a small model term, whose τ·ṗ_ref kick a step makes an impulse) follow
+    a sine late, and gains that follow a sine kick a step.
 
     The model term (sliding mode, law ``model``) and the PID's line through the origin still come
     from the identified ``model``; what a first-order model cannot set on a plant whose dynamics
@@ -405,6 +413,8 @@ def tune_gains(plant, model: FirstOrderModel, controller: str = "smc", *, law: s
         Time at the back pressure before a step. [s]
     duration : float, default 1.0
         Time after the step; a step settles within it. [s]
+    objective : {"step", "track"}, default "step"
+        Design steps against the bar, or design sines by RMS error. [-]
 
     Returns
     -------
@@ -435,6 +445,10 @@ def tune_gains(plant, model: FirstOrderModel, controller: str = "smc", *, law: s
                  for f in grid["tau_factor"] for g in ((1.0,) if lam is not None else grid["lam_factor"])]
         params = [pid_params(design_pid(replace(model, tau=c["tau_s"]).through_origin(op), c["lambda_s"],
                                         verdict=False), base=base) for c in cands]
+    if objective == "track":
+        return _tune_tracking(plant, controller, law, cands, params, top)
+    if objective != "step":
+        raise unknown_name("tuning objective", objective, ("step", "track"))
     total = hold + duration
     n, _ = _steps(total)
     k = int(round(hold / 1e-3))
@@ -455,6 +469,33 @@ def tune_gains(plant, model: FirstOrderModel, controller: str = "smc", *, law: s
             best, best_key = i, key
     return GainTuning(controller, law if controller == "smc" else None, cands[best], params[best], table[best],
                       best_key[0] == 0, len(params))
+
+
+#: Design references of a tuning for tracking: sines about ½ of the top pressure, ¼ of it in
+#: amplitude, at 0.5 and 2 Hz (fractions of the top, fractions of the top, Hz).
+TUNING_SINES = ((0.5, 0.25, 0.5), (0.5, 0.25, 2.0))
+#: Length of a design sine, and the start left out of its score (the rise to the sine). [s]
+TUNING_SINE_S, TUNING_SETTLE_S = 2.5, 0.5
+
+
+def _tune_tracking(plant, controller, law, cands, params, top) -> GainTuning:
+    """The candidate with the smallest worst RMS error on :data:`TUNING_SINES` (after the rise)."""
+    from mckibben.control.metrics import tracking_metrics_batch
+
+    n, t = _steps(TUNING_SINE_S)
+    refs = [m * top + a * top * np.sin(2 * np.pi * f * t) for m, a, f in TUNING_SINES]
+    rec = run_closed_loop(core_spec([p for p in params for _ in refs]), np.array([r for _ in params for r in refs]),
+                          TUNING_SINE_S, plant)
+    k = int(round(TUNING_SETTLE_S / 1e-3))
+    every = tracking_metrics_batch(rec.t[k:], rec.pressure[:, k:], rec.reference[:, k:], rec.command[:, k:])
+    rms = np.nan_to_num(every["rms_error_Pa"].reshape(len(params), len(refs)), nan=np.inf)
+    best = int(np.argmin(rms.max(axis=1)))
+    rows = [{"reference": f"sine:{m * top / 1e6:.4g}MPa,{a * top / 1e6:.4g}MPa,{f:g}Hz",
+             "rms_error_Pa": float(every["rms_error_Pa"][best * len(refs) + j]),
+             "max_abs_error_Pa": float(every["max_abs_error_Pa"][best * len(refs) + j])}
+            for j, (m, a, f) in enumerate(TUNING_SINES)]
+    return GainTuning(controller, law if controller == "smc" else None, cands[best], params[best], rows, True,
+                      len(params))
 
 
 def _shortfall(m: dict, duration: float) -> float:

@@ -403,7 +403,7 @@ def _no_direction(direction: str, muscle_file) -> None:
 
 
 def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str = "model", beta=None, eps=None,
-                     ki=None, lam=None, p_max="0.8MPa"):
+                     ki=None, lam=None, p_max="0.8MPa", objective: str = "step"):
     """A controller whose free gains are tuned on a plant (:func:`~mckibben.control.experiments.tune_gains`).
 
     What a muscle file's plant gets instead of the calibrated rig's gains (``docs/control.md``,
@@ -431,6 +431,8 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
         PID closed-loop time constant to hold. [s]
     p_max : float or str, default "0.8MPa"
         Supervisor's maximum pressure (the design steps stay below it). [Pa]
+    objective : {"step", "track"}, default "step"
+        Tune on design steps (:func:`step_response`) or design sines (:func:`track`). [-]
 
     Returns
     -------
@@ -447,7 +449,7 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
     lm = quantity(lam, "time", "--lambda", allow_zero=False) if lam is not None else None
     base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "--p-max",
                                                                        allow_zero=False))), model)
-    return tune_gains(plant, model, controller, law=law, base=base, beta=b, eps=e, ki=k, lam=lm)
+    return tune_gains(plant, model, controller, law=law, base=base, beta=b, eps=e, ki=k, lam=lm, objective=objective)
 
 
 def _step_args(controller, target, start, load, supply, duration, p_max, force, muscle_file=None):
@@ -715,7 +717,8 @@ def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_m
     if muscle_file is not None:
         plant = muscle_file_plant(muscle_file, load, None, direction)
         m = identify_file_plant(plant) if model is None else model
-        tuning = tuned_controller(controller, m, plant, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax)
+        tuning = tuned_controller(controller, m, plant, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax,
+                                  objective="track")
         params = tuning.params
     else:
         plant = plant_batch(load_N=f_load)
