@@ -64,7 +64,8 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
         A muscle file with a ``[force_model]`` table: its fitted law is the muscles' statics and
         its plant the tracking plant (not with ``muscle``). [-]
     direction : {"inflate", "deflate"}, default "inflate"
-        ``muscle_file``: the spring law's branch (its hysteresis); the other laws have one. [-]
+        ``muscle_file``: the spring law's branch (its hysteresis); the other laws have one and
+        refuse ``deflate``. [-]
     pitch_radius : float or str, optional
         Radius of the muscle holes' circle; default the middle of the disc's ring (4 mm on the
         paper's 12 mm disc). [m]
@@ -94,8 +95,9 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
     radius = (quantity(pitch_radius, "length", "--pitch-radius", allow_zero=False)
               if pitch_radius is not None else None)
     pmax = None if p_max is None else check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    if direction not in ("inflate", "deflate"):
-        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
+    from mckibben.fit.muscle_file import check_direction
+
+    check_direction(direction)
     if muscle_file is not None:
         from mckibben.tool.muscles import file_geometry, file_load, file_muscle
 

@@ -38,7 +38,8 @@ def file_muscle(muscle_file, direction: str = "inflate") -> LawMuscle:
     muscle_file : str, pathlib.Path or MuscleSpec
         A muscle file with a ``[force_model]`` table. [-]
     direction : {"inflate", "deflate"}, default "inflate"
-        The spring law's branch (its hysteresis); the other laws have one. [-]
+        The spring law's branch (its hysteresis); the other laws have one, and refuse
+        ``deflate`` (:func:`mckibben.fit.muscle_file.check_direction`). [-]
 
     Returns
     -------
@@ -51,15 +52,15 @@ def file_muscle(muscle_file, direction: str = "inflate") -> LawMuscle:
         ``[force_model]``, the data-driven surface (no physical law), a law the plant cannot run.
     """
     from mckibben.data.io import MuscleSpec, read_muscle
-    from mckibben.fit.muscle_file import muscle_force_law
+    from mckibben.fit.muscle_file import check_direction, muscle_force_law
     from mckibben.plant import PlantParams
 
-    if direction not in ("inflate", "deflate"):
-        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
+    check_direction(direction)
     where = muscle_file.path or muscle_file.id if isinstance(muscle_file, MuscleSpec) else str(muscle_file)
     try:
         spec = muscle_file if isinstance(muscle_file, MuscleSpec) else read_muscle(muscle_file)
         law = muscle_force_law(spec)
+        check_direction(direction, law)
         plant = PlantParams.from_muscle_file(spec, direction)
         name, theta = law.plant_law(direction)
     except InputError as exc:

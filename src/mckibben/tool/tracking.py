@@ -273,8 +273,9 @@ def tracking_setup(tool: Tool, ref: TipReference, beta: float = TRACKING_BETA, c
 
     Each muscle's plant is the tool's muscle (:func:`muscle_plants`) hanging that
     muscle's mean tension along the path; the controllers' model is identified on the plant with
-    the mean of the three loads (one open-loop step), the same for the three channels, and their
-    supervisor takes it too.
+    the mean of the three loads (one open-loop step; a muscle file's plant over
+    :data:`mckibben.control.simulation.FILE_IDENTIFICATION_S`, as ``control step --muscle-file``),
+    the same for the three channels, and their supervisor takes it too.
 
     Parameters
     ----------
@@ -300,8 +301,15 @@ def tracking_setup(tool: Tool, ref: TipReference, beta: float = TRACKING_BETA, c
     plants = muscle_plants(tool, loads)
     key = tuple(np.round(loads, 12))
     if key not in cache:
+        from mckibben.models.law_statics import LawMuscle
+
         one = muscle_plants(tool, float(loads.mean()))
-        cache[key] = identify_muscle_plant(one)
+        if isinstance(tool.muscle, LawMuscle):  # a large muscle settles in seconds: the control commands' record
+            from mckibben.control.simulation import identify_file_plant
+
+            cache[key] = identify_file_plant(one)
+        else:
+            cache[key] = identify_muscle_plant(one)
     model = cache[key]
     params = smc_core_params(model, beta, **TRACKING_SMC)
     params = type(params)(**{**params.__dict__, "p_max": tool.p_max})
