@@ -226,3 +226,23 @@ def test_settling_at_the_last_sample_and_never():
     assert m["settling_time_s"][0] == control.step_info(last, timepts=t, final_output=1.0)["SettlingTime"] == t[-1]
     assert np.isnan(m["settling_time_s"][1]) and np.isnan(control.step_info(never, timepts=t, final_output=1.0)["SettlingTime"])
     assert m["overshoot_pct"][1] == pytest.approx(10.0)
+
+
+def test_a_batch_larger_than_one_block_of_rows_equals_its_rows_scored_one_by_one():
+    from mckibben.control.metrics import _ROWS
+
+    rng = np.random.default_rng(5)
+    n_rows = 2 * _ROWS + 77  # three blocks, the last one partial
+    t = np.arange(120) * 1e-3
+    target = rng.uniform(0.2e6, 0.6e6, n_rows)
+    r = np.where(t >= 0.01, target[:, None], 0.0)
+    y = target[:, None] * (1 - np.exp(-np.clip(t - 0.01, 0, None) / rng.uniform(0.003, 0.08, (n_rows, 1))))
+    y *= 1 + rng.uniform(0, 0.2, (n_rows, 1)) * np.sin(t * rng.uniform(30, 300, (n_rows, 1)))
+    y[::97, 50] = np.nan
+    c = rng.integers(0, 256, (n_rows, 120, 2))
+    got = step_metrics_batch(t, y, r, c)
+    for i in range(n_rows):
+        if i % 97 == 0:
+            assert all(np.isnan(v[i]) for v in got.values())
+            continue
+        assert step_metrics(t, y[i], r[i], c[i]) == pytest.approx({k: got[k][i] for k in got}, rel=0, abs=0, nan_ok=True)

@@ -200,9 +200,29 @@ def step_metrics_batch(
     k0 = int(np.searchsorted(t, t_step, side="left"))
     if k0 >= n - 2:
         raise InputError(f"step metrics: step time {t_step!r} s leaves fewer than 3 samples")
+    c = _commands(commands, nrow, n)
+    tt = t[k0:] - t_step
+    names = {"steady_state_error": f"steady_state_error_{unit}", "rms_error": f"rms_error_{unit}",
+             "step_size": f"step_size_{unit}"}
+    out: dict[str, np.ndarray] = {}
+    for i in range(0, nrow, _ROWS):  # blocks of rows: the temporaries stay in the cache
+        rows = slice(i, i + _ROWS)
+        part = _score_steps(tt, k0, y[rows], None if r is None else r[rows] if r.shape[0] > 1 else r,
+                            None if c is None else c[rows], final, steady_fraction, settling_threshold)
+        for key, v in part.items():
+            out.setdefault(names.get(key, key), np.empty(nrow))[rows] = v
+    return out
+
+
+#: Rows scored together by :func:`step_metrics_batch` (a 512 × 200 float block is 0.8 MB).
+_ROWS = 512
+
+
+def _score_steps(tt, k0, y, r, c, final, steady_fraction, settling_threshold) -> dict[str, np.ndarray]:
+    """The metrics of a block of rows (see :func:`step_metrics_batch`); r is (1 or N, n) or None."""
+    nrow = y.shape[0]
     # the value the step starts from: the last sample before it (or the first one)
     base = y[:, k0 - 1] if k0 > 0 else y[:, 0]
-    tt = t[k0:] - t_step
     yk = y[:, k0:]
     yy = yk - base[:, None]
     n_ss = max(1, int(round(steady_fraction * yy.shape[1])))
@@ -231,36 +251,38 @@ def step_metrics_batch(
         dy_os = np.abs(sy.max(axis=1)) - abs_step
         overshoot = np.where(dy_os > 0, np.abs(100.0 * dy_os / step), 0.0)
         peak = tt[sy.argmax(axis=1)]
-    out = {
-        "time_constant_s": np.where(good, tc, nan),
-        "rise_time_s": np.where(reached, rise, nan),
-        "settling_time_s": np.where(reached, settling, nan),
-        "overshoot_pct": np.where(reached, overshoot, nan),
-        "peak_time_s": np.where(reached, peak, nan),
-    }
-    if r is not None:
-        out[f"steady_state_error_{unit}"] = np.where(good, r[:, -1] - y_ss, nan)
-        with np.errstate(invalid="ignore", over="ignore"):
-            rms = np.sqrt(np.mean((r[:, k0:] - yk) ** 2, axis=1))
-        out[f"rms_error_{unit}"] = np.where(good, rms, nan)
-    else:
-        out[f"steady_state_error_{unit}"] = nan.copy()
-        out[f"rms_error_{unit}"] = nan.copy()
-    out["valve_effort_counts"] = np.where(good, _effort(commands, nrow, n, k0), nan)
-    out[f"step_size_{unit}"] = np.where(good, step, nan)
+        out = {
+            "time_constant_s": np.where(good, tc, nan),
+            "rise_time_s": np.where(reached, rise, nan),
+            "settling_time_s": np.where(reached, settling, nan),
+            "overshoot_pct": np.where(reached, overshoot, nan),
+            "peak_time_s": np.where(reached, peak, nan),
+            "steady_state_error": nan,
+            "rms_error": nan,
+        }
+        if r is not None:
+            out["steady_state_error"] = np.where(good, r[:, -1] - y_ss, nan)
+            out["rms_error"] = np.where(good, np.sqrt(np.mean((r[:, k0:] - yk) ** 2, axis=1)), nan)
+    out["valve_effort_counts"] = np.where(good, _effort(c, nrow, k0), nan)
+    out["step_size"] = np.where(good, step, nan)
     return out
 
 
-def _effort(commands, nrow: int, n: int, k0: int) -> np.ndarray:
-    """Σ |PWM| per row from sample k0 on (NaN without commands)."""
+def _commands(commands, nrow: int, n: int, what: str = "step metrics") -> np.ndarray | None:
+    """The commands as (N, n) or (N, n, 2) floats, checked (None without them)."""
     if commands is None:
-        return np.full(nrow, np.nan)
+        return None
     c = np.asarray(commands, dtype=float)
-    if c.shape == (nrow, n):
-        return np.abs(c[:, k0:]).sum(axis=1)
-    if c.shape == (nrow, n, 2):
-        return np.abs(c[:, k0:]).reshape(nrow, -1).sum(axis=1)
-    raise InputError(f"step metrics: commands must have shape ({nrow}, {n}) or ({nrow}, {n}, 2), got {c.shape}")
+    if c.shape not in ((nrow, n), (nrow, n, 2)):
+        raise InputError(f"{what}: commands must have shape ({nrow}, {n}) or ({nrow}, {n}, 2), got {c.shape}")
+    return c
+
+
+def _effort(c: np.ndarray | None, nrow: int, k0: int) -> np.ndarray:
+    """Σ |PWM| per row from sample k0 on (NaN without commands)."""
+    if c is None:
+        return np.full(nrow, np.nan)
+    return np.abs(c[:, k0:]).reshape(nrow, -1).sum(axis=1)
 
 
 def step_metrics(
@@ -382,7 +404,7 @@ def tracking_metrics_batch(t, y, reference, commands=None, *, unit: str = "Pa") 
             f"rms_error_{unit}": np.where(good, np.sqrt(np.mean(e**2, axis=1)), nan),
             f"max_abs_error_{unit}": np.where(good, np.max(np.abs(e), axis=1), nan),
             f"mean_error_{unit}": np.where(good, np.mean(e, axis=1), nan),
-            "valve_effort_counts": np.where(good, _effort(commands, nrow, n, 0), nan),
+            "valve_effort_counts": np.where(good, _effort(_commands(commands, nrow, n, "tracking metrics"), nrow, 0), nan),
             "duration_s": np.where(good, float(t[-1] - t[0]), nan),
         }
     return out
