@@ -439,6 +439,9 @@ class PlantParams:
         n : int, optional
             Number of instances (scalars are repeated); default :meth:`size`.
         """
+        row = self.__dict__.get("_packed_row")
+        if row is not None:  # every field a Python or NumPy scalar: immutable, packed once
+            return np.repeat(row, 1 if n is None else int(n), axis=0)
         n = self.size() if n is None else int(n)
         if n != self.size() and self.size() != 1:
             raise InputError(f"plant parameters have {self.size()} instances, {n} were asked for")
@@ -450,6 +453,8 @@ class PlantParams:
             out[:, j] = np.broadcast_to(value.ravel() if value.ndim else value, (n,))
         validate(out, law_fields=isinstance(self.force_model, str))
         derive(out, self.thermal)
+        if all(isinstance(getattr(self, f), (int, float, np.integer, np.floating)) for f in _FIELDS):
+            object.__setattr__(self, "_packed_row", out[:1].copy())
         return out
 
     def law(self, n: int | None = None) -> tuple[str, np.ndarray]:

@@ -339,19 +339,56 @@ def rhs(n, bk, k, dk, law):
             _lane_rhs(bk, a, o, j, _SP)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def _stage(bk, h, dk):
-    """The stage state: state + h·(slope ``dk``), over every row and all W lanes of the block.
+#: Blocks of more lanes than this run the RK4 stage and update loops over all W lanes (see :func:`_stage`).
+NARROW = 8
 
-    All W lanes, not the block's n: the trip count is then a compile-time constant and LLVM
-    vectorizes the loop whole (with a run-time n it cost nine times as much, ``docs/plant.md``).
-    Lanes past n hold zeros or a finished instance's state, which no one reads.
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _axpy_rows(bk, dst, src, d, h, n):
+    """Rows ``dst`` ← rows ``src`` + h·rows ``d``, for every state row, lanes 0..n−1 (or all W).
+
+    A block of more than :data:`NARROW` lanes runs over all W lanes: the trip count is then a
+    compile-time constant and LLVM vectorizes the loop whole (with the block's n as the trip count it
+    did not, and this loop cost 15 ns per lane-substep, more than the right-hand side;
+    ``docs/plant.md``). Lanes past n hold zeros or a stopped instance's state that no one reads.
+    A narrow block (one rig) keeps the per-lane loop: 64 lanes would be 8-64 times its work.
     """
-    a = OFF_ST + ST_S * NS * W
-    t = OFF_ST + ST_TMP * NS * W
-    d = OFF_ST + dk * NS * W
-    for q in range(NS * W):
-        bk[t + q] = bk[a + q] + h * bk[d + q]
+    if n > NARROW:
+        for q in range(NS * W):
+            bk[dst + q] = bk[src + q] + h * bk[d + q]
+    else:
+        for r in range(NS):
+            for j in range(n):
+                bk[dst + r * W + j] = bk[src + r * W + j] + h * bk[d + r * W + j]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _stage(n, bk, h, dk):
+    """The stage state: state + h·(slope ``dk``)."""
+    _axpy_rows(bk, OFF_ST + ST_TMP * NS * W, OFF_ST + ST_S * NS * W, OFF_ST + dk * NS * W, h, n)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _after_step(bk, j, dt):
+    """End stops and the Dahl friction update of lane j after a step (see :func:`rk4_step`)."""
+    x = bk[Z_LEN + j]
+    v = bk[Z_VEL + j]
+    lo = bk[X_LMIN + j]
+    hi = bk[X_LMAX + j]
+    over = x > hi
+    under = x < lo
+    x = hi if over else (lo if under else x)
+    bk[Z_LEN + j] = x
+    v = (v if v < 0.0 else 0.0) if over else v
+    v = (v if v > 0.0 else 0.0) if under else v
+    bk[Z_VEL + j] = v
+    vbar = (x - bk[Y_LOLD + j]) / dt
+    pg = bk[Z_P + j] - P_ATM
+    fc = bk[X_F0 + j] + bk[X_F1 + j] * (pg if pg > 0.0 else 0.0)
+    sv = bk[X_SIG + j] * dt
+    den = fc + sv * abs(vbar)
+    z = fc * (bk[Z_FRIC + j] + sv * vbar) / den if den > 0.0 else 0.0
+    bk[Z_FRIC + j] = z * bk[X_MOB + j]
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -368,40 +405,37 @@ def rk4_step(n, bk, law, dt):
     The end stops project the length back inside [l_min, l_max] and stop any motion outward.
     """
     rhs(n, bk, ST_S, ST_K1, law)
-    _stage(bk, 0.5 * dt, ST_K1)
+    _stage(n, bk, 0.5 * dt, ST_K1)
     rhs(n, bk, ST_TMP, ST_K2, law)
-    _stage(bk, 0.5 * dt, ST_K2)
+    _stage(n, bk, 0.5 * dt, ST_K2)
     rhs(n, bk, ST_TMP, ST_K3, law)
-    _stage(bk, dt, ST_K3)
+    _stage(n, bk, dt, ST_K3)
     rhs(n, bk, ST_TMP, ST_K4, law)
-    for j in range(W):
-        bk[Y_LOLD + j] = bk[Z_LEN + j]
     h6 = dt / 6.0
     k1 = OFF_ST + ST_K1 * NS * W
     k2 = OFF_ST + ST_K2 * NS * W
     k3 = OFF_ST + ST_K3 * NS * W
     k4 = OFF_ST + ST_K4 * NS * W
-    for q in range(NS * W):  # all W lanes: see _stage
-        bk[Z_P + q] += h6 * (bk[k1 + q] + 2.0 * bk[k2 + q] + 2.0 * bk[k3 + q] + bk[k4 + q])
-    for j in range(W):  # all W lanes: see _stage
-        x = bk[Z_LEN + j]
-        v = bk[Z_VEL + j]
-        lo = bk[X_LMIN + j]
-        hi = bk[X_LMAX + j]
-        over = x > hi
-        under = x < lo
-        x = hi if over else (lo if under else x)
-        bk[Z_LEN + j] = x
-        v = (v if v < 0.0 else 0.0) if over else v
-        v = (v if v > 0.0 else 0.0) if under else v
-        bk[Z_VEL + j] = v
-        vbar = (x - bk[Y_LOLD + j]) / dt
-        pg = bk[Z_P + j] - P_ATM
-        fc = bk[X_F0 + j] + bk[X_F1 + j] * (pg if pg > 0.0 else 0.0)
-        sv = bk[X_SIG + j] * dt
-        den = fc + sv * abs(vbar)
-        z = fc * (bk[Z_FRIC + j] + sv * vbar) / den if den > 0.0 else 0.0
-        bk[Z_FRIC + j] = z * bk[X_MOB + j]
+    # the slopes' weighted sum into stage 1's area (k1 is not needed after it), then one update
+    if n > NARROW:
+        for q in range(NS * W):
+            bk[k1 + q] = bk[k1 + q] + 2.0 * bk[k2 + q] + 2.0 * bk[k3 + q] + bk[k4 + q]
+        for j in range(W):
+            bk[Y_LOLD + j] = bk[Z_LEN + j]
+    else:
+        for r in range(NS):
+            for j in range(n):
+                q = r * W + j
+                bk[k1 + q] = bk[k1 + q] + 2.0 * bk[k2 + q] + 2.0 * bk[k3 + q] + bk[k4 + q]
+        for j in range(n):
+            bk[Y_LOLD + j] = bk[Z_LEN + j]
+    _axpy_rows(bk, Z_P, Z_P, k1, h6, n)
+    if n > NARROW:
+        for j in range(W):
+            _after_step(bk, j, dt)
+    else:
+        for j in range(n):
+            _after_step(bk, j, dt)
 
 
 @njit(cache=True, error_model="numpy")

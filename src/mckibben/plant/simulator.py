@@ -40,12 +40,21 @@ FLAG_NONFINITE = 1  #: the state became NaN or infinite (simulation of that inst
 FLAG_ABOVE_SUPPLY = 2  #: the chamber rose above the supply pressure by more than 1 kPa
 FLAG_END_STOP = 4  #: the length reached an end stop of the braid (locking or straight) during the run
 
+#: The recorded series of a :class:`SimResult`, in the simulator's order; ``simulate(record=...)`` picks some.
+SERIES = ("pressure", "pressure_measured", "length", "force", "air_mass", "temperature", "inlet", "bleed", "faults",
+          "adc", "encoder")
+_OUT_KEYS = ("out_p", "out_pm", "out_l", "out_f", "out_m", "out_t", "out_in", "out_bl", "out_fault", "out_adc", "out_enc")
+_SERIES_SET = frozenset(SERIES)
+_INT_SERIES = frozenset(("inlet", "bleed", "faults", "adc", "encoder"))
+
 _C = PP.Col
 C_PPC = int(_C.pa_per_count)
 C_ADCZ = int(_C.adc_zero)
 C_ENC = int(_C.encoder_resolution)
 C_NOISE = int(_C.pressure_noise)
 C_SEED = int(_C.seed)
+C_L0, C_KP, C_LF, C_KS, C_LFREE = (int(c) for c in (_C.nominal_length, _C.passive_stiffness, _C.load_force,
+                                                   _C.spring_rate, _C.spring_free_length))
 NP, NTH, NS, W = PP.NP, LW.NTH, ph.NS, ph.W
 
 
@@ -74,13 +83,16 @@ class SimResult:
     adc, encoder : numpy.ndarray
         Raw sensor readings, (N, n). [counts]
     reference : numpy.ndarray
-        Pressure reference given to the controller, (N, n). [Pa]
+        Pressure reference given to the controller, (N, n), read-only (the given reference broadcast). [Pa]
     flags : numpy.ndarray
         Per instance: 1 non-finite state, 2 chamber above supply, 4 an end stop reached. [-]
     istate, fstate : numpy.ndarray
         The controllers' state at the end of the run (kernel path), (N, ·). [-]
     temperature : numpy.ndarray
         Gas temperature in the chamber, (N, n). [K]
+    recorded : tuple of str
+        The series of :data:`SERIES` this run recorded (``simulate(record=...)``); reading another
+        raises ``AttributeError`` naming it.
     """
 
     t: np.ndarray
@@ -99,6 +111,13 @@ class SimResult:
     istate: np.ndarray | None = None
     fstate: np.ndarray | None = None
     temperature: np.ndarray | None = None
+    recorded: tuple = SERIES
+
+    def __getattribute__(self, name):
+        if name in _SERIES_SET and name not in object.__getattribute__(self, "recorded"):
+            raise AttributeError(f"SimResult.{name}: not recorded (this run was simulated with record="
+                                 f"{object.__getattribute__(self, 'recorded')!r})")
+        return object.__getattribute__(self, name)
 
     @cached_property
     def command(self) -> np.ndarray:
@@ -111,11 +130,12 @@ class SimResult:
         """Instance ``i`` as a DataFrame with unit-suffixed columns."""
         import pandas as pd
 
-        return pd.DataFrame({
-            "time_s": self.t, "pressure_Pa": self.pressure[i], "pressure_measured_Pa": self.pressure_measured[i],
-            "length_m": self.length[i], "force_N": self.force[i], "inlet_pwm": self.inlet[i],
-            "bleed_pwm": self.bleed[i], "faults": self.faults[i], "reference_Pa": self.reference[i],
-        })
+        cols = (("pressure_Pa", "pressure"), ("pressure_measured_Pa", "pressure_measured"), ("length_m", "length"),
+                ("force_N", "force"), ("inlet_pwm", "inlet"), ("bleed_pwm", "bleed"), ("faults", "faults"))
+        data = {"time_s": self.t}
+        data.update({col: getattr(self, name)[i] for col, name in cols if name in self.recorded})
+        data["reference_Pa"] = self.reference[i]
+        return pd.DataFrame(data)
 
 
 @njit(cache=True, error_model="numpy")
@@ -149,8 +169,12 @@ X_PPC, X_ADCZ, X_ENC, X_NOISE, X_SEED = (_x(c) for c in (_C.pa_per_count, _C.adc
 @njit(cache=True, error_model="numpy")
 def _run_block(kernel, use_kernel, b0, nl, istate, iparams, fstate, fparams, schedule, prm, theta, law, s0, ref,
                n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault, out_adc,
-               out_enc, flags):
-    """Simulate instances b0..b0+nl-1 (one block) over every control period."""
+               out_enc, flags, rec):
+    """Simulate instances b0..b0+nl-1 (one block) over every control period.
+
+    ``rec`` holds one mask per output series (:data:`SERIES` order): −1 records period k in column k,
+    0 overwrites column 0 of a one-column placeholder (the series was not asked for).
+    """
     bk = np.zeros(ph.BLOCK)
     ph.load_block(b0, nl, prm, theta, s0, bk)
     alive = np.ones(W, dtype=np.bool_)
@@ -161,22 +185,26 @@ def _run_block(kernel, use_kernel, b0, nl, istate, iparams, fstate, fparams, sch
     per_instance_ref = ref.shape[0] > 1
     per_instance_sched = schedule.shape[0] > 1
     dt = ts / substeps
+    need_outputs = (rec[3] | rec[4]) != 0  # force or air mass recorded
     for k in range(n_steps):
-        ph.outputs(nl, bk, law)
+        k0, k1, k2, k3, k4, k5 = k & rec[0], k & rec[1], k & rec[2], k & rec[3], k & rec[4], k & rec[5]
+        k6, k7, k8, k9, k10 = k & rec[6], k & rec[7], k & rec[8], k & rec[9], k & rec[10]
+        if need_outputs:
+            ph.outputs(nl, bk, law)
         for j in range(nl):
             i = b0 + j
             if not alive[j]:
-                out_p[i, k] = np.nan
-                out_pm[i, k] = np.nan
-                out_l[i, k] = np.nan
-                out_f[i, k] = np.nan
-                out_m[i, k] = np.nan
-                out_t[i, k] = np.nan
-                out_in[i, k] = 0
-                out_bl[i, k] = 0
-                out_fault[i, k] = 0
-                out_adc[i, k] = 0
-                out_enc[i, k] = 0
+                out_p[i, k0] = np.nan
+                out_pm[i, k1] = np.nan
+                out_l[i, k2] = np.nan
+                out_f[i, k3] = np.nan
+                out_m[i, k4] = np.nan
+                out_t[i, k5] = np.nan
+                out_in[i, k6] = 0
+                out_bl[i, k7] = 0
+                out_fault[i, k8] = 0
+                out_adc[i, k9] = 0
+                out_enc[i, k10] = 0
                 bk[ph.Y_XIN + j] = 0.0
                 bk[ph.Y_XBL + j] = 0.0
                 continue
@@ -195,17 +223,17 @@ def _run_block(kernel, use_kernel, b0, nl, istate, iparams, fstate, fparams, sch
                 u_in = schedule[row, k, 0]
                 u_bl = schedule[row, k, 1]
                 fault = 0
-            out_p[i, k] = pg
-            out_pm[i, k] = HW.adc_pressure(adc, bk[X_PPC + j], bk[X_ADCZ + j])
-            out_l[i, k] = length
-            out_f[i, k] = bk[ph.Y_FORCE + j]
-            out_m[i, k] = bk[ph.Y_MASS + j]
-            out_t[i, k] = bk[ph.Z_T + j]
-            out_in[i, k] = u_in
-            out_bl[i, k] = u_bl
-            out_fault[i, k] = fault
-            out_adc[i, k] = adc
-            out_enc[i, k] = enc
+            out_p[i, k0] = pg
+            out_pm[i, k1] = HW.adc_pressure(adc, bk[X_PPC + j], bk[X_ADCZ + j])
+            out_l[i, k2] = length
+            out_f[i, k3] = bk[ph.Y_FORCE + j]
+            out_m[i, k4] = bk[ph.Y_MASS + j]
+            out_t[i, k5] = bk[ph.Z_T + j]
+            out_in[i, k6] = u_in
+            out_bl[i, k7] = u_bl
+            out_fault[i, k8] = fault
+            out_adc[i, k9] = adc
+            out_enc[i, k10] = enc
             bk[ph.Y_XIN + j] = ph.valve_target(u_in, bk[ph.X_DRV + j], bk[ph.X_DB + j])
             bk[ph.Y_XBL + j] = ph.valve_target(u_bl, bk[ph.X_DRV + j], bk[ph.X_DB + j])
         ph.advance(nl, bk, law, dt, substeps)
@@ -231,14 +259,14 @@ def _run_block(kernel, use_kernel, b0, nl, istate, iparams, fstate, fparams, sch
 @njit(cache=True, nogil=True, error_model="numpy")
 def _run_blocks(kernel, use_kernel, blk0, blk1, istate, iparams, fstate, fparams, schedule, prm, theta, law, s0, ref,
                 n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault, out_adc,
-                out_enc, flags):
+                out_enc, flags, rec):
     """Blocks blk0..blk1-1, one after the other (one thread's share); the GIL is released."""
     n = prm.shape[0]
     for b in range(blk0, blk1):
         b0 = b * W
         _run_block(kernel, use_kernel, b0, min(W, n - b0), istate, iparams, fstate, fparams, schedule, prm, theta, law,
                    s0, ref, n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault,
-                   out_adc, out_enc, flags)
+                   out_adc, out_enc, flags, rec)
 
 
 def _run(kernel, use_kernel, *args):
@@ -271,6 +299,43 @@ def _no_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
     return 0, 0, 0
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _balance(kernel, prm, th, w, i, pg, length):
+    """Muscle pull less load pull of instance i at a length (the integrator's forces, no friction). [N]"""
+    f = kernel(pg, length, th, i, w)
+    f = 0.0 if f != f else f
+    stretch = length - prm[i, C_L0]
+    fm = (f if f > 0.0 else 0.0) + prm[i, C_KP] * (stretch if stretch > 0.0 else 0.0)
+    return fm - (prm[i, C_LF] - prm[i, C_KS] * (length - prm[i, C_LFREE]))
+
+
+@njit(cache=True, error_model="numpy")
+def _bracket_balance(kernel, prm, th, w, pg, a, b, status):
+    """Narrow each instance's bracket [a, b] onto the root of :func:`_balance`, in place; ``status`` as
+    :func:`static_equilibrium`'s (0 between the stops, 1 straight stop, 2 locking stop).
+
+    The balance rises with length (``check_force_law`` refuses laws where it would not): its root is
+    bracketed on a grid of 64 lengths, nine times over (43 mm / 63⁹ ≈ 3e-18 m: to the last bit).
+    """
+    for i in range(prm.shape[0]):
+        lo = a[i]
+        hi = b[i]
+        if _balance(kernel, prm, th, w, i, pg[i], hi) < 0.0:
+            status[i] = 1
+        elif _balance(kernel, prm, th, w, i, pg[i], lo) > 0.0:
+            status[i] = 2
+        for _ in range(9):
+            first = 63
+            for m in range(64):
+                if _balance(kernel, prm, th, w, i, pg[i], lo + (hi - lo) * (m / 63.0)) > 0.0:
+                    first = m
+                    break
+            first = first if first > 1 else 1
+            lo, hi = lo + (hi - lo) * ((first - 1) / 63.0), lo + (hi - lo) * (first / 63.0)
+        a[i] = lo
+        b[i] = hi
+
+
 def static_equilibrium(prm: np.ndarray, law: int, theta: np.ndarray, pressure) -> tuple[np.ndarray, np.ndarray]:
     """Rest length of each instance at a fixed gauge pressure, friction-free: the plant's own statics.
 
@@ -301,32 +366,14 @@ def static_equilibrium(prm: np.ndarray, law: int, theta: np.ndarray, pressure) -
     """
     c = PP.Col
     n = prm.shape[0]
-    pg = np.broadcast_to(np.asarray(pressure, dtype=float), (n,)).copy()
+    pg = np.ascontiguousarray(np.broadcast_to(np.asarray(pressure, dtype=float), (n,)))
     lo = prm[:, c.l_min].copy()
     hi = prm[:, c.l_max].copy()
-    name = LW.LAW_NAMES[law]
-
-    def balance(length):
-        col = (slice(None),) + (None,) * (np.ndim(length) - 1)  # per-instance columns against the lengths
-        f = LW.evaluate(name, pg, length, theta.reshape((theta.shape[0], n) + (1,) * (np.ndim(length) - 1)))
-        fm = np.maximum(np.nan_to_num(f, nan=0.0), 0.0) + prm[col + (c.passive_stiffness,)] * np.maximum(
-            length - prm[col + (c.nominal_length,)], 0.0)
-        return fm - (prm[col + (c.load_force,)] - prm[col + (c.spring_rate,)] * (length - prm[col + (c.spring_free_length,)]))
-
-    g_lo, g_hi = balance(lo), balance(hi)
-    status = np.where(g_hi < 0, 1, np.where(g_lo > 0, 2, 0))
-    # the balance rises with length (check_force_law refuses laws where it would not): bracket its
-    # root on a grid of 64 lengths, nine times over (43 mm / 63⁹ ≈ 3e-18 m: to the last bit), one kernel call each
+    th = np.ascontiguousarray(theta, dtype=float)
     a, b = lo.copy(), hi.copy()
-    k = np.arange(64) / 63.0
-    pg = pg[:, None]
-    for _ in range(9):
-        grid = a[:, None] + (b - a)[:, None] * k
-        g = balance(grid)
-        first = np.argmax(g > 0, axis=1)
-        first = np.where(np.any(g > 0, axis=1), first, 63)
-        b = grid[np.arange(n), np.maximum(first, 1)]
-        a = grid[np.arange(n), np.maximum(first, 1) - 1]
+    status = np.zeros(n, dtype=np.int64)
+    _bracket_balance(LW.LAWS[LW.LAW_NAMES[law]].kernel, np.ascontiguousarray(prm), th.ravel(), th.shape[1], pg, a, b,
+                     status)
     length = np.where(status == 1, hi, np.where(status == 2, lo, 0.5 * (a + b)))
     blocked = prm[:, c.mobile] == 0
     return np.where(blocked, prm[:, c.nominal_length], length), np.where(blocked, 3, status)
@@ -428,6 +475,7 @@ def simulate(
     substeps: int = 10,
     initial_pressure=0.0,
     initial_length=None,
+    record="all",
 ) -> SimResult:
     """Simulate N rigs, open loop or under a controller.
 
@@ -456,6 +504,10 @@ def simulate(
     initial_length : float or array_like, optional
         Starting muscle length, scalar or (N,), between the braid's end stops; default the static
         equilibrium under the load. [m]
+    record : "all" or iterable of str, default "all"
+        Which series of :data:`SERIES` to keep, each (N, n): a sweep of many long runs that needs only
+        the pressure keeps ``("pressure",)`` and spares writing (and the kernel's zeroing of) the rest,
+        11 × 8 bytes per instance and period in all. The others are not recorded: reading one raises.
 
     Returns
     -------
@@ -500,14 +552,10 @@ def simulate(
         sched = np.empty((rows, n_steps, 2), dtype=np.int64)
         sched[:, :, 0] = a
         sched[:, :, 1] = b
-    shape = (n_inst, n_steps)
-    out = dict(
-        out_p=np.empty(shape), out_pm=np.empty(shape), out_l=np.empty(shape), out_f=np.empty(shape),
-        out_m=np.empty(shape), out_t=np.empty(shape),
-        out_in=np.empty(shape, dtype=np.int64), out_bl=np.empty(shape, dtype=np.int64),
-        out_fault=np.empty(shape, dtype=np.int64), out_adc=np.empty(shape, dtype=np.int64),
-        out_enc=np.empty(shape, dtype=np.int64),
-    )
+    recorded = _recorded(record)
+    out = {key: np.empty((n_inst, n_steps if name in recorded else 1), dtype=np.int64 if name in _INT_SERIES else float)
+           for key, name in zip(_OUT_KEYS, SERIES)}
+    rec = np.array([-1 if name in recorded else 0 for name in SERIES], dtype=np.int64)
     flags = np.zeros(n_inst, dtype=np.int64)
     common = (sched, prm, theta, law, s0, ref, n_steps, int(substeps), float(ts))
     if spec is not None:
@@ -517,17 +565,17 @@ def simulate(
         for name, a in (("istate0", istate), ("iparams", iparams), ("fstate0", fstate), ("fparams", fparams)):
             if a.ndim != 2 or a.shape[0] != n_inst:
                 raise InputError(f"controller {name}: shape {a.shape}, want ({n_inst}, ·)")
-        _run_cached(kernel, True, istate, iparams, fstate, fparams, *common, *out.values(), flags)
-        return _result(n_steps, ts, out, ref, n_inst, flags, istate, fstate)
+        _run_cached(kernel, True, istate, iparams, fstate, fparams, *common, *out.values(), flags, rec)
+        return _result(n_steps, ts, out, ref, n_inst, flags, recorded, istate, fstate)
     dummy_i = np.zeros((n_inst, 1), dtype=np.int64)
     dummy_f = np.zeros((n_inst, 1))
     if callable(controller):
-        _run_python(controller, dummy_i, dummy_f, common, out, flags, n_inst, n_steps, float(ts))
-        return _result(n_steps, ts, out, ref, n_inst, flags)
+        _run_python(controller, dummy_i, dummy_f, common, out, flags, rec, n_inst, n_steps, float(ts))
+        return _result(n_steps, ts, out, ref, n_inst, flags, recorded)
     if controller is not None:
         raise InputError("controller: a kernel spec tuple, a Python callable, or None for open loop")
-    _run_cached(_no_kernel, False, dummy_i, dummy_i, dummy_f, dummy_f, *common, *out.values(), flags)
-    return _result(n_steps, ts, out, ref, n_inst, flags)
+    _run_cached(_no_kernel, False, dummy_i, dummy_i, dummy_f, dummy_f, *common, *out.values(), flags, rec)
+    return _result(n_steps, ts, out, ref, n_inst, flags, recorded)
 
 
 _DEFAULT: list = []
@@ -567,7 +615,7 @@ def _run_cached(*args):
         _run(*args)
 
 
-def _run_python(f, dummy_i, dummy_f, common, out, flags, n_inst, n_steps, ts):
+def _run_python(f, dummy_i, dummy_f, common, out, flags, rec, n_inst, n_steps, ts):
     """Slow path: a Python callable as the controller, called every control period (block by block)."""
     counter = {"k": 0}
 
@@ -582,17 +630,27 @@ def _run_python(f, dummy_i, dummy_f, common, out, flags, n_inst, n_steps, ts):
 
     for b0 in range(0, n_inst, W):
         _run_block.py_func(kernel, True, b0, min(W, n_inst - b0), dummy_i, dummy_i, dummy_f, dummy_f, *common,
-                           *out.values(), flags)
+                           *out.values(), flags, rec)
 
 
-def _result(n_steps, ts, out, ref, n_inst, flags, istate=None, fstate=None) -> SimResult:
+def _recorded(record) -> tuple:
+    """The series ``record`` names, in :data:`SERIES` order (``"all"``: every one)."""
+    if isinstance(record, str) and record == "all":
+        return SERIES
+    names = (record,) if isinstance(record, str) else tuple(record)
+    bad = [x for x in names if x not in _SERIES_SET]
+    if bad:
+        raise InputError(f"record: unknown series {bad[0]!r}; choose from {', '.join(SERIES)} (or 'all')")
+    return tuple(x for x in SERIES if x in names)
+
+
+def _result(n_steps, ts, out, ref, n_inst, flags, recorded, istate=None, fstate=None) -> SimResult:
     return SimResult(
         t=np.arange(n_steps) * ts,
-        pressure=out["out_p"], pressure_measured=out["out_pm"], length=out["out_l"], force=out["out_f"],
-        air_mass=out["out_m"], inlet=out["out_in"], bleed=out["out_bl"], faults=out["out_fault"],
-        adc=out["out_adc"], encoder=out["out_enc"],
-        reference=np.broadcast_to(ref, (n_inst, n_steps)).copy(), flags=flags, istate=istate, fstate=fstate,
-        temperature=out["out_t"],
+        **{name: out[key] for key, name in zip(_OUT_KEYS, SERIES)},
+        # the reference as given, broadcast (read-only): a scalar reference costs no (N, n) copy
+        reference=np.broadcast_to(ref, (n_inst, n_steps)), flags=flags, istate=istate, fstate=fstate,
+        recorded=recorded,
     )
 
 
