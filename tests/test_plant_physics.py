@@ -1,5 +1,7 @@
 """Plant v2: one physics with the static models, the guards, the chamber's heat, the integrator's step."""
 
+import time
+
 import numba
 import numpy as np
 import pytest
@@ -187,3 +189,62 @@ def test_the_force_law_check_groups_instances_as_np_unique_does():
     want = np.sort(np.unique(key, axis=0, return_index=True)[1])
     np.testing.assert_array_equal(np.sort(PP._first_of_each_row(key)), want)
     assert 3 < len(want) < 500
+
+
+def test_an_instance_runs_the_same_alone_or_anywhere_in_a_batch():
+    # narrow blocks (one rig) and wide ones (all W lanes) take different loops: the same numbers
+    rng = np.random.default_rng(3)
+    n = 75  # a full block of 64 and a partial one of 11
+    plant = PlantParams(load_force=rng.uniform(0.2, 2.5, n), supply_pressure=rng.uniform(0.6e6, 0.9e6, n))
+    batch = simulate(plant, 0.1, controller=core_spec(CoreParams(), n), reference=0.5e6)
+    for i in (0, 63, 64, 74):
+        one = simulate(plant.replace(load_force=float(plant.load_force[i]), supply_pressure=float(plant.supply_pressure[i])),
+                       0.1, controller=core_spec(CoreParams(), 1), reference=0.5e6)
+        for name in ("pressure", "length", "temperature", "inlet"):
+            np.testing.assert_array_equal(getattr(one, name)[0], getattr(batch, name)[i])
+
+
+def test_record_keeps_only_the_series_asked_for():
+    full = simulate(PlantParams(), 0.05, inlet=150, n=3)
+    some = simulate(PlantParams(), 0.05, inlet=150, n=3, record=("length", "pressure"))
+    assert some.recorded == ("pressure", "length")
+    np.testing.assert_array_equal(some.pressure, full.pressure)
+    np.testing.assert_array_equal(some.length, full.length)
+    with pytest.raises(AttributeError, match="force: not recorded"):
+        some.force
+    assert list(some.to_pandas(1).columns) == ["time_s", "pressure_Pa", "length_m", "reference_Pa"]
+    with pytest.raises(InputError, match="record: unknown series 'presure'"):
+        simulate(PlantParams(), 0.05, record=("presure",))
+
+
+def test_a_cache_save_failure_in_one_thread_retries_from_the_inputs(monkeypatch):
+    # Numba may fail to save a new overload in the thread that compiled it while the other thread
+    # has run its share; the retry must start again from the controllers' initial state
+    from mckibben.plant import simulator as S
+
+    n = 200
+    plant = PlantParams(load_force=np.linspace(0.0, 3.0, n))
+
+    def run():
+        return simulate(plant, 0.05, controller=core_spec(CoreParams(), n), reference=0.5e6)
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    try:
+        good = run()
+        orig, state = S._run_blocks, {"failed": False}
+
+        def first_share_fails_once(kernel, use_kernel, b0, b1, *args):
+            if b0 == 0 and not state["failed"]:
+                time.sleep(0.3)  # the other share runs first
+                state["failed"] = True
+                raise ReferenceError("underlying object has vanished")
+            return orig(kernel, use_kernel, b0, b1, *args)
+
+        monkeypatch.setattr(S, "_run_blocks", first_share_fails_once)
+        again = run()
+    finally:
+        numba.set_num_threads(before)
+    assert state["failed"]
+    np.testing.assert_array_equal(again.pressure, good.pressure)
+    np.testing.assert_array_equal(again.fstate, good.fstate)

@@ -243,100 +243,68 @@ def muscle_force(fl, length, bk, j):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _lane_rhs(bk, a, o, j, law):
-    """One lane's time derivatives (stage state at ``a``, slopes into ``o``): the body of :func:`rhs`.
-
-    ``law`` is a compile-time constant here (each of :func:`rhs`'s branches passes its own
-    literal), so the law's kernel is inlined into the one loop and vectorizes with it.
-    """
-    p = bk[a + S_P * W + j]
-    t = bk[a + S_T * W + j]
-    xin = bk[a + S_XIN * W + j]
-    xbl = bk[a + S_XBL * W + j]
-    length = bk[a + S_LEN * W + j]
-    v = bk[a + S_VEL * W + j]
-    lo = bk[X_LMIN + j]
-    hi = bk[X_LMAX + j]
-    le = lo if length < lo else (hi if length > hi else length)
-    pg = p - P_ATM
-    if law == _TL:
-        fl = LW.tondu_lopez(pg, le, bk, OFF_TH + j, W)
-    elif law == _CH:
-        fl = LW.chou_hannaford(pg, le, bk, OFF_TH + j, W)
-    elif law == _WC:
-        fl = LW.wall_corrected(pg, le, bk, OFF_TH + j, W)
-    elif law == _BM:
-        fl = LW.braid_map(pg, le, bk, OFF_TH + j, W)
-    else:
-        fl = LW.spring(pg, le, bk, OFF_TH + j, W)
-    mob = bk[X_MOB + j]
-    vol, dvdl = volume(le, bk, j)
-    vdot = dvdl * v * mob
-    ts = bk[X_TS + j]
-    b = bk[X_B + j]
-    i1mb = bk[X_INV1MB + j]
-    plam = bk[X_PHILAM + j]
-    xo = xin if xin > 0.0 else 0.0
-    xb = xbl if xbl > 0.0 else 0.0
-    gt = math.sqrt(T0 / t)  # ISO 6358's √(T0/T_up) for air leaving the chamber
-    # inlet: supply ↔ chamber (air from the supply at its temperature, back-flow at the chamber's)
-    psup = P_ATM + bk[X_SUPPLY + j] * (1.0 - bk[X_DROOP + j] * xo)
-    fwd = psup >= p
-    hi = psup if fwd else p
-    lo = p if fwd else psup
-    q = bk[X_CIN + j] * xo * RHO0 * hi * (bk[X_GSUP + j] if fwd else gt) * flow_function(lo / hi, b, i1mb, plam)
-    m_in = q if fwd else -q
-    # bleed and leak: chamber ↔ atmosphere, one pressure ratio for both
-    out = p >= P_ATM
-    hi = p if out else P_ATM
-    lo = P_ATM if out else p
-    q = (bk[X_CBL + j] * xb + bk[X_CLEAK + j]) * RHO0 * hi * (gt if out else bk[X_GSUP + j]) * flow_function(
-        lo / hi, b, i1mb, plam)
-    m_out = -q if out else q
-    mdot = m_in + m_out
-    inflow = (m_in if m_in > 0.0 else 0.0) + (m_out if m_out > 0.0 else 0.0)
-    enth = t * mdot + bk[X_INFLOW_T + j] * (ts - t) * inflow  # Σ ṁ_k·T_k
-    kg = bk[X_KGAS + j]
-    iv = 1.0 / vol
-    dp = kg * iv * (R_AIR * enth - p * vdot) + (kg - 1.0) * iv * bk[X_HA + j] * (ts - t)
-    bk[o + S_P * W + j] = dp
-    ip = 1.0 / p
-    bk[o + S_T * W + j] = t * (dp * ip + iv * vdot - iv * R_AIR * t * mdot * ip)
-    inv_tau = bk[X_INVTAU + j]
-    bk[o + S_XIN * W + j] = (bk[Y_XIN + j] - xin) * inv_tau
-    bk[o + S_XBL * W + j] = (bk[Y_XBL + j] - xbl) * inv_tau
-    fm = muscle_force(fl, length, bk, j)
-    f_ext = bk[X_LF + j] - bk[X_KS + j] * (length - bk[X_LFREE + j])
-    acc = (f_ext - fm - bk[a + S_FRIC * W + j] - bk[X_DAMP + j] * v) * bk[X_INVM + j]
-    bk[o + S_LEN * W + j] = mob * v
-    bk[o + S_VEL * W + j] = mob * acc
-    bk[o + S_FRIC * W + j] = 0.0
-
-
-@njit(cache=True, error_model="numpy", inline="always")
 def rhs(n, bk, k, dk, law):
     """Time derivatives of stage ``k``'s states into stage ``dk`` (friction row held: see :func:`rk4_step`).
 
-    Valve targets come from scratch rows ``SC_XIN``, ``SC_XBL``. One loop over the lanes per law
-    (the law a literal in each), so every law's loop is fused and vectorized whole.
+    Valve targets come from scratch rows ``SC_XIN``, ``SC_XBL``.
     """
+    clamp_length(n, bk, k)
+    if law == _TL:  # the default law inline (its loop vectorizes with the rest, no call)
+        for j in range(n):
+            bk[Y_FL + j] = LW.tondu_lopez(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+    else:
+        law_force(law, n, bk)
     a = OFF_ST + k * NS * W
     o = OFF_ST + dk * NS * W
-    if law == _TL:
-        for j in range(n):
-            _lane_rhs(bk, a, o, j, _TL)
-    elif law == _CH:
-        for j in range(n):
-            _lane_rhs(bk, a, o, j, _CH)
-    elif law == _WC:
-        for j in range(n):
-            _lane_rhs(bk, a, o, j, _WC)
-    elif law == _BM:
-        for j in range(n):
-            _lane_rhs(bk, a, o, j, _BM)
-    else:
-        for j in range(n):
-            _lane_rhs(bk, a, o, j, _SP)
+    for j in range(n):
+        p = bk[a + S_P * W + j]
+        t = bk[a + S_T * W + j]
+        xin = bk[a + S_XIN * W + j]
+        xbl = bk[a + S_XBL * W + j]
+        length = bk[a + S_LEN * W + j]
+        v = bk[a + S_VEL * W + j]
+        mob = bk[X_MOB + j]
+        vol, dvdl = volume(bk[Y_LE + j], bk, j)
+        vdot = dvdl * v * mob
+        ts = bk[X_TS + j]
+        b = bk[X_B + j]
+        i1mb = bk[X_INV1MB + j]
+        plam = bk[X_PHILAM + j]
+        xo = xin if xin > 0.0 else 0.0
+        xb = xbl if xbl > 0.0 else 0.0
+        gt = math.sqrt(T0 / t)  # ISO 6358's √(T0/T_up) for air leaving the chamber
+        # inlet: supply ↔ chamber (air from the supply at its temperature, back-flow at the chamber's)
+        psup = P_ATM + bk[X_SUPPLY + j] * (1.0 - bk[X_DROOP + j] * xo)
+        fwd = psup >= p
+        hi = psup if fwd else p
+        lo = p if fwd else psup
+        q = bk[X_CIN + j] * xo * RHO0 * hi * (bk[X_GSUP + j] if fwd else gt) * flow_function(lo / hi, b, i1mb, plam)
+        m_in = q if fwd else -q
+        # bleed and leak: chamber ↔ atmosphere, one pressure ratio for both
+        out = p >= P_ATM
+        hi = p if out else P_ATM
+        lo = P_ATM if out else p
+        q = (bk[X_CBL + j] * xb + bk[X_CLEAK + j]) * RHO0 * hi * (gt if out else bk[X_GSUP + j]) * flow_function(
+            lo / hi, b, i1mb, plam)
+        m_out = -q if out else q
+        mdot = m_in + m_out
+        inflow = (m_in if m_in > 0.0 else 0.0) + (m_out if m_out > 0.0 else 0.0)
+        enth = t * mdot + bk[X_INFLOW_T + j] * (ts - t) * inflow  # Σ ṁ_k·T_k
+        kg = bk[X_KGAS + j]
+        iv = 1.0 / vol
+        dp = kg * iv * (R_AIR * enth - p * vdot) + (kg - 1.0) * iv * bk[X_HA + j] * (ts - t)
+        bk[o + S_P * W + j] = dp
+        ip = 1.0 / p
+        bk[o + S_T * W + j] = t * (dp * ip + iv * vdot - iv * R_AIR * t * mdot * ip)
+        inv_tau = bk[X_INVTAU + j]
+        bk[o + S_XIN * W + j] = (bk[Y_XIN + j] - xin) * inv_tau
+        bk[o + S_XBL * W + j] = (bk[Y_XBL + j] - xbl) * inv_tau
+        fm = muscle_force(bk[Y_FL + j], length, bk, j)
+        f_ext = bk[X_LF + j] - bk[X_KS + j] * (length - bk[X_LFREE + j])
+        acc = (f_ext - fm - bk[a + S_FRIC * W + j] - bk[X_DAMP + j] * v) * bk[X_INVM + j]
+        bk[o + S_LEN * W + j] = mob * v
+        bk[o + S_VEL * W + j] = mob * acc
+        bk[o + S_FRIC * W + j] = 0.0
 
 
 #: Blocks of more lanes than this run the RK4 stage and update loops over all W lanes (see :func:`_stage`).

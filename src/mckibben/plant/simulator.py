@@ -602,17 +602,22 @@ def _prepared(plant: PP.PlantParams, n: int):
     return prm, LW.LAW_INDEX[name], th
 
 
-def _run_cached(*args):
+def _run_cached(kernel, use_kernel, istate, iparams, fstate, fparams, *rest):
     """Call :func:`_run`, retrying once if Numba fails to *save* the new overload to its cache.
 
     Numba's on-disk cache cannot re-pickle its index once it holds the type of a kernel compiled
     by another process ("underlying object has vanished"). The failure is in saving, after the
-    overload was compiled and registered, and before the run started: the retry runs in memory.
+    overload was compiled and registered; with two threads the other one may have run its share
+    of the blocks meanwhile, so the retry starts again from copies of everything the run changes
+    (the controllers' state and the flags; the outputs are written whole).
     """
+    flags = rest[-2]
+    saved = (istate.copy(), fstate.copy(), flags.copy())
     try:
-        _run(*args)
+        _run(kernel, use_kernel, istate, iparams, fstate, fparams, *rest)
     except ReferenceError:
-        _run(*args)
+        istate[...], fstate[...], flags[...] = saved
+        _run(kernel, use_kernel, istate, iparams, fstate, fparams, *rest)
 
 
 def _run_python(f, dummy_i, dummy_f, common, out, flags, rec, n_inst, n_steps, ts):
