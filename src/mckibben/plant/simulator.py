@@ -553,8 +553,7 @@ def simulate(
         sched[:, :, 0] = a
         sched[:, :, 1] = b
     recorded = _recorded(record)
-    out = {key: np.empty((n_inst, n_steps if name in recorded else 1), dtype=np.int64 if name in _INT_SERIES else float)
-           for key, name in zip(_OUT_KEYS, SERIES)}
+    out = _outputs(n_inst, n_steps, recorded)
     rec = np.array([-1 if name in recorded else 0 for name in SERIES], dtype=np.int64)
     flags = np.zeros(n_inst, dtype=np.int64)
     common = (sched, prm, theta, law, s0, ref, n_steps, int(substeps), float(ts))
@@ -636,6 +635,27 @@ def _run_python(f, dummy_i, dummy_f, common, out, flags, rec, n_inst, n_steps, t
     for b0 in range(0, n_inst, W):
         _run_block.py_func(kernel, True, b0, min(W, n_inst - b0), dummy_i, dummy_i, dummy_f, dummy_f, *common,
                            *out.values(), flags, rec)
+
+
+def _outputs(n_inst: int, n_steps: int, recorded: tuple) -> dict:
+    """The output arrays, allocated without NumPy's transparent-huge-page advice.
+
+    NumPy advises the kernel to back every large array with 2 MB pages; where the kernel then
+    compacts memory to find them (``defrag`` = ``madvise``, the default), first touching 880 MB of
+    records (N = 10,000 over 1 s) cost 2.0 s of system time against 0.3 s with ordinary pages
+    (``benchmarks/RESULTS.md``). The advice is switched off for these allocations only.
+    """
+    from numpy._core import multiarray
+
+    advise = getattr(multiarray, "_set_madvise_hugepage", None)
+    before = advise(False) if advise is not None else None
+    try:
+        return {key: np.empty((n_inst, n_steps if name in recorded else 1),
+                              dtype=np.int64 if name in _INT_SERIES else float)
+                for key, name in zip(_OUT_KEYS, SERIES)}
+    finally:
+        if advise is not None:
+            advise(before)
 
 
 def _recorded(record) -> tuple:
