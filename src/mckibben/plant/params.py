@@ -18,6 +18,9 @@ from mckibben.errors import InputError, unknown_name
 from mckibben.models import laws as LW
 from mckibben.models.mpam import MiniatureMuscle, predict_length
 
+#: A plant parameter: one value for every instance, or one per instance (shape (N,)). [SI unit of the field]
+Value = float | np.ndarray
+
 P_ATM = 101325.0  #: atmospheric pressure [Pa]
 R_AIR = 287.05  #: specific gas constant of air [J/(kg·K)]
 T0 = 293.15  #: ISO 6358 reference temperature, also the supply temperature [K]
@@ -135,7 +138,9 @@ class PlantParams:
 
     Defaults are the paper's rig with the 97 mm muscle (``docs/plant.md`` gives each choice).
     Pressures are gauge unless named otherwise. Use :meth:`for_muscle` for another muscle and
-    :meth:`replace` (or keyword arguments) to change any parameter.
+    :meth:`replace` (or keyword arguments) to change any parameter. Every numeric field is a
+    :data:`Value`: a float for all instances or an array of N, one per instance (the attributes
+    below give each one's unit).
 
     Attributes
     ----------
@@ -213,50 +218,50 @@ class PlantParams:
         The muscle whose braid-angle map ``force_model="empirical"`` uses (default: ``muscle_name``'s).
     """
 
-    supply_pressure: object = 0.8e6
-    supply_droop: object = 0.0
-    valve_conductance: object = 2.0e-10
-    bleed_conductance: object = 2.0e-10
-    critical_ratio: object = 0.3
-    valve_tau: object = 3e-3
-    dead_band: object = 0.63
-    driver_gain: object = 1.43
-    dead_volume: object = 2.3e-7
-    leak_conductance: object = 1.7e-11
-    polytropic_n: object = 1.2
-    temperature: object = T0
-    tube_diameter: object = 1.0e-3
-    heat_transfer_coefficient: object = None
-    nominal_length: object = 0.097
-    strand_length: object = 0.112
-    k1: object = 0.92
-    k2: object = 0.77e-3
-    outer_diameter: object = 1.2e-3
-    inner_diameter: object = 0.5e-3
-    wall_thickness: object = 0.2e-3
-    r0: object = 0.0
-    alpha0: object = float(np.deg2rad(20.0))
-    k_tl: object = 1.0
-    p_threshold: object = 0.0
-    ch_turns: object = 0.0
-    passive_stiffness: object = 200.0
-    friction_force: object = 0.01
-    friction_per_pa: object = 0.2e-6
-    friction_stiffness: object = 2000.0
-    load_kind: object = 0.0
-    load_force: object = 0.6
-    moving_mass: object = 0.005
-    damping: object = 4.0
-    spring_stiffness: object = 0.0
-    spring_free_length: object = 0.097
-    adc_zero: object = 0.0
-    pa_per_count: object = HW.PA_PER_COUNT
-    encoder_resolution: object = HW.ENCODER_RESOLUTION
-    pressure_noise: object = 0.0
-    seed: object = 0.0
+    supply_pressure: Value = 0.8e6
+    supply_droop: Value = 0.0
+    valve_conductance: Value = 2.0e-10
+    bleed_conductance: Value = 2.0e-10
+    critical_ratio: Value = 0.3
+    valve_tau: Value = 3e-3
+    dead_band: Value = 0.63
+    driver_gain: Value = 1.43
+    dead_volume: Value = 2.3e-7
+    leak_conductance: Value = 1.7e-11
+    polytropic_n: Value = 1.2
+    temperature: Value = T0
+    tube_diameter: Value = 1.0e-3
+    heat_transfer_coefficient: Value | None = None
+    nominal_length: Value = 0.097
+    strand_length: Value = 0.112
+    k1: Value = 0.92
+    k2: Value = 0.77e-3
+    outer_diameter: Value = 1.2e-3
+    inner_diameter: Value = 0.5e-3
+    wall_thickness: Value = 0.2e-3
+    r0: Value = 0.0
+    alpha0: Value = float(np.deg2rad(20.0))
+    k_tl: Value = 1.0
+    p_threshold: Value = 0.0
+    ch_turns: Value = 0.0
+    passive_stiffness: Value = 200.0
+    friction_force: Value = 0.01
+    friction_per_pa: Value = 0.2e-6
+    friction_stiffness: Value = 2000.0
+    load_kind: Value = 0.0
+    load_force: Value = 0.6
+    moving_mass: Value = 0.005
+    damping: Value = 4.0
+    spring_stiffness: Value = 0.0
+    spring_free_length: Value = 0.097
+    adc_zero: Value = 0.0
+    pa_per_count: Value = HW.PA_PER_COUNT
+    encoder_resolution: Value = HW.ENCODER_RESOLUTION
+    pressure_noise: Value = 0.0
+    seed: Value = 0.0
     force_model: object = "calibrated"
     thermal: str = "energy"
-    muscle: object = field(default=None, compare=False)
+    muscle: MiniatureMuscle | None = field(default=None, compare=False)
     muscle_name: str = field(default="mpam97", compare=False)
 
     def __post_init__(self):
