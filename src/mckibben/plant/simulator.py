@@ -645,9 +645,15 @@ def _outputs(n_inst: int, n_steps: int, recorded: tuple) -> dict:
     records (N = 10,000 over 1 s) cost 2.0 s of system time against 0.3 s with ordinary pages
     (``benchmarks/RESULTS.md``). The advice is switched off for these allocations only.
     """
-    from numpy._core import multiarray
+    import importlib
 
-    advise = getattr(multiarray, "_set_madvise_hugepage", None)
+    advise = None
+    for where in ("numpy._core.multiarray", "numpy.core.multiarray"):  # NumPy 2, NumPy 1.x
+        try:
+            advise = getattr(importlib.import_module(where), "_set_madvise_hugepage", None)
+            break
+        except ImportError:
+            continue
     before = advise(False) if advise is not None else None
     try:
         return {key: np.empty((n_inst, n_steps if name in recorded else 1),
