@@ -203,7 +203,7 @@ def main() -> None:
     ns = (1, 100, 10_000)
     run_ours(2)  # compile (the kernel's overload; the physics is cached after the first run)
     # best of several calls at every N: the first call at N = 10,000 also pays for faulting in ~1 GB
-    # of fresh output arrays (12 recorded series), which a repeated call reuses
+    # of fresh output arrays (11 recorded series), which a repeated call reuses
     ours = {n: run_ours(n, repeat=5 if n == 1 else (3 if n == 100 else 2)) for n in ns}
     lean = {n: run_ours(n, repeat=5 if n == 1 else (3 if n == 100 else 2), record=("pressure",)) for n in ns}
     with tempfile.TemporaryDirectory() as d:

@@ -248,3 +248,20 @@ def test_a_cache_save_failure_in_one_thread_retries_from_the_inputs(monkeypatch)
     assert state["failed"]
     np.testing.assert_array_equal(again.pressure, good.pressure)
     np.testing.assert_array_equal(again.fstate, good.fstate)
+
+
+def test_a_scalar_plant_packs_the_same_after_an_empty_pack():
+    plant = PlantParams()
+    assert plant.pack(0).shape == (0, PP.NP)
+    first = plant.pack(3)
+    assert first.shape == (3, PP.NP)
+    first[:] = 0.0  # the caller's copy: the next pack is untouched
+    np.testing.assert_array_equal(plant.pack(2), PlantParams().pack(2))
+
+
+def test_a_partly_recorded_result_prints_and_keeps_its_reference():
+    ref = np.full(50, 0.3e6)
+    res = simulate(PlantParams(), 0.05, controller=core_spec(CoreParams(), 2), reference=ref, record=("pressure",))
+    assert "recorded: pressure" in repr(res) and "2 instances x 50 periods" in repr(res)
+    ref[:] = 0.0
+    assert np.all(res.reference == 0.3e6)

@@ -458,7 +458,7 @@ class PlantParams:
             out[:, j] = np.broadcast_to(value.ravel() if value.ndim else value, (n,))
         validate(out, law_fields=isinstance(self.force_model, str))
         derive(out, self.thermal)
-        if all(isinstance(getattr(self, f), (int, float, np.integer, np.floating)) for f in _FIELDS):
+        if n >= 1 and all(isinstance(getattr(self, f), (int, float, np.integer, np.floating)) for f in _FIELDS):
             object.__setattr__(self, "_packed_row", out[:1].copy())
         return out
 

@@ -138,7 +138,7 @@ Z_P, Z_T, Z_XIN, Z_XBL, Z_LEN, Z_VEL, Z_FRIC = (st_row(ST_S, r) for r in range(N
 
 _TL, _CH, _WC, _BM, _SP = (LW.LAW_INDEX[k] for k in ("tondu-lopez", "chou-hannaford", "wall-corrected",
                                                        "braid-map", "spring"))
-assert len(LW.LAW_NAMES) == 5, "a new law in mckibben.models.laws needs its branch in law_force"
+assert len(LW.LAW_NAMES) == 5, "a new law in mckibben.models.laws needs its branch in law_force and law_value"
 
 
 @njit(cache=True, error_model="numpy")
@@ -163,6 +163,23 @@ def law_force(law, n, bk):
     else:
         for j in range(n):
             bk[Y_FL + j] = LW.spring(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def law_value(law, pressure, length, th, o, w):
+    """The registered law ``law`` at one gauge pressure [Pa] and length [m] (θ at ``th[o + r·w]``). [N]
+
+    The same kernels as :func:`law_force`, one point at a time (the static start's bisection).
+    """
+    if law == _TL:
+        return LW.tondu_lopez(pressure, length, th, o, w)
+    if law == _CH:
+        return LW.chou_hannaford(pressure, length, th, o, w)
+    if law == _WC:
+        return LW.wall_corrected(pressure, length, th, o, w)
+    if law == _BM:
+        return LW.braid_map(pressure, length, th, o, w)
+    return LW.spring(pressure, length, th, o, w)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -318,7 +335,8 @@ def _axpy_rows(bk, dst, src, d, h, n):
     A block of more than :data:`NARROW` lanes runs over all W lanes: the trip count is then a
     compile-time constant and LLVM vectorizes the loop whole (with the block's n as the trip count it
     did not, and this loop cost 15 ns per lane-substep, more than the right-hand side;
-    ``docs/plant.md``). Lanes past n hold zeros or a stopped instance's state that no one reads.
+    ``docs/plant.md``). Lanes past n are never read: a block array is new and zeroed for each
+    call, and the right-hand side writes lanes below n only, so their slopes stay zero.
     A narrow block (one rig) keeps the per-lane loop: 64 lanes would be 8-64 times its work.
     """
     if n > NARROW:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import threading
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -58,7 +59,7 @@ C_L0, C_KP, C_LF, C_KS, C_LFREE = (int(c) for c in (_C.nominal_length, _C.passiv
 NP, NTH, NS, W = PP.NP, LW.NTH, ph.NS, ph.W
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False, eq=False)
 class SimResult:
     """Sampled result of a batch simulation (row i is instance i, column k control period k).
 
@@ -118,6 +119,11 @@ class SimResult:
             raise AttributeError(f"SimResult.{name}: not recorded (this run was simulated with record="
                                  f"{object.__getattribute__(self, 'recorded')!r})")
         return object.__getattribute__(self, name)
+
+    def __repr__(self) -> str:
+        n, k = self.reference.shape
+        return (f"SimResult({n} instances x {k} periods, recorded: {', '.join(self.recorded)}; "
+                f"flagged: {int(np.count_nonzero(self.flags))})")
 
     @cached_property
     def command(self) -> np.ndarray:
@@ -300,9 +306,9 @@ def _no_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _balance(kernel, prm, th, w, i, pg, length):
+def _balance(law, prm, th, w, i, pg, length):
     """Muscle pull less load pull of instance i at a length (the integrator's forces, no friction). [N]"""
-    f = kernel(pg, length, th, i, w)
+    f = ph.law_value(law, pg, length, th, i, w)
     f = 0.0 if f != f else f
     stretch = length - prm[i, C_L0]
     fm = (f if f > 0.0 else 0.0) + prm[i, C_KP] * (stretch if stretch > 0.0 else 0.0)
@@ -310,7 +316,7 @@ def _balance(kernel, prm, th, w, i, pg, length):
 
 
 @njit(cache=True, error_model="numpy")
-def _bracket_balance(kernel, prm, th, w, pg, a, b, status):
+def _bracket_balance(law, prm, th, w, pg, a, b, status):
     """Narrow each instance's bracket [a, b] onto the root of :func:`_balance`, in place; ``status`` as
     :func:`static_equilibrium`'s (0 between the stops, 1 straight stop, 2 locking stop).
 
@@ -320,14 +326,14 @@ def _bracket_balance(kernel, prm, th, w, pg, a, b, status):
     for i in range(prm.shape[0]):
         lo = a[i]
         hi = b[i]
-        if _balance(kernel, prm, th, w, i, pg[i], hi) < 0.0:
+        if _balance(law, prm, th, w, i, pg[i], hi) < 0.0:
             status[i] = 1
-        elif _balance(kernel, prm, th, w, i, pg[i], lo) > 0.0:
+        elif _balance(law, prm, th, w, i, pg[i], lo) > 0.0:
             status[i] = 2
         for _ in range(9):
             first = 63
             for m in range(64):
-                if _balance(kernel, prm, th, w, i, pg[i], lo + (hi - lo) * (m / 63.0)) > 0.0:
+                if _balance(law, prm, th, w, i, pg[i], lo + (hi - lo) * (m / 63.0)) > 0.0:
                     first = m
                     break
             first = first if first > 1 else 1
@@ -366,14 +372,13 @@ def static_equilibrium(prm: np.ndarray, law: int, theta: np.ndarray, pressure) -
     """
     c = PP.Col
     n = prm.shape[0]
-    pg = np.ascontiguousarray(np.broadcast_to(np.asarray(pressure, dtype=float), (n,)))
+    pg = np.array(np.broadcast_to(np.asarray(pressure, dtype=float), (n,)))  # writable: one compiled type
     lo = prm[:, c.l_min].copy()
     hi = prm[:, c.l_max].copy()
     th = np.ascontiguousarray(theta, dtype=float)
     a, b = lo.copy(), hi.copy()
     status = np.zeros(n, dtype=np.int64)
-    _bracket_balance(LW.LAWS[LW.LAW_NAMES[law]].kernel, np.ascontiguousarray(prm), th.ravel(), th.shape[1], pg, a, b,
-                     status)
+    _bracket_balance(int(law), np.ascontiguousarray(prm), th.ravel(), th.shape[1], pg, a, b, status)
     length = np.where(status == 1, hi, np.where(status == 2, lo, 0.5 * (a + b)))
     blocked = prm[:, c.mobile] == 0
     return np.where(blocked, prm[:, c.nominal_length], length), np.where(blocked, 3, status)
@@ -637,6 +642,9 @@ def _run_python(f, dummy_i, dummy_f, common, out, flags, rec, n_inst, n_steps, t
                            *out.values(), flags, rec)
 
 
+_ADVICE_LOCK = threading.Lock()
+
+
 def _outputs(n_inst: int, n_steps: int, recorded: tuple) -> dict:
     """The output arrays, allocated without NumPy's transparent-huge-page advice.
 
@@ -647,20 +655,24 @@ def _outputs(n_inst: int, n_steps: int, recorded: tuple) -> dict:
     """
     import importlib
 
-    advise = None
+    advise = None  # the switch is process-wide: one simulate() at a time flips it (_ADVICE_LOCK)
     for where in ("numpy._core.multiarray", "numpy.core.multiarray"):  # NumPy 2, NumPy 1.x
         try:
             advise = getattr(importlib.import_module(where), "_set_madvise_hugepage", None)
             break
         except ImportError:
             continue
-    before = advise(False) if advise is not None else None
-    try:
+    if advise is None:
         return {key: np.empty((n_inst, n_steps if name in recorded else 1),
                               dtype=np.int64 if name in _INT_SERIES else float)
                 for key, name in zip(_OUT_KEYS, SERIES)}
-    finally:
-        if advise is not None:
+    with _ADVICE_LOCK:
+        before = advise(False)
+        try:
+            return {key: np.empty((n_inst, n_steps if name in recorded else 1),
+                                  dtype=np.int64 if name in _INT_SERIES else float)
+                    for key, name in zip(_OUT_KEYS, SERIES)}
+        finally:
             advise(before)
 
 
@@ -679,8 +691,8 @@ def _result(n_steps, ts, out, ref, n_inst, flags, recorded, istate=None, fstate=
     return SimResult(
         t=np.arange(n_steps) * ts,
         **{name: out[key] for key, name in zip(_OUT_KEYS, SERIES)},
-        # the reference as given, broadcast (read-only): a scalar reference costs no (N, n) copy
-        reference=np.broadcast_to(ref, (n_inst, n_steps)), flags=flags, istate=istate, fstate=fstate,
+        # the reference as given (a copy), broadcast read-only: a scalar or (n,) one costs no (N, n) array
+        reference=np.broadcast_to(np.array(ref), (n_inst, n_steps)), flags=flags, istate=istate, fstate=fstate,
         recorded=recorded,
     )
 
