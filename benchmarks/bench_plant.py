@@ -204,8 +204,9 @@ def main() -> None:
     run_ours(2)  # compile (the kernel's overload; the physics is cached after the first run)
     # best of several calls at every N: the first call at N = 10,000 also pays for faulting in ~1 GB
     # of fresh output arrays (11 recorded series), which a repeated call reuses
-    ours = {n: run_ours(n, repeat=5 if n == 1 else (3 if n == 100 else 2)) for n in ns}
-    lean = {n: run_ours(n, repeat=5 if n == 1 else (3 if n == 100 else 2), record=("pressure",)) for n in ns}
+    repeat = {1: 5, 100: 3, 10_000: 2}
+    ours = {n: run_ours(n, repeat=repeat[n]) for n in ns}
+    lean = {n: run_ours(n, repeat=repeat[n], record=("pressure",)) for n in ns}
     with tempfile.TemporaryDirectory() as d:
         exes = build_c(Path(d))
         c_scalar = {n: run_c(exes["exact"], "scalar", n if n <= 100 else 1000) for n in ns}

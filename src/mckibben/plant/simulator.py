@@ -642,7 +642,20 @@ def _run_python(f, dummy_i, dummy_f, common, out, flags, rec, n_inst, n_steps, t
                            *out.values(), flags, rec)
 
 
-_ADVICE_LOCK = threading.Lock()
+def _huge_page_switch():
+    """NumPy's process-wide switch of its huge-page advice (NumPy 2, then 1.x), or None."""
+    import importlib
+
+    for where in ("numpy._core.multiarray", "numpy.core.multiarray"):
+        try:
+            return getattr(importlib.import_module(where), "_set_madvise_hugepage", None)
+        except ImportError:
+            continue
+    return None
+
+
+_HUGE_PAGES = _huge_page_switch()
+_ADVICE_LOCK = threading.Lock()  # the switch is process-wide: one simulate() at a time flips it
 
 
 def _outputs(n_inst: int, n_steps: int, recorded: tuple) -> dict:
@@ -653,27 +666,19 @@ def _outputs(n_inst: int, n_steps: int, recorded: tuple) -> dict:
     records (N = 10,000 over 1 s) cost 2.0 s of system time against 0.3 s with ordinary pages
     (``benchmarks/RESULTS.md``). The advice is switched off for these allocations only.
     """
-    import importlib
-
-    advise = None  # the switch is process-wide: one simulate() at a time flips it (_ADVICE_LOCK)
-    for where in ("numpy._core.multiarray", "numpy.core.multiarray"):  # NumPy 2, NumPy 1.x
-        try:
-            advise = getattr(importlib.import_module(where), "_set_madvise_hugepage", None)
-            break
-        except ImportError:
-            continue
-    if advise is None:
+    def allocate():
         return {key: np.empty((n_inst, n_steps if name in recorded else 1),
                               dtype=np.int64 if name in _INT_SERIES else float)
                 for key, name in zip(_OUT_KEYS, SERIES)}
+
+    if _HUGE_PAGES is None:
+        return allocate()
     with _ADVICE_LOCK:
-        before = advise(False)
+        before = _HUGE_PAGES(False)
         try:
-            return {key: np.empty((n_inst, n_steps if name in recorded else 1),
-                                  dtype=np.int64 if name in _INT_SERIES else float)
-                    for key, name in zip(_OUT_KEYS, SERIES)}
+            return allocate()
         finally:
-            advise(before)
+            _HUGE_PAGES(before)
 
 
 def _recorded(record) -> tuple:
