@@ -38,6 +38,7 @@ from mckibben.control.experiments import robustness as _robustness_runs
 from mckibben.control.experiments import step_size_table as _step_size_rows
 from mckibben.control.metrics import tracking_metrics
 from mckibben.errors import InputError, unknown_name
+from mckibben.hardware import P_MAX_DEFAULT
 from mckibben.limits import check_budget, check_p_max, clamp_pressure
 from mckibben.results import Result, to_jsonable
 from mckibben.units import parse_quantity, quantity
@@ -919,9 +920,10 @@ class CompareResult(Result):
 
 
 #: The comparison's steps (0→0.2, 0→0.55, 0.3→0.7 and 0.55→0.2 MPa) as fractions of the 0.8 MPa
-#: they are taken under; a muscle file's comparison scales them to min(its supply, 0.8 MPa).
-COMPARE_STEPS = tuple((a / 0.8e6, b / 0.8e6) for a, b in ((0.0, 0.2e6), (0.0, 0.55e6), (0.3e6, 0.7e6),
-                                                          (0.55e6, 0.2e6)))
+#: they are taken under (the rig's maximum, :data:`mckibben.hardware.P_MAX_DEFAULT`); a muscle
+#: file's comparison scales them to min(its supply, that maximum).
+COMPARE_STEPS = tuple((a / P_MAX_DEFAULT, b / P_MAX_DEFAULT) for a, b in ((0.0, 0.2e6), (0.0, 0.55e6),
+                                                                          (0.3e6, 0.7e6), (0.55e6, 0.2e6)))
 #: A muscle file's comparison loads, as fractions of what it pulls at rest length and supply
 #: (:func:`rest_pull`).
 COMPARE_LOADS = (0.0, 0.25, 0.5)
@@ -954,7 +956,7 @@ def compare(beta=None, *, muscle_file=None, direction: str = "inflate") -> Compa
     if muscle_file is None:
         return CompareResult(_step_size_rows(identified_model(), beta=b), {"beta_counts": b})
     plant = muscle_file_plant(muscle_file, 0.0, None, direction)
-    top = min(float(plant.supply_pressure), 0.8e6)
+    top = min(float(plant.supply_pressure), float(P_MAX_DEFAULT))
     most = rest_pull(plant)
     loads = tuple(round(f * most, 1) for f in COMPARE_LOADS)
     plants = {w: muscle_file_plant(muscle_file, w, None, direction) for w in loads}
@@ -1079,7 +1081,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
         model = FirstOrderModel(1.0, 1.0)  # unused: the controllers are tuned on the plant
         samples = sample_plants(int(n), seed, supply=(0.75 * top, top), load=(0.0, 0.5 * most))
         extra = {"base_plant": nominal, "controllers": _file_controllers(nominal, b),
-                 "target": float(np.asarray(FIG13_TARGET_PA)) / 0.8e6 * min(top, 0.8e6)}
+                 "target": float(np.asarray(FIG13_TARGET_PA)) / P_MAX_DEFAULT * min(top, P_MAX_DEFAULT)}
     chunk = max(1, min(int(n), 250))
     per_plant: dict[str, dict[str, np.ndarray]] = {c: {} for c in CONTROLLER_NAMES}
     for lo in range(0, int(n), chunk):

@@ -19,7 +19,7 @@ from mckibben.errors import InputError
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
 from mckibben.results import Result, to_jsonable
-from mckibben.tool.geometry import StackLoad, Tool, ToolGeometry
+from mckibben.tool.geometry import DEFAULT_MUSCLE, StackLoad, Tool, ToolGeometry
 from mckibben.tool.paths import TipPath
 from mckibben.tool.workspace import Workspace
 from mckibben.units import parse_values, quantity
@@ -115,7 +115,7 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
         s_ref = dflt["reference_length"]
         m: MiniatureMuscle | LawMuscle = fm
     else:
-        m = get_muscle("mpam117" if muscle is None else muscle) if isinstance(muscle, (str, type(None))) else muscle
+        m = get_muscle(DEFAULT_MUSCLE if muscle is None else muscle) if isinstance(muscle, (str, type(None))) else muscle
         pmax = float(P_MAX_DEFAULT) if pmax is None else pmax
         geo = ToolGeometry(pitch_radius=radius, n_discs=n_discs)
         dflt, s_ref = {"preload": "1N", "bending_stiffness": "2e-4Nm2", "axial_stiffness": "0N"}, None

@@ -27,6 +27,9 @@ from mckibben.errors import InputError
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
 
+#: The muscle of the paper's tool (§V) when none is named. [-]
+DEFAULT_MUSCLE = "mpam117"
+
 PAPER = "000_909f662a44080c85.txt"
 
 #: Angular positions of muscles 1, 2, 3, counter-clockwise from the base x axis. [rad]

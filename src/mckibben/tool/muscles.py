@@ -17,11 +17,20 @@ import numpy as np
 from mckibben.errors import InputError
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureGeometry
-from mckibben.tool.geometry import ToolGeometry
+from mckibben.tool.geometry import DEFAULT_MUSCLE, StackLoad, ToolGeometry
 
-#: Dimensionless bending stiffness of the paper's tool with its defaults, Kb/(F0·r·L0):
-#: 2e-4 N·m² / (1 N · 4 mm · 117 mm). A file's tool keeps it (see :func:`file_load`). [-]
-PAPER_BENDING_NUMBER = 2e-4 / (1.0 * 4e-3 * 0.117)
+def paper_bending_number() -> float:
+    """Dimensionless bending stiffness of the paper's tool with its defaults, Kb/(F0·r·L0). [-]
+
+    From the defaults themselves (:class:`StackLoad`, :class:`ToolGeometry`, the
+    :data:`DEFAULT_MUSCLE`): 2e-4 N·m² / (1 N · 4 mm · 117 mm) = 0.427. A file's tool keeps it
+    (see :func:`file_load`).
+    """
+    from mckibben.datasets import get_muscle
+
+    load = StackLoad()
+    return load.bending_stiffness / (load.preload * ToolGeometry().pitch_radius
+                                     * get_muscle(DEFAULT_MUSCLE).nominal_length)
 
 
 def file_muscle(muscle_file, direction: str = "inflate") -> LawMuscle:
@@ -122,7 +131,7 @@ def file_load(muscle: LawMuscle, pitch_radius: float, p_max: float) -> dict:
       s_ref to the law's pull at ``p_max`` and the shortest fitted length,
       ``Ka = 3·(F(p_max, l_short) − F0)·s_ref/(s_ref − l_short)``;
     - ``bending_stiffness`` Kb: as stiff, relative to the muscles, as the paper's tool with its
-      defaults, ``Kb = 0.43·F̄·r·L0`` (:data:`PAPER_BENDING_NUMBER`), F̄ the mean of the
+      defaults, ``Kb = 0.43·F̄·r·L0`` (:func:`paper_bending_number`), F̄ the mean of the
       straight tool's tensions at both ends of the stroke.
 
     Parameters
@@ -144,5 +153,5 @@ def file_load(muscle: LawMuscle, pitch_radius: float, p_max: float) -> dict:
     f_long = max(float(muscle.force(muscle.pressure_range[0], l_long)), 0.0)
     f_short = max(float(muscle.force(p_max, l_short)), f_long)
     ka = 3.0 * (f_short - f_long) * l_long / (l_long - l_short) if l_long > l_short else 0.0
-    kb = PAPER_BENDING_NUMBER * 0.5 * (f_long + f_short) * pitch_radius * muscle.nominal_length
+    kb = paper_bending_number() * 0.5 * (f_long + f_short) * pitch_radius * muscle.nominal_length
     return {"preload": f_long, "bending_stiffness": kb, "axial_stiffness": ka, "reference_length": l_long}
