@@ -18,17 +18,14 @@ Subpackages: :mod:`~mckibben.models`, :mod:`~mckibben.data`, :mod:`~mckibben.dat
 first use, so ``import mckibben`` stays quick.
 """
 
-from importlib.metadata import PackageNotFoundError, version
-from pathlib import Path
+from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
+from importlib.metadata import version as _version
 
-from mckibben._numba_cache import drop_stale
 from mckibben.errors import InputError
 
-drop_stale(Path(__file__).parent)
-
 try:
-    __version__ = version("mckibben")
-except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = _version("mckibben")
+except _PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+unknown"
 
 #: Top-level name -> (module, attribute): imported on first use (PEP 562).

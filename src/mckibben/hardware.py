@@ -23,7 +23,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from mckibben._jit import njit
 
 #: Compiled limit of the maximum pressure, the transducer's full scale (``MCK_P_MAX_LIMIT``). [Pa]
 P_MAX_LIMIT = 1_000_000
@@ -46,7 +47,7 @@ TS_US_MIN, TS_US_MAX = 100, 10_000
 ENCODER_RESOLUTION = 0.17e-3
 
 
-@njit(cache=True)
+@njit
 def adc_count(pressure, pa_per_count, adc_zero):
     """The ADC count of a gauge pressure: nearest count, halves up, saturated to 0..ADC_MAX.
 
@@ -72,7 +73,7 @@ def adc_count(pressure, pa_per_count, adc_zero):
     return int(x)
 
 
-@njit(cache=True)
+@njit
 def adc_pressure(count, pa_per_count, adc_zero):
     """The gauge pressure an ADC count reads as. [Pa]
 
@@ -88,7 +89,7 @@ def adc_pressure(count, pa_per_count, adc_zero):
     return (count - adc_zero) * pa_per_count
 
 
-@njit(cache=True)
+@njit
 def encoder_count(length, nominal_length, resolution):
     """The encoder count of a muscle length: its shortening in counts, nearest, halves up.
 
@@ -109,7 +110,7 @@ def encoder_count(length, nominal_length, resolution):
     return int(math.floor((nominal_length - length) / resolution + 0.5))
 
 
-@njit(cache=True)
+@njit
 def encoder_length(count, nominal_length, resolution):
     """The muscle length an encoder count reads as. [m]
 
@@ -125,13 +126,13 @@ def encoder_length(count, nominal_length, resolution):
     return nominal_length - count * resolution
 
 
-@njit(cache=True)
+@njit
 def _adc_array(p, ppc, zero, out):
     for i in range(p.size):
         out[i] = adc_count(p[i], ppc[i], zero[i])
 
 
-@njit(cache=True)
+@njit
 def _enc_array(length, l0, res, out):
     for i in range(length.size):
         out[i] = encoder_count(length[i], l0[i], res[i])

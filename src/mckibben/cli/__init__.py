@@ -30,7 +30,8 @@ _NO_ARGS = tuple({click.exceptions.NoArgsIsHelpError, getattr(_tclick, "NoArgsIs
 _EXITS = (click.exceptions.Exit, typer.Exit)
 _ABORTS = (click.Abort, typer.Abort)
 
-from mckibben.errors import InputError  # noqa: E402  (after the Click/Typer compatibility shims)
+from mckibben import compile_notice  # noqa: E402  (after the Click/Typer compatibility shims)
+from mckibben.errors import InputError  # noqa: E402
 
 app = typer.Typer(
     name="mckibben",
@@ -224,5 +225,6 @@ def _exit(code: int) -> int:
 
 
 def run() -> None:
-    """The console script: ``sys.exit(main())``."""
+    """The console script: ``sys.exit(main())``, saying on stderr when kernels are compiled for the first time."""
+    compile_notice.enabled = True
     sys.exit(main())

@@ -19,17 +19,21 @@ the bleed valve (``docs/controller.md``).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-import control
 import numpy as np
 
 from mckibben.control import core
 from mckibben.control.core import MODE_OPEN_LOOP, MODE_PID, MODE_SMC, CoreController, CoreParams, core_spec
 from mckibben.errors import InputError
 from mckibben.hardware import adc_from_pressure  # noqa: F401  (re-exported: the one sensor model)
+
+if TYPE_CHECKING:  # python-control costs ~0.8 s at import: imported where an LTI object is built
+    import control
 
 
 # --- design --------------------------------------------------------------------------------------
@@ -101,6 +105,8 @@ class FirstOrderModel:
         pade_order : int, default 2
             Padé order (0: no dead time). [-]
         """
+        import control  # deferred: python-control costs ~0.8 s at import (only LTI objects need it)
+
         sys = control.tf([self.gain], [self.tau, 1.0])
         # a dead time that is zero to round-off (a fit's 1e-26 s) would put Padé poles at 1e26/s
         if pade_order > 0 and self.dead_time > 1e-9 * self.tau:
@@ -190,6 +196,8 @@ def design_pid(model: FirstOrderModel, closed_loop_tau: float, *, derivative: bo
     tf = max(td / 10.0, ts)
     if not verdict:
         return PIDDesign(kp, ki, kd, tf, lam, math.nan, math.nan, {})
+    import control  # deferred: python-control costs ~0.8 s at import (only LTI objects need it)
+
     s = control.tf("s")
     c = kp + ki / s + kd * s / (tf * s + 1)
     loop = c * model.transfer_function(2)
@@ -203,6 +211,8 @@ def design_pid(model: FirstOrderModel, closed_loop_tau: float, *, derivative: bo
 
 
 def _tf_time_constant(sys, tgrid) -> float:
+    import control  # deferred: python-control costs ~0.8 s at import (only LTI objects need it)
+
     from mckibben.control.metrics import ONE_MINUS_INV_E, crossing_time
 
     t, y = control.step_response(sys, tgrid)

@@ -30,8 +30,8 @@ from dataclasses import dataclass, fields
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from mckibben._jit import njit
 from mckibben import hardware as HW
 from mckibben.errors import InputError, unknown_name
 from mckibben.hardware import ADC_MAX
@@ -144,18 +144,18 @@ _TANH = tanh_table()
 # --- integer building blocks (mirrors of controller.c) ----------------------------------------
 
 
-@njit(cache=True)
+@njit
 def _wrap32(v):
     return ((v + 2147483648) & 0xFFFFFFFF) - 2147483648
 
 
-@njit(cache=True)
+@njit
 def mulq16(x, c):
     """floor(x c / 2^16) wrapped to int32, as ``mck_mulq16`` (c >= 0). [-]"""
     return _wrap32((x * c) >> 16)
 
 
-@njit(cache=True)
+@njit
 def tanh_q15(x_q12):
     """tanh of x (Q12, 0 <= x < 8) in Q15 by linear interpolation in the table. [-]"""
     i = x_q12 >> 8
@@ -165,7 +165,7 @@ def tanh_q15(x_q12):
     return a + (((b - a) * f) >> 8)
 
 
-@njit(cache=True)
+@njit
 def _clamp(v, lo, hi):
     if v < lo:
         return lo
@@ -177,7 +177,7 @@ def _clamp(v, lo, hi):
 _TERM_LIM = 1 << 24
 
 
-@njit(cache=True)
+@njit
 def smc_law_q8(ip, p, dpref, e, isum):
     """Sliding-mode command for given state, without side effects.
 
@@ -218,7 +218,7 @@ def smc_law_q8(ip, p, dpref, e, isum):
     return 0, s
 
 
-@njit(cache=True)
+@njit
 def _pid_law_q8(st, ip, e):
     st[IS_DQ] += mulq16((e - st[IS_E_PREV]) * 16 - st[IS_DQ], ip[IP_ALPHA])
     st[IS_E_PREV] = e
@@ -233,7 +233,7 @@ def _pid_law_q8(st, ip, e):
     return u
 
 
-@njit(cache=True)
+@njit
 def _response_expected(st, ip, seen):
     # controller.c response_expected(): must the reading have moved under the last command?
     if ip[IP_GS_PA] == 0:
@@ -247,7 +247,7 @@ def _response_expected(st, ip, seen):
     return (st[IS_LAST_INLET] - ip[IP_RESP_U]) * ip[IP_GS_PA] >= 2 * p + RESP_P_MIN
 
 
-@njit(cache=True)
+@njit
 def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
     """One step of one channel; ``shared`` is the istate that holds the supply estimate.
 
@@ -336,7 +336,7 @@ def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
     return inlet, bleed, faults
 
 
-@njit(cache=True)
+@njit
 def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
     """One control step of the firmware core (``mck_ctrl_step``), bit-exact.
 

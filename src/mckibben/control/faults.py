@@ -17,8 +17,8 @@ kinds are the ones the supervisor must catch (``docs/controller.md``):
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from mckibben._jit import njit
 from mckibben.control.core import IS_SURFACE, N_ISTATE, core_kernel, pack_params
 from mckibben.errors import InputError
 
@@ -29,7 +29,7 @@ IS_K, IS_HELD = N_ISTATE, N_ISTATE + 1
 FP_KIND, FP_ONSET, FP_VALUE = 0, 1, 2
 
 
-@njit(cache=True)
+@njit
 def instrumented_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
     """The core kernel behind an optional sensor fault, recording S of every step.
 

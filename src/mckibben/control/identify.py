@@ -20,15 +20,19 @@ an input column the input step is taken as 1.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import math
 from dataclasses import dataclass, field
 
-import control
 import numpy as np
 from scipy import optimize, stats
 
 from mckibben.errors import InputError
 from mckibben.results import Result
+
+if TYPE_CHECKING:  # python-control costs ~0.8 s at import: imported where an LTI object is built
+    import control
 
 
 def fopdt_response(t, gain: float, tau: float, dead_time: float, y0: float = 0.0, t_step: float = 0.0,
@@ -189,6 +193,8 @@ class StepFit:
         pade_order : int, default 0
             Order of the Padé approximation of the dead time; 0 leaves the dead time out. [-]
         """
+        import control  # deferred: python-control costs ~0.8 s at import (only LTI objects need it)
+
         p = self.params
         if self.order == 1:
             sys = control.tf([p["gain"]], [p["tau_s"], 1.0])

@@ -21,8 +21,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
+from mckibben._jit import njit
 from mckibben.control.core import N_ISTATE, core_kernel
 from mckibben.errors import InputError
 from mckibben.hardware import ENCODER_RESOLUTION
@@ -206,7 +206,7 @@ FS_INT, FS_CORR = 0, 1
 IS_STEP = N_ISTATE
 
 
-@njit(cache=True)
+@njit
 def length_loop_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
     """Feed-forward pressure plus a PI on the encoder's length error, then the core.
 

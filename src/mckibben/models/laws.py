@@ -23,8 +23,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
+from mckibben._jit import njit
 from mckibben.errors import InputError
 
 #: Rows of the parameter array every law reads from (the largest law's need).
@@ -38,7 +38,7 @@ MPA = 1e6  # Pa per MPa
 TL_R0, TL_A, TL_B, TL_K, TL_PTH, TL_IL0 = range(6)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def tondu_lopez(pressure, length, th, o, w):
     """Tondu–Lopez force with a pressure threshold. [N]
 
@@ -57,7 +57,7 @@ def tondu_lopez(pressure, length, th, o, w):
 CH_B, CH_C, CH_D0, CH_T = range(4)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def chou_hannaford(pressure, length, th, o, w):
     """Ideal thin-walled muscle: F = (π·D0²·P/4)·(3cos²θ − 1), cos θ = l/b. [N]
 
@@ -67,7 +67,7 @@ def chou_hannaford(pressure, length, th, o, w):
     return th[o + (CH_C) * w] * pressure * (3.0 * c * c - 1.0)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def wall_corrected(pressure, length, th, o, w):
     """Chou–Hannaford with the wall term: + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]. [N]
 
@@ -89,12 +89,12 @@ BM_LOADS = 4
 BM_COEF = BM_LOADS + MAP_MAX_LOADS
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def _cubic(th, row, o, w, x):
     return ((th[o + (row) * w] * x + th[o + (row + 1) * w]) * x + th[o + (row + 2) * w]) * x + th[o + (row + 3) * w]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def braid_map(pressure, length, th, o, w):
     """The load that holds the muscle at a length: eq. (2) for cos θ, eq. (3) linear in load. [N]
 
@@ -123,7 +123,7 @@ def braid_map(pressure, length, th, o, w):
 SP_H2, SP_H1, SP_H0, SP_SPLIT, SP_LOW, SP_HIGH = 0, 1, 2, 3, 4, 8
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def spring(pressure, length, th, o, w):
     """Spring model: stretch Ls = l − Lu(P), F = (c3·P + c2·P·Ls + c1·Ls + c0)·Ls, 0 when slack. [N]
 
@@ -170,10 +170,33 @@ LAW_NAMES = tuple(LAWS)
 LAW_INDEX = {name: i for i, name in enumerate(LAW_NAMES)}
 
 
-@njit(cache=True, error_model="numpy")
-def _eval(kernel, p, length, th, col, w, out):
+_TL, _CH, _WC, _BM, _SP = range(5)
+assert LAW_NAMES == ("tondu-lopez", "chou-hannaford", "wall-corrected", "braid-map", "spring"), \
+    "a new law needs its branch in law_value"
+
+
+@njit(error_model="numpy", inline="always")
+def law_value(law, pressure, length, th, o, w):
+    """The registered law of index ``law`` (in :data:`LAW_NAMES`) at one gauge pressure [Pa] and length [m]. [N]
+
+    θ at ``th[o + r·w]``. The law is picked by an integer inside compiled code, so no compiled
+    function takes a kernel as an argument (such a function cannot be cached: ``mckibben._jit``).
+    """
+    if law == _TL:
+        return tondu_lopez(pressure, length, th, o, w)
+    if law == _CH:
+        return chou_hannaford(pressure, length, th, o, w)
+    if law == _WC:
+        return wall_corrected(pressure, length, th, o, w)
+    if law == _BM:
+        return braid_map(pressure, length, th, o, w)
+    return spring(pressure, length, th, o, w)
+
+
+@njit(error_model="numpy")
+def _eval(law, p, length, th, col, w, out):
     for i in range(p.size):
-        out[i] = kernel(p[i], length[i], th, col[i], w)
+        out[i] = law_value(law, p[i], length[i], th, col[i], w)
 
 
 def evaluate(name: str, pressure, length, theta) -> np.ndarray:
@@ -205,10 +228,12 @@ def evaluate(name: str, pressure, length, theta) -> np.ndarray:
     else:
         idx = np.zeros(p.shape, dtype=np.int64)
         th2 = np.ascontiguousarray(th[:, None])
-    pf = np.ascontiguousarray(p, dtype=float).ravel()
+    # copies, not views: a broadcast view of one element passes for contiguous, and NumPy warns
+    # (FutureWarning) when the compiled call reads the writeable flag of a broadcast array
+    pf = np.array(p, dtype=float, order="C").ravel()
     out = np.empty(pf.size)
-    _eval(LAWS[name].kernel, pf, np.ascontiguousarray(ell, dtype=float).ravel(), th2.ravel(),
-          np.ascontiguousarray(idx, dtype=np.int64).ravel(), th2.shape[1], out)
+    _eval(LAW_INDEX[name], pf, np.array(ell, dtype=float, order="C").ravel(), th2.ravel(),
+          np.array(idx, dtype=np.int64, order="C").ravel(), th2.shape[1], out)
     return out.reshape(p.shape)
 
 

@@ -45,8 +45,6 @@ def open_loop_step(plant: PP.PlantParams | None = None, valve: int = CALIBRATION
         ``time_constant_s`` (63 % of the final rise), ``rise_time_s`` (10–90 %),
         ``overshoot_pct``, ``final_pressure_Pa``, ``settling_time_s`` (2 %).
     """
-    import control
-
     res = simulate(plant, duration, inlet=valve, ts=ts, substeps=substeps, n=1)
     t, y = res.t, res.pressure[0]
     final = float(np.mean(y[-max(1, len(y) // 20):]))
@@ -58,14 +56,48 @@ def open_loop_step(plant: PP.PlantParams | None = None, valve: int = CALIBRATION
     k63 = int(np.argmax(y >= y0 + 0.632 * rise))
     # linear interpolation between samples for the 63 % crossing
     tau = float(t[k63 - 1] + (y0 + 0.632 * rise - y[k63 - 1]) / (y[k63] - y[k63 - 1]) * (t[k63] - t[k63 - 1]))
-    info = control.step_info(y - y0, T=t, yfinal=rise)
+    rise_time, overshoot, settling_time = step_info(y - y0, t, rise)
     return res, {
         "time_constant_s": tau,
-        "rise_time_s": float(info["RiseTime"]),
-        "overshoot_pct": float(info["Overshoot"]),
-        "settling_time_s": float(info["SettlingTime"]),
+        "rise_time_s": rise_time,
+        "overshoot_pct": overshoot,
+        "settling_time_s": settling_time,
         "final_pressure_Pa": final,
     }
+
+
+def step_info(y: np.ndarray, t: np.ndarray, final: float) -> tuple[float, float, float]:
+    """Rise time (10–90 %), overshoot and 2 % settling time of a sampled step response of a positive final value.
+
+    The definitions and arithmetic of python-control's ``step_info`` for time-response data
+    (``RiseTimeLimits=(0.1, 0.9)``, ``SettlingTimeThreshold=0.02``), written out so that an
+    open-loop run does not import python-control (0.8 s); ``tests/test_plant.py`` holds the two
+    equal on random responses.
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        The response, starting from 0. [any unit]
+    t : numpy.ndarray
+        Sample times. [s]
+    final : float
+        The final value, > 0. [unit of y]
+
+    Returns
+    -------
+    (float, float, float)
+        Rise time [s], overshoot [%] (0 when none), settling time [s] (NaN if never settled).
+    """
+    y, t = np.asarray(y, dtype=float), np.asarray(t, dtype=float)
+    lower = np.nonzero(y - 0.1 * final >= 0)[0][0]
+    upper = np.nonzero(y - 0.9 * final >= 0)[0][0]
+    rise_time = t[upper] - t[lower]
+    outside = np.nonzero(np.abs(y / final - 1) >= 0.02)[0]
+    settled = 0 if outside.size == 0 else outside[-1] + 1
+    settling_time = t[settled] if settled < len(t) else np.nan
+    dy_os = np.abs(y.max()) - np.abs(final)
+    overshoot = np.abs(100.0 * dy_os / final) if dy_os > 0 else 0
+    return float(rise_time), float(overshoot), float(settling_time)
 
 
 def calibration(plant: PP.PlantParams | None = None) -> dict:

@@ -15,8 +15,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
+from mckibben._jit import njit
 from mckibben.errors import InputError
 from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
@@ -27,7 +27,7 @@ STATES = ("pressure_Pa", "temperature_K", "inlet_opening", "bleed_opening", "len
 _K1 = ph.st_row(ph.ST_K1, 0)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def _f(bk, law, x, xin_t, out):
     for r in range(6):
         bk[ph.Z_P + r * ph.W] = x[r]

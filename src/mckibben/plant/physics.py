@@ -50,8 +50,8 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
 
+from mckibben._jit import njit
 from mckibben.models import laws as LW
 from mckibben.plant import params as P
 
@@ -141,7 +141,7 @@ _TL, _CH, _WC, _BM, _SP = (LW.LAW_INDEX[k] for k in ("tondu-lopez", "chou-hannaf
 assert len(LW.LAW_NAMES) == 5, "a new law in mckibben.models.laws needs its branch in law_force and law_value"
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def law_force(law, n, bk):
     """The registered law ``law`` (index in :data:`~mckibben.models.laws.LAW_NAMES`) for lanes 0..n-1.
 
@@ -165,24 +165,11 @@ def law_force(law, n, bk):
             bk[Y_FL + j] = LW.spring(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def law_value(law, pressure, length, th, o, w):
-    """The registered law ``law`` at one gauge pressure [Pa] and length [m] (θ at ``th[o + r·w]``). [N]
-
-    The same kernels as :func:`law_force`, one point at a time (the static start's bisection).
-    """
-    if law == _TL:
-        return LW.tondu_lopez(pressure, length, th, o, w)
-    if law == _CH:
-        return LW.chou_hannaford(pressure, length, th, o, w)
-    if law == _WC:
-        return LW.wall_corrected(pressure, length, th, o, w)
-    if law == _BM:
-        return LW.braid_map(pressure, length, th, o, w)
-    return LW.spring(pressure, length, th, o, w)
+#: One point of a registered law, picked by its index (the static start's bisection): the models' own.
+law_value = LW.law_value
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def flow_function(r, b, inv_1mb, phi_lam):
     """ISO 6358 flow function φ of the pressure ratio r = p_down/p_up ≤ 1. [-]
 
@@ -195,7 +182,7 @@ def flow_function(r, b, inv_1mb, phi_lam):
     return 1.0 if r <= b else phi
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def iso6358_flow(c, p1, t1, p2, t2, b):
     """Signed mass flow from p1 to p2 through sonic conductance c (ISO 6358). [kg/s]
 
@@ -212,7 +199,7 @@ def iso6358_flow(c, p1, t1, p2, t2, b):
     return -q if rev else q
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def valve_target(pwm, drv, db):
     """Valve opening commanded by a PWM count through the driver and dead band. [-]"""
     current = pwm / 255.0 * drv
@@ -220,7 +207,7 @@ def valve_target(pwm, drv, db):
     return (current - db) / (1.0 - db) if current > db else 0.0
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def volume(length, bk, j):
     """Chamber volume and its derivative in length at a length: (V [m³], dV/dl [m²])."""
     ik = bk[X_INV_K1LS + j]
@@ -239,7 +226,7 @@ def volume(length, bk, j):
             0.25 * math.pi * (2.0 * d * dd * length + d * d))
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def clamp_length(n, bk, k):
     """Gauge pressure and the length the force law sees (inside the end stops) of stage k, per lane."""
     zp = OFF_ST + (k * NS + S_P) * W
@@ -252,14 +239,14 @@ def clamp_length(n, bk, k):
         bk[Y_PG + j] = bk[zp + j] - P_ATM
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def muscle_force(fl, length, bk, j):
     """Pulling force from the law's value ``fl``: never pushing, plus the tube beyond its rest length. [N]"""
     stretch = length - bk[X_L0 + j]
     return (fl if fl > 0.0 else 0.0) + bk[X_KP + j] * (stretch if stretch > 0.0 else 0.0)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def rhs(n, bk, k, dk, law):
     """Time derivatives of stage ``k``'s states into stage ``dk`` (friction row held: see :func:`rk4_step`).
 
@@ -328,7 +315,7 @@ def rhs(n, bk, k, dk, law):
 NARROW = 8
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def _axpy_rows(bk, dst, src, d, h, n):
     """Rows ``dst`` ← rows ``src`` + h·rows ``d``, for every state row, lanes 0..n−1 (or all W).
 
@@ -348,13 +335,13 @@ def _axpy_rows(bk, dst, src, d, h, n):
                 bk[dst + r * W + j] = bk[src + r * W + j] + h * bk[d + r * W + j]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def _stage(n, bk, h, dk):
     """The stage state: state + h·(slope ``dk``)."""
     _axpy_rows(bk, OFF_ST + ST_TMP * NS * W, OFF_ST + ST_S * NS * W, OFF_ST + dk * NS * W, h, n)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def _after_step(bk, j, dt):
     """End stops and the Dahl friction update of lane j after a step (see :func:`rk4_step`)."""
     x = bk[Z_LEN + j]
@@ -377,7 +364,7 @@ def _after_step(bk, j, dt):
     bk[Z_FRIC + j] = z * bk[X_MOB + j]
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract"})
+@njit(error_model="numpy", fastmath={"contract"})
 def rk4_step(n, bk, law, dt):
     """One step of size dt for every lane of the block array ``bk``, in place: classical
     Runge–Kutta, then the end stops and the friction.
@@ -424,14 +411,14 @@ def rk4_step(n, bk, law, dt):
             _after_step(bk, j, dt)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def advance(n, bk, law, dt, substeps):
     """``substeps`` RK4 steps of dt for every lane (valve targets held in the scratch rows)."""
     for _ in range(substeps):
         rk4_step(n, bk, law, dt)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def outputs(n, bk, law):
     """Muscle force [N] and air mass [kg] of the lanes now, into scratch rows ``SC_FORCE``, ``SC_MASS``."""
     clamp_length(n, bk, ST_S)
@@ -442,7 +429,7 @@ def outputs(n, bk, law):
         bk[Y_MASS + j] = bk[Z_P + j] * vol / (R_AIR * bk[Z_T + j])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def load_block(b0, nl, prm, theta, s0, bk):
     """Copy instances b0..b0+nl-1 (rows of ``prm`` (N, NP), columns of ``theta`` (NTH, N), rows of
     ``s0`` (N, NS)) into the block array ``bk``."""

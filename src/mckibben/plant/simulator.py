@@ -4,7 +4,7 @@ One call simulates N parameter sets (:class:`~mckibben.plant.params.PlantParams`
 length-N fields) over the same or per-instance references. The hot loop is one Numba function
 (compiled once, cached on disk): instances in blocks of :data:`~mckibben.plant.physics.W` lanes
 (structure of arrays, lanes innermost so the compiler vectorizes), blocks spread over every core
-with ``prange``. Each instance is computed by the same arithmetic whatever its block or thread, so
+on a thread pool (the runner releases the GIL). Each instance is computed by the same arithmetic whatever its block or thread, so
 results do not depend on the number of threads. Controllers come in three forms:
 
 - a *kernel spec* ``(kernel, istate0, iparams, fstate0, fparams)`` — a Numba ``@njit`` function
@@ -25,21 +25,23 @@ from __future__ import annotations
 import hashlib
 import math
 import threading
+import types
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cached_property
 
+import numba
 import numpy as np
-from numba import njit
 
+from mckibben import _jit
 from mckibben import hardware as HW
+from mckibben._jit import njit
 from mckibben.errors import InputError, UnreachableError
 from mckibben.models import laws as LW
+from mckibben.plant import _runner
 from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
-
-FLAG_NONFINITE = 1  #: the state became NaN or infinite (simulation of that instance stopped)
-FLAG_ABOVE_SUPPLY = 2  #: the chamber rose above the supply pressure by more than 1 kPa
-FLAG_END_STOP = 4  #: the length reached an end stop of the braid (locking or straight) during the run
+from mckibben.plant._runner import FLAG_ABOVE_SUPPLY, FLAG_END_STOP, FLAG_NONFINITE  # noqa: F401 (public here)
 
 #: The recorded series of a :class:`SimResult`, in the simulator's order; ``simulate(record=...)`` picks some.
 SERIES = ("pressure", "pressure_measured", "length", "force", "air_mass", "temperature", "inlet", "bleed", "faults",
@@ -49,11 +51,6 @@ _SERIES_SET = frozenset(SERIES)
 _INT_SERIES = frozenset(("inlet", "bleed", "faults", "adc", "encoder"))
 
 _C = PP.Col
-C_PPC = int(_C.pa_per_count)
-C_ADCZ = int(_C.adc_zero)
-C_ENC = int(_C.encoder_resolution)
-C_NOISE = int(_C.pressure_noise)
-C_SEED = int(_C.seed)
 C_L0, C_KP, C_LF, C_KS, C_LFREE = (int(c) for c in (_C.nominal_length, _C.passive_stiffness, _C.load_force,
                                                    _C.spring_rate, _C.spring_free_length))
 NP, NTH, NS, W = PP.NP, LW.NTH, ph.NS, ph.W
@@ -144,168 +141,37 @@ class SimResult:
         return pd.DataFrame(data)
 
 
-@njit(cache=True, error_model="numpy")
-def _splitmix(state):
-    z = (state + np.uint64(0x9E3779B97F4A7C15)) & np.uint64(0xFFFFFFFFFFFFFFFF)
-    out = z
-    out = ((out ^ (out >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)) & np.uint64(0xFFFFFFFFFFFFFFFF)
-    out = ((out ^ (out >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)) & np.uint64(0xFFFFFFFFFFFFFFFF)
-    out = out ^ (out >> np.uint64(31))
-    return z, out
+def _runner_of(kernel):
+    """The compiled runner module bound to a controller kernel (:mod:`mckibben.plant._runner`, generated once)."""
+    if kernel is None:
+        return _runner
+    if not (isinstance(kernel, numba.core.registry.CPUDispatcher) or numba.config.DISABLE_JIT and callable(kernel)):
+        raise InputError(f"controller kernel: a Numba @njit function, not a {type(kernel).__name__}")
+    return _jit.module_for(_runner, "kernel", kernel)
 
 
-@njit(cache=True, error_model="numpy")
-def _gauss(rng, j):
-    """Standard normal deviate from lane j's splitmix64 stream (Box–Muller)."""
-    rng[j], a = _splitmix(rng[j])
-    rng[j], b = _splitmix(rng[j])
-    u1 = ((a >> np.uint64(11)) + np.uint64(1)) * (1.0 / 9007199254740993.0)
-    u2 = (b >> np.uint64(11)) * (1.0 / 9007199254740992.0)
-    return math.sqrt(-2.0 * math.log(u1)) * math.cos(2.0 * math.pi * u2)
-
-
-def _x(col) -> int:
-    return ph.OFF_P + int(col) * W
-
-
-X_PPC, X_ADCZ, X_ENC, X_NOISE, X_SEED = (_x(c) for c in (_C.pa_per_count, _C.adc_zero, _C.encoder_resolution,
-                                                        _C.pressure_noise, _C.seed))
-
-
-@njit(cache=True, error_model="numpy")
-def _run_block(kernel, use_kernel, b0, nl, istate, iparams, fstate, fparams, schedule, prm, theta, law, s0, ref,
-               n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault, out_adc,
-               out_enc, flags, rec):
-    """Simulate instances b0..b0+nl-1 (one block) over every control period.
-
-    ``rec`` holds one mask per output series (:data:`SERIES` order): −1 records period k in column k,
-    0 overwrites column 0 of a one-column placeholder (the series was not asked for).
-    """
-    bk = np.zeros(ph.BLOCK)
-    ph.load_block(b0, nl, prm, theta, s0, bk)
-    alive = np.ones(W, dtype=np.bool_)
-    rng = np.zeros(W, dtype=np.uint64)
-    for j in range(nl):
-        seed = np.uint64(int(bk[X_SEED + j]) & 0x7FFFFFFFFFFFFFFF)
-        rng[j] = seed * np.uint64(2654435761) + np.uint64(b0 + j + 1)
-    per_instance_ref = ref.shape[0] > 1
-    per_instance_sched = schedule.shape[0] > 1
-    dt = ts / substeps
-    need_outputs = (rec[3] | rec[4]) != 0  # force or air mass recorded
-    for k in range(n_steps):
-        k0, k1, k2, k3, k4, k5 = k & rec[0], k & rec[1], k & rec[2], k & rec[3], k & rec[4], k & rec[5]
-        k6, k7, k8, k9, k10 = k & rec[6], k & rec[7], k & rec[8], k & rec[9], k & rec[10]
-        if need_outputs:
-            ph.outputs(nl, bk, law)
-        for j in range(nl):
-            i = b0 + j
-            if not alive[j]:
-                out_p[i, k0] = np.nan
-                out_pm[i, k1] = np.nan
-                out_l[i, k2] = np.nan
-                out_f[i, k3] = np.nan
-                out_m[i, k4] = np.nan
-                out_t[i, k5] = np.nan
-                out_in[i, k6] = 0
-                out_bl[i, k7] = 0
-                out_fault[i, k8] = 0
-                out_adc[i, k9] = 0
-                out_enc[i, k10] = 0
-                bk[ph.Y_XIN + j] = 0.0
-                bk[ph.Y_XBL + j] = 0.0
-                continue
-            pg = bk[ph.Z_P + j] - ph.P_ATM
-            length = bk[ph.Z_LEN + j]
-            meas = pg
-            if bk[X_NOISE + j] > 0.0:
-                meas += bk[X_NOISE + j] * _gauss(rng, j)
-            adc = HW.adc_count(meas, bk[X_PPC + j], bk[X_ADCZ + j])
-            enc = HW.encoder_count(length, bk[ph.X_L0 + j], bk[X_ENC + j])
-            r = ref[i if per_instance_ref else 0, k]
-            if use_kernel:
-                u_in, u_bl, fault = kernel(istate[i], iparams[i], fstate[i], fparams[i], adc, enc, True, r)
-            else:
-                row = i if per_instance_sched else 0
-                u_in = schedule[row, k, 0]
-                u_bl = schedule[row, k, 1]
-                fault = 0
-            out_p[i, k0] = pg
-            out_pm[i, k1] = HW.adc_pressure(adc, bk[X_PPC + j], bk[X_ADCZ + j])
-            out_l[i, k2] = length
-            out_f[i, k3] = bk[ph.Y_FORCE + j]
-            out_m[i, k4] = bk[ph.Y_MASS + j]
-            out_t[i, k5] = bk[ph.Z_T + j]
-            out_in[i, k6] = u_in
-            out_bl[i, k7] = u_bl
-            out_fault[i, k8] = fault
-            out_adc[i, k9] = adc
-            out_enc[i, k10] = enc
-            bk[ph.Y_XIN + j] = ph.valve_target(u_in, bk[ph.X_DRV + j], bk[ph.X_DB + j])
-            bk[ph.Y_XBL + j] = ph.valve_target(u_bl, bk[ph.X_DRV + j], bk[ph.X_DB + j])
-        ph.advance(nl, bk, law, dt, substeps)
-        for j in range(nl):
-            if not alive[j]:
-                continue
-            i = b0 + j
-            pa = bk[ph.Z_P + j]
-            ta = bk[ph.Z_T + j]
-            la = bk[ph.Z_LEN + j]
-            if not (math.isfinite(pa) and math.isfinite(ta) and math.isfinite(la) and pa > 0.0 and ta > 0.0):
-                flags[i] |= FLAG_NONFINITE
-                alive[j] = False
-                for r in range(NS):  # a finite lane again, so the block's arithmetic stays ordinary
-                    bk[ph.Z_P + r * W + j] = s0[i, r]
-                continue
-            if pa - ph.P_ATM > bk[ph.X_SUPPLY + j] + 1e3:
-                flags[i] |= FLAG_ABOVE_SUPPLY
-            if la >= bk[ph.X_LMAX + j] or la <= bk[ph.X_LMIN + j]:
-                flags[i] |= FLAG_END_STOP
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _run_blocks(kernel, use_kernel, blk0, blk1, istate, iparams, fstate, fparams, schedule, prm, theta, law, s0, ref,
-                n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault, out_adc,
-                out_enc, flags, rec):
-    """Blocks blk0..blk1-1, one after the other (one thread's share); the GIL is released."""
-    n = prm.shape[0]
-    for b in range(blk0, blk1):
-        b0 = b * W
-        _run_block(kernel, use_kernel, b0, min(W, n - b0), istate, iparams, fstate, fparams, schedule, prm, theta, law,
-                   s0, ref, n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault,
-                   out_adc, out_enc, flags, rec)
-
-
-def _run(kernel, use_kernel, *args):
+def _run(runner, use_kernel, *args):
     """Every block, spread over ``numba.get_num_threads()`` threads in contiguous shares.
 
     Each instance is computed by the same code whatever its share, so the results do not depend
-    on the number of threads. (Threads over a ``nogil`` function rather than ``prange``: a
-    ``parallel=True`` function taking the controller kernel is compiled again in every process,
-    since a kernel's type never matches Numba's on-disk cache; this costs 3 s less per process.)
+    on the number of threads. (Threads over a ``nogil`` function rather than ``prange``: the
+    runner's blocks are independent and a thread pool needs no parallel compilation.)
     """
-    import numba
-
     n = args[5].shape[0]
     nb = (n + W - 1) // W
     threads = max(1, min(numba.get_num_threads(), nb))
     if threads == 1:
-        _run_blocks(kernel, use_kernel, 0, nb, *args)
+        runner.run_blocks(use_kernel, 0, nb, *args)
         return
-    from concurrent.futures import ThreadPoolExecutor
-
     edges = [nb * k // threads for k in range(threads + 1)]
     with ThreadPoolExecutor(threads) as pool:
-        futures = [pool.submit(_run_blocks, kernel, use_kernel, edges[k], edges[k + 1], *args) for k in range(threads)]
+        futures = [pool.submit(runner.run_blocks, use_kernel, edges[k], edges[k + 1], *args) for k in range(threads)]
         for f in futures:
             f.result()
 
 
-@njit(cache=True, error_model="numpy")
-def _no_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
-    return 0, 0, 0
 
-
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(error_model="numpy", inline="always")
 def _balance(law, prm, th, w, i, pg, length):
     """Muscle pull less load pull of instance i at a length (the integrator's forces, no friction). [N]"""
     f = ph.law_value(law, pg, length, th, i, w)
@@ -315,7 +181,7 @@ def _balance(law, prm, th, w, i, pg, length):
     return fm - (prm[i, C_LF] - prm[i, C_KS] * (length - prm[i, C_LFREE]))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def _bracket_balance(law, prm, th, w, pg, a, b, status):
     """Narrow each instance's bracket [a, b] onto the root of :func:`_balance`, in place; ``status`` as
     :func:`static_equilibrium`'s (0 between the stops, 1 straight stop, 2 locking stop).
@@ -569,7 +435,7 @@ def simulate(
         for name, a in (("istate0", istate), ("iparams", iparams), ("fstate0", fstate), ("fparams", fparams)):
             if a.ndim != 2 or a.shape[0] != n_inst:
                 raise InputError(f"controller {name}: shape {a.shape}, want ({n_inst}, ·)")
-        _run_cached(kernel, True, istate, iparams, fstate, fparams, *common, *out.values(), flags, rec)
+        _run(_runner_of(kernel), True, istate, iparams, fstate, fparams, *common, *out.values(), flags, rec)
         return _result(n_steps, ts, out, ref, n_inst, flags, recorded, istate, fstate)
     dummy_i = np.zeros((n_inst, 1), dtype=np.int64)
     dummy_f = np.zeros((n_inst, 1))
@@ -578,7 +444,7 @@ def simulate(
         return _result(n_steps, ts, out, ref, n_inst, flags, recorded)
     if controller is not None:
         raise InputError("controller: a kernel spec tuple, a Python callable, or None for open loop")
-    _run_cached(_no_kernel, False, dummy_i, dummy_i, dummy_f, dummy_f, *common, *out.values(), flags, rec)
+    _run(_runner, False, dummy_i, dummy_i, dummy_f, dummy_f, *common, *out.values(), flags, rec)
     return _result(n_steps, ts, out, ref, n_inst, flags, recorded)
 
 
@@ -606,24 +472,6 @@ def _prepared(plant: PP.PlantParams, n: int):
     return prm, LW.LAW_INDEX[name], th
 
 
-def _run_cached(kernel, use_kernel, istate, iparams, fstate, fparams, *rest):
-    """Call :func:`_run`, retrying once if Numba fails to *save* the new overload to its cache.
-
-    Numba's on-disk cache cannot re-pickle its index once it holds the type of a kernel compiled
-    by another process ("underlying object has vanished"). The failure is in saving, after the
-    overload was compiled and registered; with two threads the other one may have run its share
-    of the blocks meanwhile, so the retry starts again from copies of everything the run changes
-    (the controllers' state and the flags; the outputs are written whole).
-    """
-    flags = rest[-2]
-    saved = (istate.copy(), fstate.copy(), flags.copy())
-    try:
-        _run(kernel, use_kernel, istate, iparams, fstate, fparams, *rest)
-    except ReferenceError:
-        istate[...], fstate[...], flags[...] = saved
-        _run(kernel, use_kernel, istate, iparams, fstate, fparams, *rest)
-
-
 def _run_python(f, dummy_i, dummy_f, common, out, flags, rec, n_inst, n_steps, ts):
     """Slow path: a Python callable as the controller, called every control period (block by block)."""
     counter = {"k": 0}
@@ -637,9 +485,9 @@ def _run_python(f, dummy_i, dummy_f, common, out, flags, rec, n_inst, n_steps, t
             raise InputError(f"controller returned ({u_in}, {u_bl}); PWM counts must be in 0..255")
         return u_in, u_bl, 0
 
+    run_block = types.FunctionType(_runner.run_block.py_func.__code__, dict(vars(_runner), kernel=kernel))
     for b0 in range(0, n_inst, W):
-        _run_block.py_func(kernel, True, b0, min(W, n_inst - b0), dummy_i, dummy_i, dummy_f, dummy_f, *common,
-                           *out.values(), flags, rec)
+        run_block(True, b0, min(W, n_inst - b0), dummy_i, dummy_i, dummy_f, dummy_f, *common, *out.values(), flags, rec)
 
 
 def _huge_page_switch():
@@ -741,7 +589,7 @@ class PlantStepper:
         HW.adc_count(0.0, HW.PA_PER_COUNT, 0.0)
         HW.encoder_count(0.0, 0.0, 1.0)
         ph.valve_target(0.0, 1.0, 0.5)
-        _gauss(np.zeros(1, dtype=np.uint64), 0)
+        _runner.gauss(np.zeros(1, dtype=np.uint64), 0)
         self._rng = np.array([np.uint64(int(self.p[PP.Col.seed]) * 2654435761 + 1)], dtype=np.uint64)
 
     @property
@@ -759,7 +607,7 @@ class PlantStepper:
         p = self.p
         meas = self.pressure
         if p[PP.Col.pressure_noise] > 0:
-            meas += p[PP.Col.pressure_noise] * _gauss(self._rng, 0)
+            meas += p[PP.Col.pressure_noise] * _runner.gauss(self._rng, 0)
         adc = int(HW.adc_count(meas, p[PP.Col.pa_per_count], p[PP.Col.adc_zero]))
         enc = int(HW.encoder_count(self.length, p[PP.Col.nominal_length], p[PP.Col.encoder_resolution]))
         return adc, enc
@@ -781,7 +629,7 @@ class PlantStepper:
         self.t += self.ts
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def _volumes(bk, n, length, out):
     for j in range(n):
         out[j] = ph.volume(length[j], bk, j)[0]

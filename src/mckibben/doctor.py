@@ -1,0 +1,204 @@
+"""What this machine has for mckibben, and a warm-up that compiles every kernel once.
+
+:func:`warm` runs each experiment a command reaches once, at its defaults (small enough to take
+a fraction of a second each once compiled), so that every compiled kernel is in the per-user
+cache (:mod:`mckibben._jit`) before a user's first real command. :func:`check` reports the cache
+folder, the compiler's versions, the cores used and the optional parts (the AVR toolchain, the
+simulator, the programmer, a Dask scheduler), with what to install when one is missing.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from urllib.parse import urlparse
+
+import llvmlite
+import numba
+
+from mckibben import __version__, _jit, control, models, tool
+from mckibben.datasets import get_muscle
+from mckibben.errors import InputError
+from mckibben.plant import PlantStepper
+from mckibben.plant.linear import linearize
+
+#: The optional tools: name -> (what it is for, how to install it on Debian/Ubuntu).
+TOOLS = {
+    "avr-gcc": ("builds the firmware (make -C firmware)", "apt-get install gcc-avr avr-libc"),
+    "simavr": ("counts the firmware's cycles (make -C firmware cycles)", "apt-get install simavr"),
+    "avrdude": ("flashes the Arduino Mega (make -C firmware upload)", "apt-get install avrdude"),
+    "arduino-cli": ("an alternative way to build and flash the firmware", "see arduino.github.io/arduino-cli"),
+}
+
+
+def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
+    """The experiments the commands run, each at a size that compiles every kernel it reaches."""
+    muscle = get_muscle("mpam97")
+    return [
+        ("static models", lambda: (models.predict_length(muscle, 0.8e6, 0.6),
+                                   models.force(0.5e6, 0.09, muscle, model="chou-hannaford"))),
+        ("open loop", lambda: control.open_loop()),
+        ("sliding-mode step", lambda: control.step_response("smc", law="paper", beta=150)),
+        ("PID step", lambda: control.step_response("pid")),
+        ("tracking", lambda: control.track("sine:0.4MPa,0.1MPa,2Hz")),
+        ("Fig. 13", lambda: control.fig13()),
+        ("compare", lambda: control.compare()),
+        ("robustness", lambda: control.robustness(4)),
+        ("hysteresis", lambda: control.hysteresis_compensation()),
+        ("the tool", lambda: tool.track("circle:radius=5mm,period=2s")),
+        ("live stepper", lambda: PlantStepper().advance(100, 0)),
+        ("linear model", lambda: linearize(pressure=0.4e6)),
+    ]
+
+
+@dataclass
+class WarmResult:
+    """What :func:`warm` did.
+
+    Attributes
+    ----------
+    steps : list of dict
+        Per experiment: ``name``, ``seconds`` (wall time), ``compiled`` (kernels compiled, not
+        loaded from the cache) and ``loaded`` (kernels loaded from the cache).
+    cache_dir : str or None
+        The cache folder (None: kernels compiled in memory, not kept).
+    """
+
+    steps: list = field(default_factory=list)
+    cache_dir: str | None = None
+
+    @property
+    def compiled(self) -> int:
+        """Kernels compiled in all (0 on a warm cache). [-]"""
+        return sum(s["compiled"] for s in self.steps)
+
+    def to_dict(self) -> dict:
+        return {"cache_dir": self.cache_dir, "compiled": self.compiled, "steps": self.steps}
+
+
+def warm(progress: Callable[[int, int, str], None] | None = None) -> WarmResult:
+    """Compile (or load) every kernel the commands reach, once.
+
+    Parameters
+    ----------
+    progress : callable, optional
+        ``progress(done, total, name)`` before each step and once at the end. [-]
+
+    Returns
+    -------
+    WarmResult
+        Per step: wall time and how many kernels were compiled or loaded.
+    """
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress: a callable progress(done, total, name), not a {type(progress).__name__}")
+    steps = _warm_steps()
+    result = WarmResult(cache_dir=None if _jit.cache_dir() is None else str(_jit.cache_dir()))
+    for i, (name, run) in enumerate(steps):
+        if progress is not None:
+            progress(i, len(steps), name)
+        before = _jit.compile_stats()
+        t0 = time.perf_counter()
+        run()
+        after = _jit.compile_stats()
+        result.steps.append({"name": name, "seconds": time.perf_counter() - t0,
+                             "compiled": after["compiled"] - before["compiled"],
+                             "loaded": after["cache_hits"] - before["cache_hits"]})
+    if progress is not None:
+        progress(len(steps), len(steps), "done")
+    return result
+
+
+@dataclass
+class Report:
+    """The machine as mckibben sees it (:func:`check`).
+
+    Attributes
+    ----------
+    version : str
+        mckibben's version.
+    cache_dir : str or None
+        Where compiled kernels are cached (None: they cannot be; see ``cache_problem``).
+    cache_problem : str or None
+        Why they are not cached.
+    cache_bytes : int
+        Size of the cache folder. [bytes]
+    numba, llvmlite : str
+        Compiler versions.
+    threads : int
+        Threads a batch simulation uses (``numba.get_num_threads()``; ``NUMBA_NUM_THREADS``). [-]
+    cores : int
+        Cores of the machine. [-]
+    tools : dict
+        Optional tool -> ``{"found": path or None, "for": ..., "install": ...}``.
+    scheduler : dict or None
+        The Dask scheduler asked about: ``{"address": ..., "reachable": bool, "detail": ...}``.
+    """
+
+    version: str
+    cache_dir: str | None
+    cache_problem: str | None
+    cache_bytes: int
+    numba: str
+    llvmlite: str
+    threads: int
+    cores: int
+    tools: dict
+    scheduler: dict | None = None
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+    @property
+    def ok(self) -> bool:
+        """True when the kernels are cached and a scheduler asked about answers."""
+        return self.cache_dir is not None and (self.scheduler is None or self.scheduler["reachable"])
+
+
+def _folder_bytes(path) -> int:
+    total = 0
+    for root, _dirs, files in os.walk(path):
+        for f in files:
+            try:
+                total += os.path.getsize(os.path.join(root, f))
+            except OSError:
+                pass
+    return total
+
+
+def _probe_scheduler(address: str, timeout: float = 3.0) -> dict:
+    url = urlparse(address if "://" in address else f"tcp://{address}")
+    if url.scheme not in ("tcp", "tls") or not url.hostname or url.port is None:
+        raise InputError(f"scheduler: {address!r} is not a Dask scheduler address like tcp://127.0.0.1:8786")
+    try:
+        with socket.create_connection((url.hostname, url.port), timeout=timeout):
+            return {"address": address, "reachable": True, "detail": "accepts connections"}
+    except OSError as exc:
+        return {"address": address, "reachable": False,
+                "detail": f"{exc.strerror or exc}; start one with: dask scheduler --port {url.port}"}
+
+
+def check(scheduler: str | None = None) -> Report:
+    """Report the kernel cache, the compiler, the cores used and the optional tools.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        A Dask scheduler address (``tcp://host:port``) to check for a connection. [-]
+
+    Returns
+    -------
+    Report
+    """
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise InputError(f"scheduler: an address like tcp://127.0.0.1:8786, not a {type(scheduler).__name__}")
+    where = _jit.cache_dir()
+    tools = {name: {"found": shutil.which(name), "for": what, "install": how} for name, (what, how) in TOOLS.items()}
+    return Report(
+        version=__version__, cache_dir=None if where is None else str(where), cache_problem=_jit.cache_problem(),
+        cache_bytes=0 if where is None else _folder_bytes(where), numba=numba.__version__,
+        llvmlite=llvmlite.__version__, threads=numba.get_num_threads(), cores=os.cpu_count() or 1, tools=tools,
+        scheduler=None if scheduler is None else _probe_scheduler(scheduler))

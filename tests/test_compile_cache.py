@@ -1,0 +1,243 @@
+"""The compiled kernels' cache, tried the way users run commands: many short processes.
+
+Every test here starts fresh processes (the suite's own process cannot see a cache problem: it
+compiles once and keeps the result in memory). Compilation is observed through Numba's own
+dispatcher statistics (:func:`mckibben._jit.compile_stats`), never through a timer.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import stat
+import subprocess
+import sys
+import sysconfig
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Runs the command line like the console script, then reports what Numba compiled in this process.
+WRAPPER = (
+    "import json, sys\n"
+    "from mckibben import compile_notice\n"
+    "from mckibben.cli import main\n"
+    "compile_notice.enabled = True\n"
+    "code = main(sys.argv[1:])\n"
+    "from mckibben import _jit\n"
+    "sys.stderr.write('COMPILE-STATS ' + json.dumps(_jit.compile_stats()) + '\\n')\n"
+    "sys.exit(code)\n"
+)
+
+#: The sequence after which, on the landed main of 2026-11-25, every `control step` failed with
+#: "ReferenceError: underlying object has vanished" (issue #21), each command with --json.
+SEQUENCE = [
+    ["control", "step"],
+    ["control", "step"],
+    ["control", "step"],
+    ["control", "step", "--controller", "smc", "--law", "paper", "--beta", "150", "--target", "0.55MPa"],
+    ["simulate", "open-loop", "--valve", "117"],
+    ["control", "fig13"],
+    ["tool", "track", "--path", "circle:radius=5mm,period=2s"],
+    ["control", "track", "--reference", "sine:0.4MPa,0.1MPa,2Hz"],
+    ["control", "robustness", "--n", "50"],
+    ["control", "compare"],
+    ["sweep", "run", "sweep.toml", "--out", "sweep-out"],
+    ["control", "step", "--controller", "pid"],
+    ["simulate", "open-loop"],
+    ["control", "step", "--controller", "pid"],
+    ["control", "hysteresis"],
+]
+
+
+def _env(**extra: str) -> dict:
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "MCKIBBEN_"))}
+    env.update(extra)
+    return env
+
+
+def _run(args, cwd, env, timeout=600):
+    r = subprocess.run([sys.executable, "-c", WRAPPER, *args, "--json"], cwd=cwd, env=env, capture_output=True,
+                       text=True, timeout=timeout)
+    lines = r.stderr.splitlines()
+    stats = [json.loads(x.split(" ", 1)[1]) for x in lines if x.startswith("COMPILE-STATS ")]
+    return r, (stats[0] if stats else None), [x for x in lines if not x.startswith("COMPILE-STATS ")]
+
+
+def _snapshot(folder: Path) -> dict:
+    return {str(p.relative_to(folder)): p.stat().st_size for p in folder.rglob("*") if p.is_file()}
+
+
+@pytest.mark.slow
+def test_the_command_sequence_from_a_clean_cache_then_again_compiles_nothing(tmp_path):
+    cache = tmp_path / "cache"
+    work = tmp_path / "work"
+    work.mkdir()
+    shutil.copy(ROOT / "src" / "mckibben" / "examples" / "sweep.toml", work / "sweep.toml")
+    env = _env(MCKIBBEN_CACHE_DIR=str(cache))
+    first_compiled = 0
+    for args in SEQUENCE:
+        shutil.rmtree(work / "sweep-out", ignore_errors=True)
+        r, stats, err = _run(args, work, env)
+        assert r.returncode == 0, (args, r.stderr[-3000:])
+        assert not [x for x in err if x.startswith("warning")], (args, err)
+        first_compiled += stats["compiled"]
+    assert first_compiled > 0  # the cache was clean: the first pass compiled
+    before = _snapshot(cache)
+    for args in SEQUENCE:
+        shutil.rmtree(work / "sweep-out", ignore_errors=True)
+        r, stats, err = _run(args, work, env)
+        assert r.returncode == 0, (args, r.stderr[-3000:])
+        assert stats["compiled"] == 0, (args, stats)
+        assert stats["cache_hits"] > 0, (args, stats)
+        assert err == [], (args, err)  # no compile notice, no warning
+    assert _snapshot(cache) == before  # nothing saved again: the cache does not grow
+
+
+def test_a_first_compilation_says_so_once_on_stderr(tmp_path):
+    env = _env(MCKIBBEN_CACHE_DIR=str(tmp_path / "cache"))
+    r, stats, err = _run(["simulate", "open-loop", "--duration", "0.05s"], tmp_path, env)
+    assert r.returncode == 0, r.stderr
+    assert stats["compiled"] > 0
+    assert len(err) == 1 and err[0].startswith("mckibben: compiling kernels once for this machine"), err
+    assert str(tmp_path / "cache") in err[0]
+
+
+def test_an_unwritable_cache_folder_runs_uncached_with_one_warning(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    env = _env(MCKIBBEN_CACHE_DIR=str(blocker / "cache"))
+    r, stats, err = _run(["predict", "force", "--model", "tondu-lopez", "--pressure", "0.5MPa"], tmp_path, env)
+    assert r.returncode == 0, r.stderr
+    assert len(err) == 1 and err[0].startswith("warning: cannot write the kernel cache folder"), err
+    assert not blocker.with_name("cache").exists()
+
+
+def test_a_corrupt_cache_entry_is_compiled_again_not_fatal(tmp_path):
+    cache = tmp_path / "cache"
+    env = _env(MCKIBBEN_CACHE_DIR=str(cache))
+    args = ["simulate", "open-loop", "--duration", "0.05s"]
+    r, _, _ = _run(args, tmp_path, env)
+    assert r.returncode == 0, r.stderr
+    damaged = 0
+    for f in cache.rglob("*.nb[ic]"):
+        f.write_bytes(b"\x80\x04garbage, not a pickle")
+        damaged += 1
+    assert damaged > 0
+    r, stats, err = _run(args, tmp_path, env)
+    assert r.returncode == 0, r.stderr
+    assert stats["compiled"] > 0
+    assert len([x for x in err if x.startswith("warning")]) <= 1, err
+
+
+def test_no_cached_function_takes_a_compiled_function_as_an_argument():
+    """A dispatcher-typed argument cannot be cached (numba-cache.md): check every kernel's compiled signatures."""
+    import numba
+
+    from mckibben import _jit, control
+
+    control.step_response("smc", law="paper", beta=150)
+    control.open_loop()
+    seen = 0
+    for disp in _jit.DISPATCHERS:
+        for sig in disp.signatures:
+            seen += 1
+            assert not any(isinstance(t, numba.core.types.Dispatcher) for t in sig), (disp, sig)
+    assert seen > 5
+
+
+def test_a_cache_never_lands_inside_the_package():
+    pkg = ROOT / "src" / "mckibben"
+    from mckibben import _jit
+
+    assert _jit.cache_dir() is None or not _jit.cache_dir().is_relative_to(pkg)
+    # whatever older versions left beside the sources is not written by this one
+    for disp in _jit.DISPATCHERS:
+        cache = getattr(disp, "_cache", None)
+        path = getattr(cache, "cache_path", None)
+        if path:
+            assert not Path(path).resolve().is_relative_to(pkg.resolve()), (disp, path)
+
+
+def test_the_open_loop_metrics_equal_python_controls_step_info():
+    import control
+
+    from mckibben.plant.calibration import step_info
+
+    rng = np.random.default_rng(7)
+    t = np.arange(400) * 1e-3
+    for k in range(50):
+        tau, over = rng.uniform(0.005, 0.1), rng.uniform(0.0, 0.4)
+        y = 1.0 - np.exp(-t / tau) * np.cos(over * 40 * t) + rng.normal(0, 0.003 * (k % 3), t.size)
+        final = float(np.mean(y[-20:]))
+        info = control.step_info(y, T=t, yfinal=final)
+        assert step_info(y, t, final) == (float(info["RiseTime"]), float(info["Overshoot"]),
+                                          float(info["SettlingTime"]))
+
+
+# --- a system-wide install, run by an account that can write neither it nor a home folder ---------
+
+
+def _other_user_python() -> str | None:
+    """A Python 3.11 that uid 65534 may run (this one may live in a private home), or None."""
+    for exe in (sys.executable, "/usr/bin/python3.11", "/usr/local/bin/python3.11"):
+        if not os.path.exists(exe):
+            continue
+        r = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "--", exe, "-c",
+                            "import sys; print(sys.version_info[:2])"], capture_output=True, text=True)
+        if r.returncode == 0 and r.stdout.strip() == "(3, 11)":
+            return exe
+    return None
+
+
+@pytest.fixture(scope="module")
+def system_install():
+    if os.geteuid() != 0 or shutil.which("setpriv") is None:
+        pytest.skip("needs root and setpriv to run a command as another user")
+    if sys.version_info[:2] != (3, 11):
+        pytest.skip("the other user's interpreter is the system's Python 3.11")
+    python = _other_user_python()
+    if python is None:
+        pytest.skip("no Python 3.11 that another user may run")
+    root = Path(tempfile.mkdtemp(prefix="mckibben-system-"))
+    try:
+        root.chmod(0o755)
+        site = root / "site-packages"
+        # the installed dependencies, hard-linked (their folders may sit in a home others cannot enter)
+        purelib = Path(sysconfig.get_paths()["purelib"])
+        shutil.copytree(purelib, site, copy_function=os.link, symlinks=True,
+                        ignore=shutil.ignore_patterns("mckibben*", "__editable__*", "*mckibben*.pth", "__pycache__"))
+        r = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-compile", "--target",
+                            str(site), str(ROOT)], capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr[-3000:]
+        for p in [root, *root.rglob("*")]:  # root-owned, read-only for everyone else
+            mode = p.lstat().st_mode
+            if not stat.S_ISLNK(mode):
+                p.chmod((mode | stat.S_IRGRP | stat.S_IROTH | (stat.S_IXGRP | stat.S_IXOTH if mode & stat.S_IXUSR
+                                                                 else 0)) & ~(stat.S_IWGRP | stat.S_IWOTH))
+        yield python, site
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("args", [
+    ["--version"],
+    ["predict", "force", "--model", "tondu-lopez", "--pressure", "0.5MPa"],
+    ["control", "step", "--json"],
+])
+def test_a_system_wide_install_runs_for_a_user_without_a_home(system_install, args):
+    python, site = system_install
+    env = {"PATH": "/usr/bin:/bin", "HOME": "/nonexistent", "PYTHONPATH": str(site), "LANG": "C.UTF-8"}
+    r = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "--", python, "-m",
+                        "mckibben.cli", *args], env=env, capture_output=True, text=True, timeout=900, cwd="/")
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "Traceback" not in r.stderr
+    warnings = [x for x in r.stderr.splitlines() if x.strip()]
+    assert len(warnings) <= 1, warnings
+    assert not list(site.rglob("*.nb[ic]"))  # nothing cached inside the install
