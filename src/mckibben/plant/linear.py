@@ -39,6 +39,29 @@ def _f(bk, law, x, xin_t, out):
         out[r] = bk[_K1 + r * ph.W]
 
 
+def _tf(path):
+    """One SISO path of the state space (no feedthrough) as a transfer function, without round-off terms.
+
+    ``ss2tf`` forms the numerator as det(sI - A + BC) - det(sI - A). The leading coefficients that
+    should cancel to zero (the path's relative degree: 4 from the command to the length) come out as
+    a few ulps of those determinants' coefficients instead, and put spurious zeros far above the
+    model's frequencies (1e5 to 1e21 rad/s here, some in the right half plane). Left in, they ruin
+    ``minreal`` on a quotient of paths: its roots lose their accuracy, nothing cancels, and the
+    pressure → length path came out of order 11 with a pole at +1e21 rad/s instead of order 2.
+    """
+    import control
+
+    a, b, c = (np.asarray(m, dtype=float) for m in (path.A, path.B, path.C))
+    tf = control.ss2tf(path)
+    num, den = tf.num[0][0], tf.den[0][0]
+    # round-off of that difference, coefficient by coefficient (a true term of this model lies > 1e6 above)
+    floor = 1e3 * np.finfo(float).eps * (np.abs(np.poly(a)) + np.abs(np.poly(a - b @ c)))[-num.size:]
+    k = 0
+    while k < num.size - 1 and abs(num[k]) <= floor[k]:
+        k += 1
+    return control.tf(num[k:], den)
+
+
 @dataclass(frozen=True)
 class LinearPlant:
     """A plant linearized at an operating point (result of :func:`linearize`).
@@ -66,16 +89,14 @@ class LinearPlant:
     @property
     def pressure(self):
         """Command → gauge pressure transfer function. [Pa/count]"""
-        import control
-
-        return control.ss2tf(self.ss[0, 0])
+        return _tf(self.ss[0, 0])
 
     @property
     def length(self):
         """Gauge pressure → length transfer function (the muscle and its load). [m/Pa]"""
         import control
 
-        return control.minreal(control.ss2tf(self.ss[1, 0]) / control.ss2tf(self.ss[0, 0]), verbose=False)
+        return control.minreal(_tf(self.ss[1, 0]) / _tf(self.ss[0, 0]), verbose=False)
 
     @property
     def metrics(self) -> dict:
