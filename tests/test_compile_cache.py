@@ -241,3 +241,70 @@ def test_a_system_wide_install_runs_for_a_user_without_a_home(system_install, ar
     warnings = [x for x in r.stderr.splitlines() if x.strip()]
     assert len(warnings) <= 1, warnings
     assert not list(site.rglob("*.nb[ic]"))  # nothing cached inside the install
+
+
+# --- kernels that run as plain Python until Numba is loaded (mckibben._kernels) --------------------
+
+_LAW_CASES = (
+    "import numpy as np\n"
+    "from mckibben.models import laws as LW\n"
+    "from mckibben.datasets import get_muscle\n"
+    "rng = np.random.default_rng(11)\n"
+    "n = 60\n"
+    "sp = np.zeros(LW.NTH)\n"
+    "sp[LW.SP_H2], sp[LW.SP_H1], sp[LW.SP_H0], sp[LW.SP_SPLIT] = -1e-14, 1e-9, 0.1, 0.3e6\n"
+    "sp[LW.SP_LOW:LW.SP_LOW + 4] = rng.normal(0, 1e-3, 4)\n"
+    "sp[LW.SP_HIGH:LW.SP_HIGH + 4] = rng.normal(0, 1e-3, 4)\n"
+    "CASES = {\n"
+    "  'tondu-lopez': LW.tondu_lopez_theta(6e-4, 0.35, 1.2, 2e4, 0.097),\n"
+    "  'chou-hannaford': LW.chou_hannaford_theta(0.1, 2.0),\n"
+    "  'wall-corrected': LW.chou_hannaford_theta(0.1, 2.0, 2e-4),\n"
+    "  'braid-map': LW.braid_map_theta(get_muscle('mpam97')),\n"
+    "  'spring': sp,\n"
+    "}\n"
+    "P = rng.uniform(-1e5, 1.0e6, n)\n"
+    "L = rng.uniform(0.06, 0.11, n)\n"
+)
+
+
+def test_kernels_give_the_same_bits_as_plain_python_and_compiled(tmp_path):
+    """``predict`` runs the force laws and the sensor model as plain Python (no Numba); the plant compiles them."""
+    script = _LAW_CASES + (
+        "import sys\n"
+        "from mckibben import hardware as HW\n"
+        "out = {k: LW.evaluate(k, P, L, th) for k, th in CASES.items()}\n"
+        "out['adc'] = HW.adc_from_pressure(P)\n"
+        "out['enc'] = HW.encoder_from_length(L, 0.097)\n"
+        "assert 'numba' not in sys.modules\n"
+        f"np.savez(r'{tmp_path / 'py.npz'}', **{{k.replace('-', '_'): v for k, v in out.items()}})\n"
+    )
+    subprocess.run([sys.executable, "-c", script], check=True, env=_env(), timeout=300)
+    python = np.load(tmp_path / "py.npz")
+    import mckibben._jit  # noqa: F401  (compiled from here on)
+
+    ns: dict = {}
+    exec(_LAW_CASES, ns)
+    LW, P, L = ns["LW"], ns["P"], ns["L"]
+    from mckibben import hardware as HW
+
+    assert type(LW.law_value).__name__ == "CPUDispatcher" and type(HW.adc_count).__name__ == "CPUDispatcher"
+    for name, th in ns["CASES"].items():
+        compiled = LW.evaluate(name, np.repeat(P, 2), np.repeat(L, 2), th)  # 120 elements: the compiled path
+        np.testing.assert_array_equal(compiled[::2], python[name.replace("-", "_")], err_msg=name)
+    np.testing.assert_array_equal(HW.adc_from_pressure(np.repeat(P, 2))[::2], python["adc"])
+    np.testing.assert_array_equal(HW.encoder_from_length(np.repeat(L, 2), 0.097)[::2], python["enc"])
+
+
+@pytest.mark.parametrize("args", [["--version"], ["--help"],
+                                  ["predict", "length", "--muscle", "mpam97", "--pressure", "0.8MPa", "--load", "0.6N"],
+                                  ["predict", "force", "--model", "tondu-lopez", "--pressure", "0.5MPa"],
+                                  ["predict", "pressure", "--muscle", "mpam97", "--length", "90mm", "--load", "0.6N"]])
+def test_quick_commands_import_no_heavy_package(args):
+    script = ("import sys, io, contextlib\n"
+              "from mckibben.cli import main\n"
+              "with contextlib.redirect_stdout(io.StringIO()):\n"
+              f"    code = main({args!r})\n"
+              "heavy = [m for m in ('numba', 'control', 'matplotlib', 'dask') if m in sys.modules]\n"
+              "print(code, heavy)\n")
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=_env(), timeout=120)
+    assert r.stdout.strip() == "0 []", (r.stdout, r.stderr[-2000:])

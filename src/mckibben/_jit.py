@@ -39,6 +39,7 @@ import numba
 from numba.core import caching
 from numba.core import event as _event
 
+from mckibben import _kernels
 from mckibben import compile_notice as _notice_module
 
 PACKAGE_DIR = Path(__file__).resolve().parent
@@ -407,3 +408,19 @@ def compile_stats() -> dict[str, int]:
         hits += sum(stats.cache_hits.values())
         misses += sum(stats.cache_misses.values())
     return {"cache_hits": hits, "compiled": misses}
+
+
+# --- kernels written as plain Python until Numba is loaded (mckibben._kernels) --------------------
+
+
+def compile_marked(module) -> None:
+    """Replace, in ``module``, every function marked by :func:`mckibben._kernels.kernel` by its dispatcher."""
+    with _LOCK:
+        for name, value in list(vars(module).items()):
+            options = getattr(value, "__mckibben_kernel__", None)
+            if options is not None and getattr(value, "__module__", None) == module.__name__:
+                setattr(module, name, njit(**options)(value))
+
+
+for _module in _kernels.modules():
+    compile_marked(_module)

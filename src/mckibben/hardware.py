@@ -14,8 +14,9 @@ Sensor model
 - Length: the pulley's incremental encoder counts the muscle's shortening from its rest length,
   ``count = floor((l0 − l)/resolution + 1/2)``; a count reads back as ``l0 − count·resolution``.
 
-The scalar kernels (``adc_count`` …) are Numba functions for compiled loops; the array faces
-(``adc_from_pressure`` …) apply the same kernels element-wise.
+The scalar kernels (``adc_count`` …) are Numba functions for compiled loops (plain Python until
+the package loads Numba: :mod:`mckibben._kernels`); the array faces (``adc_from_pressure`` …)
+apply the same kernels element-wise.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import math
 
 import numpy as np
 
-from mckibben._jit import njit
+from mckibben._kernels import kernel, need_speed, register
 
 #: Compiled limit of the maximum pressure, the transducer's full scale (``MCK_P_MAX_LIMIT``). [Pa]
 P_MAX_LIMIT = 1_000_000
@@ -47,7 +48,7 @@ TS_US_MIN, TS_US_MAX = 100, 10_000
 ENCODER_RESOLUTION = 0.17e-3
 
 
-@njit
+@kernel
 def adc_count(pressure, pa_per_count, adc_zero):
     """The ADC count of a gauge pressure: nearest count, halves up, saturated to 0..ADC_MAX.
 
@@ -73,7 +74,7 @@ def adc_count(pressure, pa_per_count, adc_zero):
     return int(x)
 
 
-@njit
+@kernel
 def adc_pressure(count, pa_per_count, adc_zero):
     """The gauge pressure an ADC count reads as. [Pa]
 
@@ -89,7 +90,7 @@ def adc_pressure(count, pa_per_count, adc_zero):
     return (count - adc_zero) * pa_per_count
 
 
-@njit
+@kernel
 def encoder_count(length, nominal_length, resolution):
     """The encoder count of a muscle length: its shortening in counts, nearest, halves up.
 
@@ -110,7 +111,7 @@ def encoder_count(length, nominal_length, resolution):
     return int(math.floor((nominal_length - length) / resolution + 0.5))
 
 
-@njit
+@kernel
 def encoder_length(count, nominal_length, resolution):
     """The muscle length an encoder count reads as. [m]
 
@@ -126,13 +127,13 @@ def encoder_length(count, nominal_length, resolution):
     return nominal_length - count * resolution
 
 
-@njit
+@kernel
 def _adc_array(p, ppc, zero, out):
     for i in range(p.size):
         out[i] = adc_count(p[i], ppc[i], zero[i])
 
 
-@njit
+@kernel
 def _enc_array(length, l0, res, out):
     for i in range(length.size):
         out[i] = encoder_count(length[i], l0[i], res[i])
@@ -140,7 +141,8 @@ def _enc_array(length, l0, res, out):
 
 def _flat(*args):
     b = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
-    return b[0].shape, [np.ascontiguousarray(x).ravel() for x in b]
+    # copies: a compiled call reading a broadcast view's writeable flag warns (NumPy FutureWarning)
+    return b[0].shape, [np.array(x, order="C").ravel() for x in b]
 
 
 def adc_from_pressure(pressure, adc_zero=0, pa_per_count=PA_PER_COUNT):
@@ -166,6 +168,7 @@ def adc_from_pressure(pressure, adc_zero=0, pa_per_count=PA_PER_COUNT):
     563
     """
     shape, (p, ppc, zero) = _flat(pressure, pa_per_count, adc_zero)
+    need_speed(p.size)
     out = np.empty(p.size, dtype=np.int64)
     _adc_array(p, ppc, zero, out)
     return out.reshape(shape) if shape else int(out[0])
@@ -204,6 +207,7 @@ def encoder_from_length(length, nominal_length, resolution=ENCODER_RESOLUTION):
         Counts (an int for scalar input). [count]
     """
     shape, (x, l0, res) = _flat(length, nominal_length, resolution)
+    need_speed(x.size)
     out = np.empty(x.size, dtype=np.int64)
     _enc_array(x, l0, res, out)
     return out.reshape(shape) if shape else int(out[0])
@@ -255,3 +259,6 @@ PIN_MAP = {
 }
 #: The timer output compare unit behind each valve pin (Timers 4 and 5, 8-bit fast PWM).
 PWM_UNIT = {"D6": "OC4A", "D7": "OC4B", "D8": "OC4C", "D46": "OC5A", "D45": "OC5B", "D44": "OC5C"}
+
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)

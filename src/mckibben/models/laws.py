@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben._jit import njit
+from mckibben._kernels import kernel, need_speed, register
 from mckibben.errors import InputError
 
 #: Rows of the parameter array every law reads from (the largest law's need).
@@ -38,7 +38,7 @@ MPA = 1e6  # Pa per MPa
 TL_R0, TL_A, TL_B, TL_K, TL_PTH, TL_IL0 = range(6)
 
 
-@njit(error_model="numpy", inline="always")
+@kernel(error_model="numpy", inline="always")
 def tondu_lopez(pressure, length, th, o, w):
     """Tondu–Lopez force with a pressure threshold. [N]
 
@@ -57,7 +57,7 @@ def tondu_lopez(pressure, length, th, o, w):
 CH_B, CH_C, CH_D0, CH_T = range(4)
 
 
-@njit(error_model="numpy", inline="always")
+@kernel(error_model="numpy", inline="always")
 def chou_hannaford(pressure, length, th, o, w):
     """Ideal thin-walled muscle: F = (π·D0²·P/4)·(3cos²θ − 1), cos θ = l/b. [N]
 
@@ -67,7 +67,7 @@ def chou_hannaford(pressure, length, th, o, w):
     return th[o + (CH_C) * w] * pressure * (3.0 * c * c - 1.0)
 
 
-@njit(error_model="numpy", inline="always")
+@kernel(error_model="numpy", inline="always")
 def wall_corrected(pressure, length, th, o, w):
     """Chou–Hannaford with the wall term: + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]. [N]
 
@@ -89,12 +89,12 @@ BM_LOADS = 4
 BM_COEF = BM_LOADS + MAP_MAX_LOADS
 
 
-@njit(error_model="numpy", inline="always")
+@kernel(error_model="numpy", inline="always")
 def _cubic(th, row, o, w, x):
     return ((th[o + (row) * w] * x + th[o + (row + 1) * w]) * x + th[o + (row + 2) * w]) * x + th[o + (row + 3) * w]
 
 
-@njit(error_model="numpy", inline="always")
+@kernel(error_model="numpy", inline="always")
 def braid_map(pressure, length, th, o, w):
     """The load that holds the muscle at a length: eq. (2) for cos θ, eq. (3) linear in load. [N]
 
@@ -123,7 +123,7 @@ def braid_map(pressure, length, th, o, w):
 SP_H2, SP_H1, SP_H0, SP_SPLIT, SP_LOW, SP_HIGH = 0, 1, 2, 3, 4, 8
 
 
-@njit(error_model="numpy", inline="always")
+@kernel(error_model="numpy", inline="always")
 def spring(pressure, length, th, o, w):
     """Spring model: stretch Ls = l − Lu(P), F = (c3·P + c2·P·Ls + c1·Ls + c0)·Ls, 0 when slack. [N]
 
@@ -175,7 +175,7 @@ assert LAW_NAMES == ("tondu-lopez", "chou-hannaford", "wall-corrected", "braid-m
     "a new law needs its branch in law_value"
 
 
-@njit(error_model="numpy", inline="always")
+@kernel(error_model="numpy", inline="always")
 def law_value(law, pressure, length, th, o, w):
     """The registered law of index ``law`` (in :data:`LAW_NAMES`) at one gauge pressure [Pa] and length [m]. [N]
 
@@ -193,7 +193,7 @@ def law_value(law, pressure, length, th, o, w):
     return spring(pressure, length, th, o, w)
 
 
-@njit(error_model="numpy")
+@kernel(error_model="numpy")
 def _eval(law, p, length, th, col, w, out):
     for i in range(p.size):
         out[i] = law_value(law, p[i], length[i], th, col[i], w)
@@ -231,6 +231,7 @@ def evaluate(name: str, pressure, length, theta) -> np.ndarray:
     # copies, not views: a broadcast view of one element passes for contiguous, and NumPy warns
     # (FutureWarning) when the compiled call reads the writeable flag of a broadcast array
     pf = np.array(p, dtype=float, order="C").ravel()
+    need_speed(pf.size)
     out = np.empty(pf.size)
     _eval(LAW_INDEX[name], pf, np.array(ell, dtype=float, order="C").ravel(), th2.ravel(),
           np.array(idx, dtype=np.int64, order="C").ravel(), th2.shape[1], out)
@@ -365,3 +366,6 @@ def law_of(model, law: str | None = None, direction: str = "elongation") -> tupl
         return "spring", spring_theta(model, direction)
     raise InputError(f"no force law for a {type(model).__name__}; give a MiniatureMuscle, TonduLopez, "
                      "BraidGeometry or SpringModel")
+
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)
