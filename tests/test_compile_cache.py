@@ -74,6 +74,7 @@ def _snapshot(folder: Path) -> dict:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(2400)  # 30 fresh processes, the first ones compiling: minutes on a shared 2-core machine
 def test_the_command_sequence_from_a_clean_cache_then_again_compiles_nothing(tmp_path):
     cache = tmp_path / "cache"
     work = tmp_path / "work"
@@ -226,6 +227,7 @@ def system_install():
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1200)  # uncached: control step compiles its kernels in memory
 @pytest.mark.parametrize("args", [
     ["--version"],
     ["predict", "force", "--model", "tondu-lopez", "--pressure", "0.5MPa"],
