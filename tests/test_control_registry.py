@@ -151,8 +151,8 @@ def test_extension_laws_within_the_bank_cycle_budget_and_bit_exact_on_the_avr(tm
     out = subprocess.run(["make", "-s", "-C", str(FIRMWARE), "cycles", f"BUILD={tmp_path}"], capture_output=True,
                          text=True, timeout=180, check=True).stdout
     for spec in R.EXTENSIONS:
-        m = re.search(rf"bank mode {spec.mode} steps 3000 cycles min \d+ mean \d+ max (\d+)", out)
+        m = re.search(rf"bank in mode {spec.mode}: 3000 steps, cycles min \d+ mean \d+ max (\d+)", out)
         assert m, out
         assert int(m.group(1)) <= BANK_CYCLE_BUDGET, (spec.name, int(m.group(1)))
-        s = re.search(rf"bank mode {spec.mode} checksum (\d+)", out)
+        s = re.search(rf"bank in mode {spec.mode}: checksum (\d+)", out)
         assert int(s.group(1)) == _bank_mode_checksum(spec.mode), spec.name

@@ -175,9 +175,9 @@ static void run_bank_modes(void)
             csum += cyc;
             for (i = 0; i < 3u; i++) hash = mix(hash, &o[i]);
         }
-        printf("bank mode %u steps %u cycles min %u mean %lu max %u\n", m, N_STEPS, cmin,
+        printf("bank in mode %u: %u steps, cycles min %u mean %lu max %u\n", m, N_STEPS, cmin,
                (unsigned long)((csum + N_STEPS / 2u) / N_STEPS), cmax);
-        printf("bank mode %u checksum %lu\n", m, (unsigned long)hash);
+        printf("bank in mode %u: checksum %lu\n", m, (unsigned long)hash);
     }
 }
 
