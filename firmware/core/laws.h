@@ -13,9 +13,11 @@
  * and is entered here: one #include and one X(NAME, name) in MCK_EXT_LAWS. The Python
  * registry (mckibben.control.registry) holds the same entry; tests/test_control_registry.py
  * holds the two against each other. */
+#include "law_stsmc.h"
+
 #ifndef MCK_LAWS_H
 #define MCK_LAWS_H
 
-#define MCK_EXT_LAWS(X)
+#define MCK_EXT_LAWS(X) X(STSMC, stsmc)
 
 #endif

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from numba import njit
 
 from mckibben import hardware as HW
+from mckibben.control import stsmc
 from mckibben.errors import unknown_name
 
 #: The core's modes that run no law (``MCK_MODE_OFF``, ``MCK_MODE_OPEN_LOOP``).
@@ -248,8 +249,28 @@ PID = ControllerSpec(
     extension=False,
 )
 
+STSMC = ControllerSpec(
+    name="stsmc", mode=stsmc.MODE, c_name="STSMC", label="super-\ntwisting",
+    summary="super-twisting (second-order) sliding mode on the model's static inverse",
+    gains=(
+        _G(20, "stsmc_k1", "st_k1", "PWM counts", 1e3, 0, 255_000, 10.0, "MCK_GAIN_STSMC_K1", "gain of the root term"),
+        _G(21, "stsmc_k2", "st_k2", "counts/s", 1.0, 0, 1_000_000, 20.0, "MCK_GAIN_STSMC_K2",
+           "gain of the integral term"),
+        _G(22, "stsmc_phi", "st_phi", "Pa", 1.0, 1, 1_000_000, 50e3, "MCK_GAIN_STSMC_PHI", "error scale of the root"),
+        _G(23, "stsmc_g", "st_g", "Pa/count", 1e3, 0, 100_000_000, 3000.0, "MCK_GAIN_STSMC_G",
+           "G of the feed-forward (0: none)"),
+        _G(24, "stsmc_u0", "st_u0", "PWM counts", 1e3, 0, 255_000, 0.0, "MCK_GAIN_STSMC_U0", "valve lift-off"),
+    ),
+    law="mckibben.control.stsmc:law", design="mckibben.control.stsmc:design",
+    candidates="mckibben.control.stsmc:candidates", describe="mckibben.control.stsmc:describe",
+    designs={"stsmc": stsmc.DESIGN}, grid={"stsmc": stsmc.GRID},
+    state=stsmc.N_STATE, coefs=stsmc.COEFS, derive="mckibben.control.stsmc:derive",
+    float_law="mckibben.control.stsmc:float_command",
+    references="Levant 1993; Moreno & Osorio 2012; Seeber & Andritsch 2025 (mckibben.control.stsmc)",
+)
+
 #: Every controller of the core, by name, in mode order.
-CONTROLLERS: dict[str, ControllerSpec] = {c.name: c for c in sorted((SMC, PID), key=lambda c: c.mode)}
+CONTROLLERS: dict[str, ControllerSpec] = {c.name: c for c in sorted((SMC, PID, STSMC), key=lambda c: c.mode)}
 
 # --- derived tables -----------------------------------------------------------------------------
 
@@ -282,6 +303,9 @@ N_ISTATE = CORE_N_ISTATE + sum(c.state for c in EXTENSIONS)
 N_IPARAMS = CORE_IP_GAIN0 + N_GAINS + sum(len(c.coefs) for c in EXTENSIONS)
 
 
+_STSMC_MODE, _STSMC_SLOTS = STSMC.mode, LAYOUT["stsmc"]
+
+
 @njit(cache=True)
 def extension_law(mode, st, ip, p, pref, e):
     """The law of an extension mode: one line per registered extension law.
@@ -300,6 +324,8 @@ def extension_law(mode, st, ip, p, pref, e):
     tuple of int
         The command in PWM counts Q8 and the surface reported in telemetry. [-], [Pa]
     """
+    if mode == _STSMC_MODE:
+        return stsmc.law(st, ip, _STSMC_SLOTS[0], _STSMC_SLOTS[1], p, pref, e)
     return 0, e
 
 
