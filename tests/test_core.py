@@ -200,7 +200,7 @@ def test_vent_off_and_open_loop():
     assert ctrl.step(300, True, 0) == (0, 255, core.FAULT_VENT)
     assert ctrl.set_mode(core.MODE_OFF) == 0
     assert ctrl.step(300, True, 500e3) == (0, 0, 0)
-    assert ctrl.set_mode(4) == core.STATUS_RANGE
+    assert ctrl.set_mode(max(core.R.MODES) + 1) == core.STATUS_RANGE  # the first mode past the registry's last (was 4)
     assert ctrl.set_gain(core.N_GAINS, 1) == core.STATUS_GAIN_ID
     assert ctrl.set_gain(core.GAIN_IDS["smc_beta"], 255_001) == core.STATUS_RANGE
     assert ctrl.set_max_pressure(1_000_001) == core.STATUS_RANGE
@@ -216,7 +216,7 @@ def test_vent_off_and_open_loop():
     ({"ts": 1.5e-7}, "ts=1.5e-07 must be a whole number of microseconds"),
     ({"ts": 0.02}, "ts=0.02 must be"),
     ({"p_max": 1.2e6}, "p_max=1200000.0 outside [0, 1000000] Pa"),
-    ({"mode": 5}, "mode=5 outside the integers 0..3"),
+    ({"mode": 5}, "mode=5 outside the integers 0..4"),  # 4: the super-twisting law (registry)
 ])
 def test_bad_parameters_raise_input_error(kwargs, message):
     with pytest.raises(InputError, match=message.replace("[", r"\[").replace("(", r"\(")):

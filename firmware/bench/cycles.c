@@ -124,6 +124,63 @@ static void run_bank(void)
     printf("bank checksum %lu\n", (unsigned long)hash);
 }
 
+/* Every extension law (core/laws.h, modes 4..MCK_N_MODES-1): the bank of three channels of
+ * run_bank, all in that mode for the whole run (each channel with its gains' defaults, the LCG
+ * restarted at 1), so that a law added to the registry is measured and checked without a change
+ * here; tests/test_firmware.py computes each checksum with the Python mirror. */
+static void run_bank_modes(void)
+{
+    uint16_t k, t0, t1, cyc, cmin, cmax;
+    uint32_t csum, hash;
+    uint16_t adc[3];
+    int32_t pref[3];
+    mck_out_t o[3];
+    uint8_t i, ok, m;
+    for (m = MCK_MODE_OPEN_LOOP + 1u; m < MCK_N_MODES; m++) {
+        lcg = 1u;
+        cmin = 0xFFFFu;
+        cmax = 0;
+        csum = 0;
+        hash = 0;
+        for (i = 0; i < 3u; i++) {
+            mck_ctrl_init(&bank[i], 1000u);
+            mck_ctrl_set_mode(&bank[i], m);
+            pref[i] = 0;
+        }
+        mck_ctrl_set_gain(&bank[2], MCK_GAIN_N_STUCK, 20L);
+        for (k = 0; k < N_STEPS; k++) {
+            ok = 0;
+            for (i = 0; i < 3u; i++) {
+                uint16_t r1 = rnd(), r2 = rnd();
+                if (k % 100u == 0u) pref[i] = (int32_t)r1 * 15;
+                if ((r2 & 1u) && i != 2u) {
+                    adc[i] = (uint16_t)(100u + (r2 >> 6) % 800u);
+                } else {
+                    int32_t a = (pref[i] >> 10) + (int32_t)((r2 >> 8) & 31u) - 16;
+                    adc[i] = a < 0 ? 0u : (uint16_t)a;
+                }
+                if (i == 2u && (k / 50u) % 4u == 3u) adc[i] = 200u; /* a frozen reading */
+                if ((r2 & 0x3Eu) != 0u) ok |= (uint8_t)(1u << i);
+            }
+            if (k % 500u == 250u)
+                for (i = 0; i < 3u; i++) mck_ctrl_set_mode(&bank[i], m); /* clears latched faults */
+            cli();
+            t0 = TCNT1;
+            mck_bank_run(3u, adc, ok, pref, o);
+            t1 = TCNT1;
+            sei();
+            cyc = (uint16_t)(t1 - t0 - overhead_cycles);
+            if (cyc < cmin) cmin = cyc;
+            if (cyc > cmax) cmax = cyc;
+            csum += cyc;
+            for (i = 0; i < 3u; i++) hash = mix(hash, &o[i]);
+        }
+        printf("bank in mode %u: %u steps, cycles min %u mean %lu max %u\n", m, N_STEPS, cmin,
+               (unsigned long)((csum + N_STEPS / 2u) / N_STEPS), cmax);
+        printf("bank in mode %u: checksum %lu\n", m, (unsigned long)hash);
+    }
+}
+
 int main(void)
 {
     uint16_t k, t0, t1, overhead, cyc;
@@ -188,6 +245,7 @@ int main(void)
     }
     printf("checksum %lu\n", (unsigned long)hash);
     run_bank();
+    run_bank_modes();
     /* mck_ctrl_set_gain (main loop, not the interrupt): Timer1 at F_CPU/64 */
     TCCR1B = (uint8_t)(1 << CS11 | 1 << CS10);
     t0 = TCNT1;

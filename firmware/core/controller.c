@@ -32,16 +32,25 @@ static const int32_t mck_gain_default[MCK_N_GAINS] = {
     1000000L, 11000000L, 0L, 5000L,                            /* PID */
     0L, 977517L, 20000L, 0L, 1022L, 250L, 10L,                 /* scaling, supervisor */
     0L,                                                        /* SMC u0 */
-    3000000L, 112000L                                          /* supervisor's valve model */
+    3000000L, 112000L,                                         /* supervisor's valve model */
+#define MCK_GAIN_DEFAULT_(id, def, lo, hi) def,
+#define MCK_LAW_DEFAULTS_(NAME, name) MCK_##NAME##_GAINS(MCK_GAIN_DEFAULT_)
+    MCK_EXT_LAWS(MCK_LAW_DEFAULTS_)                            /* extension laws (laws.h) */
 };
 static const int32_t mck_gain_lo[MCK_N_GAINS] = {
-    0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L
+    0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 1L, 0L, 0L, 0L, 0L, 0L, 0L, 0L, 0L,
+#define MCK_GAIN_LO_(id, def, lo, hi) lo,
+#define MCK_LAW_LOS_(NAME, name) MCK_##NAME##_GAINS(MCK_GAIN_LO_)
+    MCK_EXT_LAWS(MCK_LAW_LOS_)
 };
 static const int32_t mck_gain_hi[MCK_N_GAINS] = {
     255000L, 1000000L, 1000000L, 10000000L, 100000000L, 2147483647L,
     1000000000L, 2147483647L, 2147483647L, 10000000L,
     1023L, 2047999L, 200000L, 1023L, 1023L, 65535L, 65535L,
-    255000L, 100000000L, 255000L
+    255000L, 100000000L, 255000L,
+#define MCK_GAIN_HI_(id, def, lo, hi) hi,
+#define MCK_LAW_HIS_(NAME, name) MCK_##NAME##_GAINS(MCK_GAIN_HI_)
+    MCK_EXT_LAWS(MCK_LAW_HIS_)
 };
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
@@ -214,6 +223,11 @@ static int32_t clamp32(int32_t v, int32_t lo, int32_t hi)
 
 static int32_t cap_u64(uint64_t v, int32_t hi) { return v > (uint64_t)hi ? hi : (int32_t)v; }
 
+/* The extension laws' functions (laws.h), after the building blocks they use (mulq16,
+ * mulq16s24, clamp32, rdiv, cap_u64, MCK_ROM). */
+#define MCK_LAW_IMPL
+#include "laws.h"
+
 /* Recompute every derived coefficient from the gains (integer, exact; mirrored in Python). */
 static void derive(mck_ctrl_t *c)
 {
@@ -272,6 +286,8 @@ static void derive(mck_ctrl_t *c)
     k->adc_max = (uint16_t)g[MCK_GAIN_ADC_MAX];
     k->n_stuck = (uint16_t)g[MCK_GAIN_N_STUCK];
     k->n_missing = (uint16_t)g[MCK_GAIN_N_MISSING];
+#define MCK_LAW_DERIVE_(NAME, name) mck_##name##_derive(&k->name, g, c->ts_us);
+    MCK_EXT_LAWS(MCK_LAW_DERIVE_)
 }
 
 static void reset_state(mck_state_t *s)
@@ -286,6 +302,8 @@ static void reset_state(mck_state_t *s)
     s->stuck_n = 0;
     s->missing_n = 0;
     s->p_seen = 0;
+#define MCK_LAW_RESET_(NAME, name) mck_##name##_reset(&s->name);
+    MCK_EXT_LAWS(MCK_LAW_RESET_)
 }
 
 void mck_ctrl_init(mck_ctrl_t *c, uint16_t ts_us)
@@ -319,7 +337,7 @@ uint8_t mck_ctrl_set_gain(mck_ctrl_t *c, uint8_t id, int32_t value)
 
 uint8_t mck_ctrl_set_mode(mck_ctrl_t *c, uint8_t mode)
 {
-    if (mode > MCK_MODE_OPEN_LOOP) return MCK_ERR_RANGE;
+    if (mode >= MCK_N_MODES) return MCK_ERR_RANGE;
     c->s.mode = mode;
     reset_state(&c->s);
     return MCK_OK;
@@ -450,13 +468,17 @@ MCK_INLINE void step(mck_state_t *s, const mck_coef_t *k, uint16_t adc, uint8_t 
     if (s->latched || s->over) {
         bleed = 255u;
         s->first = 1;
-    } else if (s->mode == MCK_MODE_SMC || s->mode == MCK_MODE_PID) {
+#define MCK_LAW_MODE_(NAME, name) || s->mode == MCK_MODE_##NAME
+    } else if (s->mode == MCK_MODE_SMC || s->mode == MCK_MODE_PID MCK_EXT_LAWS(MCK_LAW_MODE_)) {
         if (s->first) {
             s->first = 0;
             s->pref_prev = pref;
             s->e_prev = e;
         }
-        u = s->mode == MCK_MODE_SMC ? law_smc(s, k, p, pref, e, &surface) : law_pid(s, k, e);
+#define MCK_LAW_CALL_(NAME, name) \
+    s->mode == MCK_MODE_##NAME ? mck_##name##_law(&s->name, &k->name, p, pref, e, &surface):
+        u = s->mode == MCK_MODE_SMC ? law_smc(s, k, p, pref, e, &surface)
+                                    : MCK_EXT_LAWS(MCK_LAW_CALL_) law_pid(s, k, e);
         u = (u + 128) >> 8; /* counts, rounded */
         if (u >= 0) {
             inlet = u > 255 ? 255u : (uint8_t)u;

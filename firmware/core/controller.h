@@ -26,6 +26,7 @@
 #define MCK_MODE_SMC 1u       /* sliding mode */
 #define MCK_MODE_PID 2u       /* PID */
 #define MCK_MODE_OPEN_LOOP 3u /* the PWM counts given by mck_ctrl_set_open_loop */
+/* Modes 4, 5, ...: the extension laws of core/laws.h (MCK_MODE_<NAME> in their headers). */
 
 /* Fault flags (TELEMETRY.faults). Bits 1-4 are latched until mck_ctrl_set_mode. */
 #define MCK_FAULT_OVERPRESSURE 0x01u /* p > p_max + margin, cleared when p < p_max */
@@ -122,8 +123,17 @@ enum mck_gain_id {
     MCK_GAIN_SMC_U0 = 17,
     MCK_GAIN_SUP_G = 18,
     MCK_GAIN_SUP_U0 = 19,
-    MCK_N_GAINS = 20
+    MCK_N_CORE_GAINS = 20 /* the extension laws' gains follow (core/laws.h) */
 };
+
+#include "laws.h" /* the extension laws: their gain ids, modes, state and coefficients */
+
+#define MCK_ADD_N_GAINS_(NAME, name) +MCK_##NAME##_N_GAINS
+#define MCK_ADD_ONE_(NAME, name) +1
+/* Every gain id, the extension laws' included. */
+#define MCK_N_GAINS (MCK_N_CORE_GAINS MCK_EXT_LAWS(MCK_ADD_N_GAINS_))
+/* Modes 0..MCK_N_MODES-1. */
+#define MCK_N_MODES (MCK_MODE_OPEN_LOOP + 1 MCK_EXT_LAWS(MCK_ADD_ONE_))
 
 /* Outputs of one step. */
 typedef struct {
@@ -153,6 +163,8 @@ typedef struct {
     int32_t p_prev;     /* last step's measured pressure [Pa] */
     int32_t p_seen;     /* supply estimate: highest pressure shown since SET_MODE, shared by
                            the channels of a bank (mck_bank_step) [Pa] */
+#define MCK_STATE_MEMBER_(NAME, name) mck_##name##_state_t name;
+    MCK_EXT_LAWS(MCK_STATE_MEMBER_) /* the extension laws' states (core/laws.h) */
 } mck_state_t;
 
 /* Settings in the step's native widths and the derived coefficients (mck_ctrl_set_gain), in
@@ -182,6 +194,8 @@ typedef struct {
     int32_t c_kd;       /* 2^20 Kd / Ts: 16 Ts D [Pa Q4] -> u [counts Q8], Q16 */
     int32_t alpha;      /* 2^16 Ts / (Tf + Ts) */
     uint8_t ol_inlet, ol_bleed;
+#define MCK_COEF_MEMBER_(NAME, name) mck_##name##_coef_t name;
+    MCK_EXT_LAWS(MCK_COEF_MEMBER_) /* the extension laws' coefficients (core/laws.h) */
 } mck_coef_t;
 
 /* Controller instance (one channel). Treat as opaque. The state comes first; everything a
@@ -203,7 +217,7 @@ void mck_ctrl_init(mck_ctrl_t *c, uint16_t ts_us);
  * loop on a copy and swap it in with interrupts off, or with the control interrupt masked. */
 uint8_t mck_ctrl_set_gain(mck_ctrl_t *c, uint8_t id, int32_t value);
 
-/* Mode 0..3; resets the controller state and clears the latched faults. */
+/* Mode 0..MCK_N_MODES-1; resets the controller state and clears the latched faults. */
 uint8_t mck_ctrl_set_mode(mck_ctrl_t *c, uint8_t mode);
 
 /* Maximum pressure [Pa], 0..MCK_P_MAX_LIMIT. */

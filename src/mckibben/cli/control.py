@@ -10,16 +10,21 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, err_console, print_table
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, progress_bar, write_plot
+from mckibben.control import registry as R
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
                           no_args_is_help=True)
 app.add_typer(control_app, name="control")
 
+_SMC_DESIGNS = R.SMC.designs
+_CONTROLLER_HELP = " or ".join(R.NAMES) + "."
+
 STEP_KEYS = ("time_constant_s", "rise_time_s", "overshoot_pct", "settling_time_s", "steady_state_error_Pa",
              "rms_error_Pa", "valve_effort_counts")
 
-BETA_OPTION = typer.Option(None, "--beta", help="Sliding-mode switching gain of our law, PWM counts (default 50; "
-                                               "the paper's law: 150 unless given).")
+BETA_OPTION = typer.Option(None, "--beta", help=(f"Sliding-mode switching gain of our law, PWM counts (default "
+                                                f"{_SMC_DESIGNS['model']['beta']:g}; the paper's law: "
+                                                f"{_SMC_DESIGNS['paper']['beta']:g} unless given)."))
 LAW_OPTION = typer.Option("model", "--law", help="Sliding-mode law: model (ours: model term with the valves' "
                                                  "lift-off) or paper (β·tanh(S/ε) alone, as the paper ran it).")
 EPS_OPTION = typer.Option(None, "--eps", help="Sliding-mode boundary layer, e.g. 20kPa (default: docs/control.md).")
@@ -60,7 +65,7 @@ def _finish(res, plot, dpi, out, plot_kw=None) -> None:
 
 @control_app.command("step")
 def step_cmd(
-    controller: str = typer.Option("smc", "--controller", help="smc or pid."),
+    controller: str = typer.Option("smc", "--controller", help=_CONTROLLER_HELP),
     target: str = typer.Option("0.55MPa", "--target", help="Step target pressure."),
     start: str = typer.Option("0MPa", "--from", help="Pressure held before the step."),
     beta: float = BETA_OPTION,
@@ -234,7 +239,7 @@ def robustness_cmd(
 def track_cmd(
     reference: str = typer.Option(..., "--reference", help="sine:MEAN,AMPLITUDE,FREQ (e.g. sine:0.4MPa,0.2MPa,2Hz) "
                                                            "or a CSV/Parquet file with time_<unit>, pressure_<unit>."),
-    controller: str = typer.Option("smc", "--controller", help="smc or pid."),
+    controller: str = typer.Option("smc", "--controller", help=_CONTROLLER_HELP),
     beta: float = BETA_OPTION,
     law: str = LAW_OPTION,
     eps: str = EPS_OPTION,

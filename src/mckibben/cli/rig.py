@@ -10,6 +10,7 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
 from mckibben.atomic import check_output_file
+from mckibben.control import registry as R
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
 
@@ -138,7 +139,7 @@ def recover_cmd(
 def step_cmd(
     port: str = typer.Option(..., "--port", help="Serial port of the device or emulator."),
     target: str = typer.Option("0.55MPa", "--target", help="Pressure set-point of the step."),
-    controller: str = typer.Option("smc", "--controller", help="smc or pid."),
+    controller: str = typer.Option("smc", "--controller", help=" or ".join(R.NAMES) + "."),
     duration: str = typer.Option("1s", "--duration", help="Recording time after the step."),
     json: bool = JSON_OPTION,
 ) -> None:

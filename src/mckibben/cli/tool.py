@@ -16,6 +16,7 @@ from mckibben.cli._common import (
     print_table,
 )
 from mckibben.cli._output import check_outputs, plot_option, progress_bar, write_plot
+from mckibben.control import registry as R
 from mckibben.errors import InputError
 
 tool_app = typer.Typer(help="The three-muscle endoscope: kinematics, pressures for a tip, workspace, tracking.",
@@ -180,7 +181,7 @@ def track_cmd(
     out: str = typer.Option(None, "--out", help="Write the time series of every run (targets, references, "
                                                 "achieved tips, pressures): .csv or .parquet."),
     beta: float = typer.Option(None, "--beta", help="Sliding-mode switching gain of the three controllers [PWM counts] "
-                                                    "(our law, docs/control.md; default TRACKING_BETA, 50)."),
+                                                    f"(our law, docs/control.md; default TRACKING_BETA, {R.SMC.designs['model']['beta']:g})."),
     muscle: str = MUSCLE_OPTION,
     pitch_radius: str = PITCH_OPTION,
     discs: str = DISCS_OPTION,

@@ -14,40 +14,54 @@ with the firmware), :mod:`~mckibben.control.identify`, :mod:`~mckibben.control.m
 :mod:`~mckibben.control.hysteresis`, :mod:`~mckibben.control.length`.
 """
 
-from mckibben.control.controllers import FirstOrderModel, PIDDesign, design_pid, pid_params, smc_params
-from mckibben.control.core import CoreParams
-from mckibben.control.experiments import LAWS, identify_plant, run_closed_loop
-from mckibben.control.identify import fit_step_response, read_step_log
-from mckibben.control.metrics import step_metrics, step_metrics_batch, tracking_metrics, tracking_metrics_batch
-from mckibben.control.plots import (
-    plot_compare,
-    plot_fig13,
-    plot_hysteresis,
-    plot_open_loop,
-    plot_record,
-    plot_robustness,
-    plot_step_fit,
-)
-from mckibben.control.simulation import (
-    CONTROLLERS,
-    CompareResult,
-    Fig13Result,
-    OpenLoopResult,
-    RobustnessResult,
-    StepResult,
-    TrackResult,
-    compare,
-    controller_params,
-    fig13,
-    hysteresis_compensation,
-    identified_model,
-    open_loop,
-    pressure_reference,
-    robustness,
-    step_response,
-    track,
-    tuned_controller,
-)
+import importlib
+
+#: Where each public name lives. The submodules are imported on first use (PEP 562): the control
+#: package pulls in python-control and SciPy, and a light module (the controller registry, which
+#: the rig, the sweeps and the command line read) must not wait for them.
+_WHERE = {
+    "CONTROLLERS": "mckibben.control.simulation",
+    "CompareResult": "mckibben.control.simulation",
+    "CoreParams": "mckibben.control.core",
+    "Fig13Result": "mckibben.control.simulation",
+    "FirstOrderModel": "mckibben.control.controllers",
+    "LAWS": "mckibben.control.experiments",
+    "OpenLoopResult": "mckibben.control.simulation",
+    "PIDDesign": "mckibben.control.controllers",
+    "RobustnessResult": "mckibben.control.simulation",
+    "StepResult": "mckibben.control.simulation",
+    "TrackResult": "mckibben.control.simulation",
+    "compare": "mckibben.control.simulation",
+    "controller_params": "mckibben.control.simulation",
+    "design_pid": "mckibben.control.controllers",
+    "fig13": "mckibben.control.simulation",
+    "fit_step_response": "mckibben.control.identify",
+    "hysteresis_compensation": "mckibben.control.simulation",
+    "identified_model": "mckibben.control.simulation",
+    "identify_plant": "mckibben.control.experiments",
+    "open_loop": "mckibben.control.simulation",
+    "pid_params": "mckibben.control.controllers",
+    "plot_compare": "mckibben.control.plots",
+    "plot_fig13": "mckibben.control.plots",
+    "plot_hysteresis": "mckibben.control.plots",
+    "plot_open_loop": "mckibben.control.plots",
+    "plot_record": "mckibben.control.plots",
+    "plot_robustness": "mckibben.control.plots",
+    "plot_step_fit": "mckibben.control.plots",
+    "pressure_reference": "mckibben.control.simulation",
+    "read_step_log": "mckibben.control.identify",
+    "robustness": "mckibben.control.simulation",
+    "run_closed_loop": "mckibben.control.experiments",
+    "smc_params": "mckibben.control.controllers",
+    "step_metrics": "mckibben.control.metrics",
+    "step_metrics_batch": "mckibben.control.metrics",
+    "step_response": "mckibben.control.simulation",
+    "track": "mckibben.control.simulation",
+    "tracking_metrics": "mckibben.control.metrics",
+    "tracking_metrics_batch": "mckibben.control.metrics",
+    "tuned_controller": "mckibben.control.simulation",
+}
+
 
 __all__ = [
     "CONTROLLERS", "LAWS", "CompareResult", "CoreParams", "Fig13Result", "FirstOrderModel", "OpenLoopResult",
@@ -58,3 +72,16 @@ __all__ = [
     "step_metrics_batch", "step_response", "track",
     "tracking_metrics", "tracking_metrics_batch", "tuned_controller",
 ]
+
+
+def __getattr__(name: str):
+    # deferred on purpose: python-control and SciPy (see _WHERE)
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'mckibben.control' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

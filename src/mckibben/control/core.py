@@ -26,22 +26,28 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
-from typing import NamedTuple
+from dataclasses import dataclass, field, fields, make_dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from mckibben._jit import njit
 from mckibben import hardware as HW
 from mckibben.errors import InputError, unknown_name
+from mckibben.control import registry as R
+from mckibben.control.fixed import TERM_LIM as _TERM_LIM
+from mckibben.control.fixed import _TANH, mulq16, tanh_q15, tanh_table  # noqa: F401  (re-exported)
+from mckibben.control.fixed import clamp as _clamp
+from mckibben.control.fixed import rdiv as _rdiv
+from mckibben.control.fixed import wrap32 as _wrap32  # noqa: F401  (re-exported)
 from mckibben.hardware import ADC_MAX
 
 # --- modes and fault flags (firmware/core/controller.h, docs/protocol.md) ---------------------
 
-MODE_OFF = 0
-MODE_SMC = 1
-MODE_PID = 2
-MODE_OPEN_LOOP = 3
+MODE_OFF = R.MODE_OFF
+MODE_SMC = R.SMC.mode
+MODE_PID = R.PID.mode
+MODE_OPEN_LOOP = R.MODE_OPEN_LOOP
 
 FAULT_OVERPRESSURE = 0x01
 FAULT_ADC_RANGE = 0x02
@@ -71,29 +77,8 @@ class Gain(NamedTuple):
     default: int
 
 
-#: The gains of SET_GAIN, in id order (firmware/core/controller.h).
-GAINS: tuple[Gain, ...] = (
-    Gain(0, "smc_beta", "PWM counts", 1e3, 0, 255_000, 120_000),
-    Gain(1, "smc_eps", "Pa", 1.0, 1, 1_000_000, 20_000),
-    Gain(2, "smc_ki", "1/s", 1e3, 0, 1_000_000, 10_000),
-    Gain(3, "smc_tau", "s", 1e6, 0, 10_000_000, 90_000),
-    Gain(4, "smc_g", "Pa/count", 1e3, 0, 100_000_000, 3_000_000),  # 0: no model term
-    Gain(5, "smc_i_max", "Pa s", 1e3, 0, 2_147_483_647, 10_000_000),
-    Gain(6, "pid_kp", "counts/Pa", 1e9, 0, 1_000_000_000, 1_000_000),
-    Gain(7, "pid_ki", "counts/(Pa s)", 1e9, 0, 2_147_483_647, 11_000_000),
-    Gain(8, "pid_kd", "counts s/Pa", 1e12, 0, 2_147_483_647, 0),
-    Gain(9, "pid_tf", "s", 1e6, 0, 10_000_000, 5_000),
-    Gain(10, "adc_zero", "count", 1.0, 0, 1023, 0),
-    Gain(11, "pa_per_count", "Pa/count", 1e3, 1, 2_047_999, 977_517),
-    Gain(12, "margin", "Pa", 1.0, 0, 200_000, 20_000),
-    Gain(13, "adc_min", "count", 1.0, 0, 1023, 0),
-    Gain(14, "adc_max", "count", 1.0, 0, 1023, 1022),
-    Gain(15, "n_stuck", "samples", 1.0, 0, 65_535, 250),
-    Gain(16, "n_missing", "samples", 1.0, 0, 65_535, 10),
-    Gain(17, "smc_u0", "PWM counts", 1e3, 0, 255_000, 0),
-    Gain(18, "sup_g", "Pa/count", 1e3, 0, 100_000_000, 3_000_000),  # 0: response rule off
-    Gain(19, "sup_u0", "PWM counts", 1e3, 0, 255_000, 112_000),
-)
+#: The gains of SET_GAIN, in id order (the registry's: :data:`mckibben.control.registry.GAINS`).
+GAINS: tuple[Gain, ...] = tuple(Gain(g.id, g.name, g.unit, g.scale, g.lo, g.hi, g.default_value) for g in R.GAINS)
 GAIN_IDS = {g.name: g.id for g in GAINS}
 N_GAINS = len(GAINS)
 
@@ -108,7 +93,8 @@ IP_C_U0 = 17
 IP_P_OVER, IP_ADC_ZERO, IP_ADC_MIN, IP_ADC_MAX, IP_N_STUCK, IP_N_MISSING = 18, 19, 20, 21, 22, 23
 IP_GS_PA, IP_RESP_U = 24, 25
 IP_GAIN0 = 26
-N_IPARAMS = IP_GAIN0 + N_GAINS
+#: Then the extension laws' coefficients (:data:`mckibben.control.registry.LAYOUT`).
+N_IPARAMS = R.N_IPARAMS
 
 # istate (int64): mode, supervisor and law state, last telemetry values.
 IS_MODE, IS_LATCHED, IS_OVER, IS_FIRST, IS_LAST_INLET, IS_LAST_BLEED = 0, 1, 2, 3, 4, 5
@@ -116,7 +102,10 @@ IS_HELD_ADC, IS_STUCK_N, IS_MISSING_N = 6, 7, 8
 IS_ISUM, IS_IU, IS_DQ, IS_E_PREV, IS_PREF_PREV = 9, 10, 11, 12, 13
 IS_SURFACE, IS_REFERENCE, IS_P_PREV = 14, 15, 16
 IS_P_SEEN = 17  #: supply estimate: highest pressure shown since SET_MODE (a bank's channel 0 holds the shared one)
-N_ISTATE = 18
+#: Then the extension laws' state (:data:`mckibben.control.registry.LAYOUT`).
+N_ISTATE = R.N_ISTATE
+if (R.CORE_N_ISTATE, R.CORE_IP_GAIN0) != (IS_P_SEEN + 1, IP_GAIN0):  # the registry lays out after these
+    raise ImportError("mckibben.control.registry: CORE_N_ISTATE/CORE_IP_GAIN0 disagree with the core's layout")
 #: Supervisor 2b: the inlet is shut while p + LEAD_SAMPLES·(p − p_prev) > p_max + margin.
 LEAD_SAMPLES = 4
 P_NONE = 2_000_000  #: IS_P_PREV before the first step: a falling 'rate', so no cut on the first sample
@@ -126,55 +115,6 @@ P_NONE = 2_000_000  #: IS_P_PREV before the first step: a falling 'rate', so no 
 #: bleed lower it from RESP_P_MIN up.
 RESP_DU = 24
 RESP_P_MIN = 20_000
-
-
-def tanh_table() -> np.ndarray:
-    """The tanh table of the fixed-point law: ``round(tanh(i/16) * 2^15)``, i = 0..128.
-
-    Returns
-    -------
-    numpy.ndarray
-        129 ``int64`` values; entry i is tanh at x = i/16 in Q15. [-]
-    """
-    return np.rint(np.tanh(np.arange(129) / 16.0) * 32768.0).astype(np.int64)
-
-
-_TANH = tanh_table()
-
-# --- integer building blocks (mirrors of controller.c) ----------------------------------------
-
-
-@njit
-def _wrap32(v):
-    return ((v + 2147483648) & 0xFFFFFFFF) - 2147483648
-
-
-@njit
-def mulq16(x, c):
-    """floor(x c / 2^16) wrapped to int32, as ``mck_mulq16`` (c >= 0). [-]"""
-    return _wrap32((x * c) >> 16)
-
-
-@njit
-def tanh_q15(x_q12):
-    """tanh of x (Q12, 0 <= x < 8) in Q15 by linear interpolation in the table. [-]"""
-    i = x_q12 >> 8
-    f = x_q12 & 0xFF
-    a = _TANH[i]
-    b = _TANH[i + 1]
-    return a + (((b - a) * f) >> 8)
-
-
-@njit
-def _clamp(v, lo, hi):
-    if v < lo:
-        return lo
-    if v > hi:
-        return hi
-    return v
-
-
-_TERM_LIM = 1 << 24
 
 
 @njit
@@ -304,7 +244,7 @@ def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
     if st[IS_LATCHED] != 0 or st[IS_OVER] != 0:
         bleed = 255
         st[IS_FIRST] = 1
-    elif mode == MODE_SMC or mode == MODE_PID:
+    elif mode == MODE_SMC or mode == MODE_PID or mode > MODE_OPEN_LOOP:
         if st[IS_FIRST] != 0:
             st[IS_FIRST] = 0
             st[IS_PREF_PREV] = pref
@@ -313,8 +253,10 @@ def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
             st[IS_ISUM] = _clamp(st[IS_ISUM] + e, -ip[IP_ISUM_MAX], ip[IP_ISUM_MAX])
             u, surface = smc_law_q8(ip, p, pref - st[IS_PREF_PREV], e, st[IS_ISUM])
             st[IS_PREF_PREV] = pref
-        else:
+        elif mode == MODE_PID:
             u = _pid_law_q8(st, ip, e)
+        else:  # the registry's extension laws (modes 4, 5, ...)
+            u, surface = R.extension_law(mode, st, ip, p, pref, e)
         u = (u + 128) >> 8
         if u >= 0:
             inlet = 255 if u > 255 else u
@@ -368,10 +310,6 @@ def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa)
 
 
 # --- gains -> coefficients (mirror of derive() in controller.c) -------------------------------
-
-
-def _rdiv(n, d):
-    return (n + d // 2) // d
 
 
 def derive_arrays(gains, ts_us) -> dict[str, np.ndarray]:
@@ -453,6 +391,12 @@ def _fill_coefficients(ip: np.ndarray) -> None:
     gains = ip[..., IP_GAIN0 : IP_GAIN0 + N_GAINS]
     for name, value in derive_arrays(gains, ip[..., IP_TS_US]).items():
         ip[..., _COEF_INDEX[name]] = value
+    # the extension laws' coefficients (their derive(), called at the end of derive() in controller.c)
+    for spec in R.EXTENSIONS:
+        io = R.LAYOUT[spec.name][1]
+        values = spec.resolve("derive")({g.param: gains[..., g.id] for g in spec.gains}, ip[..., IP_TS_US])
+        for j, name in enumerate(spec.coefs):
+            ip[..., io + j] = values[name]
     # the supervisor's settings in the step's fields (derive() in controller.c)
     ip[..., IP_P_OVER] = ip[..., IP_P_MAX] + gains[..., GAIN_IDS["margin"]]
     for name, index in (("adc_zero", IP_ADC_ZERO), ("adc_min", IP_ADC_MIN), ("adc_max", IP_ADC_MAX),
@@ -463,9 +407,18 @@ def _fill_coefficients(ip: np.ndarray) -> None:
 # --- physical parameters ----------------------------------------------------------------------
 
 
+#: The gains' defaults, by CoreParams field: the registry's (:data:`mckibben.control.registry.GAINS`).
+_D: dict = {g.param: g.default for g in R.GAINS}
+#: The extension laws' gains (registry), fields of CoreParams too; a dataclass built from the
+#: registry so that a registered law brings its parameters along.
+_ExtensionParams: Any = make_dataclass(
+    "_ExtensionParams", [(g.param, type(g.default), field(default=g.default)) for c in R.EXTENSIONS for g in c.gains],
+    frozen=True)
+
+
 @dataclass(frozen=True)
-class CoreParams:
-    """Physical parameters of the controller core (defaults: docs/firmware.md, not tuned).
+class CoreParams(_ExtensionParams):
+    """Physical parameters of the controller core (defaults: the registry's, docs/firmware.md; not tuned).
 
     Parameters
     ----------
@@ -522,38 +475,45 @@ class CoreParams:
         Lift-off u0_s of the supervisor's valve model. [PWM counts]
     """
 
-    beta: float = 120.0
-    eps: float = 20e3
-    ki: float = 10.0
-    tau: float = 0.09
-    g: float = 3000.0
-    i_max: float = 1e4
-    kp: float = 1e-3
-    ki_pid: float = 0.011
-    kd: float = 0.0
-    tf: float = 0.005
+    beta: float = _D["beta"]
+    eps: float = _D["eps"]
+    ki: float = _D["ki"]
+    tau: float = _D["tau"]
+    g: float = _D["g"]
+    i_max: float = _D["i_max"]
+    kp: float = _D["kp"]
+    ki_pid: float = _D["ki_pid"]
+    kd: float = _D["kd"]
+    tf: float = _D["tf"]
     p_max: float = float(HW.P_MAX_DEFAULT)
-    margin: float = 20e3
-    adc_zero: int = 0
-    pa_per_count: float = HW.PA_PER_COUNT
-    adc_min: int = 0
-    adc_max: int = 1022
-    n_stuck: int = 250
-    n_missing: int = 10
+    margin: float = _D["margin"]
+    adc_zero: int = _D["adc_zero"]
+    pa_per_count: float = _D["pa_per_count"]
+    adc_min: int = _D["adc_min"]
+    adc_max: int = _D["adc_max"]
+    n_stuck: int = _D["n_stuck"]
+    n_missing: int = _D["n_missing"]
     ts: float = HW.CONTROL_PERIOD
     mode: int = MODE_SMC
     open_loop_inlet: int = 0
     open_loop_bleed: int = 0
-    u0: float = 0.0
-    sup_g: float = 3000.0
-    sup_u0: float = 112.0
+    u0: float = _D["u0"]
+    sup_g: float = _D["sup_g"]
+    sup_u0: float = _D["sup_u0"]
 
 
-_PARAM_OF_GAIN = (
-    "beta", "eps", "ki", "tau", "g", "i_max", "kp", "ki_pid", "kd", "tf",
-    "adc_zero", "pa_per_count", "margin", "adc_min", "adc_max", "n_stuck", "n_missing", "u0",
-    "sup_g", "sup_u0",
-)  # fmt: skip
+#: CoreParams field of each gain, in id order.
+_PARAM_OF_GAIN = tuple(g.param for g in R.GAINS)
+
+
+def _extension_docs() -> str:
+    """The extension laws' parameters for CoreParams' docstring, from the registry."""
+    return "".join(f"    {g.param} : {type(g.default).__name__}\n        {c.name}: {g.doc}. [{g.unit}]\n"
+                   for c in R.EXTENSIONS for g in c.gains)
+
+
+if CoreParams.__doc__ and R.EXTENSIONS:
+    CoreParams.__doc__ = CoreParams.__doc__.rstrip() + "\n" + _extension_docs()
 
 
 def gain_values(params: CoreParams) -> np.ndarray:
@@ -677,7 +637,7 @@ def pack_batch(params: Mapping[str, object] | None = None, n: int | None = None)
         p_max = np.where(np.isfinite(c["p_max"]), np.rint(c["p_max"]), -1.0)
         cols.check((p_max < 0) | (p_max > P_MAX_LIMIT),
                    lambda row: f"controller parameter p_max={cols.value('p_max', row)!r} outside [0, {P_MAX_LIMIT}] Pa")
-        for name, lo, hi in (("mode", 0, 3), ("open_loop_inlet", 0, 255), ("open_loop_bleed", 0, 255)):
+        for name, lo, hi in (("mode", 0, max(R.MODES)), ("open_loop_inlet", 0, 255), ("open_loop_bleed", 0, 255)):
             v = c[name]
             cols.check(~np.isfinite(v) | (np.floor(v) != v) | (v < lo) | (v > hi),
                        lambda row, name=name, lo=lo, hi=hi: (f"controller parameter {name}={cols.value(name, row)!r} "
@@ -825,7 +785,7 @@ class CoreController:
         mode : int
             0 off, 1 sliding mode, 2 PID, 3 open loop. [-]
         """
-        if not 0 <= mode <= MODE_OPEN_LOOP:
+        if mode not in R.MODES:
             return STATUS_RANGE
         st = self.istate
         st[IS_MODE] = mode
@@ -833,6 +793,7 @@ class CoreController:
         st[IS_FIRST] = 1
         for k in (IS_ISUM, IS_IU, IS_DQ, IS_E_PREV, IS_PREF_PREV, IS_STUCK_N, IS_MISSING_N, IS_P_SEEN):
             st[k] = 0
+        st[R.CORE_N_ISTATE:] = 0  # the extension laws' state (their reset())
         return STATUS_OK
 
     def set_max_pressure(self, p_max_pa: int) -> int:

@@ -23,6 +23,7 @@ import numpy as np
 
 from mckibben.control.controllers import (FirstOrderModel, design_pid, pid_params, smc_params,
                                           with_supervisor_model)
+from mckibben.control import registry as R
 from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
 from mckibben.control.identify import fit_lift_off, fit_step_response
 from mckibben.control.metrics import step_metrics, step_metrics_batch
@@ -235,14 +236,16 @@ SAFETY_TRANSIENT_PA = 90e3
 #: identified first-order model and the valves' lift-off (``docs/controller.md``); ``paper`` is
 #: β·tanh(S/ε) alone, the law as the paper ran it ("all the terms in A are difficult to
 #: estimate … we set β to a large value", §IV.A), which Fig. 13 measured.
-LAWS = ("model", "paper")
+LAWS = R.SMC.laws
 
 #: Our sliding-mode design (law ``model``; ``docs/control.md`` says how it was chosen): with the
-#: model term carrying the holding command, a small switching gain suffices.
-SMC_TUNING = {"beta": 50.0, "eps": 100e3, "ki": 5.0, "i_max": 4e4}
-#: The paper's law (``paper``): β is the paper's (120 or 150); ε and Ki are ours, chosen so that
-#: the integral brings the β = 120 step to its target within Fig. 13's second.
-PAPER_SMC_TUNING = {"eps": 50e3, "ki": 12.0, "i_max": 1e4}
+#: model term carrying the holding command, a small switching gain suffices (the registry's
+#: design ``model`` of ``smc``).
+SMC_TUNING = dict(R.SMC.designs["model"])
+#: The paper's law (``paper``): β is the paper's (120 or 150; 150 by default, the registry's
+#: design ``paper``); ε and Ki are ours, chosen so that the integral brings the β = 120 step to
+#: its target within Fig. 13's second.
+PAPER_SMC_TUNING = {k: v for k, v in R.SMC.designs["paper"].items() if k != "beta"}
 
 
 def smc_core_params(model: FirstOrderModel, beta: float | None = None, *, law: str = "model",
@@ -255,8 +258,8 @@ def smc_core_params(model: FirstOrderModel, beta: float | None = None, *, law: s
     model : FirstOrderModel
         Identified model (used by the ``model`` law only). [-]
     beta : float, optional
-        Switching gain; default :data:`SMC_TUNING` for ``model``, 150 (the paper's faster
-        setting) for ``paper``. [PWM counts]
+        Switching gain; default the law's documented design (registry ``smc``: 50 for
+        ``model``, 150, the paper's faster setting, for ``paper``). [PWM counts]
     law : {"model", "paper"}, default "model"
         ``model``: u = v + u0·sign(v), v = (p + τ(ṗ_ref + Ki·e))/G + β·tanh(S/ε);
         ``paper``: u = β·tanh(S/ε) (the core with G = 0). [-]
@@ -274,15 +277,56 @@ def smc_core_params(model: FirstOrderModel, beta: float | None = None, *, law: s
     """
     if law not in LAWS:
         raise unknown_name("sliding-mode law", law, LAWS)
-    tuning = SMC_TUNING if law == "model" else PAPER_SMC_TUNING
-    if beta is None:
-        beta = SMC_TUNING["beta"] if law == "model" else 150.0
+    tuning = R.SMC.designs[law]
+    beta = tuning["beta"] if beta is None else beta
     eps = tuning["eps"] if eps is None else eps
     ki = tuning["ki"] if ki is None else ki
     if law == "paper":
         base = with_supervisor_model(base, model) if model.gain > 0 else base  # the supervisor keeps it
         model = FirstOrderModel(gain=0.0, tau=0.0)  # G = 0: no model term (nor lift-off)
     return smc_params(model, beta, eps, ki, i_max=tuning["i_max"], base=base)
+
+
+def smc_design(model: FirstOrderModel, base: CoreParams = CoreParams(), *, law: str = "model",
+               beta: float | None = None, eps: float | None = None, ki: float | None = None,
+               lam: float | None = None) -> CoreParams:
+    """The registry's design of ``smc``: :func:`smc_core_params` (``lam`` is the PID's, unused).
+
+    Parameters
+    ----------
+    model : FirstOrderModel
+        Identified model. [-]
+    base : CoreParams, optional
+        Supervisor settings. [-]
+    law : {"model", "paper"}, default "model"
+        Sliding-mode law. [-]
+    beta, eps, ki : float, optional
+        Gains to hold instead of the documented design. [PWM counts, Pa, 1/s]
+    lam : float, optional
+        Ignored. [s]
+    """
+    return smc_core_params(model, beta, law=law, eps=eps, ki=ki, base=base)
+
+
+def pid_design(model: FirstOrderModel, base: CoreParams = CoreParams(), *, law: str | None = None,
+               beta: float | None = None, eps: float | None = None, ki: float | None = None,
+               lam: float | None = None) -> CoreParams:
+    """The registry's design of ``pid``: :func:`default_pid` on ``model`` (the sliding-mode gains unused).
+
+    Parameters
+    ----------
+    model : FirstOrderModel
+        Identified model. [-]
+    base : CoreParams, optional
+        Supervisor settings. [-]
+    law : str, optional
+        Ignored. [-]
+    beta, eps, ki : float, optional
+        Ignored. [-]
+    lam : float, optional
+        Closed-loop time constant λ; default the registry's design (τ/3). [s]
+    """
+    return pid_params(default_pid(model, lam), base=base)
 
 
 def default_pid(model: FirstOrderModel, closed_loop_tau: float | None = None,
@@ -308,7 +352,7 @@ def default_pid(model: FirstOrderModel, closed_loop_tau: float | None = None,
     PIDDesign
         Gains in PWM counts per Pa and python-control's verdict on them.
     """
-    lam = model.tau / 3.0 if closed_loop_tau is None else closed_loop_tau
+    lam = model.tau / R.PID.designs["pid"]["tau_over_lambda"] if closed_loop_tau is None else closed_loop_tau
     return design_pid(model.through_origin(operating_point), lam)
 
 
@@ -324,13 +368,80 @@ TUNING_BAR = {"overshoot_pct": 10.0, "steady_state_error": 0.02}
 #: identified one) and λ (multiples of that τ). The design τ goes down to the fast phase of a
 #: muscle file's plant (the chamber at the braid's straight stop fills in milliseconds), which a
 #: first-order fit of the whole step puts at the slow phase (tenths of a second).
-TUNING_CANDIDATES = {
-    "model": {"beta": (10.0, 20.0, 50.0), "eps": (50e3, 100e3, 200e3, 400e3), "ki": (1.0, 2.5, 5.0),
-              "tau_factor": (1.0, 1 / 4, 1 / 16, 1 / 64, 1 / 256)},
-    "paper": {"beta": (115.0, 120.0, 130.0, 150.0, 175.0, 200.0), "eps": (25e3, 50e3, 100e3, 200e3),
-              "ki": (4.0, 12.0, 24.0)},
-    "pid": {"tau_factor": (1.0, 1 / 4, 1 / 16, 1 / 64), "lam_factor": (1 / 4, 1 / 2, 1.0, 2.0, 4.0)},
-}
+TUNING_CANDIDATES = {name: dict(grid) for c in R.CONTROLLERS.values() for name, grid in c.grid.items()}
+
+
+def smc_candidates(model: FirstOrderModel, base: CoreParams, top: float, grid: dict, *, law: str = "model",
+                   beta=None, eps=None, ki=None, lam=None):
+    """The sliding mode's tuning candidates (registry ``smc``): β, ε, Ki and the model term's τ.
+
+    Parameters
+    ----------
+    model : FirstOrderModel
+        Identified model. [-]
+    base : CoreParams
+        Supervisor settings. [-]
+    top : float
+        Top pressure of the design steps. [Pa]
+    grid : dict
+        The candidate grid of the law (:data:`TUNING_CANDIDATES`). [-]
+    law : {"model", "paper"}, default "model"
+        Sliding-mode law. [-]
+    beta, eps, ki : float, optional
+        Gains held instead of tuned. [PWM counts, Pa, 1/s]
+    lam : float, optional
+        Ignored. [s]
+
+    Returns
+    -------
+    tuple of list
+        The candidates' free gains and their core parameters. [-]
+    """
+    import itertools
+
+    given = {"beta": beta, "eps": eps, "ki": ki}
+    axes = [(v,) if given[k] is not None else grid[k] for k, v in given.items()]
+    axes.append(grid.get("tau_factor", (1.0,)))
+    cands = [dict(zip(("beta_counts", "eps_Pa", "ki_per_s", "tau_s"), (*map(float, c[:3]), c[3] * model.tau)))
+             for c in itertools.product(*axes)]
+    params = [smc_core_params(replace(model, tau=c["tau_s"]), c["beta_counts"], law=law, eps=c["eps_Pa"],
+                              ki=c["ki_per_s"], base=base) for c in cands]
+    if law == "paper":  # no model term: τ plays no part
+        cands = [{k: v for k, v in c.items() if k != "tau_s"} for c in cands]
+    return cands, params
+
+
+def pid_candidates(model: FirstOrderModel, base: CoreParams, top: float, grid: dict, *, law=None, beta=None,
+                   eps=None, ki=None, lam=None):
+    """The PID's tuning candidates (registry ``pid``): the design τ and λ.
+
+    Parameters
+    ----------
+    model : FirstOrderModel
+        Identified model. [-]
+    base : CoreParams
+        Supervisor settings. [-]
+    top : float
+        Top pressure of the design steps; the line through the origin is taken at half of it. [Pa]
+    grid : dict
+        The candidate grid (:data:`TUNING_CANDIDATES`). [-]
+    law, beta, eps, ki : optional
+        Ignored. [-]
+    lam : float, optional
+        Closed-loop time constant held instead of tuned. [s]
+
+    Returns
+    -------
+    tuple of list
+        The candidates' free gains and their core parameters. [-]
+    """
+    op = 0.5 * top
+    cands = [{"tau_s": f * model.tau, "lambda_s": float(lam) if lam is not None else g * f * model.tau}
+             for f in grid["tau_factor"] for g in ((1.0,) if lam is not None else grid["lam_factor"])]
+    params = [pid_params(design_pid(replace(model, tau=c["tau_s"]).through_origin(op), c["lambda_s"],
+                                    verdict=False), base=base) for c in cands]
+    return cands, params
+
 
 @dataclass(frozen=True)
 class GainTuning:
@@ -420,33 +531,15 @@ def tune_gains(plant, model: FirstOrderModel, controller: str = "smc", *, law: s
     -------
     GainTuning
     """
-    import itertools
-
-    if controller not in ("smc", "pid"):
-        raise unknown_name("controller", controller, ("smc", "pid"))
+    spec = R.get(controller)
     if law not in LAWS:
         raise unknown_name("sliding-mode law", law, LAWS)
+    law_of = law if spec.laws else None
     top = min(float(to_plant_params(plant).supply_pressure), float(base.p_max))
-    if controller == "smc":
-        grid = TUNING_CANDIDATES[law]
-        given = {"beta": beta, "eps": eps, "ki": ki}
-        axes = [(v,) if given[k] is not None else grid[k] for k, v in given.items()]
-        axes.append(grid.get("tau_factor", (1.0,)))
-        cands = [dict(zip(("beta_counts", "eps_Pa", "ki_per_s", "tau_s"), (*map(float, c[:3]), c[3] * model.tau)))
-                 for c in itertools.product(*axes)]
-        params = [smc_core_params(replace(model, tau=c["tau_s"]), c["beta_counts"], law=law, eps=c["eps_Pa"],
-                                  ki=c["ki_per_s"], base=base) for c in cands]
-        if law == "paper":  # no model term: τ plays no part
-            cands = [{k: v for k, v in c.items() if k != "tau_s"} for c in cands]
-    else:
-        op = 0.5 * top
-        grid = TUNING_CANDIDATES["pid"]
-        cands = [{"tau_s": f * model.tau, "lambda_s": float(lam) if lam is not None else g * f * model.tau}
-                 for f in grid["tau_factor"] for g in ((1.0,) if lam is not None else grid["lam_factor"])]
-        params = [pid_params(design_pid(replace(model, tau=c["tau_s"]).through_origin(op), c["lambda_s"],
-                                        verdict=False), base=base) for c in cands]
+    grid = TUNING_CANDIDATES[law if spec.laws else next(iter(spec.grid))]
+    cands, params = spec.resolve("candidates")(model, base, top, grid, law=law, beta=beta, eps=eps, ki=ki, lam=lam)
     if objective == "track":
-        return _tune_tracking(plant, controller, law, cands, params, top)
+        return _tune_tracking(plant, controller, law_of, cands, params, top)
     if objective != "step":
         raise unknown_name("tuning objective", objective, ("step", "track"))
     total = hold + duration
@@ -467,8 +560,7 @@ def tune_gains(plant, model: FirstOrderModel, controller: str = "smc", *, law: s
         key = (sum(x > 1.0 for x in short), sum(max(x - 1.0, 0.0) for x in short), settle)
         if best_key is None or key < best_key:
             best, best_key = i, key
-    return GainTuning(controller, law if controller == "smc" else None, cands[best], params[best], table[best],
-                      best_key[0] == 0, len(params))
+    return GainTuning(controller, law_of, cands[best], params[best], table[best], best_key[0] == 0, len(params))
 
 
 #: Design references of a tuning for tracking: sines about ½ of the top pressure, ¼ of it in
@@ -494,8 +586,7 @@ def _tune_tracking(plant, controller, law, cands, params, top) -> GainTuning:
              "rms_error_Pa": float(every["rms_error_Pa"][best * len(refs) + j]),
              "max_abs_error_Pa": float(every["max_abs_error_Pa"][best * len(refs) + j])}
             for j, (m, a, f) in enumerate(TUNING_SINES)]
-    return GainTuning(controller, law if controller == "smc" else None, cands[best], params[best], rows, True,
-                      len(params))
+    return GainTuning(controller, law, cands[best], params[best], rows, True, len(params))
 
 
 def _shortfall(m: dict, duration: float) -> float:
@@ -613,7 +704,7 @@ def step_size_table(model: FirstOrderModel | None, steps=((0.0, 0.2e6), (0.0, 0.
         pid = default_pid(model)
         fixed = {"pid": pid_params(pid, base=with_supervisor_model(CoreParams(), model)),
                  "smc": smc_core_params(model, beta),
-                 "smc_paper": smc_core_params(model, 150.0, law="paper")}
+                 "smc_paper": smc_core_params(model, law="paper")}
         controllers_for_load = lambda load, plant: fixed  # noqa: E731
     total = hold + duration
     n, _ = _steps(total)
@@ -804,7 +895,7 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
     every = {key: np.concatenate([v] * k) for key, v in samples.items()}
     if controllers is None:
         controllers = {"pid": pid_params(default_pid(model), base=with_supervisor_model(CoreParams(), model)),
-                       "smc": smc_core_params(model, beta), "smc_paper": smc_core_params(model, 150.0, law="paper")}
+                       "smc": smc_core_params(model, beta), "smc_paper": smc_core_params(model, law="paper")}
     params = [controllers[name] for name in CONTROLLER_NAMES for _ in range(n)]
     nn, _ = _steps(duration)
     ref = step_reference(nn, int(round(t_step / 1e-3)), 0.0, target)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mckibben.control import registry as R
 from mckibben.datasets.paper_points import FIG13
 
 __all__ = ["plot_step_fit", "plot_record", "plot_fig13", "plot_robustness", "plot_compare", "plot_open_loop", "plot_hysteresis"]
@@ -113,7 +114,8 @@ def plot_fig13(result, ax=None, tau_vs_beta=None):
 
 _ROBUST_PANELS = (("time_constant_s", 1e3, "time constant [ms]"), ("overshoot_pct", 1.0, "overshoot [%]"),
                   ("steady_state_error_Pa", 1e-3, "steady-state error [kPa]"))
-_CONTROLLER_LABELS = {"pid": "PID", "smc": "SMC\n(ours)", "smc_paper": "SMC, paper's\nlaw, β = 150"}
+_CONTROLLER_LABELS = {**{c.name: c.label for c in R.CONTROLLERS.values()},
+                      "smc_paper": f"SMC, paper's\nlaw, β = {R.SMC.designs['paper']['beta']:g}"}
 
 
 def plot_robustness(result, ax=None):

@@ -20,17 +20,16 @@ from functools import lru_cache
 
 import numpy as np
 
-from mckibben.control.controllers import FirstOrderModel, pid_params, with_supervisor_model
+from mckibben.control import registry as R
+from mckibben.control.controllers import FirstOrderModel, with_supervisor_model
 from mckibben.control.core import CoreParams, core_spec
 from mckibben.control.experiments import (
     CONTROLLER_NAMES,
     LAWS,
     GainTuning,
     LoopRecord,
-    default_pid,
     plant_batch,
     run_closed_loop,
-    smc_core_params,
     step_reference,
 )
 from mckibben.control.experiments import fig13 as _fig13_runs
@@ -51,8 +50,8 @@ __all__ = [
     "robustness", "step_response", "track", "tuned_controller",
 ]
 
-#: Controllers the firmware core runs.
-CONTROLLERS = ("smc", "pid")
+#: Controllers the firmware core runs (:data:`mckibben.control.registry.NAMES`).
+CONTROLLERS = R.NAMES
 #: Control period of the core and of every record. [s]
 TS = 1e-3
 
@@ -147,9 +146,7 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     # the supervisor's valve model (G, lift-off) comes from the identification too
     base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "--p-max",
                                                                        allow_zero=False))), model)
-    if controller == "smc":
-        return smc_core_params(model, b, law=law, eps=e, ki=k, base=base)
-    return pid_params(default_pid(model, lm), base=base)
+    return R.get(controller).resolve("design")(model, base, law=law, beta=b, eps=e, ki=k, lam=lm)
 
 
 def _model_dict(model: FirstOrderModel) -> dict:
@@ -157,12 +154,35 @@ def _model_dict(model: FirstOrderModel) -> dict:
             "lift_off_counts": model.lift_off}
 
 
-def _gains_dict(params: CoreParams, controller: str) -> dict:
-    if controller == "smc":
-        return {"law": "paper" if params.g == 0 else "model", "beta_counts": params.beta, "eps_Pa": params.eps,
-                "ki_per_s": params.ki, "tau_s": params.tau, "g_Pa_per_count": params.g, "lift_off_counts": params.u0}
+def smc_gains_dict(params: CoreParams) -> dict:
+    """The sliding mode's gains as reported in results (registry ``smc``: ``describe``).
+
+    Parameters
+    ----------
+    params : CoreParams
+        Core parameters. [-]
+    """
+    return {"law": "paper" if params.g == 0 else "model", "beta_counts": params.beta, "eps_Pa": params.eps,
+            "ki_per_s": params.ki, "tau_s": params.tau, "g_Pa_per_count": params.g, "lift_off_counts": params.u0}
+
+
+def pid_gains_dict(params: CoreParams) -> dict:
+    """The PID's gains as reported in results (registry ``pid``: ``describe``).
+
+    Parameters
+    ----------
+    params : CoreParams
+        Core parameters. [-]
+    """
     return {"kp_counts_per_Pa": params.kp, "ki_counts_per_Pa_s": params.ki_pid, "kd_counts_s_per_Pa": params.kd,
             "tf_s": params.tf}
+
+
+def _gains_dict(params: CoreParams, controller: str) -> dict:
+    spec = R.get(controller)
+    if spec.describe:
+        return spec.resolve("describe")(params)
+    return {f"{g.param}_{g.unit.replace(' ', '_').replace('/', '_per_')}": getattr(params, g.param) for g in spec.gains}
 
 
 def _record_frame(rec: LoopRecord, i: int = 0):
@@ -558,7 +578,7 @@ def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", lo
     n = int(round(total / TS))
     ref = step_reference(n, int(round(hold / TS)), args["from_Pa"], args["target_Pa"])
     rec = run_closed_loop(core_spec(params), ref, total, plant)
-    args.update(law=law if controller == "smc" else None)
+    args.update(law=law if R.get(controller).laws else None)
     return StepResult(rec, hold, params_model, params, args, tuning)
 
 
@@ -728,7 +748,7 @@ def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_m
     rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant)
     args = {"controller": controller, "reference": reference if isinstance(reference, str) else "array",
             "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
-            "law": law if controller == "smc" else None}
+            "law": law if R.get(controller).laws else None}
     if muscle_file is not None:
         args.update(muscle_file=str(muscle_file), direction=direction)
     return TrackResult(rec, m, params, args, tuning)

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mckibben.control import registry as R
 from mckibben.errors import InputError
 from mckibben.hardware import BAUD as _HW_BAUD
 from mckibben.hardware import P_MAX_DEFAULT, pressure_from_adc
@@ -30,7 +31,7 @@ SAFE_MAX_PRESSURE_PA = float(P_MAX_DEFAULT)
 #: How long :meth:`Device.step` waits for the first telemetry frame. [s]
 STARTUP_TIMEOUT_S = 10.0
 #: The device's controllers by name (:data:`mckibben.rig.protocol.MODES`).
-CONTROLLERS = ("smc", "pid")
+CONTROLLERS = R.NAMES
 
 
 def open_port(port: str, timeout: float = 0.02):

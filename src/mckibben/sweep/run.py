@@ -23,6 +23,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 import mckibben
+from mckibben.control import registry as R
 from mckibben.errors import InputError
 from mckibben.sweep.spec import Sweep
 
@@ -62,12 +63,12 @@ def _plants(rows: pd.DataFrame):
 
 def _controllers(rows: pd.DataFrame, kind: str):
     """The chunk's controller spec, packed column by column (:func:`mckibben.control.core.pack_batch`)."""
-    from mckibben.control.core import MODE_PID, MODE_SMC, CoreParams, core_spec
+    from mckibben.control.core import CoreParams, core_spec
 
     names = {f.name for f in fields(CoreParams)}
     cols = {c[11:]: rows[c].to_numpy(dtype=float) for c in rows.columns
             if c.startswith("controller.") and c[11:] in names}
-    cols["mode"] = np.full(len(rows), float(MODE_SMC if kind == "smc" else MODE_PID))
+    cols["mode"] = np.full(len(rows), float(R.get(kind).mode))
     return core_spec(cols)
 
 

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from mckibben.control import registry as R
 from mckibben.errors import InputError, unknown_name
 from mckibben.units import parse_quantity
 
@@ -55,12 +56,17 @@ PLANT_FIELDS = {
     "load_force": "force", "damping": None, "pressure_noise": "pressure", "muscle": "name",
 }
 #: Controller gains a sweep may set (CoreParams fields), with their dimension.
+#: Dimension of a gain's value by its unit, as a sweep parses it (None: a plain number).
+_DIMENSION_OF_UNIT = {"PWM counts": "dimensionless", "Pa": "pressure", "1/s": "frequency", "s": "time"}
+#: Every registered controller's gains (:mod:`mckibben.control.registry`), the maximum pressure and
+#: the overpressure margin.
 CONTROLLER_FIELDS = {
-    "beta": "dimensionless", "eps": "pressure", "ki": "frequency", "tau": "time", "g": None,
-    "i_max": None, "kp": None, "ki_pid": None, "kd": None, "tf": "time", "p_max": "pressure",
-    "margin": "pressure", "u0": "dimensionless",
+    **{g.param: _DIMENSION_OF_UNIT.get(g.unit) for c in R.CONTROLLERS.values() for g in c.gains if g.id < 12},
+    "p_max": "pressure", "margin": "pressure",
+    **{g.param: _DIMENSION_OF_UNIT.get(g.unit) for c in R.CONTROLLERS.values() for g in c.gains if g.id > 12},
 }
-CONTROLLER_KINDS = ("smc", "pid")
+#: Controller kinds (:data:`mckibben.control.registry.NAMES`).
+CONTROLLER_KINDS = R.NAMES
 SCENARIOS = ("step", "sine")
 METRICS = ("time_constant_s", "rise_time_s", "settling_time_s", "overshoot_pct", "steady_state_error_Pa",
            "valve_effort_counts", "rms_error_Pa", "max_pressure_Pa")

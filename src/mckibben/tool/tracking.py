@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mckibben.control import registry as R
 from mckibben.errors import UnreachableError
 from mckibben.tool.geometry import Tool
 from mckibben.tool.paths import TipPath
@@ -210,7 +211,7 @@ class TrackingResult:
 #: Switching gain of the tracking controllers (law ``model``): the step design's
 #: (:data:`mckibben.control.experiments.SMC_TUNING`); with the model term carrying the holding
 #: command (valve lift-off included) the switching term only covers the model's error.
-TRACKING_BETA = 50.0
+TRACKING_BETA = R.SMC.designs["model"]["beta"]
 #: Boundary layer [Pa] and surface integral weight [1/s] of the tracking controllers: narrower
 #: than the step tuning of :data:`mckibben.control.experiments.SMC_TUNING` (100 kPa, 5 1/s),
 #: which trades holding accuracy for a clean step; tracking a moving reference wants the
