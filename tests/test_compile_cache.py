@@ -113,8 +113,10 @@ def test_an_unwritable_cache_folder_runs_uncached_with_one_warning(tmp_path):
     blocker = tmp_path / "a-file"
     blocker.write_text("not a folder")
     env = _env(MCKIBBEN_CACHE_DIR=str(blocker / "cache"))
-    r, stats, err = _run(["predict", "force", "--model", "tondu-lopez", "--pressure", "0.5MPa"], tmp_path, env)
+    # 100 pressures: past what the NumPy face runs as Python, so the force law compiles
+    r, stats, err = _run(["predict", "force", "--model", "tondu-lopez", "--pressure", "0:0.8MPa:100"], tmp_path, env)
     assert r.returncode == 0, r.stderr
+    assert stats["compiled"] > 0
     assert len(err) == 1 and err[0].startswith("warning: cannot write the kernel cache folder"), err
     assert not blocker.with_name("cache").exists()
 
@@ -310,3 +312,23 @@ def test_quick_commands_import_no_heavy_package(args):
               "print(code, heavy)\n")
     r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=_env(), timeout=120)
     assert r.stdout.strip() == "0 []", (r.stdout, r.stderr[-2000:])
+
+
+def test_a_runner_compiled_in_memory_gives_the_cached_runners_bits(monkeypatch):
+    """The path of an uncached process or a kernel defined in a notebook cell: same numbers, to the bit."""
+    from mckibben import _jit
+    from mckibben.control import core as C
+    from mckibben.plant import PlantParams, _runner, simulate
+    from mckibben.plant import simulator as S
+
+    spec = C.core_spec(C.CoreParams())
+    ref = np.where(np.arange(300) >= 20, 0.45e6, 0.0)
+    cached = simulate(PlantParams(), 0.3, controller=spec, reference=ref, n=3)
+    in_memory = _jit._in_memory(_runner, "kernel", spec[0])
+    assert in_memory.kernel is spec[0]
+    monkeypatch.setattr(S, "_runner_of", lambda kernel: in_memory)
+    again = simulate(PlantParams(), 0.3, controller=spec, reference=ref, n=3)
+    assert cached.pressure.max() > 0.4e6
+    np.testing.assert_array_equal(again.pressure, cached.pressure)
+    np.testing.assert_array_equal(again.inlet, cached.inlet)
+    np.testing.assert_array_equal(again.istate, cached.istate)

@@ -32,6 +32,7 @@ import inspect
 import os
 import sys
 import threading
+import types
 import warnings
 from pathlib import Path
 
@@ -334,19 +335,21 @@ def _generated(template, kernel_name: str, ref: tuple[str, str], runners: Path):
 
 def _in_memory(template, kernel_name: str, kernel):
     """The template's functions compiled in memory (no disk cache) with ``kernel_name`` bound to ``kernel``."""
-    import types
-
     module = types.ModuleType(f"{template.__name__}[{getattr(kernel, '__name__', 'kernel')}]")
     namespace = dict(vars(template))
     namespace[kernel_name] = kernel
     module.__dict__.update(namespace)
     for name, value in vars(template).items():
+        if name == kernel_name:  # bound above (the template binds it to a placeholder kernel)
+            continue
         py_func = getattr(value, "py_func", value)  # a plain function with NUMBA_DISABLE_JIT=1
         if not isinstance(py_func, types.FunctionType) or py_func.__module__ != template.__name__:
             continue
         clone = types.FunctionType(py_func.__code__, module.__dict__, name, py_func.__defaults__, py_func.__closure__)
         clone.__qualname__ = py_func.__qualname__
         options = getattr(value, "targetoptions", None)
+        if options is not None:
+            options = {k: v for k, v in options.items() if k not in ("nopython", "cache", "boundscheck")}
         module.__dict__[name] = clone if options is None else numba.njit(cache=False, **options)(clone)
     return module
 
@@ -413,14 +416,32 @@ def compile_stats() -> dict[str, int]:
 # --- kernels written as plain Python until Numba is loaded (mckibben._kernels) --------------------
 
 
-def compile_marked(module) -> None:
-    """Replace, in ``module``, every function marked by :func:`mckibben._kernels.kernel` by its dispatcher."""
+_COMPILED: dict = {}  # id(plain function) -> (plain function, dispatcher)
+
+
+def _is_plain(value) -> bool:
+    return isinstance(value, types.FunctionType)  # a dispatcher forwards attributes to its py_func
+
+
+def compile_marked(module=None) -> None:
+    """Compile every function marked by :func:`mckibben._kernels.kernel`, in place.
+
+    Each registered module's own marked functions become dispatchers in that module; then every
+    registered module's name bound to a marked function of another (``from m import f``) is bound
+    to its dispatcher too.
+    """
     with _LOCK:
-        for name, value in list(vars(module).items()):
-            options = getattr(value, "__mckibben_kernel__", None)
-            if options is not None and getattr(value, "__module__", None) == module.__name__:
-                setattr(module, name, njit(**options)(value))
+        for mod in _kernels.modules():
+            for name, value in list(vars(mod).items()):
+                options = getattr(value, "__mckibben_kernel__", None) if _is_plain(value) else None
+                if options is not None and value.__module__ == mod.__name__:
+                    if id(value) not in _COMPILED:
+                        _COMPILED[id(value)] = (value, njit(**options)(value))
+                    setattr(mod, name, _COMPILED[id(value)][1])
+        for mod in _kernels.modules():
+            for name, value in list(vars(mod).items()):
+                if _is_plain(value) and id(value) in _COMPILED:
+                    setattr(mod, name, _COMPILED[id(value)][1])
 
 
-for _module in _kernels.modules():
-    compile_marked(_module)
+compile_marked()

@@ -8,8 +8,9 @@ from then on each module's marked functions are replaced, in the module, by thei
 dispatchers, before any compiled code that calls them is compiled. The same source, the same
 arithmetic: tests hold the two equal to the bit.
 
-Compiled code must therefore reach a marked kernel through its module (``HW.adc_count``) or from
-inside that module, never through a name imported before Numba was loaded.
+Compiled code reaches a marked kernel through its module (``HW.adc_count``), from inside that
+module, or by a name a registered module imported from another (rebound too); a module that is not
+registered and imports a marked kernel by name must import :mod:`mckibben._jit` first.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ def register(module_name: str) -> None:
     if module_name not in _MODULES:
         _MODULES.append(module_name)
     if "mckibben._jit" in sys.modules:
-        sys.modules["mckibben._jit"].compile_marked(sys.modules[module_name])
+        sys.modules["mckibben._jit"].compile_marked()
 
 
 def compiled() -> bool:

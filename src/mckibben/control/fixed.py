@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mckibben._jit import njit
+from mckibben._kernels import kernel, register
 
 def tanh_table() -> np.ndarray:
     """The tanh table of the fixed-point law: ``round(tanh(i/16) * 2^15)``, i = 0..128.
@@ -27,19 +27,19 @@ _TANH = tanh_table()
 
 
 
-@njit
+@kernel
 def wrap32(v):
     """v wrapped to int32 (two's complement), as a C cast. [-]"""
     return ((v + 2147483648) & 0xFFFFFFFF) - 2147483648
 
 
-@njit
+@kernel
 def mulq16(x, c):
     """floor(x c / 2^16) wrapped to int32, as ``mck_mulq16`` (c >= 0). [-]"""
     return wrap32((x * c) >> 16)
 
 
-@njit
+@kernel
 def tanh_q15(x_q12):
     """tanh of x (Q12, 0 <= x < 8) in Q15 by linear interpolation in the table. [-]"""
     i = x_q12 >> 8
@@ -49,7 +49,7 @@ def tanh_q15(x_q12):
     return a + (((b - a) * f) >> 8)
 
 
-@njit
+@kernel
 def clamp(v, lo, hi):
     """v clamped to [lo, hi] (``clamp32``). [-]"""
     if v < lo:
@@ -66,3 +66,5 @@ def rdiv(n, d):
     """floor((n + floor(d/2)) / d): ``rdiv`` of controller.c, on NumPy int64 arrays or ints. [-]"""
     return (n + d // 2) // d
 
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)

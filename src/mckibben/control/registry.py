@@ -14,7 +14,7 @@ table) and ``firmware/core/laws.h`` (the extension laws, one header each);
 through the same checks (C against Python step by step, the float reference, the plant).
 
 Adding a controller (``docs/controller.md``, "Adding a controller"): a module with its law
-(a module-level ``@njit`` function ``law(st, ip, so, io, p, pref, e) -> (u_q8, surface)``), its
+(a module-level kernel, ``mckibben._kernels.kernel``: ``law(st, ip, so, io, p, pref, e) -> (u_q8, surface)``), its
 coefficients (``derive``), its float reference and its design; a header
 ``firmware/core/law_<name>.h``; and one entry here (:data:`CONTROLLERS` and its line in
 :func:`extension_law`), plus one line in ``firmware/core/laws.h``.
@@ -32,7 +32,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 
-from mckibben._jit import njit
+from mckibben._kernels import kernel, register
 from mckibben import hardware as HW
 from mckibben.control import stsmc
 from mckibben.errors import unknown_name
@@ -306,7 +306,7 @@ N_IPARAMS = CORE_IP_GAIN0 + N_GAINS + sum(len(c.coefs) for c in EXTENSIONS)
 _STSMC_MODE, _STSMC_SLOTS = STSMC.mode, LAYOUT["stsmc"]
 
 
-@njit
+@kernel
 def extension_law(mode, st, ip, p, pref, e):
     """The law of an extension mode: one line per registered extension law.
 
@@ -353,3 +353,6 @@ def default_of(param: str) -> float | int:
 
 
 _DEFAULTS = {g.param: g.default for g in GAINS}
+
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)

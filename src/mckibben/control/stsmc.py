@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mckibben._jit import njit
+from mckibben._kernels import kernel, register
 from mckibben.control.fixed import clamp, mulq16, rdiv
 
 if TYPE_CHECKING:  # typing only: the core imports the registry, which imports this module
@@ -74,7 +74,7 @@ def sqrt_table() -> np.ndarray:
 _SQRT = sqrt_table()
 
 
-@njit
+@kernel
 def sqrt_q14(x_q12):
     """√x of x (Q12, 0 <= x < 8) in Q14 by linear interpolation in the table (``mck_sqrt_q14``). [-]"""
     i = x_q12 >> 8
@@ -83,7 +83,7 @@ def sqrt_q14(x_q12):
     return a + (((_SQRT[i + 1] - a) * f) >> 8)
 
 
-@njit
+@kernel
 def law(st, ip, so, io, p, pref, e):
     """One step of the law (``mck_stsmc_law``), bit-exact.
 
@@ -249,3 +249,6 @@ def describe(params: CoreParams) -> dict:
     """
     return {"k1_counts": params.st_k1, "k2_counts_per_s": params.st_k2, "phi_Pa": params.st_phi,
             "g_Pa_per_count": params.st_g, "lift_off_counts": params.st_u0}
+
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)
