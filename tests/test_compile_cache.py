@@ -321,7 +321,7 @@ def test_a_runner_compiled_in_memory_gives_the_cached_runners_bits(monkeypatch):
     from mckibben.plant import PlantParams, _runner, simulate
     from mckibben.plant import simulator as S
 
-    spec = C.core_spec(C.CoreParams())
+    spec = C.core_spec(C.CoreParams(), 3)
     ref = np.where(np.arange(300) >= 20, 0.45e6, 0.0)
     cached = simulate(PlantParams(), 0.3, controller=spec, reference=ref, n=3)
     in_memory = _jit._in_memory(_runner, "kernel", spec[0])
