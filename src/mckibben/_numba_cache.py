@@ -36,8 +36,8 @@ def fingerprint(package_dir: Path) -> str:
     """
     h = hashlib.sha256()
     for sub in CACHED_SUBPACKAGES:
-        for f in sorted((package_dir / sub).glob("*.py")):
-            h.update(f.name.encode())
+        for f in sorted((package_dir / sub).rglob("*.py")):  # subpackages too (models/laws/)
+            h.update(str(f.relative_to(package_dir)).encode())
             h.update(f.read_bytes())
     for name in CACHED_MODULES:
         f = package_dir / name
@@ -71,7 +71,7 @@ def drop_stale(package_dir: Path) -> bool:
             return False
         dropped = False
         for sub in CACHED_SUBPACKAGES:
-            for f in (package_dir / sub / "__pycache__").glob("*.nb[ic]"):
+            for f in (package_dir / sub).rglob("__pycache__/*.nb[ic]"):
                 f.unlink(missing_ok=True)
                 dropped = True
         for name in CACHED_MODULES:

@@ -7,11 +7,14 @@ muscle file does not give is fitted within physical bounds; geometry it gives is
 model                       force                                                        fitted
 ==========================  ===========================================================  ==========
 ``chou-hannaford``          π·D0²·P/4·(3cos²θ − 1), cos θ = L·cos θ0/L0                 θ0, D0
-``wall-chou-hannaford``     the same + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]              θ0, D0, t
+``wall-corrected``          the same + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]              θ0, D0, t
 ``tondu-lopez``             π·r0²·P·[a(1 − kε)² − b], ε = 1 − L/L0                       α0, r0, k
 ``spring``                  K(P, Ls)·Ls, Ls = L − Lu(P), K per direction (001, eq. 1–2)  h, c
 ``surface``                 Σ a_ij·P^i·ε^j (i ≤ 3, j ≤ 1) + deflate·(b0 + b1·P)         a, b
 ==========================  ===========================================================  ==========
+
+Each law's fit spec (names, bounds, starts) lives in its file of :mod:`mckibben.models.laws`
+and is read from there; ``wall-chou-hannaford`` is still read as the old name of ``wall-corrected``.
 
 Every model but ``spring`` (whose stretch term already gives a force at zero pressure) also
 fits ``offset_N``, the load cell's zero: a lab's force column is seldom tared
@@ -52,209 +55,58 @@ import pandas as pd
 from mckibben.data.io import MuscleSpec, Table, apply_tare
 from mckibben.errors import InputError, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range, linear_fit
-from mckibben.models.physical import BraidGeometry, chou_hannaford_force, tondu_lopez_force, wall_corrected_force
+from mckibben.models import laws
+from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
+from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
+from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
+from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
-from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, LOW, SpringModel, spring_force, stiffness
 
-#: The spring model's unloaded length at zero pressure, Lu(0) = h0, further than this fraction from
-#: the nominal length (which is that length, by definition) is flagged. [-]
-NOMINAL_TOL = 0.10
-#: Largest braid angle at rest: cos²θ = 1/3, where the ideal braid stops pulling. [rad]
-THETA_MAX = float(np.arccos(1.0 / np.sqrt(3.0)))
-#: Smallest braid angle at rest allowed in a fit. [rad]
-THETA_MIN = float(np.deg2rad(1.0))
-#: D0 bounds as factors of the measured outer diameter. [-]
-D0_FACTOR = (0.5, 4.0)
-#: r0 bounds as factors of the measured outer diameter. [-]
-R0_FACTOR = (0.25, 1.0)
-#: Wall thickness bound as a factor of the outer diameter. [-]
-WALL_FACTOR = 0.25
-#: Tondu–Lopez contraction correction bounds. [-]
-K_BOUNDS = (0.5, 5.0)
-#: Starting braid angles of the multi-start (the physical fits are non-convex in θ0). [deg]
-THETA_STARTS_DEG = (10.0, 30.0, 50.0)
+__all__ = ["BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "FORCE_MODELS", "IsometricFit", "K_BOUNDS", "ModelComparison",
+           "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
+           "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "force_law", "parameter_names"]
 
 BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
                "wall in [0, 0.25] x outer diameter; k in [0.5, 5]; |offset| <= peak force; spring K >= 0 checked")
 
-#: The models and one line each.
-FORCE_MODELS = {
-    "chou-hannaford": "ideal braid, fitted braid angle at rest and D0 (+ load-cell zero)",
-    "wall-chou-hannaford": "Chou-Hannaford with the tube wall (fitted unless the tube sizes are in the muscle file)",
-    "tondu-lopez": "Tondu-Lopez with its contraction correction k, fitted alpha0 and r0",
-    "spring": "F = K(P, Ls)*Ls of 001 (Lu(P) quadratic, K per inflate/deflate)",
-    "surface": "data-driven: cubic in pressure, linear in contraction, a deflate shift",
-}
+#: The data-driven model: no physical law, not in the law registry (the plant cannot run it).
+SURFACE = "surface"
+#: The models and one line each: every law of the registry with a fit spec
+#: (:func:`mckibben.models.laws.fit_laws`), and the data-driven surface.
+FORCE_MODELS = {**{n: law.description for n, law in laws.fit_laws().items()},
+                SURFACE: "data-driven: cubic in pressure, linear in contraction, a deflate shift"}
+
+
+def model_name(model: str) -> str:
+    """The registry name of a force model (old names read, with a deprecation warning).
+
+    Parameters
+    ----------
+    model : str
+        A key of :data:`FORCE_MODELS` or an old alias (``wall-chou-hannaford``). [-]
+    """
+    if model == SURFACE or model in FORCE_MODELS:
+        return model
+    if model in laws.ALIASES and laws.ALIASES[model] in FORCE_MODELS:
+        return laws.resolve(model)
+    raise unknown_name("force model", model, FORCE_MODELS)
 
 
 def _direction_flag(direction) -> np.ndarray:
     return (np.asarray(direction) == "deflate").astype(float)
 
 
-@dataclass(frozen=True)
-class _Spec:
-    names: tuple
-    lo: np.ndarray
-    hi: np.ndarray
-    starts: list
-    force: Callable  # force(values, pressure, length, direction)
-    physical: Callable | None = None
+#: The fitted vector as a SpringModel (the law file's :func:`~mckibben.models.laws.spring.spring_model_of`).
+_spring_model = spring_model_of
+
+#: No data: a spec built only for its names and force function (a saved law). [-]
+_NO_DATA = (np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, dtype=object))
 
 
-def _geometry_params(muscle: MuscleSpec, fmax: float, what: str):
-    od = muscle.need("outer_diameter", what)
-    l0 = muscle.nominal_length
-    theta_known = muscle.braid_angle
-    if theta_known is not None and not THETA_MIN <= theta_known < THETA_MAX:
-        raise InputError(f"{muscle.path or muscle.id}: key braid_angle: {np.rad2deg(theta_known):g} deg is outside"
-                         f" [1, 54.7) deg, where a braid pulls")
-    return od, l0, theta_known
-
-
-def _ch_spec(muscle: MuscleSpec, fmax: float, wall: bool) -> _Spec:
-    name = "wall-chou-hannaford" if wall else "chou-hannaford"
-    od, l0, theta_known = _geometry_params(muscle, fmax, name)
-    t_known = None
-    if wall and None not in (muscle.tube_outer_diameter, muscle.tube_inner_diameter):
-        t_known = 0.5 * (muscle.tube_outer_diameter - muscle.tube_inner_diameter)
-    names, lo, hi = [], [], []
-    if theta_known is None:
-        names.append("theta0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
-    names.append("d0_m"), lo.append(D0_FACTOR[0] * od), hi.append(D0_FACTOR[1] * od)
-    if wall and t_known is None:
-        names.append("wall_m"), lo.append(0.0), hi.append(WALL_FACTOR * od)
-    names.append("offset_N"), lo.append(-fmax), hi.append(fmax)
-
-    def unpack(v):
-        k = 0
-        th = theta_known
-        if th is None:
-            th, k = v[0], 1
-        d0 = v[k]
-        t = (v[k + 1] if wall and t_known is None else (t_known or 0.0)) if wall else 0.0
-        return th, d0, t, v[-1]
-
-    def force(v, pressure, length, direction=None):
-        th, d0, t, off = unpack(v)
-        b = l0 / np.cos(th)
-        geom = BraidGeometry(b, b / (np.pi * d0), t)
-        f = wall_corrected_force(pressure, length, geom) if wall else chou_hannaford_force(pressure, length, geom)
-        return f + off
-
-    def physical(v):
-        return _offset_flag(v[-1], fmax)
-
-    starts = []
-    for tdeg in (THETA_STARTS_DEG if theta_known is None else (None,)):
-        for dfac in (2.5,):
-            x = []
-            if theta_known is None:
-                x.append(np.deg2rad(tdeg))
-            x.append(dfac * od)
-            if wall and t_known is None:
-                x.append(0.05 * od)
-            x.append(0.0)
-            starts.append(np.array(x))
-    return _Spec(tuple(names), np.array(lo), np.array(hi), starts, force, physical)
-
-
-def _tl_spec(muscle: MuscleSpec, fmax: float) -> _Spec:
-    od, l0, alpha_known = _geometry_params(muscle, fmax, "tondu-lopez")
-    names, lo, hi = [], [], []
-    if alpha_known is None:
-        names.append("alpha0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
-    names += ["r0_m", "k", "offset_N"]
-    lo += [R0_FACTOR[0] * od, K_BOUNDS[0], -fmax]
-    hi += [R0_FACTOR[1] * od, K_BOUNDS[1], fmax]
-
-    def force(v, pressure, length, direction=None):
-        a0 = alpha_known if alpha_known is not None else v[0]
-        r0, k, off = v[-3], v[-2], v[-1]
-        eps = 1.0 - np.asarray(length, dtype=float) / l0
-        return tondu_lopez_force(pressure, eps, r0, a0, k) + off
-
-    starts = []
-    for tdeg in (THETA_STARTS_DEG if alpha_known is None else (None,)):
-        for kk in (1.0,):
-            x = [] if alpha_known is not None else [np.deg2rad(tdeg)]
-            starts.append(np.array(x + [0.45 * od, kk, 0.0]))
-    return _Spec(tuple(names), np.array(lo), np.array(hi), starts, force, lambda v: _offset_flag(v[-1], fmax))
-
-
-#: A load cell's zero larger than this fraction of the peak force is flagged ``large_offset``: a
-#: zero error of a few newtons is usual (lab-data notes), one of many percent means the model is
-#: buying a constant to make up for missing physics. [-]
-OFFSET_FLAG = 0.05
-
-
-def _offset_flag(offset: float, fmax: float) -> list:
-    return ["large_offset"] if abs(offset) > OFFSET_FLAG * fmax else []
-
-
-SPRING_NAMES = ("h2_m_per_Pa2", "h1_m_per_Pa", "h0_m") + tuple(
-    f"c{k}_{d}" for d in ("inflate", "deflate") for k in (3, 2, 1, 0))
-
-
-def _spring_model(v, l0, pmax) -> SpringModel:
-    h = (float(v[0]), float(v[1]), float(v[2]))
-    coeffs = {(ELONGATION, LOW): tuple(float(x) for x in v[3:7]), (CONTRACTION, LOW): tuple(float(x) for x in v[7:11])}
-    return SpringModel(l0, h, coeffs, DEFAULT_TERMS, np.inf, (0.0, pmax), (0.0, np.inf), "fitted (isometric)")
-
-
-def _spring_spec(muscle: MuscleSpec, fmax: float, p, ell, f, direction) -> _Spec:
-    l0 = muscle.nominal_length
-    pmax = float(np.max(p)) or 1.0
-    lo = np.array([-np.inf, -np.inf, 0.5 * l0] + [-np.inf] * 8)
-    hi = np.array([np.inf, np.inf, 1.5 * l0] + [np.inf] * 8)
-    dirs = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
-
-    def force(v, pressure, length, direction=None):
-        d = ELONGATION if direction is None else np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
-        return spring_force(length, pressure, _spring_model(v, l0, pmax), d)[0]
-
-    def linear_c(u):
-        """Variable projection: K's coefficients by least squares for Lu = L0·(u0 + u1·x + u2·x²)."""
-        h = np.array([l0 * u[2] / pmax**2, l0 * u[1] / pmax, l0 * u[0]])
-        stretch = np.maximum(ell - np.polyval(h, p), 0.0)
-        c, r = [], np.empty_like(f)
-        for dn in (ELONGATION, CONTRACTION):
-            sel = dirs == dn
-            if sel.sum() < 5:
-                c += [0.0] * 4
-                r[sel] = -f[sel]
-                continue
-            x = np.column_stack([p[sel] ** i * stretch[sel] ** j * stretch[sel] for i, j in DEFAULT_TERMS])
-            norms = np.linalg.norm(x, axis=0)
-            norms[norms == 0] = 1.0
-            cs = np.linalg.lstsq(x / norms, f[sel], rcond=None)[0] / norms
-            c += list(cs)
-            r[sel] = x @ cs - f[sel]
-        return h, np.array(c), r
-
-    starts = []
-    from scipy import optimize
-
-    for free in (0.15, 0.3):  # free contraction at the top pressure
-        u = optimize.least_squares(lambda u: linear_c(u)[2], [1.0, 0.0, -free], method="lm", max_nfev=400).x
-        h, c, _ = linear_c(u)
-        starts.append(np.concatenate([h, c]))
-
-    def physical(v):
-        out = []
-        model = _spring_model(v, l0, pmax)
-        stretch = ell - np.polyval(v[:3], p)
-        k = np.where(dirs == ELONGATION, stiffness(p, stretch, v[3:7]), stiffness(p, stretch, v[7:11]))
-        if np.any((stretch > 0) & (k < 0)):
-            out.append("negative_stiffness")
-        pg = np.linspace(0.0, pmax, 50)
-        if np.any(np.diff(np.polyval(v[:3], pg)) > 1e-9 * l0):
-            out.append("free_length_grows_with_pressure")
-        if abs(v[2] - l0) > NOMINAL_TOL * l0:
-            out.append("free_length_far_from_nominal")
-        del model
-        return out
-
-    return _Spec(SPRING_NAMES, lo, hi, starts, force, physical)
+def _spec(model: str, muscle: MuscleSpec, fmax: float, p, ell, f, direction) -> FitSpec:
+    """The law's own fit spec (:attr:`mckibben.models.laws.Law.fit_spec`), read, never copied."""
+    data = {"pressure": p, "held_length": ell, "force": f, "direction": direction}
+    return laws.LAWS[model].fit_spec(muscle, fmax, data)
 
 
 def _surface_terms(pressure, length, direction, l0):
@@ -442,8 +294,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
     -------
     FitResult
     """
-    if model not in FORCE_MODELS:
-        raise unknown_name("force model", model, FORCE_MODELS)
+    model = model_name(model)
     what = f"fit {model} on {source}"
     p = d["pressure"].to_numpy(dtype=float)
     ell = d["held_length"].to_numpy(dtype=float)
@@ -466,12 +317,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         res = linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
                          source=source, clusters=clusters)
         return _with_monotone_flag(res, d)
-    if model in ("chou-hannaford", "wall-chou-hannaford"):
-        spec = _ch_spec(muscle, fmax, model == "wall-chou-hannaford")
-    elif model == "tondu-lopez":
-        spec = _tl_spec(muscle, fmax)
-    else:
-        spec = _spring_spec(muscle, fmax, p, ell, f, direction)
+    spec = _spec(model, muscle, fmax, p, ell, f, direction)
 
     def func(values, pressure, length, direction="inflate"):
         return spec.force(values, pressure, length, direction)
@@ -562,7 +408,8 @@ def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
         ``f(pressure [Pa], length [m], direction="inflate") -> force [N]``.
     """
     v = np.asarray(values, dtype=float)
-    if model == "surface":
+    model = model_name(model)
+    if model == SURFACE:
         l0 = muscle.nominal_length
 
         def sfunc(pressure, length, direction="inflate"):
@@ -570,24 +417,16 @@ def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
             return sum(a * t for a, t in zip(v, terms))
 
         return sfunc
-    if model == "spring":
+    if model == "spring":  # one pressure range to infinity: the law as saved
         l0 = muscle.nominal_length
 
         def spring(pressure, length, direction="inflate"):
             d = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
-            return spring_force(length, pressure, _spring_model(v, l0, np.inf), d)[0]
+            return spring_force(length, pressure, spring_model_of(v, l0, np.inf), d)[0]
 
         return spring
-    spec = _physical_spec(model, muscle)
+    spec = _spec(model, muscle, 1.0, *_NO_DATA)
     return lambda pressure, length, direction="inflate": spec.force(v, pressure, length, direction)
-
-
-def _physical_spec(model: str, muscle: MuscleSpec) -> _Spec:
-    if model in ("chou-hannaford", "wall-chou-hannaford"):
-        return _ch_spec(muscle, 1.0, model == "wall-chou-hannaford")
-    if model == "tondu-lopez":
-        return _tl_spec(muscle, 1.0)
-    raise unknown_name("force model", model, FORCE_MODELS)
 
 
 def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
@@ -600,11 +439,12 @@ def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
     muscle : MuscleSpec
         The muscle file.
     """
-    if model == "surface":
+    model = model_name(model)
+    if model == SURFACE:
         return SURFACE_NAMES
     if model == "spring":
         return SPRING_NAMES
-    return _physical_spec(model, muscle).names
+    return _spec(model, muscle, 1.0, *_NO_DATA).names
 
 
 #: Cross-validation schemes of :func:`compare_isometric`.

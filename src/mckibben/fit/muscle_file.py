@@ -17,7 +17,10 @@ import numpy as np
 
 from mckibben.data.io import MuscleSpec
 from mckibben.errors import InputError
+from mckibben.fit.isometric import FORCE_MODELS, force_law, model_name, parameter_names
+from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
+from mckibben.models.laws.spring import CONTRACTION, ELONGATION
 
 #: Muscle-file keys written from a MuscleSpec: field -> (key, factor from SI).
 _KEYS = (("nominal_length", "nominal_length_mm", 1e3), ("outer_diameter", "outer_diameter_mm", 1e3),
@@ -138,8 +141,6 @@ class MuscleForceLaw:
         flags : numpy.ndarray
             :class:`~mckibben.models.flags.Flag` masks.
         """
-        from mckibben.fit.isometric import force_law
-
         p, ell = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
         f = np.broadcast_to(force_law(self.model, self.spec, list(self.parameters.values()))(p, ell, direction), p.shape)
         flags = np.zeros(p.shape, dtype=np.uint16)
@@ -164,41 +165,20 @@ class MuscleForceLaw:
 
         Returns
         -------
-        BraidGeometry, TonduLopez or SpringModel
+        The law's parameter object (:attr:`mckibben.models.laws.Law.from_values`, the one
+        conversion of fitted values): BraidGeometry, TonduLopez, SpringModel or an added law's.
 
         Raises
         ------
         InputError
             For the data-driven ``surface``: it has no physical law to run.
         """
-        from mckibben.models.physical import BraidGeometry, TonduLopez
-        from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel
-
-        v, spec = self.parameters, self.spec
-        l0 = spec.nominal_length
-        if self.model in ("chou-hannaford", "wall-chou-hannaford"):
-            th = v.get("theta0_rad", spec.braid_angle)
-            b = l0 / np.cos(th)
-            t = 0.0
-            if self.model == "wall-chou-hannaford":
-                t = v.get("wall_m", 0.5 * ((spec.tube_outer_diameter or 0.0) - (spec.tube_inner_diameter or 0.0)))
-            return BraidGeometry(float(b), float(b / (np.pi * v["d0_m"])), float(t))
-        if self.model == "tondu-lopez":
-            return TonduLopez(float(v["r0_m"]), float(v.get("alpha0_rad", spec.braid_angle)), float(v["k"]), 0.0, l0,
-                              citation=f"fitted: {spec.path or spec.id}")
-        if self.model == "spring":
-            key = "deflate" if direction == "deflate" else "inflate"
-            c = tuple(float(v[f"c{k}_{key}"]) for k in (3, 2, 1, 0))
-            h = (float(v["h2_m_per_Pa2"]), float(v["h1_m_per_Pa"]), float(v["h0_m"]))
-            # one range: the same coefficients below and above an infinite split; the chosen branch
-            # under both direction keys, so whoever reads the model (the plant's law_of, without a
-            # direction) runs that branch
-            coef = {(dn, rng): c for dn in (CONTRACTION, ELONGATION) for rng in (LOW, HIGH)}
-            return SpringModel(l0, h, coef, DEFAULT_TERMS, np.inf,
-                               self.valid_range.get("pressure", (0.0, np.inf)), (0.0, np.inf),
-                               f"fitted: {spec.path or spec.id}")
-        raise InputError(f"{spec.path or spec.id}: the data-driven {self.model} force law has no physical law the plant"
-                         " can run; fit spring, chou-hannaford, wall-chou-hannaford or tondu-lopez")
+        law = laws.LAWS.get(self.model)
+        if law is None or law.from_values is None:
+            where = self.spec.path or self.spec.id
+            raise InputError(f"{where}: the data-driven {self.model} force law has no physical law the plant can run;"
+                             f" fit one of {', '.join(laws.fit_laws())}")
+        return law.from_values(self.parameters, self.spec, direction, self.valid_range)
 
     def plant_law(self, direction: str = "inflate") -> tuple:
         """``(name, θ)`` of the plant's law registry (:func:`mckibben.models.laws.law_of`).
@@ -208,11 +188,8 @@ class MuscleForceLaw:
         direction : {"inflate", "deflate"}, default "inflate"
             The spring model's branch. [-]
         """
-        from mckibben.models.laws import law_of
-        from mckibben.models.spring import CONTRACTION, ELONGATION
-
         obj = self.static_model(direction)
-        return law_of(obj, direction=CONTRACTION if direction == "deflate" else ELONGATION)
+        return laws.law_of(obj, law=self.model, direction=CONTRACTION if direction == "deflate" else ELONGATION)
 
 
 def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
@@ -228,15 +205,14 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     InputError
         No ``[force_model]``, an unknown model, or parameters that are not the model's.
     """
-    from mckibben.fit.isometric import FORCE_MODELS, parameter_names
-
     where = spec.path or spec.id
     fm = spec.force_model
     if fm is None:
         raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv --model NAME --save FILE.toml")
     model = fm["model"]
-    if model not in FORCE_MODELS:
+    if model not in FORCE_MODELS and model not in laws.ALIASES:
         raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(FORCE_MODELS)}")
+    model = model_name(model)  # an old name (wall-chou-hannaford) is read as its registry name
     names = parameter_names(model, spec)
     params = fm["parameters"]
     if tuple(params) != tuple(names):
@@ -283,7 +259,7 @@ def check_direction(direction: str, law: MuscleForceLaw | None = None) -> str:
     """
     if direction not in DIRECTIONS:
         raise InputError(f"--direction: {direction!r} must be inflate or deflate")
-    if direction == "deflate" and law is not None and law.model != "spring":
+    if direction == "deflate" and law is not None and getattr(laws.LAWS.get(law.model), "branches", 1) < 2:
         raise InputError(f"--direction deflate: the {law.model} force law of {law.spec.path or law.spec.id} has one "
                          "branch for both directions; only a spring fit has a deflate branch")
     return direction

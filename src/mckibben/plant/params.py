@@ -33,11 +33,9 @@ GAMMA = 1.4  #: ratio of specific heats of air [-]
 NUSSELT_TUBE = 3.66
 K_AIR = 0.0257  #: thermal conductivity of air at 20 °C [W/(m·K)]
 
-#: Force laws, by name: the plant's names for the registered laws of :mod:`mckibben.models.laws`.
-FORCE_MODELS = {
-    "calibrated": "tondu-lopez", "tondu-lopez": "tondu-lopez", "chou-hannaford": "chou-hannaford",
-    "wall-corrected": "wall-corrected", "empirical": "braid-map", "braid-map": "braid-map", "spring": "spring",
-}
+#: Force laws, by name: the registry's names and old aliases (:mod:`mckibben.models.laws`, the one
+#: vocabulary), plus ``calibrated``: Tondu–Lopez with the plant's calibrated columns.
+FORCE_MODELS = {"calibrated": "tondu-lopez", **{n: n for n in LW.LAW_NAMES}, **LW.ALIASES}
 #: Chamber thermodynamics, by name.
 THERMAL = ("energy", "polytropic")
 
