@@ -638,6 +638,66 @@ def read_muscle(path) -> MuscleSpec:
     return spec
 
 
+#: Muscle-file keys written from a MuscleSpec: field -> (key, factor from SI).
+_KEYS = (("nominal_length", "nominal_length_mm", 1e3), ("outer_diameter", "outer_diameter_mm", 1e3),
+         ("strand_length", "strand_length_mm", 1e3), ("tube_inner_diameter", "tube_inner_diameter_mm", 1e3),
+         ("tube_outer_diameter", "tube_outer_diameter_mm", 1e3), ("strand_diameter", "strand_diameter_mm", 1e3),
+         ("braid_angle", "braid_angle_deg", 180.0 / math.pi))
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    return repr(float(v))
+
+
+def muscle_file_text_of(spec: MuscleSpec, force_model: dict | None = None, note: str = "") -> str:
+    """The TOML text of a muscle file: the spec's keys and, optionally, a ``[force_model]`` table.
+
+    The writer of :func:`read_muscle`'s format (what one writes, the other reads back).
+
+    Parameters
+    ----------
+    spec : MuscleSpec
+        The muscle (its known geometry is written as is). [SI]
+    force_model : dict, optional
+        ``model``, ``parameters`` (name -> value, SI) and optionally ``source``, ``tare``,
+        ``flags``, ``rmse_N``, ``r2``, ``valid_range`` (quantity -> (min, max), SI), ``stderr``,
+        and any other scalar keys. [-]
+    note : str
+        Appended to the spec's notes. [-]
+    """
+    lines = [f"id = {_toml_value(spec.id)}"]
+    for field_, key, factor in _KEYS:
+        value = getattr(spec, field_)
+        if value is not None:
+            lines.append(f"{key} = {float(value) * factor:.12g}")
+    notes = " ".join(x for x in (spec.notes, note) if x)
+    lines.append(f"notes = {_toml_value(notes)}")
+    lines.append(f"synthetic = {_toml_value(bool(spec.synthetic))}")
+    if force_model is not None:
+        fm = dict(force_model)
+        lines += ["", "[force_model]", f"model = {_toml_value(fm.pop('model'))}"]
+        params, stderr = fm.pop("parameters"), fm.pop("stderr", {})
+        valid = fm.pop("valid_range", {})
+        for k in ("source", "tare", "flags", "rmse_N", "r2"):
+            if k in fm:
+                v = fm.pop(k)
+                lines.append(f"{k} = {v!r}" if k in ("rmse_N", "r2") else f"{k} = {_toml_value(v)}")
+        for k, v in fm.items():
+            lines.append(f"{k} = {_toml_value(v)}")
+        for q, (lo, hi) in valid.items():
+            unit = {"pressure": "Pa", "length": "m", "rest_length": "m"}.get(q, "")
+            lines.append(f"valid_{q}_{unit} = [{float(lo)!r}, {float(hi)!r}]")
+        lines += ["", "[force_model.parameters]"] + [f"{n} = {float(v)!r}" for n, v in params.items()]
+        lines += ["", "[force_model.stderr]"] + [f"{n} = {float(v)!r}" for n, v in stderr.items()]
+    return "\n".join(lines) + "\n"
+
+
 def _force_model_entry(name: str, raw) -> dict:
     """Check a muscle file's ``[force_model]`` table: model name, numeric parameters, range."""
     if not isinstance(raw, dict) or not isinstance(raw.get("model"), str):

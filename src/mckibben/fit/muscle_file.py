@@ -9,35 +9,17 @@ the fitted range is flagged.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from mckibben.data.io import MuscleSpec
+from mckibben.data.io import MuscleSpec, muscle_file_text_of
 from mckibben.errors import InputError
 from mckibben.fit.isometric import FORCE_MODELS, force_law, model_name, parameter_names
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION
-
-#: Muscle-file keys written from a MuscleSpec: field -> (key, factor from SI).
-_KEYS = (("nominal_length", "nominal_length_mm", 1e3), ("outer_diameter", "outer_diameter_mm", 1e3),
-         ("strand_length", "strand_length_mm", 1e3), ("tube_inner_diameter", "tube_inner_diameter_mm", 1e3),
-         ("tube_outer_diameter", "tube_outer_diameter_mm", 1e3), ("strand_diameter", "strand_diameter_mm", 1e3),
-         ("braid_angle", "braid_angle_deg", 180.0 / math.pi))
-
-
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    return repr(float(v))
-
 
 def muscle_file_text(spec: MuscleSpec, fit) -> str:
     """The TOML text of a muscle file holding a fitted force law.
@@ -50,24 +32,12 @@ def muscle_file_text(spec: MuscleSpec, fit) -> str:
         From :func:`mckibben.fit.isometric.fit_isometric`.
     """
     r = fit.result
-    lines = [f"id = {_toml_value(spec.id)}"]
-    for field_, key, factor in _KEYS:
-        value = getattr(spec, field_)
-        if value is not None:
-            lines.append(f"{key} = {float(value) * factor:.12g}")
-    note = (spec.notes + " " if spec.notes else "") + f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
-    lines.append(f"notes = {_toml_value(note)}")
-    lines.append(f"synthetic = {_toml_value(bool(spec.synthetic))}")
-    lines += ["", "[force_model]", f"model = {_toml_value(fit.model)}", f"source = {_toml_value(r.source)}",
-              f"tare = {_toml_value(fit.tare.get('method', 'none'))}", f"flags = {_toml_value(list(r.flags))}",
-              f"rmse_N = {r.residual_rms!r}", f"r2 = {r.r2!r}"]
-    for q, (lo, hi) in r.valid_range.items():
-        unit = {"pressure": "Pa", "length": "m"}.get(q, "")
-        lines.append(f"valid_{q}_{unit} = [{lo!r}, {hi!r}]")
-    lines += ["", "[force_model.parameters]"] + [f"{n} = {float(v)!r}" for n, v in zip(r.names, r.values)]
-    lines += ["", "[force_model.stderr]"] + [f"{n} = {float(s)!r}" for n, s in zip(r.names, r.stderr)
-                                             if np.isfinite(s)]
-    return "\n".join(lines) + "\n"
+    note = f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
+    fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": list(r.flags),
+          "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": dict(r.valid_range),
+          "parameters": dict(zip(r.names, (float(v) for v in r.values))),
+          "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s)}}
+    return muscle_file_text_of(spec, fm, note)
 
 
 def save_muscle_file(path, spec: MuscleSpec, fit) -> Path:
