@@ -28,6 +28,8 @@ def fit_cmd(
     tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest (each run's force at its "
                                                     "lowest pressure) or column (a tare_N column)."),
     save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law."),
+    rest_length: str = typer.Option(None, "--rest-length", help="with --save and a family law: the rest length of the "
+                                                                "muscle the file describes (default: the muscle file's)."),
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit a static model to one experiment table: parameters, standard errors, 95 % intervals, flags."""
@@ -36,7 +38,8 @@ def fit_cmd(
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
     from mckibben.fit.registry import fit_table
 
-    out = fit_table(data, model, muscle, kind, split, tare, save).summary
+    rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
+    out = fit_table(data, model, muscle, kind, split, tare, save, rest).summary
     warn_flags(f"fit {model} on {data}", out.get("flags", []))
     if json:
         emit_json(out)
@@ -67,7 +70,8 @@ def compare_cmd(
     data: Path = typer.Argument(..., help="An isometric or isotonic table, or a muscle folder holding isotonic.csv "
                                           "(and braid_angle.csv)."),
     muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
-    cv: str = typer.Option(None, "--cv", help="isometric: leave-one-length-out (default) or leave-one-trial-out."),
+    cv: str = typer.Option(None, "--cv", help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
+                                              "family table (muscle and rest_length columns), leave-one-muscle-out."),
     tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest or column (see docs/data.md)."),
     json: bool = JSON_OPTION,
 ) -> None:

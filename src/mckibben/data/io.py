@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mckibben.data.schema import BARE_COLUMNS, KINDS, QUANTITIES, SCHEMAS
+from mckibben.data.schema import BARE_COLUMNS, KINDS, PER_MUSCLE, QUANTITIES, SCHEMAS
 from mckibben.atomic import check_input_file
 from mckibben.errors import InputError
 from mckibben.units import G_N, UNITS, to_si, units_of
@@ -97,9 +97,11 @@ def _parse_columns(path: str, names: list[str]) -> dict[str, tuple[str, str, str
         else:
             quantity, _, unit = name.rpartition("_")
             if quantity not in QUANTITIES:
-                known = ", ".join([q if QUANTITIES[q][0] == "dimensionless" else f"{q}_<unit>" for q in QUANTITIES]
-                                  + list(BARE_COLUMNS))
-                raise InputError(f"{path}: column {name!r} is unknown; known columns are {known}")
+                known = ", ".join([q if QUANTITIES[q][0] == "dimensionless" else f"{q}_<unit>" for q in QUANTITIES
+                                   if q not in PER_MUSCLE] + list(BARE_COLUMNS))
+                near = [f"{q}_<unit>" for q in PER_MUSCLE if q.split("_")[0] in quantity]
+                hint = f" (a family table's per-muscle column: {', '.join(near)})" if near else ""
+                raise InputError(f"{path}: column {name!r} is unknown; known columns are {known}{hint}")
             dim = QUANTITIES[quantity][0]
             ok_units = units_of(dim) + (units_of("mass") if quantity == "load" else [])
             if unit not in UNITS or not unit:
@@ -350,6 +352,15 @@ def set_point_groups(values, decimals=9):
 def _check_isometric(table: Table) -> None:
     """An isometric table spans two held lengths or more and two pressures or more per run."""
     d = table.data
+    if "rest_length" in d:  # a family table: one rest length per muscle
+        if "muscle" not in d:
+            raise InputError(f"{table.where(None, 'rest_length')}: a family table (rest_length) needs a muscle column "
+                             "naming each row's muscle")
+        spread = d.groupby(d["muscle"].astype(str))["rest_length"].agg(lambda x: float(np.ptp(x.to_numpy())))
+        bad = spread[spread > 1e-9]
+        if len(bad):
+            r = int(d.index[(d["muscle"].astype(str) == bad.index[0]).to_numpy()][0])
+            raise InputError(f"{table.where(r, 'rest_length')}: muscle {bad.index[0]!r} has more than one rest length")
     groups, lengths = set_point_groups(d["held_length"].to_numpy(), decimals=6)
     if lengths.size < 2:
         raise InputError(
@@ -419,14 +430,16 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
     else:
         runs = []
         groups, lengths = set_point_groups(d["held_length"].to_numpy(), decimals=6)
-        for (k, trial), grp in d.groupby([groups, d["trial"].to_numpy()], sort=True):
+        # a family table's runs are per muscle too
+        who = d["muscle"].astype(str).to_numpy() if "muscle" in d else np.full(len(d), "")
+        for (k, trial, m), grp in d.groupby([groups, d["trial"].to_numpy(), who], sort=True):
             ell = lengths[k]
             p = grp["pressure"].to_numpy()
             # the rows at the run's lowest pressure set point: within 1 % of the run's span (2 kPa at least)
             near = p <= p.min() + max(0.01 * float(np.ptp(p)), 2e3)
             zero = float(grp["force"].to_numpy()[near].mean())
             d.loc[grp.index, "force"] = grp["force"] - zero
-            runs.append({"held_length_m": float(ell), "trial": int(trial), "tare_N": zero})
+            runs.append({"held_length_m": float(ell), "trial": int(trial), "tare_N": zero, **({"muscle": m} if m else {})})
         report["per_run_N"] = runs
     return Table(table.kind, table.path, d, table.columns), report
 
@@ -729,7 +742,7 @@ def check_muscle(table: Table, muscle: MuscleSpec) -> None:
         The muscle file's content.
     """
     d = table.data
-    if "muscle" in d:
+    if "muscle" in d and "rest_length" not in d:  # a family table holds several muscles of the file's type
         wrong = np.flatnonzero(d["muscle"].to_numpy() != muscle.id)
         if wrong.size:
             r = int(d.index[wrong[0]])

@@ -103,9 +103,10 @@ _spring_model = spring_model_of
 _NO_DATA = (np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, dtype=object))
 
 
-def _spec(model: str, muscle: MuscleSpec, fmax: float, p, ell, f, direction) -> FitSpec:
+def _spec(model: str, muscle: MuscleSpec, fmax: float, p, ell, f, direction, rest=None) -> FitSpec:
     """The law's own fit spec (:attr:`mckibben.models.laws.Law.fit_spec`), read, never copied."""
-    data = {"pressure": p, "held_length": ell, "force": f, "direction": direction}
+    data = {"pressure": p, "held_length": ell, "force": f, "direction": direction,
+            "rest_length": np.full(np.size(p), muscle.nominal_length) if rest is None else rest}
     return laws.LAWS[model].fit_spec(muscle, fmax, data)
 
 
@@ -253,8 +254,15 @@ def isometric_points(table: Table, tare: str = "none") -> tuple[pd.DataFrame, di
         raise InputError(f"fit: needs an isometric table (held_length, pressure, force, direction, trial);"
                          f" {table.path} is a {table.kind} table")
     tared, report = apply_tare(table, tare)
-    d = tared.data[["held_length", "pressure", "force", "direction", "trial"]].copy()
+    cols = ["held_length", "pressure", "force", "direction", "trial"]
+    cols += [c for c in ("rest_length", "muscle") if c in tared.data]  # a family table's muscles
+    d = tared.data[cols].copy()
     return d, report
+
+
+def is_family(d: pd.DataFrame) -> bool:
+    """Whether isometric points hold several muscles (a ``muscle`` and a ``rest_length`` column, ≥ 2 muscles)."""
+    return "rest_length" in d and "muscle" in d and d["muscle"].astype(str).nunique() > 1
 
 
 def held_length_groups(held_length) -> np.ndarray:
@@ -271,8 +279,9 @@ def held_length_groups(held_length) -> np.ndarray:
 
 
 def _runs(d: pd.DataFrame) -> np.ndarray:
-    """Cluster label per row: one run = one held length and one trial."""
-    keys = np.column_stack([held_length_groups(d["held_length"]), d["trial"].to_numpy(dtype=float)])
+    """Cluster label per row: one run = one held length and one trial (of one muscle, in a family)."""
+    keys = np.column_stack([held_length_groups(d["held_length"]), d["trial"].to_numpy(dtype=float)]
+                           + ([np.unique(d["muscle"].astype(str), return_inverse=True)[1].ravel()] if "muscle" in d else []))
     return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
 
 
@@ -303,13 +312,21 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
     clusters = _runs(d)
     fmax = float(np.max(np.abs(f))) or 1.0
     vr = data_range(pressure=p, length=ell)
+    law = laws.LAWS.get(model)
+    family = law is not None and law.family
+    if is_family(d) and not family:
+        raise InputError(f"{what}: the table holds {d['muscle'].astype(str).nunique()} muscles; {model} is fitted on one "
+                         f"muscle (fit a family law: {', '.join(laws.fit_laws(family=True)) or 'none registered'})")
+    rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(p.size, muscle.nominal_length)
+    if family:
+        vr["rest_length"] = (float(rest.min()), float(rest.max()))
     if model == "surface":
         l0 = muscle.nominal_length
         x = np.column_stack(_surface_terms(p, ell, direction, l0))
         if np.unique(direction).size < 2:
             x = x[:, :8]
 
-        def sfunc(values, pressure, length, direction="inflate"):
+        def sfunc(values, pressure, length, direction="inflate", rest_length=None):
             terms = _surface_terms(pressure, length, direction, l0)[: len(values)]
             return sum(v * t for v, t in zip(values, terms))
 
@@ -317,12 +334,12 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         res = linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
                          source=source, clusters=clusters)
         return _with_monotone_flag(res, d)
-    spec = _spec(model, muscle, fmax, p, ell, f, direction)
+    spec = _spec(model, muscle, fmax, p, ell, f, direction, rest)
 
-    def func(values, pressure, length, direction="inflate"):
-        return spec.force(values, pressure, length, direction)
+    def func(values, pressure, length, direction="inflate", rest_length=None):
+        return spec.force(values, pressure, length, direction, rest_length)
 
-    res = bounded_fit(lambda v: spec.force(v, p, ell, direction), f, spec.starts, spec.names, spec.lo, spec.hi,
+    res = bounded_fit(lambda v: spec.force(v, p, ell, direction, rest), f, spec.starts, spec.names, spec.lo, spec.hi,
                       model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
                       source=source, physical_flags=spec.physical)
     return _with_monotone_flag(res, d)
@@ -341,9 +358,15 @@ def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
     peak = float(np.max(np.abs(d["force"]))) or 1.0
     from mckibben.data.io import set_point_groups
 
-    for ell in set_point_groups(d["held_length"].to_numpy(dtype=float), decimals=6)[1]:
+    rests = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(len(d), np.nan)
+    pairs = np.unique(np.column_stack([np.round(rests, 9), np.round(d["held_length"].to_numpy(dtype=float), 6)]), axis=0)
+    if "rest_length" not in d:
+        pairs = [(None, ell) for ell in set_point_groups(d["held_length"].to_numpy(dtype=float), decimals=6)[1]]
+    for rest, ell in pairs:
+        extra = {} if rest is None else {"rest_length": np.full_like(pg, rest)}
         for dn in np.unique(d["direction"]):
-            fg = np.asarray(res.func(res.values, pressure=pg, length=np.full_like(pg, ell), direction=dn), dtype=float)
+            fg = np.asarray(res.func(res.values, pressure=pg, length=np.full_like(pg, ell), direction=dn, **extra),
+                            dtype=float)
             if np.any(np.maximum.accumulate(fg) - fg > MONOTONE_TOL * peak):
                 return replace(res, flags=res.flags + ("force_falls_with_pressure",))
     return res
@@ -448,7 +471,7 @@ def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
 
 
 #: Cross-validation schemes of :func:`compare_isometric`.
-CV_METHODS = ("leave-one-length-out", "leave-one-trial-out")
+CV_METHODS = ("leave-one-length-out", "leave-one-trial-out", "leave-one-muscle-out")
 
 
 @dataclass(repr=False)
@@ -462,8 +485,10 @@ class ModelComparison(Result):
     scores : list of dict
         Per model: ``model``, ``n_parameters``, ``rmse_N``, ``r2`` (in-sample, all data),
         ``cv_rmse_N`` (held-out), ``cv_rmse_pct_of_peak`` (held-out RMSE / peak |force| × 100),
-        ``extrapolated_folds`` (folds whose held-out points lie outside the training range),
-        ``flags`` (of the fit on all data) and ``note``.
+        ``folds`` (per fold: ``held_out``, ``rmse_N``, ``rmse_pct_of_peak`` of the held-out
+        muscle's peak |force|, ``peak_force_N``, ``n_points``), ``median_fold_pct_of_peak`` and
+        ``worst_fold_pct_of_peak`` over the folds, ``extrapolated_folds`` (folds whose held-out
+        points lie outside the training range), ``flags`` (of the fit on all data) and ``note``.
     best : str or None
         The model with the smallest held-out RMSE.
     peak_force : float
@@ -533,27 +558,58 @@ class ModelComparison(Result):
         return ax.figure
 
 
+def _fold_keys(d: pd.DataFrame, cv: str) -> tuple[np.ndarray, list]:
+    """Fold label per row and a readable name per fold."""
+    who = d["muscle"].astype(str).to_numpy() if "muscle" in d else np.full(len(d), "")
+    if cv == "leave-one-muscle-out":
+        names = sorted(set(who))
+        return np.searchsorted(names, who), names
+    if cv == "leave-one-trial-out":
+        t = d["trial"].to_numpy()
+        names = list(np.unique(t))
+        return np.searchsorted(names, t), [f"trial {x}" for x in names]
+    g = held_length_groups(d["held_length"])
+    pairs = sorted(set(zip(who, g)))
+    index = {pq: k for k, pq in enumerate(pairs)}
+    ell = d["held_length"].to_numpy(dtype=float)
+    label = []
+    for m, k in pairs:
+        sel = (who == m) & (g == k)
+        mm = f"{m} " if m else ""
+        label.append(f"{mm}{float(np.median(ell[sel])) * 1e3:.4g} mm")
+    return np.array([index[pq] for pq in zip(who, g)]), label
+
+
 def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
                       models=None) -> ModelComparison:
-    """Fit every force model to an isometric table and score it on held-out lengths or trials.
+    """Fit every force model to an isometric table and score it on held-out lengths, trials or muscles.
 
     Every model is fitted on the same folds: ``leave-one-length-out`` leaves each held length out
     in turn and predicts it from the others (the extreme lengths are extrapolations, counted in
-    ``extrapolated_folds``); ``leave-one-trial-out`` leaves each trial number out. The best model
-    is the one with the smallest held-out RMSE, never the in-sample one (notes/lab-data.md).
+    ``extrapolated_folds``; on a family table a fold is one muscle's held length, and the other
+    muscles stay in the training data); ``leave-one-trial-out`` leaves each trial number out;
+    ``leave-one-muscle-out`` (a family table: ``muscle`` and ``rest_length`` columns) leaves each
+    whole muscle out and predicts it from its rest length alone. The best model is the one with
+    the smallest held-out RMSE, never the in-sample one (notes/lab-data.md).
+
+    On a family table only the family laws (:func:`mckibben.models.laws.fit_laws`) are fitted:
+    the others describe one muscle.
+
+    Per fold, ``folds`` gives the held-out RMSE and that RMSE as a percentage of the held-out
+    muscle's peak measured |force| (the peak of the whole table for one muscle).
 
     Parameters
     ----------
     table : Table
         An ``isometric`` table.
     muscle : MuscleSpec
-        The muscle file.
-    cv : {"leave-one-length-out", "leave-one-trial-out"}
+        The muscle file (for a family: the type's outer diameter and geometry). [-]
+    cv : {"leave-one-length-out", "leave-one-trial-out", "leave-one-muscle-out"}
         Cross-validation scheme. [-]
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
     models : sequence of str, optional
-        Models to compare (default: all of :data:`FORCE_MODELS`). [-]
+        Models to compare (default: all of :data:`FORCE_MODELS` that apply). [-]
 
     Returns
     -------
@@ -562,43 +618,65 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     if cv not in CV_METHODS:
         raise unknown_name("--cv scheme", cv, CV_METHODS)
     d, report = isometric_points(table, tare)
+    family = is_family(d)
+    if cv == "leave-one-muscle-out" and not family:
+        raise InputError(f"compare on {table.path}: leave-one-muscle-out needs a family table (a muscle and a "
+                         "rest_length column, two muscles or more)")
     f = d["force"].to_numpy(dtype=float)
     peak = float(np.max(np.abs(f)))
-    key = held_length_groups(d["held_length"]) if cv == "leave-one-length-out" else d["trial"].to_numpy()
+    who = d["muscle"].astype(str).to_numpy() if family else np.full(len(d), "")
+    muscle_peak = {m: float(np.max(np.abs(f[who == m]))) or 1.0 for m in set(who)}
+    key, fold_names = _fold_keys(d, cv) if family or cv != "leave-one-length-out" else (
+        held_length_groups(d["held_length"]), None)
     groups = np.unique(key)
     if groups.size < 2:
-        raise InputError(f"compare on {table.path}: {cv} needs two {'held lengths' if 'length' in cv else 'trials'} or more")
+        what = {"leave-one-length-out": "held lengths", "leave-one-trial-out": "trials"}.get(cv, "muscles")
+        raise InputError(f"compare on {table.path}: {cv} needs two {what} or more")
+    if fold_names is None:
+        fold_names = _fold_keys(d, cv)[1]
+    if models is None:
+        models = [m for m in FORCE_MODELS if (m in laws.LAWS and laws.LAWS[m].family) or not family]
     scores, fits = [], {}
-    for model in (models or FORCE_MODELS):
+    for model in models:
         try:
             full = fit_points(d, muscle, model, source=table.path)
         except InputError as exc:
             scores.append({"model": model, "n_parameters": 0, "rmse_N": None, "r2": None, "cv_rmse_N": None,
-                           "cv_rmse_pct_of_peak": None, "extrapolated_folds": 0, "flags": [],
+                           "cv_rmse_pct_of_peak": None, "extrapolated_folds": 0, "flags": [], "folds": [],
                            "note": f"not fitted: {exc}"})
             continue
         fits[model] = IsometricFit(model, full, muscle, report, d)
         pred = np.full(f.size, np.nan)
-        extrapolated, notes = 0, []
+        extrapolated, notes, folds = 0, [], []
         for g in groups:
             test = key == g
             try:
                 r = fit_points(d[~test], muscle, model, source=table.path)
             except InputError as exc:
-                notes.append(f"fold {g} not fitted: {exc}")
+                notes.append(f"fold {fold_names[int(g)]} not fitted: {exc}")
                 continue
             sub = d[test]
+            extra = {"rest_length": sub["rest_length"].to_numpy(dtype=float)} if "rest_length" in sub else {}
             value, fl = r.predict(pressure=sub["pressure"].to_numpy(), length=sub["held_length"].to_numpy(),
-                                  direction=sub["direction"].to_numpy())
+                                  direction=sub["direction"].to_numpy(), **extra)
             pred[test] = value
             extrapolated += int(np.any(fl))
+            ok = np.isfinite(value)
+            rm = float(np.sqrt(np.mean((value[ok] - f[test][ok]) ** 2))) if ok.any() else float("nan")
+            pk = max(muscle_peak[m] for m in set(who[test]))
+            folds.append({"held_out": fold_names[int(g)], "rmse_N": rm, "rmse_pct_of_peak": rm / pk * 100.0,
+                          "peak_force_N": pk, "n_points": int(test.sum())})
         ok = np.isfinite(pred)
         cv_rmse = float(np.sqrt(np.mean((pred[ok] - f[ok]) ** 2))) if ok.any() else float("nan")
         if not ok.all():
             notes.append(f"{int((~ok).sum())} points not predicted")
+        pct = [x["rmse_pct_of_peak"] for x in folds if np.isfinite(x["rmse_pct_of_peak"])]
         scores.append({"model": model, "n_parameters": len(full.values), "rmse_N": full.residual_rms,
                        "r2": full.r2, "cv_rmse_N": cv_rmse, "cv_rmse_pct_of_peak": cv_rmse / peak * 100.0,
-                       "extrapolated_folds": extrapolated, "flags": list(full.flags), "note": "; ".join(notes)})
+                       "median_fold_pct_of_peak": float(np.median(pct)) if pct else None,
+                       "worst_fold_pct_of_peak": float(np.max(pct)) if pct else None,
+                       "extrapolated_folds": extrapolated, "flags": list(full.flags), "note": "; ".join(notes),
+                       "folds": folds})
     ranked = [s for s in scores if s["cv_rmse_N"] is not None and np.isfinite(s["cv_rmse_N"])]
     best = min(ranked, key=lambda s: s["cv_rmse_N"])["model"] if ranked else None
     return ModelComparison(cv, scores, best, peak, fits, report, table.path)

@@ -9,7 +9,7 @@ the fitted range is flagged.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +21,7 @@ from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION
 
-def muscle_file_text(spec: MuscleSpec, fit) -> str:
+def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) -> str:
     """The TOML text of a muscle file holding a fitted force law.
 
     Parameters
@@ -30,17 +30,34 @@ def muscle_file_text(spec: MuscleSpec, fit) -> str:
         The muscle file the fit used (its known geometry is kept as is).
     fit : IsometricFit
         From :func:`mckibben.fit.isometric.fit_isometric`.
+    rest_length : float, optional
+        A family law's file: the rest length of the muscle it describes (its nominal length),
+        default the muscle file's; the valid lengths are the fitted ones relative to the rest
+        length, scaled to it. [m]
     """
     r = fit.result
+    law = laws.LAWS.get(fit.model)
+    valid = dict(r.valid_range)
+    if rest_length is not None or (law is not None and law.family):
+        if law is None or not law.family:
+            raise InputError(f"--rest-length: applies to a family law; {fit.model} describes the muscle it was fitted on")
+        l0 = spec.nominal_length if rest_length is None else float(rest_length)
+        if not (np.isfinite(l0) and l0 > 0):
+            raise InputError(f"--rest-length: {rest_length!r} must be a positive length")
+        d = fit.data
+        rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(len(d), spec.nominal_length)
+        rel = d["held_length"].to_numpy(dtype=float) / rest
+        valid["length"] = (float(rel.min()) * l0, float(rel.max()) * l0)
+        spec = replace(spec, nominal_length=l0)
     note = f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
     fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": list(r.flags),
-          "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": dict(r.valid_range),
+          "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": valid,
           "parameters": dict(zip(r.names, (float(v) for v in r.values))),
           "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s)}}
     return muscle_file_text_of(spec, fm, note)
 
 
-def save_muscle_file(path, spec: MuscleSpec, fit) -> Path:
+def save_muscle_file(path, spec: MuscleSpec, fit, rest_length: float | None = None) -> Path:
     """Write a muscle file with a fitted force law, atomically (nothing half-written).
 
     Parameters
@@ -51,6 +68,8 @@ def save_muscle_file(path, spec: MuscleSpec, fit) -> Path:
         The muscle file the fit used.
     fit : IsometricFit
         The fit.
+    rest_length : float, optional
+        A family law's file: the rest length of the muscle it describes. [m]
 
     Returns
     -------
@@ -62,7 +81,7 @@ def save_muscle_file(path, spec: MuscleSpec, fit) -> Path:
     p = Path(path)
     if p.suffix.lower() != ".toml":
         raise InputError(f"--save: {path} must end in .toml")
-    text = muscle_file_text(spec, fit)
+    text = muscle_file_text(spec, fit, rest_length)
     with atomic_file(p, "--save") as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
     return p
@@ -185,7 +204,9 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     model = model_name(model)  # an old name (wall-chou-hannaford) is read as its registry name
     names = parameter_names(model, spec)
     params = fm["parameters"]
-    if tuple(params) != tuple(names):
+    optional = laws.LAWS[model].extra.get("optional_names", ()) if model in laws.LAWS else ()
+    if tuple(params) != tuple(names) and tuple(n for n in params if n not in optional) == tuple(names):
+        names = tuple(params)  # a law's optional parameters (a family's end-fitting length) were fitted
         missing = [n for n in names if n not in params]
         extra = [n for n in params if n not in names]
         what = f"missing {', '.join(missing)}" if missing else f"unexpected {', '.join(extra)}" if extra else "out of order"

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.errors import InputError, unknown_name
+from mckibben.models import laws
 from mckibben.results import Result
 
 FIT_MODELS = {
@@ -28,6 +29,9 @@ FIT_MODELS = {
     "tondu-lopez": "fitted k and r0 (and alpha0 if unknown): isotonic or isometric; muscle file",
     "first-order": "p0, p_final, tau of pressure step responses (step_response)",
 }
+# every force law with a fit spec (mckibben.models.laws, the one vocabulary) fits isometric tables
+FIT_MODELS.update({n: f"{law.description} (isometric{', a family table' if law.family else ''}; muscle file)"
+                   for n, law in laws.fit_laws().items() if n not in FIT_MODELS})
 NEEDS_MUSCLE = {"kinematic", "force-contraction", "chou-hannaford", "wall-chou-hannaford", "tondu-lopez"}
 
 
@@ -51,7 +55,8 @@ def _synthetic(data: Path, spec) -> bool:
 
 
 def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None = None,
-             split_pressure: float | None = None, tare: str = "none", save: str | None = None) -> tuple[dict, list]:
+             split_pressure: float | None = None, tare: str = "none", save: str | None = None,
+             rest_length: float | None = None) -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
     from mckibben.data import check_muscle, read_table
     from mckibben.fit import static
@@ -67,11 +72,13 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError(f"--tare: applies to isometric tables; {data} is a {table.kind} table")
     if save is not None and not isometric:
         raise InputError(f"--save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
+    if rest_length is not None and save is None:
+        raise InputError("--rest-length: sets the rest length of the muscle a family law's file describes; give --save")
     extra: dict = {}
     if isometric:
         from mckibben.fit.isometric import FORCE_MODELS, fit_isometric
 
-        if model not in FORCE_MODELS:
+        if model not in FORCE_MODELS and model not in laws.ALIASES:
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(FORCE_MODELS)}")
         fit = fit_isometric(table, spec, model, tare)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
@@ -80,7 +87,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         if save is not None:
             from mckibben.fit.muscle_file import save_muscle_file
 
-            out["saved"] = str(save_muscle_file(save, spec, fit))
+            out["saved"] = str(save_muscle_file(save, spec, fit, rest_length))
         return out, [fit]
     if model == "kinematic":
         fits = [static.fit_kinematic(table, spec)]
@@ -254,7 +261,8 @@ class TableFit(Result):
 
 
 def fit_table(data, model: str, muscle: str | None = None, kind: str | None = None,
-              split_pressure: float | None = None, tare: str = "none", save: str | None = None) -> TableFit:
+              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
+              rest_length: float | None = None) -> TableFit:
     """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
 
     Parameters
@@ -271,6 +279,9 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         Spring model: the low/high range split (default: the median pressure). [Pa]
     tare : {"none", "lowest", "column"}, default "none"
         Isometric tables: :func:`mckibben.data.io.apply_tare`. [-]
+    rest_length : float, optional
+        With ``save`` and a family law: the rest length of the muscle the saved file describes
+        (default the muscle file's nominal length). [m]
     save : str, optional
         Isometric tables: write a muscle file with the fitted force law here. [-]
 
@@ -278,7 +289,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
     -------
     TableFit
     """
-    out, fits = _run_fit(Path(data), model, muscle, kind, split_pressure, tare, save)
+    out, fits = _run_fit(Path(data), model, muscle, kind, split_pressure, tare, save, rest_length)
     return TableFit(out, fits)
 
 
