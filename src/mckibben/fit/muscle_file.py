@@ -207,6 +207,7 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     optional = laws.LAWS[model].extra.get("optional_names", ()) if model in laws.LAWS else ()
     if tuple(params) != tuple(names) and tuple(n for n in params if n not in optional) == tuple(names):
         names = tuple(params)  # a law's optional parameters (a family's end-fitting length) were fitted
+    if tuple(params) != tuple(names):
         missing = [n for n in names if n not in params]
         extra = [n for n in params if n not in names]
         what = f"missing {', '.join(missing)}" if missing else f"unexpected {', '.join(extra)}" if extra else "out of order"
