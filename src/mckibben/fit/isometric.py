@@ -62,7 +62,8 @@ from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SP
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
 
-__all__ = ["BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "FORCE_MODELS", "IsometricFit", "K_BOUNDS", "ModelComparison",
+__all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "FORCE_MODELS", "IsometricFit",
+           "K_BOUNDS", "ModelComparison",
            "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
            "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "force_law", "parameter_names"]
 
@@ -71,10 +72,14 @@ BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in 
 
 #: The data-driven model: no physical law, not in the law registry (the plant cannot run it).
 SURFACE = "surface"
-#: The models and one line each: every law of the registry with a fit spec
-#: (:func:`mckibben.models.laws.fit_laws`), and the data-driven surface.
-FORCE_MODELS = {**{n: law.description for n, law in laws.fit_laws().items()},
+#: The models of one muscle and one line each: every law of the registry with a fit spec
+#: (:func:`mckibben.models.laws.fit_laws`) that describes one muscle, and the data-driven surface.
+FORCE_MODELS = {**{n: law.description for n, law in laws.fit_laws(family=False).items()},
                 SURFACE: "data-driven: cubic in pressure, linear in contraction, a deflate shift"}
+#: The family laws (fitted across muscles of one type; on one muscle too, with ``fit --model``).
+FAMILY_MODELS = {n: law.description for n, law in laws.fit_laws(family=True).items()}
+#: Every model an isometric table is fitted with.
+ALL_MODELS = {**FORCE_MODELS, **FAMILY_MODELS}
 
 
 def model_name(model: str) -> str:
@@ -83,13 +88,13 @@ def model_name(model: str) -> str:
     Parameters
     ----------
     model : str
-        A key of :data:`FORCE_MODELS` or an old alias (``wall-chou-hannaford``). [-]
+        A key of :data:`ALL_MODELS` or an old alias (``wall-chou-hannaford``). [-]
     """
-    if model == SURFACE or model in FORCE_MODELS:
+    if model == SURFACE or model in ALL_MODELS:
         return model
-    if model in laws.ALIASES and laws.ALIASES[model] in FORCE_MODELS:
+    if model in laws.ALIASES and laws.ALIASES[model] in ALL_MODELS:
         return laws.resolve(model)
-    raise unknown_name("force model", model, FORCE_MODELS)
+    raise unknown_name("force model", model, ALL_MODELS)
 
 
 def _direction_flag(direction) -> np.ndarray:
@@ -129,7 +134,7 @@ class IsometricFit(Result):
     Attributes
     ----------
     model : str
-        The model's name (a key of :data:`FORCE_MODELS`).
+        The model's name (a key of :data:`ALL_MODELS`).
     result : FitResult
         Parameters (SI), standard errors, flags; ``result.predict(pressure=, length=, direction=)``.
     muscle : MuscleSpec
@@ -295,7 +300,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
     muscle : MuscleSpec
         Nominal length, outer diameter and whatever geometry is known.
     model : str
-        A key of :data:`FORCE_MODELS`. [-]
+        A key of :data:`ALL_MODELS`. [-]
     source : str
         The data file, for messages.
 
@@ -393,7 +398,7 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     muscle : MuscleSpec
         The muscle file (nominal length and outer diameter are required).
     model : str, default "spring"
-        A key of :data:`FORCE_MODELS`. [-]
+        A key of :data:`ALL_MODELS`. [-]
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
 
@@ -419,7 +424,7 @@ def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
     Parameters
     ----------
     model : str
-        A key of :data:`FORCE_MODELS`. [-]
+        A key of :data:`ALL_MODELS`. [-]
     muscle : MuscleSpec
         The muscle the law was fitted for.
     values : array_like
@@ -458,7 +463,7 @@ def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
     Parameters
     ----------
     model : str
-        A key of :data:`FORCE_MODELS`. [-]
+        A key of :data:`ALL_MODELS`. [-]
     muscle : MuscleSpec
         The muscle file.
     """
@@ -593,7 +598,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     the smallest held-out RMSE, never the in-sample one (notes/lab-data.md).
 
     On a family table only the family laws (:func:`mckibben.models.laws.fit_laws`) are fitted:
-    the others describe one muscle.
+    the others describe one muscle; on one muscle's table only the others (a family law fitted on
+    one rest length has no end length to find, and is fitted with ``mckibben fit --model``).
 
     Per fold, ``folds`` gives the held-out RMSE and that RMSE as a percentage of the held-out
     muscle's peak measured |force| (the peak of the whole table for one muscle).
@@ -609,7 +615,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
     models : sequence of str, optional
-        Models to compare (default: all of :data:`FORCE_MODELS` that apply). [-]
+        Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`FORCE_MODELS`). [-]
 
     Returns
     -------
@@ -634,8 +640,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         raise InputError(f"compare on {table.path}: {cv} needs two {what} or more")
     if fold_names is None:
         fold_names = _fold_keys(d, cv)[1]
-    if models is None:
-        models = [m for m in FORCE_MODELS if (m in laws.LAWS and laws.LAWS[m].family) or not family]
+    if models is None:  # a family's laws on a family table, one muscle's laws on one muscle
+        models = list(FAMILY_MODELS if family else FORCE_MODELS)
     scores, fits = [], {}
     for model in models:
         try:

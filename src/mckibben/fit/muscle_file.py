@@ -16,7 +16,7 @@ import numpy as np
 
 from mckibben.data.io import MuscleSpec, muscle_file_text_of
 from mckibben.errors import InputError
-from mckibben.fit.isometric import FORCE_MODELS, force_law, model_name, parameter_names
+from mckibben.fit.isometric import ALL_MODELS, force_law, model_name, parameter_names
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION
@@ -199,8 +199,8 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     if fm is None:
         raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv --model NAME --save FILE.toml")
     model = fm["model"]
-    if model not in FORCE_MODELS and model not in laws.ALIASES:
-        raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(FORCE_MODELS)}")
+    if model not in ALL_MODELS and model not in laws.ALIASES:
+        raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(ALL_MODELS)}")
     model = model_name(model)  # an old name (wall-chou-hannaford) is read as its registry name
     names = parameter_names(model, spec)
     params = fm["parameters"]

@@ -76,10 +76,10 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError("--rest-length: sets the rest length of the muscle a family law's file describes; give --save")
     extra: dict = {}
     if isometric:
-        from mckibben.fit.isometric import FORCE_MODELS, fit_isometric
+        from mckibben.fit.isometric import ALL_MODELS, fit_isometric
 
-        if model not in FORCE_MODELS and model not in laws.ALIASES:
-            raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(FORCE_MODELS)}")
+        if model not in ALL_MODELS and model not in laws.ALIASES:
+            raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
         fit = fit_isometric(table, spec, model, tare)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
                "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
