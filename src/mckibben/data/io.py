@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mckibben.data.schema import BARE_COLUMNS, KINDS, PER_MUSCLE, QUANTITIES, SCHEMAS
+from mckibben.data.schema import BARE_COLUMNS, KINDS, PER_MUSCLE, QUANTITIES, SCHEMAS, SENSOR_COLUMNS
 from mckibben.atomic import check_input_file
 from mckibben.errors import InputError
 from mckibben.units import G_N, UNITS, to_si, units_of
@@ -98,9 +98,9 @@ def _parse_columns(path: str, names: list[str]) -> dict[str, tuple[str, str, str
             quantity, _, unit = name.rpartition("_")
             if quantity not in QUANTITIES:
                 known = ", ".join([q if QUANTITIES[q][0] == "dimensionless" else f"{q}_<unit>" for q in QUANTITIES
-                                   if q not in PER_MUSCLE] + list(BARE_COLUMNS))
-                near = [f"{q}_<unit>" for q in PER_MUSCLE if q.split("_")[0] in quantity]
-                hint = f" (a family table's per-muscle column: {', '.join(near)})" if near else ""
+                                   if q not in PER_MUSCLE + SENSOR_COLUMNS] + list(BARE_COLUMNS))
+                near = [f"{q}_<unit>" for q in PER_MUSCLE + SENSOR_COLUMNS if q.split("_")[0] in quantity]
+                hint = f" (also: {', '.join(near)})" if near else ""
                 raise InputError(f"{path}: column {name!r} is unknown; known columns are {known}{hint}")
             dim = QUANTITIES[quantity][0]
             ok_units = units_of(dim) + (units_of("mass") if quantity == "load" else [])
@@ -379,6 +379,100 @@ def _check_isometric(table: Table) -> None:
 
 #: Tare methods of :func:`apply_tare`.
 TARES = ("none", "lowest", "column")
+#: Pressure-zero methods of :func:`apply_pressure_zero`.
+PRESSURE_ZEROS = ("none", "lowest", "column")
+#: What to do with rows at a sensor's rail (:func:`find_rails`).
+RAIL_POLICIES = ("keep", "exclude")
+#: A column's extreme value repeated on at least this many rows is a rail (a load cell that cannot
+#: read below a floor, a saturated transducer): a reading that many times exactly at the extreme is
+#: the converter's limit, not the quantity. [-]
+RAIL_MIN_ROWS = 5
+
+
+def find_rails(table: Table, columns=("force", "pressure")) -> tuple[np.ndarray, dict]:
+    """Rows stuck at a sensor's rail: a column's lowest or highest value, repeated exactly.
+
+    A load cell that cannot read below a floor returns the same lowest count for every row where
+    the muscle is slack (the real data's Festo rig reads −8.735 N on dozens of rows); a saturated
+    transducer returns its top count. Such a reading says only "at most" (or "at least") that
+    value. The rule: the column's minimum (maximum) found on :data:`RAIL_MIN_ROWS` rows or more
+    (a gauge pressure of 0, a vented chamber, is not a rail).
+
+    Parameters
+    ----------
+    table : Table
+        A validated table. [-]
+    columns : sequence of str
+        Quantities to check (those the table has). [-]
+
+    Returns
+    -------
+    at_rail : numpy.ndarray of bool
+        Per row: at a rail of any checked column. [-]
+    report : dict
+        Per rail: ``column``, ``side`` (``low``/``high``), ``value`` (SI) and ``rows``. [-]
+    """
+    d = table.data
+    mask = np.zeros(len(d), dtype=bool)
+    rails = []
+    for c in columns:
+        if c not in d:
+            continue
+        v = d[c].to_numpy(dtype=float)
+        for side, x in (("low", np.min(v)), ("high", np.max(v))):
+            if c == "pressure" and side == "low" and x <= 0:
+                continue  # gauge zero: a vented chamber, read as it is
+            at = v == x
+            if at.sum() >= RAIL_MIN_ROWS:
+                mask |= at
+                rails.append({"column": c, "side": side, "value": float(x), "rows": int(at.sum())})
+    return mask, {"rails": rails, "rows_at_rail": int(mask.sum())}
+
+
+def apply_pressure_zero(table: Table, method: str = "none") -> tuple[Table, dict]:
+    """Subtract the pressure transducer's zero offset from the pressure column (off by default).
+
+    A gauge transducer often reads a few kPa at atmosphere (``PROVENANCE.md`` of the real data).
+
+    - ``"lowest"``: the offset is estimated as the table's lowest pressure reading, i.e. the rig's
+      lowest step is taken to be atmosphere (true when each run starts vented; an upper bound of
+      the offset otherwise — say so when reporting);
+    - ``"column"``: the table's ``pressure_zero`` column (the transducer's reading at atmosphere,
+      per row) is subtracted.
+
+    Pressures below zero after the correction are set to zero.
+
+    Parameters
+    ----------
+    table : Table
+        A table with a pressure column. [-]
+    method : {"none", "lowest", "column"}, default "none"
+        How to find the offset. [-]
+
+    Returns
+    -------
+    table : Table
+        The corrected table (the same table for ``"none"``).
+    report : dict
+        ``method`` and ``pressure_zero_Pa`` (the offset, or its range for a column). [-]
+    """
+    if method not in PRESSURE_ZEROS:
+        from mckibben.errors import unknown_name
+
+        raise unknown_name("pressure zero", method, PRESSURE_ZEROS)
+    if method == "none":
+        return table, {"method": "none"}
+    d = table.data.copy()
+    if method == "column":
+        if "pressure_zero" not in d:
+            raise InputError(f"{table.path}: pressure zero 'column' needs a pressure_zero_<unit> column (e.g. pressure_zero_kPa)")
+        zero = d["pressure_zero"].to_numpy(dtype=float)
+        report = {"method": method, "pressure_zero_Pa": [float(zero.min()), float(zero.max())]}
+    else:
+        zero = np.full(len(d), float(d["pressure"].min()))
+        report = {"method": method, "pressure_zero_Pa": float(zero[0])}
+    d["pressure"] = np.maximum(d["pressure"].to_numpy(dtype=float) - zero, 0.0)
+    return Table(table.kind, table.path, d, table.columns), report
 
 
 def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:

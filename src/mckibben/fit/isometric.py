@@ -52,7 +52,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from mckibben.data.io import MuscleSpec, Table, apply_tare
+from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
 from mckibben.errors import InputError, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range, linear_fit
 from mckibben.models import laws
@@ -245,8 +245,15 @@ class IsometricFit(Result):
         return fig
 
 
-def isometric_points(table: Table, tare: str = "none") -> tuple[pd.DataFrame, dict]:
-    """The tared points of an isometric table (SI), and the tare report.
+def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
+                     pressure_zero: str = "none") -> tuple[pd.DataFrame, dict]:
+    """The tared points of an isometric table (SI), and the sensor report.
+
+    In order: the pressure transducer's zero is removed (:func:`mckibben.data.io.apply_pressure_zero`),
+    rows at a sensor's rail are found on the raw readings (:func:`mckibben.data.io.find_rails`),
+    the load cell is tared (:func:`mckibben.data.io.apply_tare`), and the rows at a rail are kept
+    or excluded. A run whose tare was read at the load cell's floor has an unknown zero: it is
+    marked ``at_rail`` and the report's ``flags`` say ``tare_at_rail``.
 
     Parameters
     ----------
@@ -254,11 +261,39 @@ def isometric_points(table: Table, tare: str = "none") -> tuple[pd.DataFrame, di
         An ``isometric`` table.
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Rows at a rail: kept (counted, flagged) or excluded from the fit. [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        See :func:`mckibben.data.io.apply_pressure_zero`. [-]
+
+    Returns
+    -------
+    points : pandas.DataFrame
+        ``held_length`` [m], ``pressure`` [Pa], ``force`` [N], ``direction``, ``trial`` (and
+        ``rest_length``, ``muscle`` of a family).
+    report : dict
+        The tare's report (``method``, ``per_run_N``) with ``pressure_zero``, ``rails`` (each rail,
+        ``rows_at_rail``, ``excluded``) and ``flags``.
     """
     if table.kind != "isometric":
         raise InputError(f"fit: needs an isometric table (held_length, pressure, force, direction, trial);"
                          f" {table.path} is a {table.kind} table")
-    tared, report = apply_tare(table, tare)
+    if rails not in RAIL_POLICIES:
+        raise unknown_name("rails policy", rails, RAIL_POLICIES)
+    zeroed, pz = apply_pressure_zero(table, pressure_zero)
+    at_rail, rail_report = find_rails(zeroed, ("force",))
+    tared, report = apply_tare(zeroed, tare)
+    report = dict(report)
+    flags = []
+    lows = [r["value"] for r in rail_report["rails"] if r["side"] == "low"]
+    for run in report.get("per_run_N", []):
+        if lows and abs(run["tare_N"] - lows[0]) < 1e-9:
+            run["at_rail"] = True
+    if any(r.get("at_rail") for r in report.get("per_run_N", [])):
+        flags.append("tare_at_rail")
+    report.update(pressure_zero=pz, rails={**rail_report, "excluded": rails == "exclude"}, flags=flags)
+    if rails == "exclude":
+        tared = Table(tared.kind, tared.path, tared.data[~at_rail], tared.columns)
     cols = ["held_length", "pressure", "force", "direction", "trial"]
     cols += [c for c in ("rest_length", "muscle") if c in tared.data]  # a family table's muscles
     d = tared.data[cols].copy()
@@ -377,7 +412,8 @@ def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
     return res
 
 
-def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none") -> IsometricFit:
+def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none", rails: str = "keep",
+                  pressure_zero: str = "none") -> IsometricFit:
     """Fit a static force model F(P, L) to an isometric table.
 
     Geometry missing from the muscle file (braid angle, wall) is fitted within the bounds of
@@ -401,6 +437,10 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
         A key of :data:`ALL_MODELS`. [-]
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Rows at a sensor's rail (:func:`isometric_points`). [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        The pressure transducer's zero (:func:`isometric_points`). [-]
 
     Returns
     -------
@@ -410,7 +450,7 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     ----------
     Module notes; Cameron & Miller (2015) for the cluster-robust covariance.
     """
-    d, report = isometric_points(table, tare)
+    d, report = isometric_points(table, tare, rails, pressure_zero)
     res = fit_points(d, muscle, model, source=table.path)
     return IsometricFit(model, res, muscle, report, d)
 
@@ -586,7 +626,7 @@ def _fold_keys(d: pd.DataFrame, cv: str) -> tuple[np.ndarray, list]:
 
 
 def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
-                      models=None) -> ModelComparison:
+                      models=None, rails: str = "keep", pressure_zero: str = "none") -> ModelComparison:
     """Fit every force model to an isometric table and score it on held-out lengths, trials or muscles.
 
     Every model is fitted on the same folds: ``leave-one-length-out`` leaves each held length out
@@ -616,6 +656,10 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         See :func:`mckibben.data.io.apply_tare`. [-]
     models : sequence of str, optional
         Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`FORCE_MODELS`). [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Rows at a sensor's rail (:func:`isometric_points`). [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        The pressure transducer's zero (:func:`isometric_points`). [-]
 
     Returns
     -------
@@ -623,7 +667,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     """
     if cv not in CV_METHODS:
         raise unknown_name("--cv scheme", cv, CV_METHODS)
-    d, report = isometric_points(table, tare)
+    d, report = isometric_points(table, tare, rails, pressure_zero)
     family = is_family(d)
     if cv == "leave-one-muscle-out" and not family:
         raise InputError(f"compare on {table.path}: leave-one-muscle-out needs a family table (a muscle and a "

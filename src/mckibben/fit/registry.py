@@ -56,7 +56,7 @@ def _synthetic(data: Path, spec) -> bool:
 
 def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None = None,
              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
-             rest_length: float | None = None) -> tuple[dict, list]:
+             rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
     from mckibben.data import check_muscle, read_table
     from mckibben.fit import static
@@ -70,6 +70,8 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         check_muscle(table, spec)
     if tare != "none" and not isometric:
         raise InputError(f"--tare: applies to isometric tables; {data} is a {table.kind} table")
+    if (rails != "keep" or pressure_zero != "none") and not isometric:
+        raise InputError(f"--rails/--pressure-zero: apply to isometric tables; {data} is a {table.kind} table")
     if save is not None and not isometric:
         raise InputError(f"--save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
     if rest_length is not None and save is None:
@@ -80,7 +82,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
 
         if model not in ALL_MODELS and model not in laws.ALIASES:
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
-        fit = fit_isometric(table, spec, model, tare)
+        fit = fit_isometric(table, spec, model, tare, rails, pressure_zero)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
                "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
         out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
@@ -136,14 +138,15 @@ def _isometric_table(data: Path):
     return table if table.kind == "isometric" else None
 
 
-def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str) -> dict:
+def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
+                       pressure_zero: str = "none") -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
     from mckibben.data import check_muscle
     from mckibben.fit.isometric import compare_isometric
 
     spec = load_muscle(data, muscle, True, "compare")
     check_muscle(table, spec)
-    res = compare_isometric(table, spec, cv, tare)
+    res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero)
     return {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
             "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
 
@@ -262,7 +265,7 @@ class TableFit(Result):
 
 def fit_table(data, model: str, muscle: str | None = None, kind: str | None = None,
               split_pressure: float | None = None, tare: str = "none", save: str | None = None,
-              rest_length: float | None = None) -> TableFit:
+              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> TableFit:
     """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
 
     Parameters
@@ -279,6 +282,10 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         Spring model: the low/high range split (default: the median pressure). [Pa]
     tare : {"none", "lowest", "column"}, default "none"
         Isometric tables: :func:`mckibben.data.io.apply_tare`. [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Isometric tables: rows at a sensor's rail (:func:`mckibben.fit.isometric.isometric_points`). [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        Isometric tables: the pressure transducer's zero (:func:`mckibben.data.io.apply_pressure_zero`). [-]
     rest_length : float, optional
         With ``save`` and a family law: the rest length of the muscle the saved file describes
         (default the muscle file's nominal length). [m]
@@ -289,7 +296,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
     -------
     TableFit
     """
-    out, fits = _run_fit(Path(data), model, muscle, kind, split_pressure, tare, save, rest_length)
+    out, fits = _run_fit(Path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails, pressure_zero)
     return TableFit(out, fits)
 
 
@@ -352,7 +359,8 @@ class TableComparison(Result):
         return ax.figure
 
 
-def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none") -> TableComparison:
+def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none", rails: str = "keep",
+                  pressure_zero: str = "none") -> TableComparison:
     """Fit every applicable model to the same data and score it on held-out data.
 
     An isometric table: every force model, folds by held length (default) or trial
@@ -370,6 +378,10 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         Isometric tables only. [-]
     tare : {"none", "lowest", "column"}, default "none"
         Isometric tables only. [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Isometric tables: rows at a sensor's rail. [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        Isometric tables: the pressure transducer's zero. [-]
 
     Returns
     -------
@@ -377,7 +389,8 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
     """
     iso = _isometric_table(Path(data))
     if iso is not None:
-        return TableComparison(_compare_isometric(iso, Path(data), muscle, cv or "leave-one-length-out", tare))
-    if cv is not None or tare != "none":
+        return TableComparison(_compare_isometric(iso, Path(data), muscle, cv or "leave-one-length-out", tare, rails,
+                                                  pressure_zero))
+    if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
         raise InputError("--cv/--tare: apply to isometric tables; the isotonic comparison chooses its own folds")
     return TableComparison(_compare_isotonic(Path(data), muscle))
