@@ -146,12 +146,12 @@ def test_no_cached_function_takes_a_compiled_function_as_an_argument():
 
     control.step_response("smc", law="paper", beta=150)
     control.open_loop()
-    seen = 0
-    for disp in _jit.DISPATCHERS:
+    seen = set()
+    for disp in _jit.DISPATCHERS:  # entry points loaded from the cache list their signatures; callees are inside
         for sig in disp.signatures:
-            seen += 1
+            seen.add(disp.__name__)
             assert not any(isinstance(t, numba.core.types.Dispatcher) for t in sig), (disp, sig)
-    assert seen > 5
+    assert {"run_blocks", "eval_loop"} <= seen, seen
 
 
 def test_a_cache_never_lands_inside_the_package():
@@ -291,7 +291,7 @@ def test_kernels_give_the_same_bits_as_plain_python_and_compiled(tmp_path):
     LW, P, L = ns["LW"], ns["P"], ns["L"]
     from mckibben import hardware as HW
 
-    assert type(LW.law_value).__name__ == "CPUDispatcher" and type(HW.adc_count).__name__ == "CPUDispatcher"
+    assert type(LW.tondu_lopez).__name__ == "CPUDispatcher" and type(HW.adc_count).__name__ == "CPUDispatcher"
     for name, th in ns["CASES"].items():
         compiled = LW.evaluate(name, np.repeat(P, 2), np.repeat(L, 2), th)  # 120 elements: the compiled path
         np.testing.assert_array_equal(compiled[::2], python[name.replace("-", "_")], err_msg=name)
@@ -332,3 +332,33 @@ def test_a_runner_compiled_in_memory_gives_the_cached_runners_bits(monkeypatch):
     np.testing.assert_array_equal(again.pressure, cached.pressure)
     np.testing.assert_array_equal(again.inlet, cached.inlet)
     np.testing.assert_array_equal(again.istate, cached.istate)
+
+
+def test_a_cache_save_failure_never_reaches_the_run(monkeypatch, tmp_path):
+    """Numba's save of a new overload may fail (a foreign index: 'underlying object has vanished',
+    a full disk): the compiled code is used all the same, with one warning. (It replaces the
+    simulator's old retry of a whole run after such a failure.)"""
+    import warnings
+
+    from numba.core import caching
+
+    from mckibben import _jit
+
+    def fails(self, sig, data):
+        raise ReferenceError("underlying object has vanished")
+
+    monkeypatch.setattr(caching.FunctionCache, "save_overload", fails)
+    monkeypatch.setitem(_jit._STATE, "warned", False)
+    src = tmp_path / "kernel_mod.py"
+    src.write_text("def twice(x):\n    return 2.0 * x\n")
+    ns: dict = {}
+    exec(compile(src.read_text(), str(src), "exec"), ns)
+    disp = _jit.numba.njit(cache=False)(ns["twice"])  # a fresh function, compiled here
+    disp._cache = _jit._SafeCache.__new__(_jit._SafeCache)
+    disp._cache._enabled = True
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _jit._SafeCache.save_overload(disp._cache, None, None)
+        assert disp(21.0) == 42.0
+    assert [str(w.message) for w in caught] == [
+        "a compiled kernel could not be cached (ReferenceError: underlying object has vanished)"]

@@ -1,6 +1,5 @@
 """Plant v2: one physics with the static models, the guards, the chamber's heat, the integrator's step."""
 
-import time
 
 import numba
 import numpy as np
@@ -215,39 +214,6 @@ def test_record_keeps_only_the_series_asked_for():
     assert list(some.to_pandas(1).columns) == ["time_s", "pressure_Pa", "length_m", "reference_Pa"]
     with pytest.raises(InputError, match="record: unknown series 'presure'"):
         simulate(PlantParams(), 0.05, record=("presure",))
-
-
-def test_a_cache_save_failure_in_one_thread_retries_from_the_inputs(monkeypatch):
-    # Numba may fail to save a new overload in the thread that compiled it while the other thread
-    # has run its share; the retry must start again from the controllers' initial state
-    from mckibben.plant import simulator as S
-
-    n = 200
-    plant = PlantParams(load_force=np.linspace(0.0, 3.0, n))
-
-    def run():
-        return simulate(plant, 0.05, controller=core_spec(CoreParams(), n), reference=0.5e6)
-
-    before = numba.get_num_threads()
-    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
-    try:
-        good = run()
-        orig, state = S._run_blocks, {"failed": False}
-
-        def first_share_fails_once(kernel, use_kernel, b0, b1, *args):
-            if b0 == 0 and not state["failed"]:
-                time.sleep(0.3)  # the other share runs first
-                state["failed"] = True
-                raise ReferenceError("underlying object has vanished")
-            return orig(kernel, use_kernel, b0, b1, *args)
-
-        monkeypatch.setattr(S, "_run_blocks", first_share_fails_once)
-        again = run()
-    finally:
-        numba.set_num_threads(before)
-    assert state["failed"]
-    np.testing.assert_array_equal(again.pressure, good.pressure)
-    np.testing.assert_array_equal(again.fstate, good.fstate)
 
 
 def test_a_scalar_plant_packs_the_same_after_an_empty_pack():

@@ -351,6 +351,8 @@ def _in_memory(template, kernel_name: str, kernel):
         if options is not None:
             options = {k: v for k, v in options.items() if k not in ("nopython", "cache", "boundscheck")}
         module.__dict__[name] = clone if options is None else numba.njit(cache=False, **options)(clone)
+        if options is not None:
+            DISPATCHERS.append(module.__dict__[name])
     return module
 
 

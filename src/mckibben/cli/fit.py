@@ -28,6 +28,12 @@ def fit_cmd(
     tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest (each run's force at its "
                                                     "lowest pressure) or column (a tare_N column)."),
     save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law."),
+    rails: str = typer.Option("keep", "--rails", help="isometric: rows at a sensor's rail (a load-cell floor): keep "
+                                                      "(default, counted) or exclude."),
+    pressure_zero: str = typer.Option("none", "--pressure-zero", help="isometric: the pressure transducer's zero: none "
+                                                                      "(default), lowest or column (pressure_zero_kPa)."),
+    rest_length: str = typer.Option(None, "--rest-length", help="with --save and a family law: the rest length of the "
+                                                                "muscle the file describes (default: the muscle file's)."),
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit a static model to one experiment table: parameters, standard errors, 95 % intervals, flags."""
@@ -36,7 +42,9 @@ def fit_cmd(
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
     from mckibben.fit.registry import fit_table
 
-    out = fit_table(data, model, muscle, kind, split, tare, save).summary
+    rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
+    out = fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero).summary
+    _sensor_warnings(f"fit {model} on {data}", out.get("tare", {}))
     warn_flags(f"fit {model} on {data}", out.get("flags", []))
     if json:
         emit_json(out)
@@ -67,14 +75,19 @@ def compare_cmd(
     data: Path = typer.Argument(..., help="An isometric or isotonic table, or a muscle folder holding isotonic.csv "
                                           "(and braid_angle.csv)."),
     muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
-    cv: str = typer.Option(None, "--cv", help="isometric: leave-one-length-out (default) or leave-one-trial-out."),
+    cv: str = typer.Option(None, "--cv", help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
+                                              "family table (muscle and rest_length columns), leave-one-muscle-out."),
     tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest or column (see docs/data.md)."),
+    rails: str = typer.Option("keep", "--rails", help="isometric: rows at a sensor's rail: keep (default) or exclude."),
+    pressure_zero: str = typer.Option("none", "--pressure-zero", help="isometric: the pressure transducer's zero: "
+                                                                      "none (default), lowest or column."),
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
     from mckibben.fit.registry import compare_table
 
-    out = compare_table(data, muscle, cv, tare).summary
+    out = compare_table(data, muscle, cv, tare, rails, pressure_zero).summary
+    _sensor_warnings(f"compare on {data}", out.get("tare", {}))
     if out.get("kind") == "isometric":
         flagged = [f"{s['model']} ({', '.join(s['flags'])})" for s in out["models"] if s["flags"]]
         warn_flags(f"compare on {data}", flagged)
@@ -100,6 +113,18 @@ def compare_cmd(
     print_table(f"Length under load vs pressure, {out['n_points']} points of {out['file']} (P > 0); CV: {out['cv_method']}",
                 [" model", "params", "RMSE mm", "max rel. err. ε %", "within 20 % ε", "CV RMSE mm", "CV within 20 %", " note"],
                 rows)
+
+
+def _sensor_warnings(what: str, report: dict) -> None:
+    """One warning line on stderr for rows at a sensor's rail and for tares read at the rail."""
+    rails = report.get("rails", {})
+    if rails.get("rows_at_rail"):
+        where = ", ".join(f"{r['column']} {r['side']} {r['value']:g}" for r in rails["rails"])
+        done = "excluded" if rails.get("excluded") else "kept (--rails exclude to drop them)"
+        tare = "; tares read at the rail: the load cell's zero is unknown there" if "tare_at_rail" in report.get(
+            "flags", []) else ""
+        err_console.print(f"warning: {what}: {rails['rows_at_rail']} rows at a sensor's rail ({where}), {done}{tare}",
+                          markup=False, highlight=False)
 
 
 def _g(v, fmt=".4g"):

@@ -10,6 +10,7 @@ from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, print
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
 from mckibben.limits import check_load, check_p_max
+from mckibben.models import laws
 from mckibben.models.flags import flag_names
 from mckibben.models.mpam import predict_length, pressure_for_length
 from mckibben.units import parse_quantity, parse_values
@@ -97,7 +98,11 @@ def pressure_cmd(
     print_table(f"{m.name} under {f:g} N, p ≤ {pmax / 1e6:g} MPa", ["length mm", "pressure MPa", "contraction %", "flags"], rows)
 
 
-FORCE_MODELS = ("empirical", "chou-hannaford", "wall-corrected", "tondu-lopez")
+#: The registered laws (:mod:`mckibben.models.laws`) a published muscle's geometry drives, shown by their
+#: command-line names (``braid-map`` as ``empirical``; every registry name and alias is read).
+_PREDICT_LAWS = {"braid-map": "empirical", "chou-hannaford": "chou-hannaford", "wall-corrected": "wall-corrected",
+                 "tondu-lopez": "tondu-lopez"}
+FORCE_MODELS = tuple(_PREDICT_LAWS.values())
 
 
 @predict_app.command("force")
@@ -130,8 +135,10 @@ def force_cmd(
         wall_corrected_force,
     )
 
-    if model not in FORCE_MODELS:
+    if model not in FORCE_MODELS and (model not in laws.LAWS and model not in laws.ALIASES
+                                      or laws.resolve(model) not in _PREDICT_LAWS):
         raise unknown_name("force model", model, FORCE_MODELS)
+    model = _PREDICT_LAWS[laws.resolve(model)] if model not in FORCE_MODELS else model
     m = get_muscle(muscle)
     g = m.geometry
     p = parse_values(pressure, "pressure", "--pressure")

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mckibben.data.schema import BARE_COLUMNS, KINDS, QUANTITIES, SCHEMAS
+from mckibben.data.schema import BARE_COLUMNS, KINDS, PER_MUSCLE, QUANTITIES, SCHEMAS, SENSOR_COLUMNS
 from mckibben.atomic import check_input_file
 from mckibben.errors import InputError
 from mckibben.units import G_N, UNITS, to_si, units_of
@@ -97,9 +97,11 @@ def _parse_columns(path: str, names: list[str]) -> dict[str, tuple[str, str, str
         else:
             quantity, _, unit = name.rpartition("_")
             if quantity not in QUANTITIES:
-                known = ", ".join([q if QUANTITIES[q][0] == "dimensionless" else f"{q}_<unit>" for q in QUANTITIES]
-                                  + list(BARE_COLUMNS))
-                raise InputError(f"{path}: column {name!r} is unknown; known columns are {known}")
+                known = ", ".join([q if QUANTITIES[q][0] == "dimensionless" else f"{q}_<unit>" for q in QUANTITIES
+                                   if q not in PER_MUSCLE + SENSOR_COLUMNS] + list(BARE_COLUMNS))
+                near = [f"{q}_<unit>" for q in PER_MUSCLE + SENSOR_COLUMNS if q.split("_")[0] in quantity]
+                hint = f" (also: {', '.join(near)})" if near else ""
+                raise InputError(f"{path}: column {name!r} is unknown; known columns are {known}{hint}")
             dim = QUANTITIES[quantity][0]
             ok_units = units_of(dim) + (units_of("mass") if quantity == "load" else [])
             if unit not in UNITS or not unit:
@@ -350,6 +352,15 @@ def set_point_groups(values, decimals=9):
 def _check_isometric(table: Table) -> None:
     """An isometric table spans two held lengths or more and two pressures or more per run."""
     d = table.data
+    if "rest_length" in d:  # a family table: one rest length per muscle
+        if "muscle" not in d:
+            raise InputError(f"{table.where(None, 'rest_length')}: a family table (rest_length) needs a muscle column "
+                             "naming each row's muscle")
+        spread = d.groupby(d["muscle"].astype(str))["rest_length"].agg(lambda x: float(np.ptp(x.to_numpy())))
+        bad = spread[spread > 1e-9]
+        if len(bad):
+            r = int(d.index[(d["muscle"].astype(str) == bad.index[0]).to_numpy()][0])
+            raise InputError(f"{table.where(r, 'rest_length')}: muscle {bad.index[0]!r} has more than one rest length")
     groups, lengths = set_point_groups(d["held_length"].to_numpy(), decimals=6)
     if lengths.size < 2:
         raise InputError(
@@ -368,6 +379,100 @@ def _check_isometric(table: Table) -> None:
 
 #: Tare methods of :func:`apply_tare`.
 TARES = ("none", "lowest", "column")
+#: Pressure-zero methods of :func:`apply_pressure_zero`.
+PRESSURE_ZEROS = ("none", "lowest", "column")
+#: What to do with rows at a sensor's rail (:func:`find_rails`).
+RAIL_POLICIES = ("keep", "exclude")
+#: A column's extreme value repeated on at least this many rows is a rail (a load cell that cannot
+#: read below a floor, a saturated transducer): a reading that many times exactly at the extreme is
+#: the converter's limit, not the quantity. [-]
+RAIL_MIN_ROWS = 5
+
+
+def find_rails(table: Table, columns=("force", "pressure")) -> tuple[np.ndarray, dict]:
+    """Rows stuck at a sensor's rail: a column's lowest or highest value, repeated exactly.
+
+    A load cell that cannot read below a floor returns the same lowest count for every row where
+    the muscle is slack (the real data's Festo rig reads −8.735 N on dozens of rows); a saturated
+    transducer returns its top count. Such a reading says only "at most" (or "at least") that
+    value. The rule: the column's minimum (maximum) found on :data:`RAIL_MIN_ROWS` rows or more
+    (a gauge pressure of 0, a vented chamber, is not a rail).
+
+    Parameters
+    ----------
+    table : Table
+        A validated table. [-]
+    columns : sequence of str
+        Quantities to check (those the table has). [-]
+
+    Returns
+    -------
+    at_rail : numpy.ndarray of bool
+        Per row: at a rail of any checked column. [-]
+    report : dict
+        Per rail: ``column``, ``side`` (``low``/``high``), ``value`` (SI) and ``rows``. [-]
+    """
+    d = table.data
+    mask = np.zeros(len(d), dtype=bool)
+    rails = []
+    for c in columns:
+        if c not in d:
+            continue
+        v = d[c].to_numpy(dtype=float)
+        for side, x in (("low", np.min(v)), ("high", np.max(v))):
+            if c == "pressure" and side == "low" and x <= 0:
+                continue  # gauge zero: a vented chamber, read as it is
+            at = v == x
+            if at.sum() >= RAIL_MIN_ROWS:
+                mask |= at
+                rails.append({"column": c, "side": side, "value": float(x), "rows": int(at.sum())})
+    return mask, {"rails": rails, "rows_at_rail": int(mask.sum())}
+
+
+def apply_pressure_zero(table: Table, method: str = "none") -> tuple[Table, dict]:
+    """Subtract the pressure transducer's zero offset from the pressure column (off by default).
+
+    A gauge transducer often reads a few kPa at atmosphere (``PROVENANCE.md`` of the real data).
+
+    - ``"lowest"``: the offset is estimated as the table's lowest pressure reading, i.e. the rig's
+      lowest step is taken to be atmosphere (true when each run starts vented; an upper bound of
+      the offset otherwise — say so when reporting);
+    - ``"column"``: the table's ``pressure_zero`` column (the transducer's reading at atmosphere,
+      per row) is subtracted.
+
+    Pressures below zero after the correction are set to zero.
+
+    Parameters
+    ----------
+    table : Table
+        A table with a pressure column. [-]
+    method : {"none", "lowest", "column"}, default "none"
+        How to find the offset. [-]
+
+    Returns
+    -------
+    table : Table
+        The corrected table (the same table for ``"none"``).
+    report : dict
+        ``method`` and ``pressure_zero_Pa`` (the offset, or its range for a column). [-]
+    """
+    if method not in PRESSURE_ZEROS:
+        from mckibben.errors import unknown_name
+
+        raise unknown_name("pressure zero", method, PRESSURE_ZEROS)
+    if method == "none":
+        return table, {"method": "none"}
+    d = table.data.copy()
+    if method == "column":
+        if "pressure_zero" not in d:
+            raise InputError(f"{table.path}: pressure zero 'column' needs a pressure_zero_<unit> column (e.g. pressure_zero_kPa)")
+        zero = d["pressure_zero"].to_numpy(dtype=float)
+        report = {"method": method, "pressure_zero_Pa": [float(zero.min()), float(zero.max())]}
+    else:
+        zero = np.full(len(d), float(d["pressure"].min()))
+        report = {"method": method, "pressure_zero_Pa": float(zero[0])}
+    d["pressure"] = np.maximum(d["pressure"].to_numpy(dtype=float) - zero, 0.0)
+    return Table(table.kind, table.path, d, table.columns), report
 
 
 def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
@@ -419,14 +524,16 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
     else:
         runs = []
         groups, lengths = set_point_groups(d["held_length"].to_numpy(), decimals=6)
-        for (k, trial), grp in d.groupby([groups, d["trial"].to_numpy()], sort=True):
+        # a family table's runs are per muscle too
+        who = d["muscle"].astype(str).to_numpy() if "muscle" in d else np.full(len(d), "")
+        for (k, trial, m), grp in d.groupby([groups, d["trial"].to_numpy(), who], sort=True):
             ell = lengths[k]
             p = grp["pressure"].to_numpy()
             # the rows at the run's lowest pressure set point: within 1 % of the run's span (2 kPa at least)
             near = p <= p.min() + max(0.01 * float(np.ptp(p)), 2e3)
             zero = float(grp["force"].to_numpy()[near].mean())
             d.loc[grp.index, "force"] = grp["force"] - zero
-            runs.append({"held_length_m": float(ell), "trial": int(trial), "tare_N": zero})
+            runs.append({"held_length_m": float(ell), "trial": int(trial), "tare_N": zero, **({"muscle": m} if m else {})})
         report["per_run_N"] = runs
     return Table(table.kind, table.path, d, table.columns), report
 
@@ -638,6 +745,66 @@ def read_muscle(path) -> MuscleSpec:
     return spec
 
 
+#: Muscle-file keys written from a MuscleSpec: field -> (key, factor from SI).
+_KEYS = (("nominal_length", "nominal_length_mm", 1e3), ("outer_diameter", "outer_diameter_mm", 1e3),
+         ("strand_length", "strand_length_mm", 1e3), ("tube_inner_diameter", "tube_inner_diameter_mm", 1e3),
+         ("tube_outer_diameter", "tube_outer_diameter_mm", 1e3), ("strand_diameter", "strand_diameter_mm", 1e3),
+         ("braid_angle", "braid_angle_deg", 180.0 / math.pi))
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    return repr(float(v))
+
+
+def muscle_file_text_of(spec: MuscleSpec, force_model: dict | None = None, note: str = "") -> str:
+    """The TOML text of a muscle file: the spec's keys and, optionally, a ``[force_model]`` table.
+
+    The writer of :func:`read_muscle`'s format (what one writes, the other reads back).
+
+    Parameters
+    ----------
+    spec : MuscleSpec
+        The muscle (its known geometry is written as is). [SI]
+    force_model : dict, optional
+        ``model``, ``parameters`` (name -> value, SI) and optionally ``source``, ``tare``,
+        ``flags``, ``rmse_N``, ``r2``, ``valid_range`` (quantity -> (min, max), SI), ``stderr``,
+        and any other scalar keys. [-]
+    note : str
+        Appended to the spec's notes. [-]
+    """
+    lines = [f"id = {_toml_value(spec.id)}"]
+    for field_, key, factor in _KEYS:
+        value = getattr(spec, field_)
+        if value is not None:
+            lines.append(f"{key} = {float(value) * factor:.12g}")
+    notes = " ".join(x for x in (spec.notes, note) if x)
+    lines.append(f"notes = {_toml_value(notes)}")
+    lines.append(f"synthetic = {_toml_value(bool(spec.synthetic))}")
+    if force_model is not None:
+        fm = dict(force_model)
+        lines += ["", "[force_model]", f"model = {_toml_value(fm.pop('model'))}"]
+        params, stderr = fm.pop("parameters"), fm.pop("stderr", {})
+        valid = fm.pop("valid_range", {})
+        for k in ("source", "tare", "flags", "rmse_N", "r2"):
+            if k in fm:
+                v = fm.pop(k)
+                lines.append(f"{k} = {v!r}" if k in ("rmse_N", "r2") else f"{k} = {_toml_value(v)}")
+        for k, v in fm.items():
+            lines.append(f"{k} = {_toml_value(v)}")
+        for q, (lo, hi) in valid.items():
+            unit = {"pressure": "Pa", "length": "m", "rest_length": "m"}.get(q, "")
+            lines.append(f"valid_{q}_{unit} = [{float(lo)!r}, {float(hi)!r}]")
+        lines += ["", "[force_model.parameters]"] + [f"{n} = {float(v)!r}" for n, v in params.items()]
+        lines += ["", "[force_model.stderr]"] + [f"{n} = {float(v)!r}" for n, v in stderr.items()]
+    return "\n".join(lines) + "\n"
+
+
 def _force_model_entry(name: str, raw) -> dict:
     """Check a muscle file's ``[force_model]`` table: model name, numeric parameters, range."""
     if not isinstance(raw, dict) or not isinstance(raw.get("model"), str):
@@ -669,7 +836,7 @@ def check_muscle(table: Table, muscle: MuscleSpec) -> None:
         The muscle file's content.
     """
     d = table.data
-    if "muscle" in d:
+    if "muscle" in d and "rest_length" not in d:  # a family table holds several muscles of the file's type
         wrong = np.flatnonzero(d["muscle"].to_numpy() != muscle.id)
         if wrong.size:
             r = int(d.index[wrong[0]])

@@ -17,8 +17,9 @@ hysteresis         pressure, load, length, direction           trial, muscle
 braid_angle        braid_angle, length                         pressure, load, trial, muscle
 force_length       pressure, length, force, direction          trial, muscle
                    (elongation/contraction)
-isometric          held_length, pressure, force, direction,    tare, muscle
-                   trial (inflate/deflate)
+isometric          held_length, pressure, force, direction,    tare, muscle, rest_length,
+                   trial (inflate/deflate)                     pressure_zero (muscle + rest_length:
+                                                               a family)
 step_response      time, pressure, command                     trial, muscle
 =================  ==========================================  ===============================
 """
@@ -35,10 +36,17 @@ QUANTITIES: dict[str, tuple[str, bool, str]] = {
     "held_length": ("length", True, "length the muscle is clamped at (isometric test)"),
     "force": ("force", False, "measured pulling force (a load cell may read slightly below zero)"),
     "tare": ("force", False, "load-cell reading to subtract from the force (its zero), per row"),
+    "rest_length": ("length", True, "the muscle's rest length (a family table: several muscles of one type)"),
+    "pressure_zero": ("pressure", False, "the pressure transducer's reading at atmosphere (its zero), per row"),
     "braid_angle": ("angle", True, "braid angle from the muscle axis"),
     "time": ("time", False, "time"),
     "command": ("dimensionless", False, "valve command, as a fraction of full scale"),
 }
+
+#: Quantities that describe a muscle, not a row: a family table repeats them on each of its rows. [-]
+PER_MUSCLE = ("rest_length",)
+#: A sensor's own calibration columns (not listed among the measured quantities). [-]
+SENSOR_COLUMNS = ("pressure_zero",)
 
 #: Columns without a unit: name -> description.
 BARE_COLUMNS: dict[str, str] = {
@@ -95,7 +103,7 @@ SCHEMAS: dict[str, Schema] = {
         Schema("force_length", ("pressure", "length", "force", "direction"), ("trial", "muscle"),
                ELONGATION_CONTRACTION,
                description="force-length loops at constant pressure (Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), Fig. 5)"),
-        Schema("isometric", ("held_length", "pressure", "force", "direction", "trial"), ("tare", "muscle"),
+        Schema("isometric", ("held_length", "pressure", "force", "direction", "trial"), ("tare", "muscle", "rest_length", "pressure_zero"),
                INFLATE_DEFLATE,
                description="force at held lengths while the pressure is stepped up (inflate) and back"
                            " down (deflate); one run per held length and trial (commercial muscles)"),

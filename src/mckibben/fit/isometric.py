@@ -7,11 +7,14 @@ muscle file does not give is fitted within physical bounds; geometry it gives is
 model                       force                                                        fitted
 ==========================  ===========================================================  ==========
 ``chou-hannaford``          π·D0²·P/4·(3cos²θ − 1), cos θ = L·cos θ0/L0                 θ0, D0
-``wall-chou-hannaford``     the same + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]              θ0, D0, t
+``wall-corrected``          the same + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]              θ0, D0, t
 ``tondu-lopez``             π·r0²·P·[a(1 − kε)² − b], ε = 1 − L/L0                       α0, r0, k
 ``spring``                  K(P, Ls)·Ls, Ls = L − Lu(P), K per direction (001, eq. 1–2)  h, c
 ``surface``                 Σ a_ij·P^i·ε^j (i ≤ 3, j ≤ 1) + deflate·(b0 + b1·P)         a, b
 ==========================  ===========================================================  ==========
+
+Each law's fit spec (names, bounds, starts) lives in its file of :mod:`mckibben.models.laws`
+and is read from there; ``wall-chou-hannaford`` is still read as the old name of ``wall-corrected``.
 
 Every model but ``spring`` (whose stretch term already gives a force at zero pressure) also
 fits ``offset_N``, the load cell's zero: a lab's force column is seldom tared
@@ -49,212 +52,67 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from mckibben.data.io import MuscleSpec, Table, apply_tare
+from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
 from mckibben.errors import InputError, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range, linear_fit
-from mckibben.models.physical import BraidGeometry, chou_hannaford_force, tondu_lopez_force, wall_corrected_force
+from mckibben.models import laws
+from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
+from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
+from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
+from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
-from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, LOW, SpringModel, spring_force, stiffness
 
-#: The spring model's unloaded length at zero pressure, Lu(0) = h0, further than this fraction from
-#: the nominal length (which is that length, by definition) is flagged. [-]
-NOMINAL_TOL = 0.10
-#: Largest braid angle at rest: cos²θ = 1/3, where the ideal braid stops pulling. [rad]
-THETA_MAX = float(np.arccos(1.0 / np.sqrt(3.0)))
-#: Smallest braid angle at rest allowed in a fit. [rad]
-THETA_MIN = float(np.deg2rad(1.0))
-#: D0 bounds as factors of the measured outer diameter. [-]
-D0_FACTOR = (0.5, 4.0)
-#: r0 bounds as factors of the measured outer diameter. [-]
-R0_FACTOR = (0.25, 1.0)
-#: Wall thickness bound as a factor of the outer diameter. [-]
-WALL_FACTOR = 0.25
-#: Tondu–Lopez contraction correction bounds. [-]
-K_BOUNDS = (0.5, 5.0)
-#: Starting braid angles of the multi-start (the physical fits are non-convex in θ0). [deg]
-THETA_STARTS_DEG = (10.0, 30.0, 50.0)
+__all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "FORCE_MODELS", "IsometricFit",
+           "K_BOUNDS", "ModelComparison",
+           "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
+           "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "force_law", "parameter_names"]
 
 BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
                "wall in [0, 0.25] x outer diameter; k in [0.5, 5]; |offset| <= peak force; spring K >= 0 checked")
 
-#: The models and one line each.
-FORCE_MODELS = {
-    "chou-hannaford": "ideal braid, fitted braid angle at rest and D0 (+ load-cell zero)",
-    "wall-chou-hannaford": "Chou-Hannaford with the tube wall (fitted unless the tube sizes are in the muscle file)",
-    "tondu-lopez": "Tondu-Lopez with its contraction correction k, fitted alpha0 and r0",
-    "spring": "F = K(P, Ls)*Ls of 001 (Lu(P) quadratic, K per inflate/deflate)",
-    "surface": "data-driven: cubic in pressure, linear in contraction, a deflate shift",
-}
+#: The data-driven model: no physical law, not in the law registry (the plant cannot run it).
+SURFACE = "surface"
+#: The models of one muscle and one line each: every law of the registry with a fit spec
+#: (:func:`mckibben.models.laws.fit_laws`) that describes one muscle, and the data-driven surface.
+FORCE_MODELS = {**{n: law.description for n, law in laws.fit_laws(family=False).items()},
+                SURFACE: "data-driven: cubic in pressure, linear in contraction, a deflate shift"}
+#: The family laws (fitted across muscles of one type; on one muscle too, with ``fit --model``).
+FAMILY_MODELS = {n: law.description for n, law in laws.fit_laws(family=True).items()}
+#: Every model an isometric table is fitted with.
+ALL_MODELS = {**FORCE_MODELS, **FAMILY_MODELS}
+
+
+def model_name(model: str) -> str:
+    """The registry name of a force model (old names read, with a deprecation warning).
+
+    Parameters
+    ----------
+    model : str
+        A key of :data:`ALL_MODELS` or an old alias (``wall-chou-hannaford``). [-]
+    """
+    if model == SURFACE or model in ALL_MODELS:
+        return model
+    if model in laws.ALIASES and laws.ALIASES[model] in ALL_MODELS:
+        return laws.resolve(model)
+    raise unknown_name("force model", model, ALL_MODELS)
 
 
 def _direction_flag(direction) -> np.ndarray:
     return (np.asarray(direction) == "deflate").astype(float)
 
 
-@dataclass(frozen=True)
-class _Spec:
-    names: tuple
-    lo: np.ndarray
-    hi: np.ndarray
-    starts: list
-    force: Callable  # force(values, pressure, length, direction)
-    physical: Callable | None = None
+#: The fitted vector as a SpringModel (the law file's :func:`~mckibben.models.laws.spring.spring_model_of`).
+_spring_model = spring_model_of
+
+#: No data: a spec built only for its names and force function (a saved law). [-]
+_NO_DATA = (np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, dtype=object))
 
 
-def _geometry_params(muscle: MuscleSpec, fmax: float, what: str):
-    od = muscle.need("outer_diameter", what)
-    l0 = muscle.nominal_length
-    theta_known = muscle.braid_angle
-    if theta_known is not None and not THETA_MIN <= theta_known < THETA_MAX:
-        raise InputError(f"{muscle.path or muscle.id}: key braid_angle: {np.rad2deg(theta_known):g} deg is outside"
-                         f" [1, 54.7) deg, where a braid pulls")
-    return od, l0, theta_known
-
-
-def _ch_spec(muscle: MuscleSpec, fmax: float, wall: bool) -> _Spec:
-    name = "wall-chou-hannaford" if wall else "chou-hannaford"
-    od, l0, theta_known = _geometry_params(muscle, fmax, name)
-    t_known = None
-    if wall and None not in (muscle.tube_outer_diameter, muscle.tube_inner_diameter):
-        t_known = 0.5 * (muscle.tube_outer_diameter - muscle.tube_inner_diameter)
-    names, lo, hi = [], [], []
-    if theta_known is None:
-        names.append("theta0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
-    names.append("d0_m"), lo.append(D0_FACTOR[0] * od), hi.append(D0_FACTOR[1] * od)
-    if wall and t_known is None:
-        names.append("wall_m"), lo.append(0.0), hi.append(WALL_FACTOR * od)
-    names.append("offset_N"), lo.append(-fmax), hi.append(fmax)
-
-    def unpack(v):
-        k = 0
-        th = theta_known
-        if th is None:
-            th, k = v[0], 1
-        d0 = v[k]
-        t = (v[k + 1] if wall and t_known is None else (t_known or 0.0)) if wall else 0.0
-        return th, d0, t, v[-1]
-
-    def force(v, pressure, length, direction=None):
-        th, d0, t, off = unpack(v)
-        b = l0 / np.cos(th)
-        geom = BraidGeometry(b, b / (np.pi * d0), t)
-        f = wall_corrected_force(pressure, length, geom) if wall else chou_hannaford_force(pressure, length, geom)
-        return f + off
-
-    def physical(v):
-        return _offset_flag(v[-1], fmax)
-
-    starts = []
-    for tdeg in (THETA_STARTS_DEG if theta_known is None else (None,)):
-        for dfac in (2.5,):
-            x = []
-            if theta_known is None:
-                x.append(np.deg2rad(tdeg))
-            x.append(dfac * od)
-            if wall and t_known is None:
-                x.append(0.05 * od)
-            x.append(0.0)
-            starts.append(np.array(x))
-    return _Spec(tuple(names), np.array(lo), np.array(hi), starts, force, physical)
-
-
-def _tl_spec(muscle: MuscleSpec, fmax: float) -> _Spec:
-    od, l0, alpha_known = _geometry_params(muscle, fmax, "tondu-lopez")
-    names, lo, hi = [], [], []
-    if alpha_known is None:
-        names.append("alpha0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
-    names += ["r0_m", "k", "offset_N"]
-    lo += [R0_FACTOR[0] * od, K_BOUNDS[0], -fmax]
-    hi += [R0_FACTOR[1] * od, K_BOUNDS[1], fmax]
-
-    def force(v, pressure, length, direction=None):
-        a0 = alpha_known if alpha_known is not None else v[0]
-        r0, k, off = v[-3], v[-2], v[-1]
-        eps = 1.0 - np.asarray(length, dtype=float) / l0
-        return tondu_lopez_force(pressure, eps, r0, a0, k) + off
-
-    starts = []
-    for tdeg in (THETA_STARTS_DEG if alpha_known is None else (None,)):
-        for kk in (1.0,):
-            x = [] if alpha_known is not None else [np.deg2rad(tdeg)]
-            starts.append(np.array(x + [0.45 * od, kk, 0.0]))
-    return _Spec(tuple(names), np.array(lo), np.array(hi), starts, force, lambda v: _offset_flag(v[-1], fmax))
-
-
-#: A load cell's zero larger than this fraction of the peak force is flagged ``large_offset``: a
-#: zero error of a few newtons is usual (lab-data notes), one of many percent means the model is
-#: buying a constant to make up for missing physics. [-]
-OFFSET_FLAG = 0.05
-
-
-def _offset_flag(offset: float, fmax: float) -> list:
-    return ["large_offset"] if abs(offset) > OFFSET_FLAG * fmax else []
-
-
-SPRING_NAMES = ("h2_m_per_Pa2", "h1_m_per_Pa", "h0_m") + tuple(
-    f"c{k}_{d}" for d in ("inflate", "deflate") for k in (3, 2, 1, 0))
-
-
-def _spring_model(v, l0, pmax) -> SpringModel:
-    h = (float(v[0]), float(v[1]), float(v[2]))
-    coeffs = {(ELONGATION, LOW): tuple(float(x) for x in v[3:7]), (CONTRACTION, LOW): tuple(float(x) for x in v[7:11])}
-    return SpringModel(l0, h, coeffs, DEFAULT_TERMS, np.inf, (0.0, pmax), (0.0, np.inf), "fitted (isometric)")
-
-
-def _spring_spec(muscle: MuscleSpec, fmax: float, p, ell, f, direction) -> _Spec:
-    l0 = muscle.nominal_length
-    pmax = float(np.max(p)) or 1.0
-    lo = np.array([-np.inf, -np.inf, 0.5 * l0] + [-np.inf] * 8)
-    hi = np.array([np.inf, np.inf, 1.5 * l0] + [np.inf] * 8)
-    dirs = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
-
-    def force(v, pressure, length, direction=None):
-        d = ELONGATION if direction is None else np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
-        return spring_force(length, pressure, _spring_model(v, l0, pmax), d)[0]
-
-    def linear_c(u):
-        """Variable projection: K's coefficients by least squares for Lu = L0·(u0 + u1·x + u2·x²)."""
-        h = np.array([l0 * u[2] / pmax**2, l0 * u[1] / pmax, l0 * u[0]])
-        stretch = np.maximum(ell - np.polyval(h, p), 0.0)
-        c, r = [], np.empty_like(f)
-        for dn in (ELONGATION, CONTRACTION):
-            sel = dirs == dn
-            if sel.sum() < 5:
-                c += [0.0] * 4
-                r[sel] = -f[sel]
-                continue
-            x = np.column_stack([p[sel] ** i * stretch[sel] ** j * stretch[sel] for i, j in DEFAULT_TERMS])
-            norms = np.linalg.norm(x, axis=0)
-            norms[norms == 0] = 1.0
-            cs = np.linalg.lstsq(x / norms, f[sel], rcond=None)[0] / norms
-            c += list(cs)
-            r[sel] = x @ cs - f[sel]
-        return h, np.array(c), r
-
-    starts = []
-    from scipy import optimize
-
-    for free in (0.15, 0.3):  # free contraction at the top pressure
-        u = optimize.least_squares(lambda u: linear_c(u)[2], [1.0, 0.0, -free], method="lm", max_nfev=400).x
-        h, c, _ = linear_c(u)
-        starts.append(np.concatenate([h, c]))
-
-    def physical(v):
-        out = []
-        model = _spring_model(v, l0, pmax)
-        stretch = ell - np.polyval(v[:3], p)
-        k = np.where(dirs == ELONGATION, stiffness(p, stretch, v[3:7]), stiffness(p, stretch, v[7:11]))
-        if np.any((stretch > 0) & (k < 0)):
-            out.append("negative_stiffness")
-        pg = np.linspace(0.0, pmax, 50)
-        if np.any(np.diff(np.polyval(v[:3], pg)) > 1e-9 * l0):
-            out.append("free_length_grows_with_pressure")
-        if abs(v[2] - l0) > NOMINAL_TOL * l0:
-            out.append("free_length_far_from_nominal")
-        del model
-        return out
-
-    return _Spec(SPRING_NAMES, lo, hi, starts, force, physical)
+def _spec(model: str, muscle: MuscleSpec, fmax: float, p, ell, f, direction, rest=None) -> FitSpec:
+    """The law's own fit spec (:attr:`mckibben.models.laws.Law.fit_spec`), read, never copied."""
+    data = {"pressure": p, "held_length": ell, "force": f, "direction": direction,
+            "rest_length": np.full(np.size(p), muscle.nominal_length) if rest is None else rest}
+    return laws.LAWS[model].fit_spec(muscle, fmax, data)
 
 
 def _surface_terms(pressure, length, direction, l0):
@@ -276,7 +134,7 @@ class IsometricFit(Result):
     Attributes
     ----------
     model : str
-        The model's name (a key of :data:`FORCE_MODELS`).
+        The model's name (a key of :data:`ALL_MODELS`).
     result : FitResult
         Parameters (SI), standard errors, flags; ``result.predict(pressure=, length=, direction=)``.
     muscle : MuscleSpec
@@ -387,8 +245,15 @@ class IsometricFit(Result):
         return fig
 
 
-def isometric_points(table: Table, tare: str = "none") -> tuple[pd.DataFrame, dict]:
-    """The tared points of an isometric table (SI), and the tare report.
+def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
+                     pressure_zero: str = "none") -> tuple[pd.DataFrame, dict]:
+    """The tared points of an isometric table (SI), and the sensor report.
+
+    In order: the pressure transducer's zero is removed (:func:`mckibben.data.io.apply_pressure_zero`),
+    rows at a sensor's rail are found on the raw readings (:func:`mckibben.data.io.find_rails`),
+    the load cell is tared (:func:`mckibben.data.io.apply_tare`), and the rows at a rail are kept
+    or excluded. A run whose tare was read at the load cell's floor has an unknown zero: it is
+    marked ``at_rail`` and the report's ``flags`` say ``tare_at_rail``.
 
     Parameters
     ----------
@@ -396,13 +261,48 @@ def isometric_points(table: Table, tare: str = "none") -> tuple[pd.DataFrame, di
         An ``isometric`` table.
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Rows at a rail: kept (counted, flagged) or excluded from the fit. [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        See :func:`mckibben.data.io.apply_pressure_zero`. [-]
+
+    Returns
+    -------
+    points : pandas.DataFrame
+        ``held_length`` [m], ``pressure`` [Pa], ``force`` [N], ``direction``, ``trial`` (and
+        ``rest_length``, ``muscle`` of a family).
+    report : dict
+        The tare's report (``method``, ``per_run_N``) with ``pressure_zero``, ``rails`` (each rail,
+        ``rows_at_rail``, ``excluded``) and ``flags``.
     """
     if table.kind != "isometric":
         raise InputError(f"fit: needs an isometric table (held_length, pressure, force, direction, trial);"
                          f" {table.path} is a {table.kind} table")
-    tared, report = apply_tare(table, tare)
-    d = tared.data[["held_length", "pressure", "force", "direction", "trial"]].copy()
+    if rails not in RAIL_POLICIES:
+        raise unknown_name("rails policy", rails, RAIL_POLICIES)
+    zeroed, pz = apply_pressure_zero(table, pressure_zero)
+    at_rail, rail_report = find_rails(zeroed, ("force",))
+    tared, report = apply_tare(zeroed, tare)
+    report = dict(report)
+    flags = []
+    lows = [r["value"] for r in rail_report["rails"] if r["side"] == "low"]
+    for run in report.get("per_run_N", []):
+        if lows and abs(run["tare_N"] - lows[0]) < 1e-9:
+            run["at_rail"] = True
+    if any(r.get("at_rail") for r in report.get("per_run_N", [])):
+        flags.append("tare_at_rail")
+    report.update(pressure_zero=pz, rails={**rail_report, "excluded": rails == "exclude"}, flags=flags)
+    if rails == "exclude":
+        tared = Table(tared.kind, tared.path, tared.data[~at_rail], tared.columns)
+    cols = ["held_length", "pressure", "force", "direction", "trial"]
+    cols += [c for c in ("rest_length", "muscle") if c in tared.data]  # a family table's muscles
+    d = tared.data[cols].copy()
     return d, report
+
+
+def is_family(d: pd.DataFrame) -> bool:
+    """Whether isometric points hold several muscles (a ``muscle`` and a ``rest_length`` column, ≥ 2 muscles)."""
+    return "rest_length" in d and "muscle" in d and d["muscle"].astype(str).nunique() > 1
 
 
 def held_length_groups(held_length) -> np.ndarray:
@@ -419,8 +319,9 @@ def held_length_groups(held_length) -> np.ndarray:
 
 
 def _runs(d: pd.DataFrame) -> np.ndarray:
-    """Cluster label per row: one run = one held length and one trial."""
-    keys = np.column_stack([held_length_groups(d["held_length"]), d["trial"].to_numpy(dtype=float)])
+    """Cluster label per row: one run = one held length and one trial (of one muscle, in a family)."""
+    keys = np.column_stack([held_length_groups(d["held_length"]), d["trial"].to_numpy(dtype=float)]
+                           + ([np.unique(d["muscle"].astype(str), return_inverse=True)[1].ravel()] if "muscle" in d else []))
     return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
 
 
@@ -434,7 +335,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
     muscle : MuscleSpec
         Nominal length, outer diameter and whatever geometry is known.
     model : str
-        A key of :data:`FORCE_MODELS`. [-]
+        A key of :data:`ALL_MODELS`. [-]
     source : str
         The data file, for messages.
 
@@ -442,8 +343,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
     -------
     FitResult
     """
-    if model not in FORCE_MODELS:
-        raise unknown_name("force model", model, FORCE_MODELS)
+    model = model_name(model)
     what = f"fit {model} on {source}"
     p = d["pressure"].to_numpy(dtype=float)
     ell = d["held_length"].to_numpy(dtype=float)
@@ -452,13 +352,21 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
     clusters = _runs(d)
     fmax = float(np.max(np.abs(f))) or 1.0
     vr = data_range(pressure=p, length=ell)
+    law = laws.LAWS.get(model)
+    family = law is not None and law.family
+    if is_family(d) and not family:
+        raise InputError(f"{what}: the table holds {d['muscle'].astype(str).nunique()} muscles; {model} is fitted on one "
+                         f"muscle (fit a family law: {', '.join(laws.fit_laws(family=True)) or 'none registered'})")
+    rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(p.size, muscle.nominal_length)
+    if family:
+        vr["rest_length"] = (float(rest.min()), float(rest.max()))
     if model == "surface":
         l0 = muscle.nominal_length
         x = np.column_stack(_surface_terms(p, ell, direction, l0))
         if np.unique(direction).size < 2:
             x = x[:, :8]
 
-        def sfunc(values, pressure, length, direction="inflate"):
+        def sfunc(values, pressure, length, direction="inflate", rest_length=None):
             terms = _surface_terms(pressure, length, direction, l0)[: len(values)]
             return sum(v * t for v, t in zip(values, terms))
 
@@ -466,17 +374,12 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         res = linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
                          source=source, clusters=clusters)
         return _with_monotone_flag(res, d)
-    if model in ("chou-hannaford", "wall-chou-hannaford"):
-        spec = _ch_spec(muscle, fmax, model == "wall-chou-hannaford")
-    elif model == "tondu-lopez":
-        spec = _tl_spec(muscle, fmax)
-    else:
-        spec = _spring_spec(muscle, fmax, p, ell, f, direction)
+    spec = _spec(model, muscle, fmax, p, ell, f, direction, rest)
 
-    def func(values, pressure, length, direction="inflate"):
-        return spec.force(values, pressure, length, direction)
+    def func(values, pressure, length, direction="inflate", rest_length=None):
+        return spec.force(values, pressure, length, direction, rest_length)
 
-    res = bounded_fit(lambda v: spec.force(v, p, ell, direction), f, spec.starts, spec.names, spec.lo, spec.hi,
+    res = bounded_fit(lambda v: spec.force(v, p, ell, direction, rest), f, spec.starts, spec.names, spec.lo, spec.hi,
                       model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
                       source=source, physical_flags=spec.physical)
     return _with_monotone_flag(res, d)
@@ -495,15 +398,22 @@ def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
     peak = float(np.max(np.abs(d["force"]))) or 1.0
     from mckibben.data.io import set_point_groups
 
-    for ell in set_point_groups(d["held_length"].to_numpy(dtype=float), decimals=6)[1]:
+    rests = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(len(d), np.nan)
+    pairs = np.unique(np.column_stack([np.round(rests, 9), np.round(d["held_length"].to_numpy(dtype=float), 6)]), axis=0)
+    if "rest_length" not in d:
+        pairs = [(None, ell) for ell in set_point_groups(d["held_length"].to_numpy(dtype=float), decimals=6)[1]]
+    for rest, ell in pairs:
+        extra = {} if rest is None else {"rest_length": np.full_like(pg, rest)}
         for dn in np.unique(d["direction"]):
-            fg = np.asarray(res.func(res.values, pressure=pg, length=np.full_like(pg, ell), direction=dn), dtype=float)
+            fg = np.asarray(res.func(res.values, pressure=pg, length=np.full_like(pg, ell), direction=dn, **extra),
+                            dtype=float)
             if np.any(np.maximum.accumulate(fg) - fg > MONOTONE_TOL * peak):
                 return replace(res, flags=res.flags + ("force_falls_with_pressure",))
     return res
 
 
-def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none") -> IsometricFit:
+def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none", rails: str = "keep",
+                  pressure_zero: str = "none") -> IsometricFit:
     """Fit a static force model F(P, L) to an isometric table.
 
     Geometry missing from the muscle file (braid angle, wall) is fitted within the bounds of
@@ -524,9 +434,13 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     muscle : MuscleSpec
         The muscle file (nominal length and outer diameter are required).
     model : str, default "spring"
-        A key of :data:`FORCE_MODELS`. [-]
+        A key of :data:`ALL_MODELS`. [-]
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Rows at a sensor's rail (:func:`isometric_points`). [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        The pressure transducer's zero (:func:`isometric_points`). [-]
 
     Returns
     -------
@@ -536,7 +450,7 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     ----------
     Module notes; Cameron & Miller (2015) for the cluster-robust covariance.
     """
-    d, report = isometric_points(table, tare)
+    d, report = isometric_points(table, tare, rails, pressure_zero)
     res = fit_points(d, muscle, model, source=table.path)
     return IsometricFit(model, res, muscle, report, d)
 
@@ -550,7 +464,7 @@ def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
     Parameters
     ----------
     model : str
-        A key of :data:`FORCE_MODELS`. [-]
+        A key of :data:`ALL_MODELS`. [-]
     muscle : MuscleSpec
         The muscle the law was fitted for.
     values : array_like
@@ -562,7 +476,8 @@ def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
         ``f(pressure [Pa], length [m], direction="inflate") -> force [N]``.
     """
     v = np.asarray(values, dtype=float)
-    if model == "surface":
+    model = model_name(model)
+    if model == SURFACE:
         l0 = muscle.nominal_length
 
         def sfunc(pressure, length, direction="inflate"):
@@ -570,24 +485,16 @@ def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
             return sum(a * t for a, t in zip(v, terms))
 
         return sfunc
-    if model == "spring":
+    if model == "spring":  # one pressure range to infinity: the law as saved
         l0 = muscle.nominal_length
 
         def spring(pressure, length, direction="inflate"):
             d = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
-            return spring_force(length, pressure, _spring_model(v, l0, np.inf), d)[0]
+            return spring_force(length, pressure, spring_model_of(v, l0, np.inf), d)[0]
 
         return spring
-    spec = _physical_spec(model, muscle)
+    spec = _spec(model, muscle, 1.0, *_NO_DATA)
     return lambda pressure, length, direction="inflate": spec.force(v, pressure, length, direction)
-
-
-def _physical_spec(model: str, muscle: MuscleSpec) -> _Spec:
-    if model in ("chou-hannaford", "wall-chou-hannaford"):
-        return _ch_spec(muscle, 1.0, model == "wall-chou-hannaford")
-    if model == "tondu-lopez":
-        return _tl_spec(muscle, 1.0)
-    raise unknown_name("force model", model, FORCE_MODELS)
 
 
 def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
@@ -596,19 +503,20 @@ def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
     Parameters
     ----------
     model : str
-        A key of :data:`FORCE_MODELS`. [-]
+        A key of :data:`ALL_MODELS`. [-]
     muscle : MuscleSpec
         The muscle file.
     """
-    if model == "surface":
+    model = model_name(model)
+    if model == SURFACE:
         return SURFACE_NAMES
     if model == "spring":
         return SPRING_NAMES
-    return _physical_spec(model, muscle).names
+    return _spec(model, muscle, 1.0, *_NO_DATA).names
 
 
 #: Cross-validation schemes of :func:`compare_isometric`.
-CV_METHODS = ("leave-one-length-out", "leave-one-trial-out")
+CV_METHODS = ("leave-one-length-out", "leave-one-trial-out", "leave-one-muscle-out")
 
 
 @dataclass(repr=False)
@@ -622,8 +530,10 @@ class ModelComparison(Result):
     scores : list of dict
         Per model: ``model``, ``n_parameters``, ``rmse_N``, ``r2`` (in-sample, all data),
         ``cv_rmse_N`` (held-out), ``cv_rmse_pct_of_peak`` (held-out RMSE / peak |force| × 100),
-        ``extrapolated_folds`` (folds whose held-out points lie outside the training range),
-        ``flags`` (of the fit on all data) and ``note``.
+        ``folds`` (per fold: ``held_out``, ``rmse_N``, ``rmse_pct_of_peak`` of the held-out
+        muscle's peak |force|, ``peak_force_N``, ``n_points``), ``median_fold_pct_of_peak`` and
+        ``worst_fold_pct_of_peak`` over the folds, ``extrapolated_folds`` (folds whose held-out
+        points lie outside the training range), ``flags`` (of the fit on all data) and ``note``.
     best : str or None
         The model with the smallest held-out RMSE.
     peak_force : float
@@ -693,27 +603,63 @@ class ModelComparison(Result):
         return ax.figure
 
 
+def _fold_keys(d: pd.DataFrame, cv: str) -> tuple[np.ndarray, list]:
+    """Fold label per row and a readable name per fold."""
+    who = d["muscle"].astype(str).to_numpy() if "muscle" in d else np.full(len(d), "")
+    if cv == "leave-one-muscle-out":
+        names = sorted(set(who))
+        return np.searchsorted(names, who), names
+    if cv == "leave-one-trial-out":
+        t = d["trial"].to_numpy()
+        names = list(np.unique(t))
+        return np.searchsorted(names, t), [f"trial {x}" for x in names]
+    g = held_length_groups(d["held_length"])
+    pairs = sorted(set(zip(who, g)))
+    index = {pq: k for k, pq in enumerate(pairs)}
+    ell = d["held_length"].to_numpy(dtype=float)
+    label = []
+    for m, k in pairs:
+        sel = (who == m) & (g == k)
+        mm = f"{m} " if m else ""
+        label.append(f"{mm}{float(np.median(ell[sel])) * 1e3:.4g} mm")
+    return np.array([index[pq] for pq in zip(who, g)]), label
+
+
 def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
-                      models=None) -> ModelComparison:
-    """Fit every force model to an isometric table and score it on held-out lengths or trials.
+                      models=None, rails: str = "keep", pressure_zero: str = "none") -> ModelComparison:
+    """Fit every force model to an isometric table and score it on held-out lengths, trials or muscles.
 
     Every model is fitted on the same folds: ``leave-one-length-out`` leaves each held length out
     in turn and predicts it from the others (the extreme lengths are extrapolations, counted in
-    ``extrapolated_folds``); ``leave-one-trial-out`` leaves each trial number out. The best model
-    is the one with the smallest held-out RMSE, never the in-sample one (notes/lab-data.md).
+    ``extrapolated_folds``; on a family table a fold is one muscle's held length, and the other
+    muscles stay in the training data); ``leave-one-trial-out`` leaves each trial number out;
+    ``leave-one-muscle-out`` (a family table: ``muscle`` and ``rest_length`` columns) leaves each
+    whole muscle out and predicts it from its rest length alone. The best model is the one with
+    the smallest held-out RMSE, never the in-sample one (notes/lab-data.md).
+
+    On a family table only the family laws (:func:`mckibben.models.laws.fit_laws`) are fitted:
+    the others describe one muscle; on one muscle's table only the others (a family law fitted on
+    one rest length has no end length to find, and is fitted with ``mckibben fit --model``).
+
+    Per fold, ``folds`` gives the held-out RMSE and that RMSE as a percentage of the held-out
+    muscle's peak measured |force| (the peak of the whole table for one muscle).
 
     Parameters
     ----------
     table : Table
         An ``isometric`` table.
     muscle : MuscleSpec
-        The muscle file.
-    cv : {"leave-one-length-out", "leave-one-trial-out"}
+        The muscle file (for a family: the type's outer diameter and geometry). [-]
+    cv : {"leave-one-length-out", "leave-one-trial-out", "leave-one-muscle-out"}
         Cross-validation scheme. [-]
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
     models : sequence of str, optional
-        Models to compare (default: all of :data:`FORCE_MODELS`). [-]
+        Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`FORCE_MODELS`). [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Rows at a sensor's rail (:func:`isometric_points`). [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        The pressure transducer's zero (:func:`isometric_points`). [-]
 
     Returns
     -------
@@ -721,44 +667,66 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     """
     if cv not in CV_METHODS:
         raise unknown_name("--cv scheme", cv, CV_METHODS)
-    d, report = isometric_points(table, tare)
+    d, report = isometric_points(table, tare, rails, pressure_zero)
+    family = is_family(d)
+    if cv == "leave-one-muscle-out" and not family:
+        raise InputError(f"compare on {table.path}: leave-one-muscle-out needs a family table (a muscle and a "
+                         "rest_length column, two muscles or more)")
     f = d["force"].to_numpy(dtype=float)
     peak = float(np.max(np.abs(f)))
-    key = held_length_groups(d["held_length"]) if cv == "leave-one-length-out" else d["trial"].to_numpy()
+    who = d["muscle"].astype(str).to_numpy() if family else np.full(len(d), "")
+    muscle_peak = {m: float(np.max(np.abs(f[who == m]))) or 1.0 for m in set(who)}
+    key, fold_names = _fold_keys(d, cv) if family or cv != "leave-one-length-out" else (
+        held_length_groups(d["held_length"]), None)
     groups = np.unique(key)
     if groups.size < 2:
-        raise InputError(f"compare on {table.path}: {cv} needs two {'held lengths' if 'length' in cv else 'trials'} or more")
+        what = {"leave-one-length-out": "held lengths", "leave-one-trial-out": "trials"}.get(cv, "muscles")
+        raise InputError(f"compare on {table.path}: {cv} needs two {what} or more")
+    if fold_names is None:
+        fold_names = _fold_keys(d, cv)[1]
+    if models is None:  # a family's laws on a family table, one muscle's laws on one muscle
+        models = list(FAMILY_MODELS if family else FORCE_MODELS)
     scores, fits = [], {}
-    for model in (models or FORCE_MODELS):
+    for model in models:
         try:
             full = fit_points(d, muscle, model, source=table.path)
         except InputError as exc:
             scores.append({"model": model, "n_parameters": 0, "rmse_N": None, "r2": None, "cv_rmse_N": None,
-                           "cv_rmse_pct_of_peak": None, "extrapolated_folds": 0, "flags": [],
+                           "cv_rmse_pct_of_peak": None, "extrapolated_folds": 0, "flags": [], "folds": [],
                            "note": f"not fitted: {exc}"})
             continue
         fits[model] = IsometricFit(model, full, muscle, report, d)
         pred = np.full(f.size, np.nan)
-        extrapolated, notes = 0, []
+        extrapolated, notes, folds = 0, [], []
         for g in groups:
             test = key == g
             try:
                 r = fit_points(d[~test], muscle, model, source=table.path)
             except InputError as exc:
-                notes.append(f"fold {g} not fitted: {exc}")
+                notes.append(f"fold {fold_names[int(g)]} not fitted: {exc}")
                 continue
             sub = d[test]
+            extra = {"rest_length": sub["rest_length"].to_numpy(dtype=float)} if "rest_length" in sub else {}
             value, fl = r.predict(pressure=sub["pressure"].to_numpy(), length=sub["held_length"].to_numpy(),
-                                  direction=sub["direction"].to_numpy())
+                                  direction=sub["direction"].to_numpy(), **extra)
             pred[test] = value
             extrapolated += int(np.any(fl))
+            ok = np.isfinite(value)
+            rm = float(np.sqrt(np.mean((value[ok] - f[test][ok]) ** 2))) if ok.any() else float("nan")
+            pk = max(muscle_peak[m] for m in set(who[test]))
+            folds.append({"held_out": fold_names[int(g)], "rmse_N": rm, "rmse_pct_of_peak": rm / pk * 100.0,
+                          "peak_force_N": pk, "n_points": int(test.sum())})
         ok = np.isfinite(pred)
         cv_rmse = float(np.sqrt(np.mean((pred[ok] - f[ok]) ** 2))) if ok.any() else float("nan")
         if not ok.all():
             notes.append(f"{int((~ok).sum())} points not predicted")
+        pct = [x["rmse_pct_of_peak"] for x in folds if np.isfinite(x["rmse_pct_of_peak"])]
         scores.append({"model": model, "n_parameters": len(full.values), "rmse_N": full.residual_rms,
                        "r2": full.r2, "cv_rmse_N": cv_rmse, "cv_rmse_pct_of_peak": cv_rmse / peak * 100.0,
-                       "extrapolated_folds": extrapolated, "flags": list(full.flags), "note": "; ".join(notes)})
+                       "median_fold_pct_of_peak": float(np.median(pct)) if pct else None,
+                       "worst_fold_pct_of_peak": float(np.max(pct)) if pct else None,
+                       "extrapolated_folds": extrapolated, "flags": list(full.flags), "note": "; ".join(notes),
+                       "folds": folds})
     ranked = [s for s in scores if s["cv_rmse_N"] is not None and np.isfinite(s["cv_rmse_N"])]
     best = min(ranked, key=lambda s: s["cv_rmse_N"])["model"] if ranked else None
     return ModelComparison(cv, scores, best, peak, fits, report, table.path)

@@ -9,34 +9,19 @@ the fitted range is flagged.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from mckibben.data.io import MuscleSpec
+from mckibben.data.io import MuscleSpec, muscle_file_text_of
 from mckibben.errors import InputError
+from mckibben.fit.isometric import ALL_MODELS, force_law, model_name, parameter_names
+from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
+from mckibben.models.laws.spring import CONTRACTION, ELONGATION
 
-#: Muscle-file keys written from a MuscleSpec: field -> (key, factor from SI).
-_KEYS = (("nominal_length", "nominal_length_mm", 1e3), ("outer_diameter", "outer_diameter_mm", 1e3),
-         ("strand_length", "strand_length_mm", 1e3), ("tube_inner_diameter", "tube_inner_diameter_mm", 1e3),
-         ("tube_outer_diameter", "tube_outer_diameter_mm", 1e3), ("strand_diameter", "strand_diameter_mm", 1e3),
-         ("braid_angle", "braid_angle_deg", 180.0 / math.pi))
-
-
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    return repr(float(v))
-
-
-def muscle_file_text(spec: MuscleSpec, fit) -> str:
+def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) -> str:
     """The TOML text of a muscle file holding a fitted force law.
 
     Parameters
@@ -45,29 +30,34 @@ def muscle_file_text(spec: MuscleSpec, fit) -> str:
         The muscle file the fit used (its known geometry is kept as is).
     fit : IsometricFit
         From :func:`mckibben.fit.isometric.fit_isometric`.
+    rest_length : float, optional
+        A family law's file: the rest length of the muscle it describes (its nominal length),
+        default the muscle file's; the valid lengths are the fitted ones relative to the rest
+        length, scaled to it. [m]
     """
     r = fit.result
-    lines = [f"id = {_toml_value(spec.id)}"]
-    for field_, key, factor in _KEYS:
-        value = getattr(spec, field_)
-        if value is not None:
-            lines.append(f"{key} = {float(value) * factor:.12g}")
-    note = (spec.notes + " " if spec.notes else "") + f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
-    lines.append(f"notes = {_toml_value(note)}")
-    lines.append(f"synthetic = {_toml_value(bool(spec.synthetic))}")
-    lines += ["", "[force_model]", f"model = {_toml_value(fit.model)}", f"source = {_toml_value(r.source)}",
-              f"tare = {_toml_value(fit.tare.get('method', 'none'))}", f"flags = {_toml_value(list(r.flags))}",
-              f"rmse_N = {r.residual_rms!r}", f"r2 = {r.r2!r}"]
-    for q, (lo, hi) in r.valid_range.items():
-        unit = {"pressure": "Pa", "length": "m"}.get(q, "")
-        lines.append(f"valid_{q}_{unit} = [{lo!r}, {hi!r}]")
-    lines += ["", "[force_model.parameters]"] + [f"{n} = {float(v)!r}" for n, v in zip(r.names, r.values)]
-    lines += ["", "[force_model.stderr]"] + [f"{n} = {float(s)!r}" for n, s in zip(r.names, r.stderr)
-                                             if np.isfinite(s)]
-    return "\n".join(lines) + "\n"
+    law = laws.LAWS.get(fit.model)
+    valid = dict(r.valid_range)
+    if rest_length is not None or (law is not None and law.family):
+        if law is None or not law.family:
+            raise InputError(f"--rest-length: applies to a family law; {fit.model} describes the muscle it was fitted on")
+        l0 = spec.nominal_length if rest_length is None else float(rest_length)
+        if not (np.isfinite(l0) and l0 > 0):
+            raise InputError(f"--rest-length: {rest_length!r} must be a positive length")
+        d = fit.data
+        rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(len(d), spec.nominal_length)
+        rel = d["held_length"].to_numpy(dtype=float) / rest
+        valid["length"] = (float(rel.min()) * l0, float(rel.max()) * l0)
+        spec = replace(spec, nominal_length=l0)
+    note = f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
+    fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": list(r.flags),
+          "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": valid,
+          "parameters": dict(zip(r.names, (float(v) for v in r.values))),
+          "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s)}}
+    return muscle_file_text_of(spec, fm, note)
 
 
-def save_muscle_file(path, spec: MuscleSpec, fit) -> Path:
+def save_muscle_file(path, spec: MuscleSpec, fit, rest_length: float | None = None) -> Path:
     """Write a muscle file with a fitted force law, atomically (nothing half-written).
 
     Parameters
@@ -78,6 +68,8 @@ def save_muscle_file(path, spec: MuscleSpec, fit) -> Path:
         The muscle file the fit used.
     fit : IsometricFit
         The fit.
+    rest_length : float, optional
+        A family law's file: the rest length of the muscle it describes. [m]
 
     Returns
     -------
@@ -89,7 +81,7 @@ def save_muscle_file(path, spec: MuscleSpec, fit) -> Path:
     p = Path(path)
     if p.suffix.lower() != ".toml":
         raise InputError(f"--save: {path} must end in .toml")
-    text = muscle_file_text(spec, fit)
+    text = muscle_file_text(spec, fit, rest_length)
     with atomic_file(p, "--save") as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
     return p
@@ -138,8 +130,6 @@ class MuscleForceLaw:
         flags : numpy.ndarray
             :class:`~mckibben.models.flags.Flag` masks.
         """
-        from mckibben.fit.isometric import force_law
-
         p, ell = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
         f = np.broadcast_to(force_law(self.model, self.spec, list(self.parameters.values()))(p, ell, direction), p.shape)
         flags = np.zeros(p.shape, dtype=np.uint16)
@@ -164,41 +154,20 @@ class MuscleForceLaw:
 
         Returns
         -------
-        BraidGeometry, TonduLopez or SpringModel
+        The law's parameter object (:attr:`mckibben.models.laws.Law.from_values`, the one
+        conversion of fitted values): BraidGeometry, TonduLopez, SpringModel or an added law's.
 
         Raises
         ------
         InputError
             For the data-driven ``surface``: it has no physical law to run.
         """
-        from mckibben.models.physical import BraidGeometry, TonduLopez
-        from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel
-
-        v, spec = self.parameters, self.spec
-        l0 = spec.nominal_length
-        if self.model in ("chou-hannaford", "wall-chou-hannaford"):
-            th = v.get("theta0_rad", spec.braid_angle)
-            b = l0 / np.cos(th)
-            t = 0.0
-            if self.model == "wall-chou-hannaford":
-                t = v.get("wall_m", 0.5 * ((spec.tube_outer_diameter or 0.0) - (spec.tube_inner_diameter or 0.0)))
-            return BraidGeometry(float(b), float(b / (np.pi * v["d0_m"])), float(t))
-        if self.model == "tondu-lopez":
-            return TonduLopez(float(v["r0_m"]), float(v.get("alpha0_rad", spec.braid_angle)), float(v["k"]), 0.0, l0,
-                              citation=f"fitted: {spec.path or spec.id}")
-        if self.model == "spring":
-            key = "deflate" if direction == "deflate" else "inflate"
-            c = tuple(float(v[f"c{k}_{key}"]) for k in (3, 2, 1, 0))
-            h = (float(v["h2_m_per_Pa2"]), float(v["h1_m_per_Pa"]), float(v["h0_m"]))
-            # one range: the same coefficients below and above an infinite split; the chosen branch
-            # under both direction keys, so whoever reads the model (the plant's law_of, without a
-            # direction) runs that branch
-            coef = {(dn, rng): c for dn in (CONTRACTION, ELONGATION) for rng in (LOW, HIGH)}
-            return SpringModel(l0, h, coef, DEFAULT_TERMS, np.inf,
-                               self.valid_range.get("pressure", (0.0, np.inf)), (0.0, np.inf),
-                               f"fitted: {spec.path or spec.id}")
-        raise InputError(f"{spec.path or spec.id}: the data-driven {self.model} force law has no physical law the plant"
-                         " can run; fit spring, chou-hannaford, wall-chou-hannaford or tondu-lopez")
+        law = laws.LAWS.get(self.model)
+        if law is None or law.from_values is None:
+            where = self.spec.path or self.spec.id
+            raise InputError(f"{where}: the data-driven {self.model} force law has no physical law the plant can run;"
+                             f" fit one of {', '.join(laws.fit_laws())}")
+        return law.from_values(self.parameters, self.spec, direction, self.valid_range)
 
     def plant_law(self, direction: str = "inflate") -> tuple:
         """``(name, θ)`` of the plant's law registry (:func:`mckibben.models.laws.law_of`).
@@ -208,11 +177,8 @@ class MuscleForceLaw:
         direction : {"inflate", "deflate"}, default "inflate"
             The spring model's branch. [-]
         """
-        from mckibben.models.laws import law_of
-        from mckibben.models.spring import CONTRACTION, ELONGATION
-
         obj = self.static_model(direction)
-        return law_of(obj, direction=CONTRACTION if direction == "deflate" else ELONGATION)
+        return laws.law_of(obj, law=self.model, direction=CONTRACTION if direction == "deflate" else ELONGATION)
 
 
 def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
@@ -228,17 +194,19 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     InputError
         No ``[force_model]``, an unknown model, or parameters that are not the model's.
     """
-    from mckibben.fit.isometric import FORCE_MODELS, parameter_names
-
     where = spec.path or spec.id
     fm = spec.force_model
     if fm is None:
         raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv --model NAME --save FILE.toml")
     model = fm["model"]
-    if model not in FORCE_MODELS:
-        raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(FORCE_MODELS)}")
+    if model not in ALL_MODELS and model not in laws.ALIASES:
+        raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(ALL_MODELS)}")
+    model = model_name(model)  # an old name (wall-chou-hannaford) is read as its registry name
     names = parameter_names(model, spec)
     params = fm["parameters"]
+    optional = laws.LAWS[model].extra.get("optional_names", ()) if model in laws.LAWS else ()
+    if tuple(params) != tuple(names) and tuple(n for n in params if n not in optional) == tuple(names):
+        names = tuple(params)  # a law's optional parameters (a family's end-fitting length) were fitted
     if tuple(params) != tuple(names):
         missing = [n for n in names if n not in params]
         extra = [n for n in params if n not in names]
@@ -283,7 +251,7 @@ def check_direction(direction: str, law: MuscleForceLaw | None = None) -> str:
     """
     if direction not in DIRECTIONS:
         raise InputError(f"--direction: {direction!r} must be inflate or deflate")
-    if direction == "deflate" and law is not None and law.model != "spring":
+    if direction == "deflate" and law is not None and getattr(laws.LAWS.get(law.model), "branches", 1) < 2:
         raise InputError(f"--direction deflate: the {law.model} force law of {law.spec.path or law.spec.id} has one "
                          "branch for both directions; only a spring fit has a deflate branch")
     return direction

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.errors import InputError, unknown_name
+from mckibben.models import laws
 from mckibben.results import Result
 
 FIT_MODELS = {
@@ -28,6 +29,9 @@ FIT_MODELS = {
     "tondu-lopez": "fitted k and r0 (and alpha0 if unknown): isotonic or isometric; muscle file",
     "first-order": "p0, p_final, tau of pressure step responses (step_response)",
 }
+# every force law with a fit spec (mckibben.models.laws, the one vocabulary) fits isometric tables
+FIT_MODELS.update({n: f"{law.description} (isometric{', a family table' if law.family else ''}; muscle file)"
+                   for n, law in laws.fit_laws().items() if n not in FIT_MODELS})
 NEEDS_MUSCLE = {"kinematic", "force-contraction", "chou-hannaford", "wall-chou-hannaford", "tondu-lopez"}
 
 
@@ -51,7 +55,8 @@ def _synthetic(data: Path, spec) -> bool:
 
 
 def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None = None,
-             split_pressure: float | None = None, tare: str = "none", save: str | None = None) -> tuple[dict, list]:
+             split_pressure: float | None = None, tare: str = "none", save: str | None = None,
+             rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
     from mckibben.data import check_muscle, read_table
     from mckibben.fit import static
@@ -65,22 +70,26 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         check_muscle(table, spec)
     if tare != "none" and not isometric:
         raise InputError(f"--tare: applies to isometric tables; {data} is a {table.kind} table")
+    if (rails != "keep" or pressure_zero != "none") and not isometric:
+        raise InputError(f"--rails/--pressure-zero: apply to isometric tables; {data} is a {table.kind} table")
     if save is not None and not isometric:
         raise InputError(f"--save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
+    if rest_length is not None and save is None:
+        raise InputError("--rest-length: sets the rest length of the muscle a family law's file describes; give --save")
     extra: dict = {}
     if isometric:
-        from mckibben.fit.isometric import FORCE_MODELS, fit_isometric
+        from mckibben.fit.isometric import ALL_MODELS, fit_isometric
 
-        if model not in FORCE_MODELS:
-            raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(FORCE_MODELS)}")
-        fit = fit_isometric(table, spec, model, tare)
+        if model not in ALL_MODELS and model not in laws.ALIASES:
+            raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
+        fit = fit_isometric(table, spec, model, tare, rails, pressure_zero)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
                "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
         out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
         if save is not None:
             from mckibben.fit.muscle_file import save_muscle_file
 
-            out["saved"] = str(save_muscle_file(save, spec, fit))
+            out["saved"] = str(save_muscle_file(save, spec, fit, rest_length))
         return out, [fit]
     if model == "kinematic":
         fits = [static.fit_kinematic(table, spec)]
@@ -129,14 +138,15 @@ def _isometric_table(data: Path):
     return table if table.kind == "isometric" else None
 
 
-def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str) -> dict:
+def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
+                       pressure_zero: str = "none") -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
     from mckibben.data import check_muscle
     from mckibben.fit.isometric import compare_isometric
 
     spec = load_muscle(data, muscle, True, "compare")
     check_muscle(table, spec)
-    res = compare_isometric(table, spec, cv, tare)
+    res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero)
     return {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
             "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
 
@@ -254,7 +264,8 @@ class TableFit(Result):
 
 
 def fit_table(data, model: str, muscle: str | None = None, kind: str | None = None,
-              split_pressure: float | None = None, tare: str = "none", save: str | None = None) -> TableFit:
+              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
+              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> TableFit:
     """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
 
     Parameters
@@ -271,6 +282,13 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         Spring model: the low/high range split (default: the median pressure). [Pa]
     tare : {"none", "lowest", "column"}, default "none"
         Isometric tables: :func:`mckibben.data.io.apply_tare`. [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Isometric tables: rows at a sensor's rail (:func:`mckibben.fit.isometric.isometric_points`). [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        Isometric tables: the pressure transducer's zero (:func:`mckibben.data.io.apply_pressure_zero`). [-]
+    rest_length : float, optional
+        With ``save`` and a family law: the rest length of the muscle the saved file describes
+        (default the muscle file's nominal length). [m]
     save : str, optional
         Isometric tables: write a muscle file with the fitted force law here. [-]
 
@@ -278,7 +296,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
     -------
     TableFit
     """
-    out, fits = _run_fit(Path(data), model, muscle, kind, split_pressure, tare, save)
+    out, fits = _run_fit(Path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails, pressure_zero)
     return TableFit(out, fits)
 
 
@@ -341,7 +359,8 @@ class TableComparison(Result):
         return ax.figure
 
 
-def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none") -> TableComparison:
+def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none", rails: str = "keep",
+                  pressure_zero: str = "none") -> TableComparison:
     """Fit every applicable model to the same data and score it on held-out data.
 
     An isometric table: every force model, folds by held length (default) or trial
@@ -359,6 +378,10 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         Isometric tables only. [-]
     tare : {"none", "lowest", "column"}, default "none"
         Isometric tables only. [-]
+    rails : {"keep", "exclude"}, default "keep"
+        Isometric tables: rows at a sensor's rail. [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        Isometric tables: the pressure transducer's zero. [-]
 
     Returns
     -------
@@ -366,7 +389,8 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
     """
     iso = _isometric_table(Path(data))
     if iso is not None:
-        return TableComparison(_compare_isometric(iso, Path(data), muscle, cv or "leave-one-length-out", tare))
-    if cv is not None or tare != "none":
+        return TableComparison(_compare_isometric(iso, Path(data), muscle, cv or "leave-one-length-out", tare, rails,
+                                                  pressure_zero))
+    if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
         raise InputError("--cv/--tare: apply to isometric tables; the isotonic comparison chooses its own folds")
     return TableComparison(_compare_isotonic(Path(data), muscle))

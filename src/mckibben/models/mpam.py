@@ -22,9 +22,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.errors import InputError, UnreachableError
-from mckibben.models import laws
 from mckibben.models.flags import Flag, flag_where, outside
+from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.kinematic import braid_from_length, length_from_braid
+from mckibben.models.laws._base import evaluate_kernel
+from mckibben.models.laws.braid_map import braid_map, braid_map_theta
 
 MPA = 1e6  # Pa per MPa: the papers' cubics take P in MPa
 
@@ -122,36 +124,6 @@ def braid_cos_theta(pressure, load, braid_map: BraidAngleMap):
         | flag_where(cos_theta > 1.0, Flag.COS_THETA_ABOVE_ONE)
     )
     return cos_theta, flags
-
-
-@dataclass(frozen=True)
-class MiniatureGeometry:
-    """Construction of a miniature muscle.
-
-    Attributes
-    ----------
-    outer_diameter : float
-        Outer diameter of the braided muscle. [m]
-    tube_inner_diameter : float
-        Inner diameter of the silicone tube. [m]
-    tube_outer_diameter : float
-        Outer diameter of the silicone tube. [m]
-    strand_diameter : float
-        Diameter of one braid strand. [m]
-    braid_angle : float
-        Initial braid angle, from the muscle axis. [rad]
-    """
-
-    outer_diameter: float = 1.2e-3
-    tube_inner_diameter: float = 0.5e-3
-    tube_outer_diameter: float = 0.9e-3
-    strand_diameter: float = 0.1e-3
-    braid_angle: float = np.deg2rad(20.0)
-
-    @property
-    def wall_thickness(self) -> float:
-        """Silicone tube wall thickness. [m]"""
-        return 0.5 * (self.tube_outer_diameter - self.tube_inner_diameter)
 
 
 @dataclass(frozen=True)
@@ -405,7 +377,7 @@ def force_from_length(muscle: MiniatureMuscle, pressure, length) -> ForcePredict
     pressure, length = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
     target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
     loads = np.asarray(bmap.loads)
-    force = laws.evaluate("braid-map", pressure, length, laws.braid_map_theta(muscle))
+    force = evaluate_kernel(braid_map, "braid-map", pressure, length, braid_map_theta(muscle))
     flags = (
         outside(pressure, *bmap.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
         | outside(np.nan_to_num(force, nan=loads[0]), loads[0], loads[-1], Flag.LOAD_OUT_OF_RANGE)

@@ -7,6 +7,9 @@ polynomial in (P, Ls) — by default K = c3·P + c2·P·Ls + c1·Ls + c0 (eq. 2,
 one coefficient set per direction (elongation dL/dt > 0, contraction dL/dt < 0: the hysteresis)
 and per pressure range (low ≤ split < high).
 
+The law itself (kernel, :class:`SpringModel`, :func:`spring_force`, fit spec) lives in
+:mod:`mckibben.models.laws.spring`; this module adds its inverse and re-exports it.
+
 Everything here is SI: P in Pa, lengths in m, K in N/m, so the coefficients have units
 N/(m·Pa^i·m^j) for the term P^i·Ls^j. The paper's bar and cm are converted at the file edge.
 
@@ -19,171 +22,15 @@ data (``mckibben fit --model spring``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from mckibben.errors import InputError
-from mckibben.models import laws
 from mckibben.models.flags import Flag, flag_where, outside
+from mckibben.models.laws.spring import (CONTRACTION, DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel,
+                                         _coefficients_for, spring_force, stiffness, unstretched_length)
 
-#: The published stiffness terms (eq. 2 as read): exponents (i, j) of P^i·Ls^j for c3, c2, c1, c0.
-DEFAULT_TERMS: tuple[tuple[int, int], ...] = ((1, 0), (1, 1), (0, 1), (0, 0))
-
-ELONGATION, CONTRACTION = "elongation", "contraction"
-DIRECTIONS = (ELONGATION, CONTRACTION)
-LOW, HIGH = "low", "high"
-
-
-@dataclass(frozen=True)
-class SpringModel:
-    """Parameters of the spring model for one muscle.
-
-    Attributes
-    ----------
-    nominal_length : float
-        Rest length L0 at zero gauge pressure and no load. [m]
-    h : tuple of float
-        Unstretched length Lu = h[0]·P² + h[1]·P + h[2]. [m/Pa², m/Pa, m]
-    coefficients : dict
-        ``{(direction, range): tuple of c}``, one coefficient per term, direction in
-        ``("elongation", "contraction")`` and range in ``("low", "high")``. [N/(m·Pa^i·m^j)]
-    terms : tuple of (int, int)
-        Exponents (i, j) of each stiffness term P^i·Ls^j (default eq. 2). [-]
-    split_pressure : float
-        Pressure splitting the low and high ranges (2.5 bar in the paper). [Pa]
-    pressure_range : tuple of float
-        Pressures the coefficients are valid on. [Pa]
-    stretch_range : tuple of float
-        Stretched lengths Ls the coefficients are valid on. [m]
-    citation : str
-        Where the numbers come from (a paper or a fit to named data).
-    """
-
-    nominal_length: float
-    h: tuple[float, float, float]
-    coefficients: dict
-    terms: tuple[tuple[int, int], ...] = DEFAULT_TERMS
-    split_pressure: float = 2.5e5
-    pressure_range: tuple[float, float] = (0.0, 5e5)
-    stretch_range: tuple[float, float] = (0.0, np.inf)
-    citation: str = "001_9d98bcef9f07dbeb.txt, eq. (1)-(2)"
-
-    def __post_init__(self):
-        for key, c in self.coefficients.items():
-            if key[0] not in DIRECTIONS or key[1] not in (LOW, HIGH):
-                raise InputError(f"SpringModel: bad coefficient key {key!r}; use (direction, 'low'|'high')")
-            if len(c) != len(self.terms):
-                raise InputError(f"SpringModel: {key} has {len(c)} coefficients for {len(self.terms)} terms")
-
-
-def unstretched_length(pressure, h):
-    """Length of the unloaded muscle at a pressure, Lu(P) = h2·P² + h1·P + h0.
-
-    Parameters
-    ----------
-    pressure : array_like
-        Gauge pressure. [Pa]
-    h : sequence of 3 float
-        (h2, h1, h0). [m/Pa², m/Pa, m]
-
-    Returns
-    -------
-    numpy.ndarray
-        Unstretched length. [m]
-
-    References
-    ----------
-    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), Table 1.
-    """
-    p = np.asarray(pressure, dtype=float)
-    return (h[0] * p + h[1]) * p + h[2]
-
-
-def stiffness(pressure, stretch, coefficients, terms=DEFAULT_TERMS):
-    """Stiffness K(P, Ls) = Σ c_k·P^i_k·Ls^j_k.
-
-    Parameters
-    ----------
-    pressure : array_like
-        Gauge pressure. [Pa]
-    stretch : array_like
-        Stretched length Ls = L − Lu(P). [m]
-    coefficients : sequence of float or array_like
-        One coefficient per term (a trailing axis of that length for per-element sets).
-        [N/(m·Pa^i·m^j)]
-    terms : sequence of (int, int)
-        Exponents (i, j) per term.
-
-    Returns
-    -------
-    numpy.ndarray
-        K. [N/m]
-
-    References
-    ----------
-    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (2).
-    """
-    p = np.asarray(pressure, dtype=float)
-    s = np.asarray(stretch, dtype=float)
-    c = np.asarray(coefficients, dtype=float)
-    return sum(c[..., k] * p**i * s**j for k, (i, j) in enumerate(terms))
-
-
-def _coefficients_for(model: SpringModel, pressure, direction):
-    """Per-element coefficient arrays for the range of each pressure and the given direction."""
-    p = np.asarray(pressure, dtype=float)
-    d = np.broadcast_to(np.asarray(direction), p.shape)
-    out = np.full(p.shape + (len(model.terms),), np.nan)
-    for (dname, rname), c in model.coefficients.items():
-        in_range = (p <= model.split_pressure) if rname == LOW else (p > model.split_pressure)
-        out[(d == dname) & in_range] = c
-    return out
-
-
-def spring_force(length, pressure, model: SpringModel, direction=ELONGATION):
-    """Pulling force of the muscle at a length and pressure, F = K(P, Ls)·Ls.
-
-    Parameters
-    ----------
-    length : array_like
-        Muscle length L. [m]
-    pressure : array_like
-        Gauge pressure. [Pa]
-    model : SpringModel
-        Coefficients.
-    direction : str or array_like of str
-        ``"elongation"`` (dL/dt > 0) or ``"contraction"`` (dL/dt < 0).
-
-    Returns
-    -------
-    force : numpy.ndarray
-        Pulling force, 0 where the muscle is slack (L < Lu). [N]
-    flags : numpy.ndarray
-        ``slack`` where L < Lu, out-of-range flags for P and Ls.
-
-    References
-    ----------
-    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1) with (2) and Table 1.
-    """
-    length, pressure = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(pressure, dtype=float))
-    stretch = length - unstretched_length(pressure, model.h)
-    if tuple(model.terms) == DEFAULT_TERMS and len(model.coefficients) == 4:
-        # the compiled law (mckibben.models.laws.spring), one coefficient set per direction
-        d = np.broadcast_to(np.asarray(direction), pressure.shape)
-        force = np.where(d == ELONGATION, laws.evaluate("spring", pressure, length, laws.spring_theta(model, ELONGATION)),
-                         laws.evaluate("spring", pressure, length, laws.spring_theta(model, CONTRACTION)))
-        force = np.where(np.isin(d, DIRECTIONS), force, np.nan)
-    else:  # other stiffness terms: the general polynomial
-        c = _coefficients_for(model, pressure, direction)
-        force = stiffness(pressure, stretch, c, model.terms) * stretch
-    flags = (
-        flag_where(stretch < 0, Flag.SLACK)
-        | outside(pressure, *model.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
-        | outside(np.maximum(stretch, 0.0), *model.stretch_range, Flag.LENGTH_OUT_OF_RANGE)
-    )
-    return np.where(stretch < 0, 0.0, force), flags
-
+__all__ = ["CONTRACTION", "DEFAULT_TERMS", "DIRECTIONS", "ELONGATION", "HIGH", "LOW", "SpringModel", "spring_force",
+           "spring_length", "spring_length_series", "stiffness", "unstretched_length"]
 
 def spring_length(force, pressure, model: SpringModel, direction=ELONGATION, max_stretch=None):
     """Length at which the muscle pulls ``force`` at ``pressure``: the model solved for L.

@@ -16,6 +16,8 @@ import numpy as np
 from mckibben import hardware as HW
 from mckibben.errors import InputError, unknown_name
 from mckibben.models import laws as LW
+from mckibben.models.muscle import FILE_BRAID_ANGLE as MUSCLE_BRAID_ANGLE
+from mckibben.models.muscle import Muscle
 from mckibben.models.mpam import MiniatureMuscle, predict_length
 
 #: A plant parameter: one value for every instance, or one per instance (shape (N,)). [SI unit of the field]
@@ -33,19 +35,16 @@ GAMMA = 1.4  #: ratio of specific heats of air [-]
 NUSSELT_TUBE = 3.66
 K_AIR = 0.0257  #: thermal conductivity of air at 20 °C [W/(m·K)]
 
-#: Force laws, by name: the plant's names for the registered laws of :mod:`mckibben.models.laws`.
-FORCE_MODELS = {
-    "calibrated": "tondu-lopez", "tondu-lopez": "tondu-lopez", "chou-hannaford": "chou-hannaford",
-    "wall-corrected": "wall-corrected", "empirical": "braid-map", "braid-map": "braid-map", "spring": "spring",
-}
+#: Force laws, by name: the registry's names and old aliases (:mod:`mckibben.models.laws`, the one
+#: vocabulary), plus ``calibrated``: Tondu–Lopez with the plant's calibrated columns.
+FORCE_MODELS = {"calibrated": "tondu-lopez", **{n: n for n in LW.LAW_NAMES}, **LW.ALIASES}
 #: Chamber thermodynamics, by name.
 THERMAL = ("energy", "polytropic")
 
 # --- the rig of a muscle file's own force law (PlantParams.from_muscle_file; docs/plant.md) ---------
-#: Rest braid angle assumed when neither the file nor its fitted law gives one: the project's
-#: construction angle (the default ``alpha0``). It only shapes the chamber volume's change with
-#: length and the end stops; the fitted law itself does not use it. [rad]
-FILE_BRAID_ANGLE = float(np.deg2rad(20.0))
+#: Rest braid angle assumed when neither the file nor its fitted law gives one (the project's
+#: construction angle, the default ``alpha0``): :data:`mckibben.models.muscle.FILE_BRAID_ANGLE`. [rad]
+FILE_BRAID_ANGLE = MUSCLE_BRAID_ANGLE
 #: Lumen over outer diameter when the file gives no tube: a 10 mm bore in a 12 mm sleeve, the
 #: commercial 10 mm class. Only the chamber volume depends on it. [-]
 FILE_LUMEN_FRACTION = 10.0 / 12.0
@@ -334,8 +333,9 @@ class PlantParams:
 
         Parameters
         ----------
-        muscle : str, pathlib.Path or MuscleSpec
-            A muscle file with a ``[force_model]`` table, or the spec read from one. [-]
+        muscle : str, pathlib.Path, MuscleSpec or Muscle
+            A muscle file with a ``[force_model]`` table, the spec read from one, or the
+            :class:`~mckibben.models.muscle.Muscle` built from one (its branch is used). [-]
         direction : {"inflate", "deflate"}, default "inflate"
             The spring model's branch (its hysteresis); the other laws have one. [-]
         **kwargs
@@ -356,25 +356,24 @@ class PlantParams:
         """
         from mckibben.data.io import MuscleSpec, read_muscle
         from mckibben.fit.muscle_file import muscle_force_law
-        from mckibben.models.physical import BraidGeometry, TonduLopez
 
         if direction not in ("inflate", "deflate"):
             raise InputError(f"direction: {direction!r} must be inflate or deflate")
-        spec = muscle if isinstance(muscle, MuscleSpec) else read_muscle(muscle)
-        where = spec.path or spec.id
-        fl = muscle_force_law(spec)
-        obj = fl.static_model(direction)
-        l0 = float(spec.nominal_length)
-        od = spec.need("outer_diameter", "the plant's chamber volume")
-        # the braid that moves the chamber: the law's own when it has one
-        if isinstance(obj, BraidGeometry):
-            b = obj.strand_length
-        elif spec.strand_length is not None:
-            b = float(spec.strand_length)
+        if isinstance(muscle, Muscle):
+            m = muscle
+            direction = m.direction
         else:
-            th0 = obj.initial_angle if isinstance(obj, TonduLopez) else spec.braid_angle
-            b = l0 / np.cos(FILE_BRAID_ANGLE if th0 is None else float(th0))
-        wall = float(obj.wall_thickness) if isinstance(obj, BraidGeometry) else 0.0
+            spec = muscle if isinstance(muscle, MuscleSpec) else read_muscle(muscle)
+            muscle_force_law(spec)  # the file's [force_model], checked (names, ranges)
+            m = Muscle.from_spec(spec, direction)
+        spec = m.spec
+        where = spec.path or spec.id
+        obj = m.params
+        l0 = float(m.nominal_length)
+        od = spec.need("outer_diameter", "the plant's chamber volume")
+        # the braid that moves the chamber and sets the end stops: the muscle's (models/muscle.py)
+        b = m.strand_length
+        wall = float(getattr(obj, "wall_thickness", 0.0))  # a fitted braid's wall
         if spec.tube_inner_diameter is not None:
             inner = float(spec.tube_inner_diameter)
         elif wall > 0:
@@ -385,10 +384,10 @@ class PlantParams:
         base = cls()
         v_ref = base.dead_volume + 0.25 * np.pi * base.inner_diameter**2 * base.nominal_length
         scale = (dead + 0.25 * np.pi * inner**2 * l0) / v_ref
-        supply = min(fl.valid_range.get("pressure", (0.0, base.supply_pressure))[1], HW.P_MAX_LIMIT)
+        supply = min(m.pressure_range[1] if np.isfinite(m.pressure_range[1]) else base.supply_pressure, HW.P_MAX_LIMIT)
         fields = dict(
             nominal_length=l0, strand_length=float(b), k1=1.0, k2=0.0, outer_diameter=od, inner_diameter=inner,
-            wall_thickness=0.5 * (od - inner), r0=float(obj.initial_radius) if isinstance(obj, TonduLopez) else 0.0,
+            wall_thickness=0.5 * (od - inner), r0=float(getattr(obj, "initial_radius", 0.0)),
             alpha0=float(np.arccos(min(l0 / b, 1.0))) or base.alpha0, k_tl=1.0, p_threshold=0.0,
             dead_volume=dead, tube_diameter=FILE_TUBE_BORE, valve_conductance=base.valve_conductance * scale,
             bleed_conductance=base.bleed_conductance * scale, leak_conductance=base.leak_conductance * scale,
@@ -408,7 +407,7 @@ class PlantParams:
         try:
             plant.prepare()
         except InputError as exc:
-            raise InputError(f"{where} (fitted {fl.model} force law): {exc}") from None
+            raise InputError(f"{where} (fitted {spec.force_model['model']} force law): {exc}") from None
         return plant
 
     def replace(self, **kwargs) -> "PlantParams":

@@ -138,7 +138,9 @@ Z_P, Z_T, Z_XIN, Z_XBL, Z_LEN, Z_VEL, Z_FRIC = (st_row(ST_S, r) for r in range(N
 
 _TL, _CH, _WC, _BM, _SP = (LW.LAW_INDEX[k] for k in ("tondu-lopez", "chou-hannaford", "wall-corrected",
                                                        "braid-map", "spring"))
-assert len(LW.LAW_NAMES) == 5, "a new law in mckibben.models.laws needs its branch in law_force and law_value"
+# laws added after the first five run in the registry's slots (mckibben.models.laws.PLANT_SLOTS)
+_S5, _S6, _S7 = 5, 6, 7
+assert LW.PLANT_SLOTS == 3, "the plant has three slot branches in law_force and law_value"
 
 
 @njit(error_model="numpy")
@@ -160,13 +162,41 @@ def law_force(law, n, bk):
     elif law == _BM:
         for j in range(n):
             bk[Y_FL + j] = LW.braid_map(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
-    else:
+    elif law == _SP:
         for j in range(n):
             bk[Y_FL + j] = LW.spring(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+    elif law == _S5:
+        for j in range(n):
+            bk[Y_FL + j] = LW.slot_5(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+    elif law == _S6:
+        for j in range(n):
+            bk[Y_FL + j] = LW.slot_6(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
+    else:
+        for j in range(n):
+            bk[Y_FL + j] = LW.slot_7(bk[Y_PG + j], bk[Y_LE + j], bk, OFF_TH + j, W)
 
 
-#: One point of a registered law, picked by its index (the static start's bisection): the models' own.
-law_value = LW.law_value
+@njit(error_model="numpy", inline="always")
+def law_value(law, pressure, length, th, o, w):
+    """The registered law ``law`` at one gauge pressure [Pa] and length [m] (θ at ``th[o + r·w]``). [N]
+
+    The same kernels as :func:`law_force`, one point at a time (the static start's bisection).
+    """
+    if law == _TL:
+        return LW.tondu_lopez(pressure, length, th, o, w)
+    if law == _CH:
+        return LW.chou_hannaford(pressure, length, th, o, w)
+    if law == _WC:
+        return LW.wall_corrected(pressure, length, th, o, w)
+    if law == _BM:
+        return LW.braid_map(pressure, length, th, o, w)
+    if law == _SP:
+        return LW.spring(pressure, length, th, o, w)
+    if law == _S5:
+        return LW.slot_5(pressure, length, th, o, w)
+    if law == _S6:
+        return LW.slot_6(pressure, length, th, o, w)
+    return LW.slot_7(pressure, length, th, o, w)
 
 
 @njit(error_model="numpy", inline="always")

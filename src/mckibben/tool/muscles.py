@@ -10,13 +10,14 @@ docs/tool.md ("A lab's own muscle").
 
 from __future__ import annotations
 
-import math
+import dataclasses
 
 import numpy as np
 
 from mckibben.errors import InputError
+from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.law_statics import LawMuscle
-from mckibben.models.mpam import MiniatureGeometry
+from mckibben.models.muscle import Muscle
 from mckibben.tool.geometry import DEFAULT_MUSCLE, StackLoad, ToolGeometry
 
 def paper_bending_number() -> float:
@@ -44,15 +45,18 @@ def file_muscle(muscle_file, direction: str = "inflate") -> LawMuscle:
 
     Parameters
     ----------
-    muscle_file : str, pathlib.Path or MuscleSpec
-        A muscle file with a ``[force_model]`` table. [-]
+    muscle_file : str, pathlib.Path, MuscleSpec or Muscle
+        A muscle file with a ``[force_model]`` table, or the :class:`~mckibben.models.muscle.Muscle`
+        built from one (its own branch). [-]
     direction : {"inflate", "deflate"}, default "inflate"
         The spring law's branch (its hysteresis); the other laws have one, and refuse
         ``deflate`` (:func:`mckibben.fit.muscle_file.check_direction`). [-]
 
     Returns
     -------
-    LawMuscle
+    Muscle
+        A :class:`~mckibben.models.law_statics.LawMuscle` with the file's geometry, law, ranges and
+        end stops (:mod:`mckibben.models.muscle`).
 
     Raises
     ------
@@ -65,25 +69,24 @@ def file_muscle(muscle_file, direction: str = "inflate") -> LawMuscle:
     from mckibben.plant import PlantParams
 
     check_direction(direction)
-    where = muscle_file.path or muscle_file.id if isinstance(muscle_file, MuscleSpec) else str(muscle_file)
+    if isinstance(muscle_file, Muscle):
+        where = muscle_file.spec.path or muscle_file.name
+    else:
+        where = muscle_file.path or muscle_file.id if isinstance(muscle_file, MuscleSpec) else str(muscle_file)
     try:
-        spec = muscle_file if isinstance(muscle_file, MuscleSpec) else read_muscle(muscle_file)
-        law = muscle_force_law(spec)
-        check_direction(direction, law)
-        plant = PlantParams.from_muscle_file(spec, direction)
-        name, theta = law.plant_law(direction)
+        if isinstance(muscle_file, Muscle):
+            m = muscle_file
+        else:
+            spec = muscle_file if isinstance(muscle_file, MuscleSpec) else read_muscle(muscle_file)
+            check_direction(direction, muscle_force_law(spec))
+            m = Muscle.from_spec(spec, direction)
+        PlantParams.from_muscle_file(m)  # a law the plant cannot run is refused here as there
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith("--") else f"--muscle-file {where}: {msg}") from None
-    stops = (plant.strand_length / math.sqrt(3.0), plant.strand_length)
-    return LawMuscle(
-        name=spec.id, nominal_length=float(spec.nominal_length), law=name, theta=np.asarray(theta, dtype=float),
-        strand_length=float(plant.strand_length),
-        pressure_range=law.valid_range.get("pressure", (0.0, float(plant.supply_pressure))),
-        length_range=law.valid_range.get("length", stops),
-        outer_diameter=float(spec.outer_diameter), direction=direction, source=spec,
-        citation=f"{law.model} force law fitted to {spec.force_model.get('source', 'data')} ({where})",
-    )
+    if m.pressure_range[1] == np.inf:  # no fitted range saved: the plant's supply bounds it
+        m = dataclasses.replace(m, pressure_range=(m.pressure_range[0], float(PlantParams.from_muscle_file(m).supply_pressure)))
+    return m
 
 
 def file_geometry(muscle: LawMuscle, pitch_radius=None, n_discs: int | None = 13) -> ToolGeometry:

@@ -1,0 +1,118 @@
+"""Held-out errors of every force model on real isometric measurements (not bundled, not shipped).
+
+Reads ``../shared/data/real/festo10_isometric.csv`` beside the repository (Festo 10 mm muscles cut
+to six lengths; PROVENANCE.md there says what the rig got wrong) and skips cleanly when it is
+absent. It writes the lab's shapes of the data into a temporary folder: one isometric table and a
+muscle file of only ``id``, ``nominal_length_mm``, ``outer_diameter_mm`` per muscle, and one family
+table (``muscle``, ``rest_length_mm``) with a muscle file of the type; then it runs, as a lab would,
+
+- per muscle: ``mckibben compare ISO.csv --muscle m.toml --cv leave-one-length-out --tare lowest --json``;
+- on the family: ``mckibben compare FAMILY.csv --muscle fam.toml --cv leave-one-muscle-out --tare lowest --json``
+  and ``--cv leave-one-length-out`` (one muscle's length held out, the other muscles kept),
+
+and prints every model's held-out RMSE as % of the held-out muscle's peak force, the best model
+per muscle (picked on held-out error), and any model that is best but carries flags.
+
+Run: python benchmarks/bench_real_models.py [--quick]   (--quick: the family only)
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mckibben.cli import main
+
+REAL = Path(__file__).resolve().parents[2] / "shared/data/real"
+SOURCE = REAL / "festo10_isometric.csv"
+OUTER_DIAMETER_MM = 10.0  # Festo DMSP-10: nominal inner diameter 10 mm (the muscle file needs one; no model reads it
+# but the physical laws' bounds)
+
+
+def run(*args: str) -> dict:
+    """``mckibben ARGS --json`` in-process; the parsed JSON (exit status must be 0)."""
+    import contextlib
+    import io
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(list(args) + ["--json"])
+    if code != 0:
+        raise SystemExit(f"mckibben {' '.join(args)} exited {code}: {err.getvalue().strip()}")
+    return json.loads(out.getvalue())
+
+
+def lab_tables(folder: Path) -> tuple[list, Path, Path]:
+    """Write per-muscle tables and muscle files, and the family table and its muscle file."""
+    d = pd.read_csv(SOURCE)
+    d["muscle"] = "festo10-" + d["cut_length_cm"].astype(str) + "cm"
+    d = d.rename(columns={"phase": "direction"})
+    cols = ["held_length_mm", "pressure_kPa", "force_N", "direction", "trial", "muscle"]
+    per = []
+    for m, g in d.groupby("muscle", sort=False):
+        iso = folder / f"{m}.csv"
+        g[cols].to_csv(iso, index=False)
+        toml = folder / f"{m}.toml"
+        toml.write_text(f'id = "{m}"\nnominal_length_mm = {g["rest_length_mm"].iloc[0]:g}\n'
+                        f"outer_diameter_mm = {OUTER_DIAMETER_MM:g}\n")
+        per.append((m, float(g["rest_length_mm"].iloc[0]), iso, toml))
+    fam = folder / "family.csv"
+    d[cols + ["rest_length_mm"]].to_csv(fam, index=False)
+    fam_toml = folder / "festo10.toml"
+    fam_toml.write_text(f'id = "festo10"\nnominal_length_mm = {d["rest_length_mm"].median():g}\n'
+                        f"outer_diameter_mm = {OUTER_DIAMETER_MM:g}\n")
+    return per, fam, fam_toml
+
+
+def table(out: dict) -> list[str]:
+    """One line per model: held-out % of peak (pooled), median and worst fold, flags."""
+    lines = []
+    for s in sorted(out["models"], key=lambda s: (s["cv_rmse_N"] is None, s["cv_rmse_N"] or 0)):
+        if s["cv_rmse_N"] is None:
+            lines.append(f"    {s['model']:<16} not fitted: {s['note'][:80]}")
+            continue
+        lines.append(f"    {s['model']:<16} held out {s['cv_rmse_pct_of_peak']:6.2f} % of peak "
+                     f"(folds: median {s['median_fold_pct_of_peak']:5.2f} %, worst {s['worst_fold_pct_of_peak']:5.2f} %)"
+                     f"  in-sample {s['rmse_N']:.3g} N  flags: {', '.join(s['flags']) or 'none'}")
+    return lines
+
+
+def main_bench(quick: bool = False) -> int:
+    if not SOURCE.is_file():
+        print(f"skipped: {SOURCE} is absent (real third-party data, not shipped)")
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        per, fam, fam_toml = lab_tables(Path(tmp))
+        best_per_muscle = []
+        if not quick:
+            print("per muscle, leave-one-length-out, --tare lowest")
+            for m, rest, iso, toml in per:
+                out = run("compare", str(iso), "--muscle", str(toml), "--cv", "leave-one-length-out", "--tare", "lowest")
+                b = next(s for s in out["models"] if s["model"] == out["best"])
+                best_per_muscle.append(b["cv_rmse_pct_of_peak"])
+                print(f"  {m} (rest {rest:g} mm): best {out['best']} {b['cv_rmse_pct_of_peak']:.2f} % of peak"
+                      f"{' FLAGGED ' + ','.join(b['flags']) if b['flags'] else ''}")
+                print("\n".join(table(out)))
+        for cv in ("leave-one-muscle-out",) + (() if quick else ("leave-one-length-out",)):
+            out = run("compare", str(fam), "--muscle", str(fam_toml), "--cv", cv, "--tare", "lowest")
+            print(f"family ({len(per)} muscles), {cv}, --tare lowest: best {out['best']}")
+            print("\n".join(table(out)))
+            b = next(s for s in out["models"] if s["model"] == out["best"])
+            for f in b["folds"]:
+                print(f"      held out {f['held_out']:<28} {f['rmse_pct_of_peak']:6.2f} % of its peak "
+                      f"({f['rmse_N']:.3g} N of {f['peak_force_N']:.4g} N)")
+            pct = [f["rmse_pct_of_peak"] for f in b["folds"]]
+            print(f"    best model per held-out fold: median {np.median(pct):.2f} %, worst {np.max(pct):.2f} %")
+        if best_per_muscle:
+            print(f"per muscle best (leave-one-length-out): median {np.median(best_per_muscle):.2f} %, "
+                  f"worst {np.max(best_per_muscle):.2f} % of peak")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main_bench("--quick" in sys.argv))

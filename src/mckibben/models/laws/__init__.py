@@ -1,0 +1,207 @@
+"""Every muscle force law, one file each, and the one registry of them by name.
+
+A *law* is a pulling force F(P, l) of gauge pressure and length with a parameter vector θ. Each
+lives in its own file here (``laws/<law>.py``): its compiled kernel
+``kernel(pressure, length, th, o, w) -> force`` (parameter r at ``th[o + r·w]``, the plant's batch
+layout), its NumPy face, its parameter dataclass and θ, and its fit spec (names, physical bounds,
+initial guess, which muscle fields it needs) with the one conversion of fitted values into the
+parameter object (``from_values``). Each file defines ``LAW`` (:class:`Law`).
+
+This module is the only vocabulary: :data:`LAWS` by name, in a fixed order (the plant compiles one
+branch per index, :data:`LAW_INDEX`); :func:`resolve` reads old names (``"empirical"``, ``"mpam"``
+→ ``braid-map``; ``"wall-chou-hannaford"`` → ``wall-corrected``) with a deprecation warning.
+Predict, fit, compare, the plant, the tool, muscle files and the CLI read it.
+
+**Adding a law** is adding its file (and its test): every module of this package not starting
+with ``_`` is imported and its ``LAW`` registered after the five laws the plant was first
+compiled with, in file-name order. The plant reserves :data:`PLANT_SLOTS` branches for them.
+
+The kernels return the law's raw value (negative where the law would push); the plant adds
+what is not the law's (never pushing, the tube's passive stiffness, the braid's end stops).
+All take SI units (Pa, m, N); the papers' cubics take P in MPa and convert inside.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import pkgutil
+import warnings
+
+import numpy as np
+from mckibben._kernels import kernel, register
+
+from mckibben.errors import InputError, unknown_name
+from mckibben.models.laws import braid_map as _braid_map_file
+from mckibben.models.laws import chou_hannaford as _chou_hannaford_file
+from mckibben.models.laws import spring as _spring_file
+from mckibben.models.laws import tondu_lopez as _tondu_lopez_file
+from mckibben.models.laws import wall_corrected as _wall_corrected_file
+from mckibben.models.laws._base import MAP_MAX_LOADS, MPA, NTH, FitSpec, Law, evaluate_kernel
+from mckibben.models.laws.braid_map import BM_COEF, BM_K1, BM_K2, BM_LOADS, BM_LS, BM_N, braid_map, braid_map_theta
+from mckibben.models.laws.chou_hannaford import CH_B, CH_C, CH_D0, CH_T, chou_hannaford, chou_hannaford_theta
+from mckibben.models.laws.spring import SP_H0, SP_H1, SP_H2, SP_HIGH, SP_LOW, SP_SPLIT, spring, spring_theta
+from mckibben.models.laws.tondu_lopez import TL_A, TL_B, TL_IL0, TL_K, TL_PTH, TL_R0, tondu_lopez, tondu_lopez_theta
+from mckibben.models.laws.wall_corrected import wall_corrected
+
+__all__ = [
+    "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "PLANT_SLOTS", "FitSpec", "Law",
+    "evaluate", "fit_laws", "get_law", "law_of", "resolve",
+    "tondu_lopez", "chou_hannaford", "wall_corrected", "braid_map", "spring",
+    "tondu_lopez_theta", "chou_hannaford_theta", "braid_map_theta", "spring_theta",
+    "TL_R0", "TL_A", "TL_B", "TL_K", "TL_PTH", "TL_IL0", "CH_B", "CH_C", "CH_D0", "CH_T",
+    "BM_LS", "BM_K1", "BM_K2", "BM_N", "BM_LOADS", "BM_COEF", "SP_H2", "SP_H1", "SP_H0", "SP_SPLIT", "SP_LOW",
+    "SP_HIGH",
+]
+
+#: The laws the plant was first compiled with, in their index order (their indices never change).
+_FIRST = (_tondu_lopez_file, _chou_hannaford_file, _wall_corrected_file, _braid_map_file, _spring_file)
+#: Branches the plant keeps for laws added after the first five. [-]
+PLANT_SLOTS = 3
+
+
+def _discover() -> list:
+    first = {m.__name__ for m in _FIRST}
+    mods = list(_FIRST)
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
+        qual = f"{__name__}.{info.name}"
+        if info.name.startswith("_") or qual in first:
+            continue
+        mod = importlib.import_module(qual)
+        if isinstance(getattr(mod, "LAW", None), Law):
+            mods.append(mod)
+    return mods
+
+
+#: The registry, by name, in a fixed order (the plant compiles one branch per entry).
+LAWS: dict[str, Law] = {m.LAW.name: m.LAW for m in _discover()}
+LAW_NAMES = tuple(LAWS)
+LAW_INDEX = {name: i for i, name in enumerate(LAW_NAMES)}
+#: Old names, still read: old name -> registry name.
+ALIASES: dict[str, str] = {a: law.name for law in LAWS.values() for a in law.aliases}
+if len(LAW_NAMES) > len(_FIRST) + PLANT_SLOTS:
+    raise ImportError(f"mckibben.models.laws: {len(LAW_NAMES)} laws, the plant has branches for "
+                      f"{len(_FIRST) + PLANT_SLOTS}; raise PLANT_SLOTS and add its branches in mckibben.plant.physics")
+
+
+@kernel(error_model="numpy", inline="always")
+def _no_law(pressure, length, th, o, w):
+    """An empty plant slot: no force (NaN, which the plant's checks refuse). [N]"""
+    return math.nan
+
+
+_slots = [LAWS[n].kernel for n in LAW_NAMES[len(_FIRST):]] + [_no_law] * PLANT_SLOTS
+#: The kernels of the plant's extra branches (laws added after the first five; empty slots NaN).
+slot_5, slot_6, slot_7 = _slots[:PLANT_SLOTS]
+
+
+def resolve(name: str, what: str = "force law") -> str:
+    """The registry name of a law name or old alias (an alias warns once: deprecated).
+
+    Parameters
+    ----------
+    name : str
+        A name of :data:`LAWS` or :data:`ALIASES`. [-]
+    what : str
+        What the name was given as, for the message (e.g. ``"--model"``). [-]
+
+    Raises
+    ------
+    InputError
+        An unknown name, with the closest registered ones.
+    """
+    if name in LAWS:
+        return name
+    if name in ALIASES:
+        warnings.warn(f"force law name {name!r} is deprecated; use {ALIASES[name]!r}", DeprecationWarning,
+                      stacklevel=2)
+        return ALIASES[name]
+    raise unknown_name(what, name, LAWS)
+
+
+def get_law(name: str) -> Law:
+    """The :class:`Law` of a name or alias (see :func:`resolve`).
+
+    Parameters
+    ----------
+    name : str
+        Law name. [-]
+    """
+    return LAWS[resolve(name)]
+
+
+def fit_laws(family: bool | None = None) -> dict[str, Law]:
+    """The laws that have a fit spec (fitted to isometric data), in registry order.
+
+    Parameters
+    ----------
+    family : bool, optional
+        Only the family laws (True), only the per-muscle laws (False), or all (None). [-]
+    """
+    return {n: law for n, law in LAWS.items() if law.fit_spec is not None and (family is None or law.family == family)}
+
+
+def evaluate(name: str, pressure, length, theta) -> np.ndarray:
+    """A law's force at pressures and lengths (its kernel element-wise): the NumPy face.
+
+    Parameters
+    ----------
+    name : str
+        A name of :data:`LAWS` (or an alias).
+    pressure : array_like
+        Gauge pressure. [Pa]
+    length : array_like
+        Muscle length. [m]
+    theta : array_like
+        The law's parameters: ``(NTH,)`` for all elements, or ``(NTH,) + shape`` per element. [SI]
+
+    Returns
+    -------
+    numpy.ndarray
+        Force, broadcast over ``pressure`` and ``length`` (and θ's trailing shape). [N]
+    """
+    name = resolve(name)
+    return evaluate_kernel(LAWS[name].kernel, name, pressure, length, theta)
+
+
+def law_of(model, law: str | None = None, direction: str = "elongation") -> tuple[str, np.ndarray]:
+    """The registered law and θ of a static model object.
+
+    The laws say which objects are theirs (:attr:`Law.params`, :attr:`Law.accepts`); nothing here
+    knows the model classes.
+
+    Parameters
+    ----------
+    model : object
+        A parameter object of a registered law: a :class:`~mckibben.models.mpam.MiniatureMuscle`
+        (its braid-angle map), :class:`~mckibben.models.laws.tondu_lopez.TonduLopez`,
+        :class:`~mckibben.models.geometry.BraidGeometry` (Chou–Hannaford; wall-corrected when it
+        has a wall), :class:`~mckibben.models.laws.spring.SpringModel`, or any added law's.
+    law : str, optional
+        The law, when several take the object (a BraidGeometry: ``"chou-hannaford"`` or
+        ``"wall-corrected"``).
+    direction : str, default "elongation"
+        For a two-branch law (the spring model): its coefficient set. [-]
+
+    Returns
+    -------
+    (str, numpy.ndarray)
+        Law name and θ of shape ``(NTH,)``.
+    """
+    takers = [lw for lw in LAWS.values() if lw.theta_of is not None
+              and (isinstance(model, lw.params) if lw.params is not None else bool(lw.accepts and lw.accepts(model)))]
+    if law is not None:
+        name = resolve(law)
+        chosen = [lw for lw in takers if lw.name == name]
+        if not chosen:
+            kinds = " or ".join(lw.name for lw in takers) or "no law"
+            raise InputError(f"a {type(model).__name__} drives {kinds}, not {law!r}")
+    else:
+        chosen = [lw for lw in takers if lw.accepts is None or lw.accepts(model)] or takers
+    if not chosen:
+        raise InputError(f"no force law for a {type(model).__name__}; give a parameter object of one of "
+                         f"{', '.join(LAWS)}")
+    return chosen[0].name, chosen[0].theta_of(model, direction)
+
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)

@@ -1,0 +1,207 @@
+"""What every force law file shares: the θ layout, the law record and the fit spec.
+
+A *law* is a pulling force F(P, l) of gauge pressure and length with a parameter vector θ,
+written once as a Numba kernel ``kernel(pressure, length, th, o, w) -> force`` that reads its
+parameter r from ``th[o + r·w]`` of a flat array: one instance's column of a ``(NTH, w)`` table
+(the plant's batch layout, lanes innermost). A law file (``laws/<law>.py``) defines one
+:class:`Law`; the registry (:mod:`mckibben.models.laws`) collects them.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mckibben._kernels import PYTHON_MAX, compiled
+from mckibben.errors import InputError
+
+#: Rows of the parameter array every law reads from (the largest law's need).
+NTH = 44
+#: Most characterized loads a braid-angle map may have in the kernel.
+MAP_MAX_LOADS = 8
+MPA = 1e6  # Pa per MPa
+
+
+@dataclass(frozen=True)
+class FitSpec:
+    """How a law is fitted to force data F(P, L) of one muscle (or a family of muscles).
+
+    Attributes
+    ----------
+    names : tuple of str
+        Parameter names, with their unit in the name (``d0_m``, ``offset_N``). [-]
+    lo, hi : numpy.ndarray
+        Physical bounds per parameter. [SI]
+    starts : list of numpy.ndarray
+        Initial guesses (a multi-start for non-convex laws). [SI]
+    force : callable
+        ``force(values, pressure [Pa], length [m], direction=None, rest_length=None) -> [N]``: the
+        law's NumPy face with the fitted values, the load cell's zero included.
+    physical : callable, optional
+        ``physical(values) -> list of flag names`` for non-physical results.
+    """
+
+    names: tuple
+    lo: np.ndarray
+    hi: np.ndarray
+    starts: list
+    force: Callable
+    physical: Callable | None = None
+
+
+@dataclass(frozen=True)
+class Law:
+    """One registered force law: everything the fitter, the plant, the tool and the CLI read.
+
+    Attributes
+    ----------
+    name : str
+        Registry name (the only vocabulary). [-]
+    kernel : numba dispatcher
+        ``kernel(pressure [Pa], length [m], th, o, w) -> force [N]``, parameter r at ``th[o + r·w]``.
+    citation : str
+        Paper and equation the law comes from.
+    description : str
+        One line for listings (``--model`` help). [-]
+    aliases : tuple of str
+        Old names still read (deprecated). [-]
+    params : type, optional
+        The parameter dataclass :func:`mckibben.models.laws.law_of` accepts. [-]
+    theta_of : callable, optional
+        ``theta_of(params, direction) -> θ (NTH,)`` of a parameter object. [SI]
+    accepts : callable, optional
+        ``accepts(params) -> bool``: whether an object of :attr:`params` is this law's (when two
+        laws share a parameter class). [-]
+    fit_spec : callable, optional
+        ``fit_spec(muscle, fmax, data) -> FitSpec`` (None: not fitted to isometric data). ``muscle``
+        has ``nominal_length``, ``outer_diameter`` and the optional geometry fields of a muscle
+        file; ``data`` holds ``pressure``, ``held_length``, ``force``, ``direction`` (and
+        ``rest_length`` for a family). [-]
+    from_values : callable, optional
+        ``from_values(values: dict, muscle, direction, valid_range) -> params``: the fitted values (by name, SI)
+        as the law's parameter object, the load cell's zero dropped. The one conversion. [-]
+    needs : tuple of str
+        Muscle-file fields the fit needs. [-]
+    branches : int
+        1, or 2 for a law with an inflate and a deflate branch (its hysteresis). [-]
+    family : bool
+        Whether the law is fitted across muscles of one type (rest length is an input). [-]
+    """
+
+    name: str
+    kernel: object
+    citation: str
+    description: str = ""
+    aliases: tuple = ()
+    params: type | None = None
+    theta_of: Callable | None = None
+    accepts: Callable | None = None
+    fit_spec: Callable | None = None
+    from_values: Callable | None = None
+    needs: tuple = ()
+    branches: int = 1
+    family: bool = False
+    extra: dict = field(default_factory=dict)
+
+
+# --- the NumPy face of any kernel ---------------------------------------------------------------
+
+
+def _eval_python(kernel, p, length, th, col, w, out):
+    """The compiled loop's arithmetic, run by Python on the plain kernel (before Numba is loaded)."""
+    for i in range(p.size):
+        out[i] = kernel(p[i], length[i], th, col[i], w)
+
+
+def _eval_compiled(kernel, p, length, th, col, w, out):
+    """The loop compiled once per law: a module generated for the kernel (``_eval_template``)."""
+    from mckibben import _jit  # deferred: loads Numba (compiling every marked kernel)
+    from mckibben.models.laws import _eval_template
+
+    compiled = getattr(sys.modules[kernel.__module__], kernel.__name__)  # the dispatcher, now that Numba is loaded
+    _jit.module_for(_eval_template, "kernel", compiled).eval_loop(p, length, th, col, w, out)
+
+
+def evaluate_kernel(kernel, name: str, pressure, length, theta) -> np.ndarray:
+    """A kernel's force at pressures and lengths, element-wise: every law's NumPy face.
+
+    Parameters
+    ----------
+    kernel : function
+        The law's kernel (a module-level kernel of its law's file: plain Python until the package
+        loads Numba, then compiled; up to ``PYTHON_MAX`` elements run as Python before that,
+        with the same bits). [-]
+    name : str
+        The law's name, for messages. [-]
+    pressure : array_like
+        Gauge pressure. [Pa]
+    length : array_like
+        Muscle length. [m]
+    theta : array_like
+        The law's parameters: ``(NTH,)`` for all elements, or ``(NTH,) + shape`` per element. [SI]
+
+    Returns
+    -------
+    numpy.ndarray
+        Force, broadcast over ``pressure`` and ``length`` (and θ's trailing shape). [N]
+    """
+    th = np.asarray(theta, dtype=float)
+    if th.shape[0] != NTH:
+        raise InputError(f"law {name}: parameters have {th.shape[0]} rows, want {NTH}")
+    p, ell = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
+    if th.ndim > 1:
+        p, ell, idx = np.broadcast_arrays(p, ell, np.arange(int(np.prod(th.shape[1:]))).reshape(th.shape[1:]))
+        th2 = np.ascontiguousarray(th.reshape(NTH, -1))
+    else:
+        idx = np.zeros(p.shape, dtype=np.int64)
+        th2 = np.ascontiguousarray(th[:, None])
+    # copies, not views: a broadcast view of one element passes for contiguous, and NumPy warns
+    # (FutureWarning) when a compiled call reads the writeable flag of a broadcast array
+    pf = np.array(p, dtype=float, order="C").ravel()
+    out = np.empty(pf.size)
+    run = _eval_compiled if compiled() or pf.size > PYTHON_MAX else _eval_python
+    run(kernel, pf, np.array(ell, dtype=float, order="C").ravel(), th2.ravel(),
+        np.array(idx, dtype=np.int64, order="C").ravel(), th2.shape[1], out)
+    return out.reshape(p.shape)
+
+
+# --- what the physical laws' fits share -----------------------------------------------------------
+
+#: Largest braid angle at rest: cos²θ = 1/3, where the ideal braid stops pulling. [rad]
+THETA_MAX = float(np.arccos(1.0 / np.sqrt(3.0)))
+#: Smallest braid angle at rest allowed in a fit. [rad]
+THETA_MIN = float(np.deg2rad(1.0))
+#: Starting braid angles of the multi-start (the physical fits are non-convex in θ0). [deg]
+THETA_STARTS_DEG = (10.0, 30.0, 50.0)
+#: A load cell's zero larger than this fraction of the peak force is flagged ``large_offset``: a
+#: zero error of a few newtons is usual (lab-data notes), one of many percent means the model is
+#: buying a constant to make up for missing physics. [-]
+OFFSET_FLAG = 0.05
+
+
+def offset_flag(offset: float, fmax: float) -> list:
+    """``["large_offset"]`` when a fitted load-cell zero [N] exceeds :data:`OFFSET_FLAG` of the peak force [N]."""
+    return ["large_offset"] if abs(offset) > OFFSET_FLAG * fmax else []
+
+
+def geometry_params(muscle, what: str):
+    """Outer diameter [m], nominal length [m] and the known braid angle [rad] (or None) of a muscle file.
+
+    Parameters
+    ----------
+    muscle : MuscleSpec
+        The muscle file. [-]
+    what : str
+        The law that needs them, for the message. [-]
+    """
+    od = muscle.need("outer_diameter", what)
+    l0 = muscle.nominal_length
+    theta_known = muscle.braid_angle
+    if theta_known is not None and not THETA_MIN <= theta_known < THETA_MAX:
+        raise InputError(f"{muscle.path or muscle.id}: key braid_angle: {np.rad2deg(theta_known):g} deg is outside"
+                         f" [1, 54.7) deg, where a braid pulls")
+    return od, l0, theta_known

@@ -1,0 +1,29 @@
+"""The element-wise loop of a force law's NumPy face, a template bound to one law kernel at a time.
+
+:func:`mckibben.models.laws._base.evaluate_kernel` evaluates a law's kernel over arrays. A compiled
+loop taking the kernel as an *argument* cannot be cached (``mckibben._jit``); so, as for the
+simulator's runner, :func:`mckibben._jit.module_for` makes one module of this source per law, with
+the ``# kernel-import`` line replaced by an import of that law's kernel.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mckibben._jit import njit
+
+
+@njit(error_model="numpy")
+def placeholder(pressure, length, th, o, w):
+    """The template's own kernel (never evaluated: every law is bound by a generated module). [N]"""
+    return math.nan
+
+
+kernel = placeholder  # kernel-import
+
+
+@njit(error_model="numpy")
+def eval_loop(p, length, th, col, w, out):
+    """``out[i] = kernel(p[i], length[i], th, col[i], w)``: the law at each point. [N]"""
+    for i in range(p.size):
+        out[i] = kernel(p[i], length[i], th, col[i], w)

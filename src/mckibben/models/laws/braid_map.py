@@ -1,0 +1,90 @@
+"""The miniature muscle's braid-angle map of eq. (2)+(3), solved for the load: kernel and θ.
+
+cos θ is a cubic in P per characterized load (eq. 3, Table II) and linear in load between them;
+the fitted pantograph (eq. 2, Table I) turns a length into the target cos θ. The parameter object
+is a :class:`~mckibben.models.mpam.MiniatureMuscle` (anything with ``strand_length``, ``k1``,
+``k2`` and a ``braid_map`` of ``loads`` and ``coefficients``); it is fitted by the isotonic fits
+of :mod:`mckibben.fit.static`, not by an isometric fit spec.
+
+References
+----------
+“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
+000_909f662a44080c85.txt), eq. (2)–(3), Tables I–II.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from mckibben._kernels import kernel, register
+
+from mckibben.errors import InputError
+from mckibben.models.laws._base import MAP_MAX_LOADS, MPA, NTH, Law
+
+# θ: Ls, k1, k2, number of loads, loads[MAP_MAX_LOADS], then per load the cubic's P³, P², P, 1 (P in MPa)
+BM_LS, BM_K1, BM_K2, BM_N = range(4)
+BM_LOADS = 4
+BM_COEF = BM_LOADS + MAP_MAX_LOADS
+
+
+@kernel(error_model="numpy", inline="always")
+def _cubic(th, row, o, w, x):
+    return ((th[o + (row) * w] * x + th[o + (row + 1) * w]) * x + th[o + (row + 2) * w]) * x + th[o + (row + 3) * w]
+
+
+@kernel(error_model="numpy", inline="always")
+def braid_map(pressure, length, th, o, w):
+    """The load that holds the muscle at a length: eq. (2) for cos θ, eq. (3) linear in load. [N]
+
+    cos θ is a cubic in P per characterized load and linear in load between them (the end
+    segments extended); the segment whose cos θ interval holds the target gives the load.
+    NaN where no segment does (two loads with the same cos θ). “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt),
+    eq. (2)–(3), Tables I–II.
+    """
+    target = (length - th[o + (BM_K2) * w]) / (th[o + (BM_K1) * w] * th[o + (BM_LS) * w])
+    x = pressure / MPA
+    nseg = int(th[o + (BM_N) * w]) - 1
+    out = math.nan
+    a = _cubic(th, BM_COEF, o, w, x)
+    for i in range(MAP_MAX_LOADS - 1):
+        b = _cubic(th, BM_COEF + 4 * (i + 1), o, w, x)
+        u = (target - a) / (b - a)
+        inside = (u >= 0.0 and u <= 1.0) or (i == 0 and u < 0.0) or (i == nseg - 1 and u > 1.0)
+        if i < nseg and inside and math.isnan(out) and math.isfinite(u):
+            out = th[o + (BM_LOADS + i) * w] + u * (th[o + (BM_LOADS + i + 1) * w] - th[o + (BM_LOADS + i) * w])
+        a = b
+    return out
+
+
+def braid_map_theta(muscle) -> np.ndarray:
+    """θ of :func:`braid_map` from a :class:`~mckibben.models.mpam.MiniatureMuscle`.
+
+    Parameters
+    ----------
+    muscle : MiniatureMuscle
+        Its kinematic fit (eq. 2) and braid-angle map (eq. 3), published or fitted.
+    """
+    bm = muscle.braid_map
+    n = len(bm.loads)
+    if not 2 <= n <= MAP_MAX_LOADS:
+        raise InputError(f"{muscle.name}: the force needs a braid-angle map at 2..{MAP_MAX_LOADS} loads; it has {n}")
+    th = np.zeros(NTH)
+    th[BM_LS], th[BM_K1], th[BM_K2], th[BM_N] = muscle.strand_length, muscle.k1, muscle.k2, n
+    th[BM_LOADS:BM_LOADS + n] = bm.loads
+    th[BM_LOADS + n:BM_COEF] = bm.loads[-1]
+    for i in range(MAP_MAX_LOADS):
+        th[BM_COEF + 4 * i:BM_COEF + 4 * i + 4] = bm.coefficients[min(i, n - 1)]
+    return th
+
+
+LAW = Law(
+    "braid-map", braid_map, "000_909f662a44080c85.txt eq. (2)+(3), solved for the load",
+    description="the miniature muscle's braid-angle cubics (eq. 3) and pantograph (eq. 2), solved for the load",
+    aliases=("empirical", "mpam"), theta_of=lambda m, direction="elongation": braid_map_theta(m),
+    accepts=lambda m: hasattr(m, "braid_map") and hasattr(m, "k1"),
+    needs=("nominal_length", "strand_length"),
+)
+
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)

@@ -1,0 +1,181 @@
+"""Chou–Hannaford, the ideal thin-walled braid: kernel, NumPy face, θ and fit spec.
+
+F = (π·D0²·P/4)·(3cos²θ − 1), cos θ = l/b, D0 = b/(nπ). The parameter object is the braid's
+geometry (:class:`~mckibben.models.geometry.BraidGeometry`), shared with the wall-corrected law
+(:mod:`~mckibben.models.laws.wall_corrected`), whose fit spec is built here with the wall term.
+
+References
+----------
+Chou, C.-P., Hannaford, B. (1996), Measurement and modeling of McKibben pneumatic artificial
+muscles, IEEE Trans. Robot. Autom. 12(1), 90–102. doi:10.1109/70.481753, eq. (6).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from mckibben._kernels import kernel, register
+
+from mckibben.models.geometry import BraidGeometry
+from mckibben.models.laws._base import (NTH, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec, Law, evaluate_kernel,
+                                        geometry_params, offset_flag)
+
+# θ: b strand length [m], c = π·D0²/4 [m²], D0 = b/(nπ) [m], t wall thickness [m]
+CH_B, CH_C, CH_D0, CH_T = range(4)
+#: D0 bounds as factors of the measured outer diameter. [-]
+D0_FACTOR = (0.5, 4.0)
+#: Wall thickness bound as a factor of the outer diameter. [-]
+WALL_FACTOR = 0.25
+
+
+@kernel(error_model="numpy", inline="always")
+def chou_hannaford(pressure, length, th, o, w):
+    """Ideal thin-walled muscle: F = (π·D0²·P/4)·(3cos²θ − 1), cos θ = l/b. [N]
+
+    Chou & Hannaford (1996), eq. (6).
+    """
+    c = length / th[o + (CH_B) * w]
+    return th[o + (CH_C) * w] * pressure * (3.0 * c * c - 1.0)
+
+
+def chou_hannaford_theta(strand_length, turns, wall_thickness=0.0) -> np.ndarray:
+    """θ of :func:`chou_hannaford` and of the wall-corrected law.
+
+    Parameters
+    ----------
+    strand_length : array_like
+        b. [m]
+    turns : array_like
+        n. [-]
+    wall_thickness : array_like, default 0.0
+        t. [m]
+    """
+    b, n, t = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (strand_length, turns, wall_thickness)))
+    th = np.zeros((NTH,) + b.shape)
+    d0 = b / (n * np.pi)
+    th[CH_B], th[CH_C], th[CH_D0], th[CH_T] = b, np.pi * d0**2 / 4.0, d0, t
+    return th
+
+
+def chou_hannaford_force(pressure, length, geom: BraidGeometry):
+    """Pulling force of the ideal thin-walled muscle.
+
+    F = (π·D0²·P/4)·(3·cos²θ − 1), cos θ = l/b.
+
+    Parameters
+    ----------
+    pressure : array_like
+        Gauge pressure. [Pa]
+    length : array_like
+        Muscle length. [m]
+    geom : BraidGeometry
+        Strand length and turns (wall thickness ignored).
+
+    Returns
+    -------
+    numpy.ndarray
+        Force (negative below the locking length: the model would push). [N]
+
+    References
+    ----------
+    Chou & Hannaford (1996), eq. (6); NOTES.md.
+    """
+    return evaluate_kernel(chou_hannaford, "chou-hannaford", pressure, length,
+                           chou_hannaford_theta(geom.strand_length, geom.turns))
+
+
+def braid_spec(muscle, fmax: float, wall: bool, force_of) -> FitSpec:
+    """Fit spec of a braid law: θ0 (unless known), D0, the wall t (wall law, unless the tube is known), the zero.
+
+    Bounds: θ0 in [1°, 54.7°); D0 within [0.5, 4] × the outer diameter (D0·sin θ0 is the braid
+    diameter at rest, about the outer diameter); t within [0, 0.25] × the outer diameter; the
+    zero within ± the peak force.
+
+    Parameters
+    ----------
+    muscle : MuscleSpec
+        The muscle file. [-]
+    fmax : float
+        Largest |force| of the data. [N]
+    wall : bool
+        Whether the law has the wall term. [-]
+    force_of : callable
+        ``force_of(pressure, length, geom)``: the law's NumPy face. [N]
+    """
+    name = "wall-corrected" if wall else "chou-hannaford"
+    od, l0, theta_known = geometry_params(muscle, name)
+    t_known = None
+    if wall and None not in (muscle.tube_outer_diameter, muscle.tube_inner_diameter):
+        t_known = 0.5 * (muscle.tube_outer_diameter - muscle.tube_inner_diameter)
+    names, lo, hi = [], [], []
+    if theta_known is None:
+        names.append("theta0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
+    names.append("d0_m"), lo.append(D0_FACTOR[0] * od), hi.append(D0_FACTOR[1] * od)
+    if wall and t_known is None:
+        names.append("wall_m"), lo.append(0.0), hi.append(WALL_FACTOR * od)
+    names.append("offset_N"), lo.append(-fmax), hi.append(fmax)
+
+    def unpack(v):
+        k = 0
+        th = theta_known
+        if th is None:
+            th, k = v[0], 1
+        d0 = v[k]
+        t = (v[k + 1] if wall and t_known is None else (t_known or 0.0)) if wall else 0.0
+        return th, d0, t, v[-1]
+
+    def force(v, pressure, length, direction=None, rest_length=None):
+        th, d0, t, off = unpack(v)
+        b = l0 / np.cos(th)
+        return force_of(pressure, length, BraidGeometry(b, b / (np.pi * d0), t)) + off
+
+    starts = []
+    for tdeg in (THETA_STARTS_DEG if theta_known is None else (None,)):
+        for dfac in (2.5,):
+            x = []
+            if theta_known is None:
+                x.append(np.deg2rad(tdeg))
+            x.append(dfac * od)
+            if wall and t_known is None:
+                x.append(0.05 * od)
+            x.append(0.0)
+            starts.append(np.array(x))
+    return FitSpec(tuple(names), np.array(lo), np.array(hi), starts, force, lambda v: offset_flag(v[-1], fmax))
+
+
+def braid_from_values(values: dict, muscle, wall: bool) -> BraidGeometry:
+    """The fitted values (by name, SI) as a :class:`BraidGeometry` (the load cell's zero dropped).
+
+    Parameters
+    ----------
+    values : dict
+        ``theta0_rad`` (unless the muscle gives ``braid_angle``), ``d0_m``, ``wall_m`` (wall law,
+        unless the muscle gives its tube). [SI]
+    muscle : MuscleSpec
+        The muscle the law was fitted for. [-]
+    wall : bool
+        Whether the law has the wall term. [-]
+    """
+    l0 = muscle.nominal_length
+    th = values.get("theta0_rad", muscle.braid_angle)
+    b = l0 / np.cos(th)
+    t = 0.0
+    if wall:
+        t = values.get("wall_m", 0.5 * ((muscle.tube_outer_diameter or 0.0) - (muscle.tube_inner_diameter or 0.0)))
+    return BraidGeometry(float(b), float(b / (np.pi * values["d0_m"])), float(t))
+
+
+def _theta(geom: BraidGeometry, direction: str = "elongation") -> np.ndarray:
+    return chou_hannaford_theta(geom.strand_length, geom.turns, geom.wall_thickness)
+
+
+LAW = Law(
+    "chou-hannaford", chou_hannaford, "Chou & Hannaford (1996) eq. (6)",
+    description="ideal braid, fitted braid angle at rest and D0 (+ load-cell zero)",
+    params=BraidGeometry, theta_of=_theta, accepts=lambda g: not g.wall_thickness > 0,
+    fit_spec=lambda muscle, fmax, data=None: braid_spec(muscle, fmax, False, chou_hannaford_force),
+    from_values=lambda values, muscle, direction="inflate", valid_range=None: braid_from_values(values, muscle, False),
+    needs=("nominal_length", "outer_diameter"),
+)
+
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)

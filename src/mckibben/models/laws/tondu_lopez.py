@@ -1,0 +1,249 @@
+"""Tondu–Lopez with a pressure threshold: kernel, NumPy face, parameters, inverse and fit spec.
+
+F = π·r0²·max(P − P_th, 0)·[a(1 − k·ε)² − b], ε = 1 − l/l0, a = 3/tan²α0, b = 1/sin²α0.
+
+References
+----------
+Tondu, B., Lopez, P. (2000), Modeling and control of McKibben artificial muscle robot actuators,
+IEEE Control Syst. Mag. 20(2), 15–38. doi:10.1109/37.833638, eq. (4). The threshold: “Experimental
+Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
+000_909f662a44080c85.txt) Fig. 10.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from mckibben._kernels import kernel, register
+
+from mckibben.models.flags import Flag, flag_where
+from mckibben.models.laws._base import (NTH, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec, Law, evaluate_kernel,
+                                        geometry_params, offset_flag)
+
+# θ: r0 [m], a = 3/tan²α0, b = 1/sin²α0, k [-], p_th [Pa], 1/l0 [1/m]
+TL_R0, TL_A, TL_B, TL_K, TL_PTH, TL_IL0 = range(6)
+#: r0 bounds as factors of the measured outer diameter. [-]
+R0_FACTOR = (0.25, 1.0)
+#: Contraction correction bounds. [-]
+K_BOUNDS = (0.5, 5.0)
+
+
+@kernel(error_model="numpy", inline="always")
+def tondu_lopez(pressure, length, th, o, w):
+    """Tondu–Lopez force with a pressure threshold. [N]
+
+    F = π·r0²·max(P − P_th, 0)·[a(1 − k·ε)² − b], ε = 1 − l/l0, a = 3/tan²α0, b = 1/sin²α0.
+    Tondu & Lopez (2000), eq. (4); the threshold: “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) Fig. 10.
+    """
+    r0 = th[o + (TL_R0) * w]
+    dp = pressure - th[o + (TL_PTH) * w]
+    dp = dp if dp > 0.0 else 0.0
+    q = 1.0 - th[o + (TL_K) * w] * (1.0 - length * th[o + (TL_IL0) * w])
+    return math.pi * r0 * r0 * dp * (th[o + (TL_A) * w] * q * q - th[o + (TL_B) * w])
+
+
+def tondu_lopez_theta(initial_radius, initial_angle, k=1.0, p_threshold=0.0, nominal_length=1.0) -> np.ndarray:
+    """θ of :func:`tondu_lopez` (arrays broadcast to per-element columns).
+
+    Parameters
+    ----------
+    initial_radius : array_like
+        r0. [m]
+    initial_angle : array_like
+        α0, from the axis. [rad]
+    k : array_like, default 1.0
+        Contraction correction. [-]
+    p_threshold : array_like, default 0.0
+        Pressure below which the law pulls nothing. [Pa]
+    nominal_length : array_like, default 1.0
+        Rest length l0. [m]
+    """
+    r0, a0, k, pth, l0 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in
+                                               (initial_radius, initial_angle, k, p_threshold, nominal_length)))
+    th = np.zeros((NTH,) + r0.shape)
+    th[TL_R0], th[TL_A], th[TL_B] = r0, 3.0 / np.tan(a0) ** 2, 1.0 / np.sin(a0) ** 2
+    th[TL_K], th[TL_PTH], th[TL_IL0] = k, pth, 1.0 / l0
+    return th
+
+
+def tondu_lopez_force(pressure, contraction, initial_radius, initial_angle, k=1.0):
+    """Pulling force of the Tondu–Lopez model with its contraction correction.
+
+    F = π·r0²·P·[a·(1 − k·ε)² − b], a = 3/tan²α0, b = 1/sin²α0, ε = (L0 − L)/L0.
+
+    Parameters
+    ----------
+    pressure : array_like
+        Gauge pressure. [Pa]
+    contraction : array_like
+        Contraction ε = 1 − L/L0. [-]
+    initial_radius : float
+        Braid radius at rest, r0. [m]
+    initial_angle : float
+        Braid angle at rest, α0, from the axis. [rad]
+    k : float or array_like, default 1.0
+        Correction of the contraction (k = 1: the ideal model; k > 1 reaches zero force at a
+        smaller contraction, as real muscles do). [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        Force (0 at negative gauge pressure). [N]
+
+    References
+    ----------
+    Tondu & Lopez (2000), eq. (4); NOTES.md.
+    """
+    eps = np.asarray(contraction, dtype=float)
+    th = tondu_lopez_theta(initial_radius, initial_angle, k, 0.0, 1.0)
+    if th.ndim > 1:  # per-element parameters: broadcast them with the inputs
+        p, e, idx = np.broadcast_arrays(np.asarray(pressure, dtype=float), eps, np.arange(th[0].size).reshape(th.shape[1:]))
+        return evaluate_kernel(tondu_lopez, "tondu-lopez", p, 1.0 - e, th.reshape(NTH, -1)[:, idx])
+    return evaluate_kernel(tondu_lopez, "tondu-lopez", pressure, 1.0 - eps, th)
+
+
+def tondu_lopez_contraction(pressure, force, initial_radius, initial_angle, k=1.0):
+    """Contraction at which the Tondu–Lopez muscle pulls ``force``: the model's inverse.
+
+    Parameters
+    ----------
+    pressure : array_like
+        Gauge pressure (> 0). [Pa]
+    force : array_like
+        Pulling force (the hanging load). [N]
+    initial_radius, initial_angle, k
+        As in :func:`tondu_lopez_force`. [m], [rad], [-]
+
+    Returns
+    -------
+    contraction : numpy.ndarray
+        ε = 1 − L/L0 (negative: the load stretches the muscle beyond its rest length). [-]
+    flags : numpy.ndarray
+        ``slack`` where the pressure is zero (the model has no stiffness then).
+
+    References
+    ----------
+    Tondu & Lopez (2000), eq. (4) solved for ε.
+    """
+    p, f = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(force, dtype=float))
+    a = 3.0 / np.tan(initial_angle) ** 2
+    b = 1.0 / np.sin(initial_angle) ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = (f / (np.pi * initial_radius**2 * p) + b) / a
+        eps = (1.0 - np.sqrt(q)) / k
+    bad = ~(p > 0) | ~(q >= 0)
+    return np.where(bad, np.nan, eps), flag_where(bad, Flag.SLACK)
+
+
+@dataclass(frozen=True)
+class TonduLopez:
+    """A Tondu–Lopez muscle with a pressure threshold: the plant's calibrated law as a static model.
+
+    F = π·r0²·max(P − P_th, 0)·[a(1 − k·ε)² − b], a = 3/tan²α0, b = 1/sin²α0, ε = 1 − l/l0.
+
+    Attributes
+    ----------
+    initial_radius : float
+        r0. [m]
+    initial_angle : float
+        α0, from the axis. [rad]
+    k : float
+        Contraction correction. [-]
+    p_threshold : float
+        Pressure the tube takes before the braid moves. [Pa]
+    nominal_length : float
+        Rest length l0. [m]
+    citation : str
+        Where the numbers come from.
+    """
+
+    initial_radius: float
+    initial_angle: float
+    k: float = 1.0
+    p_threshold: float = 0.0
+    nominal_length: float = 0.097
+    citation: str = "Tondu & Lopez (2000), eq. (4)"
+
+    def theta(self) -> np.ndarray:
+        """Parameters of :func:`tondu_lopez`. [SI]"""
+        return tondu_lopez_theta(self.initial_radius, self.initial_angle, self.k, self.p_threshold,
+                                 self.nominal_length)
+
+    def force(self, pressure, length):
+        """Pulling force at a gauge pressure [Pa] and length [m] (the law's raw value). [N]"""
+        return evaluate_kernel(tondu_lopez, "tondu-lopez", pressure, length, self.theta())
+
+    def length_under_load(self, pressure, load):
+        """Equilibrium length under a hanging load [N] at a gauge pressure [Pa]; NaN with ``slack``
+        where the muscle pulls no load (P ≤ P_th). [m]"""
+        eps, flags = tondu_lopez_contraction(np.asarray(pressure, dtype=float) - self.p_threshold, load,
+                                             self.initial_radius, self.initial_angle, self.k)
+        return self.nominal_length * (1.0 - eps), flags
+
+
+def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
+    """Fit spec on isometric data: α0 (unless the muscle file gives the braid angle), r0, k and the load cell's zero.
+
+    Bounds: α0 in [1°, 54.7°) (beyond, the ideal braid pushes); r0 within [0.25, 1] × the outer
+    diameter (an effective braid radius at rest); k in [0.5, 5]; the zero within ± the peak force.
+
+    Parameters
+    ----------
+    muscle : MuscleSpec
+        Nominal length and outer diameter (required), braid angle (optional). [-]
+    fmax : float
+        Largest |force| of the data. [N]
+    data : mapping, optional
+        Unused. [-]
+    """
+    od, l0, alpha_known = geometry_params(muscle, "tondu-lopez")
+    names, lo, hi = [], [], []
+    if alpha_known is None:
+        names.append("alpha0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
+    names += ["r0_m", "k", "offset_N"]
+    lo += [R0_FACTOR[0] * od, K_BOUNDS[0], -fmax]
+    hi += [R0_FACTOR[1] * od, K_BOUNDS[1], fmax]
+
+    def force(v, pressure, length, direction=None, rest_length=None):
+        a0 = alpha_known if alpha_known is not None else v[0]
+        r0, k, off = v[-3], v[-2], v[-1]
+        eps = 1.0 - np.asarray(length, dtype=float) / l0
+        return tondu_lopez_force(pressure, eps, r0, a0, k) + off
+
+    starts = []
+    for tdeg in (THETA_STARTS_DEG if alpha_known is None else (None,)):
+        for kk in (1.0,):
+            x = [] if alpha_known is not None else [np.deg2rad(tdeg)]
+            starts.append(np.array(x + [0.45 * od, kk, 0.0]))
+    return FitSpec(tuple(names), np.array(lo), np.array(hi), starts, force, lambda v: offset_flag(v[-1], fmax))
+
+
+def from_values(values: dict, muscle, direction: str = "inflate", valid_range: dict | None = None) -> TonduLopez:
+    """The fitted values (by name, SI) as a :class:`TonduLopez` (the load cell's zero dropped).
+
+    Parameters
+    ----------
+    values : dict
+        ``alpha0_rad`` (unless the muscle gives ``braid_angle``), ``r0_m``, ``k``. [SI]
+    muscle : MuscleSpec
+        The muscle the law was fitted for. [-]
+    direction : str
+        Unused (one branch). [-]
+    valid_range : dict, optional
+        Unused. [-]
+    """
+    return TonduLopez(float(values["r0_m"]), float(values.get("alpha0_rad", muscle.braid_angle)), float(values["k"]),
+                      0.0, muscle.nominal_length, citation=f"fitted: {muscle.path or muscle.id}")
+
+
+LAW = Law(
+    "tondu-lopez", tondu_lopez, "Tondu & Lopez (2000) eq. (4), with a pressure threshold",
+    description="Tondu-Lopez with its contraction correction k, fitted alpha0 and r0",
+    params=TonduLopez, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
+    from_values=from_values, needs=("nominal_length", "outer_diameter"),
+)
+
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)

@@ -1,0 +1,77 @@
+"""Chou–Hannaford with the tube wall's thickness: kernel, NumPy face and fit spec.
+
+F = (π·D0²·P/4)(3cos²θ − 1) + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²], on the braid geometry and
+θ layout of :mod:`~mckibben.models.laws.chou_hannaford`.
+
+References
+----------
+Tsagarakis, N., Caldwell, D. G. (2000), Improved modelling and assessment of pneumatic muscle
+actuators, ICRA 2000; Davis, S. et al. (2003), Enhanced modelling and performance in braided
+pneumatic muscle actuators, IJRR 22(3–4), 213–227 (the wall term).
+"""
+
+from __future__ import annotations
+
+import math
+
+from mckibben._kernels import kernel, register
+
+from mckibben.models.geometry import BraidGeometry
+from mckibben.models.laws._base import Law, evaluate_kernel
+from mckibben.models.laws.chou_hannaford import (CH_B, CH_C, CH_D0, CH_T, _theta, braid_from_values, braid_spec,
+                                                 chou_hannaford_theta)
+
+
+@kernel(error_model="numpy", inline="always")
+def wall_corrected(pressure, length, th, o, w):
+    """Chou–Hannaford with the wall term: + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]. [N]
+
+    Tsagarakis & Caldwell (2000); Davis et al. (2003).
+    """
+    c0 = length / th[o + (CH_B) * w]
+    c = -1.0 if c0 < -1.0 else c0
+    c = 1.0 - 1e-12 if c > 1.0 - 1e-12 else c
+    s = math.sqrt(1.0 - c * c)
+    t = th[o + (CH_T) * w]
+    return (th[o + (CH_C) * w] * pressure * (3.0 * c0 * c0 - 1.0)
+            + math.pi * pressure * (th[o + (CH_D0) * w] * t * (2.0 * s - 1.0 / s) - t * t))
+
+
+def wall_corrected_force(pressure, length, geom: BraidGeometry):
+    """Chou–Hannaford force with the wall-thickness term.
+
+    F = (π·D0²·P/4)(3cos²θ − 1) + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²].
+
+    Parameters
+    ----------
+    pressure : array_like
+        Gauge pressure. [Pa]
+    length : array_like
+        Muscle length. [m]
+    geom : BraidGeometry
+        Strand length, turns and wall thickness t.
+
+    Returns
+    -------
+    numpy.ndarray
+        Force. [N]
+
+    References
+    ----------
+    Tsagarakis & Caldwell (2000); Davis et al. (2003); NOTES.md.
+    """
+    th = chou_hannaford_theta(geom.strand_length, geom.turns, geom.wall_thickness)
+    return evaluate_kernel(wall_corrected, "wall-corrected", pressure, length, th)
+
+
+LAW = Law(
+    "wall-corrected", wall_corrected, "Tsagarakis & Caldwell (2000); Davis et al. (2003)",
+    description="Chou-Hannaford with the tube wall (fitted unless the tube sizes are in the muscle file)",
+    aliases=("wall-chou-hannaford",), params=BraidGeometry, theta_of=_theta, accepts=lambda g: g.wall_thickness > 0,
+    fit_spec=lambda muscle, fmax, data=None: braid_spec(muscle, fmax, True, wall_corrected_force),
+    from_values=lambda values, muscle, direction="inflate", valid_range=None: braid_from_values(values, muscle, True),
+    needs=("nominal_length", "outer_diameter"),
+)
+
+
+register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)
