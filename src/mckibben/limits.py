@@ -17,6 +17,8 @@ control period measured on the reference machine (about 7 µs, ``benchmarks/RESU
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import os
 
@@ -30,6 +32,29 @@ SECONDS_PER_SAMPLE = 10e-6
 MEMORY_LIMIT = 4 * 2**30
 #: The documented time limit, lifted by ``--force``. [s]
 TIME_LIMIT = 600.0
+
+
+_LIFTED: contextvars.ContextVar[bool] = contextvars.ContextVar("mckibben_limits_lifted", default=False)
+
+
+@contextlib.contextmanager
+def lifted(force: bool = True):
+    """Lift :data:`MEMORY_LIMIT` and :data:`TIME_LIMIT` for the library calls inside (``--force``).
+
+    The library applies the documented limits itself (:func:`mckibben.plant.simulate` and every
+    experiment built on it); a caller that means to run past them, as the CLI does with
+    ``--force``, says so with ``with lifted(): ...``. The machine's available memory still holds.
+
+    Parameters
+    ----------
+    force : bool, default True
+        False leaves the limits as they are (so ``with lifted(force):`` follows a flag). [-]
+    """
+    token = _LIFTED.set(_LIFTED.get() or bool(force))
+    try:
+        yield
+    finally:
+        _LIFTED.reset(token)
 
 
 def available_memory() -> float:
@@ -86,7 +111,8 @@ def check_budget(option: str, samples: float, *, force: bool = False, what: str 
     samples : float
         Instances × control periods (or the unit of work ``what`` names). [-]
     force : bool, default False
-        Lift :data:`MEMORY_LIMIT` and :data:`TIME_LIMIT` (the available memory still holds).
+        Lift :data:`MEMORY_LIMIT` and :data:`TIME_LIMIT` (the available memory still holds); so
+        does an enclosing :func:`lifted`.
     what : str
         The unit of ``samples`` for the message. [-]
     bytes_per_sample, seconds_per_sample : float
@@ -115,9 +141,10 @@ def check_budget(option: str, samples: float, *, force: bool = False, what: str 
     if memory > avail:
         raise InputError(f"{option}: {estimate}, more than the {format_bytes(avail)} this machine has available; "
                          "ask for less")
-    if not force and (memory > MEMORY_LIMIT or seconds > TIME_LIMIT):
+    if not (force or _LIFTED.get()) and (memory > MEMORY_LIMIT or seconds > TIME_LIMIT):
         raise InputError(f"{option}: {estimate}, past the limit of {format_bytes(MEMORY_LIMIT)} and "
-                         f"{format_seconds(TIME_LIMIT)}; ask for less, or give --force to run it anyway")
+                         f"{format_seconds(TIME_LIMIT)}; ask for less, or give --force to run it anyway "
+                         "(in Python: with mckibben.limits.lifted(): ...)")
     return memory, seconds
 
 

@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from mckibben.errors import ArgumentTypeError
+
 
 __all__ = ["Result", "to_jsonable", "write_table", "read_provenance", "SERIES_SUFFIXES"]
 
@@ -161,6 +163,11 @@ class Result:
     #: Metrics shown by ``repr``; default the first four.
     _repr_keys: tuple[str, ...] = ()
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if "plot" in cls.__dict__:
+            cls.plot = _checked_plot(cls.__dict__["plot"])
+
     @property
     def metrics(self) -> dict:
         """Scalar results, SI, unit-suffixed keys."""
@@ -214,6 +221,57 @@ class Result:
         shown = ", ".join(f"{k}={_short(m[k])}" for k in keys if k in m)
         args = self._repr_args()
         return f"{type(self).__name__}({args}{'; ' if args and shown else ''}{shown})"
+
+
+def check_ax(ax, name: str = "ax"):
+    """``ax`` if it is None or a Matplotlib Axes; else an :class:`~mckibben.errors.ArgumentTypeError`."""
+    if ax is None:
+        return None
+    from matplotlib.axes import Axes  # deferred: Matplotlib is heavy and only plots need it
+
+    if isinstance(ax, Axes):
+        return ax
+    import numpy as _np
+
+    if isinstance(ax, (list, tuple, _np.ndarray)) and len(ax) and all(isinstance(a, Axes) for a in _np.ravel(ax)):
+        return ax  # a plot that draws on several axes takes them as a sequence
+    raise ArgumentTypeError(f"ax = {ax!r}: not a matplotlib Axes ({type(ax).__name__}); give one, or None for a "
+                            "new figure")
+
+
+def shown_once(fig):
+    """``fig``, released from pyplot's registry where the Jupyter inline backend would draw it a second time.
+
+    In Jupyter a ``.plot()`` that returns its Figure is drawn twice: once as the cell's value,
+    once more by the inline backend, which draws every figure pyplot still holds when the cell
+    ends. Under that backend the figure is let go by pyplot (``plt.close``), so it is drawn once,
+    as the returned value; it stays whole (``fig.savefig`` works). Elsewhere nothing changes, so
+    ``plt.show()`` in a script still shows it.
+    """
+    import sys
+
+    if fig is None or "matplotlib.pyplot" not in sys.modules:
+        return fig
+    import matplotlib
+
+    if "inline" in str(matplotlib.get_backend()).lower():
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return fig
+
+
+def _checked_plot(plot):
+    """Wrap a result's ``plot(ax=None, ...)``: ``ax`` checked first, the figure shown once in Jupyter."""
+    import functools
+
+    @functools.wraps(plot)
+    def wrapper(self, ax=None, *args, **kwargs):
+        check_ax(ax)
+        fig = plot(self, ax, *args, **kwargs)
+        return shown_once(fig) if ax is None else fig
+
+    return wrapper
 
 
 def _short(v) -> str:

@@ -194,6 +194,8 @@ def parse_quantity(
         value = to_si(number, unit, "mass", where=name) * G_N
     else:
         value = to_si(number, unit, dimension, where=name)
+    if not math.isfinite(value):  # finite in its unit, past float's range in SI ("1e308MPa")
+        raise InputError(f"{name}: {text!r} is past the range of a number in SI ({dimension})")
     if value < 0 and not allow_negative:
         raise InputError(f"{name}: {text!r} is negative; a {dimension} here must be >= 0")
     if value == 0 and not allow_zero:

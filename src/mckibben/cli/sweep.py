@@ -40,7 +40,7 @@ def run_cmd(
     if scheduler is not None and not _SCHEDULER.match(scheduler):
         raise InputError(f"--scheduler: {scheduler!r} must look like tcp://HOST:PORT")
     sweep = load_sweep(file)
-    from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
+    from mckibben.limits import SECONDS_PER_SAMPLE, check_budget, lifted
 
     # memory: one chunk per worker at a time; time: the wall time, shared by the workers
     steps = round(sweep.scenario["duration"] / 1e-3)
@@ -62,7 +62,8 @@ def run_cmd(
             rate = (done - first["done"]) / dt if dt > 0 else 0.0
             progress.update(task, completed=done, rate=rate)
 
-        stats = run_sweep(sweep, out, workers=workers, scheduler=scheduler, progress=update)
+        with lifted(force):  # the library applies the same limits; --force lifts them there too
+            stats = run_sweep(sweep, out, workers=workers, scheduler=scheduler, progress=update)
     stats.update(out=str(out), sweep_sha256=sweep.sha256, seed=sweep.seed)
     if json:
         emit_json(stats)

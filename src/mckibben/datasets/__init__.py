@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from mckibben.datasets.published import MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES
-from mckibben.errors import unknown_name
+from mckibben.errors import ArgumentTypeError, unknown_name
 from mckibben.models.mpam import MiniatureMuscle
 
 
@@ -15,11 +15,21 @@ def list_muscles() -> list[str]:
 def get_muscle(name: str) -> MiniatureMuscle:
     """A published miniature-muscle parameter set by name (``mpam97``, ``mpam117``, ``mpam143``).
 
+    Parameters
+    ----------
+    name : str
+        The set's name, case-insensitive. [-]
+
     Raises
     ------
     InputError
         For an unknown name, listing the closest matches and all valid names.
+    ArgumentTypeError
+        For a name that is not text (``None``, a number).
     """
+    if not isinstance(name, str):
+        raise ArgumentTypeError(f"name = {name!r}: not a muscle name ({type(name).__name__}); give one of "
+                                f"{', '.join(MUSCLES)}")
     key = name.strip().lower()
     if key not in MUSCLES:
         raise unknown_name("muscle", name, MUSCLES)

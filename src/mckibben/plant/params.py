@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben import hardware as HW
-from mckibben.errors import InputError, unknown_name
+from mckibben.errors import InputError, check_real, unknown_name
 from mckibben.models import laws as LW
 from mckibben.models.muscle import FILE_BRAID_ANGLE as MUSCLE_BRAID_ANGLE
 from mckibben.models.muscle import Muscle
@@ -129,6 +129,23 @@ def calibrate_force_law(muscle: MiniatureMuscle, blocked_force: float | None = N
     p_th = (a1 * p2 - a2 * p1) / (a1 - a2)
     r0 = np.sqrt(a1 / (np.pi * (p1 - p_th)))
     return {"r0": float(r0), "k_tl": float(k), "p_threshold": float(p_th), "alpha0": float(a0)}
+
+
+#: Largest rest braid angle of the Tondu–Lopez law: at arccos(1/√3) ≈ 54.7° (the locking angle)
+#: a braid pulls nothing, so a = 3/tan²α0 > b = 1/sin²α0 needs α0 below it. [rad]
+ALPHA0_MAX = float(np.arccos(1.0 / np.sqrt(3.0)))
+
+
+def _same(value, default) -> bool:
+    """Whether a field still holds its default (NaN never does)."""
+    try:
+        return bool(np.all(np.asarray(value, dtype=float) == default))
+    except (TypeError, ValueError):
+        return False
+
+
+def _show(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else repr(value)
 
 
 @dataclass(frozen=True)
@@ -267,7 +284,7 @@ class PlantParams:
         if self.muscle_name and np.all(np.asarray(self.r0) == 0):
             from mckibben.datasets import get_muscle
 
-            cal = calibrate_force_law(get_muscle(self.muscle_name))
+            cal = calibrate_force_law(get_muscle(self.muscle_name), alpha0=self._own_alpha0())
             for key, value in cal.items():
                 object.__setattr__(self, key, value)
         if np.all(np.asarray(self.ch_turns) == 0):
@@ -281,9 +298,29 @@ class PlantParams:
             with np.errstate(divide="ignore", invalid="ignore"):
                 object.__setattr__(self, "heat_transfer_coefficient", NUSSELT_TUBE * K_AIR / d)
         if isinstance(self.force_model, str) and self.force_model not in FORCE_MODELS:
-            raise unknown_name("force model", self.force_model, FORCE_MODELS)
-        if self.thermal not in THERMAL:
-            raise unknown_name("thermal model", self.thermal, THERMAL)
+            raise InputError(f"force_model: {unknown_name('force model', self.force_model, FORCE_MODELS)}")
+        if not isinstance(self.thermal, str) or self.thermal not in THERMAL:
+            raise InputError(f"thermal: {unknown_name('thermal model', str(self.thermal), THERMAL)}")
+
+    def _own_alpha0(self) -> float | None:
+        """The user's ``alpha0`` for the calibration (r0 left at 0), checked; None for the default.
+
+        r0, k_tl and p_threshold are calibrated together: a ``k_tl`` or ``p_threshold`` given
+        without ``r0`` would be replaced by the calibration, so it is refused, never overwritten.
+        """
+        defaults = {f.name: f.default for f in dataclasses.fields(self) if f.name in ("alpha0", "k_tl", "p_threshold")}
+        for name in ("k_tl", "p_threshold"):
+            value = getattr(self, name)
+            if not _same(value, defaults[name]):
+                raise InputError(f"{name} = {_show(value)} given without r0: r0, k_tl and p_threshold are calibrated "
+                                 "together when r0 is 0 (left out), which would replace it; give r0 as well for your "
+                                 f"own Tondu-Lopez law, or leave {name} out")
+        if _same(self.alpha0, defaults["alpha0"]):
+            return None
+        if np.ndim(self.alpha0) != 0:
+            raise InputError("alpha0: one rest braid angle for the calibrated law (r0 left at 0), not an array; "
+                             "give r0, k_tl and p_threshold per instance for your own laws")
+        return check_real(self.alpha0, "alpha0", lo=0.0, hi=ALPHA0_MAX, lo_open=True, hi_open=True, unit="rad")
 
     @classmethod
     def for_muscle(cls, muscle: MiniatureMuscle, **kwargs) -> "PlantParams":
@@ -603,6 +640,11 @@ def validate(p: np.ndarray, law_fields: bool = True) -> None:
         check(col[name] > 0, name, "must be > 0")
     if law_fields:
         check(col["r0"] > 0, "r0", "must be > 0")
+        check((col["alpha0"] > 0) & (col["alpha0"] < ALPHA0_MAX), "alpha0",
+              f"a rest braid angle in (0, {ALPHA0_MAX:.4g}) rad, below the locking angle where a braid pulls nothing")
+        check(col["k_tl"] > 0, "k_tl", "must be > 0")
+        check(col["p_threshold"] < HW.P_MAX_LIMIT, "p_threshold",
+              "must be below the compressor's 1 MPa, else the muscle never pulls")
     check(col["nominal_length"] < col["strand_length"] * col["k1"] + col["k2"], "nominal_length",
           "must be shorter than the straightened braid k1·Ls + k2")
     check(col["nominal_length"] > col["strand_length"] * col["k1"] / np.sqrt(3.0) + col["k2"], "nominal_length",

@@ -23,7 +23,6 @@ reference closed loop the pressure stays within 1 kPa of a run with ten times fi
 from __future__ import annotations
 
 import hashlib
-import math
 import threading
 import types
 from concurrent.futures import ThreadPoolExecutor
@@ -36,7 +35,8 @@ import numpy as np
 from mckibben import _jit
 from mckibben import hardware as HW
 from mckibben._jit import njit
-from mckibben.errors import InputError, UnreachableError
+from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_instance, check_int, check_real
+from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
 from mckibben.models import laws as LW
 from mckibben.plant import _runner
 from mckibben.plant import params as PP
@@ -271,8 +271,11 @@ def static_length(plant: PP.PlantParams | None = None, pressure=0.0) -> np.ndarr
         Where no length between the braid's end stops balances the load ("no solution"): the
         message names the instance, the pressure, the load and the stop the muscle would rest on.
     """
-    plant = plant or PP.PlantParams()
+    plant = PP.PlantParams() if plant is None else check_instance(plant, "plant", PP.PlantParams, "a PlantParams")
+    pressure = check_array(pressure, "pressure", lo=-ph.P_ATM, unit="Pa")  # gauge: down to vacuum
     prm, law, th, _ = plant.prepare()
+    if pressure.ndim > 1 or pressure.size not in (1, prm.shape[0]):
+        raise InputError(f"pressure: shape {pressure.shape}; want a scalar or ({prm.shape[0]},), one per instance")
     length, status = static_equilibrium(prm, law, th, pressure)
     bad = np.flatnonzero((status == 1) | (status == 2))
     if bad.size:
@@ -385,13 +388,14 @@ def simulate(
     SimResult
         The sampled run.
     """
-    plant = plant or _default_plant()
-    if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
-        raise InputError(f"substeps = {substeps!r}: a whole number >= 1 of plant steps per control period")
-    if not (ts > 0 and math.isfinite(ts)):
-        raise InputError(f"ts = {ts!r}: the control period must be a positive number of seconds")
+    plant = _check_plant(plant)
+    substeps = check_int(substeps, "substeps", lo=1)
+    ts = check_real(ts, "ts", lo=0.0, lo_open=True, unit="s")
+    duration = check_real(duration, "duration", lo=0.0, lo_open=True, unit="s")
+    if n is not None:
+        n = check_int(n, "n", lo=1)
     steps = duration / ts
-    if not (duration > 0 and math.isfinite(duration)) or abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
+    if round(steps) < 1 or abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
         raise InputError(f"duration = {duration!r} s: must be a positive whole number of control periods ({ts:g} s)")
     n_steps = int(round(steps))
     spec = controller if isinstance(controller, tuple) else None
@@ -399,13 +403,21 @@ def simulate(
     n_inst = n if n is not None else (n_ctrl if n_ctrl is not None else plant.size())
     if plant.size() not in (1, n_inst):
         raise InputError(f"plant parameters describe {plant.size()} instances, the run has {n_inst}")
+    recorded = _recorded(record)
+    # the size and time budget (mckibben.limits), before anything is allocated
+    check_budget("duration/ts x n (instances) x substeps", float(n_inst) * float(n_steps),
+                 bytes_per_sample=8.0 * (len(recorded) + 1),
+                 seconds_per_sample=SECONDS_PER_SAMPLE * max(1.0, substeps / 10.0))
+    if controller is not None and not isinstance(controller, tuple) and not callable(controller):
+        raise ArgumentTypeError(f"controller: {controller!r} is not a kernel spec tuple, a Python callable, or None "
+                                "for open loop")
     prm, law, theta = _prepared(plant, n_inst)
-    ref = _as_rows(reference, n_inst, n_steps, "reference")
-    p_init = np.broadcast_to(np.asarray(initial_pressure, dtype=float), (n_inst,))
+    ref = _as_rows(check_array(reference, "reference", unit="Pa"), n_inst, n_steps, "reference")
+    p_init = np.broadcast_to(check_array(initial_pressure, "initial_pressure", unit="Pa"), (n_inst,))
     if np.any(~(p_init >= 0)) or np.any(p_init > prm[:, PP.Col.supply_pressure]):
         raise InputError("initial_pressure: must be between 0 and the supply pressure")
     if initial_length is not None:
-        l_init = np.broadcast_to(np.asarray(initial_length, dtype=float), (n_inst,))
+        l_init = np.broadcast_to(check_array(initial_length, "initial_length", unit="m"), (n_inst,))
         if np.any(~(l_init >= prm[:, PP.Col.l_min])) or np.any(~(l_init <= prm[:, PP.Col.l_max])):
             raise InputError("initial_length: must lie between the braid's end stops, "
                              f"{prm[0, PP.Col.l_min] * 1e3:.1f}..{prm[0, PP.Col.l_max] * 1e3:.1f} mm "
@@ -415,15 +427,14 @@ def simulate(
     s0 = initial_states(prm, law, theta, p_init, l_init, plant.thermal)
     sched = np.zeros((1, n_steps, 2), dtype=np.int64)
     if controller is None:
-        a = _as_rows(inlet, n_inst, n_steps, "inlet", np.int64)
-        b = _as_rows(bleed, n_inst, n_steps, "bleed", np.int64)
+        a = _as_rows(_counts(inlet, "inlet"), n_inst, n_steps, "inlet", np.int64)
+        b = _as_rows(_counts(bleed, "bleed"), n_inst, n_steps, "bleed", np.int64)
         if a.min() < 0 or a.max() > 255 or b.min() < 0 or b.max() > 255:
             raise InputError("inlet/bleed: PWM counts must be in 0..255")
         rows = max(a.shape[0], b.shape[0])
         sched = np.empty((rows, n_steps, 2), dtype=np.int64)
         sched[:, :, 0] = a
         sched[:, :, 1] = b
-    recorded = _recorded(record)
     out = _outputs(n_inst, n_steps, recorded)
     rec = np.array([-1 if name in recorded else 0 for name in SERIES], dtype=np.int64)
     flags = np.zeros(n_inst, dtype=np.int64)
@@ -446,6 +457,21 @@ def simulate(
         raise InputError("controller: a kernel spec tuple, a Python callable, or None for open loop")
     _run(_runner, False, dummy_i, dummy_i, dummy_f, dummy_f, *common, *out.values(), flags, rec)
     return _result(n_steps, ts, out, ref, n_inst, flags, recorded)
+
+
+def _check_plant(plant) -> PP.PlantParams:
+    """``plant``, or the calibrated rig for None; anything but a :class:`PlantParams` is refused."""
+    if plant is None:
+        return _default_plant()
+    return check_instance(plant, "plant", PP.PlantParams, "a PlantParams")
+
+
+def _counts(x, name: str) -> np.ndarray:
+    """PWM counts: whole numbers 0..255 (a float count is rounded down by ``int64``, as before)."""
+    a = check_array(x, name, unit="counts")
+    if a.size and (a.min() < 0 or a.max() > 255):
+        raise InputError(f"{name}: PWM counts must be in 0..255")
+    return a
 
 
 _DEFAULT: list = []

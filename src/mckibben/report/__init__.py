@@ -9,9 +9,11 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+import os
 
 import numpy as np
 
+from mckibben.errors import ArgumentTypeError, check_callable
 from mckibben.report.characterize import characterize
 from mckibben.report.html import check_report_folder, render_html, summarize, write_report
 
@@ -68,6 +70,10 @@ def reproduce(out="mckibben-report", *, data=None, progress: Callable[[str, int,
     from mckibben.datasets.campaign import campaign_muscle_dirs
     from mckibben.report.figures import ALL_FIGURES
 
+    check_callable(progress, "progress")  # before the run, not found after it
+    if not isinstance(out, (str, os.PathLike)) or (data is not None and not isinstance(data, (str, os.PathLike))):
+        bad, name = (out, "out") if not isinstance(out, (str, os.PathLike)) else (data, "data")
+        raise ArgumentTypeError(f"{name} = {bad!r}: not a folder path (str or os.PathLike)")
     check_report_folder(out)
     tables = published_length_tables()
     # per muscle: fits and comparison; the isometric comparisons; the figures

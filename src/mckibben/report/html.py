@@ -7,6 +7,7 @@ place at the end, so a failure leaves nothing half-written.
 from __future__ import annotations
 
 import html
+import os
 from pathlib import Path
 
 import numpy as np
@@ -102,6 +103,14 @@ def render_html(summary: dict, figures: list[str]) -> str:
         parts.append("<p class='synthetic'>SYNTHETIC DATA: this report was made from the generated example campaign"
                      " (mckibben datasets generate), not from measurements. Its fits recover the parameters the data"
                      " were generated from; they say nothing about a real muscle.</p>")
+    prov = summary.get("provenance")
+    if prov:
+        rows = "".join(f"<li><code>{html.escape(k)}</code> sha256 {html.escape(v)}</li>"
+                       for k, v in prov.get("inputs_sha256", {}).items())
+        parts.append(f"<p class='provenance'>Made by mckibben {html.escape(str(prov['mckibben_version']))} on "
+                     f"{html.escape(str(prov['created_utc']))} (UTC): {html.escape(prov['call'])}("
+                     + html.escape(", ".join(f"{k}={v!r}" for k, v in prov["arguments"].items()))
+                     + f"). Inputs:</p><ul class='provenance'>{rows}</ul>")
     parts.append(f"<p>Data: {html.escape(summary['data'])}. Fits: least squares; ± is one standard error, intervals"
                  " are 95 % (Student t); shaded bands in the figures are 95 % confidence bands of the fitted curve;"
                  " error bars are ± one standard deviation over trials.</p>")
@@ -191,6 +200,38 @@ def check_report_folder(out) -> Path:
     return out
 
 
+def report_provenance(char: dict, out) -> dict:
+    """Where a report came from: version, UTC time, the call and its arguments, a SHA-256 per input.
+
+    Paths are relative to the campaign folder (inputs) or bare folder names (arguments): a report
+    carries no absolute path of the machine that made it.
+
+    Parameters
+    ----------
+    char : dict
+        From :func:`mckibben.report.characterize.characterize`.
+    out : str or pathlib.Path
+        The report folder. [-]
+    """
+    import hashlib
+
+    from mckibben.datasets.campaign import campaign_muscle_dirs
+    from mckibben.results import provenance
+
+    bundled = char.get("root") in (None, "bundled example campaign")
+    dirs = [Path(d) for d in campaign_muscle_dirs(None if bundled else char["root"])]
+    base = Path(os.path.commonpath([str(d) for d in dirs])) if dirs else None
+    base = base.parent if base is not None and len(dirs) == 1 else base
+    inputs = {}
+    for d in dirs:
+        for f in sorted(p for p in d.rglob("*") if p.is_file()):
+            inputs[str(f.relative_to(base)) if base else f.name] = hashlib.sha256(f.read_bytes()).hexdigest()
+    data = "bundled example campaign" if bundled else Path(str(char["root"])).name
+    prov = provenance("mckibben.report.reproduce", {"out": Path(out).name, "data": data})
+    prov["inputs_sha256"] = inputs
+    return prov
+
+
 def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
     """Write ``index.html``, ``summary.json`` and the PNG figures into ``out``, atomically.
 
@@ -218,6 +259,9 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
     out = check_report_folder(out)
     with atomic_dir(out, "--out") as tmp:
         summary = summarize(char)
+        summary["provenance"] = report_provenance(char, out)
+        if isinstance(summary.get("data"), str) and summary["data"].startswith("/"):
+            summary["data"] = Path(summary["data"]).name  # no absolute machine path in a report
         figures = []
         for name, make in ALL_FIGURES.items():
             if progress:

@@ -24,7 +24,7 @@ import pyarrow.parquet as pq
 
 import mckibben
 from mckibben.control import registry as R
-from mckibben.errors import InputError
+from mckibben.errors import ArgumentTypeError, InputError, check_callable, check_instance, check_int
 from mckibben.sweep.spec import Sweep
 
 
@@ -204,6 +204,10 @@ def prepare_output(out: str | Path, sweep: Sweep) -> Path:
     return out
 
 
+#: Most local Dask worker processes :func:`run_sweep` starts (the command line's ``--workers`` bound). [-]
+MAX_WORKERS = 256
+
+
 def run_sweep(sweep: Sweep, out: str | Path, *, workers: int | None = None, scheduler: str | None = None,
               progress=None) -> dict:
     """Run every chunk not yet written: in-process, on a local cluster, or on a scheduler.
@@ -215,7 +219,8 @@ def run_sweep(sweep: Sweep, out: str | Path, *, workers: int | None = None, sche
     out : str or Path
         Results folder (a Parquet dataset, one file per chunk).
     workers : int, optional
-        Start a local Dask cluster with this many single-threaded worker processes.
+        Start a local Dask cluster with this many single-threaded worker processes, 1 to
+        :data:`MAX_WORKERS`.
     scheduler : str, optional
         Address of an existing Dask scheduler, ``tcp://HOST:PORT``.
     progress : callable, optional
@@ -227,11 +232,25 @@ def run_sweep(sweep: Sweep, out: str | Path, *, workers: int | None = None, sche
         ``runs``, ``chunks``, ``skipped`` (chunks already written), ``computed`` (chunks),
         ``computed_runs``, ``seconds``, ``sims_per_second``.
     """
-    from mckibben.limits import check_budget
+    from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
 
-    # the documented limits are the command line's (--force); here only a chunk that cannot fit
-    check_budget("chunk_size", min(sweep.chunk_size, sweep.n_runs) * round(sweep.scenario["duration"] / 1e-3),
-                 force=True)
+    # every argument checked before a worker starts or a file is written
+    check_instance(sweep, "sweep", Sweep, "a Sweep (load_sweep)")
+    if not isinstance(out, (str, os.PathLike)) or not str(out):
+        raise ArgumentTypeError(f"out = {out!r}: not a folder path (str or os.PathLike)")
+    if workers is not None:
+        workers = check_int(workers, "workers", lo=1, hi=MAX_WORKERS)
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise ArgumentTypeError(f"scheduler = {scheduler!r}: not an address (str), e.g. tcp://HOST:PORT")
+    if workers is not None and scheduler is not None:
+        raise InputError("workers and scheduler: give one, not both")
+    check_callable(progress, "progress")
+    # the documented limits (lifted by mckibben.limits.lifted(), the CLI's --force): memory, one
+    # chunk per worker at a time; time, the wall time shared by the workers
+    steps = round(sweep.scenario["duration"] / 1e-3)
+    check_budget("sweep (samples x grid x duration, chunk_size)", sweep.n_runs * steps,
+                 memory_samples=min(sweep.chunk_size, sweep.n_runs) * steps * (workers or 1),
+                 seconds_per_sample=SECONDS_PER_SAMPLE / (workers or 1))
     out = prepare_output(out, sweep)
     meta = {
         "scenario": sweep.scenario, "controller": sweep.controller_kind, "metrics": list(sweep.metrics),

@@ -71,6 +71,12 @@ SCENARIOS = ("step", "sine")
 METRICS = ("time_constant_s", "rise_time_s", "settling_time_s", "overshoot_pct", "steady_state_error_Pa",
            "valve_effort_counts", "rms_error_Pa", "max_pressure_Pa")
 DISTRIBUTIONS = ("grid", "uniform", "normal", "lognormal", "choice")
+#: Largest spread (standard deviation of the logarithm) of a lognormal distribution. [-]
+MAX_LOG_SPREAD = 3.0
+#: Shortest step scenario: the step at 10 ms and 10 ms of response for its metrics. [s]
+MIN_STEP_DURATION = 0.02
+#: Fewest control periods per cycle of a sine scenario (its frequency's ceiling). [-]
+SAMPLES_PER_CYCLE = 20
 
 
 @dataclass(frozen=True)
@@ -155,8 +161,32 @@ def _parse_param(name, raw, dim, where):
             raise InputError(f"{where}: {kind} needs a spread > 0, got {b:g}")
         if kind == "lognormal" and not a > 0:
             raise InputError(f"{where}: lognormal needs a median > 0, got {a:g}")
+        if kind == "lognormal" and b > MAX_LOG_SPREAD:
+            raise InputError(f"{where}: lognormal spread {b:g} is past {MAX_LOG_SPREAD:g} (the standard deviation of "
+                             f"the logarithm: 3 draws values up to e^12 ≈ 1.6e5 times the median); give a smaller one")
         return kind, (a, b)
     return "const", _value(raw, dim, where)
+
+
+def _check_design(path, params: dict, cols: dict) -> None:
+    """Refuse a design whose drawn values leave the plausible range of their quantity
+    (:data:`mckibben.limits.PLAUSIBLE_MAX`) or turn negative where the quantity cannot: a load of
+    1e278 N would otherwise be simulated, and fail (or pass) in the middle of the run."""
+    from mckibben.limits import PLAUSIBLE_MAX
+
+    for name in params:
+        section, field_ = name.split(".", 1)
+        dim = (PLANT_FIELDS if section == "plant" else CONTROLLER_FIELDS).get(field_)
+        if dim == "name":
+            continue
+        values = np.asarray(cols[name], dtype=float)
+        if not values.size:
+            continue
+        limit = PLAUSIBLE_MAX.get(dim) if dim is not None else None
+        worst = float(np.max(np.abs(values)))
+        if not np.all(np.isfinite(values)) or (limit is not None and worst > limit):
+            raise InputError(f"{path} [{section}] {field_}: draws values up to {worst:g} (SI), past the plausible "
+                             f"{limit if limit is not None else 'finite'} of a {dim or 'value'}; narrow its distribution")
 
 
 def _check_scenario_pressures(path, scenario: dict, params: dict) -> None:
@@ -244,6 +274,17 @@ def load_sweep(path: str | Path) -> Sweep:
         raise InputError(f"{path} [scenario] duration: must be in (0, 10] s")
     if abs(scenario["duration"] * 1000 - round(scenario["duration"] * 1000)) > 1e-6:
         raise InputError(f"{path} [scenario] duration: a whole number of 1 ms control periods")
+    if kind == "step" and scenario["duration"] < MIN_STEP_DURATION:
+        raise InputError(f"{path} [scenario] duration: {scenario['duration']:g} s is too short for the step metrics; the "
+                         f"step comes at 10 ms and they need at least {MIN_STEP_DURATION:g} s")
+    if kind == "sine":
+        f_max = 1.0 / (SAMPLES_PER_CYCLE * 1e-3)
+        if scenario["frequency"] > f_max:
+            raise InputError(f"{path} [scenario] frequency: {scenario['frequency']:g} Hz is past {f_max:g} Hz: the 1 ms "
+                             f"control period samples a cycle fewer than {SAMPLES_PER_CYCLE} times (the sine aliases)")
+        if scenario["duration"] * scenario["frequency"] < 1.0:
+            raise InputError(f"{path} [scenario] duration: {scenario['duration']:g} s is shorter than one cycle of "
+                             f"{scenario['frequency']:g} Hz; the tracking metrics need a whole cycle")
 
     ctrl = dict(doc.get("controller", {}))
     ckind = ctrl.pop("kind", "smc")
@@ -290,6 +331,7 @@ def load_sweep(path: str | Path) -> Sweep:
             cols[name] = args[0] * np.exp(rng.normal(0.0, args[1], n))
         else:  # choice
             cols[name] = [args[i] for i in rng.integers(0, len(args), n)]
+    _check_design(path, params, cols)
     cols["noise_seed"] = rng.integers(0, 2**31 - 1, n)
     return Sweep(str(path), hashlib.sha256(data).hexdigest(), seed, samples, chunk, scenario, ckind, tuple(keep),
                  grid_names, pd.DataFrame(cols))

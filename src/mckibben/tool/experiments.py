@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.errors import InputError
+from mckibben.errors import ArgumentTypeError, InputError, check_callable, check_instance
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
 from mckibben.results import Result, to_jsonable
@@ -44,6 +44,11 @@ def _discs(discs):
     if n < 2:
         raise InputError(f"--discs: {discs!r} must be at least 2 (base and tip)")
     return n
+
+
+#: Largest backbone bending stiffness accepted: a steel rod as wide as the paper's 12 mm disc is
+#: about 2e2 N·m²; far past it the statics' Jacobian is singular in floating point. [N·m²]
+MAX_BENDING_STIFFNESS = 1e4
 
 
 def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radius=None, discs=13, preload=None,
@@ -115,6 +120,9 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
         s_ref = dflt["reference_length"]
         m: MiniatureMuscle | LawMuscle = fm
     else:
+        if not isinstance(muscle, (str, type(None), MiniatureMuscle)):
+            raise ArgumentTypeError(f"muscle = {muscle!r}: not a muscle ({type(muscle).__name__}); give a published "
+                                    "set's name (mpam97, mpam117, mpam143) or a MiniatureMuscle")
         m = get_muscle(DEFAULT_MUSCLE if muscle is None else muscle) if isinstance(muscle, (str, type(None))) else muscle
         pmax = float(P_MAX_DEFAULT) if pmax is None else pmax
         geo = ToolGeometry(pitch_radius=radius, n_discs=n_discs)
@@ -125,6 +133,9 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
     kb = (quantity(bending_stiffness, "bending_stiffness", "--bending-stiffness")
           if not isinstance(bending_stiffness, str) else
           _parse_kb(bending_stiffness))
+    if not 0 < kb <= MAX_BENDING_STIFFNESS:
+        raise InputError(f"bending_stiffness (--bending-stiffness) = {kb:g} N·m²: outside (0, {MAX_BENDING_STIFFNESS:g}] "
+                         "N·m² (a steel rod of the tool's 12 mm diameter is about 2e2 N·m²)")
     load = StackLoad(preload=quantity(preload, "force", "--preload"), bending_stiffness=kb,
                      axial_stiffness=quantity(axial_stiffness, "force", "--axial-stiffness"), reference_length=s_ref)
     try:
@@ -452,6 +463,10 @@ TRACK_BYTES_PER_SAMPLE = 4096
 TRACK_SECONDS_PER_SAMPLE = {False: 400e-6, True: 100e-6}
 
 
+#: The shortest path period :func:`track` samples: 20 control periods of 1 ms per cycle. [s]
+MIN_TRACK_PERIOD = 0.02
+
+
 def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_only: bool = False,
           progress=None, force: bool = False) -> ToolTrackResult:
     """Follow a tip path: IK and static inverse → pressure references → three controlled muscles.
@@ -483,6 +498,11 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
 
     from mckibben.limits import check_budget
 
+    check_callable(progress, "progress")
+    check_instance(tool, "tool", Tool, "a Tool (make_tool)", optional=True)
+    if not isinstance(path, (str, TipPath)):
+        raise ArgumentTypeError(f"path = {path!r}: not a path ({type(path).__name__}); give text such as "
+                                "'circle:radius=5mm,period=2s' or a TipPath")
     tool = make_tool() if tool is None else tool
     spec = path if isinstance(path, TipPath) else parse_path(path)
     if periods is None:
@@ -490,7 +510,15 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     elif isinstance(periods, str):
         period_list = parse_values(periods, "time", "--periods", allow_zero=False)
     else:
+        if isinstance(periods, (bytes, dict, set)) or np.ndim(periods) > 1:
+            raise ArgumentTypeError(f"periods = {periods!r}: not a sequence of periods")
         period_list = np.array([quantity(p, "time", "--periods", allow_zero=False) for p in np.ravel(periods)])
+    if period_list.size == 0:
+        raise InputError("periods (--periods): empty; give at least one period, or None for the path's own")
+    short = float(period_list.min())
+    if short < MIN_TRACK_PERIOD:
+        raise InputError(f"periods (--path/--periods): a period of {short:g} s is shorter than {MIN_TRACK_PERIOD:g} s "
+                         f"({MIN_TRACK_PERIOD / 1e-3:.0f} control periods of 1 ms): too short to sample the path")
     check_budget("--path/--periods" if periods is not None else "--path",
                  float(np.sum(period_list)) * spec.cycles / 1e-3, force=force, what="1 ms samples",
                  bytes_per_sample=TRACK_BYTES_PER_SAMPLE, seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)])

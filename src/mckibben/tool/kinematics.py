@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mckibben.errors import InputError, UnreachableError
+from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_int, check_real
 
 # cos and sin of 0°, 120°, 240° written exactly, so that equal lengths give exactly θ = 0
 # (np.cos(2π/3) is −0.4999999999999998, which would leave a 1e-15 rad bend).
@@ -129,12 +129,34 @@ def chord_factor(theta, n_gaps):
 
 
 def _as_lengths(lengths) -> np.ndarray:
-    lengths = np.asarray(lengths, dtype=float)
+    if lengths is None or isinstance(lengths, (str, bytes, bool, np.bool_, dict, set)):
+        raise ArgumentTypeError(f"lengths = {lengths!r}: not an array of 3 muscle lengths ({type(lengths).__name__})")
+    try:
+        raw = np.asarray(lengths)
+    except (TypeError, ValueError):
+        raise ArgumentTypeError("lengths: not an array of numbers (ragged or mixed)") from None
+    if raw.dtype == bool or raw.dtype.kind not in "iuf":
+        raise ArgumentTypeError(f"lengths: an array of {raw.dtype} values; give lengths in m")
+    lengths = raw.astype(float)
     if lengths.ndim == 0 or lengths.shape[-1] != 3:
         raise InputError(f"lengths: need 3 muscle lengths (last axis), got shape {lengths.shape}")
     if not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
         raise InputError("lengths: every muscle length must be a finite length > 0 m")
     return lengths
+
+
+#: Largest pitch radius accepted by the kinematics: far past any continuum tool. [m]
+MAX_PITCH_RADIUS = 1.0
+
+
+def _check_pitch(pitch_radius) -> float:
+    """The pitch radius: a finite number in (0, :data:`MAX_PITCH_RADIUS`]. [m]"""
+    return check_real(pitch_radius, "pitch_radius", lo=0.0, hi=MAX_PITCH_RADIUS, lo_open=True, unit="m")
+
+
+def _check_gaps(n_gaps):
+    """``n_gaps``: None (continuous backbone) or a whole number >= 1. [-]"""
+    return None if n_gaps is None else check_int(n_gaps, "n_gaps", lo=1)
 
 
 def arc_from_lengths(lengths, pitch_radius, n_gaps=None) -> Arc:
@@ -171,6 +193,7 @@ def arc_from_lengths(lengths, pitch_radius, n_gaps=None) -> Arc:
     (0.117, 0.0)
     """
     lengths = _as_lengths(lengths)
+    pitch_radius, n_gaps = _check_pitch(pitch_radius), _check_gaps(n_gaps)
     k = -2.0 / (3.0 * pitch_radius)
     # Σ l_i·cos θi and Σ l_i·sin θi written as differences: exactly 0 for equal lengths, where a
     # BLAS dot product (FMA, reordered sums) leaves a rounding residue of order 1e-17 m
@@ -214,6 +237,7 @@ def lengths_from_arc(arc: Arc, pitch_radius, n_gaps=None) -> np.ndarray:
     ----------
     Webster & Jones (2010): l_i = s − r·θ·cos(θi − φ), times the chord factor for discs.
     """
+    pitch_radius, n_gaps = _check_pitch(pitch_radius), _check_gaps(n_gaps)
     s = np.asarray(arc.arc_length, dtype=float)[..., None]
     tx = np.asarray(arc.theta_x, dtype=float)[..., None]
     ty = np.asarray(arc.theta_y, dtype=float)[..., None]

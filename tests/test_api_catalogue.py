@@ -1,0 +1,338 @@
+"""The catalogue of bad calls to the public API of plant, tool, sweep, report, datasets and units.
+
+Each case is a call a notebook user could make by mistake. It must be refused *before* anything
+is allocated or written, with the project's error (:class:`~mckibben.errors.InputError`, a
+``ValueError``, or :class:`~mckibben.errors.ArgumentTypeError`, also a ``TypeError``) whose one-line
+message names the Python argument (or, where the library still shares a message with the command
+line, its flag spelling). No file may be left behind. The cases that would exhaust memory or run
+for hours are run in a subprocess with a time limit, so a regression cannot take the suite down.
+
+A hypothesis test then throws random values at the numeric arguments: the answer is a result or
+the project's error, never another exception.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import mckibben as mk
+from mckibben.errors import ArgumentTypeError, InputError
+
+NAN, INF = float("nan"), float("inf")
+ERR = (InputError, ArgumentTypeError)
+
+
+def _sim(**kw):
+    from mckibben.plant import simulate
+
+    args = {"duration": 0.01}
+    args.update(kw)
+    return simulate(**args)
+
+
+def _static(**kw):
+    from mckibben.plant import static_length
+
+    return static_length(**kw)
+
+
+def _params(**kw):
+    from mckibben.plant import PlantParams
+
+    return PlantParams(**kw).prepare()
+
+
+def _tool(**kw):
+    from mckibben.tool import make_tool
+
+    return make_tool(**kw)
+
+
+def _tip(lengths=(0.117, 0.117, 0.117), pitch_radius=4e-3, n_gaps=None):
+    from mckibben.tool.kinematics import tip_from_lengths
+
+    return tip_from_lengths(lengths, pitch_radius, n_gaps)
+
+
+def _track(path="circle:radius=5mm,period=1s", **kw):
+    kw.setdefault("reference_only", True)
+    return mk.track_tip(path, **kw)
+
+
+def _quantity(value, dimension="pressure"):
+    return mk.quantity(value, dimension, "pressure")
+
+
+# (id, call, argument named in the message)
+CASES = [
+    # plant.simulate: types, finiteness, ranges (the budget cases run in a subprocess below)
+    *[(f"simulate-duration-{v!r}", lambda v=v: _sim(duration=v), "duration")
+      for v in (None, True, "1s", NAN, INF, -1.0, 0.0, 0.0105, 1e-9, [1.0])],
+    *[(f"simulate-ts-{v!r}", lambda v=v: _sim(ts=v), "ts") for v in (None, False, "1ms", NAN, INF, 0.0, -1e-3)],
+    *[(f"simulate-n-{v!r}", lambda v=v: _sim(n=v), "n") for v in (True, 0, -3, 2.5, "2")],
+    *[(f"simulate-substeps-{v!r}", lambda v=v: _sim(substeps=v), "substeps") for v in (None, True, 0, -1, 2.5, "10")],
+    *[(f"simulate-reference-{i}", lambda v=v: _sim(reference=v), "reference")
+      for i, v in enumerate((NAN, INF, -INF, None, "0.5MPa", [NAN] * 10, np.zeros(7), np.zeros((2, 3, 4)), True,
+                             {"a": 1}, np.array(["a"] * 10)))],
+    *[(f"simulate-initial_pressure-{v!r}", lambda v=v: _sim(initial_pressure=v), "initial_pressure")
+      for v in (NAN, -1.0, 5e6, None, "x")],
+    *[(f"simulate-initial_length-{v!r}", lambda v=v: _sim(initial_length=v), "initial_length")
+      for v in (NAN, 0.0, 1.0, "x")],
+    *[(f"simulate-inlet-{v!r}", lambda v=v: _sim(inlet=v), "inlet") for v in (300, -1, NAN, "x", None)],
+    ("simulate-bleed-300", lambda: _sim(bleed=300), "bleed"),
+    ("simulate-record-typo", lambda: _sim(record=("presure",)), "record"),
+    *[(f"simulate-plant-{v!r}", lambda v=v: _sim(plant=v), "plant") for v in (97, "mpam97", 0.5)],
+    ("simulate-controller-5", lambda: _sim(controller=5), "controller"),
+    # plant.static_length
+    *[(f"static_length-pressure-{i}", lambda v=v: _static(pressure=v), "pressure")
+      for i, v in enumerate((NAN, INF, None, "0.5MPa", True, -2e5, [NAN], np.zeros((2, 2)), np.zeros(3)))],
+    ("static_length-plant-97", lambda: _static(plant=97), "plant"),
+    # PlantParams: a user's value is never replaced silently
+    *[(f"PlantParams-{k}-{v!r}", lambda k=k, v=v: _params(**{k: v}), k)
+      for k, v in (("alpha0", math.pi / 2), ("alpha0", NAN), ("alpha0", -0.1), ("alpha0", 1.2), ("k_tl", -5.0),
+                   ("k_tl", NAN), ("p_threshold", 5e6), ("p_threshold", -1.0), ("load_force", NAN),
+                   ("supply_pressure", 5e6), ("valve_tau", 0.0), ("force_model", "calibratd"), ("thermal", "hot"))],
+    *[(f"PlantParams-r0-given-{k}", lambda k=k, v=v: _params(r0=4e-4, **{k: v}), k)
+      for k, v in (("alpha0", math.pi / 2), ("k_tl", -5.0), ("p_threshold", 5e6))],
+    # datasets
+    *[(f"get_muscle-{v!r}", lambda v=v: mk.get_muscle(v), "muscle" if isinstance(v, str) else "name")
+      for v in (None, 97, 0.5, ["mpam97"], "mpam9", "")],
+    # tool.make_tool
+    *[(f"make_tool-muscle-{v!r}", lambda v=v: _tool(muscle=v), "muscle") for v in (97, 0.5, ["mpam97"], "mpam9")],
+    *[(f"make_tool-bending_stiffness-{v!r}", lambda v=v: _tool(bending_stiffness=v), "bending")
+      for v in (1e308, 1e6, -1.0, NAN, True, "abc")],
+    *[(f"make_tool-pitch_radius-{v!r}", lambda v=v: _tool(pitch_radius=v), "pitch")
+      for v in (0.0, -1e-3, NAN, INF, True, "abc", 1.0)],
+    *[(f"make_tool-discs-{v!r}", lambda v=v: _tool(discs=v), "discs") for v in (1, 0, True, "x", 2.5)],
+    *[(f"make_tool-p_max-{v!r}", lambda v=v: _tool(p_max=v), "p-max") for v in (2e6, 0.0, NAN, "5MPa")],
+    *[(f"make_tool-preload-{v!r}", lambda v=v: _tool(preload=v), "preload") for v in (NAN, -1.0, True)],
+    ("make_tool-direction", lambda: _tool(direction="up"), "direction"),
+    # tool.kinematics.tip_from_lengths
+    *[(f"tip_from_lengths-pitch_radius-{v!r}", lambda v=v: _tip(pitch_radius=v), "pitch_radius")
+      for v in (0, 0.0, -4e-3, NAN, INF, None, True, "4mm", 2.0)],
+    *[(f"tip_from_lengths-lengths-{i}", lambda v=v: _tip(lengths=v), "lengths")
+      for i, v in enumerate((None, "abc", [0.1, 0.1], [NAN] * 3, [True] * 3, [0.1, -0.1, 0.1], [[0.1, 0.1], [0.1]]))],
+    *[(f"tip_from_lengths-n_gaps-{v!r}", lambda v=v: _tip(n_gaps=v), "n_gaps") for v in (0, -2, 1.5, True, "12")],
+    # track_tip
+    ("track_tip-periods-empty", lambda: _track(periods=[]), "periods"),
+    ("track_tip-periods-empty-array", lambda: _track(periods=np.array([])), "periods"),
+    ("track_tip-period-0.2ms", lambda: _track("circle:radius=5mm,period=0.2ms"), "period"),
+    ("track_tip-period-0.2ms-run", lambda: mk.track_tip("circle:radius=5mm,period=0.2ms"), "period"),
+    *[(f"track_tip-periods-{v!r}", lambda v=v: _track(periods=v), "periods")
+      for v in ([NAN], [0.0], [-1.0], "0s", [None], [[1.0, 2.0]])],
+    *[(f"track_tip-path-{v!r}", lambda v=v: _track(path=v), "path") for v in (None, 97, "spiral:radius=5mm")],
+    ("track_tip-progress-5", lambda: mk.track_tip("circle:radius=5mm,period=1s", progress=5), "progress"),
+    ("track_tip-tool-5", lambda: _track(tool=5), "tool"),
+    *[(f"track_tip-beta-{v!r}", lambda v=v: mk.track_tip("circle:radius=5mm,period=1s", beta=v), "beta")
+      for v in (NAN, 0.0, 300.0)],
+    # units at the edge: finite in its unit, infinite in SI
+    *[(f"quantity-{v!r}", lambda v=v: _quantity(v), "pressure")
+      for v in ("1e308MPa", "1e306bar", "nanMPa", "infMPa", None, True, "5")],
+    # reproduce: a bad progress is found before the run
+    ("reproduce-progress-5", lambda: mk.reproduce("rep", progress=5), "progress"),
+    ("reproduce-out-None", lambda: mk.reproduce(None), "out"),
+    ("reproduce-data-5", lambda: mk.reproduce("rep", data=5), "data"),
+]
+
+
+def _named(message: str, name: str) -> bool:
+    return name in message or name.replace("_", "-") in message
+
+
+@pytest.mark.parametrize("call,name", [pytest.param(c, n, id=i) for i, c, n in CASES])
+def test_bad_call_is_refused_naming_its_argument(call, name, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ERR) as info:
+        call()
+    message = str(info.value)
+    assert "\n" not in message
+    assert _named(message, name), message
+    assert list(tmp_path.iterdir()) == []  # nothing half-written
+
+
+# ---------------------------------------------------------------------------------------------
+# sweeps: load_sweep refuses a description that would fail (or be silently wrong) in the middle
+
+SWEEP = """
+[sweep]
+seed = 1
+samples = 2
+chunk_size = 2
+
+[scenario]
+{scenario}
+
+[plant]
+{plant}
+"""
+
+STEP = 'kind = "step"\ntarget = "0.5MPa"\nduration = "0.03s"'
+
+
+@pytest.mark.parametrize("scenario,plant,name", [
+    pytest.param(STEP, "load_force = { lognormal = [1, 1000] }", "load_force", id="lognormal-spread"),
+    pytest.param(STEP, 'load_force = { uniform = ["1N", "1e9N"] }', "load_force", id="load-1e9N"),
+    pytest.param(STEP, 'load_force = { normal = ["1N", "1e7N"] }', "load_force", id="normal-huge"),
+    pytest.param('kind = "sine"\nfrequency = "1000kHz"\nduration = "0.5s"', "", "frequency", id="sine-aliases"),
+    pytest.param('kind = "sine"\nfrequency = "2Hz"\nduration = "0.1s"', "", "duration", id="sine-short"),
+    pytest.param('kind = "step"\ntarget = "0.5MPa"\nduration = "0.011s"', "", "duration", id="step-short"),
+])
+def test_load_sweep_refuses_what_would_fail_in_the_middle(tmp_path, scenario, plant, name):
+    p = tmp_path / "s.toml"
+    p.write_text(textwrap.dedent(SWEEP.format(scenario=scenario, plant=plant)))
+    with pytest.raises(InputError) as info:
+        mk.load_sweep(p)
+    assert name in str(info.value)
+
+
+@pytest.fixture(scope="module")
+def small_sweep(tmp_path_factory):
+    p = tmp_path_factory.mktemp("sweep") / "s.toml"
+    p.write_text(textwrap.dedent(SWEEP.format(scenario=STEP, plant="")))
+    return mk.load_sweep(p)
+
+
+@pytest.mark.parametrize("kwargs,name", [
+    pytest.param({"workers": -1}, "workers", id="workers--1"),
+    pytest.param({"workers": 0}, "workers", id="workers-0"),
+    pytest.param({"workers": True}, "workers", id="workers-True"),
+    pytest.param({"workers": 2.5}, "workers", id="workers-2.5"),
+    pytest.param({"workers": "2"}, "workers", id="workers-str"),
+    pytest.param({"workers": 10**6}, "workers", id="workers-huge"),
+    pytest.param({"scheduler": 5}, "scheduler", id="scheduler-int"),
+    pytest.param({"workers": 2, "scheduler": "tcp://h:1"}, "scheduler", id="workers-and-scheduler"),
+    pytest.param({"progress": 5}, "progress", id="progress-not-callable"),
+    pytest.param({"out": None}, "out", id="out-None"),
+    pytest.param({"sweep": None}, "sweep", id="sweep-None"),
+    pytest.param({"sweep": "s.toml"}, "sweep", id="sweep-path"),
+])
+def test_run_sweep_refuses_before_starting(small_sweep, tmp_path, kwargs, name):
+    args = {"sweep": small_sweep, "out": str(tmp_path / "out")}
+    args.update(kwargs)
+    with pytest.raises(ERR) as info:
+        mk.run_sweep(args.pop("sweep"), args.pop("out"), **args)
+    assert name in str(info.value)
+    assert not (tmp_path / "out").exists()
+
+
+# ---------------------------------------------------------------------------------------------
+# .plot(ax=...) of a result
+
+
+@pytest.mark.parametrize("ax", ["x", 5, [1, 2], object()])
+def test_plot_refuses_what_is_not_an_axes(ax):
+    result = _track()
+    with pytest.raises(ArgumentTypeError, match="^ax = "):
+        result.plot(ax=ax)
+
+
+# ---------------------------------------------------------------------------------------------
+# memory and hang cases: each in a subprocess with a time limit
+
+HEAVY = {
+    "duration-1e5": "simulate(duration=1e5)",
+    "duration-1e9": "simulate(duration=1e9)",
+    "ts-1e-9": "simulate(duration=1.0, ts=1e-9)",
+    "n-1e9": "simulate(duration=1.0, n=10**9)",
+    "substeps-1e9": "simulate(duration=1.0, substeps=10**9)",
+    "n-and-duration": "simulate(duration=10.0, n=10**5)",
+}
+
+
+def test_memory_and_hang_cases_are_refused_quickly():
+    code = textwrap.dedent("""
+        import json, sys
+        from mckibben.plant import simulate
+        from mckibben.errors import InputError
+        out = {}
+        for key, expr in json.loads(sys.argv[1]).items():
+            try:
+                eval(expr)
+                out[key] = "ran"
+            except InputError as exc:
+                out[key] = str(exc)
+            except BaseException as exc:
+                out[key] = "crash " + type(exc).__name__
+        print(json.dumps(out))
+    """)
+    run = subprocess.run([sys.executable, "-c", code, json.dumps(HEAVY)], capture_output=True, text=True,
+                         timeout=120, env={**os.environ, "MCKIBBEN_NO_COMPILE_NOTICE": "1"})
+    assert run.returncode == 0, run.stderr
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    for key, message in got.items():
+        assert "duration" in message and "substeps" in message, (key, message)
+        assert "limit" in message or "available" in message, (key, message)
+
+
+def test_lifted_limits_still_refuse_more_than_the_machine_has():
+    from mckibben.limits import lifted
+    from mckibben.plant import simulate
+
+    with lifted(), pytest.raises(InputError, match="available"):
+        simulate(duration=1e9)
+
+
+# ---------------------------------------------------------------------------------------------
+# random values at the numeric arguments: a result or the project's error, nothing else
+
+_weird = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True, width=64),
+    st.sampled_from([0, -1, 1e308, -1e308, 1e-320, True, False, None, "x", "5mm", [], [1.0, 2.0], [[1.0]],
+                     np.array([NAN]), np.zeros((2, 2)), {"a": 1}]),
+    st.integers(min_value=-(10**12), max_value=10**12),
+)
+
+_SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                           HealthCheck.function_scoped_fixture])
+
+
+def _only_ours(call):
+    try:
+        call()
+    except ERR:
+        pass
+
+
+@_SETTINGS
+@given(value=_weird, which=st.sampled_from(["duration", "ts", "n", "substeps", "reference", "initial_pressure"]))
+def test_simulate_random_values(value, which):
+    if which == "duration" and isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value <= 0.05:
+        value = 0.01  # a valid run, kept short
+    if which == "n" and isinstance(value, int) and not isinstance(value, bool) and 0 < value:
+        value = min(value, 4)
+    _only_ours(lambda: _sim(**{which: value}))
+
+
+@_SETTINGS
+@given(value=_weird)
+def test_static_length_random_values(value):
+    _only_ours(lambda: _static(pressure=value))
+
+
+@_SETTINGS
+@given(value=_weird, which=st.sampled_from(["pitch_radius", "discs", "preload", "bending_stiffness",
+                                            "axial_stiffness", "p_max", "muscle"]))
+def test_make_tool_random_values(value, which):
+    _only_ours(lambda: _tool(**{which: value}))
+
+
+@_SETTINGS
+@given(value=_weird, which=st.sampled_from(["lengths", "pitch_radius", "n_gaps"]))
+def test_tip_from_lengths_random_values(value, which):
+    _only_ours(lambda: _tip(**{which: value}))
+
+
+@settings(max_examples=15, deadline=None)
+@given(value=_weird, which=st.sampled_from(["periods", "path", "beta"]))
+def test_track_tip_random_values(value, which):
+    _only_ours(lambda: _track(**{which: value}))
