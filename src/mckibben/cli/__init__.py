@@ -30,7 +30,7 @@ _NO_ARGS = tuple({click.exceptions.NoArgsIsHelpError, getattr(_tclick, "NoArgsIs
 _EXITS = (click.exceptions.Exit, typer.Exit)
 _ABORTS = (click.Abort, typer.Abort)
 
-from mckibben import compile_notice  # noqa: E402  (after the Click/Typer compatibility shims)
+from mckibben import __version__, compile_notice  # noqa: E402  (after the Click/Typer compatibility shims)
 from mckibben.errors import InputError  # noqa: E402
 
 app = typer.Typer(
@@ -46,7 +46,6 @@ app = typer.Typer(
 
 def _print_version(value: bool) -> None:
     if value:
-        from mckibben import __version__
 
         sys.stdout.write(f"mckibben {__version__}\n")
         raise typer.Exit(0)

@@ -37,7 +37,7 @@ def check_direction(direction: str) -> str:
     The value only; :func:`mckibben.fit.muscle_file.check_direction` (the one check) also refuses
     ``deflate`` for a file whose law has one branch, given the law.
     """
-    from mckibben.fit.muscle_file import check_direction as check
+    from mckibben.fit.muscle_file import check_direction as check  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     return check(direction)
 

@@ -7,6 +7,7 @@ import typer
 from mckibben.errors import InputError
 from mckibben.plotting import check_figure_path, save_figure
 from mckibben.results import check_table_path
+from mckibben.cli._common import err_console
 
 DPI_OPTION = typer.Option(120, "--dpi", help="Resolution of raster figures (PNG, JPEG...), dots per inch.")
 OUT_OPTION = typer.Option(None, "--out", help="Write the time series: .csv or .parquet (SI, unit-suffixed "
@@ -44,7 +45,6 @@ def progress_bar(label: str, json: bool):
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    from mckibben.cli._common import err_console
 
     return Progress(TextColumn(label), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                     TimeElapsedColumn(), TimeRemainingColumn(), console=err_console, transient=True,

@@ -11,6 +11,9 @@ from mckibben.cli import app
 from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, err_console, print_table
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, progress_bar, write_plot
 from mckibben.control import registry as R
+from mckibben.limits import check_budget
+from mckibben.units import parse_quantity
+from mckibben.atomic import check_output_file
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
                           no_args_is_help=True)
@@ -43,8 +46,6 @@ def _size_first(option: str, seconds_text: str | None, instances: float = 1.0, f
                 extra: float = 0.5) -> None:
     """Refuse an oversized job before the control package (python-control, SciPy) is even imported,
     so a refusal takes well under a second; the library checks the same again."""
-    from mckibben.limits import check_budget
-    from mckibben.units import parse_quantity
 
     if seconds_text is None:
         return
@@ -89,11 +90,10 @@ def step_cmd(
 ) -> None:
     """A pressure step on the calibrated plant under the firmware's controller."""
     _size_first("--duration", duration, force=force)
-    from mckibben.control import step_response
+    from mckibben.control import step_response  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
     if save_design:
-        from mckibben.atomic import check_output_file
 
         check_output_file(save_design, "--save-design", (".json",))
     res = step_response(controller, target, start=start, load=load, supply=supply, duration=duration, p_max=p_max,
@@ -101,7 +101,7 @@ def step_cmd(
                         direction=direction)
     _finish(res, plot, dpi, out)
     if save_design:
-        from mckibben.control.core import save_design as write_design
+        from mckibben.control.core import save_design as write_design  # deferred: the library (SciPy, pandas, Numba) loads per command
 
         how = (f"tuned on the plant of {muscle_file} ({direction})" if muscle_file
                else "on the calibrated plant's identified model")
@@ -119,7 +119,7 @@ def step_cmd(
 
 def _warn_outcome(faults: int, unreachable: bool, final_pa: float, target_pa: float) -> None:
     """Faults and an unreachable target on stderr, whatever the output format."""
-    from mckibben.rig.protocol import fault_names
+    from mckibben.rig.protocol import fault_names  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if faults:
         err_console.print(f"warning: the supervisor reported faults: {', '.join(fault_names(faults))} "
@@ -155,7 +155,7 @@ def fig13_cmd(
     Rows for both laws: ``paper`` (β·tanh(S/ε) alone, what the paper measured) and ``model``
     (ours, with the model term) at the paper's β.
     """
-    from mckibben.control import fig13
+    from mckibben.control import fig13  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
     res = fig13(eps=eps, ki=ki, muscle_file=muscle_file)
@@ -182,7 +182,7 @@ def compare_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """PID tuned on the first-order model vs both sliding-mode laws, over step sizes and loads (§IV.A)."""
-    from mckibben.control import compare
+    from mckibben.control import compare  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
     res = compare(beta, muscle_file=muscle_file, direction=direction)
@@ -214,7 +214,7 @@ def robustness_cmd(
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws, median and 5–95 % of each metric."""
     if n >= 1:
         _size_first("--n", "0.6s", instances=3 * n, force=force, extra=0.0)  # 3 controllers, 0.6 s each
-    from mckibben.control import robustness
+    from mckibben.control import robustness  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
     with progress_bar("plants", json) as bar:
@@ -259,7 +259,7 @@ def track_cmd(
     """Track a pressure trajectory: RMS and maximum error, valve effort."""
     if reference.startswith("sine:"):
         _size_first("--duration", duration, force=force, extra=0.0)
-    from mckibben.control import track
+    from mckibben.control import track  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
     res = track(reference, controller, duration=duration, load=load, p_max=p_max, law=law, beta=beta, eps=eps,
@@ -284,7 +284,7 @@ def hysteresis_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Length tracking with and without hysteresis compensation (inflate/deflate branches)."""
-    from mckibben.control import hysteresis_compensation, plot_hysteresis
+    from mckibben.control import hysteresis_compensation, plot_hysteresis  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi)
     res = hysteresis_compensation(period, sweep_period=sweep_period, muscle_file=muscle_file)

@@ -18,7 +18,8 @@ def doctor_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Warm the kernel cache and check the optional parts (AVR toolchain, simulator, programmer, Dask)."""
-    from mckibben import doctor  # deferred: the library (SciPy, Numba) only when the command runs
+    from mckibben import doctor  # deferred: the warm-up imports every experiment (SciPy, Numba)
+
 
     report = doctor.check(scheduler)
     warmed = None

@@ -6,6 +6,8 @@ import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.examples import list_examples
+from mckibben.examples import copy_example
 
 examples_app = typer.Typer(help="Example files shipped with mckibben: list them, copy one to edit.",
                            no_args_is_help=True)
@@ -15,7 +17,6 @@ app.add_typer(examples_app, name="examples")
 @examples_app.command("list")
 def list_cmd(json: bool = JSON_OPTION) -> None:
     """The bundled examples and what each is."""
-    from mckibben.examples import list_examples
 
     found = list_examples()
     if json:
@@ -31,7 +32,6 @@ def copy_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Copy an example out of the package (an existing file is never overwritten)."""
-    from mckibben.examples import copy_example
 
     path = copy_example(name, dest)
     if json:

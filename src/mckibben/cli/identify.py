@@ -7,6 +7,10 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.errors import InputError
+from mckibben.units import parse_quantity
+from mckibben.plotting import check_figure_path
+from mckibben.cli._output import write_plot
+from mckibben.plotting import save_figure
 
 
 @app.command("identify")
@@ -24,8 +28,7 @@ def identify_cmd(
 ) -> None:
     """Identify gain, time constant and dead time (with standard errors) from an open-loop step, one fit per
     trial and pooled across trials; from steps to several commands, the valve's lift-off u0 too."""
-    from mckibben.control.identify import identify_logs
-    from mckibben.units import parse_quantity
+    from mckibben.control.identify import identify_logs  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     orders = {"1": (1,), "2": (2,), "both": (1, 2), "fill": ("fill",), "all": (1, 2, "fill")}.get(order)
     if orders is None:
@@ -33,7 +36,6 @@ def identify_cmd(
     ts = parse_quantity(t_step, "time", "--t-step") if t_step is not None else None
     p_supply = parse_quantity(supply, "pressure", "--supply", allow_zero=False) if supply is not None else None
     if plot is not None:
-        from mckibben.plotting import check_figure_path
 
         check_figure_path(plot)
     res = identify_logs(logs, orders, ts, p_supply)
@@ -86,14 +88,12 @@ def _input_label(data: dict) -> str:
 
 
 def _plot(path: str, data: dict, fits) -> None:
-    from mckibben.cli._output import write_plot
-    from mckibben.control import plot_step_fit
+    from mckibben.control import plot_step_fit  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     write_plot(plot_step_fit(data["time_s"], data["pressure_Pa"], fits), path, 120)
 
 
 def save_png(fig, path: str) -> None:
     """Write a figure atomically (:func:`mckibben.plotting.save_figure`): nothing half-written."""
-    from mckibben.plotting import save_figure
 
     save_figure(fig, path, dpi=120)

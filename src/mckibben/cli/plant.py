@@ -20,7 +20,7 @@ PRESSURE_OPTION = typer.Option("0.55MPa", "--pressure", help="Operating gauge pr
 
 
 def _linear(pressure: str):
-    from mckibben.plant import linearize
+    from mckibben.plant import linearize  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     p = parse_quantity(pressure, "pressure", "--pressure", allow_zero=False)
     try:

@@ -14,6 +14,7 @@ from mckibben.models import laws
 from mckibben.models.flags import flag_names
 from mckibben.models.mpam import predict_length, pressure_for_length
 from mckibben.units import parse_quantity, parse_values
+from mckibben.errors import unknown_name
 
 predict_app = typer.Typer(help="Predict length, pressure or force from a static model.", no_args_is_help=True)
 app.add_typer(predict_app, name="predict")
@@ -126,9 +127,8 @@ def force_cmd(
     if muscle_file is not None:
         _force_from_muscle_file(muscle_file, pressure, length, direction, json)
         return
-    from mckibben.errors import unknown_name
-    from mckibben.models.mpam import force_from_length
-    from mckibben.models.physical import (
+    from mckibben.models.mpam import force_from_length  # deferred: the library (SciPy, pandas, Numba) loads per command
+    from mckibben.models.physical import (  # deferred: only the command that runs loads its part of the library
         BraidGeometry,
         chou_hannaford_force,
         tondu_lopez_force,
@@ -198,8 +198,8 @@ def force_cmd(
 
 def _force_from_muscle_file(path: str, pressure: str, length: str | None, direction: str, json: bool) -> None:
     """``predict force --muscle-file``: the file's fitted force law at the given pressures."""
-    from mckibben.data import read_muscle
-    from mckibben.fit.muscle_file import check_direction, muscle_force_law
+    from mckibben.data import read_muscle  # deferred: the library (SciPy, pandas, Numba) loads per command
+    from mckibben.fit.muscle_file import check_direction, muscle_force_law  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_direction(direction)
     law = muscle_force_law(read_muscle(path))

@@ -46,7 +46,7 @@ def reproduce_cmd(
     """Characterize the campaign: fit every model, compare them, write the HTML report with figures."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from mckibben.report import reproduce
+    from mckibben.report import reproduce  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     with Progress(TextColumn("{task.description:<40}"), BarColumn(), TimeElapsedColumn(), console=err_console,
                   transient=True, disable=json or not err_console.is_terminal) as bar:

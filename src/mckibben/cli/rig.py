@@ -37,15 +37,15 @@ def record_cmd(
     """Record telemetry (every channel); a kill -9 loses at most the last 0.2 s (see docs/rig.md)."""
     from rich.live import Live
 
-    from mckibben.rig import protocol as P
-    from mckibben.rig.recorder import Recorder
+    from mckibben.rig import protocol as P  # deferred: the library (SciPy, pandas, Numba) loads per command
+    from mckibben.rig.recorder import Recorder  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     d = _duration(duration)
     if not 1 <= decimation <= 255:
         raise InputError(f"--decimation: {decimation} must be in 1..255")
     l0 = parse_quantity(nominal_length, "length", "--nominal-length", allow_zero=False)
     rec_out = check_output_file(out, "--out", (".parquet",))
-    from mckibben.rig.device import BAUD, connect
+    from mckibben.rig.device import BAUD, connect  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     link, hello, _ = connect(port)  # the device resets on open: nothing older than this run is kept
     try:
@@ -123,7 +123,7 @@ def recover_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Join a recorder's journal into one Parquet file."""
-    from mckibben.rig.recorder import recover
+    from mckibben.rig.recorder import recover  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_output_file(out, "--out", (".parquet",))
     df = recover(journal, out)
@@ -144,7 +144,7 @@ def step_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Run a pressure step on the device and print the step metrics."""
-    from mckibben.rig import Device
+    from mckibben.rig import Device  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     res = Device(port).step(target, controller=controller, duration=duration)
     _warn_faults(res.counters.get("faults", 0))
@@ -158,7 +158,7 @@ def step_cmd(
 
 def _warn_faults(faults: int) -> None:
     """The device's faults on stderr, whatever the output format."""
-    from mckibben.rig.protocol import fault_names
+    from mckibben.rig.protocol import fault_names  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if faults:
         err_console.print(f"warning: the device reported faults: {', '.join(fault_names(faults))} (flags {faults})",
@@ -174,8 +174,8 @@ def gains_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Send a controller design's gains to the device, read them back and verify them."""
-    from mckibben.control.core import load_design
-    from mckibben.rig import Device
+    from mckibben.control.core import load_design  # deferred: the library (SciPy, pandas, Numba) loads per command
+    from mckibben.rig import Device  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     params = load_design(source)  # bad files fail before the port is touched
     if channel == "all":
@@ -208,7 +208,7 @@ def emulate_cmd(
     """A virtual device on a pseudo-terminal: the firmware core on N plants, in real time; it resets when opened."""
     import os
 
-    from mckibben.rig.emulator import Emulator
+    from mckibben.rig.emulator import Emulator  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     d = _duration(duration) if duration else None
     if not 1 <= channels <= 3:
@@ -218,8 +218,8 @@ def emulate_cmd(
         raise InputError(f"--boot-time: {boot_time!r} is longer than 10 s")
     plants = None
     if tool_path is not None:
-        from mckibben.cli import tool as T
-        from mckibben.rig.track import tool_plants
+        from mckibben.cli import tool as T  # deferred: the library (SciPy, pandas, Numba) loads per command
+        from mckibben.rig.track import tool_plants  # deferred: the library (SciPy, pandas, Numba) loads per command
 
         if channels != 3:
             raise InputError("--tool-path: the tool has three muscles; leave --channels at 3")
@@ -236,7 +236,7 @@ def emulate_cmd(
             em.stop()
             raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
     if json:
-        from mckibben.rig.device import BAUD
+        from mckibben.rig.device import BAUD  # deferred: the library (SciPy, pandas, Numba) loads per command
 
         emit_json({"port": em.port, "link": link, "baud": BAUD, "channels": channels})
     else:

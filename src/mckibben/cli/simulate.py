@@ -30,7 +30,7 @@ def open_loop_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """An open-loop inlet-valve step from rest: time constant, rise time, final pressure."""
-    from mckibben.control import open_loop
+    from mckibben.control import open_loop  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
     res = open_loop(valve, supply=supply, load=load, duration=duration, muscle_file=muscle_file, direction=direction)
@@ -59,7 +59,7 @@ def open_loop_cmd(
 @simulate_app.command("calibrate")
 def calibrate_cmd(json: bool = JSON_OPTION) -> None:
     """Check the default plant against the paper: τ ≈ 0.09 s, 4.2 N blocked, 78.1 mm under 0.6 N."""
-    from mckibben.plant import calibration
+    from mckibben.plant import calibration  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     c = calibration()
     if json:

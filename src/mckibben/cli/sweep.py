@@ -11,6 +11,8 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
 from mckibben.errors import InputError
+from mckibben.limits import SECONDS_PER_SAMPLE, check_budget, lifted
+from mckibben.atomic import check_output_dir
 
 sweep_app = typer.Typer(help="Parameter sweeps on the batch simulator, in-process or on Dask.", no_args_is_help=True)
 app.add_typer(sweep_app, name="sweep")
@@ -31,7 +33,7 @@ def run_cmd(
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from mckibben.sweep import load_sweep, run_sweep
+    from mckibben.sweep import load_sweep, run_sweep  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if workers is not None and scheduler is not None:
         raise InputError("--workers and --scheduler: give one, not both")
@@ -40,7 +42,6 @@ def run_cmd(
     if scheduler is not None and not _SCHEDULER.match(scheduler):
         raise InputError(f"--scheduler: {scheduler!r} must look like tcp://HOST:PORT")
     sweep = load_sweep(file)
-    from mckibben.limits import SECONDS_PER_SAMPLE, check_budget, lifted
 
     # memory: one chunk per worker at a time; time: the wall time, shared by the workers
     steps = round(sweep.scenario["duration"] / 1e-3)
@@ -82,11 +83,10 @@ def summarize_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Best setting under a constraint, Pareto front, sensitivities, figures."""
-    from mckibben.sweep import best_setting, pareto_front, read_results, sensitivity, settings_table
-    from mckibben.sweep.summary import figures
+    from mckibben.sweep import best_setting, pareto_front, read_results, sensitivity, settings_table  # deferred: the library (SciPy, pandas, Numba) loads per command
+    from mckibben.sweep.summary import figures  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if plots:
-        from mckibben.atomic import check_output_dir
 
         check_output_dir(plots, "--plots")
     table = read_results(results)

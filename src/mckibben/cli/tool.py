@@ -43,7 +43,7 @@ PMAX_OPTION = typer.Option(None, "--p-max", help="Highest pressure allowed in an
 def build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file=None,
                direction="inflate"):
     """The tool from the shared options (:func:`mckibben.tool.make_tool`)."""
-    from mckibben.tool import make_tool
+    from mckibben.tool import make_tool  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_direction(direction)
     return make_tool(muscle, muscle_file=muscle_file, direction=direction, pitch_radius=pitch_radius, discs=discs,
@@ -83,7 +83,7 @@ def fk_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Forward kinematics: three muscle lengths (or pressures) → arc → tip position and orientation."""
-    from mckibben.tool import forward, state_dict, tool_dict
+    from mckibben.tool import forward, state_dict, tool_dict  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if (lengths is None) == (pressures is None):
         raise InputError("tool fk: give exactly one of --lengths or --pressures")
@@ -113,7 +113,7 @@ def ik_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Inverse: a tip position → arc → muscle lengths → tensions → pressures (unreachable: exit 2)."""
-    from mckibben.tool import inverse, state_dict, tool_dict
+    from mckibben.tool import inverse, state_dict, tool_dict  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
                       direction)
@@ -143,7 +143,7 @@ def workspace_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Sample the pressure box [0, p_max]³, report the reachable tip set's extent, optionally plot it."""
-    from mckibben.tool import map_workspace
+    from mckibben.tool import map_workspace  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
@@ -196,7 +196,7 @@ def track_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Follow a tip path: IK + static inverse → pressure references → three controlled muscles (plant or device)."""
-    from mckibben.tool import track
+    from mckibben.tool import track  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if port is not None and (periods or reference_only):
         raise InputError("--port: runs one path on the device; it takes neither --periods nor --reference-only")
@@ -205,7 +205,7 @@ def track_cmd(
                       direction)
     link_out = None
     if port is not None:
-        from mckibben.rig.track import track_over_link
+        from mckibben.rig.track import track_over_link  # deferred: the library (SciPy, pandas, Numba) loads per command
 
         link_res, link_info = track_over_link(port, tool, path, beta=beta)
     with progress_bar("periods", json) as bar:
@@ -222,7 +222,7 @@ def track_cmd(
         link_out = {"port": port, **link_res.summary(), **link_info,
                     "rms_error_ratio_to_simulation": link_res.summary()["rms_error_m"] / out_runs[0]["rms_error_m"]}
         if link_res.faults:
-            from mckibben.rig.protocol import fault_names
+            from mckibben.rig.protocol import fault_names  # deferred: the library (SciPy, pandas, Numba) loads per command
 
             err_console.print(f"warning: the device reported faults: {', '.join(fault_names(link_res.faults))} "
                               f"(flags {link_res.faults})", markup=False, highlight=False)
