@@ -136,7 +136,8 @@ def check_budget(option: str, samples: float, *, force: bool = False, what: str 
     held = samples if memory_samples is None else float(memory_samples)
     memory = held * bytes_per_sample
     seconds = samples * seconds_per_sample
-    estimate = f"{samples:,.0f} {what}: about {format_bytes(memory)} of memory and {format_seconds(seconds)}"
+    count = f"{samples:,.0f}" if samples < 1e15 else f"{samples:.3g}"
+    estimate = f"{count} {what}: about {format_bytes(memory)} of memory and {format_seconds(seconds)}"
     avail = available_memory()
     if memory > avail:
         raise InputError(f"{option}: {estimate}, more than the {format_bytes(avail)} this machine has available; "

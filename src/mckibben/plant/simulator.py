@@ -23,6 +23,7 @@ reference closed loop the pressure stays within 1 kPa of a run with ten times fi
 from __future__ import annotations
 
 import hashlib
+import math
 import threading
 import types
 from concurrent.futures import ThreadPoolExecutor
@@ -395,6 +396,8 @@ def simulate(
     if n is not None:
         n = check_int(n, "n", lo=1)
     steps = duration / ts
+    if not math.isfinite(steps):
+        raise InputError(f"duration = {duration!r} s: {duration:g} s / ts = {ts:g} s overflows; far beyond any run")
     if round(steps) < 1 or abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
         raise InputError(f"duration = {duration!r} s: must be a positive whole number of control periods ({ts:g} s)")
     n_steps = int(round(steps))
