@@ -43,27 +43,6 @@ COMMANDS = [
      [sys.executable, "-c", "import mckibben; mckibben.step_response('smc', law='paper', beta=150)"]),
 ]
 
-SWEEP = """
-[sweep]
-seed = 2026
-samples = {samples}
-chunk_size = 2000
-[scenario]
-kind = "step"
-target = "0.55MPa"
-duration = "0.2s"
-[plant]
-supply_pressure = {{ uniform = ["0.6MPa", "1.0MPa"] }}
-load_force = {{ uniform = ["0N", "3N"] }}
-dead_band = {{ uniform = [0.44, 0.82] }}
-valve_conductance = {{ uniform = [1.4e-10, 2.6e-10] }}
-[controller]
-kind = "smc"
-g = 0
-beta = {{ grid = [120, 135, 150, 180] }}
-[metrics]
-keep = ["time_constant_s", "overshoot_pct", "steady_state_error_Pa", "valve_effort_counts"]
-"""
 
 
 def wall(cmd, env, cwd=None) -> float:
@@ -102,15 +81,16 @@ def main() -> None:
         if args.no_sweep:
             return
         samples = args.runs // 4
-        (tmp / "sweep.toml").write_text(SWEEP.format(samples=samples))
+        sys.path.insert(0, str(HERE))
+        from bench_sweep import TEMPLATE  # the same sweep as the in-process benchmark
+        from bench_plant import SUB, build_c, run_c  # the C loop and its build
+
+        (tmp / "sweep.toml").write_text(TEMPLATE.format(samples=samples))
         wall([*MCK, "doctor", "--json"], env)  # a warm cache, as for the commands above
         sweep_times = []
         for _ in range(2):
             shutil.rmtree(tmp / "out", ignore_errors=True)
             sweep_times.append(wall([*MCK, "sweep", "run", "sweep.toml", "--out", "out", "--json"], env, cwd=tmp))
-        sys.path.insert(0, str(HERE))
-        from bench_plant import SUB, build_c, run_c  # the C loop and its build
-
         exes = build_c(tmp)
         steps = 200
         c_best = min(run_c(exes["exact"], "simd", samples * 4, steps)[0] for _ in range(2))
