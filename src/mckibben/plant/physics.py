@@ -276,7 +276,7 @@ def muscle_force(fl, length, bk, j):
     return (fl if fl > 0.0 else 0.0) + bk[X_KP + j] * (stretch if stretch > 0.0 else 0.0)
 
 
-@njit(error_model="numpy", inline="always")
+@njit(error_model="numpy", fastmath={"contract"})  # not inlined: the four stages call one compiled copy
 def rhs(n, bk, k, dk, law):
     """Time derivatives of stage ``k``'s states into stage ``dk`` (friction row held: see :func:`rk4_step`).
 
