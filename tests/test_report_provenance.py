@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import pathlib
 import re
 
 from mckibben.cli import main
@@ -24,3 +25,5 @@ def test_reproduce_names_version_time_arguments_and_input_hashes(tmp_path, monke
         assert mckibben.__version__ in text and prov["created_utc"] in text
         assert next(iter(prov["inputs_sha256"].values())) in text
         assert str(tmp_path) not in text and "/tmp/" not in text and "/home/" not in text
+        # nor where the package is installed (fitted models cite the files they were fitted to)
+        assert str(pathlib.Path(mckibben.__file__).resolve().parent) not in text

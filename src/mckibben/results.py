@@ -240,13 +240,13 @@ def check_ax(ax, name: str = "ax"):
 
 
 def shown_once(fig):
-    """``fig``, released from pyplot's registry where the Jupyter inline backend would draw it a second time.
+    """``fig``, drawn once in Jupyter whether it is the cell's value or not.
 
-    In Jupyter a ``.plot()`` that returns its Figure is drawn twice: once as the cell's value,
-    once more by the inline backend, which draws every figure pyplot still holds when the cell
-    ends. Under that backend the figure is let go by pyplot (``plt.close``), so it is drawn once,
-    as the returned value; it stays whole (``fig.savefig`` works). Elsewhere nothing changes, so
-    ``plt.show()`` in a script still shows it.
+    Under Jupyter's inline backend every figure pyplot holds is drawn when the cell ends, and a
+    Figure that is the cell's value is drawn again. The figure stays with pyplot (so
+    ``r.plot();`` shows it, as any Matplotlib plot does) and is given an ``_ipython_display_``
+    that, when the figure is shown as a value, draws it and lets pyplot go of it, so the end of
+    the cell does not draw it a second time. Elsewhere nothing changes.
     """
     import sys
 
@@ -255,10 +255,20 @@ def shown_once(fig):
     import matplotlib
 
     if "inline" in str(matplotlib.get_backend()).lower():
-        import matplotlib.pyplot as plt
+        import functools
 
-        plt.close(fig)
+        fig._ipython_display_ = functools.partial(_display_once, fig)
     return fig
+
+
+def _display_once(fig) -> None:
+    """Draw ``fig`` as a PNG now, and release it from pyplot so the inline backend does not draw it again."""
+    import matplotlib.pyplot as plt
+    from IPython.core.pylabtools import print_figure  # deferred: only inside a Jupyter kernel
+    from IPython.display import display
+
+    display({"image/png": print_figure(fig, "png")}, raw=True)
+    plt.close(fig)
 
 
 def _checked_plot(plot):

@@ -200,6 +200,36 @@ def check_report_folder(out) -> Path:
     return out
 
 
+def _campaign_base(char: dict) -> Path | None:
+    """The folder the campaign's muscle folders share (what input paths are written relative to)."""
+    from mckibben.datasets.campaign import campaign_muscle_dirs
+
+    bundled = char.get("root") in (None, "bundled example campaign")
+    dirs = [Path(d) for d in campaign_muscle_dirs(None if bundled else char["root"])]
+    base = Path(os.path.commonpath([str(d) for d in dirs])) if dirs else None
+    return base.parent if base is not None and len(dirs) == 1 else base
+
+
+def _without_machine_paths(obj, char: dict):
+    """``obj`` with every text's absolute path of an input (fitted models cite their files) made relative
+    to the campaign folder, so that a report names no folder of the machine that made it."""
+    base = _campaign_base(char)
+    prefixes = [str(base.resolve()), str(base)] if base is not None else []
+
+    def scrub(v):
+        if isinstance(v, str):
+            for pre in prefixes:
+                v = v.replace(pre + os.sep, "").replace(pre, base.name if base is not None else "")
+            return v
+        if isinstance(v, dict):
+            return {k: scrub(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return type(v)(scrub(x) for x in v)
+        return v
+
+    return scrub(obj)
+
+
 def report_provenance(char: dict, out) -> dict:
     """Where a report came from: version, UTC time, the call and its arguments, a SHA-256 per input.
 
@@ -220,8 +250,7 @@ def report_provenance(char: dict, out) -> dict:
 
     bundled = char.get("root") in (None, "bundled example campaign")
     dirs = [Path(d) for d in campaign_muscle_dirs(None if bundled else char["root"])]
-    base = Path(os.path.commonpath([str(d) for d in dirs])) if dirs else None
-    base = base.parent if base is not None and len(dirs) == 1 else base
+    base = _campaign_base(char)
     inputs = {}
     for d in dirs:
         for f in sorted(p for p in d.rglob("*") if p.is_file()):
@@ -262,6 +291,7 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
         summary["provenance"] = report_provenance(char, out)
         if isinstance(summary.get("data"), str) and summary["data"].startswith("/"):
             summary["data"] = Path(summary["data"]).name  # no absolute machine path in a report
+        summary = _without_machine_paths(summary, char)
         figures = []
         for name, make in ALL_FIGURES.items():
             if progress:
