@@ -16,16 +16,19 @@ each run's first sample from the state the ``start`` argument says.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from mckibben.errors import InputError
 from mckibben.fit.core import FitResult, linear_fit
-from mckibben.models.hysteresis import PrandtlIshlinskii, apply, descended_state, play_matrix
+from mckibben.models.hysteresis import PrandtlIshlinskii, descended_state, play_matrix
 
 #: How the plays start at each run's first sample.
 STARTS = ("virgin", "descended")
+#: Smallest weight of the identity play of a modified PI, before normalization (the inverse's
+#: slope 1/w0 stays finite: the operator stays invertible). [-]
+W0_FLOOR = 0.05
 
 
 @dataclass(frozen=True)
@@ -104,7 +107,7 @@ def pi_design(thresholds, u, *, run=None, start: str = "virgin", input_offset: f
 
 def fit_prandtl_ishlinskii(u, y, thresholds, *, run=None, start: str = "virgin", mask=None,
                            input_offset: float = 0.0, input_unit: str = "Pa", output_unit: str = "m",
-                           output_degree: int = 1, clusters=None, source: str = "",
+                           output_knots: int = 0, clusters=None, source: str = "",
                            what: str = "fit prandtl-ishlinskii") -> PIFit:
     """Fit the weights and output offset of a PI operator, thresholds fixed, weights ≥ 0.
 
@@ -127,11 +130,14 @@ def fit_prandtl_ishlinskii(u, y, thresholds, *, run=None, start: str = "virgin",
         The operator's input offset. [input unit]
     input_unit, output_unit : str
         Units of the input and output, for the result and the parameter names. [-]
-    output_degree : int, default 1
-        1: the classical PI. d ≥ 2: a modified PI with the inverse output map
-        S⁻¹(y) = y + Σ_{k=2..d} g_k·yᵏ, fitted with the weights by regressing y on
-        [1, plays, −y², …, −y^d] (Kuhnen's identification of the modified PI, linear in all
-        parameters; y on both sides, so low-noise outputs only). [-]
+    output_knots : int, default 0
+        0: the classical PI, y = y_0 + Σ w_i·z_i, regressed on y with w ≥ 0. K ≥ 2: a modified
+        PI (Kuhnen 2003) whose inverse output map S⁻¹ is piecewise linear through K knots evenly
+        spaced over the fitted outputs (flat beyond them). The weights then sum to 1 (the plays'
+        sum is in input units, of slope 1 far from a reversal) and the fit regresses the
+        identity play, z_0 = a + Σ_k s_k·ramp_k(y) − Σ_{i≥1} w_i·(z_i − z_0), with slopes
+        s_k ≥ 0 (S⁻¹ monotone) and w_i ≥ 0, w_0 = 1 − Σ_{i≥1} w_i: linear in every parameter,
+        with bounds. Its residual is in input units. [-]
     clusters : array_like, optional
         Trial label per sample: with five or more trials the covariance is cluster-robust. [-]
     source : str
@@ -171,36 +177,73 @@ def fit_prandtl_ishlinskii(u, y, thresholds, *, run=None, start: str = "virgin",
     m = np.ones(x.size, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
     if m.shape != x.shape:
         raise InputError(f"mask: {m.size} flags for {x.size} samples")
-    if int(output_degree) != output_degree or not 1 <= output_degree <= 5:
-        raise InputError(f"output_degree: {output_degree!r} must be an integer from 1 to 5")
-    deg = int(output_degree)
+    if int(output_knots) != output_knots or output_knots == 1 or not 0 <= output_knots <= 50:
+        raise InputError(f"output_knots: {output_knots!r} must be 0 (classical PI) or an integer from 2 to 50")
+    n_k = int(output_knots)
     moving = np.ptp(z[m], axis=0) > 0
     if not np.all(moving):
         i = int(np.flatnonzero(~moving)[0])
         raise InputError(f"{what}: the play of threshold {r[i]:.6g} {input_unit} never moves on the fitted samples "
                          f"(input span {np.ptp(x[m]):.6g} {input_unit}); use thresholds below half the span")
-    ym = yy[m]
-    design = np.column_stack([np.ones(int(m.sum())), z[m]] + [-(ym**k) for k in range(2, deg + 1)])
-    unit_w = f"{output_unit}_per_{input_unit}"
-    names = ([f"offset_{output_unit}"] + [f"w{i}_{unit_w}" for i in range(r.size)]
-             + [f"g{k}_per_{output_unit}{k - 1}" for k in range(2, deg + 1)])
-    nonneg = np.r_[False, np.ones(r.size, dtype=bool), np.zeros(deg - 1, dtype=bool)]
-    cl = None if clusters is None else np.asarray(clusters)[m]
+    ym, zm = yy[m], z[m]
     n_w = r.size
-
-    def func(values, **inputs):
-        pi = PrandtlIshlinskii(r, values[1:1 + n_w], input_offset=input_offset, output_offset=float(values[0]),
-                               output_poly=tuple(values[1 + n_w:]))
-        return apply(pi, inputs["input"])[0]
-
-    res = linear_fit(design, yy[m], names, model="prandtl-ishlinskii", response=f"output_{output_unit}", what=what,
-                     valid_range={"input": (float(x[m].min()), float(x[m].max()))}, func=func, source=source,
-                     clusters=cl, nonnegative=nonneg)
-    w = res.values[1:1 + n_w]
-    se = res.stderr[1:1 + n_w]
-    model = PrandtlIshlinskii(r, w, input_offset=float(input_offset), output_offset=float(res.values[0]),
-                              input_unit=input_unit, output_unit=output_unit,
-                              output_poly=tuple(float(g) for g in res.values[1 + n_w:]), stderr=se,
-                              valid_range=(float(x[m].min()), float(x[m].max())),
-                              citation=f"classical PI fitted by bounded least squares{': ' + source if source else ''}")
+    rng = (float(x[m].min()), float(x[m].max()))
+    if n_k == 0:
+        res = linear_fit(np.column_stack([np.ones(ym.size), zm]), ym,
+                         [f"offset_{output_unit}"] + [f"w{i}_{output_unit}_per_{input_unit}" for i in range(n_w)],
+                         model="prandtl-ishlinskii", response=f"output_{output_unit}", what=what,
+                         valid_range={"input": rng}, source=source,
+                         clusters=None if clusters is None else np.asarray(clusters)[m],
+                         nonnegative=np.r_[False, np.ones(n_w, dtype=bool)])
+        weights, se, offset, omap = res.values[1:], res.stderr[1:], float(res.values[0]), None
+    else:
+        yk = np.linspace(float(ym.min()), float(ym.max()), n_k)
+        ramps = np.clip(ym[:, None] - yk[:-1], 0.0, np.diff(yk))
+        # Σ w_i = 1 (the plays' sum has the input's unit and slope 1 far from reversals):
+        # Σ w_i z_i = z_0 + Σ_{i≥1} w_i (z_i − z_0), so z_0 = a + S⁻¹-ramps − Σ_{i≥1} w_i (z_i − z_0)
+        design = np.column_stack([np.ones(ym.size), ramps, -(zm[:, 1:] - zm[:, :1])])
+        names = ([f"offset_{input_unit}"] + [f"s{k}_{input_unit}_per_{output_unit}" for k in range(n_k - 1)]
+                 + [f"w{i}" for i in range(1, n_w)])
+        res = linear_fit(design, zm[:, 0], names, model="modified-prandtl-ishlinskii", response=f"input_{input_unit}",
+                         what=what, valid_range={"output": (float(ym.min()), float(ym.max()))}, source=source,
+                         clusters=None if clusters is None else np.asarray(clusters)[m],
+                         nonnegative=np.r_[False, np.ones(n_k - 1 + n_w - 1, dtype=bool)])
+        w_rest = res.values[n_k:]
+        weights = np.r_[1.0 - np.sum(w_rest), w_rest]
+        cov_w = res.covariance[n_k:, n_k:]
+        se = np.r_[np.sqrt(max(float(np.nansum(cov_w)), 0.0)), res.stderr[n_k:]]
+        if not weights[0] >= W0_FLOOR:
+            # the bound-only optimum breaks w0 ≥ floor (a muscle that sticks like a pure backlash):
+            # the constrained optimum (a convex problem with one more linear constraint) has it
+            # active, w0 = floor. Eliminate the largest other weight K by Σ w = 1:
+            # Σ w_i z_i = f·z_0 + (1 − f)·z_K + Σ_{i≠0,K} w_i (z_i − z_K), bounds only again.
+            k_piv = 1 + int(np.argmax(w_rest))
+            others = [i for i in range(1, n_w) if i != k_piv]
+            base = W0_FLOOR * zm[:, 0] + (1.0 - W0_FLOOR) * zm[:, k_piv]
+            design = np.column_stack([np.ones(ym.size), ramps] + [-(zm[:, i] - zm[:, k_piv]) for i in others])
+            names_c = names[:n_k] + [f"w{i}" for i in others]
+            res = linear_fit(design, base, names_c, model="modified-prandtl-ishlinskii",
+                             response=f"input_{input_unit}", what=what,
+                             valid_range={"output": (float(ym.min()), float(ym.max()))}, source=source,
+                             clusters=None if clusters is None else np.asarray(clusters)[m],
+                             nonnegative=np.r_[False, np.ones(n_k - 1 + len(others), dtype=bool)])
+            weights = np.zeros(n_w)
+            se = np.zeros(n_w)
+            weights[0] = W0_FLOOR
+            weights[others] = res.values[n_k:]
+            se[others] = res.stderr[n_k:]
+            weights[k_piv] = 1.0 - W0_FLOOR - float(np.sum(res.values[n_k:]))
+            se[k_piv] = np.sqrt(max(float(np.nansum(res.covariance[n_k:, n_k:])), 0.0))
+            res = replace(res, flags=res.flags + ("w0_at_floor",))
+            if weights[k_piv] < 0:
+                raise InputError(f"{what}: no invertible operator with w0 >= {W0_FLOOR:g} fits these data "
+                                 "(use fewer plays or smaller thresholds)")
+        a, slopes = float(res.values[0]), res.values[1:n_k]
+        offset = 0.0
+        omap = (yk, a + np.r_[0.0, np.cumsum(slopes * np.diff(yk))])
+    model = PrandtlIshlinskii(r, weights, input_offset=float(input_offset), output_offset=offset,
+                              input_unit=input_unit, output_unit=output_unit, output_map=omap, stderr=se,
+                              valid_range=rng,
+                              citation=f"{'modified' if n_k else 'classical'} PI fitted by bounded least squares"
+                                       f"{': ' + source if source else ''}")
     return PIFit(model, res, start)

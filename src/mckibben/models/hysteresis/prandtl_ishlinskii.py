@@ -39,12 +39,12 @@ output's unit per input unit.
 
 **Asymmetric loops, saturation (modified PI).** The classical operator's loading curve has a
 non-decreasing slope (w_i ≥ 0), and its loops are point-symmetric. A muscle's contraction against
-pressure is S-shaped (a threshold, then the braid's end stop). Following Kuhnen's *modified* PI
-operator, a static, monotone output map S follows the plays: y = S(v), v = y_0 + Σ_i w_i·z_i.
-Kuhnen writes S⁻¹ as a superposition of dead-zone operators; we write it as a polynomial,
-S⁻¹(y) = y + Σ_{k≥2} g_k·yᵏ (:attr:`PrandtlIshlinskii.output_poly`), which keeps the fit linear
-(:mod:`mckibben.fit.hysteresis`) and the inverse exact: u = Γ⁻¹[S⁻¹(y)] with Γ⁻¹ the closed form
-below (:func:`invert`); the forward map solves S⁻¹(y) = v by Newton's method.
+pressure is S-shaped (a threshold, then the braid's end stop). Kuhnen's *modified* PI operator
+puts a static, monotone map S after the plays: y = S(v), v = y_0 + Σ_i w_i·z_i, with S⁻¹ a
+superposition of one-sided dead zones, i.e. a continuous, piecewise-linear, non-decreasing map.
+We store S⁻¹ by its knots (:attr:`PrandtlIshlinskii.output_map`: outputs y_k and the plays' sums
+v_k there; flat beyond the ends, where the muscle saturates). The inverse stays exact:
+u = Γ⁻¹[S⁻¹(y)] with Γ⁻¹ the closed form below (:func:`invert`).
 
 Fitting (weights for fixed thresholds, linear least squares with w ≥ 0) lives in
 :mod:`mckibben.fit.hysteresis`; this module gives it the design matrix
@@ -120,9 +120,10 @@ class PrandtlIshlinskii:
     input_unit, output_unit : str
         The units, e.g. ``"Pa"`` and ``"m"`` (contraction) or ``"N"`` (force); ``"-"`` for a
         normalized quantity. [-]
-    output_poly : tuple of float, default ()
-        Coefficients g_2, g_3, … of the inverse output map S⁻¹(y) = y + Σ g_k·yᵏ (modified PI;
-        empty: the classical operator, y = v). [output unit^(1−k)]
+    output_map : tuple of numpy.ndarray, optional
+        Knots of the inverse output map S⁻¹ (modified PI): outputs y_k [output unit], strictly
+        increasing, and the plays' sums v_k there [unit of v = output_offset + Σ w·z],
+        non-decreasing; linear between knots, flat beyond. None: the classical operator, y = v.
     stderr : numpy.ndarray, optional
         Standard errors of the weights when fitted (NaN for a weight held at 0). [output unit / input unit]
     valid_range : tuple of float, optional
@@ -137,7 +138,7 @@ class PrandtlIshlinskii:
     output_offset: float = 0.0
     input_unit: str = "Pa"
     output_unit: str = "m"
-    output_poly: tuple = ()
+    output_map: tuple | None = None
     stderr: np.ndarray | None = None
     valid_range: tuple | None = None
     citation: str = field(default=PI_CITATION)
@@ -153,10 +154,13 @@ class PrandtlIshlinskii:
             v = getattr(self, name)
             if not math.isfinite(v):
                 raise InputError(f"{name}: {v!r} must be finite")
-        g = tuple(float(c) for c in self.output_poly)
-        if not all(math.isfinite(c) for c in g):
-            raise InputError("output_poly: must be finite")
-        object.__setattr__(self, "output_poly", g)
+        if self.output_map is not None:
+            yk, vk = (np.asarray(a, dtype=float) for a in self.output_map)
+            if (yk.ndim != 1 or yk.shape != vk.shape or yk.size < 2 or not np.all(np.isfinite(yk))
+                    or not np.all(np.isfinite(vk)) or np.any(np.diff(yk) <= 0) or np.any(np.diff(vk) < 0)):
+                raise InputError("output_map: knots must be two finite 1-D arrays of equal length >= 2, outputs "
+                                 "strictly increasing, sums non-decreasing")
+            object.__setattr__(self, "output_map", (yk, vk))
         object.__setattr__(self, "thresholds", r)
         object.__setattr__(self, "weights", w)
 
@@ -196,8 +200,8 @@ class PrandtlIshlinskii:
         out = {"model": "prandtl-ishlinskii", "input_unit": self.input_unit, "output_unit": self.output_unit,
                "thresholds": self.thresholds.tolist(), "weights": self.weights.tolist(),
                "input_offset": self.input_offset, "output_offset": self.output_offset, "citation": self.citation}
-        if self.output_poly:
-            out["output_poly"] = list(self.output_poly)
+        if self.output_map is not None:
+            out["output_map"] = {"outputs": self.output_map[0].tolist(), "sums": self.output_map[1].tolist()}
         if self.stderr is not None:
             out["weights_stderr"] = [float(s) for s in self.stderr]
         if self.valid_range is not None:
@@ -300,11 +304,11 @@ def apply(params: PrandtlIshlinskii, u, state=None) -> tuple[np.ndarray, np.ndar
     z0 = _state(params, state)
     z, zf = play_matrix(params.thresholds, u, z0, params.input_offset)
     v = params.output_offset + z @ params.weights
-    return (output_map(params, v) if params.output_poly else v), zf
+    return (output_map(params, v) if params.output_map is not None else v), zf
 
 
 def output_map_inverse(params: PrandtlIshlinskii, y) -> np.ndarray:
-    """S⁻¹(y) = y + Σ_k g_k·yᵏ: the plays' sum that gives output y (identity for a classical PI).
+    """S⁻¹(y): the plays' sum that gives output y (identity for a classical PI).
 
     Parameters
     ----------
@@ -316,62 +320,35 @@ def output_map_inverse(params: PrandtlIshlinskii, y) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        The plays' weighted sum plus offset, v. [output unit]
+        The plays' weighted sum plus offset, v (flat beyond the knots). [unit of v]
     """
     yy = np.asarray(y, dtype=float)
-    v = yy.copy()
-    for k, g in enumerate(params.output_poly, start=2):
-        v = v + g * yy**k
-    return v
+    if params.output_map is None:
+        return yy.copy()
+    yk, vk = params.output_map
+    return np.interp(yy, yk, vk)
 
 
 def output_map(params: PrandtlIshlinskii, v) -> np.ndarray:
-    """S(v): the output for a plays' sum v, solving S⁻¹(y) = v (Newton's method).
+    """S(v): the output for a plays' sum v (saturating at the end knots).
 
     Parameters
     ----------
     params : PrandtlIshlinskii
         The operator. [-]
     v : array_like
-        The plays' weighted sum plus offset. [output unit]
+        The plays' weighted sum plus offset. [unit of v]
 
     Returns
     -------
     numpy.ndarray
         Output y. [output unit]
-
-    Raises
-    ------
-    InputError
-        Where S⁻¹ is not increasing (the fitted map was used far outside its range).
     """
     vv = np.asarray(v, dtype=float)
-    if not params.output_poly:
+    if params.output_map is None:
         return vv.copy()
-    def slope(y):
-        d = np.ones_like(y)
-        for k, g in enumerate(params.output_poly, start=2):
-            d = d + k * g * y ** (k - 1)
-        return d
-
-    y = vv.copy()
-    if np.any(slope(y) <= 0):
-        raise InputError("params: the output map is not increasing here; the input leaves the fitted range")
-    for _ in range(100):
-        step = (output_map_inverse(params, y) - vv) / slope(y)
-        new = y - step
-        for _ in range(60):  # damped: never step onto a falling part of S⁻¹
-            bad = slope(new) <= 0
-            if not np.any(bad):
-                break
-            step = np.where(bad, 0.5 * step, step)
-            new = y - step
-        else:
-            raise InputError("params: the output map is not increasing here; the input leaves the fitted range")
-        y = new
-        if np.all(np.abs(step) <= 1e-15 * np.maximum(np.abs(y), 1e-300)):
-            break
-    return y
+    yk, vk = params.output_map
+    return np.interp(vv, vk, yk)
 
 
 def loading_curve(params: PrandtlIshlinskii, u) -> np.ndarray:
@@ -394,7 +371,7 @@ def loading_curve(params: PrandtlIshlinskii, u) -> np.ndarray:
     x = np.asarray(u, dtype=float) - params.input_offset
     a = np.abs(x)[..., None]
     v = params.output_offset + np.sign(x) * (np.clip(a - params.thresholds, 0.0, None) @ params.weights)
-    return output_map(params, v) if params.output_poly else v
+    return output_map(params, v) if params.output_map is not None else v
 
 
 def inverse(params: PrandtlIshlinskii) -> PrandtlIshlinskii:
@@ -427,8 +404,8 @@ def inverse(params: PrandtlIshlinskii) -> PrandtlIshlinskii:
     Proc. Control Theory Appl. 148(3), 185–192 (the inverse PI operator); Kuhnen, K. (2003),
     European Journal of Control 9(4), 407–418, eq. (12)–(13) (its thresholds and weights).
     """
-    if params.output_poly:
-        raise InputError("params: a modified PI operator (output_poly) has no PI inverse; use invert()")
+    if params.output_map is not None:
+        raise InputError("params: a modified PI operator (output_map) has no PI inverse; use invert()")
     r, w = params.thresholds, params.weights
     if r[0] != 0.0:
         raise InputError(f"params: the first threshold is {r[0]!r}; the inverse needs a play of threshold 0")
@@ -488,7 +465,7 @@ def forward_state(params: PrandtlIshlinskii, inverse_state_) -> np.ndarray:
     numpy.ndarray
         The forward operator's play outputs, shape (n,). [input unit]
     """
-    return inverse_state(inverse(replace(params, output_poly=())), inverse_state_)
+    return inverse_state(inverse(replace(params, output_map=None)), inverse_state_)
 
 
 def invert(params: PrandtlIshlinskii, y, state=None) -> tuple[np.ndarray, np.ndarray]:
@@ -510,7 +487,7 @@ def invert(params: PrandtlIshlinskii, y, state=None) -> tuple[np.ndarray, np.nda
     state : numpy.ndarray
         The forward operator's play outputs after the last sample. [input unit]
     """
-    classical = replace(params, output_poly=())
+    classical = replace(params, output_map=None)
     inv = inverse(classical)
     z_inv = inverse_state(classical, _state(params, state))
     u, zf_inv = apply(inv, output_map_inverse(params, y), z_inv)
