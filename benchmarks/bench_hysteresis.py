@@ -6,8 +6,9 @@
    inverse PI operator.
 2. **Real data** (``../shared/data/real/festo10_isometric.csv``, not bundled; skipped when absent):
    force against pressure at a held length, inflate then deflate, three trials per (muscle,
-   length). Per (muscle, length) a classical PI operator (pressure [Pa] → force [N], 6 plays up to
-   310 kPa, weights ≥ 0) is fitted on trials 8 and 9 and scored on trial 10, held out. Loop width
+   length). Per (muscle, length) a modified PI operator (pressure [Pa] → force [N], 2 plays at 0
+   and 10 kPa, weights ≥ 0, a monotone output map of 8 knots) is fitted on trials 8 and 9 and
+   scored on trial 10, held out (other configurations: benchmarks/RESULTS.md). Loop width
    = mean over a pressure grid of (deflate − inflate) force, on trial 10: *before* on the measured
    force (the width any static map leaves), *after* on the residual force − PI prediction.
    Samples at the load cell's floor (−8.735 N, slack muscle) are left out of fit and width.

@@ -113,7 +113,7 @@ def test_cli_bad_input_exits_2(cli, args, message):
 def test_prandtl_ishlinskii_compensation_beside_the_branches(result):
     """The PI variant (its own sweep with minor loops, the exact inverse as feed-forward).
 
-    Measured at 4 s (sweep 32 s): RMS 0.97 mm, max 2.44 mm against the single cubic's
+    Measured at 4 s (sweep 32 s): RMS 0.97 mm, max 2.42 mm against the single cubic's
     2.35 / 3.87 mm (ratios 0.41 / 0.63); the branches, fitted on the major loop the sinusoid
     follows, do better (0.38 mm)."""
     s = result.summary()
