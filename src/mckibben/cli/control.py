@@ -283,7 +283,7 @@ def hysteresis_cmd(
                                                                 "its law, with no friction loop to compensate."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """Length tracking with and without hysteresis compensation (inflate/deflate branches, Prandtl–Ishlinskii)."""
+    """Length tracking with and without hysteresis compensation (inflate/deflate branches)."""
     from mckibben.control import hysteresis_compensation, plot_hysteresis
 
     check_outputs(plot, dpi)
