@@ -300,4 +300,7 @@ def hysteresis_cmd(
                 ["method", "RMS error mm", "max error mm"],
                 [["single cubic", res.rms_error[0] * 1e3, res.max_error[0] * 1e3],
                  ["inflate/deflate branches", res.rms_error[1] * 1e3, res.max_error[1] * 1e3],
-                 ["ratio branches / single", res.rms_ratio, res.max_ratio]])
+                 ["ratio branches / single", res.rms_ratio, res.max_ratio]]
+                + ([["Prandtl–Ishlinskii inverse", res.pi_rms_error * 1e3, res.pi_max_error * 1e3],
+                    ["ratio PI / single", res.pi_rms_error / res.rms_error[0], res.pi_max_error / res.max_error[0]]]
+                   if res.pi is not None else []))

@@ -17,7 +17,12 @@ feed-forward of :mod:`mckibben.control.length` buys over a single static map:
    through (i) the single cubic and (ii) the branches, picked by
    :func:`~mckibben.control.length.inflating_direction`; both run as one batch of the pressure
    loop (no encoder outer loop), so the whole length error is the feed-forward's;
-3. the RMS and maximum length error after the first cycle of each, and their ratios.
+3. the RMS and maximum length error after the first cycle of each, and their ratios;
+4. **Prandtl–Ishlinskii variant** (``pi=True``, new keys only): a second sweep at the same
+   rate with minor loops inside the range (:data:`PI_TURNS`: reversals inside the loop are what
+   identifies how the muscle turns round), a modified PI operator fitted to it
+   (:func:`~mckibben.control.length.fit_pi_hysteresis`), and the same tracking with the
+   pressure reference from its exact inverse (:meth:`~mckibben.control.length.PIHysteresis.pressure`).
 """
 
 from __future__ import annotations
@@ -28,7 +33,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import Polynomial
 
-from mckibben.control.length import HysteresisBranches, fit_hysteresis_branches, inflating_direction
+from mckibben.control.length import (
+    HysteresisBranches,
+    PIHysteresis,
+    fit_hysteresis_branches,
+    fit_pi_hysteresis,
+    inflating_direction,
+)
 from mckibben.errors import InputError
 
 #: Fraction of the sweep's length span left out at each end of the branch fits (saturation).
@@ -48,6 +59,12 @@ SWEEP_PERIOD_FACTOR = 8.0
 HOLD_S = 0.5
 
 METHODS = ("single_cubic", "branches")
+#: Turning points of the Prandtl–Ishlinskii identification sweep, as fractions of
+#: [p_low, p_high]: one major loop (the first rise conditions the plays and is not fitted), then
+#: minor loops of shrinking size around the middle of the range. [-]
+PI_TURNS = (0.0, 1.0, 0.0, 0.85, 0.35, 0.8, 0.4, 0.75, 0.45, 0.7, 0.5, 0.65, 0.55, 1.0, 0.0)
+#: Plays and knots of the output map of the fitted (modified) operator. [-]
+PI_PLAYS, PI_OUTPUT_KNOTS = 6, 8
 
 
 @dataclass(frozen=True)
@@ -86,6 +103,18 @@ class HysteresisBenefit:
         Pressure references, (2, n). [Pa]
     rms_error, max_error : numpy.ndarray
         RMS and maximum absolute length error after the first cycle, per method. [m]
+    pi : PIHysteresis, optional
+        The Prandtl–Ishlinskii operator fitted on its own sweep (None with ``pi=False``). [-]
+    pi_sweep_pressure, pi_sweep_length : numpy.ndarray, optional
+        Its sweep with minor loops: measured pressure [Pa] and length [m].
+    pi_fit_mask : numpy.ndarray of bool, optional
+        Samples of that sweep the fit used. [-]
+    pi_length, pi_pressure_ref : numpy.ndarray, optional
+        Tracking with the inverse operator's pressure: length [m] and reference [Pa].
+    pi_rms_error, pi_max_error : float
+        Its RMS and maximum length error after the first cycle (NaN without). [m]
+    pi_error : str
+        Why the operator could not be fitted on this plant (empty when it was). [-]
     """
 
     period: float
@@ -106,6 +135,15 @@ class HysteresisBenefit:
     pressure_ref: np.ndarray
     rms_error: np.ndarray
     max_error: np.ndarray
+    pi: PIHysteresis | None = None
+    pi_sweep_pressure: np.ndarray | None = None
+    pi_sweep_length: np.ndarray | None = None
+    pi_fit_mask: np.ndarray | None = None
+    pi_length: np.ndarray | None = None
+    pi_pressure_ref: np.ndarray | None = None
+    pi_rms_error: float = math.nan
+    pi_max_error: float = math.nan
+    pi_error: str = ""
 
     @property
     def rms_ratio(self) -> float:
@@ -150,6 +188,18 @@ class HysteresisBenefit:
                for i, name in enumerate(METHODS)},
             "rms_ratio": self.rms_ratio,
             "max_ratio": self.max_ratio,
+            **({"prandtl_ishlinskii": {"error": self.pi_error}} if self.pi_error else {}),
+            **({} if self.pi is None else {"prandtl_ishlinskii": {
+                "rms_error_m": self.pi_rms_error, "max_error_m": self.pi_max_error,
+                "rms_ratio_to_single": float(self.pi_rms_error / self.rms_error[0]),
+                "max_ratio_to_single": float(self.pi_max_error / self.max_error[0]),
+                "rms_ratio_to_branches": float(self.pi_rms_error / self.rms_error[1]),
+                "fit_rmse_Pa": self.pi.rmse, "n_plays": self.pi.model.n, "output_knots": PI_OUTPUT_KNOTS,
+                "sweep_turns_fraction": list(PI_TURNS),
+                "weights": self.pi.model.weights.tolist(),
+                "weights_stderr": [float(v) for v in self.pi.model.stderr]
+                if self.pi.model.stderr is not None else None,
+                "thresholds_Pa": self.pi.model.thresholds.tolist()}}),
         }
 
 
@@ -158,9 +208,18 @@ def _triangle(n: int, p_low: float, p_high: float) -> np.ndarray:
     return p_low + (p_high - p_low) * np.where(phase < 0.5, 2 * phase, 2 - 2 * phase)
 
 
+def _turns(turns, n_per_unit: int, p_low: float, p_high: float) -> np.ndarray:
+    """A piecewise-linear pressure reference through turning points (fractions of the range)."""
+    f = np.asarray(turns, dtype=float)
+    segs = [np.linspace(a, b, max(int(round(abs(b - a) * n_per_unit)), 1), endpoint=False)
+            for a, b in zip(f[:-1], f[1:])]
+    return p_low + (p_high - p_low) * np.concatenate(segs + [f[-1:]])
+
+
 def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = None, mean: float | None = None,
                        cycles: int = 2, plant=None, sweep_period: float | None = None, p_low: float = 0.1e6,
-                       p_high: float = 0.7e6, beta: float | None = None, ts: float = 1e-3) -> HysteresisBenefit:
+                       p_high: float = 0.7e6, beta: float | None = None, ts: float = 1e-3,
+                       pi: bool = True) -> HysteresisBenefit:
     """Length tracking error with and without hysteresis compensation, on the plant.
 
     Parameters
@@ -190,6 +249,9 @@ def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = 
         (:data:`mckibben.control.experiments.SMC_TUNING`). [PWM counts]
     ts : float, default 1e-3
         Control period. [s]
+    pi : bool, default True
+        Also fit and track with the Prandtl–Ishlinskii operator (its own sweep and tracking
+        run; the other results do not change). [-]
 
     Returns
     -------
@@ -264,8 +326,33 @@ def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = 
     err = length[:, n_per:] - l_ref[n_per:]
     rms = np.sqrt(np.mean(err ** 2, axis=1))
     mx = np.max(np.abs(err), axis=1)
-    return HysteresisBenefit(period=float(period), sweep_period=sweep_period, cycles=cycles, mean=mean,
-                             amplitude=amplitude, sweep_pressure=p_sw, sweep_length=l_sw, sweep_inflating=up_sw,
-                             fit_mask=mask,
-                             branches=branches, single=single, rmse_single=rmse_single, t=t, length_ref=l_ref,
-                             length=length, pressure_ref=refs[:, n_hold:], rms_error=rms, max_error=mx)
+    def _benefit(**more) -> HysteresisBenefit:
+        return HysteresisBenefit(**more, period=float(period), sweep_period=sweep_period, cycles=cycles, mean=mean,
+                                 amplitude=amplitude, sweep_pressure=p_sw, sweep_length=l_sw,
+                                 sweep_inflating=up_sw, fit_mask=mask, branches=branches, single=single,
+                                 rmse_single=rmse_single, t=t, length_ref=l_ref, length=length,
+                                 pressure_ref=refs[:, n_hold:], rms_error=rms, max_error=mx)
+
+    extra: dict = {}
+    if pi:
+        # (d) Prandtl–Ishlinskii: a sweep with minor loops at the main sweep's rate, fitted
+        # from zero pressure (virgin plays), the first rise left out; then the same tracking
+        ref_pi = np.r_[np.zeros(n_hold), _turns(PI_TURNS, n_sw // 2, p_low, p_high)]
+        rec_pi = run_closed_loop(core_spec(params), ref_pi, ref_pi.size * ts, plant, ts)
+        p_pi, l_pi = rec_pi.pressure[0], rec_pi.length[0]
+        if not (np.all(np.isfinite(p_pi)) and np.all(np.isfinite(l_pi))):
+            raise InputError("Prandtl–Ishlinskii sweep diverged on this plant")
+        first_peak = int(np.argmax(ref_pi >= p_high))
+        m_pi = (l_pi >= lo + FIT_MARGIN * span) & (l_pi <= hi - FIT_MARGIN * span) & (np.arange(p_pi.size) >= first_peak)
+        try:
+            op = fit_pi_hysteresis(p_pi, l_pi, mask=m_pi, reference_length=hi, n_plays=PI_PLAYS,
+                                   output_knots=PI_OUTPUT_KNOTS)
+        except InputError as exc:  # the PI variant is an addition: report why it is missing, keep the rest
+            return _benefit(pi_error=str(exc), pi_sweep_pressure=p_pi, pi_sweep_length=l_pi, pi_fit_mask=m_pi)
+        p_op = np.clip(op.pressure(l_full)[0], 0.0, None)
+        trk_pi = run_closed_loop(core_spec(params), p_op, l_full.size * ts, plant, ts)
+        err_pi = trk_pi.length[0, n_hold:][n_per:] - l_ref[n_per:]
+        extra = {"pi": op, "pi_sweep_pressure": p_pi, "pi_sweep_length": l_pi, "pi_fit_mask": m_pi,
+                 "pi_length": trk_pi.length[0, n_hold:], "pi_pressure_ref": p_op[n_hold:],
+                 "pi_rms_error": float(np.sqrt(np.mean(err_pi ** 2))), "pi_max_error": float(np.max(np.abs(err_pi)))}
+    return _benefit(**extra)

@@ -10,6 +10,13 @@ sliding mode or PID) runs inside. Two refinements:
   a function of length, to a quasi-static inflate/deflate sweep; :func:`length_feedforward`
   then picks the branch by the direction the target moves (length falling = inflating) and
   keeps the last branch while the target holds still;
+- **Prandtl–Ishlinskii compensation**: :func:`fit_pi_hysteresis` fits a (modified)
+  Prandtl–Ishlinskii operator from pressure to contraction
+  (:mod:`mckibben.models.hysteresis`, :mod:`mckibben.fit.hysteresis`) and
+  :meth:`PIHysteresis.pressure` inverts it exactly: the pressure for a length target follows
+  from the target's whole history through the operator's memory, direction-aware without
+  switching branches (a reversal inside the loop moves the pressure through the loop's
+  interior, as the muscle does);
 - **outer loop on the encoder**: :func:`length_loop_kernel` wraps the core kernel (so the
   supervisor stays below it) with a PI correction of the pressure reference from the length
   error measured by the encoder, on top of the feed-forward.
@@ -25,7 +32,9 @@ import numpy as np
 from mckibben._jit import njit
 from mckibben.control.core import N_ISTATE, core_kernel
 from mckibben.errors import InputError
+from mckibben.fit.hysteresis import PIFit, fit_prandtl_ishlinskii
 from mckibben.hardware import ENCODER_RESOLUTION
+from mckibben.models.hysteresis import PrandtlIshlinskii, apply, invert, thresholds_uniform
 
 #: Encoder resolution of the paper's rig (:data:`mckibben.hardware.ENCODER_RESOLUTION`).
 ENCODER_M_PER_COUNT = ENCODER_RESOLUTION
@@ -121,6 +130,137 @@ def fit_hysteresis_branches(pressure, length, inflating, degree: int = 3) -> Hys
     return HysteresisBranches(coefs[0], coefs[1], (float(ell.min()), float(ell.max())), rmses[0], rmses[1])
 
 
+@dataclass(frozen=True)
+class PIHysteresis:
+    """A muscle's pressure-to-contraction hysteresis as a Prandtl–Ishlinskii operator.
+
+    Contraction is ``reference_length − length``; the operator's input is the gauge pressure.
+
+    Parameters
+    ----------
+    model : PrandtlIshlinskii
+        Pressure [Pa] to contraction [m] (a modified PI when its ``output_map`` is set). [-]
+    reference_length : float
+        Length at zero contraction of the operator's output. [m]
+    length_range : tuple of float
+        Lengths the fit covered; targets outside are clipped to it. [m]
+    fit : PIFit
+        The fit record (weights' standard errors, residuals). [-]
+    """
+
+    model: PrandtlIshlinskii
+    reference_length: float
+    length_range: tuple
+    fit: PIFit
+
+    @property
+    def rmse(self) -> float:
+        """Fit residual: contraction [m] for a classical PI, pressure [Pa] for a modified one."""
+        return self.fit.fit.residual_rms
+
+    def pressure(self, length_ref, state=None) -> tuple[np.ndarray, np.ndarray]:
+        """The pressure sequence that holds a length sequence (the exact inverse operator).
+
+        Parameters
+        ----------
+        length_ref : array_like
+            Target length per sample. [m]
+        state : array_like, optional
+            The operator's play states before the first sample; default virgin (the muscle
+            at zero gauge pressure, never inflated). [Pa]
+
+        Returns
+        -------
+        pressure : numpy.ndarray
+            Pressure per sample. [Pa]
+        state : numpy.ndarray
+            Play states after the last sample. [Pa]
+        """
+        ell = np.clip(np.asarray(length_ref, dtype=float), *self.length_range)
+        return invert(self.model, self.reference_length - ell, state)
+
+    def length(self, pressure, state=None) -> tuple[np.ndarray, np.ndarray]:
+        """The length the operator predicts for a pressure sequence.
+
+        Parameters
+        ----------
+        pressure : array_like
+            Pressure per sample. [Pa]
+        state : array_like, optional
+            Play states before the first sample; default virgin. [Pa]
+
+        Returns
+        -------
+        length : numpy.ndarray
+            Length per sample. [m]
+        state : numpy.ndarray
+            Play states after the last sample. [Pa]
+        """
+        c, z = apply(self.model, pressure, state)
+        return self.reference_length - c, z
+
+    def summary(self) -> dict:
+        """JSON-ready: the operator, its fit residual and range."""
+        return {"model": self.model.to_dict(), "reference_length_m": self.reference_length,
+                "length_range_m": list(self.length_range),
+                f"rmse_{'Pa' if self.model.output_map is not None else 'm'}": self.rmse, "r2": self.fit.fit.r2,
+                "flags": list(self.fit.fit.flags)}
+
+
+def fit_pi_hysteresis(pressure, length, *, mask=None, reference_length: float | None = None, n_plays: int = 6,
+                      output_knots: int = 8) -> PIHysteresis:
+    """Fit a Prandtl–Ishlinskii operator, pressure to contraction, on a recorded pressure sweep.
+
+    The plays run over the whole record from the virgin state (the record must start at zero
+    gauge pressure or from a state that the first samples wash out); the fit uses the samples
+    of ``mask`` (leave out the saturated ends, where length is not a function of pressure).
+    The sweep should reverse inside the fitted range (minor loops): a single major loop
+    determines only the loop's width, not how the muscle turns round.
+
+    Parameters
+    ----------
+    pressure : array_like
+        Measured pressure per sample, in time order. [Pa]
+    length : array_like
+        Measured length per sample. [m]
+    mask : array_like of bool, optional
+        Samples to fit; default all. [-]
+    reference_length : float, optional
+        Length of zero contraction; default the longest length recorded. [m]
+    n_plays : int, default 6
+        Number of plays, thresholds evenly spaced up to half the fitted samples' pressure span. [-]
+    output_knots : int, default 8
+        Knots of the modified PI's monotone output map (0: the classical PI; the map follows the
+        S-shaped contraction of a muscle). [-]
+
+    Returns
+    -------
+    PIHysteresis
+        The operator, its fit and range.
+
+    References
+    ----------
+    Kuhnen, K. (2003), European Journal of Control 9(4), 407–418 (modified PI operator);
+    Krejčí & Kuhnen (2001), IEE Proc. Control Theory Appl. 148(3), 185–192 (its inverse).
+    """
+    p = np.asarray(pressure, dtype=float)
+    ell = np.asarray(length, dtype=float)
+    if not (p.shape == ell.shape) or p.ndim != 1:
+        raise InputError("fit_pi_hysteresis: pressure and length must be 1-D of equal length")
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(ell))):
+        raise InputError("fit_pi_hysteresis: pressure or length contains NaN or infinite values")
+    m = np.ones(p.size, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+    if m.shape != p.shape or np.count_nonzero(m) < 10 * (n_plays + output_knots):
+        raise InputError(f"mask: too few samples to fit ({np.count_nonzero(m)})")
+    l_ref = float(ell.max()) if reference_length is None else float(reference_length)
+    if not math.isfinite(l_ref):
+        raise InputError(f"reference_length: {reference_length!r} must be finite")
+    r = thresholds_uniform(n_plays, float(np.ptp(p[m])))
+    res = fit_prandtl_ishlinskii(p, l_ref - ell, r, mask=m, output_knots=output_knots, input_unit="Pa",
+                                 output_unit="m", what="fit_pi_hysteresis")
+    return PIHysteresis(res.model, l_ref, (float(ell[m].min()), float(ell[m].max())), res)
+
+
 def inflating_direction(length_ref) -> np.ndarray:
     """Which branch each sample of a length reference is on: True while the length falls.
 
@@ -151,7 +291,7 @@ def inflating_direction(length_ref) -> np.ndarray:
 
 
 def length_feedforward(length_ref, *, muscle=None, load: float = 0.6, p_max: float = 0.8e6,
-                       branches: HysteresisBranches | None = None) -> np.ndarray:
+                       branches: HysteresisBranches | None = None, pi: PIHysteresis | None = None) -> np.ndarray:
     """Pressure reference for a length reference: the static inverse, optionally per branch.
 
     Parameters
@@ -166,6 +306,9 @@ def length_feedforward(length_ref, *, muscle=None, load: float = 0.6, p_max: flo
         Pressure limit; targets beyond reach become an error. [Pa]
     branches : HysteresisBranches, optional
         Fitted inflate/deflate branches: hysteresis compensation. [-]
+    pi : PIHysteresis, optional
+        A fitted Prandtl–Ishlinskii operator: compensation through its exact inverse, from the
+        virgin state at the first sample (exclusive with ``branches``). [-]
 
     Returns
     -------
@@ -184,6 +327,10 @@ def length_feedforward(length_ref, *, muscle=None, load: float = 0.6, p_max: flo
     ell = np.asarray(length_ref, dtype=float)
     if ell.ndim != 1 or not np.all(np.isfinite(ell)):
         raise InputError("length reference must be a finite 1-D array")
+    if branches is not None and pi is not None:
+        raise InputError("pi: give either branches or pi, not both")
+    if pi is not None:
+        return np.clip(pi.pressure(ell)[0], 0.0, p_max)
     if branches is not None:
         return np.clip(branches.pressure(ell, inflating_direction(ell)), 0.0, p_max)
     from mckibben.datasets import get_muscle

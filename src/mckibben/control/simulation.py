@@ -1225,11 +1225,13 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
 
 
 def hysteresis_compensation(period="4s", *, sweep_period=None, muscle_file=None):
-    """Length tracking with and without hysteresis compensation (inflate/deflate branches).
+    """Length tracking with and without hysteresis compensation (inflate/deflate branches, Prandtl–Ishlinskii).
 
     Identifies the plant (:func:`identified_model`), records a quasi-static pressure triangle,
     fits one cubic per branch and one through both, then tracks a length sinusoid with each
-    (:func:`~mckibben.control.hysteresis.hysteresis_benefit`).
+    (:func:`~mckibben.control.hysteresis.hysteresis_benefit`); a second sweep with minor loops
+    fits a Prandtl–Ishlinskii operator whose exact inverse gives a third pressure reference
+    (summary key ``prandtl_ishlinskii``).
 
     Parameters
     ----------

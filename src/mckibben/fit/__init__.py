@@ -2,7 +2,8 @@
 
 See :mod:`mckibben.fit.core` (engines, :class:`FitResult`, bounded multi-start fits with flags,
 cluster-robust covariance), :mod:`mckibben.fit.static` (one fit per static model),
-:mod:`mckibben.fit.isometric` (force models on isometric tests), :mod:`mckibben.fit.compare`
+:mod:`mckibben.fit.isometric` (force models on isometric tests), :mod:`mckibben.fit.hysteresis`
+(Prandtl–Ishlinskii operators on inflate/deflate data), :mod:`mckibben.fit.compare`
 (every model on the same data), :mod:`mckibben.fit.registry` (``fit_table``/``compare_table``:
 what ``mckibben fit``/``compare`` run) and :mod:`mckibben.fit.muscle_file` (fitted laws in
 muscle files).
@@ -18,6 +19,7 @@ _EXPORTS = {
     "COND_MAX": "core", "FitResult": "core", "bounded_fit": "core", "cluster_covariance": "core",
     "linear_fit": "core", "nonlinear_fit": "core",
     "compare_isometric": "isometric", "fit_isometric": "isometric",
+    "PIFit": "hysteresis", "fit_prandtl_ishlinskii": "hysteresis",
     "compare_table": "registry", "fit_table": "registry",
 }
 
@@ -30,6 +32,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.fit.core import cluster_covariance as cluster_covariance
     from mckibben.fit.core import linear_fit as linear_fit
     from mckibben.fit.core import nonlinear_fit as nonlinear_fit
+    from mckibben.fit.hysteresis import PIFit as PIFit
+    from mckibben.fit.hysteresis import fit_prandtl_ishlinskii as fit_prandtl_ishlinskii
     from mckibben.fit.isometric import compare_isometric as compare_isometric
     from mckibben.fit.isometric import fit_isometric as fit_isometric
     from mckibben.fit.registry import compare_table as compare_table

@@ -299,8 +299,8 @@ def _check_condition(matrix: np.ndarray, what: str) -> float:
 
 def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_range: dict,
                func: Callable | None = None, condition: dict | None = None, source: str = "",
-               scale=None, clusters=None) -> FitResult:
-    """Ordinary least squares y ≈ X·β with standard errors.
+               scale=None, clusters=None, nonnegative=None) -> FitResult:
+    """Ordinary least squares y ≈ X·β with standard errors (optionally some β ≥ 0).
 
     Parameters
     ----------
@@ -330,6 +330,11 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
         Trial label per row: with five or more trials (:data:`MIN_CLUSTERS`) the covariance is cluster-robust
         (:func:`cluster_covariance`) and the intervals use t with (trials − 1) degrees of freedom.
         [-]
+    nonnegative : array_like of bool, optional
+        Which coefficients are held ≥ 0 (bounded least squares, :func:`scipy.optimize.lsq_linear`
+        on the column-scaled design). A coefficient that ends at 0 is held there for the
+        covariance (its standard error is NaN) and flagged ``<name>_at_lower_bound``; the others'
+        covariance is s²·(X_fᵀX_f)⁻¹ over the free columns, s² = SSR/(n − p). [-]
 
     Returns
     -------
@@ -340,6 +345,10 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
     n, p = x.shape
     require_points(n, p, what)
     cond = _check_condition(x, what)
+    if nonnegative is not None:
+        return _nonnegative_fit(x, y, names, np.asarray(nonnegative, dtype=bool), cond, model=model,
+                                response=response, valid_range=valid_range, func=func, condition=condition,
+                                source=source, scale=scale, clusters=clusters)
     norms = np.linalg.norm(x, axis=0)
     beta_s, *_ = np.linalg.lstsq(x / norms, y, rcond=None)
     beta = beta_s / norms
@@ -360,6 +369,45 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
         cov = cov * np.outer(sc, sc)
     r2 = _r2(y, resid)
     flags = ("r2_below_0.5",) if not r2 >= R2_FLAG else ()
+    return FitResult(model, tuple(names), beta, cov, dof, n, resid, response, r2, dict(valid_range),
+                     cond, dict(condition or {}), func, source, flags, t_dof, method)
+
+
+def _nonnegative_fit(x, y, names, nonneg, cond, *, model, response, valid_range, func, condition, source, scale,
+                     clusters) -> FitResult:
+    """The bounded branch of :func:`linear_fit`: some coefficients ≥ 0, held at 0 for the covariance."""
+    n, p = x.shape
+    if nonneg.shape != (p,):
+        raise InputError(f"nonnegative: {nonneg.size} flags for {p} coefficients")
+    norms = np.linalg.norm(x, axis=0)
+    xs = x / norms
+    lo = np.where(nonneg, 0.0, -np.inf)
+    res = optimize.lsq_linear(xs, y, bounds=(lo, np.full(p, np.inf)), method="bvls", tol=1e-14)
+    beta = res.x / norms
+    at = nonneg & (res.x <= 1e-12 * max(float(np.max(np.abs(res.x))), 1e-300))
+    beta[at] = 0.0
+    resid = y - x @ beta
+    dof = n - p
+    free = ~at
+    cov = np.full((p, p), np.nan)
+    t_dof, method = None, "ols"
+    if free.any():
+        if use_clusters(clusters):
+            cf = cluster_covariance(x[:, free], resid, clusters)
+            t_dof = int(np.unique(clusters).size - 1)
+            method = f"cluster-robust ({t_dof + 1} trials)"
+        else:
+            s2 = float(resid @ resid) / dof
+            xf = xs[:, free]
+            cf = s2 * np.linalg.inv(xf.T @ xf) / np.outer(norms[free], norms[free])
+        cov[np.ix_(free, free)] = cf
+    if scale is not None:
+        sc = np.asarray(scale, dtype=float)
+        beta = beta * sc
+        cov = cov * np.outer(sc, sc)
+    r2 = _r2(y, resid)
+    flags = tuple(f"{nm}_at_lower_bound" for nm, a in zip(names, at) if a)
+    flags += ("r2_below_0.5",) if not r2 >= R2_FLAG else ()
     return FitResult(model, tuple(names), beta, cov, dof, n, resid, response, r2, dict(valid_range),
                      cond, dict(condition or {}), func, source, flags, t_dof, method)
 

@@ -6,7 +6,8 @@ return a :class:`StaticResult` whatever the model.
 
 Modules: :mod:`~mckibben.models.kinematic` (eq. 1–2), :mod:`~mckibben.models.mpam` (braid-angle
 cubics, length and its inverse), :mod:`~mckibben.models.spring` (F = K(P, Ls)·Ls),
-:mod:`~mckibben.models.physical` (Chou–Hannaford, Tondu–Lopez, wall thickness).
+:mod:`~mckibben.models.physical` (Chou–Hannaford, Tondu–Lopez, wall thickness),
+:mod:`~mckibben.models.hysteresis` (the Prandtl–Ishlinskii operator and its exact inverse).
 """
 
 from mckibben.models.flags import Flag, flag_names
