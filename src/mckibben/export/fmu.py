@@ -9,7 +9,10 @@ system C compiler, and its ``modelDescription.xml``:
 - outputs ``pressure`` (chamber, gauge) [Pa], ``length`` (muscle) [m], ``force`` (muscle pull) [N];
 - parameters ``supply_pressure`` [Pa], ``load_force`` [N] (hanging load) and the force law's θ
   (``law_theta_RR``: row RR of the law's parameter vector, :mod:`mckibben.models.laws`), with the
-  published set's or the muscle file's values as start values; the rest of the rig is fixed at export.
+  published set's or the muscle file's values as start values; the rest of the rig is fixed at export;
+- with ``controller="smc"|"pid"``: the firmware's own controller core (``firmware/core/controller.c``)
+  closes the loop inside at 1 kHz; the input is then the pressure ``reference`` [Pa] and the valve
+  commands and the core's fault flags are outputs.
 
 **One physics, the Python side is the source.** The Numba plant (:mod:`mckibben.plant.physics`,
 :func:`mckibben.plant.params.derive`, the static start of :mod:`mckibben.plant.simulator`, the law
@@ -43,7 +46,9 @@ import numpy as np
 from mckibben import __version__
 from mckibben import hardware as HW
 from mckibben.atomic import atomic_file, check_output_file
-from mckibben.control.simulation import muscle_file_plant, plant_load
+from mckibben.control.core import MODE_PID, MODE_SMC, CoreParams, gain_values
+from mckibben.control.simulation import (controller_params, identify_file_plant, muscle_file_plant, plant_load,
+                                         tuned_controller)
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError, check_instance
 from mckibben.models import laws as LW
@@ -59,15 +64,19 @@ C_LAWS = {"tondu-lopez": "MK_LAW_TONDU_LOPEZ", "chou-hannaford": "MK_LAW_CHOU_HA
 #: The FMU's model identifier (the binary's and the functions' name).
 MODEL_IDENTIFIER = "mckibben_plant"
 #: The C sources of the plant, package data of :mod:`mckibben.export` (``c/``).
-PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
+PLANT_SOURCES = ("mk_plant.h", "mk_plant.c", "mk_loop.h", "mk_loop.c")
+#: The firmware's controller core compiled into a closed-loop FMU (``firmware/core``, the C that runs on the Mega).
+FIRMWARE_SOURCES = ("controller.c", "controller.h", "laws.h", "law_stsmc.h")
+#: Controllers that close the loop inside the FMU (the firmware core's modes).
+CONTROLLERS = ("smc", "pid")
 #: FMI versions written. [-]
 FMI_VERSIONS = (2, 3)
 #: The FMI headers each version's wrapper includes, read from FMPy's package.
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
 #: Value references (both FMI versions): outputs, inputs, parameters; θ row r is THETA_VR + r.
-VR = {"time": 0, "pressure": 1, "length": 2, "force": 3, "inlet": 4, "bleed": 5, "supply_pressure": 10,
-      "load_force": 11}
+VR = {"time": 0, "pressure": 1, "length": 2, "force": 3, "inlet": 4, "bleed": 5, "reference": 6, "faults": 7,
+      "supply_pressure": 10, "load_force": 11}
 THETA_VR = 100
 #: Control period and RK4 substeps of the FMU's integrator: :func:`mckibben.plant.simulate`'s defaults.
 TS, SUBSTEPS = HW.CONTROL_PERIOD, 10
@@ -76,7 +85,8 @@ _UNITS = {"Pa": 'kg="1" m="-1" s="-2"', "m": 'm="1"', "N": 'kg="1" m="1" s="-2"'
 
 
 def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi: int = 3, controller=None, *,
-               load=None, supply=None, direction: str = "inflate", plant: PP.PlantParams | None = None) -> Path:
+               load=None, supply=None, direction: str = "inflate", law: str = "model", beta=None,
+               plant: PP.PlantParams | None = None) -> Path:
     """Write the plant as an FMU: a published muscle set or a fitted muscle file, FMI 3.0 or 2.0.
 
     Parameters
@@ -91,9 +101,14 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         The FMU to write (``.fmu``); written whole or not at all. [-]
     fmi : {3, 2}, default 3
         FMI version. [-]
-    controller : None
-        Reserved for the firmware's controller core inside the FMU (not built yet: close the loop
-        in the importer); anything but None is refused. [-]
+    controller : {None, "smc", "pid"} or CoreParams, optional
+        Close the loop inside the FMU with the firmware's own controller core
+        (``firmware/core/controller.c``, the C that runs on the Mega) at the 1 ms control period:
+        ``"smc"``/``"pid"`` with the documented design (:func:`mckibben.control.simulation.controller_params`,
+        or tuned on a muscle file's plant as ``control step --muscle-file`` does), or a design's
+        :class:`~mckibben.control.core.CoreParams` (``mckibben.control.core.load_design``). The FMU
+        then takes a pressure ``reference`` [Pa] and gives the valve commands as outputs. None: the
+        open plant. [-]
     load : float or str, optional
         Hanging load, the FMU's ``load_force`` start value; default 0.6 N (as ``mckibben simulate
         open-loop``). [N]
@@ -102,6 +117,10 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         file's top fitted pressure. [Pa]
     direction : {"inflate", "deflate"}, default "inflate"
         With ``muscle_file``: the branch of its law. [-]
+    law : {"model", "paper"}, default "model"
+        With ``controller="smc"``: our sliding mode (model term) or the paper's β·tanh(S/ε). [-]
+    beta : float, optional
+        With ``controller="smc"``: the switching gain (default the law's). [PWM counts]
     plant : PlantParams, optional
         Any one rig (scalar fields) instead of ``muscle``/``muscle_file``. [-]
 
@@ -114,23 +133,22 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
     ------
     InputError
         One line naming the argument: an unknown muscle, a bad muscle file, two sources, a bad
-        ``fmi``, ``out`` not a writable ``.fmu``, a controller, a law the C port lacks; or no
-        FMPy (the FMI headers) or no C compiler.
+        ``fmi``, ``out`` not a writable ``.fmu``, an unknown controller, a law the C port lacks;
+        or no FMPy (the FMI headers) or no C compiler.
     """
     if fmi not in FMI_VERSIONS or isinstance(fmi, bool):
         raise InputError(f"fmi: {fmi!r}; choose 3 (FMI 3.0) or 2 (FMI 2.0)")
-    if controller is not None:
-        raise InputError(f"controller: {controller!r}: the controller inside the FMU is not built yet; export "
-                         "the plant (no controller) and close the loop in the importer")
     dest = check_output_file(out, "out", suffixes=(".fmu",))
     plant = _plant(muscle, muscle_file, plant, load, supply, direction)
-    prm, law, theta, name = plant.prepare(1)
+    ctrl = _controller(controller, plant, muscle_file, law, beta)
+    prm, law_index, theta, name = plant.prepare(1)
     if name not in C_LAWS:
         raise InputError(f"force law {name}: the FMU's C port has no kernel for it (it has {', '.join(C_LAWS)})")
     headers = _fmi_headers(fmi)
     cc = _compiler()
     label = _label(plant, muscle, muscle_file)
-    model_h = _model_header(prm[0], theta[:, 0], law, plant.thermal)
+    core = _firmware_core() if ctrl is not None else None
+    model_h = _model_header(prm[0], theta[:, 0], law_index, plant.thermal, ctrl)
     guid = "{" + str(uuid.UUID(bytes=hashlib.sha256((model_h + str(fmi)).encode()).digest()[:16])) + "}"
     model_h += f'#define MK_GUID "{guid}"\n\n#endif\n'
     with tempfile.TemporaryDirectory(prefix="mckibben-fmu-") as tmp:
@@ -140,15 +158,20 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         pkg = resources.files("mckibben.export") / "c"
         for fname in PLANT_SOURCES + (f"fmi{fmi}_plant.c",):
             (src / fname).write_bytes((pkg / fname).read_bytes())
+        sources: tuple[str, ...] = ("mk_plant.c", "mk_loop.c", f"fmi{fmi}_plant.c")
+        if core is not None:
+            for fname in FIRMWARE_SOURCES:
+                shutil.copyfile(core / fname, src / fname)
+            sources += ("controller.c",)
         for h in headers:
             shutil.copyfile(h, src / h.name)
         (src / "mk_model.h").write_text(model_h)
         plat = _platform(fmi)
         binary = root / "binaries" / plat / (MODEL_IDENTIFIER + ".so")
         binary.parent.mkdir(parents=True)
-        _compile(cc, src, [src / "mk_plant.c", src / f"fmi{fmi}_plant.c"], binary)
-        sources = ("mk_plant.c", f"fmi{fmi}_plant.c")
-        desc = (_description3 if fmi == 3 else _description2)(guid, label, name, theta[:, 0], prm[0], sources)
+        _compile(cc, src, [src / f for f in sources], binary)
+        variables = _variables(name, theta[:, 0], prm[0], ctrl is not None)
+        desc = (_description3 if fmi == 3 else _description2)(guid, label, name, variables, sources)
         (root / "modelDescription.xml").write_text(desc, encoding="utf-8")
         if fmi == 3:
             (src / "buildDescription.xml").write_text(_build_description(sources), encoding="utf-8")
@@ -189,6 +212,44 @@ def _plant(muscle, muscle_file, plant, load, supply, direction) -> PP.PlantParam
     if published.name == PP.PlantParams().muscle_name:  # the calibrated default rig, as `simulate open-loop`
         return PP.PlantParams(supply_pressure=s, load_force=f)
     return PP.PlantParams.for_muscle(published, supply_pressure=s, load_force=f)
+
+
+def _controller(controller, plant, muscle_file, law, beta) -> CoreParams | None:
+    """The firmware core's parameters to close the loop with, or None for the open plant."""
+    if controller is None:
+        if beta is not None or law != "model":
+            raise InputError("law, beta: they tune a controller; give controller='smc'")
+        return None
+    if isinstance(controller, CoreParams):
+        return controller
+    if not isinstance(controller, str) or controller not in CONTROLLERS:
+        raise InputError(f"controller: {controller!r}; choose {' or '.join(CONTROLLERS)} (or a CoreParams design)")
+    if muscle_file is not None:  # tuned on the file's own plant, as `control step --muscle-file`
+        return tuned_controller(controller, identify_file_plant(plant), plant, law=law, beta=beta).params
+    return controller_params(controller, law=law, beta=beta)
+
+
+def controller_mode(controller: str) -> int:
+    """The firmware core's mode of a controller name (``smc``, ``pid``).
+
+    Parameters
+    ----------
+    controller : str
+        A name of :data:`CONTROLLERS`. [-]
+    """
+    if controller not in CONTROLLERS:
+        raise InputError(f"controller: {controller!r}; choose {' or '.join(CONTROLLERS)}")
+    return MODE_SMC if controller == "smc" else MODE_PID
+
+
+def _firmware_core() -> Path:
+    """``firmware/core`` of the source tree this package runs from."""
+    core = Path(__file__).resolve().parents[3] / "firmware" / "core"
+    missing = [f for f in FIRMWARE_SOURCES if not (core / f).is_file()]
+    if missing:
+        raise InputError(f"controller: the firmware's C core ({core}) is not in this installation; export a "
+                         "closed-loop FMU from a source checkout of mckibben")
+    return core
 
 
 def _label(plant, muscle, muscle_file) -> str:
@@ -263,7 +324,7 @@ def _xml(x: float) -> str:
     return repr(x)
 
 
-def _model_header(fields: np.ndarray, theta: np.ndarray, law: int, thermal: str) -> str:
+def _model_header(fields: np.ndarray, theta: np.ndarray, law: int, thermal: str, ctrl: CoreParams | None) -> str:
     """``mk_model.h``: the Python plant's layout and constants, and this FMU's values."""
     lines = ["/* mk_model.h: generated by mckibben.export.fmu from the Python plant (the source of truth):",
              "   its parameter columns, law indices, theta rows and constants, and this FMU's values. */",
@@ -290,6 +351,17 @@ def _model_header(fields: np.ndarray, theta: np.ndarray, law: int, thermal: str)
     for k, x in consts.items():
         d(f"#define MK_{k} {_c(x)}")
     d(f"#define MK_SUBSTEPS {int(SUBSTEPS)}")
+    d(f"#define MK_ADC_MAX {int(HW.ADC_MAX)}")
+    d(f"#define MK_CONTROLLER {0 if ctrl is None else 1}")
+    if ctrl is not None:
+        gains = gain_values(ctrl)
+        d(f"#define MK_CTRL_TS_US {int(round(TS * 1e6))}")
+        d(f"#define MK_CTRL_MODE {int(ctrl.mode)}")
+        d(f"#define MK_CTRL_P_MAX {int(np.rint(ctrl.p_max))}L")
+        d(f"#define MK_CTRL_OL_INLET {int(ctrl.open_loop_inlet)}")
+        d(f"#define MK_CTRL_OL_BLEED {int(ctrl.open_loop_bleed)}")
+        d(f"#define MK_CTRL_N_GAINS {len(gains)}")
+        d("static const long MK_CTRL_GAINS[MK_CTRL_N_GAINS] = {" + ", ".join(f"{int(g)}L" for g in gains) + "};")
     for load in PP.Load:
         d(f"#define MK_LOAD_{load.name.upper()} {int(load)}")
     d(f"#define MK_THERMAL_ENERGY {1 if thermal == 'energy' else 0}")
@@ -304,20 +376,37 @@ def _units3() -> str:
     return "".join(f'    <Unit name="{u}"><BaseUnit {b}/></Unit>\n' for u, b in _UNITS.items())
 
 
-_OUTPUTS = (("pressure", "Pa", "chamber pressure, gauge"), ("length", "m", "muscle length"),
-            ("force", "N", "muscle pulling force"))
-_INPUTS = (("inlet", "inlet valve command, PWM counts 0..255 (lift-off near 112)"),
-           ("bleed", "bleed valve command, PWM counts 0..255"))
+_PLANT_OUTPUTS = (("pressure", "Pa", "chamber pressure, gauge"), ("length", "m", "muscle length"),
+                  ("force", "N", "muscle pulling force"))
 
 
-def _parameters(name: str, theta: np.ndarray, prm: np.ndarray):
+def _variables(name: str, theta: np.ndarray, prm: np.ndarray, closed: bool) -> list[dict]:
+    """The FMU's variables, in modelDescription order: outputs, inputs, parameters."""
     c = PP.Col
-    yield ("supply_pressure", VR["supply_pressure"], prm[c["supply_pressure"]], "Pa",
-           "regulated supply pressure, gauge (at most 1 MPa)")
-    yield ("load_force", VR["load_force"], prm[c["load_force"]], "N", "hanging load on the muscle")
-    for r, v in enumerate(theta):
-        yield (f"law_theta_{r:02d}", THETA_VR + r, v, None,
-               f"force law {name}: row {r} of its parameters (mckibben.models.laws, SI)")
+    out = [dict(name=v, vr=VR[v], causality="output", variability="continuous", type="real", unit=u, desc=d)
+           for v, u, d in _PLANT_OUTPUTS]
+    commands = (("inlet", "inlet valve command, PWM counts 0..255 (lift-off near 112)"),
+                ("bleed", "bleed valve command, PWM counts 0..255"))
+    if closed:
+        out += [dict(name=v, vr=VR[v], causality="output", variability="discrete", type="int",
+                     desc=d + ", from the firmware's controller core") for v, d in commands]
+        out.append(dict(name="faults", vr=VR["faults"], causality="output", variability="discrete", type="int",
+                        desc="the controller core's fault flags (MCK_FAULT_*, firmware/core/controller.h)"))
+        out.append(dict(name="reference", vr=VR["reference"], causality="input", variability="continuous",
+                        type="real", unit="Pa", start=0.0,
+                        desc="pressure reference of the controller, gauge (sampled every control period)"))
+    else:
+        out += [dict(name=v, vr=VR[v], causality="input", variability="discrete", type="int", start=0, desc=d,
+                     bounds=(0, 255)) for v, d in commands]
+    out.append(dict(name="supply_pressure", vr=VR["supply_pressure"], causality="parameter", variability="fixed",
+                    type="real", unit="Pa", start=prm[c["supply_pressure"]],
+                    desc="regulated supply pressure, gauge (at most 1 MPa)"))
+    out.append(dict(name="load_force", vr=VR["load_force"], causality="parameter", variability="fixed",
+                    type="real", unit="N", start=prm[c["load_force"]], desc="hanging load on the muscle"))
+    out += [dict(name=f"law_theta_{r:02d}", vr=THETA_VR + r, causality="parameter", variability="fixed",
+                 type="real", start=v, desc=f"force law {name}: row {r} of its parameters (mckibben.models.laws, SI)")
+            for r, v in enumerate(theta)]
+    return out
 
 
 def _head(fmi: str, guid_attr: str, guid: str, label: str, name: str) -> str:
@@ -327,54 +416,54 @@ def _head(fmi: str, guid_attr: str, guid: str, label: str, name: str) -> str:
             f'generationTool="mckibben {__version__}" variableNamingConvention="flat">\n')
 
 
-def _description3(guid, label, name, theta, prm, sources) -> str:
+def _attrs(v: dict, fmi: int) -> str:
+    a = ""
+    if "start" in v:
+        a += f' start="{_xml(v["start"]) if v["type"] == "real" else int(v["start"])}"'
+    if "bounds" in v:
+        a += f' min="{v["bounds"][0]}" max="{v["bounds"][1]}"'
+    if v.get("unit"):
+        a += f' unit="{v["unit"]}"'
+    return a
+
+
+def _description3(guid, label, name, variables, sources) -> str:
     s = _head("3.0", "instantiationToken", guid, label, name)
     s += (f'  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" '
           f'fixedInternalStepSize="{_xml(TS / SUBSTEPS)}" canBeInstantiatedOnlyOncePerProcess="false"/>\n')
     s += "  <UnitDefinitions>\n" + _units3() + "  </UnitDefinitions>\n"
     s += f'  <DefaultExperiment startTime="0" stopTime="1" stepSize="{_xml(TS)}"/>\n  <ModelVariables>\n'
     s += '    <Float64 name="time" valueReference="0" causality="independent" variability="continuous"/>\n'
-    for vname, unit, desc in _OUTPUTS:
-        s += (f'    <Float64 name="{vname}" valueReference="{VR[vname]}" causality="output" variability="continuous" '
-              f'unit="{unit}" description={quoteattr(desc)}/>\n')
-    for vname, desc in _INPUTS:
-        s += (f'    <Int32 name="{vname}" valueReference="{VR[vname]}" causality="input" variability="discrete" '
-              f'start="0" min="0" max="255" description={quoteattr(desc)}/>\n')
-    for vname, vr, v, unit, desc in _parameters(name, theta, prm):
-        u = f' unit="{unit}"' if unit else ""
-        s += (f'    <Float64 name="{vname}" valueReference="{vr}" causality="parameter" variability="fixed" '
-              f'start="{_xml(v)}"{u} description={quoteattr(desc)}/>\n')
+    for v in variables:
+        tag = "Float64" if v["type"] == "real" else "Int32"
+        s += (f'    <{tag} name="{v["name"]}" valueReference="{v["vr"]}" causality="{v["causality"]}" '
+              f'variability="{v["variability"]}"{_attrs(v, 3)} description={quoteattr(v["desc"])}/>\n')
     s += "  </ModelVariables>\n  <ModelStructure>\n"
-    for vname, _, _ in _OUTPUTS:
-        s += f'    <Output valueReference="{VR[vname]}" dependencies=""/>\n'
-    for vname, _, _ in _OUTPUTS:
-        s += f'    <InitialUnknown valueReference="{VR[vname]}"/>\n'
+    outputs = [v for v in variables if v["causality"] == "output"]
+    s += "".join(f'    <Output valueReference="{v["vr"]}" dependencies=""/>\n' for v in outputs)
+    s += "".join(f'    <InitialUnknown valueReference="{v["vr"]}"/>\n' for v in outputs)
     s += "  </ModelStructure>\n</fmiModelDescription>\n"
     return s
 
 
-def _description2(guid, label, name, theta, prm, sources) -> str:
+def _description2(guid, label, name, variables, sources) -> str:
     s = _head("2.0", "guid", guid, label, name)
     s += (f'  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true">\n'
           "    <SourceFiles>\n" + "".join(f'      <File name="{f}"/>\n' for f in sources)
           + "    </SourceFiles>\n  </CoSimulation>\n")
     s += "  <UnitDefinitions>\n" + _units3() + "  </UnitDefinitions>\n"
     s += f'  <DefaultExperiment startTime="0" stopTime="1" stepSize="{_xml(TS)}"/>\n  <ModelVariables>\n'
-    for vname, unit, desc in _OUTPUTS:
-        s += (f'    <ScalarVariable name="{vname}" valueReference="{VR[vname]}" causality="output" '
-              f'variability="continuous" description={quoteattr(desc)}><Real unit="{unit}"/></ScalarVariable>\n')
-    for vname, desc in _INPUTS:
-        s += (f'    <ScalarVariable name="{vname}" valueReference="{VR[vname]}" causality="input" '
-              f'variability="discrete" description={quoteattr(desc)}><Integer start="0" min="0" max="255"/>'
-              "</ScalarVariable>\n")
-    for vname, vr, v, unit, desc in _parameters(name, theta, prm):
-        u = f' unit="{unit}"' if unit else ""
-        s += (f'    <ScalarVariable name="{vname}" valueReference="{vr}" causality="parameter" variability="fixed" '
-              f'initial="exact" description={quoteattr(desc)}><Real start="{_xml(v)}"{u}/></ScalarVariable>\n')
+    for v in variables:
+        tag = "Real" if v["type"] == "real" else "Integer"
+        initial = ' initial="exact"' if v["causality"] == "parameter" else ""
+        s += (f'    <ScalarVariable name="{v["name"]}" valueReference="{v["vr"]}" causality="{v["causality"]}" '
+              f'variability="{v["variability"]}"{initial} description={quoteattr(v["desc"])}>'
+              f'<{tag}{_attrs(v, 2)}/></ScalarVariable>\n')
+    index = [i + 1 for i, v in enumerate(variables) if v["causality"] == "output"]
     s += "  </ModelVariables>\n  <ModelStructure>\n    <Outputs>\n"
-    s += "".join(f'      <Unknown index="{i + 1}" dependencies=""/>\n' for i in range(len(_OUTPUTS)))
+    s += "".join(f'      <Unknown index="{i}" dependencies=""/>\n' for i in index)
     s += "    </Outputs>\n    <InitialUnknowns>\n"
-    s += "".join(f'      <Unknown index="{i + 1}"/>\n' for i in range(len(_OUTPUTS)))
+    s += "".join(f'      <Unknown index="{i}"/>\n' for i in index)
     s += "    </InitialUnknowns>\n  </ModelStructure>\n</fmiModelDescription>\n"
     return s
 

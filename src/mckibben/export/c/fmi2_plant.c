@@ -6,18 +6,24 @@
  * (parameters); Integer 4 inlet, 5 bleed [PWM counts 0..255] (inputs). A doStep holds the inputs
  * over the step and integrates it in RK4 steps of MK_TS/MK_SUBSTEPS, as mckibben.plant.simulate
  * does over a control period.
+ * Built with MK_CONTROLLER (mk_loop.c: the firmware's controller core closes the loop), 4, 5
+ * become outputs, Real 6 reference [Pa] is the input and Integer 7 faults an output.
  */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
+#include "mk_loop.h"
 #include "mk_plant.h"
 
 enum { MODE_INSTANTIATED, MODE_INIT, MODE_STEP, MODE_TERMINATED };
 
 typedef struct {
     mk_plant pl;
+#if MK_CONTROLLER
+    mk_loop loop;
+#endif
     fmi2CallbackLogger log;
     fmi2ComponentEnvironment env;
     int mode;
@@ -36,6 +42,9 @@ static void settle(inst_t *c)
     if (c->dirty) {
         mk_derive(&c->pl);
         mk_initial_state(&c->pl);
+#if MK_CONTROLLER
+        mk_loop_init(&c->loop);
+#endif
         c->dirty = 0;
     }
 }
@@ -104,6 +113,9 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
     i->dirty = 1;
     settle(i);
     i->pl.time = t0;
+#if MK_CONTROLLER
+    i->loop.t0 = t0;
+#endif
     i->mode = MODE_STEP;
     return fmi2OK;
 }
@@ -133,6 +145,9 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         else if (v == 3) value[k] = f;
         else if (v == 10) value[k] = i->pl.prm[MK_C_supply_pressure];
         else if (v == 11) value[k] = i->pl.prm[MK_C_load_force];
+#if MK_CONTROLLER
+        else if (v == 6) value[k] = i->loop.reference;
+#endif
         else if (v >= 100 && v < 100 + MK_NTH) value[k] = i->pl.th[v - 100];
         else return fmi2Error;
     }
@@ -145,6 +160,12 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     size_t k;
     for (k = 0; k < nvr; k++) {
         unsigned v = vr[k];
+#if MK_CONTROLLER
+        if (v == 6) {
+            i->loop.reference = value[k];
+            continue;
+        }
+#endif
         if (i->mode != MODE_INSTANTIATED && i->mode != MODE_INIT) {
             say(i, fmi2Error, "parameters are fixed: set them before the end of initialization");
             return fmi2Error;
@@ -165,6 +186,9 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     for (k = 0; k < nvr; k++) {
         if (vr[k] == 4) value[k] = i->pl.inlet;
         else if (vr[k] == 5) value[k] = i->pl.bleed;
+#if MK_CONTROLLER
+        else if (vr[k] == 7) value[k] = i->loop.faults;
+#endif
         else return fmi2Error;
     }
     return fmi2OK;
@@ -175,6 +199,12 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     inst_t *i = (inst_t *)c;
     size_t k;
     int in = i->pl.inlet, bl = i->pl.bleed;
+#if MK_CONTROLLER
+    if (nvr) {
+        say(i, fmi2Error, "inlet/bleed are outputs of this FMU: its controller sets them");
+        return fmi2Error;
+    }
+#endif
     for (k = 0; k < nvr; k++) {
         int u = value[k];
         if (u < 0 || u > 255) {
@@ -193,6 +223,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint)
 {
     inst_t *i = (inst_t *)c;
+    int rc;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!(communicationStepSize > 0.0)) {
         say(i, fmi2Error, "doStep: the communication step must be > 0");
@@ -200,7 +231,12 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     }
     settle(i);
     i->pl.time = currentCommunicationPoint;
-    if (mk_advance(&i->pl, communicationStepSize)) {
+#if MK_CONTROLLER
+    rc = mk_loop_advance(&i->loop, &i->pl, communicationStepSize);
+#else
+    rc = mk_advance(&i->pl, communicationStepSize);
+#endif
+    if (rc) {
         say(i, fmi2Error, "the plant's state became non-finite");
         return fmi2Error;
     }

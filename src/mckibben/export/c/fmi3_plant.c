@@ -6,18 +6,24 @@
  * [Pa], 11 load_force [N] (parameters); 100 + r the force law's theta row r (parameters).
  * A doStep holds the inputs over the step (zero-order hold) and integrates it in RK4 steps of
  * MK_TS/MK_SUBSTEPS, as mckibben.plant.simulate does over a control period.
+ * Built with MK_CONTROLLER (mk_loop.c: the firmware's controller core closes the loop), 4, 5
+ * become outputs, 6 reference [Pa] is the input and 7 faults an output.
  */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "fmi3Functions.h"
+#include "mk_loop.h"
 #include "mk_plant.h"
 
 enum { MODE_INSTANTIATED, MODE_INIT, MODE_STEP, MODE_TERMINATED };
 
 typedef struct {
     mk_plant pl;
+#if MK_CONTROLLER
+    mk_loop loop;
+#endif
     fmi3InstanceEnvironment env;
     fmi3LogMessageCallback log;
     int mode;
@@ -36,6 +42,9 @@ static void settle(inst_t *c)
     if (c->dirty) {
         mk_derive(&c->pl);
         mk_initial_state(&c->pl);
+#if MK_CONTROLLER
+        mk_loop_init(&c->loop);
+#endif
         c->dirty = 0;
     }
 }
@@ -132,6 +141,9 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
     c->dirty = 1;
     settle(c);
     c->pl.time = t0;
+#if MK_CONTROLLER
+    c->loop.t0 = t0;
+#endif
     c->mode = MODE_STEP;
     return fmi3OK;
 }
@@ -165,6 +177,9 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
         else if (v == 3) values[i] = f;
         else if (v == 10) values[i] = c->pl.prm[MK_C_supply_pressure];
         else if (v == 11) values[i] = c->pl.prm[MK_C_load_force];
+#if MK_CONTROLLER
+        else if (v == 6) values[i] = c->loop.reference;
+#endif
         else if (v >= 100 && v < 100 + MK_NTH) values[i] = c->pl.th[v - 100];
         else return fmi3Error;
     }
@@ -179,6 +194,12 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
     (void)nValues;
     for (i = 0; i < nvr; i++) {
         unsigned v = vr[i];
+#if MK_CONTROLLER
+        if (v == 6) {
+            c->loop.reference = values[i];
+            continue;
+        }
+#endif
         if (c->mode != MODE_INSTANTIATED && c->mode != MODE_INIT) {
             say(c, fmi3Error, "parameters are fixed: set them before the end of initialization");
             return fmi3Error;
@@ -201,6 +222,9 @@ fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference vr[], si
     for (i = 0; i < nvr; i++) {
         if (vr[i] == 4) values[i] = c->pl.inlet;
         else if (vr[i] == 5) values[i] = c->pl.bleed;
+#if MK_CONTROLLER
+        else if (vr[i] == 7) values[i] = c->loop.faults;
+#endif
         else return fmi3Error;
     }
     return fmi3OK;
@@ -213,6 +237,12 @@ fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference vr[], si
     size_t i;
     int in = c->pl.inlet, bl = c->pl.bleed;
     (void)nValues;
+#if MK_CONTROLLER
+    if (nvr) {
+        say(c, fmi3Error, "inlet/bleed are outputs of this FMU: its controller sets them");
+        return fmi3Error;
+    }
+#endif
     for (i = 0; i < nvr; i++) {
         int u = values[i];
         if (u < 0 || u > 255) {
@@ -235,6 +265,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
                       fmi3Float64 *lastSuccessfulTime)
 {
     inst_t *c = (inst_t *)instance;
+    int rc;
     (void)noSetFMUStatePriorToCurrentPoint;
     *eventHandlingNeeded = fmi3False;
     *terminateSimulation = fmi3False;
@@ -245,7 +276,12 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     }
     settle(c);
     c->pl.time = currentCommunicationPoint;
-    if (mk_advance(&c->pl, communicationStepSize)) {
+#if MK_CONTROLLER
+    rc = mk_loop_advance(&c->loop, &c->pl, communicationStepSize);
+#else
+    rc = mk_advance(&c->pl, communicationStepSize);
+#endif
+    if (rc) {
         say(c, fmi3Error, "the plant's state became non-finite");
         *lastSuccessfulTime = currentCommunicationPoint;
         return fmi3Error;
