@@ -22,7 +22,7 @@ if shutil.which("gcc") is None:
 
 from fmpy.validation import validate_fmu  # noqa: E402
 
-from mckibben.control.core import MODE_PID, save_design  # noqa: E402
+from mckibben.control.core import MODE_PID, core_spec, save_design  # noqa: E402
 from mckibben.control.metrics import step_metrics  # noqa: E402
 from mckibben.control.simulation import controller_params, muscle_file_plant, step_response  # noqa: E402
 from mckibben.data import read_muscle, read_table  # noqa: E402
@@ -147,6 +147,20 @@ def test_closed_loop_fmu_is_control_step_with_the_firmware_core(tmp_path, contro
                        t_step=want.step_time)["time_constant_s"]
     assert tau == pytest.approx(want.metrics["time_constant_s"], rel=0.05)
     assert tau == pytest.approx(want.metrics["time_constant_s"], rel=1e-9)
+
+
+def test_closed_loop_fmu_tracks_a_sine_as_simulate_does(tmp_path):
+    """The issue's third case: a sine reference (0.4 ± 0.2 MPa at 2 Hz, 0.5 s), our sliding mode."""
+    params = controller_params("smc")
+    t = np.arange(500) * 1e-3
+    ref = 0.4e6 + 0.2e6 * np.sin(2 * np.pi * 2.0 * t)
+    want = simulate(PlantParams(), 0.5, controller=core_spec(params), reference=ref)
+    fmu = export_fmu("mpam97", out=tmp_path / "s.fmu", controller=params)
+    inp = np.array(list(zip(np.append(t, 0.5), np.append(ref, ref[-1]))), dtype=[("time", float), ("reference", float)])
+    got = fmpy.simulate_fmu(str(fmu), stop_time=0.5, step_size=1e-3, output_interval=1e-3, input=inp,
+                            output=["pressure", "length"])
+    assert np.max(np.abs(got["pressure"][:500] - want.pressure[0])) < 1.0  # the bar: 1 kPa
+    assert np.max(np.abs(got["length"][:500] / want.length[0] - 1.0)) < 1e-9  # the bar: 0.1 %
 
 
 def test_closed_loop_from_the_cli_and_a_design_file(tmp_path, cli):
