@@ -26,11 +26,13 @@ from mckibben.control.core import MODE_PID, core_spec, save_design  # noqa: E402
 from mckibben.control.metrics import step_metrics  # noqa: E402
 from mckibben.control.simulation import controller_params, muscle_file_plant, step_response  # noqa: E402
 from mckibben.data import read_muscle, read_table  # noqa: E402
+from mckibben.datasets import get_muscle  # noqa: E402
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC  # noqa: E402
 from mckibben.errors import InputError  # noqa: E402
 from mckibben.export import export_fmu  # noqa: E402
 from mckibben.fit.isometric import fit_isometric  # noqa: E402
 from mckibben.fit.muscle_file import save_muscle_file  # noqa: E402
+from mckibben.models.laws.relative_strain import RelativeStrain  # noqa: E402
 from mckibben.plant import PlantParams, simulate  # noqa: E402
 
 STEP, DURATION = 117, 0.5
@@ -86,6 +88,30 @@ def test_published_fmu_validates_and_equals_the_numba_plant(tmp_path, fmi):
             f"sources/fmi{fmi}Functions.h"} <= files
     sim = simulate(PlantParams(), DURATION, inlet=STEP, n=1)
     _assert_equivalent(_run(fmu), sim)
+
+
+_PLANTS = {  # every law of the registry the C port has, the other chamber model, the other loads
+    "chou-hannaford": lambda: PlantParams.for_muscle(get_muscle("mpam143"), force_model="chou-hannaford"),
+    "wall-corrected": lambda: PlantParams.for_muscle(get_muscle("mpam143"), force_model="wall-corrected"),
+    "braid-map": lambda: PlantParams.for_muscle(get_muscle("mpam143"), force_model="empirical"),
+    "relative-strain": lambda: PlantParams(force_model=RelativeStrain(4.0, 1.0, 10.0, 5.0, 0.005, 0.097)),
+    "polytropic": lambda: PlantParams(thermal="polytropic"),
+    "blocked": lambda: PlantParams().replace(load_kind="blocked"),
+    "spring load": lambda: PlantParams().replace(load_kind="spring", spring_stiffness=100.0, load_force=0.3),
+}
+
+
+@pytest.mark.parametrize("case", list(_PLANTS))
+def test_every_law_and_load_of_the_c_port_equals_the_numba_plant(tmp_path, case):
+    plant = _PLANTS[case]()
+    fmu = export_fmu(plant=plant, out=tmp_path / "p.fmu")
+    _assert_equivalent(_run(fmu, 0.3, 150), simulate(plant, 0.3, inlet=150, n=1))
+
+
+def test_a_law_the_integrator_refuses_is_refused_at_export(tmp_path):
+    with pytest.raises(InputError, match="negative stiffness"):
+        export_fmu(plant=PlantParams(force_model="wall-corrected"), out=tmp_path / "w.fmu")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_fmu_parameters_change_the_run_as_they_change_the_plant(tmp_path):
