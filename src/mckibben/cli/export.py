@@ -34,9 +34,9 @@ def fmu_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Write the plant (valve commands in; pressure, length, force out) as a co-simulation FMU."""
-    from mckibben.control.core import load_design
-    from mckibben.export import export_fmu
-    from mckibben.export.fmu import CONTROLLERS, controller_mode
+    from mckibben.control.core import load_design  # deferred: the library (SciPy, pandas, Numba) loads per command
+    from mckibben.export import export_fmu  # deferred: the library (SciPy, pandas, Numba) loads per command
+    from mckibben.export.fmu import CONTROLLERS, controller_mode  # deferred: as above
 
     ctrl: object = controller
     if design is not None:
