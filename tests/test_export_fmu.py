@@ -10,7 +10,9 @@ pressure lies within 1 % of ``mckibben simulate open-loop --valve 117 --json``'s
 
 from __future__ import annotations
 
+import os
 import shutil
+import subprocess
 import zipfile
 
 import numpy as np
@@ -30,6 +32,7 @@ from mckibben.datasets import get_muscle  # noqa: E402
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC  # noqa: E402
 from mckibben.errors import InputError  # noqa: E402
 from mckibben.export import export_fmu  # noqa: E402
+from mckibben.export.fmu import CFLAGS  # noqa: E402
 from mckibben.fit.isometric import fit_isometric  # noqa: E402
 from mckibben.fit.muscle_file import save_muscle_file  # noqa: E402
 from mckibben.models.laws.relative_strain import RelativeStrain  # noqa: E402
@@ -219,6 +222,23 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, cli, args, na
     assert r.code == 2
     assert r.err.count("\n") == 1 and named in r.err and "Traceback" not in r.err
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("controller", [None, "smc"])
+def test_the_fmu_rebuilds_from_its_own_sources_without_a_warning(tmp_path, controller):
+    """The sources inside are complete (another platform rebuilds from them) and warning-free."""
+    fmu = export_fmu("mpam97", out=tmp_path / "m.fmu", fmi=3, controller=controller)
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(tmp_path / "x")
+    src = tmp_path / "x" / "sources"
+    sources = [str(src / f) for f in sorted(os.listdir(src)) if f.endswith(".c")]
+    done = subprocess.run(["gcc", *CFLAGS, "-Werror", "-pedantic", f"-I{src}", "-o", str(tmp_path / "re.so"),
+                           *sources, "-lm"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    nm = subprocess.run(["nm", "-D", "--defined-only", str(tmp_path / "re.so")], capture_output=True, text=True)
+    if nm.returncode == 0:  # only the FMI functions are exported
+        names = {ln.split()[-1] for ln in nm.stdout.splitlines() if " T " in ln}
+        assert "fmi3DoStep" in names and all(n.startswith("fmi3") for n in names)
 
 
 def test_bad_out_and_controller_are_refused(tmp_path):
