@@ -416,11 +416,11 @@ def simulate(
                                 "for open loop")
     prm, law, theta = _prepared(plant, n_inst)
     ref = _as_rows(check_array(reference, "reference", unit="Pa"), n_inst, n_steps, "reference")
-    p_init = np.broadcast_to(check_array(initial_pressure, "initial_pressure", unit="Pa"), (n_inst,))
+    p_init = _per_instance(check_array(initial_pressure, "initial_pressure", unit="Pa"), n_inst, "initial_pressure")
     if np.any(~(p_init >= 0)) or np.any(p_init > prm[:, PP.Col.supply_pressure]):
         raise InputError("initial_pressure: must be between 0 and the supply pressure")
     if initial_length is not None:
-        l_init = np.broadcast_to(check_array(initial_length, "initial_length", unit="m"), (n_inst,))
+        l_init = _per_instance(check_array(initial_length, "initial_length", unit="m"), n_inst, "initial_length")
         if np.any(~(l_init >= prm[:, PP.Col.l_min])) or np.any(~(l_init <= prm[:, PP.Col.l_max])):
             raise InputError("initial_length: must lie between the braid's end stops, "
                              f"{prm[0, PP.Col.l_min] * 1e3:.1f}..{prm[0, PP.Col.l_max] * 1e3:.1f} mm "
@@ -475,6 +475,13 @@ def _counts(x, name: str) -> np.ndarray:
     if a.size and (a.min() < 0 or a.max() > 255):
         raise InputError(f"{name}: PWM counts must be in 0..255")
     return a
+
+
+def _per_instance(a: np.ndarray, n_inst: int, name: str) -> np.ndarray:
+    """``a`` as one value per instance: a scalar or an array of ``n_inst`` (else InputError naming it)."""
+    if a.ndim > 1 or (a.ndim == 1 and a.shape[0] not in (1, n_inst)):
+        raise InputError(f"{name}: shape {a.shape}; give a scalar or one value per instance ({n_inst})")
+    return np.broadcast_to(a, (n_inst,))
 
 
 _DEFAULT: list = []
