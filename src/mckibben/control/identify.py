@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize, special
 
 from mckibben.errors import InputError
 from mckibben.results import Result
@@ -215,7 +215,7 @@ class StepFit:
             Confidence level. [-]
         """
         dof = max(len(self.t) - len(self.params), 1)
-        q = stats.t.ppf(0.5 + level / 2.0, dof)
+        q = special.stdtrit(dof, 0.5 + level / 2.0)  # Student's t quantile (scipy.stats.t.ppf's own)
         return {k: (v - q * self.stderr[k], v + q * self.stderr[k]) for k, v in self.params.items()}
 
     def to_dict(self, output_unit: str = "", input_unit: str = "") -> dict:
@@ -843,7 +843,7 @@ def pooled_step_parameters(fits) -> dict:
     out: dict = {"n_trials": n}
     if n < 2:
         return out
-    q = float(stats.t.ppf(0.975, n - 1))
+    q = float(special.stdtrit(n - 1, 0.975))  # Student's t quantile (scipy.stats.t.ppf's own)
     for k in fits[0].params:
         if k in ("p_final", "p_supply_Pa"):  # set by each trial's command or supply, not a property to pool
             continue

@@ -19,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize, special
 
 from mckibben.errors import InputError
 from mckibben.models.flags import Flag, outside
@@ -139,7 +139,7 @@ class FitResult:
     @property
     def t_quantile(self) -> float:
         """Student's t quantile for a two-sided 95 % interval with :attr:`dof` degrees of freedom. [-]"""
-        return float(stats.t.ppf(0.975, self.t_dof if self.t_dof is not None else self.dof))
+        return float(special.stdtrit(self.t_dof if self.t_dof is not None else self.dof, 0.975))  # t quantile, as stats.t.ppf
 
     @property
     def ci95(self) -> np.ndarray:
