@@ -197,3 +197,22 @@ def test_pantograph_identity():
 def test_bad_names_suggest_close_matches():
     with pytest.raises(InputError, match=r"unknown muscle 'mpam9'\. Did you mean mpam97"):
         get_muscle("mpam9")
+
+
+@pytest.mark.parametrize("name", ["mpam97", "mpam117", "mpam143"])
+def test_the_batched_inverse_equals_the_scalar_one_to_the_bit(name):
+    """pressure_for_length solves its cubics as one batch: the same roots, Newton steps and choice as one at a time."""
+    from mckibben.models import mpam
+
+    m = get_muscle(name)
+    rng = np.random.default_rng(6)
+    length, load = rng.uniform(0.03, 0.2, 5000), rng.uniform(-0.5, 3.0, 5000)
+    target = mpam.braid_from_length(length, m.strand_length, m.k1, m.k2)
+    target[:3] = np.nan, np.inf, 0.0
+    coeffs = m.braid_map.coefficients_at(load)
+    coeffs[3] = (0.0, coeffs[3, 1], coeffs[3, 2], coeffs[3, 3])  # a row np.roots trims: the scalar path
+    coeffs[4, 3] = target[4]  # a zero constant term: the scalar path too
+    batched = mpam._lowest_roots(coeffs, target, 0.8)
+    one_by_one = np.array([mpam._lowest_root(coeffs[i], target[i], 0.8) for i in range(target.size)])
+    np.testing.assert_array_equal(batched, one_by_one)
+    assert np.isfinite(one_by_one).sum() > 500

@@ -274,9 +274,7 @@ def pressure_for_length(muscle: MiniatureMuscle, length, load, p_max: float = 0.
     target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
     coeffs = muscle.braid_map.coefficients_at(load)
     p_max_mpa = p_max / MPA
-    pressure = np.full(length.shape, np.nan)
-    for idx in np.ndindex(length.shape):
-        pressure[idx] = _lowest_root(coeffs[idx], target[idx], p_max_mpa)
+    pressure = _lowest_roots(coeffs.reshape(-1, 4), target.ravel(), p_max_mpa).reshape(length.shape)
     pressure *= MPA
     reached = np.isfinite(pressure)
     cos_theta, flags = braid_cos_theta(np.where(reached, pressure, 0.0), load, muscle.braid_map)
@@ -285,6 +283,59 @@ def pressure_for_length(muscle: MiniatureMuscle, length, load, p_max: float = 0.
     flags |= outside(load, *muscle.braid_map.load_range, Flag.LOAD_OUT_OF_RANGE)
     cos_theta = np.where(reached, cos_theta, target)
     return LengthPrediction(pressure, load, length, 1.0 - length / muscle.nominal_length, cos_theta, flags)
+
+
+def _lowest_roots(c: np.ndarray, target: np.ndarray, p_max: float) -> np.ndarray:
+    """:func:`_lowest_root` of every row of ``c`` (N, 4) and ``target`` (N,), the same arithmetic batched.
+
+    The common case, a true cubic whose constant term is not zero, runs as one batch: the
+    companion matrices ``np.roots`` builds, their eigenvalues (one LAPACK call each, as there),
+    the candidates in ascending order and the same three Newton steps by Horner's rule. Rows
+    ``np.roots`` would trim (a zero leading or trailing coefficient) and non-finite targets take
+    the scalar path. P in MPa.
+    """
+    out = np.full(target.shape, np.nan)
+    poly = np.empty((target.size, 4))
+    poly[:, :3] = c[:, :3]
+    poly[:, 3] = c[:, 3] - target
+    batch = np.isfinite(target) & (poly[:, 0] != 0) & (poly[:, 3] != 0) & np.isfinite(poly).all(axis=1)
+    for i in np.flatnonzero(~batch & np.isfinite(target)):
+        out[i] = _lowest_root(c[i], target[i], p_max)
+    if not batch.any():
+        return out
+    pb = poly[batch]
+    comp = np.zeros((pb.shape[0], 3, 3))
+    comp[:, 0, :] = -pb[:, 1:] / pb[:, :1]
+    comp[:, 1, 0] = comp[:, 2, 1] = 1.0
+    roots = np.linalg.eigvals(comp)
+    scale = np.maximum(1.0, np.max(np.abs(roots), axis=1, keepdims=True))
+    tol = 1e-9
+    real = np.where(np.abs(roots.imag) <= 1e-7 * scale, roots.real, np.inf)
+    cands = np.sort(np.where((real >= -tol) & (real <= p_max + tol), real, np.inf), axis=1)
+    dpoly = pb[:, :3] * np.array([3.0, 2.0, 1.0])  # np.polyder
+    found = np.full(pb.shape[0], np.nan)
+    for k in range(3):
+        live = np.isfinite(cands[:, k]) & np.isnan(found)
+        p = np.where(live, cands[:, k], 0.0)  # rows without a k-th candidate are evaluated at 0 and not used
+        for _ in range(3):  # Newton polish, stopped where the derivative vanishes, as the scalar path
+            f = _horner(pb, p)
+            df = _horner(dpoly, p)
+            step = live & (df != 0)
+            p = np.where(step, p - f / np.where(step, df, 1.0), p)
+            live = step
+        p = np.minimum(np.maximum(p, 0.0), p_max)
+        ok = np.isfinite(cands[:, k]) & np.isnan(found) & (np.abs(_horner(pb, p)) <= 1e-9)
+        found[ok] = p[ok]
+    out[batch] = found
+    return out
+
+
+def _horner(poly: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``np.polyval`` of each row of ``poly`` at each ``x``: the same Horner steps."""
+    y = np.zeros_like(x)
+    for j in range(poly.shape[1]):
+        y = y * x + poly[:, j]
+    return y
 
 
 def _lowest_root(c, target: float, p_max: float) -> float:

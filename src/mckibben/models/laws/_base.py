@@ -112,9 +112,18 @@ class Law:
 
 
 def _eval_python(kernel, p, length, th, col, w, out):
-    """The compiled loop's arithmetic, run by Python on the plain kernel (before Numba is loaded)."""
-    for i in range(p.size):
-        out[i] = kernel(p[i], length[i], th, col[i], w)
+    """The compiled loop's arithmetic, run by Python on the plain kernel (before Numba is loaded).
+
+    NumPy scalars follow the compiled code's ``error_model="numpy"`` (no warning, inf or NaN);
+    where Python's ``math`` would raise instead (a square root of a negative number), the call
+    is handed to the compiled loop, which gives NaN.
+    """
+    try:
+        with np.errstate(all="ignore"):
+            for i in range(p.size):
+                out[i] = kernel(p[i], length[i], th, col[i], w)
+    except (ArithmeticError, ValueError):
+        _eval_compiled(kernel, p, length, th, col, w, out)
 
 
 def _eval_compiled(kernel, p, length, th, col, w, out):
