@@ -9,18 +9,29 @@ leftmost column) is reported.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from mckibben.data.schema import BARE_COLUMNS, KINDS, PER_MUSCLE, QUANTITIES, SCHEMAS, SENSOR_COLUMNS
 from mckibben.atomic import check_input_file
 from mckibben.errors import InputError
 from mckibben.units import G_N, UNITS, to_si, units_of
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+
+def _pd():
+    """pandas, imported on first use: it costs about 0.25 s, and a simulation that reads no table needs none."""
+    import pandas  # deferred: pandas (0.25 s) only where a table is read
+
+    return pandas
 
 NUMERIC_SUFFIXES = (".csv", ".parquet", ".pq")
 
@@ -143,14 +154,14 @@ def _read_frame(path: Path, name: str) -> tuple[pd.DataFrame, bool]:
     check_input_file(path, None)
     if suffix == ".csv":
         try:
-            df = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False, skipinitialspace=True)
-        except pd.errors.EmptyDataError:
+            df = _pd().read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False, skipinitialspace=True)
+        except _pd().errors.EmptyDataError:
             raise InputError(f"{name}: the file is empty; it needs a header line and data rows") from None
-        except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        except (_pd().errors.ParserError, UnicodeDecodeError) as exc:
             raise InputError(f"{name}: cannot read as CSV: {' '.join(str(exc).split())}") from None
         return df, True
     try:
-        df = pd.read_parquet(path)
+        df = _pd().read_parquet(path)
     except Exception as exc:  # pyarrow raises several types for a bad file
         raise InputError(f"{name}: cannot read as Parquet: {' '.join(str(exc).split())}") from None
     return df.reset_index(drop=True), False
@@ -271,7 +282,7 @@ def read_table(path, kind: str | None = None) -> Table:
     if errors:
         errors.sort(key=lambda e: (e[0], e[1]))
         raise InputError(errors[0][2])
-    data = pd.DataFrame(out, index=pd.Index(rows, name="row"))
+    data = _pd().DataFrame(out, index=_pd().Index(rows, name="row"))
     if "trial" not in data:
         data["trial"] = 1
     if "time" in data:
@@ -540,12 +551,12 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
 
 def _numbers(raw: pd.Series) -> tuple[np.ndarray, list[tuple[int, str]]]:
     """Convert a column to float; list (1-based row, problem) for cells that are not finite numbers."""
-    if pd.api.types.is_numeric_dtype(raw) and not pd.api.types.is_bool_dtype(raw):
+    if _pd().api.types.is_numeric_dtype(raw) and not _pd().api.types.is_bool_dtype(raw):
         values = raw.to_numpy(dtype=float)
         text = None
     else:
         text = raw.astype(str).str.strip()
-        values = pd.to_numeric(text.where(text != "", None), errors="coerce").to_numpy(dtype=float)
+        values = _pd().to_numeric(text.where(text != "", None), errors="coerce").to_numpy(dtype=float)
     bad = []
     idx = np.flatnonzero(~np.isfinite(values))
     for i in idx[:1]:  # the first one is enough: one message per problem
