@@ -142,6 +142,18 @@ CASES = [
     ("reproduce-progress-5", lambda: mk.reproduce("rep", progress=5), "progress"),
     ("reproduce-out-None", lambda: mk.reproduce(None), "out"),
     ("reproduce-data-5", lambda: mk.reproduce("rep", data=5), "data"),
+    # the static models' entry points (issue 24: NaN, None, bool and a name where a muscle goes)
+    ("predict_length-pressure-nan", lambda: mk.predict_length(mk.get_muscle("mpam97"), NAN, 0.6), "pressure"),
+    ("predict_length-pressure-None", lambda: mk.predict_length(mk.get_muscle("mpam97"), None, 0.6), "pressure"),
+    ("predict_length-load-nan", lambda: mk.predict_length(mk.get_muscle("mpam97"), 0.4e6, NAN), "load"),
+    ("predict_length-load-True", lambda: mk.predict_length(mk.get_muscle("mpam97"), 0.4e6, True), "load"),
+    ("predict_length-muscle-name", lambda: mk.predict_length("mpam97", 0.4e6, 0.6), "muscle"),
+    ("predict_length-muscle-None", lambda: mk.predict_length(None, 0.4e6, 0.6), "muscle"),
+    ("pressure_for_length-muscle-name", lambda: mk.pressure_for_length("mpam97", 0.08, 0.6), "muscle"),
+    ("pressure_for_length-length-None", lambda: mk.pressure_for_length(mk.get_muscle("mpam97"), None, 0.6), "length"),
+    ("pressure_for_length-load-True", lambda: mk.pressure_for_length(mk.get_muscle("mpam97"), 0.08, True), "load"),
+    ("pressure_for_length-p_max-0", lambda: mk.pressure_for_length(mk.get_muscle("mpam97"), 0.08, 0.6, 0.0),
+     "p_max"),
 ]
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.errors import InputError, UnreachableError
+from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_real
 from mckibben.models.flags import Flag, flag_where, outside
 from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.kinematic import braid_from_length, length_from_braid
@@ -207,6 +207,13 @@ class LengthPrediction:
     flags: np.ndarray  #: Flag mask per element (uint16)
 
 
+def _check_muscle(muscle) -> None:
+    """``muscle`` is a :class:`MiniatureMuscle` (not its name, not None): else an error naming it."""
+    if not isinstance(muscle, MiniatureMuscle):
+        hint = f"; get one with get_muscle({muscle!r})" if isinstance(muscle, str) else ""
+        raise ArgumentTypeError(f"muscle = {muscle!r}: not a MiniatureMuscle ({type(muscle).__name__}){hint}")
+
+
 def predict_length(muscle: MiniatureMuscle, pressure, load) -> LengthPrediction:
     """Length and contraction of a miniature muscle at a pressure under a hanging load.
 
@@ -235,6 +242,9 @@ def predict_length(muscle: MiniatureMuscle, pressure, load) -> LengthPrediction:
     >>> round(float(r.length) * 1e3, 1), round(float(r.contraction), 3)
     (78.1, 0.195)
     """
+    _check_muscle(muscle)
+    pressure = check_array(pressure, "pressure", unit="Pa")
+    load = check_array(load, "load", unit="N")
     cos_theta, flags = braid_cos_theta(pressure, load, muscle.braid_map)
     length = length_from_braid(cos_theta, muscle.strand_length, muscle.k1, muscle.k2)
     flags = flags | flag_where(length < 0, Flag.NEGATIVE_LENGTH)
@@ -270,6 +280,11 @@ def pressure_for_length(muscle: MiniatureMuscle, length, load, p_max: float = 0.
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) and (3) inverted; §IV uses it as the feed-forward.
     """
+    _check_muscle(muscle)
+    if length is None or isinstance(length, (str, bytes, bool, np.bool_)):
+        raise ArgumentTypeError(f"length = {length!r}: not a number or an array of numbers ({type(length).__name__})")
+    load = check_array(load, "load", unit="N")
+    p_max = check_real(p_max, "p_max", lo=0.0, lo_open=True, unit="Pa")
     length, load = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(load, dtype=float))
     target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
     coeffs = muscle.braid_map.coefficients_at(load)
