@@ -362,3 +362,28 @@ def test_a_cache_save_failure_never_reaches_the_run(monkeypatch, tmp_path):
         assert disp(21.0) == 42.0
     assert [str(w.message) for w in caught] == [
         "a compiled kernel could not be cached (ReferenceError: underlying object has vanished)"]
+
+
+# --- mckibben doctor ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("address", ["notanaddress", "http://127.0.0.1:8786", "tcp://127.0.0.1", "tcp://host:port",
+                                     "tcp://:8786"])
+def test_doctor_refuses_a_bad_scheduler_address_before_the_warm_up(cli, address):
+    r = cli("doctor", "--scheduler", address)  # with the warm-up on: refused before any compiling
+    assert r.code == 2, (r.code, r.err)
+    assert r.err.count("\n") == 1 and r.err.startswith("error: scheduler:") and address in r.err, r.err
+
+
+def test_doctor_reports_the_cache_the_tools_and_an_unanswering_scheduler(cli):
+    import socket
+
+    with socket.socket() as s:  # a port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    r = cli("doctor", "--no-warm", "--scheduler", f"tcp://127.0.0.1:{port}", "--json")
+    assert r.code == 1, r.err  # not ok: the scheduler does not answer
+    out = r.json()
+    assert out["warm"] is None and out["ok"] is False and out["scheduler"]["reachable"] is False
+    assert out["cache_dir"] and set(out["tools"]) == {"avr-gcc", "simavr", "avrdude", "arduino-cli"}
+    assert "dask scheduler --port" in out["scheduler"]["detail"]

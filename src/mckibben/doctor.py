@@ -169,16 +169,30 @@ def _folder_bytes(path) -> int:
     return total
 
 
-def _probe_scheduler(address: str, timeout: float = 3.0) -> dict:
-    url = urlparse(address if "://" in address else f"tcp://{address}")
-    if url.scheme not in ("tcp", "tls") or not url.hostname or url.port is None:
-        raise InputError(f"scheduler: {address!r} is not a Dask scheduler address like tcp://127.0.0.1:8786")
+def _scheduler_address(address) -> tuple[str, int] | None:
+    """``(host, port)`` of a Dask scheduler address (None for None); else an InputError naming ``scheduler``."""
+    if address is None:
+        return None
+    if not isinstance(address, str):
+        raise InputError(f"scheduler: an address like tcp://127.0.0.1:8786, not a {type(address).__name__}")
     try:
-        with socket.create_connection((url.hostname, url.port), timeout=timeout):
+        url = urlparse(address if "://" in address else f"tcp://{address}")
+        port = url.port
+    except ValueError:  # a port that is not a number, or out of range
+        port = None
+    if url.scheme not in ("tcp", "tls") or not url.hostname or port is None:
+        raise InputError(f"scheduler: {address!r} is not a Dask scheduler address like tcp://127.0.0.1:8786")
+    return url.hostname, port
+
+
+def _probe_scheduler(address: str, timeout: float = 3.0) -> dict:
+    host, port = _scheduler_address(address)
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
             return {"address": address, "reachable": True, "detail": "accepts connections"}
     except OSError as exc:
         return {"address": address, "reachable": False,
-                "detail": f"{exc.strerror or exc}; start one with: dask scheduler --port {url.port}"}
+                "detail": f"{exc.strerror or exc}; start one with: dask scheduler --port {port}"}
 
 
 def check(scheduler: str | None = None) -> Report:
@@ -193,8 +207,7 @@ def check(scheduler: str | None = None) -> Report:
     -------
     Report
     """
-    if scheduler is not None and not isinstance(scheduler, str):
-        raise InputError(f"scheduler: an address like tcp://127.0.0.1:8786, not a {type(scheduler).__name__}")
+    _scheduler_address(scheduler)
     where = _jit.cache_dir()
     tools = {name: {"found": shutil.which(name), "for": what, "install": how} for name, (what, how) in TOOLS.items()}
     return Report(
@@ -202,3 +215,26 @@ def check(scheduler: str | None = None) -> Report:
         cache_bytes=0 if where is None else _folder_bytes(where), numba=numba.__version__,
         llvmlite=llvmlite.__version__, threads=numba.get_num_threads(), cores=os.cpu_count() or 1, tools=tools,
         scheduler=None if scheduler is None else _probe_scheduler(scheduler))
+
+
+def run(scheduler: str | None = None, *, warm_up: bool = True,
+        progress: Callable[[int, int, str], None] | None = None) -> tuple[Report, WarmResult | None]:
+    """What ``mckibben doctor`` does: check the arguments, warm the cache (optional), then report once.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        A Dask scheduler address (``tcp://host:port``) to check for a connection. [-]
+    warm_up : bool, default True
+        Compile (or load) every kernel first (:func:`warm`). [-]
+    progress : callable, optional
+        ``progress(done, total, name)`` of the warm-up. [-]
+
+    Returns
+    -------
+    (Report, WarmResult or None)
+        The machine after the warm-up (the cache's size included), and the warm-up's steps.
+    """
+    _scheduler_address(scheduler)  # a bad address is refused before a minute of compiling
+    warmed = warm(progress) if warm_up else None
+    return check(scheduler), warmed

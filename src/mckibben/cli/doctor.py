@@ -20,18 +20,13 @@ def doctor_cmd(
     """Warm the kernel cache and check the optional parts (AVR toolchain, simulator, programmer, Dask)."""
     from mckibben import doctor  # deferred: the warm-up imports every experiment (SciPy, Numba)
 
+    with progress_bar("compiling kernels", json or not warm) as bar:
+        task = bar.add_task("warm", total=None)
 
-    report = doctor.check(scheduler)
-    warmed = None
-    if warm:
-        with progress_bar("compiling kernels", json) as bar:
-            task = bar.add_task("warm", total=None)
+        def progress(done: int, total: int, name: str) -> None:
+            bar.update(task, completed=done, total=total, description=name)
 
-            def progress(done: int, total: int, name: str) -> None:
-                bar.update(task, completed=done, total=total, description=name)
-
-            warmed = doctor.warm(progress)
-        report = doctor.check(scheduler)  # the cache's size after the warm-up
+        report, warmed = doctor.run(scheduler, warm_up=warm, progress=progress)
     if json:
         emit_json({**report.to_dict(), "warm": None if warmed is None else warmed.to_dict(), "ok": report.ok})
     else:
@@ -49,5 +44,6 @@ def doctor_cmd(
             rows.append([f"scheduler {s['address']}", "answers" if s["reachable"] else f"no answer: {s['detail']}"])
         print_table("mckibben doctor", ["what", "here"], rows)
     if not report.ok:
-        console.print("[bold]doctor: see the lines above[/bold]", highlight=False) if not json else None
+        if not json:
+            console.print("[bold]doctor: see the lines above[/bold]", highlight=False)
         raise typer.Exit(1)
