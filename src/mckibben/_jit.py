@@ -26,6 +26,7 @@ See ``../shared/notes/numba-cache.md`` for the facts of Numba's cache this desig
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import inspect
@@ -127,6 +128,13 @@ def fingerprint() -> str:
         return _STATE["fingerprint"]
 
 
+@functools.lru_cache(maxsize=None)
+def _file_hash(path: str, mtime_ns: int, size: int) -> str:
+    """SHA-256 of a source file, read once per version of it (one stamp per function of the file)."""
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
 def _runner_dir() -> Path | None:
     base = cache_dir()
     return None if base is None else base / "runners"
@@ -156,9 +164,8 @@ class _Locator(caching._CacheLocator):
 
     def get_source_stamp(self):
         # the package's sources and the function's own file (a generated runner is not in the package)
-        with open(self._py_file, "rb") as f:
-            own = hashlib.sha256(f.read()).hexdigest()
-        return (fingerprint(), own)
+        st = os.stat(self._py_file)
+        return (fingerprint(), _file_hash(self._py_file, st.st_mtime_ns, st.st_size))
 
     def get_disambiguator(self):
         return str(self._lineno)
@@ -425,21 +432,19 @@ def _is_plain(value) -> bool:
     return isinstance(value, types.FunctionType)  # a dispatcher forwards attributes to its py_func
 
 
-def compile_marked(module=None) -> None:
+def compile_marked() -> None:
     """Compile every function marked by :func:`mckibben._kernels.kernel`, in place.
 
-    Each registered module's own marked functions become dispatchers in that module; then every
-    registered module's name bound to a marked function of another (``from m import f``) is bound
-    to its dispatcher too.
+    Each registered module's own marked functions get their dispatchers; then every name of a
+    registered module bound to a marked function, its own or another's (``from m import f``), is
+    bound to that dispatcher.
     """
     with _LOCK:
         for mod in _kernels.modules():
-            for name, value in list(vars(mod).items()):
+            for value in list(vars(mod).values()):
                 options = getattr(value, "__mckibben_kernel__", None) if _is_plain(value) else None
-                if options is not None and value.__module__ == mod.__name__:
-                    if id(value) not in _COMPILED:
-                        _COMPILED[id(value)] = (value, njit(**options)(value))
-                    setattr(mod, name, _COMPILED[id(value)][1])
+                if options is not None and value.__module__ == mod.__name__ and id(value) not in _COMPILED:
+                    _COMPILED[id(value)] = (value, njit(**options)(value))
         for mod in _kernels.modules():
             for name, value in list(vars(mod).items()):
                 if _is_plain(value) and id(value) in _COMPILED:
