@@ -314,6 +314,24 @@ def test_quick_commands_import_no_heavy_package(args):
     assert r.stdout.strip() == "0 []", (r.stdout, r.stderr[-2000:])
 
 
+@pytest.mark.timeout(600)
+@pytest.mark.parametrize("args", [["simulate", "open-loop", "--valve", "117", "--json"],
+                                  ["control", "step", "--controller", "smc", "--law", "paper", "--beta", "150",
+                                   "--target", "0.55MPa", "--json"],
+                                  ["tool", "track", "--path", "circle:radius=5mm,period=2s", "--json"]])
+def test_simulation_commands_import_no_lti_plotting_table_or_cluster_package(args):
+    """A simulation that builds no LTI object, draws nothing and writes no table loads neither
+    python-control, Matplotlib, Dask nor pandas (0.25-0.8 s each of every run's wall time)."""
+    script = ("import sys, io, contextlib\n"
+              "from mckibben.cli import main\n"
+              "with contextlib.redirect_stdout(io.StringIO()):\n"
+              f"    code = main({args!r})\n"
+              "heavy = [m for m in ('control', 'matplotlib', 'dask', 'pandas') if m in sys.modules]\n"
+              "print(code, heavy)\n")
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=_env(), timeout=580)
+    assert r.stdout.strip() == "0 []", (r.stdout, r.stderr[-2000:])
+
+
 def test_a_runner_compiled_in_memory_gives_the_cached_runners_bits(monkeypatch):
     """The path of an uncached process or a kernel defined in a notebook cell: same numbers, to the bit."""
     from mckibben import _jit

@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, special
+import scipy  # its submodules load on first use (scipy.optimize: 0.35 s), not with this module
 
 from mckibben.errors import InputError
 from mckibben.results import Result
@@ -215,7 +215,7 @@ class StepFit:
             Confidence level. [-]
         """
         dof = max(len(self.t) - len(self.params), 1)
-        q = special.stdtrit(dof, 0.5 + level / 2.0)  # Student's t quantile (scipy.stats.t.ppf's own)
+        q = scipy.special.stdtrit(dof, 0.5 + level / 2.0)  # Student's t quantile (scipy.stats.t.ppf's own)
         return {k: (v - q * self.stderr[k], v + q * self.stderr[k]) for k, v in self.params.items()}
 
     def to_dict(self, output_unit: str = "", input_unit: str = "") -> dict:
@@ -377,8 +377,8 @@ def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = No
     p0 = [min(max(v, a + 1e-12 if np.isfinite(a) else v), b - 1e-12 if np.isfinite(b) else v)
           for v, a, b in zip(p0, lo, hi)]
     try:
-        popt, pcov = optimize.curve_fit(f, t, y, p0=p0, bounds=(lo, hi), maxfev=20000)
-    except (RuntimeError, optimize.OptimizeWarning, ValueError) as exc:
+        popt, pcov = scipy.optimize.curve_fit(f, t, y, p0=p0, bounds=(lo, hi), maxfev=20000)
+    except (RuntimeError, scipy.optimize.OptimizeWarning, ValueError) as exc:
         raise RuntimeError(f"identify: the order-{order} fit failed: {exc}") from exc
     fit = f(t, *popt)
     res = y - fit
@@ -643,7 +643,7 @@ def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | Non
         ps0 = ymax if p_supply is None else p_supply
         x0 = np.array([p0, max(span / 3, 2 * dt), b0, 0.0] + ([1.05 * ps0] if p_supply is None else []))
         x0 = np.clip(x0, np.array(lo) + 1e-9 * scale, np.array(hi) - 1e-9 * scale)
-        r = optimize.least_squares(lambda th: model(th * scale) - y, x0 / scale,
+        r = scipy.optimize.least_squares(lambda th: model(th * scale) - y, x0 / scale,
                                    bounds=(np.array(lo) / scale, np.array(hi) / scale), method="trf", max_nfev=2000)
         if best is None or r.cost < best.cost:
             best = r
@@ -843,7 +843,7 @@ def pooled_step_parameters(fits) -> dict:
     out: dict = {"n_trials": n}
     if n < 2:
         return out
-    q = float(special.stdtrit(n - 1, 0.975))  # Student's t quantile (scipy.stats.t.ppf's own)
+    q = float(scipy.special.stdtrit(n - 1, 0.975))  # Student's t quantile (scipy.stats.t.ppf's own)
     for k in fits[0].params:
         if k in ("p_final", "p_supply_Pa"):  # set by each trial's command or supply, not a property to pool
             continue

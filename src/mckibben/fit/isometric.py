@@ -48,9 +48,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
 from mckibben.errors import InputError, unknown_name
@@ -61,6 +61,9 @@ from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "FORCE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
@@ -199,6 +202,8 @@ class IsometricFit(Result):
 
     def _series(self) -> pd.DataFrame:
         """The fitted points with the model's force and the residual (``quantity_unit`` columns)."""
+        import pandas as pd  # deferred: pandas costs 0.25 s to import, and a command that only reads a muscle file needs none
+
         d = self.data.reset_index(drop=True)
         return pd.DataFrame({"held_length_m": d["held_length"], "pressure_Pa": d["pressure"], "force_N": d["force"],
                              "direction": d["direction"], "trial": d["trial"],
@@ -570,6 +575,8 @@ class ModelComparison(Result):
 
     def _series(self) -> pd.DataFrame:
         """One row per model (the scores), sorted by held-out error."""
+        import pandas as pd  # deferred: pandas costs 0.25 s to import, and a command that only reads a muscle file needs none
+
         return pd.DataFrame(self.scores).sort_values("cv_rmse_N", na_position="last").reset_index(drop=True)
 
     def to_dict(self) -> dict:

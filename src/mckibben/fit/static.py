@@ -23,10 +23,11 @@ say so: ``c3_per_MPa3``); everything else is SI.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import dataclass
 
 import numpy as np
-import pandas as pd
 
 from mckibben.data.io import GROUP_GAP, MuscleSpec, Table, set_point_groups  # noqa: F401 (re-exported)
 from mckibben.errors import InputError
@@ -35,6 +36,9 @@ from mckibben.fit.core import (FitResult, bounded_fit, data_range, linear_fit, n
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import BraidAngleMap, MiniatureMuscle
 from mckibben.models.physical import BraidGeometry, length_under_load, tondu_lopez_contraction
+if TYPE_CHECKING:
+    import pandas as pd
+
 from mckibben.models.spring import DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel, spring_force
 
 MPA = 1e6

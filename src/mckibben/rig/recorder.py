@@ -22,14 +22,15 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-
-import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
+from typing import TYPE_CHECKING
 
 from mckibben import hardware as HW
 from mckibben.errors import InputError
 from mckibben.rig import protocol as P
+
+if TYPE_CHECKING:
+    import pandas as pd
+    import pyarrow as pa
 
 COLUMNS = ["seq", "time_s", "pressure_Pa", "pressure_adc", "encoder_count", "length_m", "inlet_pwm", "bleed_pwm",
            "mode", "faults", "reference_Pa", "surface_Pa"]
@@ -59,6 +60,8 @@ def _fsync_dir(path: Path) -> None:
 
 
 def _atomic_parquet(table: pa.Table, path: Path) -> None:
+    import pyarrow.parquet as pq  # deferred: pandas and pyarrow cost 0.3 s to import; only a recording needs them
+
     tmp = path.with_name(f".{path.name}.tmp")
     with open(tmp, "wb") as fh:
         pq.write_table(table, fh)
@@ -158,6 +161,9 @@ class Recorder:
 
     def flush(self) -> None:
         """Write the rows received since the last part as a new journal part."""
+        import pandas as pd  # deferred: pandas and pyarrow cost 0.3 s to import; only a recording needs them
+        import pyarrow as pa
+
         self._flushed_at = time.monotonic()
         if not self.rows:
             return
@@ -187,6 +193,10 @@ def recover(journal: str | Path, out: str | Path, counters: dict | None = None) 
     counters : dict, optional
         Parser counters to store (default: those of the last part).
     """
+    import pandas as pd  # deferred: pandas and pyarrow cost 0.3 s to import; only a recording needs them
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     journal, out = Path(journal), Path(out)
     meta_file = journal / "meta.json"
     if not journal.is_dir() or not meta_file.exists():
@@ -235,6 +245,8 @@ def read_recording(path: str | Path) -> tuple[pd.DataFrame, dict]:
     path : str or Path
         A Parquet file written by the recorder.
     """
+    import pyarrow.parquet as pq  # deferred: pandas and pyarrow cost 0.3 s to import; only a recording needs them
+
     try:
         table = pq.read_table(path)
     except Exception as exc:
