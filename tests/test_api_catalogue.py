@@ -154,7 +154,47 @@ CASES = [
     ("pressure_for_length-load-True", lambda: mk.pressure_for_length(mk.get_muscle("mpam97"), 0.08, True), "load"),
     ("pressure_for_length-p_max-0", lambda: mk.pressure_for_length(mk.get_muscle("mpam97"), 0.08, 0.6, 0.0),
      "p_max"),
+    # the static models' one calling convention (mckibben.models.static)
+    ("models.force-pressure-nan", lambda: _models().force(NAN, 0.09, mk.get_muscle("mpam97"), model="chou-hannaford"),
+     "pressure"),
+    ("models.force-pressure-None", lambda: _models().force(None, 0.09, mk.get_muscle("mpam97")), "pressure"),
+    ("models.force-length-True", lambda: _models().force(0.5e6, True, mk.get_muscle("mpam97"), model="wall-corrected"),
+     "length"),
+    ("models.force-muscle-name", lambda: _models().force(0.5e6, 0.09, "mpam97", model="chou-hannaford"), "muscle"),
+    ("models.force-model-None", lambda: _models().force(0.5e6, 0.09, mk.get_muscle("mpam97"), model=None), "model"),
+    ("models.length-model-None", lambda: _models().length(0.5e6, 0.6, mk.get_muscle("mpam97"), model=None), "model"),
+    ("models.length-load-True", lambda: _models().length(0.4e6, True, mk.get_muscle("mpam97")), "load"),
+    ("models.length-load-negative", lambda: _models().length(0.4e6, -1.0, mk.get_muscle("mpam97"),
+                                                             model="chou-hannaford"), "load"),
+    ("models.length-muscle-None", lambda: _models().length(0.4e6, 0.6, None, model="wall-corrected"), "muscle"),
+    # the identification's record is sized before it is allocated
+    ("identify_plant-duration-1e9", lambda: _identify(duration=1e9), "duration"),
+    ("identify_plant-duration-nan", lambda: _identify(duration=NAN), "duration"),
+    ("identify_plant-duration-None", lambda: _identify(duration=None), "duration"),
+    # the fits read a table file
+    ("fit_table-data-DataFrame", lambda: _fit().fit_table(__import__("pandas").DataFrame({"a": [1.0]}), "cubic"),
+     "data"),
+    ("fit_table-data-None", lambda: _fit().fit_table(None, "cubic"), "data"),
+    ("compare_table-data-5", lambda: _fit().compare_table(5), "data"),
 ]
+
+
+def _models():
+    from mckibben import models
+
+    return models
+
+
+def _identify(**kw):
+    from mckibben.control.experiments import identify_plant
+
+    return identify_plant(**kw)
+
+
+def _fit():
+    from mckibben import fit
+
+    return fit
 
 
 def _named(message: str, name: str) -> bool:
@@ -348,3 +388,28 @@ def test_tip_from_lengths_random_values(value, which):
 @given(value=_weird, which=st.sampled_from(["periods", "path", "beta"]))
 def test_track_tip_random_values(value, which):
     _only_ours(lambda: _track(**{which: value}))
+
+
+@pytest.mark.parametrize("model", ["chou-hannaford", "wall-corrected"])
+def test_the_physical_force_laws_flag_a_length_off_the_braid(model):
+    """Chou–Hannaford returns a number for any length; off the braid (past the straight strand,
+    below the locking length) it is flagged, as the fitted models flag what they extrapolate."""
+    from mckibben import models
+
+    m = mk.get_muscle("mpam97")
+    r = models.force(0.5e6, [10.0, 0.09, 0.01], m, model=model)
+    names = [models.flags.flag_names(int(f)) for f in r.flags]
+    assert "length_out_of_range" in names[0] and "length_out_of_range" in names[2]
+    assert names[1] == []  # inside the braid's range, at a characterized pressure
+    assert "slack" in names[2]  # below the locking length the law would push
+
+
+@pytest.mark.parametrize("key,value", [("outer_diameter_mm", "1e308"), ("nominal_length_m", "1e6"),
+                                       ("outer_diameter_cm", "120")])
+def test_a_muscle_file_with_an_implausible_size_is_refused(tmp_path, key, value):
+    p = tmp_path / "m.toml"
+    base = {"nominal_length_mm": "97", "outer_diameter_mm": "1.2"}
+    base = {k: v for k, v in base.items() if k.rpartition("_")[0] != key.rpartition("_")[0]}
+    p.write_text('id = "m"\n' + "".join(f"{k} = {v}\n" for k, v in {**base, key: value}.items()))
+    with pytest.raises(InputError, match=key):
+        mk.read_muscle(p)

@@ -28,7 +28,8 @@ from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
 from mckibben.control.identify import fit_lift_off, fit_step_response
 from mckibben.control.metrics import step_metrics, step_metrics_batch
 from mckibben.datasets.paper_points import FIG13 as _FIG13
-from mckibben.errors import InputError, unknown_name
+from mckibben.errors import InputError, check_real, unknown_name
+from mckibben.limits import check_budget
 
 #: The paper's Fig. 13 (:data:`mckibben.datasets.paper_points.FIG13`): β -> time constant, overshoot.
 PAPER_FIG13 = _FIG13["points"]
@@ -195,6 +196,8 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
     u1, du = _counts("u1", u1, 1, 254), _counts("du", du, 1, 254)
     if u1 + du > 255:
         raise InputError(f"identify_plant: u1 + du = {u1} + {du} counts, the second step must stay within 255")
+    duration = check_real(duration, "duration", lo=0.0, lo_open=True, unit="s")
+    check_budget("duration", 2 * duration / 1e-3, force=True)  # before the record's time axis is allocated
     n, t = _steps(duration)
     steps = (u1, u1 + du)
     spec = core_spec([CoreParams(mode=MODE_OPEN_LOOP, open_loop_inlet=u) for u in steps])

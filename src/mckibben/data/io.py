@@ -678,6 +678,10 @@ MUSCLE_KEYS: dict[str, tuple[str, bool]] = {
     "strand_diameter": ("length", False),
     "braid_angle": ("angle", False),
 }
+#: The largest size a muscle file may give (no braided muscle made is near it: the longest are a few
+#: metres, the widest a few centimetres); a larger value is a typo or a unit slip, refused. [m]
+MUSCLE_MAX_SIZE = {"nominal_length": 20.0, "strand_length": 20.0, "outer_diameter": 0.5,
+                   "tube_inner_diameter": 0.5, "tube_outer_diameter": 0.5, "strand_diameter": 0.5}
 
 
 def read_muscle(path) -> MuscleSpec:
@@ -739,6 +743,10 @@ def read_muscle(path) -> MuscleSpec:
         if quantity in values:
             raise InputError(f"{name}: keys give {quantity} twice; keep one")
         values[quantity] = float(to_si(float(raw), unit, dim))
+        top = MUSCLE_MAX_SIZE.get(quantity)
+        if top is not None and not values[quantity] <= top:
+            raise InputError(f"{name}: key {key}: {raw!r} is not a plausible size for a braided muscle "
+                             f"(at most {to_si(top, 'm', 'length') / to_si(1.0, unit, dim):g} {unit})")
     for quantity, (dim, required) in MUSCLE_KEYS.items():
         if required and quantity not in values:
             raise InputError(f"{name}: key {quantity}_<unit> missing (e.g. {quantity}_mm = ...)")

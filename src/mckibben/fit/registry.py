@@ -9,12 +9,13 @@ prints.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from mckibben.errors import InputError, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, unknown_name
 from mckibben.models import laws
 from mckibben.results import Result
 
@@ -263,6 +264,16 @@ class TableFit(Result):
         return ax.figure
 
 
+def _data_path(data) -> Path:
+    """``data`` as a path: the fits read a table file, whose name, folder and muscle file they report."""
+    if isinstance(data, (str, os.PathLike)) and str(data):
+        return Path(data)
+    hint = ("; write it to a file first (DataFrame.to_csv) with quantity_unit column names"
+            if type(data).__name__ == "DataFrame" else "")
+    raise ArgumentTypeError(f"data = {type(data).__name__ if data is not None else None}: not a table file path "
+                            f"(str or os.PathLike to a .csv or .parquet){hint}")
+
+
 def fit_table(data, model: str, muscle: str | None = None, kind: str | None = None,
               split_pressure: float | None = None, tare: str = "none", save: str | None = None,
               rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> TableFit:
@@ -296,7 +307,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
     -------
     TableFit
     """
-    out, fits = _run_fit(Path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails, pressure_zero)
+    out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails, pressure_zero)
     return TableFit(out, fits)
 
 
@@ -387,10 +398,11 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
     -------
     TableComparison
     """
-    iso = _isometric_table(Path(data))
+    data = _data_path(data)
+    iso = _isometric_table(data)
     if iso is not None:
-        return TableComparison(_compare_isometric(iso, Path(data), muscle, cv or "leave-one-length-out", tare, rails,
+        return TableComparison(_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare, rails,
                                                   pressure_zero))
     if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
         raise InputError("--cv/--tare: apply to isometric tables; the isotonic comparison chooses its own folds")
-    return TableComparison(_compare_isotonic(Path(data), muscle))
+    return TableComparison(_compare_isotonic(data, muscle))

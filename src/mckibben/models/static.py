@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben.errors import unknown_name
-from mckibben.models.flags import flag_names
+from mckibben.errors import ArgumentTypeError, check_array, unknown_name
+from mckibben.models.flags import Flag, flag_names, flag_where, outside
 
 __all__ = ["FORCE_MODELS", "LENGTH_MODELS", "StaticResult", "force", "force_chou_hannaford", "force_mpam",
            "force_wall_corrected", "length", "length_chou_hannaford", "length_mpam", "length_wall_corrected"]
@@ -78,11 +78,27 @@ class StaticResult:
 
 
 def _si(value, dimension: str, name: str):
+    """The argument ``name`` as a float array: finite numbers (no None, bool, NaN), or text with a unit."""
     from mckibben.units import quantity
 
     if isinstance(value, str):
         return quantity(value, dimension, name, allow_negative=False)
-    return np.asarray(value, dtype=float)
+    return check_array(value, name, lo=0.0)
+
+
+def _model_name(model, kind: str, models) -> str:
+    if not isinstance(model, str):
+        raise ArgumentTypeError(f"model = {model!r}: not a model name ({type(model).__name__}); "
+                                f"give one of: {', '.join(sorted(models))}")
+    if model not in models:
+        raise unknown_name(kind, model, models)
+    return model
+
+
+def _check_muscle(muscle) -> None:
+    from mckibben.models.mpam import _check_muscle as check
+
+    check(muscle)
 
 
 def _geometry(muscle, wall: bool):
@@ -120,6 +136,7 @@ def length_mpam(pressure, load, muscle) -> StaticResult:
 def _length_physical(pressure, load, muscle, wall: bool, name: str) -> StaticResult:
     from mckibben.models.physical import length_under_load
 
+    _check_muscle(muscle)
     p, f = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(load, "force", "load"))
     ell, flags = length_under_load(p, f, _geometry(muscle, wall), "wall-corrected" if wall else "chou-hannaford")
     return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)
@@ -195,9 +212,16 @@ def _force_physical(pressure, length, muscle, wall: bool, name: str) -> StaticRe
     from mckibben.models.physical import chou_hannaford_force, wall_corrected_force
 
     p, ell = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(length, "length", "length"))
+    _check_muscle(muscle)
     law = wall_corrected_force if wall else chou_hannaford_force
-    f = np.asarray(law(p, ell, _geometry(muscle, wall)), dtype=float)
-    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, np.zeros(p.shape, dtype=np.uint16))
+    geom = _geometry(muscle, wall)
+    f = np.asarray(law(p, ell, geom), dtype=float)
+    # the law holds on the braid's own range: from the locking length (no pull left, cos²θ = 1/3)
+    # to the straight braid (l = b); beyond it the formula still returns a number, which is flagged
+    flags = (outside(ell, geom.locking_length, geom.strand_length, Flag.LENGTH_OUT_OF_RANGE)
+             | outside(p, *muscle.braid_map.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
+             | flag_where(~(f >= 0.0), Flag.SLACK))  # it would have to push
+    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags.astype(np.uint16))
 
 
 def force_chou_hannaford(pressure, length, muscle) -> StaticResult:
@@ -260,8 +284,7 @@ def length(pressure, load, muscle, model: str = "mpam") -> StaticResult:
     model : str, default "mpam"
         ``mpam``, ``chou-hannaford`` or ``wall-corrected``. [-]
     """
-    if model not in LENGTH_MODELS:
-        raise unknown_name("length model", model, LENGTH_MODELS)
+    _model_name(model, "length model", LENGTH_MODELS)
     return LENGTH_MODELS[model](pressure, load, muscle)
 
 
@@ -279,6 +302,5 @@ def force(pressure, length, muscle, model: str = "mpam") -> StaticResult:
     model : str, default "mpam"
         ``mpam``, ``chou-hannaford`` or ``wall-corrected``. [-]
     """
-    if model not in FORCE_MODELS:
-        raise unknown_name("force model", model, FORCE_MODELS)
+    _model_name(model, "force model", FORCE_MODELS)
     return FORCE_MODELS[model](pressure, length, muscle)
