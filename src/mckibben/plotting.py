@@ -10,7 +10,7 @@ import os
 
 from mckibben.atomic import atomic_file, check_output_file
 
-__all__ = ["figure_formats", "check_figure_path", "save_figure"]
+__all__ = ["figure_formats", "check_figure_path", "save_figure", "figure_metadata"]
 
 
 def figure_formats() -> tuple[str, ...]:
@@ -33,7 +33,48 @@ def check_figure_path(path, name: str = "--plot") -> str:
     return os.fspath(check_output_file(path, name, suffixes=figure_formats()))
 
 
-def save_figure(fig, path, dpi: int = 120, name: str = "--plot") -> None:
+def figure_metadata(fmt: str, provenance: dict) -> dict | None:
+    """The provenance as the metadata a figure format can hold (Matplotlib's ``savefig(metadata=)``).
+
+    PNG keeps text chunks (the whole provenance as JSON under ``Description``), PDF its document
+    information (``Subject``), SVG its Dublin Core fields (``Description``); PostScript takes a
+    creator and a title. Formats with no place for text (JPEG, TIFF, raw) get ``None``.
+
+    Parameters
+    ----------
+    fmt : str
+        The format, e.g. ``"png"``. [-]
+    provenance : dict
+        From :func:`mckibben.results.provenance` (call, arguments, version, UTC time, inputs). [-]
+
+    Returns
+    -------
+    dict or None
+        ``savefig``'s ``metadata``. [-]
+    """
+    import json
+    from datetime import datetime
+
+    from mckibben.results import to_jsonable
+
+    text = json.dumps(to_jsonable(provenance), sort_keys=True, allow_nan=False)
+    creator = f"mckibben {provenance.get('mckibben_version', '')}".strip()
+    title = str(provenance.get("command") or provenance.get("call") or "")
+    when = provenance.get("created_utc")
+    fmt = fmt.lower()
+    if fmt == "png":
+        return {"Software": creator, "Title": title, "Creation Time": when, "Description": text}
+    if fmt == "pdf":
+        date = datetime.fromisoformat(when) if when else None
+        return {"Creator": creator, "Title": title, "Subject": text, "CreationDate": date}
+    if fmt in ("svg", "svgz"):
+        return {"Creator": creator, "Title": title, "Date": when, "Description": text}
+    if fmt in ("ps", "eps"):
+        return {"Creator": creator, "Title": title}
+    return None
+
+
+def save_figure(fig, path, dpi: int = 120, name: str = "--plot", provenance: dict | None = None) -> None:
     """Save a Matplotlib figure atomically (temporary file in the same folder, then rename).
 
     The format follows the file's suffix (.png when it has none). A destination that is a folder,
@@ -50,8 +91,12 @@ def save_figure(fig, path, dpi: int = 120, name: str = "--plot") -> None:
         Resolution of raster formats. [dots per inch]
     name : str, default "--plot"
         The option that named the file, for error messages. [-]
+    provenance : dict, optional
+        Where the figure came from (:func:`mckibben.results.provenance`), written into the file's
+        metadata where its format has a place for it (:func:`figure_metadata`). [-]
     """
     path = os.fspath(path)
-    suffix = os.path.splitext(path)[1] or ".png"
+    fmt = (os.path.splitext(path)[1] or ".png").lstrip(".").lower()
+    meta = figure_metadata(fmt, provenance) if provenance else None
     with atomic_file(path, name) as tmp:
-        fig.savefig(tmp, dpi=dpi, format=suffix.lstrip(".").lower())
+        fig.savefig(tmp, dpi=dpi, format=fmt, **({"metadata": meta} if meta else {}))

@@ -28,6 +28,7 @@ import json
 import math
 import os
 from datetime import datetime, timezone
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -77,8 +78,27 @@ def provenance(call: str, arguments: dict | None = None) -> dict:
     """
     from mckibben import __version__
 
-    return {"call": call, "arguments": to_jsonable(arguments or {}), "mckibben_version": __version__,
+    prov = {"call": call, "arguments": to_jsonable(arguments or {}), "mckibben_version": __version__,
             "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+    if COMMAND:
+        prov["command"] = COMMAND
+    return prov
+
+
+#: The command line that runs this process's work (``mckibben control step ...``), set by the CLI;
+#: empty in a notebook or script, whose call and arguments the provenance names instead.
+COMMAND = ""
+
+
+def provenance_sidecar(path) -> str:
+    """The file beside a CSV table that holds its provenance: ``run.csv`` → ``run.csv.provenance.json``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The CSV file. [-]
+    """
+    return os.fspath(path) + ".provenance.json"
 
 
 def check_table_path(path, name: str = "--out") -> str:
@@ -107,7 +127,8 @@ def write_table(df, path, meta: dict | None = None, name: str = "--out") -> str:
         ``.csv`` or ``.parquet``. [-]
     meta : dict, optional
         Provenance; default ``df.attrs["provenance"]``. Parquet stores it as JSON under the
-        schema metadata key ``mckibben``; CSV has no place for it. [-]
+        schema metadata key ``mckibben``; a CSV file gets it beside it, as JSON in
+        :func:`provenance_sidecar` (a comment line would trip other CSV readers). [-]
     name : str, default "--out"
         The argument's name, for error messages. [-]
 
@@ -120,28 +141,36 @@ def write_table(df, path, meta: dict | None = None, name: str = "--out") -> str:
 
     path = check_table_path(path, name)
     meta = meta if meta is not None else df.attrs.get("provenance", {})
-    with atomic_file(path, name) as tmp:
-        if path.lower().endswith(".csv"):
+    if path.lower().endswith(".csv"):
+        with atomic_file(path, name) as tmp:
             df.to_csv(tmp, index=False)
-        else:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
+        if meta:
+            with atomic_file(provenance_sidecar(path), name) as tmp:
+                with open(tmp, "w", encoding="utf-8") as fh:
+                    json.dump(to_jsonable(meta), fh, indent=1, allow_nan=False)
+        return path
+    with atomic_file(path, name) as tmp:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
 
-            table = pa.Table.from_pandas(df, preserve_index=False)
-            md = dict(table.schema.metadata or {})
-            md[b"mckibben"] = json.dumps(to_jsonable(meta), allow_nan=False).encode()
-            pq.write_table(table.replace_schema_metadata(md), tmp)
+        table = pa.Table.from_pandas(df, preserve_index=False)
+        md = dict(table.schema.metadata or {})
+        md[b"mckibben"] = json.dumps(to_jsonable(meta), allow_nan=False).encode()
+        pq.write_table(table.replace_schema_metadata(md), tmp)
     return path
 
 
 def read_provenance(path) -> dict:
-    """The provenance a :func:`write_table` Parquet file carries (empty dict if none).
+    """The provenance a :func:`write_table` file carries (empty dict if none).
 
     Parameters
     ----------
     path : str or os.PathLike
-        A Parquet file. [-]
+        A Parquet file, or a CSV file (its :func:`provenance_sidecar`). [-]
     """
+    if os.fspath(path).lower().endswith(".csv"):
+        side = provenance_sidecar(path)
+        return json.loads(Path(side).read_text(encoding="utf-8")) if os.path.exists(side) else {}
     import pyarrow.parquet as pq
 
     md = pq.read_schema(path).metadata or {}

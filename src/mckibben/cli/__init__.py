@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import shlex
 import signal
 import sys
 import threading
@@ -30,7 +31,7 @@ _NO_ARGS = tuple({click.exceptions.NoArgsIsHelpError, getattr(_tclick, "NoArgsIs
 _EXITS = (click.exceptions.Exit, typer.Exit)
 _ABORTS = (click.Abort, typer.Abort)
 
-from mckibben import __version__, compile_notice  # noqa: E402  (after the Click/Typer compatibility shims)
+from mckibben import __version__, compile_notice, results  # noqa: E402  (after the Click/Typer compatibility shims)
 from mckibben.errors import InputError  # noqa: E402
 
 app = typer.Typer(
@@ -88,6 +89,10 @@ def main(argv: list[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args or os.environ.get("MCKIBBEN_DEBUG", "") not in ("", "0")
     args = [a for a in args if a != "--debug"]
+    # the command line, for the provenance of what the command writes (absolute paths as bare names:
+    # a file written here must not carry the layout of this machine)
+    outer, results.COMMAND = results.COMMAND, shlex.join(["mckibben"] + [os.path.basename(a) if os.path.isabs(a)
+                                                                         else a for a in args])
     with _signals_unwind(), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default")
         if not debug:
@@ -95,6 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             code = _run(args, debug)
         finally:
+            results.COMMAND = outer
             if not debug:
                 np.seterr(**np_err)
     if code == 0 or debug:

@@ -29,12 +29,15 @@ def check_outputs(plot: str | None = None, dpi: int | None = None, out: str | No
         check_table_path(out)
 
 
-def write_plot(fig, path: str, dpi: int) -> None:
-    """Save the figure atomically and close it."""
+def write_plot(fig, path: str, dpi: int, result=None) -> None:
+    """Save the figure atomically, with the provenance of ``result`` (or of the command) in its metadata, and close it."""
     import matplotlib.pyplot as plt
 
+    from mckibben.results import provenance
+
+    prov = provenance(result.call, result.arguments) if result is not None else provenance("mckibben.cli")
     try:
-        save_figure(fig, path, dpi=dpi)
+        save_figure(fig, path, dpi=dpi, provenance=prov)
     finally:
         plt.close(fig)
 

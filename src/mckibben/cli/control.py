@@ -59,7 +59,7 @@ def _size_first(option: str, seconds_text: str | None, instances: float = 1.0, f
 def _finish(res, plot, dpi, out, plot_kw=None) -> None:
     """Write the figure and the time series a command was asked for."""
     if plot:
-        write_plot(res.plot(**(plot_kw or {})), plot, dpi)
+        write_plot(res.plot(**(plot_kw or {})), plot, dpi, res)
     if out:
         res.to_file(out)
 
@@ -289,7 +289,7 @@ def hysteresis_cmd(
     check_outputs(plot, dpi)
     res = hysteresis_compensation(period, sweep_period=sweep_period, muscle_file=muscle_file)
     if plot:
-        write_plot(plot_hysteresis(res), plot, dpi)
+        write_plot(plot_hysteresis(res), plot, dpi, res)
     if json:
         emit_json(res.summary())
         return

@@ -96,4 +96,6 @@ def _plot(path: str, data: dict, fits) -> None:
 def save_png(fig, path: str) -> None:
     """Write a figure atomically (:func:`mckibben.plotting.save_figure`): nothing half-written."""
 
-    save_figure(fig, path, dpi=120)
+    from mckibben.results import provenance
+
+    save_figure(fig, path, dpi=120, provenance=provenance("mckibben.control.identify"))

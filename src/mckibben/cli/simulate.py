@@ -36,7 +36,7 @@ def open_loop_cmd(
     res = open_loop(valve, supply=supply, load=load, duration=duration, muscle_file=muscle_file, direction=direction)
     d = res.to_dict()
     if plot:
-        write_plot(res.plot(), plot, dpi)
+        write_plot(res.plot(), plot, dpi, res)
         d["plot"] = plot
     if out:
         res.to_file(out)

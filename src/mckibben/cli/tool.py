@@ -151,7 +151,7 @@ def workspace_cmd(
     res = map_workspace(tool, grid)
     ext = res.metrics
     if plot:
-        write_plot(res.plot(), plot, dpi)
+        write_plot(res.plot(), plot, dpi, res)
     if out:
         res.to_file(out)
     if json:
@@ -214,7 +214,7 @@ def track_cmd(
                     progress=lambda done, total: bar.update(task, completed=done, total=total))
     simulated = res.results is not None
     if plot and simulated:
-        write_plot(res.plot(), plot, dpi)
+        write_plot(res.plot(), plot, dpi, res)
     if out:
         res.to_file(out)
     base, out_runs = res.path, res.per_run

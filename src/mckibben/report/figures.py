@@ -7,6 +7,7 @@ Matplotlib's object API (:class:`matplotlib.figure.Figure`, Agg canvas): no glob
 
 from __future__ import annotations
 
+import contextvars
 from pathlib import Path
 
 import numpy as np
@@ -27,10 +28,19 @@ def _figure(ncols: int, width=4.2, height=3.4):
     return fig, axes
 
 
+#: The report's provenance while its figures are drawn (:func:`mckibben.report.html.write_report`
+#: sets it): each PNG carries it in its metadata, as the HTML and ``summary.json`` do.
+PROVENANCE: contextvars.ContextVar[dict | None] = contextvars.ContextVar("report_provenance", default=None)
+
+
 def _save(fig, path: Path, synthetic: bool) -> Path:
+    from mckibben.plotting import figure_metadata
+
     if synthetic:
         fig.text(0.995, 0.005, "SYNTHETIC DATA", ha="right", va="bottom", color="#b00", fontsize=8, weight="bold")
-    fig.savefig(path, dpi=100)
+    prov = PROVENANCE.get()
+    meta = figure_metadata(Path(path).suffix.lstrip(".") or "png", prov) if prov else None
+    fig.savefig(path, dpi=100, **({"metadata": meta} if meta else {}))
     return path
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.errors import InputError
+from mckibben.report import figures as FIG
 from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
 
 MPA = 1e6
@@ -293,14 +294,18 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
             summary["data"] = Path(summary["data"]).name  # no absolute machine path in a report
         summary = _without_machine_paths(summary, char)
         figures = []
-        for name, make in ALL_FIGURES.items():
-            if progress:
-                progress(f"figure {name}")
-            if make(char["muscles"], tmp / name, char["synthetic"]) is not None:
-                figures.append(name)
-        for name, make in ISOMETRIC_FIGURES.items():
-            if make(char.get("isometric", []), tmp / name, char["synthetic"]) is not None:
-                figures.append(name)
+        token = FIG.PROVENANCE.set(summary["provenance"])
+        try:
+            for name, make in ALL_FIGURES.items():
+                if progress:
+                    progress(f"figure {name}")
+                if make(char["muscles"], tmp / name, char["synthetic"]) is not None:
+                    figures.append(name)
+            for name, make in ISOMETRIC_FIGURES.items():
+                if make(char.get("isometric", []), tmp / name, char["synthetic"]) is not None:
+                    figures.append(name)
+        finally:
+            FIG.PROVENANCE.reset(token)
         summary["figures"] = figures
         (tmp / "summary.json").write_text(json.dumps(to_jsonable(summary), indent=1, allow_nan=False), encoding="utf-8")
         (tmp / "index.html").write_text(render_html(summary, figures), encoding="utf-8")

@@ -12,10 +12,10 @@ import re
 
 import numpy as np
 import pandas as pd
-from scipy.stats import spearmanr
 
 from mckibben.errors import InputError, unknown_name
 from mckibben.plotting import save_figure
+from mckibben.results import provenance
 
 _CONSTRAINT = re.compile(r"^\s*([a-zA-Z_]+)\s*(<=|>=|<|>)\s*([-+0-9.eE]+)\s*$")
 
@@ -130,6 +130,8 @@ def sensitivity(table: pd.DataFrame) -> pd.DataFrame:
     table : pandas.DataFrame
         Sweep results.
     """
+    from scipy.stats import spearmanr  # deferred: scipy.stats costs 0.5 s to import, and only the summary needs it
+
     params = [c for c in parameter_columns(table) if pd.api.types.is_numeric_dtype(table[c])]
     metrics = metric_columns(table)
     out = pd.DataFrame(index=params, columns=metrics, dtype=float)
@@ -237,7 +239,7 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
             continue
         p = folder / name
         try:
-            save_figure(fig, p, name="--plots")
+            save_figure(fig, p, name="--plots", provenance=provenance("mckibben.sweep.figures", {"quantile": quantile}))
         finally:
             plt.close(fig)
         paths.append(str(p))
