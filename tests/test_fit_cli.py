@@ -149,3 +149,35 @@ def test_isotonic_chou_hannaford_is_bounded_and_flagged(cli):
     assert 0.5 * 1.2e-3 <= out["parameters"]["d0_m"] <= 4 * 1.2e-3
     assert out["flags"] and "r2_below_0.5" in out["flags"]
     assert r.err.startswith("warning: fit chou-hannaford on") and r.err.count("\n") == 1
+
+
+@pytest.mark.parametrize("command", [["fit", str(BUNDLED / "mpam97" / "blocked_force.csv"), "--model", "cubic"],
+                                     ["compare", str(BUNDLED / "mpam117")]])
+def test_fit_and_compare_draw_their_figure(cli, tmp_path, command):
+    import json
+
+    from PIL import Image
+
+    out = tmp_path / "fig.png"
+    r = cli(*command, "--plot", str(out))
+    assert r.code == 0, r.err
+    prov = json.loads(Image.open(out).text["Description"])  # with where it came from
+    assert prov["call"].startswith("mckibben.fit.registry.") and prov["command"].startswith(f"mckibben {command[0]} ")
+
+
+def test_fit_refuses_a_figure_it_cannot_write_before_fitting(cli, tmp_path):
+    r = cli("fit", str(BUNDLED / "mpam97" / "blocked_force.csv"), "--model", "cubic", "--plot", str(tmp_path / "f.xyz"))
+    assert r.code == 2 and "--plot" in r.err and not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("header, message", [
+    ("pressure_MPa;force_N", "the file looks separated by ';'"),
+    ("pressure_MPa\tforce_N", "the file looks separated by tabs"),
+    ("presure_MPa,force_N", "'presure_MPa' is unknown (did you mean pressure_MPa?)"),
+    ("pressure_MPa,force_N,tral", "'tral' is unknown (did you mean trial?)"),
+])
+def test_a_misnamed_or_misseparated_header_gets_a_hint(cli, tmp_path, header, message):
+    (tmp_path / "blocked_force.csv").write_text(header + "\n")
+    (tmp_path / "muscle.toml").write_text(MUSCLE)
+    r = cli("fit", str(tmp_path / "blocked_force.csv"), "--model", "cubic")
+    assert r.code == 2 and message in r.err, r.err

@@ -9,6 +9,7 @@ import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
+from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.registry import FIT_MODELS
 from mckibben.units import parse_quantity
 
@@ -35,15 +36,21 @@ def fit_cmd(
                                                                       "(default), lowest or column (pressure_zero_kPa)."),
     rest_length: str = typer.Option(None, "--rest-length", help="with --save and a family law: the rest length of the "
                                                                 "muscle the file describes (default: the muscle file's)."),
+    plot: str = plot_option("the fit: force curves over the data (isometric), else the residuals"),
+    dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit a static model to one experiment table: parameters, standard errors, 95 % intervals, flags."""
+    check_outputs(plot, dpi)
 
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
     from mckibben.fit.registry import fit_table  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
-    out = fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero).summary
+    res = fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero)
+    out = res.summary
+    if plot:
+        write_plot(res.plot(), plot, dpi, res)
     _sensor_warnings(f"fit {model} on {data}", out.get("tare", {}))
     warn_flags(f"fit {model} on {data}", out.get("flags", []))
     if json:
@@ -81,12 +88,18 @@ def compare_cmd(
     rails: str = typer.Option("keep", "--rails", help="isometric: rows at a sensor's rail: keep (default) or exclude."),
     pressure_zero: str = typer.Option("none", "--pressure-zero", help="isometric: the pressure transducer's zero: "
                                                                       "none (default), lowest or column."),
+    plot: str = plot_option("the held-out error of every model"),
+    dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
+    check_outputs(plot, dpi)
     from mckibben.fit.registry import compare_table  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    out = compare_table(data, muscle, cv, tare, rails, pressure_zero).summary
+    res = compare_table(data, muscle, cv, tare, rails, pressure_zero)
+    out = res.summary
+    if plot:
+        write_plot(res.plot(), plot, dpi, res)
     _sensor_warnings(f"compare on {data}", out.get("tare", {}))
     if out.get("kind") == "isometric":
         flagged = [f"{s['model']} ({', '.join(s['flags'])})" for s in out["models"] if s["flags"]]

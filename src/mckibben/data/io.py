@@ -9,6 +9,7 @@ leftmost column) is reported.
 
 from __future__ import annotations
 
+import difflib
 from typing import TYPE_CHECKING
 
 import math
@@ -112,7 +113,18 @@ def _parse_columns(path: str, names: list[str]) -> dict[str, tuple[str, str, str
                                    if q not in PER_MUSCLE + SENSOR_COLUMNS] + list(BARE_COLUMNS))
                 near = [f"{q}_<unit>" for q in PER_MUSCLE + SENSOR_COLUMNS if q.split("_")[0] in quantity]
                 hint = f" (also: {', '.join(near)})" if near else ""
-                raise InputError(f"{path}: column {name!r} is unknown; known columns are {known}{hint}")
+                sep = next((c for c in (";", "\t", "|") if c in name), None)
+                if sep is not None:  # one column holding every header: another delimiter
+                    raise InputError(f"{path}: the header is one column, {name!r}: the file looks separated by "
+                                     f"{'tabs' if sep == chr(9) else repr(sep)}; mckibben reads comma-separated CSV "
+                                     "(with a decimal point): save it again with commas")
+                close = difflib.get_close_matches(quantity, [q for q in QUANTITIES if QUANTITIES[q][0] != "dimensionless"],
+                                                  n=1) or difflib.get_close_matches(name, list(BARE_COLUMNS), n=1)
+                mean = ""
+                if close:
+                    mean = f" (did you mean {close[0]}_{unit}?)" if close[0] in QUANTITIES and unit else \
+                        f" (did you mean {close[0]}?)"
+                raise InputError(f"{path}: column {name!r} is unknown{mean}; known columns are {known}{hint}")
             dim = QUANTITIES[quantity][0]
             ok_units = units_of(dim) + (units_of("mass") if quantity == "load" else [])
             if unit not in UNITS or not unit:
