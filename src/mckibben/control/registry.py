@@ -306,7 +306,7 @@ N_IPARAMS = CORE_IP_GAIN0 + N_GAINS + sum(len(c.coefs) for c in EXTENSIONS)
 _STSMC_MODE, _STSMC_SLOTS = STSMC.mode, LAYOUT["stsmc"]
 
 
-@kernel
+@kernel(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
 def extension_law(mode, st, ip, p, pref, e):
     """The law of an extension mode: one line per registered extension law.
 

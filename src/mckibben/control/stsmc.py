@@ -74,7 +74,7 @@ def sqrt_table() -> np.ndarray:
 _SQRT = sqrt_table()
 
 
-@kernel
+@kernel(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
 def sqrt_q14(x_q12):
     """√x of x (Q12, 0 <= x < 8) in Q14 by linear interpolation in the table (``mck_sqrt_q14``). [-]"""
     i = x_q12 >> 8
@@ -83,7 +83,7 @@ def sqrt_q14(x_q12):
     return a + (((_SQRT[i + 1] - a) * f) >> 8)
 
 
-@kernel
+@kernel(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
 def law(st, ip, so, io, p, pref, e):
     """One step of the law (``mck_stsmc_law``), bit-exact.
 
