@@ -4,12 +4,17 @@ from __future__ import annotations
 
 import io
 import json
+import os
 from contextlib import redirect_stderr, redirect_stdout
 from dataclasses import dataclass
 
 import pytest
 
-from mckibben.cli import main
+# the suite's processes compile without the background warm-up (the compile-cache tests, which
+# give their subprocesses a clean environment, run it as a user's command does)
+os.environ.setdefault("MCKIBBEN_BACKGROUND_WARM", "0")
+
+from mckibben.cli import main  # noqa: E402
 
 
 @dataclass

@@ -405,3 +405,100 @@ def test_doctor_reports_the_cache_the_tools_and_an_unanswering_scheduler(cli):
     assert out["warm"] is None and out["ok"] is False and out["scheduler"]["reachable"] is False
     assert out["cache_dir"] and set(out["tools"]) == {"avr-gcc", "simavr", "avrdude", "arduino-cli"}
     assert "dask scheduler --port" in out["scheduler"]["detail"]
+
+
+# ---------------------------------------------------------------------------------------------
+# one compiler per kernel across processes, and the background warm-up of a first command
+
+
+def test_the_background_warm_up_compiles_what_the_runner_calls():
+    """The warm-up compiles the integrator, its outputs and the firmware core with the very
+    signatures the generated runner calls them with; a mismatch would compile them twice."""
+    from mckibben import doctor
+    from mckibben.control import core as C
+    from mckibben.plant import PlantParams, simulate
+
+    simulate(PlantParams(), 0.003, controller=C.core_spec(C.CoreParams()), reference=4e5)
+    for name, dispatcher, signature in doctor.background_kernels():
+        assert tuple(signature) in [tuple(s) for s in dispatcher.signatures], (name, dispatcher.signatures)
+
+
+_HOLD = """
+import sys, time
+from mckibben import doctor
+name, dispatcher, sig = doctor.background_kernels()[0]
+dispatcher.compile(sig)
+print("COMPILED", sum(dispatcher.stats.cache_misses.values()), flush=True)
+"""
+
+_WAIT = """
+import sys
+from mckibben import doctor
+name, dispatcher, sig = doctor.background_kernels()[0]
+dispatcher.compile(sig)
+print("STATS", sum(dispatcher.stats.cache_hits.values()), sum(dispatcher.stats.cache_misses.values()), flush=True)
+"""
+
+
+@pytest.mark.timeout(600)
+def test_a_process_waits_for_a_kernel_another_one_compiles_and_loads_it(tmp_path):
+    """Two processes that need the integrator at once from a cold cache: the first compiles it
+    under its lock, the second waits and loads it (a cache hit, no compilation of its own)."""
+    import fcntl
+    import time
+
+    env = _env(MCKIBBEN_CACHE_DIR=str(tmp_path), MCKIBBEN_BACKGROUND_WARM="0")
+    first = subprocess.Popen([sys.executable, "-c", _HOLD], env=env, stdout=subprocess.PIPE, text=True)
+    try:
+        lock = None
+        deadline = time.monotonic() + 300
+        while lock is None and time.monotonic() < deadline and first.poll() is None:
+            for p in tmp_path.rglob("*.lock"):
+                with open(p) as fh:
+                    try:
+                        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                        fcntl.flock(fh, fcntl.LOCK_UN)
+                    except BlockingIOError:
+                        lock = p  # held: the first process is compiling under it
+            time.sleep(0.02)
+        assert lock is not None, "the first process never held a compile lock"
+        second = subprocess.run([sys.executable, "-c", _WAIT], env=env, capture_output=True, text=True, timeout=580)
+        assert second.returncode == 0, second.stderr[-2000:]
+        out, _ = first.communicate(timeout=580)
+    finally:
+        first.kill()
+    assert "COMPILED 1" in out
+    stats = next(x for x in second.stdout.splitlines() if x.startswith("STATS"))
+    assert stats == "STATS 1 0", stats  # loaded what the first compiled, compiled nothing
+
+
+@pytest.mark.timeout(120)
+def test_the_background_warm_up_ends_with_its_command(tmp_path):
+    import time
+
+    env = _env(MCKIBBEN_CACHE_DIR=str(tmp_path), MCKIBBEN_BACKGROUND_WARM="1")
+    r = subprocess.run([sys.executable, "-c", "from mckibben import _jit\np = _jit.start_background_warm()\n"
+                        "print(p.pid if p is not None else None)"], env=env, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    pid = int(r.stdout.strip())  # started: a cache folder, more than one core
+
+    def alive() -> bool:
+        try:
+            state = Path(f"/proc/{pid}/status").read_text()
+        except OSError:
+            return False
+        return "\nState:\tZ" not in state  # a zombie has ended (whoever reaps it)
+
+    deadline = time.monotonic() + 30
+    while alive() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not alive(), "the warm-up outlived the command that started it"
+
+
+def test_no_background_warm_up_where_it_cannot_help(tmp_path, monkeypatch):
+    from mckibben import _jit
+
+    monkeypatch.setenv("MCKIBBEN_BACKGROUND_WARM", "0")
+    assert _jit.start_background_warm() is None
+    monkeypatch.setenv("MCKIBBEN_BACKGROUND_WARM", "warming")  # the warm-up itself starts none
+    assert _jit.start_background_warm() is None

@@ -20,6 +20,13 @@ the installed package:
 - No cached function takes another compiled function as an argument: such a function cannot be
   cached (its argument type names a dispatcher of one process only), so the simulator's runner is
   generated once per controller kernel, with the kernel as a true global (:func:`module_for`).
+- One process compiles a kernel at a time: a process that finds a kernel missing takes a lock on
+  its index (``flock``) while it compiles; another process that needs the same kernel waits and
+  loads it (Dask workers, a second terminal, the background warm-up), instead of compiling it too.
+- The first compilation of a process starts a background warm-up on the machine's other core
+  (:func:`start_background_warm`): it compiles the integrator and the firmware core's mirror,
+  the longest kernels every simulation needs, while the command compiles its own start, so a
+  first command waits for about the longest of the two, not their sum.
 
 See ``../shared/notes/numba-cache.md`` for the facts of Numba's cache this design rests on.
 """
@@ -39,6 +46,11 @@ from pathlib import Path
 
 import numba
 from numba.core import caching
+
+try:
+    import fcntl as _fcntl
+except ImportError:  # Windows: no compile lock
+    _fcntl = None  # type: ignore[assignment]
 from numba.core import event as _event
 
 from mckibben import _kernels
@@ -189,20 +201,129 @@ def _install_locator() -> None:
 
 
 class _SafeCache(caching.FunctionCache):
-    """Numba's function cache, where a failure to load or save an entry compiles in memory instead."""
+    """Numba's function cache, where a failure to load or save an entry compiles in memory instead,
+    and where a kernel another process is compiling is waited for and loaded (:class:`_CompileLock`)."""
 
-    def load_overload(self, sig, target_context):
+    def _load(self, sig, target_context):
         try:
             return super().load_overload(sig, target_context)
         except Exception as exc:  # noqa: BLE001 - a foreign/truncated entry: compile instead
             _cache_warning(f"a cached kernel could not be read ({type(exc).__name__}: {exc}); compiling it")
             return None
 
+    def load_overload(self, sig, target_context):
+        found = self._load(sig, target_context)
+        if found is not None:
+            return found
+        lock = _CompileLock.of(self)
+        if lock is not None and lock.acquire():  # another process held it: it may have saved the kernel
+            found = self._load(sig, target_context)
+            if found is not None:
+                lock.release()
+        return found  # None: this process compiles, holding the lock until save_overload
+
     def save_overload(self, sig, data):
         try:
             super().save_overload(sig, data)
         except Exception as exc:  # noqa: BLE001 - the compiled code is in memory; only the save failed
             _cache_warning(f"a compiled kernel could not be cached ({type(exc).__name__}: {exc})")
+        finally:
+            lock = _CompileLock.held(self)
+            if lock is not None:
+                lock.release()
+
+
+class _CompileLock:
+    """An exclusive ``flock`` on ``<kernel index>.lock`` while this process compiles that kernel.
+
+    Held from the cache miss to the save (or to a failed compilation, see :class:`_LockRelease`);
+    the operating system drops it if the process dies. A process that finds it held waits (at most
+    :data:`WAIT_S`), then loads what the holder saved. Not on Windows (no ``fcntl``): there every
+    process compiles for itself, as before.
+    """
+
+    WAIT_S = 600.0
+    _held: dict = {}  # lock path -> _CompileLock held by this process
+
+    def __init__(self, path: str):
+        self.path = path
+        self.fd: int | None = None
+
+    @classmethod
+    def of(cls, cache) -> "_CompileLock | None":
+        if _fcntl is None:
+            return None
+        path = cls._path(cache)
+        if path is None or path in cls._held:  # already ours (a nested compile of the same kernel)
+            return None
+        return cls(path)
+
+    @classmethod
+    def held(cls, cache) -> "_CompileLock | None":
+        path = cls._path(cache)
+        return cls._held.get(path) if path is not None else None
+
+    @staticmethod
+    def _path(cache) -> str | None:
+        index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
+        return f"{index}.lock" if index else None
+
+    def acquire(self) -> bool:
+        """Take the lock, waiting while another process holds it; True if it had to wait."""
+        try:
+            self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError:
+            return False  # a read-only cache folder: no lock, compile as before
+        waited = False
+        deadline = None
+        while True:
+            try:
+                _fcntl.flock(self.fd, _fcntl.LOCK_EX | _fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                import time
+
+                deadline = deadline or time.monotonic() + self.WAIT_S
+                if time.monotonic() > deadline:  # a stuck holder: compile anyway
+                    os.close(self.fd)
+                    self.fd = None
+                    return waited
+                waited = True
+                time.sleep(0.05)
+            except OSError:
+                os.close(self.fd)
+                self.fd = None
+                return False
+        _CompileLock._held[self.path] = self
+        return waited
+
+    def release(self) -> None:
+        if self.fd is not None:
+            _CompileLock._held.pop(self.path, None)
+            try:
+                _fcntl.flock(self.fd, _fcntl.LOCK_UN)
+            finally:
+                os.close(self.fd)
+                self.fd = None
+
+
+class _LockRelease(_event.Listener):
+    """Drop a kernel's compile lock when its compilation fails (no save follows then)."""
+
+    def on_start(self, event):
+        pass
+
+    def on_end(self, event):
+        # numba's Event.is_failed reads the wrong way round (True when no exception): read the details
+        if getattr(event, "_exc_details", None) is None:
+            return
+        disp = event.data.get("dispatcher") if isinstance(event.data, dict) else None
+        lock = _CompileLock.held(getattr(disp, "_cache", None)) if disp is not None else None
+        if lock is not None:
+            lock.release()
+
+
+_event.register("numba:compile", _LockRelease())
 
 
 def _cache_warning(message: str) -> None:
@@ -410,6 +531,41 @@ def _notice() -> None:
 
 
 on_first_compile(_notice)
+
+#: Environment switch of the background warm-up: ``0`` turns it off (the test suite does, but for
+#: its own test); the warm-up process itself runs with ``warming``.
+BACKGROUND_ENV = "MCKIBBEN_BACKGROUND_WARM"
+
+
+def start_background_warm() -> object | None:
+    """Compile the longest shared kernels in a second process, beside this one's own compilation.
+
+    Started at the first compilation of a process whose kernels are cached on disk, on a machine
+    with more than one core, unless ``MCKIBBEN_BACKGROUND_WARM=0``. The process
+    (:func:`mckibben.doctor.background_warm`) takes each kernel's compile lock before compiling
+    it; this process, reaching that kernel, waits and loads it. It ends with this process.
+
+    Returns
+    -------
+    subprocess.Popen or None
+        The process, or None when none was started.
+    """
+    import subprocess
+
+    if (os.environ.get(BACKGROUND_ENV, "1") in ("0", "warming") or cache_dir() is None or _fcntl is None
+            or (os.cpu_count() or 1) < 2 or numba.config.DISABLE_JIT):
+        return None
+    env = {**os.environ, BACKGROUND_ENV: "warming", _ENV_DIR: str(cache_dir().parent)}
+    try:
+        return subprocess.Popen([sys.executable, "-c", "from mckibben.doctor import background_warm; "
+                                 f"background_warm({os.getpid()})"],
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                env=env, start_new_session=True)
+    except OSError:
+        return None
+
+
+on_first_compile(lambda: _STATE.setdefault("background", start_background_warm()))
 
 
 def compile_stats() -> dict[str, int]:

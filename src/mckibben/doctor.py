@@ -55,6 +55,59 @@ def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
     ]
 
 
+def background_kernels() -> list[tuple[str, object, tuple]]:
+    """The kernels a background warm-up compiles, in order, with the signatures the simulator's
+    runner calls them with: the integrator (the longest, 6 s), its output stage and the firmware
+    core's mirror. A test holds the signatures to the runner's (``tests/test_compile_cache.py``).
+
+    Returns
+    -------
+    list of (str, dispatcher, tuple)
+        Name, Numba dispatcher and argument types. [-]
+    """
+    from numba import types as T
+
+    from mckibben.control import core as C
+    from mckibben.plant import physics as ph
+
+    f64, i64 = T.Array(T.float64, 1, "C"), T.Array(T.int64, 1, "C")
+    return [
+        ("integrator", ph.advance, (T.int64, f64, T.int64, T.float64, T.int64)),
+        ("outputs", ph.outputs, (T.int64, f64, T.int64)),
+        ("firmware core", C.core_kernel, (i64, i64, f64, f64, T.int64, T.int64, T.literal(True), T.float64)),
+    ]
+
+
+def background_warm(parent: int) -> None:
+    """Compile the longest shared kernels into the cache while the process ``parent`` runs; stop when it ends.
+
+    Started by :func:`mckibben._jit.start_background_warm` at a process's first compilation; compiles
+    :func:`background_kernels`. Each
+    kernel is compiled under its compile lock, so the parent, reaching it, waits and loads it
+    instead of compiling it again.
+
+    Parameters
+    ----------
+    parent : int
+        The process id of the command that started it. [-]
+    """
+    import threading
+
+    def watch():
+        while True:
+            try:
+                os.kill(parent, 0)
+            except OSError:
+                os._exit(0)  # the command ended: so does its warm-up (a lock dies with the process)
+            if os.getppid() != parent:
+                os._exit(0)
+            time.sleep(0.2)
+
+    threading.Thread(target=watch, daemon=True).start()
+    for _, dispatcher, signature in background_kernels():
+        dispatcher.compile(signature)
+
+
 @dataclass
 class WarmResult:
     """What :func:`warm` did.
