@@ -1,7 +1,7 @@
 """The virtual-work family law: kernel and NumPy face, physics, a family fit, held-out muscles, the plant.
 
-The family is synthetic: three muscles of one type (rest lengths 150, 250 and 350 mm, 30 mm of
-ends that add no force) drawn from the law itself with noise, tared as a lab would. The plant
+The family is synthetic: three muscles of one type (rest lengths 150, 250 and 350 mm, end zones of
+20 mm) drawn from the law itself with noise, tared as a lab would. The plant
 check is the muscle-file plant's (tests/test_muscle_file_plant.py) on a family law's file.
 """
 
@@ -16,12 +16,12 @@ from mckibben.errors import InputError
 from mckibben.fit.isometric import compare_isometric, fit_isometric
 from mckibben.fit.muscle_file import muscle_force_law, save_muscle_file
 from mckibben.models import laws
-from mckibben.models.laws.virtual_work import VirtualWork
+from mckibben.models.laws.virtual_work import VirtualWork, ends_share
 from mckibben.models.muscle import Muscle
 from mckibben.plant import PlantParams, simulate
 
 TRUE = dict(a0_N_per_MPa=530.0, a1_N_per_MPa=-2400.0, a2_N_per_MPa2=400.0, g0_N=130.0, e0=0.025, g1_N=720.0,
-            end_length_m=0.03)
+            end_zone_m=0.02)
 RESTS = {"m150": 0.150, "m250": 0.250, "m350": 0.350}
 CONTRACTIONS = (0.0, 0.04, 0.08, 0.12)
 
@@ -29,7 +29,7 @@ CONTRACTIONS = (0.0, 0.04, 0.08, 0.12)
 def _law(rest, **change):
     t = {**TRUE, **change}
     return VirtualWork(t["a0_N_per_MPa"], t["a1_N_per_MPa"], t["a2_N_per_MPa2"], t["g0_N"], t["e0"], t["g1_N"],
-                       t["end_length_m"], rest)
+                       t["end_zone_m"], rest)
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +58,8 @@ def test_the_numpy_face_is_the_kernel_and_the_physics_holds():
     eps = 1.0 - ell / 0.25
     x = p / 1e6
     g = np.where(eps >= 0, 130 * (1 - np.exp(-np.maximum(eps, 0) / 0.025)) + 720 * eps, (130 / 0.025 + 720) * eps)
-    want = (1 - 0.03 / 0.25) * np.maximum((530 - 2400 * eps + 400 * x) * x - g, 0.0)
+    share = 1 - (2 * 0.02 / 0.25) * (1 - np.exp(-0.25 / (2 * 0.02)))  # the ends' share of a 250 mm muscle
+    want = share * np.maximum((530 - 2400 * eps + 400 * x) * x - g, 0.0)
     # the same formula, written twice: agreement to round-off
     np.testing.assert_allclose(law.force(p, ell), want, rtol=1e-12, atol=1e-9)
     np.testing.assert_array_equal(laws.evaluate("virtual-work", p, ell, law.theta()), law.force(p, ell))
@@ -75,18 +76,21 @@ def test_the_numpy_face_is_the_kernel_and_the_physics_holds():
     f3 = law.force(0.1e6, np.array([0.30, 0.35, 0.40]))
     assert f3[2] - 2 * f3[1] + f3[0] == pytest.approx(0.0, abs=1e-9 * f3[2])
     assert laws.law_of(law) == ("virtual-work", pytest.approx(law.theta()))
-    with pytest.raises(InputError, match="end length"):
-        _law(0.025)
+    # the ends' share: 1 − 2λ/L0 for a long muscle, in (0, 1] however short
+    assert ends_share(100.0, 0.02) == pytest.approx(1 - 0.04 / 100.0, rel=1e-9) and ends_share(0.25, 0.0) == 1.0
+    assert 0 < ends_share(0.01, 0.02) < ends_share(0.05, 0.02) < ends_share(0.25, 0.02) < 1
+    with pytest.raises(InputError, match="end zone"):
+        _law(0.25, end_zone_m=-0.01)
     with pytest.raises(InputError, match="e0"):
         _law(0.25, e0=0.0)
 
 
-def test_a_family_fit_recovers_the_law_and_its_end_length(family):
+def test_a_family_fit_recovers_the_law_and_its_end_zone(family):
     fit = fit_isometric(read_table(family[0]), read_muscle(family[1]), "virtual-work", tare="lowest")
     r = fit.result
-    assert "end_length_m" in r.names and r.flags == ()
+    assert "end_zone_m" in r.names and r.flags == ()
     # 3 muscles x 4 lengths x 3 trials x 26 points of 1 N noise on forces up to ~330 N
-    assert r["end_length_m"] == pytest.approx(0.03, abs=2e-3)
+    assert r["end_zone_m"] == pytest.approx(0.02, abs=2e-3)
     assert r["a0_N_per_MPa"] == pytest.approx(530.0, rel=0.03)
     assert r["e0"] == pytest.approx(0.025, rel=0.15)
     assert r.valid_range["rest_length"] == pytest.approx((0.15, 0.35))
@@ -103,15 +107,15 @@ def test_a_whole_muscle_is_predicted_from_its_rest_length(family):
     assert s["extrapolated_folds"] >= 2
 
 
-def test_one_muscle_fits_without_an_end_length(family):
+def test_one_muscle_fits_without_an_end_zone(family):
     d = pd.read_csv(family[0])
     one = family[0].parent / "one.csv"
     d[d["muscle"] == "m250"].drop(columns=["rest_length_mm"]).to_csv(one, index=False)
     (family[0].parent / "m250.toml").write_text('id = "m250"\nnominal_length_mm = 250\nouter_diameter_mm = 10\n')
     fit = fit_isometric(read_table(one), read_muscle(family[0].parent / "m250.toml"), "virtual-work", "lowest")
-    assert "end_length_m" not in fit.result.names and fit.result.r2 > 0.99
+    assert "end_zone_m" not in fit.result.names and fit.result.r2 > 0.99
     # one muscle: the ends' share is folded into the areas, a0·s
-    assert fit.result["a0_N_per_MPa"] == pytest.approx(530.0 * (1 - 0.03 / 0.25), rel=0.03)
+    assert fit.result["a0_N_per_MPa"] == pytest.approx(530.0 * float(ends_share(0.25, 0.02)), rel=0.03)
 
 
 def test_a_non_physical_fit_is_flagged():

@@ -1,4 +1,4 @@
-"""A law from virtual work: pressure on an effective area, less the sleeve's elastic force, less the ends' share.
+"""A law from virtual work: pressure on an effective area, less the sleeve's elastic force, less what the ends lose.
 
 By virtual work a McKibben muscle pulls F = −P·dV/dL − dW/dL: the pressure on an *effective
 area* −dV/dL (Chou & Hannaford 1996), less the force the bladder and braid store as elastic
@@ -7,7 +7,8 @@ contraction ε = (L0 − L)/L0 and x = P / 1 MPa, with the effective area linear
 and pressure (the braid narrows as it contracts; the bladder bulges under pressure) and an elastic
 force that stiffens near the rest length and then grows linearly,
 
-    F = s·max((a0 + a1·ε + a2·x)·x − g0·(1 − exp(−ε/e0)) − g1·ε, 0),   s = 1 − le/L0.
+    F = s·max((a0 + a1·ε + a2·x)·x − g0·(1 − exp(−ε/e0)) − g1·ε, 0),
+    s = 1 − (2λ/L0)·(1 − exp(−L0/(2λ))).
 
 The elastic term is what sets the pressure threshold: a muscle held shorter than its rest length is
 slack until the pressure force overcomes it (it pulls only above a threshold that rises with
@@ -15,13 +16,16 @@ contraction), while at the rest length (ε = 0) it pulls from the lowest pressur
 muscle stretched beyond its rest length) the elastic term continues along its tangent at 0,
 g = (g0/e0 + g1)·ε, so the law stays bounded in the plant.
 
-**Length effect.** Muscles cut from one sleeve to different lengths differ by their ends: near each
-end fitting the braid is held at the fitting's diameter and adds less force per unit of pressure
-than the free middle. Over a family (several rest lengths) this is one length, le: the share
-s = 1 − le/L0 of the muscle that pulls as an infinitely long one would. It is the length effect that
-Hunt, Graber-Tilton and Quinn measured on Festo muscles cut to several lengths (their maximum
-contraction and force depend on the rest length); le is fitted only across rest lengths (on one
-muscle it is not identifiable and is left out, s = 1).
+**Length effect.** Muscles cut from one sleeve to different lengths differ by their ends: at each
+end fitting the braid is held at the fitting's diameter and relaxes to the free muscle's over some
+length, so near the ends it adds less force per unit of pressure than in the middle. Taking the
+lost share at a distance z from the nearer fitting as exp(−z/λ) (a boundary layer of length λ)
+and averaging it over the muscle gives the share s(L0) above: 1 − 2λ/L0 for a long muscle, and
+always in (0, 1], falling smoothly for muscles only a few λ long (a share linear in 1/L0 would
+reach zero at L0 = 2λ and extrapolate badly to short muscles). It is the length effect that Hunt,
+Graber-Tilton and Quinn measured on Festo muscles cut to several lengths (force and contraction
+depend on the rest length); λ is fitted only across rest lengths (on one muscle it is not
+identifiable and is left out, s = 1).
 
 The coefficients take pressure in MPa (conditioning of the fit); the kernel converts. The law pulls
 only (0 where it would push); the load cell's zero ``offset_N`` is fitted and dropped from the
@@ -51,23 +55,23 @@ from mckibben._kernels import kernel, register
 from mckibben.errors import InputError
 from mckibben.models.laws._base import MPA, NTH, FitSpec, Law, evaluate_kernel, offset_flag
 
-# θ: a0 [N/Pa], a1 [N/Pa], a2 [N/Pa²], g0 [N], e0 [-], g1 [N], L0 [m], le [m]
-VW_A0, VW_A1, VW_A2, VW_G0, VW_E0, VW_G1, VW_L0, VW_LE = range(8)
+# θ: a0 [N/Pa], a1 [N/Pa], a2 [N/Pa²], g0 [N], e0 [-], g1 [N], L0 [m], λ [m]
+VW_A0, VW_A1, VW_A2, VW_G0, VW_E0, VW_G1, VW_L0, VW_LAM = range(8)
 NAME = "virtual-work"
-#: Largest end length, as a fraction of the shortest rest length in the data. [-]
+#: Largest end-zone length λ, as a fraction of the shortest rest length in the data. [-]
 END_FRACTION = 0.5
 #: Bounds of the elastic term's strain scale e0. [-]
 E0_BOUNDS = (1e-3, 0.5)
 #: Starting strain scales of the multi-start (the law is linear in the other parameters). [-]
 E0_STARTS = (0.01, 0.03, 0.1)
-OPTIONAL = ("end_length_m",)
+OPTIONAL = ("end_zone_m",)
 #: Every parameter, the optional end length included, in order.
-FULL_NAMES = ("a0_N_per_MPa", "a1_N_per_MPa", "a2_N_per_MPa2", "g0_N", "e0", "g1_N", "end_length_m", "offset_N")
+FULL_NAMES = ("a0_N_per_MPa", "a1_N_per_MPa", "a2_N_per_MPa2", "g0_N", "e0", "g1_N", "end_zone_m", "offset_N")
 
 
 @kernel(error_model="numpy", inline="always")
 def virtual_work(pressure, length, th, o, w):
-    """F = s·max((a0 + a1·ε + a2·P)·P − g0·(1 − exp(−ε/e0)) − g1·ε, 0), ε = 1 − L/L0, s = 1 − le/L0. [N]
+    """F = s·max((a0 + a1·ε + a2·P)·P − g0·(1 − exp(−ε/e0)) − g1·ε, 0), ε = 1 − L/L0, s(L0, λ) the ends' share. [N]
 
     Chou & Hannaford (1996) effective area, Klute & Hannaford (2000) elastic energy, Hunt,
     Graber-Tilton & Quinn (2017) length effect.
@@ -82,7 +86,8 @@ def virtual_work(pressure, length, th, o, w):
         g = (g0 / e0 + th[o + VW_G1 * w]) * eps
     p = pressure
     f = (th[o + VW_A0 * w] + th[o + VW_A1 * w] * eps + th[o + VW_A2 * w] * p) * p - g
-    s = 1.0 - th[o + VW_LE * w] / l0
+    lam = th[o + VW_LAM * w]
+    s = 1.0 + 2.0 * lam / l0 * math.expm1(-0.5 * l0 / lam) if lam > 0.0 else 1.0
     return s * f if f > 0.0 else 0.0
 
 
@@ -104,8 +109,8 @@ class VirtualWork:
         Its contraction scale. [-]
     g1 : float
         Linear part of the elastic force, per unit contraction. [N]
-    end_length : float
-        Length of the ends that add no force, le. [m]
+    end_zone : float
+        Length λ over which the braid relaxes from an end fitting to the free muscle. [m]
     rest_length : float
         The muscle's rest length L0. [m]
     citation : str
@@ -118,21 +123,21 @@ class VirtualWork:
     g0: float
     e0: float
     g1: float
-    end_length: float
+    end_zone: float
     rest_length: float
     citation: str = "Chou & Hannaford (1996), Klute & Hannaford (2000), Hunt, Graber-Tilton & Quinn (2017)"
 
     def __post_init__(self):
-        if not (self.rest_length > 0 and 0 <= self.end_length < self.rest_length and self.e0 > 0):
-            raise InputError(f"virtual-work law: need rest length > 0, 0 <= end length < rest length and e0 > 0; got "
-                             f"{self.rest_length!r} m, {self.end_length!r} m, e0 {self.e0!r}")
+        if not (self.rest_length > 0 and self.end_zone >= 0 and self.e0 > 0):
+            raise InputError(f"virtual-work law: need rest length > 0, end zone >= 0 and e0 > 0; got "
+                             f"{self.rest_length!r} m, {self.end_zone!r} m, e0 {self.e0!r}")
 
     def theta(self) -> np.ndarray:
         """Parameters of :func:`virtual_work`. [SI]"""
         th = np.zeros(NTH)
         th[VW_A0], th[VW_A1], th[VW_A2] = self.a0 / MPA, self.a1 / MPA, self.a2 / MPA**2
         th[VW_G0], th[VW_E0], th[VW_G1] = self.g0, self.e0, self.g1
-        th[VW_L0], th[VW_LE] = self.rest_length, self.end_length
+        th[VW_L0], th[VW_LAM] = self.rest_length, self.end_zone
         return th
 
     def force(self, pressure, length):
@@ -150,8 +155,23 @@ def _terms(d, pressure, length, rest_length):
         g = np.where(eps >= 0, d["g0_N"] * -np.expm1(-np.maximum(eps, 0.0) / e0) + d["g1_N"] * eps,
                      (d["g0_N"] / e0 + d["g1_N"]) * eps)
     f = (d["a0_N_per_MPa"] + d["a1_N_per_MPa"] * eps + d["a2_N_per_MPa2"] * x) * x - g
-    s = 1.0 - d.get("end_length_m", 0.0) / l0
-    return eps, x, f, s
+    return eps, x, f, ends_share(l0, d.get("end_zone_m", 0.0))
+
+
+def ends_share(rest_length, end_zone):
+    """The share of a muscle's length that pulls as a long one would: 1 − (2λ/L0)·(1 − exp(−L0/(2λ))). [-]
+
+    Parameters
+    ----------
+    rest_length : array_like
+        Rest length L0. [m]
+    end_zone : float or array_like
+        End-zone length λ (0: no ends, share 1). [m]
+    """
+    l0 = np.asarray(rest_length, dtype=float)
+    lam = np.asarray(end_zone, dtype=float)
+    safe = np.where(lam > 0, lam, 1.0)
+    return np.where(lam > 0, 1.0 + 2.0 * safe / l0 * np.expm1(-0.5 * l0 / safe), 1.0)
 
 
 def _force(v, names, pressure, length, rest_length):
@@ -162,14 +182,14 @@ def _force(v, names, pressure, length, rest_length):
 
 
 def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
-    """Fit spec: a0, a1, a2, g0, e0, g1, the end length (two rest lengths or more) and the load cell's zero.
+    """Fit spec: a0, a1, a2, g0, e0, g1, the end zone λ (two rest lengths or more) and the load cell's zero.
 
     Bounds: a0 ≥ 0 (the muscle pulls when pressurised at its rest length), a1 ≤ 0 (the effective
     area shrinks as the braid contracts), g0, g1 ≥ 0 (contracting stores elastic energy),
-    e0 in :data:`E0_BOUNDS`, 0 ≤ le ≤ 0.5 × the shortest rest length, the zero within ± the peak
+    e0 in :data:`E0_BOUNDS`, 0 ≤ λ ≤ 0.5 × the shortest rest length, the zero within ± the peak
     force. The starts come from a linear least-squares fit of the pulling rows (the law is linear in
-    a0, a1, a2, g0, g1 for given e0 and le), one per e0 of :data:`E0_STARTS` (and, across rest
-    lengths, le at 0 and at 10 % of the shortest rest length).
+    a0, a1, a2, g0, g1 for given e0 and λ), one per e0 of :data:`E0_STARTS` (and, across rest
+    lengths, λ at 0 and at 10 % of the shortest rest length).
 
     Parameters
     ----------
@@ -187,7 +207,7 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     names = tuple(nm for nm in FULL_NAMES if family or nm not in OPTIONAL)
     le_max = END_FRACTION * float(rest.min())
     bounds = {"a0_N_per_MPa": (0.0, np.inf), "a1_N_per_MPa": (-np.inf, 0.0), "a2_N_per_MPa2": (-np.inf, np.inf),
-              "g0_N": (0.0, np.inf), "e0": E0_BOUNDS, "g1_N": (0.0, np.inf), "end_length_m": (0.0, le_max),
+              "g0_N": (0.0, np.inf), "e0": E0_BOUNDS, "g1_N": (0.0, np.inf), "end_zone_m": (0.0, le_max),
               "offset_N": (-fmax, fmax)}
     lo = np.array([bounds[nm][0] for nm in names], dtype=float)
     hi = np.array([bounds[nm][1] for nm in names], dtype=float)
@@ -207,7 +227,7 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
         pull = f > 0.05 * fmax
         eps = (rest - ell) / rest
         for le in ((0.0, 0.1 * float(rest.min())) if family else (0.0,)):
-            s = 1.0 - le / rest
+            s = ends_share(rest, le)
             for e0 in E0_STARTS:
                 sat = -np.expm1(-np.maximum(eps, 0.0) / e0)
                 cols = np.column_stack([s * x, s * eps * x, s * x * x, -s * sat, -s * eps, np.ones_like(x)])[pull]
@@ -216,7 +236,7 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
                 else:
                     c = np.array([fmax, 0.0, 0.0, 0.0, 0.0, 0.0])
                 vals = {"a0_N_per_MPa": c[0], "a1_N_per_MPa": c[1], "a2_N_per_MPa2": c[2], "g0_N": c[3], "e0": e0,
-                        "g1_N": c[4], "end_length_m": le, "offset_N": c[5]}
+                        "g1_N": c[4], "end_zone_m": le, "offset_N": c[5]}
                 starts.append(np.clip(np.array([vals[nm] for nm in names], dtype=float), lo, hi))
     else:
         vals = {"a0_N_per_MPa": fmax, "e0": E0_STARTS[0]}
@@ -244,7 +264,7 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
     ----------
     values : dict
         ``a0_N_per_MPa``, ``a1_N_per_MPa``, ``a2_N_per_MPa2``, ``g0_N``, ``e0``, ``g1_N`` and,
-        for a family fit, ``end_length_m``. [SI, pressure in MPa]
+        for a family fit, ``end_zone_m``. [SI, pressure in MPa]
     muscle : MuscleSpec
         The muscle: its nominal length is the rest length the law is evaluated for. [-]
     direction : str
@@ -254,7 +274,7 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
     """
     return VirtualWork(float(values["a0_N_per_MPa"]), float(values["a1_N_per_MPa"]), float(values["a2_N_per_MPa2"]),
                        float(values["g0_N"]), float(values["e0"]), float(values["g1_N"]),
-                       float(values.get("end_length_m", 0.0)), float(muscle.nominal_length),
+                       float(values.get("end_zone_m", 0.0)), float(muscle.nominal_length),
                        citation=f"fitted: {muscle.path or muscle.id}")
 
 
@@ -262,8 +282,8 @@ LAW = Law(
     NAME, virtual_work,
     "Chou & Hannaford (1996) effective area; Klute & Hannaford (2000) elastic energy; Hunt, Graber-Tilton & Quinn "
     "(2017), ASME IDETC V05AT08A008, length effects",
-    description="family law: pressure on an effective area less the sleeve's elastic force, the ends' share across "
-                "rest lengths",
+    description="family law: pressure on an effective area less the sleeve's elastic force, what the end fittings "
+                "cost across rest lengths",
     params=VirtualWork, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
     from_values=from_values, needs=("nominal_length",), family=True, extra={"optional_names": OPTIONAL},
 )
