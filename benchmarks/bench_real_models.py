@@ -105,7 +105,8 @@ def main_bench(quick: bool = False) -> int:
             b = next(s for s in out["models"] if s["model"] == out["best"])
             for f in b["folds"]:
                 print(f"      held out {f['held_out']:<28} {f['rmse_pct_of_peak']:6.2f} % of its peak "
-                      f"({f['rmse_N']:.3g} N of {f['peak_force_N']:.4g} N)")
+                      f"({f['rmse_N']:.3g} N of {f['peak_force_N']:.4g} N)"
+                      f"{'  extrapolated: ' + ', '.join(f['extrapolated']) if f.get('extrapolated') else ''}")
             pct = [f["rmse_pct_of_peak"] for f in b["folds"]]
             print(f"    best model per held-out fold: median {np.median(pct):.2f} %, worst {np.max(pct):.2f} %")
         if best_per_muscle:

@@ -56,6 +56,7 @@ from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_ze
 from mckibben.errors import InputError, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range, linear_fit
 from mckibben.models import laws
+from mckibben.models.flags import flag_names
 from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
 from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
@@ -536,11 +537,13 @@ class ModelComparison(Result):
         Per model: ``model``, ``n_parameters``, ``rmse_N``, ``r2`` (in-sample, all data),
         ``cv_rmse_N`` (held-out), ``cv_rmse_pct_of_peak`` (held-out RMSE / peak |force| × 100),
         ``folds`` (per fold: ``held_out``, ``rmse_N``, ``rmse_pct_of_peak`` of the held-out
-        muscle's peak |force|, ``peak_force_N``, ``n_points``), ``median_fold_pct_of_peak`` and
+        muscle's peak |force|, ``peak_force_N``, ``n_points``, ``extrapolated``: the range flags of
+        its points, e.g. ``rest_length_out_of_range``), ``median_fold_pct_of_peak`` and
         ``worst_fold_pct_of_peak`` over the folds, ``extrapolated_folds`` (folds whose held-out
         points lie outside the training range), ``flags`` (of the fit on all data) and ``note``.
     best : str or None
-        The model with the smallest held-out RMSE.
+        The model with the smallest held-out RMSE among the unflagged ones (all, when every one is
+        flagged).
     peak_force : float
         Largest |force| in the data. [N]
     fits : dict
@@ -549,6 +552,8 @@ class ModelComparison(Result):
         The tare applied.
     source : str
         The data file.
+    best_flagged : bool
+        Whether every model's fit is flagged, the best one's too. [-]
     """
 
     cv: str
@@ -558,6 +563,7 @@ class ModelComparison(Result):
     fits: dict = field(repr=False)
     tare: dict = field(default_factory=dict)
     source: str = ""
+    best_flagged: bool = False
 
     call = "mckibben.fit.isometric.compare_isometric"
 
@@ -581,8 +587,8 @@ class ModelComparison(Result):
 
     def to_dict(self) -> dict:
         """JSON-ready."""
-        return {"cv": self.cv, "best": self.best, "peak_force_N": self.peak_force, "tare": self.tare,
-                "models": self.scores}
+        return {"cv": self.cv, "best": self.best, "best_flagged": self.best_flagged, "peak_force_N": self.peak_force,
+                "tare": self.tare, "models": self.scores}
 
     def plot(self, ax=None):
         """Held-out and in-sample RMSE per model, as % of the peak force (bar chart).
@@ -645,8 +651,13 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     the smallest held-out RMSE, never the in-sample one (notes/lab-data.md).
 
     On a family table only the family laws (:func:`mckibben.models.laws.fit_laws`) are fitted:
-    the others describe one muscle; on one muscle's table only the others (a family law fitted on
-    one rest length has no end length to find, and is fitted with ``mckibben fit --model``).
+    the others describe one muscle. On one muscle's table every law is fitted, the family laws
+    too: on one rest length a family law has no end length to find and is a force law of that
+    muscle's contraction (its own file says which parameters it drops).
+
+    **Best.** The model with the smallest held-out RMSE among those whose fit on all the data
+    carries no flag (a flagged fit is non-physical or doubtful: it is reported, not recommended);
+    when every model is flagged, the smallest held-out RMSE of all, and ``best_flagged`` says so.
 
     Per fold, ``folds`` gives the held-out RMSE and that RMSE as a percentage of the held-out
     muscle's peak measured |force| (the peak of the whole table for one muscle).
@@ -691,8 +702,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         raise InputError(f"compare on {table.path}: {cv} needs two {what} or more")
     if fold_names is None:
         fold_names = _fold_keys(d, cv)[1]
-    if models is None:  # a family's laws on a family table, one muscle's laws on one muscle
-        models = list(FAMILY_MODELS if family else FORCE_MODELS)
+    if models is None:  # a family's laws on a family table, every law on one muscle
+        models = list(FAMILY_MODELS if family else ALL_MODELS)
     scores, fits = [], {}
     for model in models:
         try:
@@ -722,7 +733,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
             rm = float(np.sqrt(np.mean((value[ok] - f[test][ok]) ** 2))) if ok.any() else float("nan")
             pk = max(muscle_peak[m] for m in set(who[test]))
             folds.append({"held_out": fold_names[int(g)], "rmse_N": rm, "rmse_pct_of_peak": rm / pk * 100.0,
-                          "peak_force_N": pk, "n_points": int(test.sum())})
+                          "peak_force_N": pk, "n_points": int(test.sum()), "extrapolated": flag_names(int(np.bitwise_or.reduce(fl.ravel())))})
         ok = np.isfinite(pred)
         cv_rmse = float(np.sqrt(np.mean((pred[ok] - f[ok]) ** 2))) if ok.any() else float("nan")
         if not ok.all():
@@ -735,5 +746,6 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
                        "extrapolated_folds": extrapolated, "flags": list(full.flags), "note": "; ".join(notes),
                        "folds": folds})
     ranked = [s for s in scores if s["cv_rmse_N"] is not None and np.isfinite(s["cv_rmse_N"])]
-    best = min(ranked, key=lambda s: s["cv_rmse_N"])["model"] if ranked else None
-    return ModelComparison(cv, scores, best, peak, fits, report, table.path)
+    clean = [s for s in ranked if not s["flags"]]
+    best = min(clean or ranked, key=lambda s: s["cv_rmse_N"])["model"] if ranked else None
+    return ModelComparison(cv, scores, best, peak, fits, report, table.path, best_flagged=bool(ranked and not clean))

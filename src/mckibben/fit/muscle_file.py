@@ -33,11 +33,13 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
     rest_length : float, optional
         A family law's file: the rest length of the muscle it describes (its nominal length),
         default the muscle file's; the valid lengths are the fitted ones relative to the rest
-        length, scaled to it. [m]
+        length, scaled to it. Outside the rest lengths the family was fitted on, the file's
+        ``flags`` say ``rest_length_out_of_range``. [m]
     """
     r = fit.result
     law = laws.LAWS.get(fit.model)
     valid = dict(r.valid_range)
+    flags = list(r.flags)
     if rest_length is not None or (law is not None and law.family):
         if law is None or not law.family:
             raise InputError(f"--rest-length: applies to a family law; {fit.model} describes the muscle it was fitted on")
@@ -49,8 +51,10 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
         rel = d["held_length"].to_numpy(dtype=float) / rest
         valid["length"] = (float(rel.min()) * l0, float(rel.max()) * l0)
         spec = replace(spec, nominal_length=l0)
+        if "rest_length" in valid and outside(l0, *valid["rest_length"], Flag.REST_LENGTH_OUT_OF_RANGE):
+            flags.append("rest_length_out_of_range")  # the family law extrapolated to this muscle: said in the file
     note = f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
-    fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": list(r.flags),
+    fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": flags,
           "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": valid,
           "parameters": dict(zip(r.names, (float(v) for v in r.values))),
           "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s)}}

@@ -31,6 +31,8 @@ class Flag(enum.IntFlag):
     SLACK = 64
     #: Force outside the range the model was characterized or fitted on.
     FORCE_OUT_OF_RANGE = 128
+    #: A family law asked for a muscle whose rest length lies outside the rest lengths it was fitted on.
+    REST_LENGTH_OUT_OF_RANGE = 256
 
 
 FLAG_NAMES = {
@@ -42,6 +44,7 @@ FLAG_NAMES = {
     Flag.UNREACHABLE: "unreachable",
     Flag.SLACK: "slack",
     Flag.FORCE_OUT_OF_RANGE: "force_out_of_range",
+    Flag.REST_LENGTH_OUT_OF_RANGE: "rest_length_out_of_range",
 }
 
 

@@ -32,6 +32,7 @@ from mckibben.atomic import atomic_file
 from mckibben.data.io import MuscleSpec, muscle_file_text_of, read_muscle
 from mckibben.errors import InputError
 from mckibben.models import laws
+from mckibben.models.flags import Flag, outside
 from mckibben.models.law_statics import LawMuscle
 
 __all__ = ["FILE_BRAID_ANGLE", "Muscle"]
@@ -82,7 +83,9 @@ class Muscle(LawMuscle):
             The branch of a two-branch law (the spring model's hysteresis). [-]
         rest_length : float, optional
             The muscle's rest length, replacing the file's nominal length: a family law's file
-            (fitted across muscles of one type) predicts any muscle of the type from it. [m]
+            (fitted across muscles of one type) predicts any muscle of the type from it; its
+            valid lengths are scaled to it, and a rest length outside the family's adds the flag
+            ``rest_length_out_of_range`` to :attr:`flags`. [m]
 
         Raises
         ------
@@ -93,6 +96,7 @@ class Muscle(LawMuscle):
         where = spec.path or spec.id
         if direction not in ("inflate", "deflate"):
             raise InputError(f"direction: {direction!r} must be inflate or deflate")
+        saved_rest = float(spec.nominal_length)
         if rest_length is not None:
             if not (np.isfinite(rest_length) and rest_length > 0):
                 raise InputError(f"rest_length: {rest_length!r} must be a positive length [m]")
@@ -108,6 +112,14 @@ class Muscle(LawMuscle):
                              f"fit one of {', '.join(laws.fit_laws())}")
         valid = {q: tuple(float(x) for x in fm[f"valid_{q}_{u}"]) for q, u in
                  (("pressure", "Pa"), ("length", "m"), ("rest_length", "m")) if f"valid_{q}_{u}" in fm}
+        fit_flags = tuple(fm.get("flags", ()))
+        if rest_length is not None and law.family:
+            # a family law's valid lengths are relative to the rest length: scaled to this muscle's
+            if "length" in valid:
+                valid["length"] = tuple(x * float(rest_length) / saved_rest for x in valid["length"])
+            lo, hi = valid.get("rest_length", (-np.inf, np.inf))
+            if outside(rest_length, lo, hi, Flag.REST_LENGTH_OUT_OF_RANGE) and "rest_length_out_of_range" not in fit_flags:
+                fit_flags += ("rest_length_out_of_range",)  # extrapolated beyond the family's rest lengths
         try:
             params = law.from_values(fm["parameters"], spec, direction, valid)
         except KeyError as exc:
@@ -127,7 +139,7 @@ class Muscle(LawMuscle):
                    strand_length=float(b), pressure_range=valid.get("pressure", (0.0, np.inf)),
                    length_range=valid.get("length", stops), outer_diameter=float(od), direction=direction,
                    source=spec, citation=f"{law.name} force law fitted to {fm.get('source', 'data')} ({where})",
-                   values=dict(fm["parameters"]), params=params, flags=tuple(fm.get("flags", ())))
+                   values=dict(fm["parameters"]), params=params, flags=fit_flags)
 
     @classmethod
     def from_muscle_file(cls, path, direction: str = "inflate", rest_length: float | None = None) -> "Muscle":
