@@ -54,6 +54,7 @@ from mckibben.control.core import CoreParams, core_spec
 from mckibben.data.io import MuscleSpec
 from mckibben.datasets import get_muscle
 from mckibben.errors import ArgumentTypeError, InputError, check_real
+from mckibben.models import laws as LW
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle, predict_length
 from mckibben.plant import params as PP
@@ -66,6 +67,9 @@ __all__ = ["MuscleBank", "HangingMassResult", "hanging_mass", "hanging_mass_mjcf
 
 #: How to install the optional dependency (every error about a missing ``mujoco`` says it).
 MUJOCO_HINT = "pip install 'mckibben[mujoco]'"
+#: Packed parameter columns read here, by name (:class:`mckibben.plant.params.Col`).
+_COL = {name: int(PP.Col[name]) for name in ("supply_pressure", "l_min", "l_max", "temperature", "nominal_length",
+                                             "pa_per_count", "adc_zero", "encoder_resolution")}
 #: The plant's integration step (the simulator's 1 ms / 10 substeps): a longer MuJoCo step is
 #: split into RK4 steps no longer than this, so the chamber is integrated as accurately. [s]
 PLANT_STEP = HW.CONTROL_PERIOD / 10
@@ -271,23 +275,27 @@ class MuscleBank:
         self.offset = self._per_muscle(offset, "offset", n)
         p0 = self._per_muscle(initial_pressure, "initial_pressure", n)
         floor = check_real(pressure_floor, "pressure_floor", lo=0.0, unit="Pa")
-        plants = [muscle_plant(x, force_model) for x in muscles]
-        self.plants = plants
-        rows, laws, thetas = [], [], []
-        for k, plant in enumerate(plants):
-            prm = plant.pack(1)
-            name, th = plant.law(1)
-            th = np.ascontiguousarray(th, dtype=float)
-            PP.check_force_law(name, prm, th, plant._law_label(), pressure_floor=floor)
-            if not 0.0 <= p0[k] <= prm[0, PP.Col.supply_pressure]:
+        checked: dict = {}  # one plant, one check, per distinct muscle given (256 tendons of one muscle: one)
+        rows, laws, thetas, self.plants = [], [], [], []
+        for k, x in enumerate(muscles):
+            if id(x) not in checked:
+                plant = muscle_plant(x, force_model)
+                prm = plant.pack(1)
+                name, th = plant.law(1)
+                th = np.ascontiguousarray(th, dtype=float)
+                PP.check_force_law(name, prm, th, plant._law_label(), pressure_floor=floor)
+                checked[id(x)] = (plant, prm[0], LW.LAW_INDEX[name], th[:, 0])
+            plant, row, law, theta = checked[id(x)]
+            if not 0.0 <= p0[k] <= row[_COL['supply_pressure']]:
                 raise InputError(f"initial_pressure: {p0[k]:g} Pa for tendon {self.tendons[k]!r} must lie between 0 "
                                  "and the supply pressure")
-            rows.append(prm[0])
-            laws.append(PP.LW.LAW_INDEX[name])
-            thetas.append(th[:, 0])
+            self.plants.append(plant)
+            rows.append(row)
+            laws.append(law)
+            thetas.append(theta)
         self.prm = np.array(rows)
-        self.l_min = self.prm[:, PP.Col.l_min].copy()
-        self.l_max = self.prm[:, PP.Col.l_max].copy()
+        self.l_min = self.prm[:, _COL['l_min']].copy()
+        self.l_max = self.prm[:, _COL['l_max']].copy()
         self.blocks: list[_Block] = []
         for law in sorted(set(laws)):
             idx = np.array([k for k in range(n) if laws[k] == law])
@@ -341,8 +349,8 @@ class MuscleBank:
         th = np.column_stack([thetas[k] for k in lanes])
         s0 = np.zeros((lanes.size, ph.NS))
         s0[:, ph.S_P] = p0[lanes] + ph.P_ATM
-        s0[:, ph.S_T] = prm[:, PP.Col.temperature]
-        s0[:, ph.S_LEN] = prm[:, PP.Col.nominal_length]
+        s0[:, ph.S_T] = prm[:, _COL['temperature']]
+        s0[:, ph.S_LEN] = prm[:, _COL['nominal_length']]
         bk = np.zeros(ph.BLOCK)
         ph.load_block(0, lanes.size, np.ascontiguousarray(prm), np.ascontiguousarray(th), s0, bk)
         nl = lanes.size
@@ -411,8 +419,8 @@ class MuscleBank:
         p = self.pressure
         for i in range(len(self.tendons)):
             row = self.prm[i]
-            adc = int(HW.adc_count(float(p[i]), row[PP.Col.pa_per_count], row[PP.Col.adc_zero]))
-            enc = int(HW.encoder_count(float(lengths[i]), row[PP.Col.nominal_length], row[PP.Col.encoder_resolution]))
+            adc = int(HW.adc_count(float(p[i]), row[_COL['pa_per_count']], row[_COL['adc_zero']]))
+            enc = int(HW.encoder_count(float(lengths[i]), row[_COL['nominal_length']], row[_COL['encoder_resolution']]))
             u_in, u_bl, fault = kernel(istate[i], iparams[i], fstate[i], fparams[i], adc, enc, True,
                                        float(self.reference[i]))
             self.inlet[i], self.bleed[i] = int(u_in), int(u_bl)
@@ -613,7 +621,7 @@ class HangingMassResult(Result):
 
 
 def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str | None = None,
-                 controller="smc", duration=1.5, timestep=1e-4) -> HangingMassResult:
+                 controller="smc", duration=1.5, timestep=1e-4, friction: bool = True) -> HangingMassResult:
     """A mass hanging from one muscle in MuJoCo, the pressure held by a registry controller.
 
     The muscle starts at its rest length and its chamber at ``pressure``; the controller holds
@@ -637,6 +645,9 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
         Simulated time. [s]
     timestep : float, default 1e-4
         MuJoCo's step (the plant's own RK4 step). [s]
+    friction : bool, default True
+        The braid's friction (the plant's Dahl element, ``docs/plant.md``); False turns it off,
+        leaving the frictionless statics that predict length and the plant's static length solve. [-]
 
     Returns
     -------
@@ -650,7 +661,7 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     load = check_real(load, "load", lo=0.0, lo_open=True, unit="N")
     duration = check_real(duration, "duration", lo=0.0, lo_open=True, unit="s")
     timestep = check_real(timestep, "timestep", lo=0.0, hi=HW.CONTROL_PERIOD, lo_open=True, unit="s")
-    plant = muscle_plant(m_obj, force_model)
+    plant = muscle_plant(m_obj, force_model, **({} if friction else {"friction_force": 0.0, "friction_per_pa": 0.0}))
     model = load_model(hanging_mass_mjcf(plant, load, timestep))
     data = mujoco.MjData(model)
     # the braid-angle maps pull less when stretched below ~0.25 MPa: checked over the held pressures only
@@ -672,9 +683,9 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     predicted = float(predict_length(m_obj, held, load).length)
     prm = plant.replace(load_force=load).pack(1)
     name, th = plant.law(1)
-    plant_len = float(static_equilibrium(prm, PP.LW.LAW_INDEX[name], th, held)[0][0])
+    plant_len = float(static_equilibrium(prm, LW.LAW_INDEX[name], th, held)[0][0])
     return HangingMassResult(np.array(t), p_arr, np.array(ln), np.array(f), m_obj.name, float(load), float(pressure),
                              predicted, plant_len,
                              {"muscle": m_obj.name, "pressure_Pa": pressure, "load_N": load,
                               "force_model": force_model or "calibrated", "controller": controller,
-                              "duration_s": duration, "timestep_s": timestep})
+                              "duration_s": duration, "timestep_s": timestep, "friction": bool(friction)})

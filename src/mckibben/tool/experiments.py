@@ -462,8 +462,8 @@ class ToolTrackResult(Result):
 TRACK_BYTES_PER_SAMPLE = 4096
 TRACK_SECONDS_PER_SAMPLE = {False: 400e-6, True: 100e-6}
 #: The same for the MuJoCo engine: ten MuJoCo steps of the 13-disc chain per sample, each with the three
-#: muscles' exchange (measured 0.8 ms per sample on the reference machine; with headroom). [s]
-TRACK_SECONDS_PER_SAMPLE_MUJOCO = 2e-3
+#: muscles' exchange (measured 0.8-2.1 ms per sample on the reference machine, idle to busy; with headroom). [s]
+TRACK_SECONDS_PER_SAMPLE_MUJOCO = 4e-3
 #: The engines of :func:`track`: the quasi-static tool (statics at the simulated pressures) and MuJoCo.
 TRACK_ENGINES = ("quasi-static", "mujoco")
 

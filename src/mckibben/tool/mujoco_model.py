@@ -5,12 +5,13 @@ geometry and load model (nothing copied by hand):
 
 - the base disc is fixed at the origin, z along the straight tool, muscle 1 on +x
   (:data:`~mckibben.tool.geometry.MUSCLE_ANGLES`, the holes on the pitch circle);
-- each of the ``n = n_discs − 1`` gaps is one body: from the previous disc it goes half a gap
-  along the backbone, bends there at a **ball joint** and goes the other half to the next disc
+- each of the ``n = n_discs − 1`` gaps is two bodies: from the previous disc it goes half a gap
+  along the backbone to the gap's body (its share of backbone and muscles), bends there at a
+  **ball joint** and goes the other half to the next disc's body
   (a constant-curvature arc of n segments as a chain: the rigid-link equivalent of an arc bent
   by α is two half-gaps of (h/2)·tan(α/2)/(α/2), which differs from h/2 by 6·10⁻⁶ at the
-  tool's 0.5° per gap); a **slide joint** before the ball lets the gap lengthen, and joint
-  equalities keep the gaps equal (the arc's even spacing);
+  tool's 0.5° per gap); a **slide joint** on each half (before and after the ball) lets the
+  gap lengthen, and joint equalities keep every half equal (the arc's even spacing);
 - the backbone's bending moment ``Kb·κ`` is the ball joints' stiffness ``Kb/h`` (a gap of
   length h bent by α has κ = α/h); its compression, the load model's ``A = 3·F0 +
   Ka·(s_ref − s)/s_ref`` (:func:`~mckibben.tool.statics.muscle_tensions`), is applied to the
@@ -69,8 +70,9 @@ class MujocoTool:
     disc_density : float, default 1200
         Density of the discs: a printed polymer (resin, ABS). [kg/m³]
     line_density : float, default 0.01
-        Mass per length of backbone and the three muscles, lumped into the discs (a 4 mm
-        polymer tube and three 1.2 mm muscles weigh about 10 g/m). [kg/m]
+        Mass per length of backbone and the three muscles, lumped at the middle of each gap (a
+        4 mm polymer tube and three 1.2 mm muscles weigh about 10 g/m); > 0, or the two slides
+        of a gap would move the same mass alike (a singular inertia matrix). [kg/m]
     damping_ratio : float, default 0.3
         Damping of the backbone's first bending mode (:func:`backbone_mode`): the ball joints'
         damping is ``2·ζ/ω1`` times their stiffness (stiffness-proportional), the slides' the
@@ -89,11 +91,11 @@ class MujocoTool:
     gravity: bool = False
 
     def __post_init__(self):
-        for name in ("disc_thickness", "disc_density", "timestep"):
+        for name in ("disc_thickness", "disc_density", "timestep", "line_density"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InputError(f"{name}: {v!r} must be > 0")
-        for name in ("line_density", "damping_ratio"):
+        for name in ("damping_ratio",):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{name}: {v!r} must be >= 0")
@@ -168,8 +170,9 @@ def endoscope_mjcf(tool: Tool, arc_length: float | None = None, settings: Mujoco
     Returns
     -------
     str
-        MJCF text: bodies ``disc1``..``discN``, joints ``ext*`` (slide) and ``bend*`` (ball),
-        tendons and actuators ``muscle1``..``muscle3``, site ``tip``.
+        MJCF text: bodies ``gap1``, ``disc1`` .. ``gapN``, ``discN``, joints ``ext*a``, ``ext*b`` (slides, before and
+        after the bend) and ``bend*`` (ball), tendons and actuators ``muscle1``..``muscle3``,
+        site ``tip``.
     """
     n = _gaps(tool)
     s = tool.reference_length if arc_length is None else float(arc_length)
@@ -177,7 +180,7 @@ def endoscope_mjcf(tool: Tool, arc_length: float | None = None, settings: Mujoco
         raise InputError(f"arc_length: {arc_length!r} must be a positive length [m]")
     h = s / n
     g = tool.geometry
-    r = g.pitch_radius
+    r = float(g.pitch_radius)  # type: ignore[arg-type]  # set by ToolGeometry.__post_init__
     # the backbone's Kb/h, plus the kink's correction: a chain bends at points, so the muscles' pull
     # (A in all, along chords that miss the joint by h·α/4) has a lever arm h·α/4 there that the
     # constant-curvature model, whose tendons run parallel to the backbone, does not have
@@ -187,9 +190,9 @@ def endoscope_mjcf(tool: Tool, arc_length: float | None = None, settings: Mujoco
     beta = 2.0 * settings.damping_ratio / backbone_mode(tool, settings, s)
     d_bend = beta * k_bend
     p = 0.5 * tool.p_max if pressure is None else float(pressure)
-    # a gap's slide stretches all three muscles by its extension: 3·k_m·n per slide, in series
-    d_ext = beta * 3.0 * _muscle_stiffness(tool, p) * n
-    mass = settings.disc_mass(tool, h)
+    # a slide stretches all three muscles by its extension (2n slides, held equal): 3·k_m·2n per slide
+    d_ext = beta * 3.0 * _muscle_stiffness(tool, p) * 2 * n
+    mass = settings.disc_mass(tool, 0.0)  # the disc alone
     rad, half_t = 0.5 * g.disc_diameter, 0.5 * settings.disc_thickness
     # a thin disc's inertia (MuJoCo's own for a cylinder of this mass)
     ixx = mass * (3 * rad**2 + settings.disc_thickness**2) / 12.0
@@ -201,22 +204,27 @@ def endoscope_mjcf(tool: Tool, arc_length: float | None = None, settings: Mujoco
                        for i, (x, y) in enumerate(holes))
 
     bodies = []
+    m_gap = settings.line_density * h  # the gap's backbone and muscles, at its middle (the bend)
+    i_gap = m_gap * h**2 / 12.0
+    i_axial = 0.5 * m_gap * (0.5 * g.channel_diameter) ** 2
     for k in range(1, n + 1):
-        pos = h / 2 if k == 1 else h
-        tip = '<site name="tip" pos="0 0 {!r}" size="0.001"/>'.format(h / 2) if k == n else ""
+        tip = '<site name="tip" pos="0 0 0" size="0.001"/>' if k == n else ""
         bodies.append(
-            f'<body name="disc{k}" pos="0 0 {pos!r}">'
-            f'<joint name="ext{k}" type="slide" axis="0 0 1" damping="{d_ext!r}"/>'
+            f'<body name="gap{k}" pos="0 0 {h / 2!r}">'
+            f'<joint name="ext{k}a" type="slide" axis="0 0 1" damping="{d_ext!r}"/>'
             f'<joint name="bend{k}" type="ball" stiffness="{k_bend!r}" damping="{d_bend!r}"/>'
-            f'<geom type="cylinder" pos="0 0 {h / 2!r}" size="{rad!r} {half_t!r}" contype="0" conaffinity="0"/>'
-            f'<inertial pos="0 0 {h / 2!r}" mass="{mass!r}" diaginertia="{ixx!r} {ixx!r} {izz!r}"/>'
-            f'{sites(k, h / 2)}{tip}')
-    chain = "\n".join(bodies) + "</body>" * n
+            f'<inertial pos="0 0 0" mass="{m_gap!r}" diaginertia="{i_gap!r} {i_gap!r} {i_axial!r}"/>'
+            f'<body name="disc{k}" pos="0 0 {h / 2!r}">'
+            f'<joint name="ext{k}b" type="slide" axis="0 0 1" damping="{d_ext!r}"/>'
+            f'<geom type="cylinder" size="{rad!r} {half_t!r}" contype="0" conaffinity="0"/>'
+            f'<inertial pos="0 0 0" mass="{mass!r}" diaginertia="{ixx!r} {ixx!r} {izz!r}"/>'
+            f'{sites(k, 0.0)}{tip}')
+    chain = "\n".join(bodies) + "</body>" * (2 * n)
     tendons = "\n".join(
         f'<spatial name="muscle{i + 1}" width="0.0006">'
         + "".join(f'<site site="h{i + 1}_{k}"/>' for k in range(n + 1)) + "</spatial>" for i in range(3))
     actuators = "\n".join(f'<general name="muscle{i + 1}" tendon="muscle{i + 1}" gear="-1"/>' for i in range(3))
-    equal = "\n".join(f'<joint joint1="ext{k}" joint2="ext1"/>' for k in range(2, n + 1))
+    equal = "\n".join(f'<joint joint1="{j}" joint2="ext1a"/>' for j in _slides(n)[1:])
     gz = -9.80665 if settings.gravity else 0.0
     return f"""<mujoco model="endoscope {tool.muscle.name}">
 <!-- generated by mckibben.tool.mujoco_model.endoscope_mjcf: {n + 1} discs, pitch radius {r * 1e3:g} mm,
@@ -242,15 +250,20 @@ def endoscope_mjcf(tool: Tool, arc_length: float | None = None, settings: Mujoco
 """
 
 
+def _slides(n: int) -> list[str]:
+    """Names of the slide joints of an n-gap chain, in order (two per gap)."""
+    return [f"ext{k}{half}" for k in range(1, n + 1) for half in "ab"]
+
+
 def _pose(model, data, tool: Tool, arc, s_model: float) -> None:
     """Put the chain in the pose of an arc (evenly spaced gaps, equal bends) and compute its kinematics."""
     mujoco = _load_mujoco()
     n = _gaps(tool)
-    e = (float(arc.arc_length) - s_model) / n
+    e = (float(arc.arc_length) - s_model) / (2 * n)
     w = np.array([-float(arc.theta_y), float(arc.theta_x), 0.0]) / n  # rotation vector per gap
+    for name in _slides(n):
+        data.qpos[model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)]] = e
     for k in range(1, n + 1):
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"ext{k}")
-        data.qpos[model.jnt_qposadr[jid]] = e
         bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"bend{k}")
         q = np.empty(4)
         mujoco.mju_axisAngle2Quat(q, w / (np.linalg.norm(w) or 1.0), float(np.linalg.norm(w)))
@@ -288,6 +301,7 @@ def simulate_tracking_mujoco(tool: Tool, runs, *, beta: float = TRACKING_BETA,
         One per run; ``achieved`` is MuJoCo's tip.
     """
     mujoco = _load_mujoco()
+    _gaps(tool)  # a chain of discs (refused before any work for the continuous limit)
     results = []
     models: dict = {}
     force_model = None if isinstance(tool.muscle, LawMuscle) else "empirical"
@@ -305,10 +319,9 @@ def simulate_tracking_mujoco(tool: Tool, runs, *, beta: float = TRACKING_BETA,
         bank = MuscleBank(model, ["muscle1", "muscle2", "muscle3"], plant,
                           controller=core_spec(params, 3), initial_pressure=ref.pressures[0],
                           pressure_floor=0.8 * p_lo)
-        slides = np.array([model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"ext{k}")]
-                           for k in range(1, _gaps(tool) + 1)])
-        slide_q = np.array([model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"ext{k}")]
-                            for k in range(1, _gaps(tool) + 1)])
+        ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) for name in _slides(_gaps(tool))]
+        slides = np.array([model.jnt_dofadr[j] for j in ids])
+        slide_q = np.array([model.jnt_qposadr[j] for j in ids])
         tip_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "tip")
         load = tool.load
         s_ref = tool.reference_length
