@@ -15,8 +15,9 @@ mujoco = pytest.importorskip("mujoco")
 from mckibben.control.core import core_spec  # noqa: E402
 from mckibben.control.simulation import controller_params  # noqa: E402
 from mckibben.errors import InputError  # noqa: E402
-from mckibben.export.mujoco import MuscleBank, hanging_mass, hanging_mass_mjcf, load_model, muscle_plant  # noqa: E402
-from mckibben.plant import simulate  # noqa: E402
+from mckibben.export.mujoco import (MuscleBank, hanging_mass, hanging_mass_mjcf, load_model, muscle_plant,  # noqa: E402
+                                    run_model)
+from mckibben.plant import simulate, static_length  # noqa: E402
 from mckibben.tool import make_tool, track  # noqa: E402
 from mckibben.tool.kinematics import Arc, lengths_from_arc, tip_position  # noqa: E402
 from mckibben.tool.mujoco_model import _pose, endoscope_mjcf  # noqa: E402
@@ -166,3 +167,58 @@ def test_cli_refuses_bad_engines_with_status_2(args, words):
     assert "Traceback" not in r.err
     for w in words:
         assert w in r.err
+
+
+def _two_masses(tmp_path, plant):
+    """An MJCF file of two masses, each hanging from its own muscle (the hanging-mass rig twice)."""
+    one = hanging_mass_mjcf(plant, 0.6)
+    body = one[one.index("<worldbody>") + len("<worldbody>"):one.index("</worldbody>")]
+    two = body.replace('"anchor"', '"anchor2"').replace('"load"', '"load2"').replace('"drop"', '"drop2"').replace(
+        '"hook"', '"hook2"').replace('pos="0 0 0" size', 'pos="0.05 0 0" size', 1).replace(
+        f'pos="0 0 {-float(plant.nominal_length)!r}"', f'pos="0.05 0 {-float(plant.nominal_length)!r}"')
+    xml = one.replace("</worldbody>", two + "</worldbody>").replace(
+        "</tendon>", '<spatial name="muscle2"><site site="anchor2"/><site site="hook2"/></spatial></tendon>').replace(
+        "</actuator>", '<general name="muscle2" tendon="muscle2" gear="-1"/></actuator>')
+    path = tmp_path / "two.xml"
+    path.write_text(xml)
+    return path
+
+
+def test_run_model_holds_one_pressure_per_muscle(tmp_path):
+    plant = muscle_plant("mpam97").replace(friction_force=0.0, friction_per_pa=0.0)
+    path = _two_masses(tmp_path, plant)
+    res = run_model(path, "muscle,muscle2", plant, reference="0.4,0.6MPa", initial_pressure="0.4,0.6MPa",
+                    duration="0.6s")
+    m = res.metrics
+    assert m["tendons"] == ["muscle", "muscle2"] and m["controller_faults"] == [0, 0]
+    assert m["final_pressure_Pa"] == pytest.approx([0.4e6, 0.6e6], abs=3e3)  # held (the controller's chatter ~1 kPa)
+    assert m["final_tension_N"] == pytest.approx([0.6, 0.6], rel=5e-3)  # both carry their load
+    # each rests where the plant's law balances its load at its own pressure (frictionless: 1e-3 for the chatter)
+    rest = [static_length(plant.replace(load_force=0.6), p)[0] for p in m["final_pressure_Pa"]]
+    assert m["final_length_m"] == pytest.approx(rest, rel=1e-3)
+    df = res.to_pandas()
+    assert {"time_s", "muscle2_pressure_Pa", "muscle_length_m"} <= set(df.columns) and len(df) == 600
+
+
+def test_mujoco_commands(tmp_path):
+    out = run_cli("mujoco", "hang", "--pressure", "0.8MPa", "--duration", "1s", "--json").json()
+    assert abs(out["length_error_vs_predict_pct"]) < 1
+    path = tmp_path / "hang.xml"
+    path.write_text(hanging_mass_mjcf(muscle_plant("mpam97"), 0.6))
+    r = run_cli("mujoco", "run", str(path), "--tendon", "muscle", "--inlet", "0", "--initial-pressure", "0.5MPa",
+                "--duration", "0.1s", "--json")
+    assert r.code == 0, r.err
+    # valves shut: the rig's leak empties the chamber as in the plant (0.5 -> 0.22 MPa in 0.1 s) and the load drops
+    plant = muscle_plant("mpam97").replace(load_force=0.6)
+    sim = simulate(plant, 0.1, inlet=0, initial_pressure=0.5e6, initial_length=plant.nominal_length)
+    assert r.json()["controller"] is None
+    assert r.json()["final_pressure_Pa"][0] == pytest.approx(sim.pressure[0, -1], abs=1e3)
+    assert r.json()["final_length_m"][0] == pytest.approx(sim.length[0, -1], abs=0.1e-3)
+    for args, words in [([str(tmp_path / "nope.xml"), "--tendon", "muscle", "--inlet", "0"], "no MJCF file"),
+                        ([str(path), "--tendon", "biceps", "--inlet", "0"], "no tendon 'biceps'"),
+                        ([str(path), "--tendon", "muscle", "--inlet", "300"], "PWM counts must be in 0..255"),
+                        ([str(path), "--tendon", "muscle"], "either a pressure reference"),
+                        ([str(path), "--tendon", "muscle", "--reference", "0.5MPa", "--controller", "bangbang"],
+                         "bangbang")]:
+        r = run_cli("mujoco", "run", *args)
+        assert r.code == 2 and words in r.err and "Traceback" not in r.err, (args, r.err)

@@ -61,9 +61,10 @@ from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import static_equilibrium
 from mckibben.results import Result
+from mckibben.units import parse_values, quantity
 
-__all__ = ["MuscleBank", "HangingMassResult", "hanging_mass", "hanging_mass_mjcf", "load_model", "muscle_plant",
-           "MUJOCO_HINT"]
+__all__ = ["MuscleBank", "HangingMassResult", "MuscleRunResult", "hanging_mass", "hanging_mass_mjcf", "load_model",
+           "muscle_plant", "run_model", "MUJOCO_HINT"]
 
 #: How to install the optional dependency (every error about a missing ``mujoco`` says it).
 MUJOCO_HINT = "pip install 'mckibben[mujoco]'"
@@ -109,16 +110,16 @@ def load_model(source, name: str = "model"):
     if not isinstance(source, (str, os.PathLike)):
         raise ArgumentTypeError(f"{name}: {type(source).__name__} is not an MJCF path, MJCF text or a mujoco.MjModel")
     text = os.fspath(source)
+    is_text = text.lstrip().startswith("<")
+    if not is_text and not Path(text).is_file():
+        raise InputError(f"{name}: no MJCF file {text}")
     try:
-        if text.lstrip().startswith("<"):
+        if is_text:
             return mujoco.MjModel.from_xml_string(text)
-        path = Path(text)
-        if not path.is_file():
-            raise InputError(f"{name}: no MJCF file {text}")
-        return mujoco.MjModel.from_xml_path(str(path))
+        return mujoco.MjModel.from_xml_path(text)
     except ValueError as exc:  # MuJoCo's XML and compile errors
         msg = " ".join(str(exc).split())
-        raise InputError(f"{name}: MuJoCo refuses {'the MJCF text' if text.lstrip().startswith('<') else text}: "
+        raise InputError(f"{name}: MuJoCo refuses {'the MJCF text' if is_text else text}: "
                          f"{msg}") from None
 
 
@@ -171,16 +172,20 @@ def muscle_plant(muscle="mpam97", force_model: str | None = None, **fields) -> P
 
 
 @njit(error_model="numpy")
-def _exchange(n, bk, law, length, velocity, tension):
-    """Lanes 0..n-1 take the tendons' length [m] and velocity [m/s]; their tension [N] goes to ``tension``.
+def _exchange(n, bk, law, length, velocity, inlet, bleed, tension):
+    """Lanes 0..n-1 take the tendons' length [m] and velocity [m/s] and the valves' PWM counts; their
+    tension [N] goes to ``tension``.
 
     The tension is what the plant's load feels: the law's pull (never pushing) plus the tube's
     passive stiffness (:func:`~mckibben.plant.physics.outputs`) plus the braid friction's Dahl
-    force (which the plant's load equation subtracts with the pull).
+    force (which the plant's load equation subtracts with the pull). The valves' targets are the
+    plant's (:func:`~mckibben.plant.physics.valve_target`: driver and dead band).
     """
     for j in range(n):
         bk[ph.Z_LEN + j] = length[j]
         bk[ph.Z_VEL + j] = velocity[j]
+        bk[ph.Y_XIN + j] = ph.valve_target(inlet[j], bk[ph.X_DRV + j], bk[ph.X_DB + j])
+        bk[ph.Y_XBL + j] = ph.valve_target(bleed[j], bk[ph.X_DRV + j], bk[ph.X_DB + j])
     ph.outputs(n, bk, law)
     for j in range(n):
         tension[j] = bk[ph.Y_FORCE + j] + bk[ph.Z_FRIC + j]
@@ -474,13 +479,9 @@ class MuscleBank:
             ids = self.tendon_ids[b.lanes]
             b.length[:] = ten_l[ids] - self.offset[b.lanes]
             b.velocity[:] = ten_v[ids]
-            _exchange(b.lanes.size, b.bk, b.law, b.length, b.velocity, b.tension)
+            _exchange(b.lanes.size, b.bk, b.law, b.length, b.velocity, self.inlet[b.lanes].astype(float),
+                      self.bleed[b.lanes].astype(float), b.tension)
             self._tension[b.lanes] = b.tension
-            nl = b.lanes.size
-            drv, db = b.bk[ph.X_DRV:ph.X_DRV + nl], b.bk[ph.X_DB:ph.X_DB + nl]
-            for j, i in enumerate(b.lanes):
-                b.bk[ph.Y_XIN + j] = ph.valve_target(float(self.inlet[i]), drv[j], db[j])
-                b.bk[ph.Y_XBL + j] = ph.valve_target(float(self.bleed[i]), drv[j], db[j])
         data.ctrl[self.actuator_ids] = self._tension
         mujoco.mj_step2(m, data)
         for b in self.blocks:
@@ -633,18 +634,18 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     ----------
     muscle : str or MiniatureMuscle, default "mpam97"
         A published set. [-]
-    pressure : float, default 0.4e6
-        Pressure reference (gauge). [Pa]
-    load : float, default 0.6
-        Hanging weight. [N]
+    pressure : float or str, default 0.4e6
+        Pressure reference (gauge), e.g. ``"0.8MPa"``. [Pa]
+    load : float or str, default 0.6
+        Hanging weight, e.g. ``"0.6N"``. [N]
     force_model : str, optional
         ``"calibrated"`` (default) or ``"empirical"`` (:func:`muscle_plant`). [-]
     controller : str, default "smc"
         A controller of the registry. [-]
-    duration : float, default 1.5
+    duration : float or str, default 1.5
         Simulated time. [s]
-    timestep : float, default 1e-4
-        MuJoCo's step (the plant's own RK4 step). [s]
+    timestep : float or str, default 1e-4
+        MuJoCo's step (the plant's own RK4 step), at most the control period. [s]
     friction : bool, default True
         The braid's friction (the plant's Dahl element, ``docs/plant.md``); False turns it off,
         leaving the frictionless statics that predict length and the plant's static length solve. [-]
@@ -657,10 +658,11 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     m_obj = get_muscle(muscle) if isinstance(muscle, str) else muscle
     if not isinstance(m_obj, MiniatureMuscle):
         raise ArgumentTypeError("muscle: a published set (mpam97, mpam117, mpam143): predict length needs its eq. 2+3")
-    pressure = check_real(pressure, "pressure", lo=0.0, lo_open=True, unit="Pa")
-    load = check_real(load, "load", lo=0.0, lo_open=True, unit="N")
-    duration = check_real(duration, "duration", lo=0.0, lo_open=True, unit="s")
-    timestep = check_real(timestep, "timestep", lo=0.0, hi=HW.CONTROL_PERIOD, lo_open=True, unit="s")
+    pressure = quantity(pressure, "pressure", "pressure (--pressure)", allow_zero=False)
+    load = quantity(load, "force", "load (--load)", allow_zero=False)
+    duration = quantity(duration, "time", "duration (--duration)", allow_zero=False)
+    timestep = check_real(quantity(timestep, "time", "timestep", allow_zero=False), "timestep",
+                          hi=HW.CONTROL_PERIOD, unit="s")
     plant = muscle_plant(m_obj, force_model, **({} if friction else {"friction_force": 0.0, "friction_per_pa": 0.0}))
     model = load_model(hanging_mass_mjcf(plant, load, timestep))
     data = mujoco.MjData(model)
@@ -689,3 +691,168 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
                              {"muscle": m_obj.name, "pressure_Pa": pressure, "load_N": load,
                               "force_model": force_model or "calibrated", "controller": controller,
                               "duration_s": duration, "timestep_s": timestep, "friction": bool(friction)})
+
+
+# --- any model: its muscles under valve counts or a controller ----------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class MuscleRunResult(Result):
+    """A MuJoCo model run with muscles on some of its tendons (:func:`run_model`).
+
+    Attributes
+    ----------
+    time : numpy.ndarray
+        Sample times (every control period), (n,). [s]
+    pressure, length, tension : numpy.ndarray
+        Each muscle's gauge pressure [Pa], length [m] and tension [N], (n, M).
+    tendons : tuple of str
+        The muscles' tendons. [-]
+    end_stop : numpy.ndarray
+        Per muscle: whether it reached an end stop of its braid. [-]
+    faults : numpy.ndarray
+        Per muscle: OR of the controller's fault flags (0 without a controller). [-]
+    arguments : dict
+        The call's arguments, SI. [-]
+    """
+
+    time: np.ndarray
+    pressure: np.ndarray
+    length: np.ndarray
+    tension: np.ndarray
+    tendons: tuple
+    end_stop: np.ndarray
+    faults: np.ndarray
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.export.mujoco.run_model"
+
+    @property
+    def metrics(self) -> dict:
+        """Each muscle's final pressure, length and tension, its end-stop flag and faults (lists, tendon order)."""
+        return {"tendons": list(self.tendons), "final_pressure_Pa": self.pressure[-1].tolist(),
+                "final_length_m": self.length[-1].tolist(), "final_tension_N": self.tension[-1].tolist(),
+                "end_stop": self.end_stop.tolist(), "controller_faults": self.faults.tolist()}
+
+    def _series(self):
+        import pandas as pd
+
+        data = {"time_s": self.time}
+        for i, name in enumerate(self.tendons):
+            data[f"{name}_pressure_Pa"] = self.pressure[:, i]
+            data[f"{name}_length_m"] = self.length[:, i]
+            data[f"{name}_tension_N"] = self.tension[:, i]
+        return pd.DataFrame(data)
+
+    def plot(self, ax=None):
+        """Each muscle's pressure and length over time.
+
+        Parameters
+        ----------
+        ax : sequence of two matplotlib.axes.Axes, optional
+            Where to draw pressure and length; default a new figure. [-]
+        """
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+        else:
+            axes = list(ax)
+        for i, name in enumerate(self.tendons):
+            axes[0].plot(self.time, self.pressure[:, i] / 1e6, label=name)
+            axes[1].plot(self.time, self.length[:, i] * 1e3, label=name)
+        axes[0].set_ylabel("pressure [MPa]")
+        axes[1].set_ylabel("muscle length [mm]")
+        axes[1].set_xlabel("time [s]")
+        axes[0].legend(fontsize=8)
+        return axes[0].figure
+
+
+def run_model(model, tendons, muscle="mpam97", *, reference=None, inlet=None, bleed=0, controller="smc",
+              duration=1.0, initial_pressure=0.0, offset=0.0, force_model: str | None = None) -> MuscleRunResult:
+    """Run a MuJoCo model with muscles on some of its tendons: a pressure reference held, or valve counts.
+
+    Parameters
+    ----------
+    model : str, os.PathLike or mujoco.MjModel
+        An MJCF file (or text, or a compiled model) whose tendons carry ``<general tendon="T"
+        gear="-1"/>`` actuators (:class:`MuscleBank`). [-]
+    tendons : str or sequence of str
+        The muscles' tendons (text: comma-separated). [-]
+    muscle : str, muscle or PlantParams, default "mpam97"
+        For every tendon (:func:`muscle_plant`); a ``.toml`` path is a fitted muscle file. [-]
+    reference : float, str or sequence, optional
+        Pressure held by ``controller``, one or one per muscle (``"0.5MPa"``, ``"0.3,0.5MPa"``). [Pa]
+    inlet, bleed : int or sequence, optional
+        Without ``reference``: valve PWM counts held over the run, one or one per muscle. [counts]
+    controller : str, default "smc"
+        The registry's controller for ``reference`` (``smc``, ``pid``). [-]
+    duration : float or str, default 1.0
+        Simulated time. [s]
+    initial_pressure : float, str or sequence, default 0.0
+        Each chamber's gauge pressure at the start. [Pa]
+    offset : float, str or sequence, default 0.0
+        Tendon length that is not muscle, one or one per muscle. [m]
+    force_model : str, optional
+        A published set's law: ``"calibrated"`` or ``"empirical"`` (:func:`muscle_plant`). [-]
+
+    Returns
+    -------
+    MuscleRunResult
+        Sampled every control period (1 ms).
+    """
+    mujoco = _mujoco()
+    names = [t.strip() for t in tendons.split(",")] if isinstance(tendons, str) else list(tendons)
+    duration = quantity(duration, "time", "duration (--duration)", allow_zero=False)
+    if (reference is None) == (inlet is None):
+        raise InputError("give either a pressure reference (--reference) or valve counts (--inlet), not both or neither")
+
+    def values(x, dimension, name):
+        if isinstance(x, str):
+            return parse_values(x, dimension, name)
+        return np.array([quantity(v, dimension, name) for v in np.ravel(x)])
+
+    p0 = values(initial_pressure, "pressure", "initial_pressure (--initial-pressure)")
+    off = values(offset, "length", "offset (--offset)")
+    ctrl = controller if reference is not None else None
+    bank = MuscleBank(model, names, muscle, force_model=force_model, controller=ctrl,
+                      initial_pressure=p0 if p0.size > 1 else float(p0[0]), offset=off if off.size > 1 else float(off[0]))
+    m = bank.model
+    data = mujoco.MjData(m)
+    n_periods = int(round(duration / bank.ts))
+    if n_periods < 1:
+        raise InputError(f"duration (--duration): {duration:g} s is shorter than one control period ({bank.ts:g} s)")
+    if reference is not None:
+        ref = values(reference, "pressure", "reference (--reference)")
+        first = {"reference": ref if ref.size > 1 else float(ref[0])}
+    else:
+        first = {"inlet": _count_list(inlet, "inlet (--inlet)"), "bleed": _count_list(bleed, "bleed (--bleed)")}
+    mujoco.mj_forward(m, data)
+    t, p, ln, f = [], [], [], []
+    for k in range(n_periods):
+        t.append(bank.t)
+        p.append(bank.pressure)
+        ln.append(bank.length(data))
+        f.append(bank.tension)
+        for s in range(bank.steps_per_period):
+            bank.step(data, **(first if k == 0 and s == 0 else {}))
+    return MuscleRunResult(np.array(t), np.array(p), np.array(ln), np.array(f), tuple(names), bank.end_stop.copy(),
+                           bank.faults.copy(),
+                           {"model": _model_label(model),
+                            "tendons": names, "muscle": str(muscle), "duration_s": duration,
+                            "controller": ctrl, "force_model": force_model or "calibrated"})
+
+
+def _count_list(value, name: str) -> np.ndarray:
+    """PWM counts from a number, a sequence or comma-separated text (checked 0..255 by the bank)."""
+    try:
+        if isinstance(value, str):
+            return np.array([float(v) for v in value.split(",")])
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: {value!r} is not a PWM count 0..255 (or one per muscle, comma-separated)") from None
+
+
+def _model_label(model) -> str:
+    if isinstance(model, (str, os.PathLike)) and not os.fspath(model).lstrip().startswith("<"):
+        return os.fspath(model)
+    return "MJCF text" if isinstance(model, str) else type(model).__name__
