@@ -62,7 +62,8 @@ def test_a_muscle_in_mujoco_is_the_plant(mode):
     """Same rig, same start, same valves: MuJoCo's hanging mass follows `simulate` (one kernel, not a copy).
 
     The only differences are MuJoCo's semi-implicit Euler for the mass (the plant: RK4) at 0.1 ms
-    and the tension acting one step late; measured 0.035 mm at most over the run (0.4 MPa).
+    and the explicit coupling (the tension of a step computed at its start); measured at most
+    0.010 mm and 0.28 kPa (open loop), 0.004 mm and 0.87 kPa (sliding mode) over the run.
     """
     plant = muscle_plant("mpam97").replace(load_force=0.6)
     model = load_model(hanging_mass_mjcf(plant, 0.6, 1e-4))
@@ -87,9 +88,8 @@ def test_a_muscle_in_mujoco_is_the_plant(mode):
                 bank.step(data, inlet=int(inlet[k]) if s == 0 else None)
             else:
                 bank.step(data, reference=0.4e6 if k == 0 and s == 0 else None)
-    assert np.max(np.abs(length - sim.length[0])) < 0.1e-3  # 0.1 mm: the integrators differ, not the physics
-    assert np.max(np.abs(pressure - sim.pressure[0])) < 10e3  # the chamber feels the same length history
-    assert abs(pressure[-1] - sim.pressure[0, -1]) < 2e3
+    assert np.max(np.abs(length - sim.length[0])) < 0.03e-3  # 3x the measured: the integrators differ, not the physics
+    assert np.max(np.abs(pressure - sim.pressure[0])) < 3e3  # the chamber feels the same length history
     if mode == "open-loop":
         assert pressure.max() > 0.5e6  # the open inlet filled the muscle
         assert length.min() < plant.nominal_length - 10e-3  # and it lifted the load
