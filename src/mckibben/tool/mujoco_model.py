@@ -170,9 +170,9 @@ def endoscope_mjcf(tool: Tool, arc_length: float | None = None, settings: Mujoco
     Returns
     -------
     str
-        MJCF text: bodies ``gap1``, ``disc1`` .. ``gapN``, ``discN``, joints ``ext*a``, ``ext*b`` (slides, before and
-        after the bend) and ``bend*`` (ball), tendons and actuators ``muscle1``..``muscle3``,
-        site ``tip``.
+        MJCF text: bodies ``gap1``, ``disc1`` .. ``gapN``, ``discN``; joints ``ext*a``,
+        ``ext*b`` (slides, before and after the bend) and ``bend*`` (ball); tendons and
+        actuators ``muscle1`` .. ``muscle3``; site ``tip``.
     """
     n = _gaps(tool)
     s = tool.reference_length if arc_length is None else float(arc_length)
