@@ -17,7 +17,7 @@ from mckibben.cli._common import (
 )
 from mckibben.cli._output import check_outputs, plot_option, progress_bar, write_plot
 from mckibben.control import registry as R
-from mckibben.errors import InputError
+from mckibben.errors import InputError, unknown_name
 
 tool_app = typer.Typer(help="The three-muscle endoscope: kinematics, pressures for a tip, workspace, tracking.",
                        no_args_is_help=True)
@@ -193,11 +193,17 @@ def track_cmd(
     direction: str = DIRECTION_OPTION,
     port: str = typer.Option(None, "--port", help="Steer the three muscles of a device (or rig emulate) over this "
                                                   "serial port, and compare with the simulation of the same path."),
+    engine: str = typer.Option("quasi-static", "--engine", help="The tool's mechanics: quasi-static (its statics at "
+                                                                "the simulated pressures) or mujoco (discs, backbone, "
+                                                                "inertia, damping; the mujoco extra)."),
     json: bool = JSON_OPTION,
 ) -> None:
     """Follow a tip path: IK + static inverse → pressure references → three controlled muscles (plant or device)."""
     from mckibben.tool import track  # deferred: the library (SciPy, pandas, Numba) loads per command
+    from mckibben.tool.experiments import TRACK_ENGINES
 
+    if engine not in TRACK_ENGINES:
+        raise unknown_name("engine (--engine)", engine, TRACK_ENGINES)
     if port is not None and (periods or reference_only):
         raise InputError("--port: runs one path on the device; it takes neither --periods nor --reference-only")
     check_outputs(plot, dpi, out)
@@ -211,7 +217,7 @@ def track_cmd(
     with progress_bar("periods", json) as bar:
         task = bar.add_task("periods", total=None)
         res = track(path, periods=periods, tool=tool, beta=beta, reference_only=reference_only, force=force,
-                    progress=lambda done, total: bar.update(task, completed=done, total=total))
+                    progress=lambda done, total: bar.update(task, completed=done, total=total), engine=engine)
     simulated = res.results is not None
     if plot and simulated:
         write_plot(res.plot(), plot, dpi, res)

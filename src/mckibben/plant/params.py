@@ -655,7 +655,7 @@ def validate(p: np.ndarray, law_fields: bool = True) -> None:
     check(col["load_force"] >= 0, "load_force", "a hanging weight must be >= 0")
 
 
-def check_force_law(name: str, prm: np.ndarray, theta: np.ndarray, label: str = "") -> None:
+def check_force_law(name: str, prm: np.ndarray, theta: np.ndarray, label: str = "", pressure_floor: float = 0.0) -> None:
     """Refuse a force law the integrator cannot run over the operating range, naming where.
 
     The operating range of an instance is its pressures 0..supply and its lengths between the
@@ -675,6 +675,10 @@ def check_force_law(name: str, prm: np.ndarray, theta: np.ndarray, label: str = 
         The law's ``(NTH, N)`` parameters.
     label : str
         How to name the law in the message.
+    pressure_floor : float, default 0.0
+        Lowest gauge pressure of the operating range: a run held above it (the MuJoCo endoscope,
+        whose muscles never vent) may use a law that is only stable above it, such as the
+        published braid-angle maps (stable above ~0.25 MPa). [Pa]
     """
     c = Col
     key = np.concatenate([theta.T, prm[:, [c.supply_pressure, c.l_min, c.l_max]]], axis=1)
@@ -685,7 +689,7 @@ def check_force_law(name: str, prm: np.ndarray, theta: np.ndarray, label: str = 
     np_, nl = 17, 97
     for i in np.sort(first)[:256]:
         supply = float(prm[i, c.supply_pressure]) if len(first) <= 64 else HW.P_MAX_LIMIT
-        pg = np.linspace(0.0, supply, np_)[:, None]
+        pg = np.linspace(min(pressure_floor, supply), supply, np_)[:, None]
         ln = np.linspace(prm[i, c.l_min], prm[i, c.l_max], nl)[None, :]
         f = LW.evaluate(name, pg, ln, theta[:, i])
         active = f > 0
@@ -699,7 +703,7 @@ def check_force_law(name: str, prm: np.ndarray, theta: np.ndarray, label: str = 
             where = _range_text(pg[:, 0], 0.5 * (ln[0, 1:] + ln[0, :-1]), falls)
             raise InputError(
                 f"force law {label or name} (instance {i}): the muscle pulls less when stretched (negative "
-                f"stiffness) at {where}, inside its operating range 0..{supply / 1e6:g} MPa × "
+                f"stiffness) at {where}, inside its operating range {min(pressure_floor, supply) / 1e6:g}..{supply / 1e6:g} MPa × "
                 f"{prm[i, c.l_min] * 1e3:.1f}..{prm[i, c.l_max] * 1e3:.1f} mm: a load has no stable rest there; "
                 "use another force law or a map that rises with length")
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError, InputError, check_callable, check_instance
+from mckibben.errors import ArgumentTypeError, InputError, check_callable, check_instance, unknown_name
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
 from mckibben.results import Result, to_jsonable
@@ -461,6 +461,11 @@ class ToolTrackResult(Result):
 #: memory of the reference and record. Measured on the reference machine with headroom. [B], [s]
 TRACK_BYTES_PER_SAMPLE = 4096
 TRACK_SECONDS_PER_SAMPLE = {False: 400e-6, True: 100e-6}
+#: The same for the MuJoCo engine: ten MuJoCo steps of the 13-disc chain per sample, each with the three
+#: muscles' exchange (measured 0.8-2.1 ms per sample on the reference machine, idle to busy; with headroom). [s]
+TRACK_SECONDS_PER_SAMPLE_MUJOCO = 4e-3
+#: The engines of :func:`track`: the quasi-static tool (statics at the simulated pressures) and MuJoCo.
+TRACK_ENGINES = ("quasi-static", "mujoco")
 
 
 #: The shortest path period :func:`track` samples: 20 control periods of 1 ms per cycle. [s]
@@ -468,7 +473,7 @@ MIN_TRACK_PERIOD = 0.02
 
 
 def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_only: bool = False,
-          progress=None, force: bool = False) -> ToolTrackResult:
+          progress=None, force: bool = False, engine: str = "quasi-static") -> ToolTrackResult:
     """Follow a tip path: IK and static inverse → pressure references → three controlled muscles.
 
     Parameters
@@ -488,6 +493,11 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
         ``progress(done, total)`` after each period. [-]
     force : bool, default False
         Run past the documented size limits (:mod:`mckibben.limits`). [-]
+    engine : {"quasi-static", "mujoco"}, default "quasi-static"
+        The tool's mechanics: its static equilibrium at the simulated pressures, or the
+        endoscope in MuJoCo (discs, backbone, inertia and damping; the muscles' own chambers
+        on its tendons: :func:`mckibben.tool.mujoco_model.simulate_tracking_mujoco`, needs the
+        ``mujoco`` extra). The references and controllers are the same. [-]
 
     Returns
     -------
@@ -500,6 +510,8 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
 
     check_callable(progress, "progress")
     check_instance(tool, "tool", Tool, "a Tool (make_tool)", optional=True)
+    if not isinstance(engine, str) or engine not in TRACK_ENGINES:
+        raise unknown_name("engine (--engine)", str(engine), TRACK_ENGINES)
     if not isinstance(path, (str, TipPath)):
         raise ArgumentTypeError(f"path = {path!r}: not a path ({type(path).__name__}); give text such as "
                                 "'circle:radius=5mm,period=2s' or a TipPath")
@@ -521,7 +533,9 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
                          f"({MIN_TRACK_PERIOD / 1e-3:.0f} control periods of 1 ms): too short to sample the path")
     check_budget("--path/--periods" if periods is not None else "--path",
                  float(np.sum(period_list)) * spec.cycles / 1e-3, force=force, what="1 ms samples",
-                 bytes_per_sample=TRACK_BYTES_PER_SAMPLE, seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)])
+                 bytes_per_sample=TRACK_BYTES_PER_SAMPLE,
+                 seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)] if engine == "quasi-static" or
+                 reference_only else TRACK_SECONDS_PER_SAMPLE_MUJOCO)
     b = TRACKING_BETA
     if not reference_only:
         b = TRACKING_BETA if beta is None else float(beta)
@@ -533,11 +547,17 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     results = None
     if not reference_only:
         results = []
+        run_engine = simulate_tracking
+        if engine == "mujoco":
+            # deferred: Numba, and the optional mujoco package, load only for this engine
+            from mckibben.tool.mujoco_model import simulate_tracking_mujoco
+
+            run_engine = simulate_tracking_mujoco
         for k, run in enumerate(runs):
-            results += simulate_tracking(tool, [run], beta=b)
+            results += run_engine(tool, [run], beta=b)
             if progress is not None:
                 progress(k + 1, len(runs))
     return ToolTrackResult(base, runs, results, tool,
                            {"path": path if isinstance(path, str) else base.kind,
                             "periods_s": [float(t) for t in period_list],
-                            "beta_counts": None if reference_only else b})
+                            "beta_counts": None if reference_only else b, "engine": engine})
