@@ -49,7 +49,7 @@ def main() -> None:
         for page, blocks in pages.items():
             t0 = time.perf_counter()
             for code in blocks:
-                exec(compile(code, f"docs/{page}.md", "exec"), {"__name__": "__main__"})  # noqa: S102
+                exec(compile(code, f"docs/{page}.md", "exec"), {"__name__": "__main__"})
                 plt.close("all")
             times[page].append(time.perf_counter() - t0)
     print("| guide | figures | " + " | ".join(f"pass {k + 1} [s]" for k in range(args.repeat)) + " |")
