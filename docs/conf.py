@@ -26,6 +26,7 @@ extensions = [
     "sphinx.ext.autosummary",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
+    "matplotlib.sphinxext.plot_directive",
 ]
 
 exclude_patterns = ["_build", "build", "notebooks/make_notebooks.py", "**.ipynb_checkpoints", "jupyter_execute"]
@@ -50,6 +51,18 @@ nb_execution_in_temp = True  # a notebook runs in a temporary folder: it writes 
 nb_execution_show_tb = True
 nb_merge_streams = True
 myst_enable_extensions = ["dollarmath"]
+
+# the guides' figures: a ```{plot}``` block runs its code in this process at every build and
+# shows the code above its PNG. Chosen over myst-nb code cells for the guides: one process, so
+# mckibben is imported and its kernels loaded once for all guides (a notebook page starts a
+# Jupyter kernel of its own), and the shown code is exactly what runs. A block that raises is a
+# Sphinx warning, so the build (-W) fails (tests/test_docs_site.py).
+plot_include_source = True
+plot_pre_code = ""  # the shown code is complete: its imports are the user's
+plot_formats = [("png", 100)]
+plot_html_show_formats = False
+plot_html_show_source_link = False
+plot_rcparams = {"figure.max_open_warning": 0}
 myst_heading_anchors = 3
 
 html_theme = "alabaster"

@@ -15,6 +15,20 @@ ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted(p.stem for p in (ROOT / "docs" / "notebooks").glob("*.ipynb"))
 
 
+def guide_pages() -> list[str]:
+    """The pages of the "Guides" toctree of docs/index.md, in its order."""
+    index = (ROOT / "docs" / "index.md").read_text(encoding="utf-8")
+    block = re.search(r"```\{toctree\}\n(?::[^\n]*\n)*?:caption: Guides\n(.*?)```", index, flags=re.S)
+    assert block, "docs/index.md has no toctree captioned Guides"
+    return [line.strip() for line in block.group(1).splitlines() if line.strip() and not line.startswith(":")]
+
+
+def test_the_guides_toctree_is_read():
+    guides = guide_pages()
+    assert len(guides) >= 8 and "plant" in guides and "api" not in guides and "references" not in guides
+    assert all((ROOT / "docs" / f"{g}.md").is_file() for g in guides), guides
+
+
 @pytest.mark.slow
 def test_site_builds_without_warnings_and_notebooks_run(tmp_path):
     assert len(NOTEBOOKS) >= 4
@@ -31,6 +45,16 @@ def test_site_builds_without_warnings_and_notebooks_run(tmp_path):
     for name in NOTEBOOKS:
         page = (tmp_path / "html" / "notebooks" / f"{name}.html").read_text(encoding="utf-8")
         assert re.search(r'<img[^>]+src="[^"]*\.png"', page), f"{name}: no inline figure"
+        assert "Traceback" not in page, name
+    # every guide shows at least one figure that this build computed (the plot directive writes
+    # its PNGs into the build; none is committed under docs/)
+    images = tmp_path / "html" / "_images"
+    for name in guide_pages():
+        page = (tmp_path / "html" / f"{name}.html").read_text(encoding="utf-8")
+        pngs = re.findall(r'<img[^>]+src="(?:\.\./)*_images/([^"/]+\.png)"', page)
+        assert pngs, f"guide {name}: no figure"
+        assert all((images / png).stat().st_size > 1000 for png in pngs), (name, pngs)
+        assert not list((ROOT / "docs").rglob(pngs[0])), f"guide {name}: {pngs[0]} is committed, not built"
         assert "Traceback" not in page, name
     api = (tmp_path / "html" / "api.html").read_text(encoding="utf-8")
     assert "step_response" in api and "Result" in api
