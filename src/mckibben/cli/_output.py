@@ -35,7 +35,8 @@ def write_plot(fig, path: str, dpi: int, result=None) -> None:
 
     from mckibben.results import provenance
 
-    prov = provenance(result.call, result.arguments) if result is not None else provenance("mckibben.cli")
+    call = getattr(result, "call", None)  # a Result; some figures come from other objects
+    prov = provenance(call, getattr(result, "arguments", {})) if call else provenance("mckibben.cli")
     try:
         save_figure(fig, path, dpi=dpi, provenance=prov)
     finally:
