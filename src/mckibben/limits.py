@@ -23,6 +23,7 @@ import math
 import os
 
 from mckibben.errors import InputError
+from mckibben.hardware import P_MAX_LIMIT
 
 #: Memory one instance costs per control period (recorded channels and working copies). [B]
 BYTES_PER_SAMPLE = 256
@@ -172,7 +173,6 @@ def check_p_max(p_max: float, name: str = "--p-max") -> float:
     float
         ``p_max``. [Pa]
     """
-    from mckibben.hardware import P_MAX_LIMIT
 
     if not (math.isfinite(p_max) and 0 < p_max <= P_MAX_LIMIT):
         raise InputError(f"{name}: {p_max / 1e6:g} MPa is outside (0, {P_MAX_LIMIT / 1e6:g}] MPa, the supervisor's "
@@ -239,7 +239,6 @@ def check_load(load: float, muscle, name: str = "--load") -> float:
     float
         ``load``. [N]
     """
-    from mckibben.hardware import P_MAX_LIMIT
 
     p_ref, f_ref = muscle.blocked_force[0]
     most = f_ref * P_MAX_LIMIT / p_ref

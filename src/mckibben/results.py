@@ -33,6 +33,9 @@ from typing import Any
 import numpy as np
 
 from mckibben.errors import ArgumentTypeError
+from mckibben import __version__
+from mckibben.atomic import check_output_file
+from mckibben.atomic import atomic_file
 
 
 __all__ = ["Result", "to_jsonable", "write_table", "read_provenance", "SERIES_SUFFIXES"]
@@ -75,7 +78,6 @@ def provenance(call: str, arguments: dict | None = None) -> dict:
     arguments : dict, optional
         Its arguments, SI. [-]
     """
-    from mckibben import __version__
 
     return {"call": call, "arguments": to_jsonable(arguments or {}), "mckibben_version": __version__,
             "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds")}
@@ -91,7 +93,6 @@ def check_table_path(path, name: str = "--out") -> str:
     name : str, default "--out"
         The argument's name, for the message. [-]
     """
-    from mckibben.atomic import check_output_file
 
     return os.fspath(check_output_file(path, name, suffixes=SERIES_SUFFIXES))
 
@@ -116,7 +117,6 @@ def write_table(df, path, meta: dict | None = None, name: str = "--out") -> str:
     str
         The path written.
     """
-    from mckibben.atomic import atomic_file
 
     path = check_table_path(path, name)
     meta = meta if meta is not None else df.attrs.get("provenance", {})

@@ -41,6 +41,8 @@ from mckibben.control.fixed import clamp as _clamp
 from mckibben.control.fixed import rdiv as _rdiv
 from mckibben.control.fixed import wrap32 as _wrap32  # noqa: F401  (re-exported)
 from mckibben.hardware import ADC_MAX
+from mckibben.atomic import atomic_file, check_output_file
+from mckibben.atomic import check_input_file
 
 # --- modes and fault flags (firmware/core/controller.h, docs/protocol.md) ---------------------
 
@@ -965,7 +967,6 @@ def save_design(params: CoreParams, path, note: str = "") -> None:
     import dataclasses
     import json
 
-    from mckibben.atomic import atomic_file, check_output_file
 
     check_output_file(path, "--save-design", (".json",))
     values = gain_values(params)
@@ -998,7 +999,6 @@ def load_design(path) -> CoreParams:
     import json
     from pathlib import Path
 
-    from mckibben.atomic import check_input_file
 
     p = Path(path)
     if not p.exists():

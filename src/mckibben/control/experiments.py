@@ -29,6 +29,11 @@ from mckibben.control.identify import fit_lift_off, fit_step_response
 from mckibben.control.metrics import step_metrics, step_metrics_batch
 from mckibben.datasets.paper_points import FIG13 as _FIG13
 from mckibben.errors import InputError, unknown_name
+from mckibben.limits import check_budget
+from mckibben.plant import simulate
+from mckibben.plant import CALIBRATION_PWM
+from mckibben.control.metrics import tracking_metrics_batch
+from mckibben.plant import PlantParams
 
 #: The paper's Fig. 13 (:data:`mckibben.datasets.paper_points.FIG13`): β -> time constant, overshoot.
 PAPER_FIG13 = _FIG13["points"]
@@ -133,7 +138,6 @@ def run_closed_loop(spec, reference, duration: float, plant=None, ts: float = 1e
     LoopRecord
         The sampled record.
     """
-    from mckibben.limits import check_budget
 
     n_inst = np.asarray(spec[1]).shape[0]
     # the documented limits are the command line's (--force); here only what cannot fit at all
@@ -143,7 +147,6 @@ def run_closed_loop(spec, reference, duration: float, plant=None, ts: float = 1e
 
 
 def _plant_backend(spec, reference, duration, plant, ts):
-    from mckibben.plant import simulate
 
     n_inst = np.asarray(spec[1]).shape[0]
     sim = simulate(to_plant_params(plant), duration, controller=spec, reference=reference, ts=ts, n=n_inst)
@@ -189,7 +192,6 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
         controllers use (τ and θ of that fit, G and u0 from both steps) and the records.
     """
     if u1 is None:
-        from mckibben.plant import CALIBRATION_PWM
 
         u1 = CALIBRATION_PWM
     u1, du = _counts("u1", u1, 1, 254), _counts("du", du, 1, 254)
@@ -572,7 +574,6 @@ TUNING_SINE_S, TUNING_SETTLE_S = 2.5, 0.5
 
 def _tune_tracking(plant, controller, law, cands, params, top) -> GainTuning:
     """The candidate with the smallest worst RMS error on :data:`TUNING_SINES` (after the rise)."""
-    from mckibben.control.metrics import tracking_metrics_batch
 
     n, t = _steps(TUNING_SINE_S)
     refs = [m * top + a * top * np.sin(2 * np.pi * f * t) for m, a, f in TUNING_SINES]
@@ -777,7 +778,6 @@ def to_plant_params(plant=None, base=None):
     -------
     PlantParams
     """
-    from mckibben.plant import PlantParams
 
     if plant is None:
         return PlantParams() if base is None else base
@@ -887,7 +887,6 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
         raise InputError(f"n: {n!r} must be a whole number of plants >= 1")
     if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2**63:
         raise InputError(f"seed: {seed!r} must be a whole number in 0..2**63-1")
-    from mckibben.limits import check_budget
 
     check_budget("n", 3 * n * duration / 1e-3, force=True)
     samples = sample_plants(n, seed) if samples is None else samples

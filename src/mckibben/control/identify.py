@@ -26,10 +26,13 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, special
 
 from mckibben.errors import InputError
 from mckibben.results import Result
+from mckibben.plant.params import P_ATM
+from mckibben.units import split_column, to_si
+from mckibben.atomic import check_input_file
+from mckibben.limits import PLAUSIBLE_MAX, first_implausible
 
 if TYPE_CHECKING:  # python-control costs ~0.8 s at import: imported where an LTI object is built
     import control
@@ -214,6 +217,7 @@ class StepFit:
         level : float, default 0.95
             Confidence level. [-]
         """
+        from scipy import special  # deferred on purpose: SciPy
         dof = max(len(self.t) - len(self.params), 1)
         q = special.stdtrit(dof, 0.5 + level / 2.0)  # Student's t quantile (scipy.stats.t.ppf's own)
         return {k: (v - q * self.stderr[k], v + q * self.stderr[k]) for k, v in self.params.items()}
@@ -330,6 +334,7 @@ def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = No
     >>> round(f.tau, 3), round(f.gain), round(f.dead_time, 3)
     (0.09, 2500, 0.01)
     """
+    from scipy import optimize  # deferred on purpose: SciPy
     if order not in (1, 2):
         raise InputError(f"identify: order={order!r} must be 1 or 2")
     t, y, u = _validate(t, y, u)
@@ -518,7 +523,6 @@ def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0):
     ISO 6358 (sonic conductance C, critical ratio b); the chamber's ṗ = (n/V)·R·T·ṁ at constant
     volume (NOTES.md, "Higher marks"); notes/lab-data.md (fills are S-shaped or ramp-then-exponential).
     """
-    from mckibben.plant.params import P_ATM
 
     ps = p_supply + P_ATM
     r0 = (p0 + P_ATM) / ps
@@ -620,6 +624,7 @@ def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | Non
     -------
     FillFit
     """
+    from scipy import optimize  # deferred on purpose: SciPy
     t, y, u = _validate(t, y, u)
     t_step, _ = _locate_step(t, y, u, t_step, None)
     k0 = int(np.searchsorted(t, t_step))
@@ -708,9 +713,7 @@ def read_step_log(path) -> tuple[dict, dict]:
 
     import pandas as pd
 
-    from mckibben.units import split_column, to_si
 
-    from mckibben.atomic import check_input_file
 
     p = check_input_file(pathlib.Path(path))
     try:
@@ -741,7 +744,6 @@ def read_step_log(path) -> tuple[dict, dict]:
 
     tcol, t = pick("time", "time")
     pcol, pressure = pick("pressure", "pressure")
-    from mckibben.limits import PLAUSIBLE_MAX, first_implausible
 
     for values, col, dim, unit in ((t, tcol, "time", "s"), (pressure, pcol, "pressure", "Pa")):
         bad = first_implausible(values, dim)
@@ -838,6 +840,7 @@ def pooled_step_parameters(fits) -> dict:
     dict
         ``n_trials`` and per parameter: ``mean``, ``stderr``, ``ci95``. [parameter units]
     """
+    from scipy import special  # deferred on purpose: SciPy
     fits = list(fits)
     n = len(fits)
     out: dict = {"n_trials": n}

@@ -41,6 +41,25 @@ from mckibben.hardware import P_MAX_DEFAULT
 from mckibben.limits import check_budget, check_p_max, clamp_pressure
 from mckibben.results import Result, to_jsonable
 from mckibben.units import parse_quantity, quantity
+from mckibben.control.experiments import identify_plant
+from mckibben.hardware import P_MAX_LIMIT
+from mckibben.datasets import get_muscle
+from mckibben.limits import check_load
+from mckibben.plant import PlantParams
+from mckibben.data.io import read_muscle
+from mckibben.fit.muscle_file import check_direction, muscle_force_law
+from mckibben.models import laws as LW
+from mckibben.control.experiments import tune_gains
+from mckibben.control.identify import read_step_log
+from mckibben.control.experiments import FIG13_TARGET_PA, sample_plants
+from mckibben.control.experiments import _pct
+from mckibben.plant import CALIBRATION_PWM, open_loop_step
+from mckibben.control.hysteresis import PERIOD_MAX, PERIOD_MIN, SWEEP_PERIOD_MAX, SWEEP_PERIOD_MIN, hysteresis_benefit
+from mckibben.control.plots import plot_record
+from mckibben.control.plots import plot_fig13
+from mckibben.control.plots import plot_compare
+from mckibben.control.plots import plot_robustness
+from mckibben.control.plots import plot_open_loop
 
 __all__ = [
     "CONTROLLERS", "CompareResult", "Fig13Result", "OpenLoopResult", "RobustnessResult", "StepResult",
@@ -58,7 +77,6 @@ TS = 1e-3
 
 @lru_cache(maxsize=1)
 def _default_identification():
-    from mckibben.control.experiments import identify_plant
 
     return identify_plant()
 
@@ -266,7 +284,6 @@ class StepResult(Result):
         ax : matplotlib.axes.Axes or pair of Axes, optional
             One Axes: the pressure only; two: pressure and command; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_record
 
         return plot_record(self.record, [self.arguments["controller"]], ax=ax)
 
@@ -281,7 +298,6 @@ def boundary_layer(eps) -> float | None:
     """
     if eps is None:
         return None
-    from mckibben.hardware import P_MAX_LIMIT
 
     e = quantity(eps, "pressure", "--eps", allow_zero=False)
     if not 1.0 <= e <= P_MAX_LIMIT:
@@ -298,9 +314,6 @@ def plant_load(load) -> float:
     load : float or str
         The load. [N]
     """
-    from mckibben.datasets import get_muscle
-    from mckibben.limits import check_load
-    from mckibben.plant import PlantParams
 
     return check_load(quantity(load, "force", "--load"), get_muscle(PlantParams().muscle_name))
 
@@ -332,9 +345,6 @@ def muscle_file_plant(path, load="0.6N", supply=None, direction: str = "inflate"
         One line starting ``--muscle-file`` and naming the file (missing, no force law, a law the
         plant cannot run) or ``--load``/``--supply``/``--direction``.
     """
-    from mckibben.data.io import read_muscle
-    from mckibben.fit.muscle_file import check_direction, muscle_force_law
-    from mckibben.plant import PlantParams
 
     f = quantity(load, "force", "--load")
     check_direction(direction)
@@ -370,7 +380,6 @@ def rest_pull(plant) -> float:
     plant : PlantParams
         One rig. [-]
     """
-    from mckibben.models import laws as LW
 
     name, th = plant.law(1)
     return float(np.maximum(LW.evaluate(name, plant.supply_pressure, plant.nominal_length, th[:, 0]), 0.0))
@@ -395,7 +404,6 @@ def identify_file_plant(plant) -> FirstOrderModel:
     FirstOrderModel
         Gain [Pa/count], time constant [s], dead time [s], lift-off [PWM counts].
     """
-    from mckibben.control.experiments import identify_plant
 
     return identify_plant(plant, duration=FILE_IDENTIFICATION_S)[1]
 
@@ -415,7 +423,6 @@ def _refuse_muscle_file(command: str, muscle_file, why: str) -> None:
 
 def _no_direction(direction: str, muscle_file) -> None:
     """``--direction`` is the branch of a muscle file's law: refuse it (or a bad value) without one."""
-    from mckibben.fit.muscle_file import check_direction
 
     check_direction(direction)
     if muscle_file is None and direction != "inflate":
@@ -460,7 +467,6 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
     GainTuning
         ``.params`` (the core's parameters), ``.gains``, ``.steps``, ``.met``.
     """
-    from mckibben.control.experiments import tune_gains
 
     if controller not in CONTROLLERS:
         raise unknown_name("controller", controller, CONTROLLERS)
@@ -619,7 +625,6 @@ def pressure_reference(reference, duration="2s", *, force: bool = False) -> tupl
             raise InputError(f"--reference frequency: {parts[2]!r} is above the 500 Hz a 1 kHz controller can follow")
         t = np.arange(int(round(d / TS))) * TS
         return t, mean + amp * np.sin(2 * np.pi * freq * t)
-    from mckibben.control.identify import read_step_log
 
     data, _ = read_step_log(reference)
     t0 = data["time_s"] - data["time_s"][0]
@@ -682,7 +687,6 @@ class TrackResult(Result):
         ax : matplotlib.axes.Axes or pair of Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_record
 
         return plot_record(self.record, [self.arguments["controller"]], ax=ax)
 
@@ -842,7 +846,6 @@ class Fig13Result(Result):
         ax : matplotlib.axes.Axes or pair of Axes, optional
             One Axes: the responses only; two: responses and τ(β); default a new figure with both. [-]
         """
-        from mckibben.control.plots import plot_fig13
 
         return plot_fig13(self, ax=ax)
 
@@ -934,7 +937,6 @@ class CompareResult(Result):
         ax : matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_compare
 
         return plot_compare(self, ax=ax)
 
@@ -1039,7 +1041,6 @@ class RobustnessResult(Result):
         ax : sequence of three matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_robustness
 
         return plot_robustness(self, ax=ax)
 
@@ -1088,7 +1089,6 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
                  what="control periods (3 controllers × --n plants × 0.6 s)")
     _no_direction(direction, muscle_file)
     b = _beta(beta)
-    from mckibben.control.experiments import FIG13_TARGET_PA, sample_plants
 
     extra: dict = {}
     if muscle_file is None:
@@ -1113,7 +1113,6 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
                 per_plant[c][k] = np.concatenate([per_plant[c].get(k, np.empty(0)), v])
         if progress is not None:
             progress(hi, int(n))
-    from mckibben.control.experiments import _pct
 
     summary = {c: {k: _pct(v) for k, v in per_plant[c].items()} for c in CONTROLLER_NAMES}
     where = {} if muscle_file is None else {"muscle_file": str(muscle_file), "direction": direction,
@@ -1167,7 +1166,6 @@ class OpenLoopResult(Result):
         ax : matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_open_loop
 
         return plot_open_loop(self, ax=ax)
 
@@ -1196,7 +1194,6 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
     -------
     OpenLoopResult
     """
-    from mckibben.plant import CALIBRATION_PWM, PlantParams, open_loop_step
 
     _no_direction(direction, muscle_file)
     valve = CALIBRATION_PWM if valve is None else valve
@@ -1248,13 +1245,6 @@ def hysteresis_compensation(period="4s", *, sweep_period=None, muscle_file=None)
         ``.summary()``, ``.plot()``.
     """
     _refuse_muscle_file("hysteresis", muscle_file, HYSTERESIS_REFUSAL)
-    from mckibben.control.hysteresis import (
-        PERIOD_MAX,
-        PERIOD_MIN,
-        SWEEP_PERIOD_MAX,
-        SWEEP_PERIOD_MIN,
-        hysteresis_benefit,
-    )
 
     per = quantity(period, "time", "--period", allow_zero=False)
     if not PERIOD_MIN <= per <= PERIOD_MAX:

@@ -42,11 +42,12 @@ Every experiment is drawn from one "truth" per muscle (:func:`campaign_truth`):
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from mckibben.datasets.published import MUSCLES
 from mckibben.errors import InputError
@@ -54,6 +55,11 @@ from mckibben.hardware import ENCODER_RESOLUTION, P_MAX_DEFAULT, quantize_length
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import MiniatureMuscle, braid_cos_theta
 from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel, spring_force
+from mckibben.errors import unknown_name
+from mckibben.atomic import atomic_dir, check_output_dir
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 #: Where the bundled campaign lives (package data).
 BUNDLED = Path(__file__).with_name("campaign")
@@ -155,7 +161,6 @@ def campaign_truth(name: str) -> CampaignTruth:
         ``"mpam97"``, ``"mpam117"`` or ``"mpam143"``.
     """
     if name not in CAMPAIGN_MUSCLES:
-        from mckibben.errors import unknown_name
 
         raise unknown_name("campaign muscle", name, CAMPAIGN_MUSCLES)
     m = MUSCLES[name]
@@ -190,6 +195,7 @@ def generate_muscle(name: str, seed: int = 0) -> dict[str, pd.DataFrame]:
     dict
         file name -> pandas.DataFrame with ``quantity_unit`` columns.
     """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
     truth = campaign_truth(name)
     m = truth.muscle
     idx = CAMPAIGN_MUSCLES.index(name)
@@ -366,7 +372,6 @@ def write_campaign(out, seed: int = 0) -> Path:
     pathlib.Path
         The folder.
     """
-    from mckibben.atomic import atomic_dir, check_output_dir
 
     out = check_output_dir(out, "--out")
     if out.is_dir() and any(out.iterdir()) and not (out / "campaign.toml").is_file():

@@ -19,7 +19,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, special
 
 from mckibben.errors import InputError
 from mckibben.models.flags import Flag, outside
@@ -139,6 +138,7 @@ class FitResult:
     @property
     def t_quantile(self) -> float:
         """Student's t quantile for a two-sided 95 % interval with :attr:`dof` degrees of freedom. [-]"""
+        from scipy import special  # deferred on purpose: SciPy
         return float(special.stdtrit(self.t_dof if self.t_dof is not None else self.dof, 0.975))  # t quantile, as stats.t.ppf
 
     @property
@@ -376,6 +376,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
 def _nonnegative_fit(x, y, names, nonneg, cond, *, model, response, valid_range, func, condition, source, scale,
                      clusters) -> FitResult:
     """The bounded branch of :func:`linear_fit`: some coefficients ≥ 0, held at 0 for the covariance."""
+    from scipy import optimize  # deferred on purpose: SciPy
     n, p = x.shape
     if nonneg.shape != (p,):
         raise InputError(f"nonnegative: {nonneg.size} flags for {p} coefficients")
@@ -453,6 +454,7 @@ def nonlinear_fit(residual, x0, names, *, model: str, response: str, what: str, 
     -------
     FitResult
     """
+    from scipy import optimize  # deferred on purpose: SciPy
     x0 = np.asarray(x0, dtype=float)
     r0 = np.asarray(residual(x0))
     n = int(n_points if n_points is not None else r0.size)
@@ -644,6 +646,7 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     -------
     FitResult
     """
+    from scipy import optimize  # deferred on purpose: SciPy
     y = np.asarray(y, dtype=float)
     lo = np.asarray(lo, dtype=float)
     hi = np.asarray(hi, dtype=float)

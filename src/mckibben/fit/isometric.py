@@ -46,11 +46,12 @@ Chou & Hannaford (1996); Tondu & Lopez (2000); Tsagarakis & Caldwell (2000), Dav
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import pandas as pd
 
 from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
 from mckibben.errors import InputError, unknown_name
@@ -61,6 +62,10 @@ from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
+from mckibben.data.io import set_point_groups
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 __all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "FORCE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
@@ -199,6 +204,7 @@ class IsometricFit(Result):
 
     def _series(self) -> pd.DataFrame:
         """The fitted points with the model's force and the residual (``quantity_unit`` columns)."""
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
         d = self.data.reset_index(drop=True)
         return pd.DataFrame({"held_length_m": d["held_length"], "pressure_Pa": d["pressure"], "force_N": d["force"],
                              "direction": d["direction"], "trial": d["trial"],
@@ -313,7 +319,6 @@ def held_length_groups(held_length) -> np.ndarray:
     held_length : array_like
         Held lengths. [m]
     """
-    from mckibben.data.io import set_point_groups
 
     return set_point_groups(np.asarray(held_length, dtype=float), decimals=6)[0]
 
@@ -396,7 +401,6 @@ def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
 
     pg = np.linspace(float(d["pressure"].min()), float(d["pressure"].max()), 41)
     peak = float(np.max(np.abs(d["force"]))) or 1.0
-    from mckibben.data.io import set_point_groups
 
     rests = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(len(d), np.nan)
     pairs = np.unique(np.column_stack([np.round(rests, 9), np.round(d["held_length"].to_numpy(dtype=float), 6)]), axis=0)
@@ -570,6 +574,7 @@ class ModelComparison(Result):
 
     def _series(self) -> pd.DataFrame:
         """One row per model (the scores), sorted by held-out error."""
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
         return pd.DataFrame(self.scores).sort_values("cv_rmse_N", na_position="last").reset_index(drop=True)
 
     def to_dict(self) -> dict:

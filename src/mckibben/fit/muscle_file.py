@@ -20,6 +20,7 @@ from mckibben.fit.isometric import ALL_MODELS, force_law, model_name, parameter_
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION
+from mckibben.atomic import atomic_file
 
 def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) -> str:
     """The TOML text of a muscle file holding a fitted force law.
@@ -76,7 +77,6 @@ def save_muscle_file(path, spec: MuscleSpec, fit, rest_length: float | None = No
     pathlib.Path
         The file written.
     """
-    from mckibben.atomic import atomic_file
 
     p = Path(path)
     if p.suffix.lower() != ".toml":

@@ -17,6 +17,16 @@ import numpy as np
 from mckibben.errors import InputError, unknown_name
 from mckibben.models import laws
 from mckibben.results import Result
+from mckibben.data import find_muscle_file, read_muscle
+from mckibben.datasets.campaign import is_synthetic
+from mckibben.data import check_muscle, read_table
+from mckibben.fit import static
+from mckibben.fit.isometric import ALL_MODELS, fit_isometric
+from mckibben.fit.muscle_file import save_muscle_file
+from mckibben.fit.isometric import compare_isometric
+from mckibben.fit.compare import compare_models
+from mckibben.results import to_jsonable
+from mckibben.fit.isometric import IsometricFit
 
 FIT_MODELS = {
     "kinematic": "eq. 2, l = k1·Ls·cos θ + k2, on braid_angle data (needs the muscle file)",
@@ -37,7 +47,6 @@ NEEDS_MUSCLE = {"kinematic", "force-contraction", "chou-hannaford", "wall-chou-h
 
 def load_muscle(data: Path, muscle: str | None, required: bool, what: str):
     """The muscle file given with --muscle, else ``muscle.toml`` beside the data (or None)."""
-    from mckibben.data import find_muscle_file, read_muscle
 
     path = Path(muscle) if muscle else find_muscle_file(data)
     if path is None:
@@ -48,7 +57,6 @@ def load_muscle(data: Path, muscle: str | None, required: bool, what: str):
 
 
 def _synthetic(data: Path, spec) -> bool:
-    from mckibben.datasets.campaign import is_synthetic
 
     folder = data if data.is_dir() else data.parent
     return bool(spec is not None and spec.synthetic) or is_synthetic(folder) or is_synthetic(folder.parent)
@@ -58,8 +66,6 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
-    from mckibben.data import check_muscle, read_table
-    from mckibben.fit import static
 
     if model not in FIT_MODELS:
         raise unknown_name("model", model, FIT_MODELS)
@@ -78,7 +84,6 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError("--rest-length: sets the rest length of the muscle a family law's file describes; give --save")
     extra: dict = {}
     if isometric:
-        from mckibben.fit.isometric import ALL_MODELS, fit_isometric
 
         if model not in ALL_MODELS and model not in laws.ALIASES:
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
@@ -87,7 +92,6 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
                "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
         out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
         if save is not None:
-            from mckibben.fit.muscle_file import save_muscle_file
 
             out["saved"] = str(save_muscle_file(save, spec, fit, rest_length))
         return out, [fit]
@@ -129,7 +133,6 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
 
 def _isometric_table(data: Path):
     """The table if DATA is an isometric table file, else None (a folder or another kind)."""
-    from mckibben.data import read_table
 
     data = Path(data)
     if data.is_dir():
@@ -141,8 +144,6 @@ def _isometric_table(data: Path):
 def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
                        pressure_zero: str = "none") -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
-    from mckibben.data import check_muscle
-    from mckibben.fit.isometric import compare_isometric
 
     spec = load_muscle(data, muscle, True, "compare")
     check_muscle(table, spec)
@@ -158,8 +159,6 @@ COMPARE_MIN_PRESSURES = 6
 
 def _compare_isotonic(data: Path, muscle: str | None = None) -> dict:
     """Run the comparison; return the JSON-ready result."""
-    from mckibben.data import check_muscle, read_table
-    from mckibben.fit.compare import compare_models
 
     data = Path(data)
     folder = data if data.is_dir() else data.parent
@@ -225,7 +224,6 @@ class TableFit(Result):
 
     def to_dict(self) -> dict:
         """JSON-ready (what ``--json`` prints)."""
-        from mckibben.results import to_jsonable
 
         return to_jsonable(self.summary)
 
@@ -251,7 +249,6 @@ class TableFit(Result):
         """
         import matplotlib.pyplot as plt
 
-        from mckibben.fit.isometric import IsometricFit
 
         if self.fits and isinstance(self.fits[0], IsometricFit):
             return self.fits[0].plot(ax)
@@ -326,7 +323,6 @@ class TableComparison(Result):
 
     def to_dict(self) -> dict:
         """JSON-ready (what ``--json`` prints)."""
-        from mckibben.results import to_jsonable
 
         return to_jsonable(self.summary)
 

@@ -23,10 +23,11 @@ say so: ``c3_per_MPa3``); everything else is SI.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import dataclass
 
 import numpy as np
-import pandas as pd
 
 from mckibben.data.io import GROUP_GAP, MuscleSpec, Table, set_point_groups  # noqa: F401 (re-exported)
 from mckibben.errors import InputError
@@ -36,6 +37,11 @@ from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import BraidAngleMap, MiniatureMuscle
 from mckibben.models.physical import BraidGeometry, length_under_load, tondu_lopez_contraction
 from mckibben.models.spring import DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel, spring_force
+from mckibben.fit.isometric import D0_FACTOR, THETA_MAX, THETA_STARTS_DEG
+from mckibben.fit.isometric import K_BOUNDS, R0_FACTOR
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 MPA = 1e6
 
@@ -552,7 +558,6 @@ def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Chou & Hannaford (1996); :func:`mckibben.models.physical.length_under_load`.
     """
-    from mckibben.fit.isometric import D0_FACTOR, THETA_MAX, THETA_STARTS_DEG
 
     _need(table, ("isotonic", "hysteresis"), "chou-hannaford")
     d = table.data[_positive(table.data)]
@@ -597,7 +602,6 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Tondu & Lopez (2000); :func:`mckibben.models.physical.tondu_lopez_contraction`.
     """
-    from mckibben.fit.isometric import K_BOUNDS, R0_FACTOR
 
     _need(table, ("isotonic", "hysteresis"), "tondu-lopez")
     d = table.data[_positive(table.data)]

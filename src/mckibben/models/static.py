@@ -26,6 +26,12 @@ import numpy as np
 
 from mckibben.errors import unknown_name
 from mckibben.models.flags import flag_names
+from mckibben.units import quantity
+from mckibben.models.physical import miniature_geometry
+from mckibben.models.mpam import predict_length
+from mckibben.models.physical import length_under_load
+from mckibben.models.mpam import force_from_length
+from mckibben.models.physical import chou_hannaford_force, wall_corrected_force
 
 __all__ = ["FORCE_MODELS", "LENGTH_MODELS", "StaticResult", "force", "force_chou_hannaford", "force_mpam",
            "force_wall_corrected", "length", "length_chou_hannaford", "length_mpam", "length_wall_corrected"]
@@ -78,7 +84,6 @@ class StaticResult:
 
 
 def _si(value, dimension: str, name: str):
-    from mckibben.units import quantity
 
     if isinstance(value, str):
         return quantity(value, dimension, name, allow_negative=False)
@@ -86,7 +91,6 @@ def _si(value, dimension: str, name: str):
 
 
 def _geometry(muscle, wall: bool):
-    from mckibben.models.physical import miniature_geometry
 
     return miniature_geometry(muscle.nominal_length, muscle.geometry, wall=wall)
 
@@ -111,14 +115,12 @@ def length_mpam(pressure, load, muscle) -> StaticResult:
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
     """
-    from mckibben.models.mpam import predict_length
 
     r = predict_length(muscle, _si(pressure, "pressure", "pressure"), _si(load, "force", "load"))
     return StaticResult("mpam", r.pressure, r.load, r.length, r.contraction, r.flags)
 
 
 def _length_physical(pressure, load, muscle, wall: bool, name: str) -> StaticResult:
-    from mckibben.models.physical import length_under_load
 
     p, f = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(load, "force", "load"))
     ell, flags = length_under_load(p, f, _geometry(muscle, wall), "wall-corrected" if wall else "chou-hannaford")
@@ -183,7 +185,6 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
     """
-    from mckibben.models.mpam import force_from_length
 
     p, ell = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(length, "length", "length"))
     r = force_from_length(muscle, p, ell)
@@ -192,7 +193,6 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
 
 
 def _force_physical(pressure, length, muscle, wall: bool, name: str) -> StaticResult:
-    from mckibben.models.physical import chou_hannaford_force, wall_corrected_force
 
     p, ell = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(length, "length", "length"))
     law = wall_corrected_force if wall else chou_hannaford_force

@@ -19,6 +19,10 @@ from mckibben.models import laws as LW
 from mckibben.models.muscle import FILE_BRAID_ANGLE as MUSCLE_BRAID_ANGLE
 from mckibben.models.muscle import Muscle
 from mckibben.models.mpam import MiniatureMuscle, predict_length
+from mckibben.models.spring import CONTRACTION, ELONGATION
+from mckibben.datasets import get_muscle
+from mckibben.data.io import MuscleSpec, read_muscle
+from mckibben.fit.muscle_file import muscle_force_law
 
 #: A plant parameter: one value for every instance, or one per instance (shape (N,)). [SI unit of the field]
 Value = float | np.ndarray
@@ -282,7 +286,6 @@ class PlantParams:
 
     def __post_init__(self):
         if self.muscle_name and np.all(np.asarray(self.r0) == 0):
-            from mckibben.datasets import get_muscle
 
             cal = calibrate_force_law(get_muscle(self.muscle_name), alpha0=self._own_alpha0())
             for key, value in cal.items():
@@ -391,8 +394,6 @@ class PlantParams:
             key, a law the plant cannot run (the surface model; a law that pulls less when
             stretched inside the operating range).
         """
-        from mckibben.data.io import MuscleSpec, read_muscle
-        from mckibben.fit.muscle_file import muscle_force_law
 
         if direction not in ("inflate", "deflate"):
             raise InputError(f"direction: {direction!r} must be inflate or deflate")
@@ -523,7 +524,6 @@ class PlantParams:
         if name == "braid-map":
             muscle = self.muscle
             if muscle is None:
-                from mckibben.datasets import get_muscle
 
                 if not self.muscle_name:
                     raise InputError("force_model='empirical' needs a muscle (PlantParams.for_muscle or muscle=...)")
@@ -730,7 +730,6 @@ def _critical_damping(model, fields: dict, direction: str) -> float:
     The stiffness is the largest rise of the law's force per metre over the lengths between the
     ideal braid's end stops (k1 = 1, k2 = 0) at the supply pressure.
     """
-    from mckibben.models.spring import CONTRACTION, ELONGATION
 
     name, th = LW.law_of(model, direction=CONTRACTION if direction == "deflate" else ELONGATION)
     b = fields["strand_length"]

@@ -10,8 +10,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from mckibben.fit.static import trial_stats
 from mckibben.models.spring import CONTRACTION, ELONGATION
@@ -21,6 +19,8 @@ MPA = 1e6
 
 
 def _figure(ncols: int, width=4.2, height=3.4):
+    from matplotlib.figure import Figure  # deferred on purpose: Matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # deferred on purpose: Matplotlib
     fig = Figure(figsize=(width * ncols, height), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, ncols, squeeze=False)[0]

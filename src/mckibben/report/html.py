@@ -14,6 +14,11 @@ import numpy as np
 
 from mckibben.errors import InputError
 from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
+from mckibben.atomic import check_output_dir
+from mckibben.datasets.campaign import campaign_muscle_dirs
+from mckibben.results import provenance
+from mckibben.results import to_jsonable
+from mckibben.atomic import atomic_dir
 
 MPA = 1e6
 
@@ -192,7 +197,6 @@ def check_report_folder(out) -> Path:
     out : str or pathlib.Path
         The report folder. [-]
     """
-    from mckibben.atomic import check_output_dir
 
     out = check_output_dir(out, "--out")
     if out.is_dir() and any(out.iterdir()) and not (out / "index.html").is_file():
@@ -202,7 +206,6 @@ def check_report_folder(out) -> Path:
 
 def _campaign_base(char: dict) -> Path | None:
     """The folder the campaign's muscle folders share (what input paths are written relative to)."""
-    from mckibben.datasets.campaign import campaign_muscle_dirs
 
     bundled = char.get("root") in (None, "bundled example campaign")
     dirs = [Path(d) for d in campaign_muscle_dirs(None if bundled else char["root"])]
@@ -245,8 +248,6 @@ def report_provenance(char: dict, out) -> dict:
     """
     import hashlib
 
-    from mckibben.datasets.campaign import campaign_muscle_dirs
-    from mckibben.results import provenance
 
     bundled = char.get("root") in (None, "bundled example campaign")
     dirs = [Path(d) for d in campaign_muscle_dirs(None if bundled else char["root"])]
@@ -281,9 +282,7 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
     """
     import json
 
-    from mckibben.results import to_jsonable
 
-    from mckibben.atomic import atomic_dir
 
     out = check_report_folder(out)
     with atomic_dir(out, "--out") as tmp:

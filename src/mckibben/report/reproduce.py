@@ -16,6 +16,11 @@ import numpy as np
 from mckibben.errors import ArgumentTypeError, check_callable
 from mckibben.report.characterize import characterize
 from mckibben.report.html import check_report_folder, write_report
+from mckibben.datasets import MUSCLES
+from mckibben.models.flags import flag_names
+from mckibben.models.mpam import predict_length
+from mckibben.datasets.campaign import campaign_muscle_dirs
+from mckibben.report.figures import ALL_FIGURES
 
 __all__ = ["published_length_tables", "reproduce"]
 
@@ -28,9 +33,6 @@ def published_length_tables() -> dict:
     dict
         ``"mpam97@0.6N"`` → pressures [Pa], lengths [m], contractions [-], cos θ [-] and flags.
     """
-    from mckibben.datasets import MUSCLES
-    from mckibben.models.flags import flag_names
-    from mckibben.models.mpam import predict_length
 
     pressures = np.linspace(0.0, 0.8e6, 9)
     tables = {}
@@ -66,8 +68,6 @@ def reproduce(out="mckibben-report", *, data=None, progress: Callable[[str, int,
     (pathlib.Path, dict, dict)
         The report folder, its summary and :func:`published_length_tables`.
     """
-    from mckibben.datasets.campaign import campaign_muscle_dirs
-    from mckibben.report.figures import ALL_FIGURES
 
     check_callable(progress, "progress")  # before the run, not found after it
     if not isinstance(out, (str, os.PathLike)) or (data is not None and not isinstance(data, (str, os.PathLike))):

@@ -18,6 +18,11 @@ from mckibben.hardware import BAUD as _HW_BAUD
 from mckibben.hardware import P_MAX_DEFAULT, pressure_from_adc
 from mckibben.results import Result
 from mckibben.rig import protocol as P
+from mckibben.control.core import GAINS, gain_values
+from mckibben.control.metrics import step_metrics
+from mckibben.results import to_jsonable
+from mckibben.units import quantity
+from mckibben.control.core import CoreParams, load_design
 
 __all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "GainsResult", "RigStepResult", "connect", "open_port", "write_gains"]
 
@@ -214,13 +219,11 @@ class RigStepResult(Result):
     @property
     def metrics(self) -> dict:
         """Step metrics (:func:`mckibben.control.metrics.step_metrics`), SI."""
-        from mckibben.control.metrics import step_metrics
 
         return step_metrics(self.time, self.pressure, self.reference, self.command, t_step=self.step_time)
 
     def to_dict(self) -> dict:
         """The target, controller, metrics and frame counters, JSON-ready."""
-        from mckibben.results import to_jsonable
 
         return to_jsonable({"target_Pa": self.arguments["target_Pa"], "controller": self.arguments["controller"],
                             **self.metrics, **self.counters})
@@ -289,7 +292,6 @@ class Device:
         RigStepResult
             The telemetry and its step metrics.
         """
-        from mckibben.units import quantity
 
         p = quantity(target, "pressure", "--target", allow_zero=False)
         if p > SAFE_MAX_PRESSURE_PA:
@@ -366,7 +368,6 @@ class Device:
         InputError
             A bad design, a channel the device does not have, or a refused command.
         """
-        from mckibben.control.core import CoreParams, load_design
 
         params = design if isinstance(design, CoreParams) else load_design(design)
         link, hello, parser = connect(self.port)
@@ -397,7 +398,6 @@ def write_gains(link, parser: P.Parser, hello: P.Hello, params, channels=None, p
     first_seq : int, default 0
         Sequence number of the first command. [-]
     """
-    from mckibben.control.core import GAINS, gain_values
 
     values = gain_values(params)
     chans = list(range(hello.n_channels)) if channels is None else [int(c) for c in channels]

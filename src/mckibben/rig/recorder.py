@@ -17,19 +17,23 @@ protocol version, conversion constants and the parser's counters.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import json
 import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
 
 from mckibben import hardware as HW
 from mckibben.errors import InputError
 from mckibben.rig import protocol as P
+from mckibben.atomic import check_input_file
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pyarrow as pa
+    import pandas as pd
 
 COLUMNS = ["seq", "time_s", "pressure_Pa", "pressure_adc", "encoder_count", "length_m", "inlet_pwm", "bleed_pwm",
            "mode", "faults", "reference_Pa", "surface_Pa"]
@@ -59,6 +63,7 @@ def _fsync_dir(path: Path) -> None:
 
 
 def _atomic_parquet(table: pa.Table, path: Path) -> None:
+    import pyarrow.parquet as pq  # deferred on purpose: pyarrow
     tmp = path.with_name(f".{path.name}.tmp")
     with open(tmp, "wb") as fh:
         pq.write_table(table, fh)
@@ -158,6 +163,8 @@ class Recorder:
 
     def flush(self) -> None:
         """Write the rows received since the last part as a new journal part."""
+        import pyarrow as pa  # deferred on purpose: pyarrow
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
         self._flushed_at = time.monotonic()
         if not self.rows:
             return
@@ -187,6 +194,9 @@ def recover(journal: str | Path, out: str | Path, counters: dict | None = None) 
     counters : dict, optional
         Parser counters to store (default: those of the last part).
     """
+    import pyarrow as pa  # deferred on purpose: pyarrow
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+    import pyarrow.parquet as pq  # deferred on purpose: pyarrow
     journal, out = Path(journal), Path(out)
     meta_file = journal / "meta.json"
     if not journal.is_dir() or not meta_file.exists():
@@ -196,7 +206,6 @@ def recover(journal: str | Path, out: str | Path, counters: dict | None = None) 
     if not out.parent.is_dir():
         raise InputError(f"--out: folder {str(out.parent)!r} does not exist")
     try:
-        from mckibben.atomic import check_input_file
 
         meta = json.loads(check_input_file(meta_file, None, "journal metadata file").read_text())
     except (OSError, ValueError):
@@ -235,6 +244,7 @@ def read_recording(path: str | Path) -> tuple[pd.DataFrame, dict]:
     path : str or Path
         A Parquet file written by the recorder.
     """
+    import pyarrow.parquet as pq  # deferred on purpose: pyarrow
     try:
         table = pq.read_table(path)
     except Exception as exc:

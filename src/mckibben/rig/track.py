@@ -22,14 +22,18 @@ from mckibben.errors import InputError
 from mckibben.hardware import pressure_from_adc
 from mckibben.rig import protocol as P
 from mckibben.rig.device import command, connect
+from mckibben.tool.paths import parse_path
+from mckibben.tool.tracking import resolve_path, tip_reference
+from mckibben.tool.tracking import muscle_plants
+from mckibben.rig.device import write_gains
+from mckibben.tool.statics import tip_from_pressures
+from mckibben.tool.tracking import TRACKING_BETA, TrackingResult, tracking_setup
 
 #: Time the chambers get at the first references before the path starts (device time). [s]
 SETTLE_S = 0.5
 
 
 def _resolve(tool, path, ref=None):
-    from mckibben.tool.paths import parse_path
-    from mckibben.tool.tracking import resolve_path, tip_reference
 
     if isinstance(path, str):
         path = parse_path(path)
@@ -55,7 +59,6 @@ def tool_plants(tool, path) -> list:
     list of PlantParams
         One plant per channel. [-]
     """
-    from mckibben.tool.tracking import muscle_plants
 
     _, ref = _resolve(tool, path)
     return [muscle_plants(tool, float(f)) for f in ref.state.tensions.mean(axis=0)]
@@ -85,9 +88,6 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
         ``(TrackingResult, link)``: the run, and the link's counters (frames, missing, corrupt,
         references sent, the device's lag behind the sent references [s]).
     """
-    from mckibben.rig.device import write_gains
-    from mckibben.tool.statics import tip_from_pressures
-    from mckibben.tool.tracking import TRACKING_BETA, TrackingResult, tracking_setup
 
     beta = TRACKING_BETA if beta is None else float(beta)
     path, ref = _resolve(tool, path, ref)

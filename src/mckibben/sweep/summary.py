@@ -8,14 +8,19 @@ over those draws.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import re
 
 import numpy as np
-import pandas as pd
-from scipy.stats import spearmanr
 
 from mckibben.errors import InputError, unknown_name
 from mckibben.plotting import save_figure
+from mckibben.sweep.spec import METRICS
+from mckibben.atomic import check_output_dir
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 _CONSTRAINT = re.compile(r"^\s*([a-zA-Z_]+)\s*(<=|>=|<|>)\s*([-+0-9.eE]+)\s*$")
 
@@ -40,7 +45,6 @@ def metric_columns(table: pd.DataFrame) -> list[str]:
     table : pandas.DataFrame
         Sweep results.
     """
-    from mckibben.sweep.spec import METRICS
 
     return [m for m in METRICS if m in table.columns]
 
@@ -55,6 +59,7 @@ def settings_table(table: pd.DataFrame, quantile: float = 0.95) -> pd.DataFrame:
     quantile : float, default 0.95
         The upper quantile reported beside the median. [-]
     """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
     grid_cols = [c for c in parameter_columns(table) if table.groupby("grid_id")[c].nunique().max() == 1]
     metrics = metric_columns(table)
     g = table.groupby("grid_id")
@@ -130,6 +135,8 @@ def sensitivity(table: pd.DataFrame) -> pd.DataFrame:
     table : pandas.DataFrame
         Sweep results.
     """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+    from scipy.stats import spearmanr  # deferred on purpose: SciPy
     params = [c for c in parameter_columns(table) if pd.api.types.is_numeric_dtype(table[c])]
     metrics = metric_columns(table)
     out = pd.DataFrame(index=params, columns=metrics, dtype=float)
@@ -154,6 +161,7 @@ def plot_pareto(table: pd.DataFrame, quantile: float = 0.95, ax=None):
     ax : matplotlib.axes.Axes, optional
         Where to draw; default a new figure. [-]
     """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
     import matplotlib.pyplot as plt
 
     s = settings_table(table, quantile)
@@ -224,7 +232,6 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
     """
     import matplotlib.pyplot as plt
 
-    from mckibben.atomic import check_output_dir
 
     folder = check_output_dir(folder, "--plots")
     try:

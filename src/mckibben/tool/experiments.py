@@ -23,6 +23,21 @@ from mckibben.tool.geometry import DEFAULT_MUSCLE, StackLoad, Tool, ToolGeometry
 from mckibben.tool.paths import TipPath
 from mckibben.tool.workspace import Workspace
 from mckibben.units import parse_values, quantity
+from mckibben.datasets import get_muscle
+from mckibben.hardware import P_MAX_DEFAULT
+from mckibben.limits import check_p_max
+from mckibben.fit.muscle_file import check_direction
+from mckibben.tool.muscles import file_geometry, file_load, file_muscle
+from mckibben.units import parse_quantity
+from mckibben.tool.statics import pressures_for_tip, tip_from_pressures
+from mckibben.tool.kinematics import arc_from_lengths, tip_position
+from mckibben.tool.statics import require_reachable_tip
+from mckibben.tool.workspace import sample_workspace
+from mckibben.tool.paths import parse_path
+from mckibben.tool.tracking import TRACKING_BETA, resolve_path, simulate_tracking, tip_reference
+from mckibben.limits import check_budget
+from mckibben.tool.workspace import plot_workspace
+from mckibben.tool.tracking import plot_tracking
 
 __all__ = ["ToolTrackResult", "WorkspaceResult", "forward", "inverse", "make_tool", "map_workspace", "state_dict",
            "tool_dict", "track"]
@@ -92,19 +107,14 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
     -------
     Tool
     """
-    from mckibben.datasets import get_muscle
-    from mckibben.hardware import P_MAX_DEFAULT
-    from mckibben.limits import check_p_max
 
     n_discs = _discs(discs)
     radius = (quantity(pitch_radius, "length", "--pitch-radius", allow_zero=False)
               if pitch_radius is not None else None)
     pmax = None if p_max is None else check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    from mckibben.fit.muscle_file import check_direction
 
     check_direction(direction)
     if muscle_file is not None:
-        from mckibben.tool.muscles import file_geometry, file_load, file_muscle
 
         if muscle is not None:
             raise InputError("--muscle-file: give either --muscle (a published set) or --muscle-file, not both")
@@ -146,7 +156,6 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
 
 
 def _parse_kb(text: str) -> float:
-    from mckibben.units import parse_quantity
 
     return parse_quantity(text, "bending_stiffness", "--bending-stiffness", default_unit="Nm2")
 
@@ -249,13 +258,11 @@ def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
     ToolState
         Arc, tip, rotation, lengths, tensions, pressures and flags (:func:`state_dict`).
     """
-    from mckibben.tool.statics import pressures_for_tip, tip_from_pressures
 
     tool = make_tool() if tool is None else tool
     if (lengths is None) == (pressures is None):
         raise InputError("tool fk: give exactly one of --lengths or --pressures")
     if lengths is not None:
-        from mckibben.tool.kinematics import arc_from_lengths, tip_position
 
         ls = _three(lengths, "length", "--lengths", allow_zero=False)
         arc = arc_from_lengths(ls, tool.geometry.pitch_radius, tool.geometry.n_gaps)
@@ -283,7 +290,6 @@ def inverse(tip, tool: Tool | None = None):
     -------
     ToolState
     """
-    from mckibben.tool.statics import pressures_for_tip, require_reachable_tip
 
     tool = make_tool() if tool is None else tool
     p = _three(tip, "length", "--tip", allow_negative=True)
@@ -339,7 +345,6 @@ class WorkspaceResult(Result):
         ax : matplotlib.figure.Figure, optional
             A figure to draw into; default a new one. [-]
         """
-        from mckibben.tool.workspace import plot_workspace
 
         return plot_workspace(self.samples, self.tool, fig=ax)
 
@@ -358,7 +363,6 @@ def map_workspace(tool: Tool | None = None, grid: int = 15) -> WorkspaceResult:
     -------
     WorkspaceResult
     """
-    from mckibben.tool.workspace import sample_workspace
 
     tool = make_tool() if tool is None else tool
     if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or not 2 <= grid <= 101:
@@ -450,7 +454,6 @@ class ToolTrackResult(Result):
         ax : sequence of three matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.tool.tracking import plot_tracking
 
         if self.results is None:
             raise InputError("tool track: nothing simulated to plot (reference_only=True)")
@@ -493,10 +496,7 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     -------
     ToolTrackResult
     """
-    from mckibben.tool.paths import parse_path
-    from mckibben.tool.tracking import TRACKING_BETA, resolve_path, simulate_tracking, tip_reference
 
-    from mckibben.limits import check_budget
 
     check_callable(progress, "progress")
     check_instance(tool, "tool", Tool, "a Tool (make_tool)", optional=True)

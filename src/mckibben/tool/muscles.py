@@ -19,6 +19,10 @@ from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.muscle import Muscle
 from mckibben.tool.geometry import DEFAULT_MUSCLE, StackLoad, ToolGeometry
+from mckibben.datasets import get_muscle
+from mckibben.data.io import MuscleSpec, read_muscle
+from mckibben.fit.muscle_file import check_direction, muscle_force_law
+from mckibben.plant import PlantParams
 
 def paper_bending_number() -> float:
     """Dimensionless bending stiffness of the paper's tool with its defaults, Kb/(F0·r·L0). [-]
@@ -27,7 +31,6 @@ def paper_bending_number() -> float:
     :data:`DEFAULT_MUSCLE`): 2e-4 N·m² / (1 N · 4 mm · 117 mm) = 0.427. A file's tool keeps it
     (see :func:`file_load`).
     """
-    from mckibben.datasets import get_muscle
 
     load = StackLoad()
     return load.bending_stiffness / (load.preload * ToolGeometry().pitch_radius
@@ -64,9 +67,6 @@ def file_muscle(muscle_file, direction: str = "inflate") -> LawMuscle:
         One line starting ``--muscle-file`` and naming the file: missing, not TOML, no
         ``[force_model]``, the data-driven surface (no physical law), a law the plant cannot run.
     """
-    from mckibben.data.io import MuscleSpec, read_muscle
-    from mckibben.fit.muscle_file import check_direction, muscle_force_law
-    from mckibben.plant import PlantParams
 
     check_direction(direction)
     if isinstance(muscle_file, Muscle):
