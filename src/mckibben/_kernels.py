@@ -66,8 +66,9 @@ def jit():
     module
         :mod:`mckibben._jit`.
     """
+    from mckibben import _jit  # deferred on purpose: Numba (about 0.5 s to import), only where compiled code runs
 
-    return sys.modules["mckibben._jit"]
+    return _jit
 
 
 def modules() -> list:

@@ -20,6 +20,7 @@ from rich.table import Table
 
 from mckibben.errors import InputError
 from mckibben.results import to_jsonable
+from mckibben.fit.muscle_file import check_direction as check
 
 console = Console(soft_wrap=True)
 err_console = Console(stderr=True, soft_wrap=True)
@@ -37,7 +38,6 @@ def check_direction(direction: str) -> str:
     The value only; :func:`mckibben.fit.muscle_file.check_direction` (the one check) also refuses
     ``deflate`` for a file whose law has one branch, given the law.
     """
-    from mckibben.fit.muscle_file import check_direction as check  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     return check(direction)
 

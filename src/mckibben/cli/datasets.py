@@ -9,6 +9,14 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, print_table
 from mckibben.errors import InputError
+from mckibben.data import read_muscle
+from mckibben.data import read_table
+from mckibben.datasets import MUSCLES
+from mckibben.datasets.campaign import BUNDLED
+from mckibben.datasets.campaign import campaign_muscle_dirs
+from mckibben.datasets.campaign import is_synthetic
+from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
+from mckibben.datasets.campaign import write_campaign
 
 datasets_app = typer.Typer(help="The bundled example campaign (synthetic) and published sets.", no_args_is_help=True)
 app.add_typer(datasets_app, name="datasets")
@@ -17,9 +25,6 @@ app.add_typer(datasets_app, name="datasets")
 @datasets_app.command("list")
 def list_cmd(json: bool = JSON_OPTION) -> None:
     """List the bundled campaign's muscles and files, and the published parameter sets."""
-    from mckibben.data import read_muscle, read_table  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.datasets import MUSCLES  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.datasets.campaign import BUNDLED, campaign_muscle_dirs, is_synthetic  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     files = []
     for folder in campaign_muscle_dirs(BUNDLED):
@@ -29,7 +34,6 @@ def list_cmd(json: bool = JSON_OPTION) -> None:
                 t = read_table(f)
                 files.append({"muscle": spec.id, "file": str(f), "kind": t.kind, "rows": len(t),
                               "trials": int(t.data["trial"].nunique()), "size_bytes": f.stat().st_size})
-    from mckibben.datasets.isometric import BUNDLED_ISOMETRIC  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     for folder in sorted(p for p in BUNDLED_ISOMETRIC.iterdir() if (p / "muscle.toml").is_file()):
         spec = read_muscle(folder / "muscle.toml")
@@ -58,7 +62,6 @@ def generate_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Generate the example campaign (deterministic for a seed) from the published parameter sets."""
-    from mckibben.datasets.campaign import write_campaign  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if seed < 0:
         raise InputError(f"--seed: {seed} must be >= 0")

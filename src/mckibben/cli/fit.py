@@ -11,6 +11,8 @@ from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.fit.registry import FIT_MODELS
 from mckibben.units import parse_quantity
+from mckibben.fit.registry import fit_table
+from mckibben.fit.registry import compare_table
 
 
 def warn_flags(what: str, flags) -> None:
@@ -40,7 +42,6 @@ def fit_cmd(
     """Fit a static model to one experiment table: parameters, standard errors, 95 % intervals, flags."""
 
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
-    from mckibben.fit.registry import fit_table  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
     out = fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero).summary
@@ -84,7 +85,6 @@ def compare_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
-    from mckibben.fit.registry import compare_table  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     out = compare_table(data, muscle, cv, tare, rails, pressure_zero).summary
     _sensor_warnings(f"compare on {data}", out.get("tare", {}))

@@ -11,6 +11,8 @@ from mckibben.units import parse_quantity
 from mckibben.plotting import check_figure_path
 from mckibben.cli._output import write_plot
 from mckibben.plotting import save_figure
+from mckibben.control.identify import identify_logs
+from mckibben import control
 
 
 @app.command("identify")
@@ -28,7 +30,6 @@ def identify_cmd(
 ) -> None:
     """Identify gain, time constant and dead time (with standard errors) from an open-loop step, one fit per
     trial and pooled across trials; from steps to several commands, the valve's lift-off u0 too."""
-    from mckibben.control.identify import identify_logs  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     orders = {"1": (1,), "2": (2,), "both": (1, 2), "fill": ("fill",), "all": (1, 2, "fill")}.get(order)
     if orders is None:
@@ -88,9 +89,8 @@ def _input_label(data: dict) -> str:
 
 
 def _plot(path: str, data: dict, fits) -> None:
-    from mckibben.control import plot_step_fit  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    write_plot(plot_step_fit(data["time_s"], data["pressure_Pa"], fits), path, 120)
+    write_plot(control.plot_step_fit(data["time_s"], data["pressure_Pa"], fits), path, 120)
 
 
 def save_png(fig, path: str) -> None:

@@ -12,6 +12,7 @@ from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
+from mckibben import plant
 
 plant_app = typer.Typer(help="The plant linearized at an operating point, for control design.", no_args_is_help=True)
 app.add_typer(plant_app, name="plant")
@@ -20,11 +21,10 @@ PRESSURE_OPTION = typer.Option("0.55MPa", "--pressure", help="Operating gauge pr
 
 
 def _linear(pressure: str):
-    from mckibben.plant import linearize  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     p = parse_quantity(pressure, "pressure", "--pressure", allow_zero=False)
     try:
-        return linearize(pressure=p)
+        return plant.linearize(pressure=p)
     except InputError as e:
         raise InputError(f"--pressure: {e}") from None
 

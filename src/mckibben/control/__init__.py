@@ -80,6 +80,11 @@ def __getattr__(name: str):
         value = getattr(importlib.import_module(_WHERE[name]), name)
         globals()[name] = value
         return value
+    try:  # a submodule by attribute (``mckibben.control.core``), as an eager package would have bound it
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
     raise AttributeError(f"module 'mckibben.control' has no attribute {name!r}")
 
 

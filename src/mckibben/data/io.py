@@ -25,7 +25,6 @@ from mckibben.units import G_N, UNITS, to_si, units_of
 from mckibben.errors import unknown_name
 from mckibben.limits import PLAUSIBLE_MAX, first_implausible
 from mckibben.units import SI_UNIT
-from mckibben.models.mpam import MiniatureGeometry
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -656,14 +655,6 @@ class MuscleSpec:
                              f" (e.g. {quantity}_{unit} = ...)")
         return float(value)
 
-    @property
-    def geometry(self):
-        """The construction as a :class:`~mckibben.models.mpam.MiniatureGeometry` (every size needed)."""
-
-        sizes = [self.need(q, "the miniature geometry") for q in ("outer_diameter", "tube_inner_diameter",
-                                                                 "tube_outer_diameter", "strand_diameter",
-                                                                 "braid_angle")]
-        return MiniatureGeometry(*sizes)
 
 
 #: Muscle-file keys: field -> (dimension, required).

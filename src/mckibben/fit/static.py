@@ -33,6 +33,7 @@ from mckibben.data.io import GROUP_GAP, MuscleSpec, Table, set_point_groups  # n
 from mckibben.errors import InputError
 from mckibben.fit.core import (FitResult, bounded_fit, data_range, linear_fit, nonlinear_fit, require_distinct,
                                require_points)
+from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import BraidAngleMap, MiniatureMuscle
 from mckibben.models.physical import BraidGeometry, length_under_load, tondu_lopez_contraction
@@ -262,7 +263,7 @@ def fitted_muscle(spec: MuscleSpec, kinematic: FitResult, braid_fits: dict[tuple
     return MiniatureMuscle(
         name=spec.id, nominal_length=spec.nominal_length, strand_length=spec.need("strand_length", "the paper's map"),
         k1=kinematic["k1"], k2=kinematic["k2_m"], braid_map=braid_map_from_fits(braid_fits),
-        geometry=spec.geometry, citation=f"fitted to {kinematic.source}", synthetic=spec.synthetic,
+        geometry=MiniatureGeometry.from_spec(spec), citation=f"fitted to {kinematic.source}", synthetic=spec.synthetic,
     )
 
 

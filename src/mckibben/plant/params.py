@@ -22,7 +22,6 @@ from mckibben.models.mpam import MiniatureMuscle, predict_length
 from mckibben.models.spring import CONTRACTION, ELONGATION
 from mckibben.datasets import get_muscle
 from mckibben.data.io import MuscleSpec, read_muscle
-from mckibben.fit.muscle_file import muscle_force_law
 
 #: A plant parameter: one value for every instance, or one per instance (shape (N,)). [SI unit of the field]
 Value = float | np.ndarray
@@ -402,7 +401,6 @@ class PlantParams:
             direction = m.direction
         else:
             spec = muscle if isinstance(muscle, MuscleSpec) else read_muscle(muscle)
-            muscle_force_law(spec)  # the file's [force_model], checked (names, ranges)
             m = Muscle.from_spec(spec, direction)
         spec = m.spec
         where = spec.path or spec.id

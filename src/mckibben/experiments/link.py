@@ -1,4 +1,4 @@
-"""Steer the three-muscle tool through the device link: ``tool track --port``.
+"""Steer the three-muscle tool through the device link: ``tool track --port`` (an experiment: tool + rig).
 
 The host computes the path's pressure references (:func:`mckibben.tool.tracking.tip_reference`),
 sends the three channels' controller design to the device (:meth:`Device.set_gains`, the same
