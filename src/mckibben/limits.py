@@ -145,7 +145,7 @@ def check_budget(option: str, samples: float, *, force: bool = False, what: str 
                          "ask for less")
     if not (force or _LIFTED.get()) and (memory > MEMORY_LIMIT or seconds > TIME_LIMIT):
         raise InputError(f"{option}: {estimate}, past the limit of {format_bytes(MEMORY_LIMIT)} and "
-                         f"{format_seconds(TIME_LIMIT)}; ask for less, or give --force to run it anyway "
+                         f"{format_seconds(TIME_LIMIT)}; ask for less, or give `force` to run it anyway "
                          "(in Python: with mckibben.limits.lifted(): ...)")
     return memory, seconds
 
@@ -158,7 +158,7 @@ class ClampWarning(UserWarning):
     """A request beyond a physical or safety limit was clamped to it (the result says so)."""
 
 
-def check_p_max(p_max: float, name: str = "--p-max") -> float:
+def check_p_max(p_max: float, name: str = "p_max") -> float:
     """Check a maximum pressure against the rig's ceiling :data:`mckibben.hardware.P_MAX_LIMIT`.
 
     Parameters
@@ -213,12 +213,12 @@ def clamp_pressure(values, p_max: float, name: str):
         lo, hi = float(arr.min()), float(arr.max())
         warnings.warn(ClampWarning(
             f"{name}: asks for {lo / 1e6:g}..{hi / 1e6:g} MPa; the supervisor holds every reference in "
-            f"[0, {p_max / 1e6:g}] MPa (--p-max), so that is what is commanded and scored (flag "
+            f"[0, {p_max / 1e6:g}] MPa (`p_max`), so that is what is commanded and scored (flag "
             "reference_clamped)"), stacklevel=2)
     return (float(out) if np.ndim(values) == 0 else out), clamped
 
 
-def check_load(load: float, muscle, name: str = "--load") -> float:
+def check_load(load: float, muscle, name: str = "load") -> float:
     """Refuse a hanging load that no pressure the rig can give would lift.
 
     The blocked force grows about linearly with pressure (Fig. 3 of the miniature-muscle paper);

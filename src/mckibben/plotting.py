@@ -20,7 +20,7 @@ def figure_formats() -> tuple[str, ...]:
     return tuple(f".{s}" for s in sorted(FigureCanvasBase.get_supported_filetypes()))
 
 
-def check_figure_path(path, name: str = "--plot") -> str:
+def check_figure_path(path, name: str = "plot") -> str:
     """Refuse, before anything runs, a figure path with no format Matplotlib writes or no folder.
 
     Parameters
@@ -33,7 +33,7 @@ def check_figure_path(path, name: str = "--plot") -> str:
     return os.fspath(check_output_file(path, name, suffixes=figure_formats()))
 
 
-def save_figure(fig, path, dpi: int = 120, name: str = "--plot") -> None:
+def save_figure(fig, path, dpi: int = 120, name: str = "plot") -> None:
     """Save a Matplotlib figure atomically (temporary file in the same folder, then rename).
 
     The format follows the file's suffix (.png when it has none). A destination that is a folder,

@@ -83,7 +83,7 @@ def provenance(call: str, arguments: dict | None = None) -> dict:
             "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds")}
 
 
-def check_table_path(path, name: str = "--out") -> str:
+def check_table_path(path, name: str = "out") -> str:
     """Refuse, before any work, a table path that is not .csv or .parquet or cannot be written.
 
     Parameters
@@ -97,7 +97,7 @@ def check_table_path(path, name: str = "--out") -> str:
     return os.fspath(check_output_file(path, name, suffixes=SERIES_SUFFIXES))
 
 
-def write_table(df, path, meta: dict | None = None, name: str = "--out") -> str:
+def write_table(df, path, meta: dict | None = None, name: str = "out") -> str:
     """Write a table as CSV or Parquet, atomically and with the user's umask.
 
     Parameters

@@ -43,7 +43,7 @@ def fmu_cmd(
             raise InputError("--design: give --controller smc or pid with it")
         if controller not in export.fmu.CONTROLLERS:
             raise InputError(f"--controller: {controller!r}; choose {' or '.join(export.fmu.CONTROLLERS)}")
-        ctrl = control.core.load_design(design)
+        ctrl = control.core.load_design(design, "design")
         if ctrl.mode != export.fmu.controller_mode(controller):
             raise InputError(f"--design {design}: its mode is {ctrl.mode}, not --controller {controller}")
     path = export.export_fmu(muscle, muscle_file, out, fmi, ctrl, load=load, supply=supply, direction=direction, law=law,

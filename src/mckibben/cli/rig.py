@@ -177,7 +177,7 @@ def gains_cmd(
 ) -> None:
     """Send a controller design's gains to the device, read them back and verify them."""
 
-    params = control.core.load_design(source)  # bad files fail before the port is touched
+    params = control.core.load_design(source, "source")  # bad files fail before the port is touched
     if channel == "all":
         chans = None
     elif channel.isdigit():

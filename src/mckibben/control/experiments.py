@@ -831,7 +831,7 @@ def sample_plants(n: int, seed: int = 0, spread: float = 0.3, supply=(0.6e6, 1.0
         :func:`plant_batch` keyword arguments, arrays of n.
     """
     if int(n) < 1:
-        raise InputError(f"--n: {n!r} must be at least 1")
+        raise InputError(f"n: {n!r} must be at least 1")
     rng = np.random.default_rng(seed)
     out = {k: rng.uniform(1 - spread, 1 + spread, n) for k in UNCERTAIN_FACTORS}
     out["supply_Pa"] = rng.uniform(*supply, n)

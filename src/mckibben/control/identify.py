@@ -1101,7 +1101,7 @@ def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: floa
             raise InputError(f"{meta['path']}: the lift-off needs the valve command (inlet_pwm/bleed_pwm or "
                              "command_pwm) in every log")
         if t_step is not None and not float(data["time_s"][0]) < t_step < float(data["time_s"][-1]):
-            raise InputError(f"--t-step: {t_step:g} s is outside the time of {meta['path']} "
+            raise InputError(f"t_step: {t_step:g} s is outside the time of {meta['path']} "
                              f"({data['time_s'][0]:g}..{data['time_s'][-1]:g} s)")
         trials = {}
         try:
@@ -1124,7 +1124,7 @@ def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: floa
             raise InputError("identify: the lift-off from several logs needs one trial per log")
         firsts = [next(iter(r.trials.values()))[1][0] for r in out]
         if any(f.order == "fill" for f in firsts):
-            raise InputError("identify: the lift-off needs order 1 or 2 fits (--order 1, 2 or both)")
+            raise InputError("identify: the lift-off needs order 1 or 2 fits (`order` 1, 2 or both)")
         held = [float(np.median(r.data["command_pwm"][r.data["time_s"] >= f.t_step])) for r, f in zip(out, firsts)]
         lift = fit_lift_off(firsts, held)
     return LogsIdentification(out, lift)

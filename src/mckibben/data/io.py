@@ -518,7 +518,7 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
 
         raise unknown_name("tare", method, TARES)
     if table.kind != "isometric":
-        raise InputError(f"--tare: applies to isometric tables; {table.path} is a {table.kind} table")
+        raise InputError(f"tare: applies to isometric tables; {table.path} is a {table.kind} table")
     d = table.data.copy()
     report: dict = {"method": method}
     if method == "none":

@@ -95,7 +95,7 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
     link, hello, parser = connect(port)
     if hello.n_channels < 3:
         link.close()
-        raise InputError(f"--port: {port!r} has {hello.n_channels} channel(s); the tool needs 3")
+        raise InputError(f"port: {port!r} has {hello.n_channels} channel(s); the tool needs 3")
     try:
         gains = write_gains(link, parser, hello, params, port=port, first_seq=100)
     except BaseException:
@@ -103,7 +103,7 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
         raise
     if not gains.verified:
         link.close()
-        raise InputError(f"--port: the gains read back from {port!r} differ from those sent")
+        raise InputError(f"port: the gains read back from {port!r} differ from those sent")
     refs = np.asarray(ref.pressures, dtype=float)
     n = refs.shape[0]
     sent_at = {}  # rounded reference triple -> index k
@@ -174,7 +174,7 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
         applied.append(key)
         faults |= int(np.bitwise_or.reduce([c.faults for c in f.channels[:3]]))
     if len(idx) < n // 2:
-        raise InputError(f"--port: only {len(idx)} telemetry frames of the {n}-period path arrived from {port!r}")
+        raise InputError(f"port: only {len(idx)} telemetry frames of the {n}-period path arrived from {port!r}")
     idx = np.asarray(idx)
     pressure = np.asarray(pressure)
     achieved = tip_from_pressures(np.clip(pressure, 0.0, tool.p_max), tool).tip

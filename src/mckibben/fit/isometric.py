@@ -671,7 +671,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     ModelComparison
     """
     if cv not in CV_METHODS:
-        raise unknown_name("--cv scheme", cv, CV_METHODS)
+        raise unknown_name("`cv` scheme", cv, CV_METHODS)
     d, report = isometric_points(table, tare, rails, pressure_zero)
     family = is_family(d)
     if cv == "leave-one-muscle-out" and not family:

@@ -41,16 +41,16 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
     valid = dict(r.valid_range)
     if rest_length is not None or (law is not None and law.family):
         if law is None or not law.family:
-            raise InputError(f"--rest-length: applies to a family law; {fit.model} describes the muscle it was fitted on")
+            raise InputError(f"rest_length: applies to a family law; {fit.model} describes the muscle it was fitted on")
         l0 = spec.nominal_length if rest_length is None else float(rest_length)
         if not (np.isfinite(l0) and l0 > 0):
-            raise InputError(f"--rest-length: {rest_length!r} must be a positive length")
+            raise InputError(f"rest_length: {rest_length!r} must be a positive length")
         d = fit.data
         rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(len(d), spec.nominal_length)
         rel = d["held_length"].to_numpy(dtype=float) / rest
         valid["length"] = (float(rel.min()) * l0, float(rel.max()) * l0)
         spec = replace(spec, nominal_length=l0)
-    note = f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
+    note = f"Force law fitted by mckibben fit `model` {fit.model} to {r.source}."
     fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": list(r.flags),
           "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": valid,
           "parameters": dict(zip(r.names, (float(v) for v in r.values))),
@@ -80,9 +80,9 @@ def save_muscle_file(path, spec: MuscleSpec, fit, rest_length: float | None = No
 
     p = Path(path)
     if p.suffix.lower() != ".toml":
-        raise InputError(f"--save: {path} must end in .toml")
+        raise InputError(f"save: {path} must end in .toml")
     text = muscle_file_text(spec, fit, rest_length)
-    with atomic_file(p, "--save") as tmp:
+    with atomic_file(p, "save") as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
     return p
 
@@ -197,7 +197,7 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     where = spec.path or spec.id
     fm = spec.force_model
     if fm is None:
-        raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv --model NAME --save FILE.toml")
+        raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv `model` NAME `save` FILE.toml")
     model = fm["model"]
     if model not in ALL_MODELS and model not in laws.ALIASES:
         raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(ALL_MODELS)}")
@@ -250,8 +250,8 @@ def check_direction(direction: str, law: MuscleForceLaw | None = None) -> str:
         fit does not have would silently run the inflate one).
     """
     if direction not in DIRECTIONS:
-        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
+        raise InputError(f"direction: {direction!r} must be inflate or deflate")
     if direction == "deflate" and law is not None and getattr(laws.LAWS.get(law.model), "branches", 1) < 2:
-        raise InputError(f"--direction deflate: the {law.model} force law of {law.spec.path or law.spec.id} has one "
+        raise InputError(f"direction deflate: the {law.model} force law of {law.spec.path or law.spec.id} has one "
                          "branch for both directions; only a spring fit has a deflate branch")
     return direction

@@ -51,7 +51,7 @@ def load_muscle(data: Path, muscle: str | None, required: bool, what: str):
     path = Path(muscle) if muscle else find_muscle_file(data)
     if path is None:
         if required:
-            raise InputError(f"{what}: needs a muscle file; give --muscle FILE.toml or put muscle.toml beside {data}")
+            raise InputError(f"{what}: needs a muscle file; give `muscle` FILE.toml or put muscle.toml beside {data}")
         return None
     return read_muscle(path)
 
@@ -75,13 +75,13 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
     if spec is not None:
         check_muscle(table, spec)
     if tare != "none" and not isometric:
-        raise InputError(f"--tare: applies to isometric tables; {data} is a {table.kind} table")
+        raise InputError(f"tare: applies to isometric tables; {data} is a {table.kind} table")
     if (rails != "keep" or pressure_zero != "none") and not isometric:
-        raise InputError(f"--rails/--pressure-zero: apply to isometric tables; {data} is a {table.kind} table")
+        raise InputError(f"rails/`pressure_zero`: apply to isometric tables; {data} is a {table.kind} table")
     if save is not None and not isometric:
-        raise InputError(f"--save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
+        raise InputError(f"save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
     if rest_length is not None and save is None:
-        raise InputError("--rest-length: sets the rest length of the muscle a family law's file describes; give --save")
+        raise InputError("rest_length: sets the rest length of the muscle a family law's file describes; give `save`")
     extra: dict = {}
     if isometric:
 
@@ -107,7 +107,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         if split_pressure is not None:
             p = table.data["pressure"].to_numpy()
             if not float(p.min()) <= split_pressure < float(p.max()):
-                raise InputError(f"--split-pressure: {split_pressure / 1e6:g} MPa is outside the pressures of {data} "
+                raise InputError(f"split_pressure: {split_pressure / 1e6:g} MPa is outside the pressures of {data} "
                                  f"({p.min() / 1e6:g}..{p.max() / 1e6:g} MPa): one range would get no point")
         sf = static.fit_spring(table, split_pressure=split_pressure,
                                nominal_length=spec.nominal_length if spec else None)
@@ -388,5 +388,5 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         return TableComparison(_compare_isometric(iso, Path(data), muscle, cv or "leave-one-length-out", tare, rails,
                                                   pressure_zero))
     if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
-        raise InputError("--cv/--tare: apply to isometric tables; the isotonic comparison chooses its own folds")
+        raise InputError("cv/`tare`: apply to isometric tables; the isotonic comparison chooses its own folds")
     return TableComparison(_compare_isotonic(Path(data), muscle))

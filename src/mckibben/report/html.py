@@ -198,9 +198,9 @@ def check_report_folder(out) -> Path:
         The report folder. [-]
     """
 
-    out = check_output_dir(out, "--out")
+    out = check_output_dir(out, "out")
     if out.is_dir() and any(out.iterdir()) and not (out / "index.html").is_file():
-        raise InputError(f"--out: {out} exists and is neither empty nor a report written before; choose another folder")
+        raise InputError(f"out: {out} exists and is neither empty nor a report written before; choose another folder")
     return out
 
 
@@ -285,7 +285,7 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
 
 
     out = check_report_folder(out)
-    with atomic_dir(out, "--out") as tmp:
+    with atomic_dir(out, "out") as tmp:
         summary = summarize(char)
         summary["provenance"] = report_provenance(char, out)
         if isinstance(summary.get("data"), str) and summary["data"].startswith("/"):

@@ -54,7 +54,7 @@ def open_port(port: str, timeout: float = 0.02):
     try:
         return serial.serial_for_url(port, baudrate=BAUD, timeout=timeout)
     except (serial.SerialException, ValueError, OSError) as exc:
-        raise InputError(f"--port: cannot open {port!r} ({exc})") from None
+        raise InputError(f"port: cannot open {port!r} ({exc})") from None
 
 
 def connect(port: str, hello_timeout: float | None = None, timeout: float = 0.02):
@@ -94,7 +94,7 @@ def connect(port: str, hello_timeout: float | None = None, timeout: float = 0.02
         link.close()
         raise
     link.close()
-    raise InputError(f"--port: no HELLO frame from {port!r} within {hello_timeout:g} s after opening it; is it a "
+    raise InputError(f"port: no HELLO frame from {port!r} within {hello_timeout:g} s after opening it; is it a "
                      f"mckibben device running firmware with protocol version {P.VERSION}?")
 
 
@@ -134,7 +134,7 @@ def command(link, parser: P.Parser, packets, timeout: float = 2.0, on_frame=None
                 elif on_frame is not None:
                     on_frame(f)
         if want - set(acks):
-            raise InputError(f"--port: the device did not acknowledge {len(want - set(acks))} commands within "
+            raise InputError(f"port: the device did not acknowledge {len(want - set(acks))} commands within "
                              f"{timeout:g} s")
     return [acks[seq] for seq, _ in packets]
 
@@ -293,14 +293,14 @@ class Device:
             The telemetry and its step metrics.
         """
 
-        p = quantity(target, "pressure", "--target", allow_zero=False)
+        p = quantity(target, "pressure", "target", allow_zero=False)
         if p > SAFE_MAX_PRESSURE_PA:
-            raise InputError(f"--target: {target!r} is above the 0.8 MPa safe limit")
+            raise InputError(f"target: {target!r} is above the 0.8 MPa safe limit")
         if controller not in CONTROLLERS:
-            raise InputError(f"--controller: {controller!r} must be smc or pid")
-        d = quantity(duration, "time", "--duration", allow_zero=False)
+            raise InputError(f"controller: {controller!r} must be smc or pid")
+        d = quantity(duration, "time", "duration", allow_zero=False)
         if d > 60:
-            raise InputError(f"--duration: {duration!r} is longer than 60 s")
+            raise InputError(f"duration: {duration!r} is longer than 60 s")
         link, _, parser = connect(self.port)
         rows: list = []
         acks: list = []
@@ -337,11 +337,11 @@ class Device:
         if bad:
             raise InputError(f"the device refused command type 0x{bad[0].cmd_type:02x} (status {bad[0].status})")
         if len(rows) < 50:
-            raise InputError(f"--port: only {len(rows)} telemetry frames arrived from {self.port!r}; "
+            raise InputError(f"port: only {len(rows)} telemetry frames arrived from {self.port!r}; "
                              "is it a mckibben device?")
         a = np.array(rows, dtype=float)
         if t_step is None:
-            raise InputError(f"--port: {self.port!r} stopped streaming before the step to {p:g} Pa took effect "
+            raise InputError(f"port: {self.port!r} stopped streaming before the step to {p:g} Pa took effect "
                              f"({len(rows)} frames, {a[-1, 0] - a[0, 0]:.3f} s of device time)")
         faults = int(np.bitwise_or.reduce(a[:, 4].astype(np.int64)))
         return RigStepResult(a[:, 0], a[:, 1], a[:, 2], a[:, 3], float(t_step),
@@ -369,7 +369,7 @@ class Device:
             A bad design, a channel the device does not have, or a refused command.
         """
 
-        params = design if isinstance(design, CoreParams) else load_design(design)
+        params = design if isinstance(design, CoreParams) else load_design(design, "design")
         link, hello, parser = connect(self.port)
         try:
             return write_gains(link, parser, hello, params, channels, self.port)
@@ -403,7 +403,7 @@ def write_gains(link, parser: P.Parser, hello: P.Hello, params, channels=None, p
     chans = list(range(hello.n_channels)) if channels is None else [int(c) for c in channels]
     bad = [c for c in chans if not 0 <= c < hello.n_channels]
     if bad:
-        raise InputError(f"--channel: {bad[0]} is not a channel of the device (0..{hello.n_channels - 1})")
+        raise InputError(f"channel: {bad[0]} is not a channel of the device (0..{hello.n_channels - 1})")
     seq = first_seq
     packets = []
     for c in chans:

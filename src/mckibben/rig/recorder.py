@@ -113,15 +113,15 @@ class Recorder:
         self.out = Path(self.out)
         self.journal = Path(str(self.out) + ".journal")
         if self.out.suffix.lower() != ".parquet":
-            raise InputError(f"--out: {str(self.out)!r} must end in .parquet")
+            raise InputError(f"out: {str(self.out)!r} must end in .parquet")
         if not self.out.parent.is_dir():
-            raise InputError(f"--out: folder {str(self.out.parent)!r} does not exist")
+            raise InputError(f"out: folder {str(self.out.parent)!r} does not exist")
         if self.journal.exists():
-            raise InputError(f"--out: a journal {str(self.journal)!r} is already there; recover it or remove it")
+            raise InputError(f"out: a journal {str(self.journal)!r} is already there; recover it or remove it")
         try:
             self.journal.mkdir()
         except OSError as exc:
-            raise InputError(f"--out: cannot write in {str(self.out.parent)!r} ({exc.strerror})") from None
+            raise InputError(f"out: cannot write in {str(self.out.parent)!r} ({exc.strerror})") from None
         info = {**self.meta, "protocol_version": P.VERSION, "pa_per_count": self.pa_per_count,
                 "nominal_length_m": self.nominal_length, "encoder_resolution_m": self.encoder_resolution}
         tmp = self.journal / ".meta.json.tmp"
@@ -202,9 +202,9 @@ def recover(journal: str | Path, out: str | Path, counters: dict | None = None) 
     if not journal.is_dir() or not meta_file.exists():
         raise InputError(f"{str(journal)!r} is not a recorder journal (no meta.json)")
     if out.suffix.lower() != ".parquet":
-        raise InputError(f"--out: {str(out)!r} must end in .parquet")
+        raise InputError(f"out: {str(out)!r} must end in .parquet")
     if not out.parent.is_dir():
-        raise InputError(f"--out: folder {str(out.parent)!r} does not exist")
+        raise InputError(f"out: folder {str(out.parent)!r} does not exist")
     try:
 
         meta = json.loads(check_input_file(meta_file, None, "journal metadata file").read_text())
@@ -225,7 +225,7 @@ def recover(journal: str | Path, out: str | Path, counters: dict | None = None) 
     try:
         _atomic_parquet(table, out)
     except OSError as exc:
-        raise InputError(f"--out: cannot write {str(out)!r} ({exc.strerror})") from None
+        raise InputError(f"out: cannot write {str(out)!r} ({exc.strerror})") from None
     for p in parts:
         p.unlink()
     meta_file.unlink()

@@ -52,12 +52,12 @@ def _discs(discs):
         try:
             int(discs)
         except ValueError:
-            raise InputError(f"--discs: {discs!r} is not a whole number of discs (or 'continuous')") from None
+            raise InputError(f"discs: {discs!r} is not a whole number of discs (or 'continuous')") from None
     if isinstance(discs, bool) or not isinstance(discs, (int, np.integer, str)):
-        raise InputError(f"--discs: {discs!r} is not a whole number of discs (or 'continuous')")
+        raise InputError(f"discs: {discs!r} is not a whole number of discs (or 'continuous')")
     n = int(discs)
     if n < 2:
-        raise InputError(f"--discs: {discs!r} must be at least 2 (base and tip)")
+        raise InputError(f"discs: {discs!r} must be at least 2 (base and tip)")
     return n
 
 
@@ -109,21 +109,21 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
     """
 
     n_discs = _discs(discs)
-    radius = (quantity(pitch_radius, "length", "--pitch-radius", allow_zero=False)
+    radius = (quantity(pitch_radius, "length", "pitch_radius", allow_zero=False)
               if pitch_radius is not None else None)
-    pmax = None if p_max is None else check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
+    pmax = None if p_max is None else check_p_max(quantity(p_max, "pressure", "p_max", allow_zero=False))
 
     check_direction(direction)
     if muscle_file is not None:
 
         if muscle is not None:
-            raise InputError("--muscle-file: give either --muscle (a published set) or --muscle-file, not both")
+            raise InputError("muscle_file: give either `muscle` (a published set) or `muscle_file`, not both")
         fm = file_muscle(muscle_file, direction)
         top = float(fm.pressure_range[1])
         if pmax is None:
             pmax = min(float(P_MAX_DEFAULT), top)
         elif pmax > top:
-            raise InputError(f"--p-max: {pmax / 1e6:g} MPa is above the top of the pressures the force law of "
+            raise InputError(f"p_max: {pmax / 1e6:g} MPa is above the top of the pressures the force law of "
                              f"{muscle_file} was fitted on ({top / 1e6:g} MPa): the law is not known there")
         geo = file_geometry(fm, radius, n_discs)
         dflt = file_load(fm, float(geo.pitch_radius or 0.0), pmax)
@@ -140,14 +140,14 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
     preload = dflt["preload"] if preload is None else preload
     bending_stiffness = dflt["bending_stiffness"] if bending_stiffness is None else bending_stiffness
     axial_stiffness = dflt["axial_stiffness"] if axial_stiffness is None else axial_stiffness
-    kb = (quantity(bending_stiffness, "bending_stiffness", "--bending-stiffness")
+    kb = (quantity(bending_stiffness, "bending_stiffness", "bending_stiffness")
           if not isinstance(bending_stiffness, str) else
           _parse_kb(bending_stiffness))
     if not 0 < kb <= MAX_BENDING_STIFFNESS:
-        raise InputError(f"bending_stiffness (--bending-stiffness) = {kb:g} N·m²: outside (0, {MAX_BENDING_STIFFNESS:g}] "
+        raise InputError(f"bending_stiffness (`bending_stiffness`) = {kb:g} N·m²: outside (0, {MAX_BENDING_STIFFNESS:g}] "
                          "N·m² (a steel rod of the tool's 12 mm diameter is about 2e2 N·m²)")
-    load = StackLoad(preload=quantity(preload, "force", "--preload"), bending_stiffness=kb,
-                     axial_stiffness=quantity(axial_stiffness, "force", "--axial-stiffness"), reference_length=s_ref)
+    load = StackLoad(preload=quantity(preload, "force", "preload"), bending_stiffness=kb,
+                     axial_stiffness=quantity(axial_stiffness, "force", "axial_stiffness"), reference_length=s_ref)
     try:
         return Tool(m, geo, load, pmax)
     except InputError as exc:  # the Tool names its field; a caller of make_tool gave --discs
@@ -157,7 +157,7 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
 
 def _parse_kb(text: str) -> float:
 
-    return parse_quantity(text, "bending_stiffness", "--bending-stiffness", default_unit="Nm2")
+    return parse_quantity(text, "bending_stiffness", "bending_stiffness", default_unit="Nm2")
 
 
 def tool_dict(tool: Tool) -> dict:
@@ -261,18 +261,18 @@ def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
 
     tool = make_tool() if tool is None else tool
     if (lengths is None) == (pressures is None):
-        raise InputError("tool fk: give exactly one of --lengths or --pressures")
+        raise InputError("tool fk: give exactly one of `lengths` or `pressures`")
     if lengths is not None:
 
-        ls = _three(lengths, "length", "--lengths", allow_zero=False)
+        ls = _three(lengths, "length", "lengths", allow_zero=False)
         arc = arc_from_lengths(ls, tool.geometry.pitch_radius, tool.geometry.n_gaps)
         return pressures_for_tip(tip_position(arc), tool)  # the pressures holding them, as `inverse` finds them
-    ps = _three(pressures, "pressure", "--pressures")
+    ps = _three(pressures, "pressure", "pressures")
     if np.any(ps > tool.p_max):
-        raise InputError(f"--pressures: {pressures!r} is above p_max ({tool.p_max / 1e6:g} MPa, --p-max)")
+        raise InputError(f"pressures: {pressures!r} is above p_max ({tool.p_max / 1e6:g} MPa, `p_max`)")
     state = tip_from_pressures(ps, tool)
     if not bool(state.converged):
-        raise InputError(f"--pressures: the static equilibrium did not converge for {pressures!r}")
+        raise InputError(f"pressures: the static equilibrium did not converge for {pressures!r}")
     return state
 
 
@@ -292,8 +292,8 @@ def inverse(tip, tool: Tool | None = None):
     """
 
     tool = make_tool() if tool is None else tool
-    p = _three(tip, "length", "--tip", allow_negative=True)
-    _within_reach(p, tool, "--tip", "a tip")
+    p = _three(tip, "length", "tip", allow_negative=True)
+    _within_reach(p, tool, "tip", "a tip")
     state = pressures_for_tip(p, tool)
     require_reachable_tip(state, tool)
     return state
@@ -366,7 +366,7 @@ def map_workspace(tool: Tool | None = None, grid: int = 15) -> WorkspaceResult:
 
     tool = make_tool() if tool is None else tool
     if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or not 2 <= grid <= 101:
-        raise InputError(f"--grid: {grid!r} must be a whole number of points per muscle in 2..101")
+        raise InputError(f"grid: {grid!r} must be a whole number of points per muscle in 2..101")
     return WorkspaceResult(sample_workspace(tool, grid), tool, {"grid": grid})
 
 
@@ -508,26 +508,26 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     if periods is None:
         period_list = np.array([spec.period])
     elif isinstance(periods, str):
-        period_list = parse_values(periods, "time", "--periods", allow_zero=False)
+        period_list = parse_values(periods, "time", "periods", allow_zero=False)
     else:
         if isinstance(periods, (bytes, dict, set)) or np.ndim(periods) > 1:
             raise ArgumentTypeError(f"periods = {periods!r}: not a sequence of periods")
-        period_list = np.array([quantity(p, "time", "--periods", allow_zero=False) for p in np.ravel(periods)])
+        period_list = np.array([quantity(p, "time", "periods", allow_zero=False) for p in np.ravel(periods)])
     if period_list.size == 0:
-        raise InputError("periods (--periods): empty; give at least one period, or None for the path's own")
+        raise InputError("periods (`periods`): empty; give at least one period, or None for the path's own")
     short = float(period_list.min())
     if short < MIN_TRACK_PERIOD:
-        raise InputError(f"periods (--path/--periods): a period of {short:g} s is shorter than {MIN_TRACK_PERIOD:g} s "
+        raise InputError(f"periods (`path`/`periods`): a period of {short:g} s is shorter than {MIN_TRACK_PERIOD:g} s "
                          f"({MIN_TRACK_PERIOD / 1e-3:.0f} control periods of 1 ms): too short to sample the path")
-    check_budget("--path/--periods" if periods is not None else "--path",
+    check_budget("path/`periods`" if periods is not None else "path",
                  float(np.sum(period_list)) * spec.cycles / 1e-3, force=force, what="1 ms samples",
                  bytes_per_sample=TRACK_BYTES_PER_SAMPLE, seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)])
     b = TRACKING_BETA
     if not reference_only:
         b = TRACKING_BETA if beta is None else float(beta)
         if not (np.isfinite(b) and 0 < b <= 255):
-            raise InputError(f"--beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
-    _within_reach(np.array([spec.size]), tool, "--path", f"a {spec.kind} of")
+            raise InputError(f"beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
+    _within_reach(np.array([spec.size]), tool, "path", f"a {spec.kind} of")
     base = resolve_path(spec, tool)
     runs = [(p, tip_reference(tool, p)) for p in (base.with_period(float(t)) for t in period_list)]
     results = None

@@ -83,7 +83,7 @@ def file_muscle(muscle_file, direction: str = "inflate") -> LawMuscle:
         PlantParams.from_muscle_file(m)  # a law the plant cannot run is refused here as there
     except InputError as exc:
         msg = str(exc)
-        raise InputError(msg if msg.startswith("--") else f"--muscle-file {where}: {msg}") from None
+        raise InputError(msg if msg.startswith("--") else f"muscle_file {where}: {msg}") from None
     if m.pressure_range[1] == np.inf:  # no fitted range saved: the plant's supply bounds it
         m = dataclasses.replace(m, pressure_range=(m.pressure_range[0], float(PlantParams.from_muscle_file(m).supply_pressure)))
     return m
