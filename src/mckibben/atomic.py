@@ -245,7 +245,7 @@ def atomic_file(path, name: str = "out") -> Iterator[Path]:
 
     Examples
     --------
-    >>> with atomic_file("fig.png", "--plot") as tmp:  # doctest: +SKIP
+    >>> with atomic_file("fig.png", "plot") as tmp:  # doctest: +SKIP
     ...     fig.savefig(tmp, format="png")
     """
     p = check_output_file(path, name)

@@ -108,7 +108,7 @@ def check_budget(option: str, samples: float, *, force: bool = False, what: str 
     Parameters
     ----------
     option : str
-        The option (or options) whose value sets the size, for the message, e.g. ``"--duration"``. [-]
+        The option (or options) whose value sets the size, for the message, e.g. ``"duration"``. [-]
     samples : float
         Instances × control periods (or the unit of work ``what`` names). [-]
     force : bool, default False

@@ -27,7 +27,7 @@ def check_figure_path(path, name: str = "plot") -> str:
     ----------
     path : str or os.PathLike
         The output file; its suffix picks the format. [-]
-    name : str, default "--plot"
+    name : str, default "plot"
         The argument's name, for the message. [-]
     """
     return os.fspath(check_output_file(path, name, suffixes=figure_formats()))
@@ -48,7 +48,7 @@ def save_figure(fig, path, dpi: int = 120, name: str = "plot") -> None:
         Output file. [-]
     dpi : int, default 120
         Resolution of raster formats. [dots per inch]
-    name : str, default "--plot"
+    name : str, default "plot"
         The option that named the file, for error messages. [-]
     """
     path = os.fspath(path)

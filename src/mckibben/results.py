@@ -90,7 +90,7 @@ def check_table_path(path, name: str = "out") -> str:
     ----------
     path : str or os.PathLike
         The output file. [-]
-    name : str, default "--out"
+    name : str, default "out"
         The argument's name, for the message. [-]
     """
 
@@ -109,7 +109,7 @@ def write_table(df, path, meta: dict | None = None, name: str = "out") -> str:
     meta : dict, optional
         Provenance; default ``df.attrs["provenance"]``. Parquet stores it as JSON under the
         schema metadata key ``mckibben``; CSV has no place for it. [-]
-    name : str, default "--out"
+    name : str, default "out"
         The argument's name, for error messages. [-]
 
     Returns

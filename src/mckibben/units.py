@@ -153,7 +153,7 @@ def parse_quantity(
         ``"time"``, ``"frequency"`` or ``"dimensionless"``. A ``"force"`` also accepts a mass
         (``"60g"``), taken as the weight of a hanging mass (times standard gravity).
     name : str
-        The argument's name, used in error messages, e.g. ``"--pressure"``.
+        The argument's name, used in error messages, e.g. ``"pressure"`` (the command line writes it as its flag).
     allow_negative : bool, default False
         Whether a negative value is accepted.
     allow_zero : bool, default True

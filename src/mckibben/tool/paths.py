@@ -131,7 +131,7 @@ def parse_path(spec: str, name: str = "path") -> TipPath:
     ----------
     spec : str
         The spec. [-]
-    name : str, default "--path"
+    name : str, default "path"
         The argument's name for error messages. [-]
 
     Returns

@@ -103,7 +103,7 @@ def resolve(name: str, what: str = "force law") -> str:
     name : str
         A name of :data:`LAWS` or :data:`ALIASES`. [-]
     what : str
-        What the name was given as, for the message (e.g. ``"--model"``). [-]
+        What the name was given as, for the message (e.g. ``"model"``). [-]
 
     Raises
     ------
