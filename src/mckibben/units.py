@@ -24,11 +24,13 @@ import numpy as np
 
 from mckibben.errors import InputError
 
-__all__ = ["G_N", "SI_UNIT", "UNITS", "parse_quantity", "parse_values", "quantity", "split_column", "to_si",
+__all__ = ["G_N", "P_ATM", "SI_UNIT", "UNITS", "parse_quantity", "parse_values", "quantity", "split_column", "to_si",
            "units_of"]
 
 #: Standard gravity [m/s^2] (for gram-force and hanging masses).
 G_N = 9.80665
+#: Standard atmospheric pressure [Pa]: gauge pressures (the rig's, every table's) + P_ATM = absolute.
+P_ATM = 101325.0
 
 #: Unit -> (dimension, factor to SI). Case-sensitive: "mm" is not "Mm".
 UNITS: dict[str, tuple[str, float]] = {

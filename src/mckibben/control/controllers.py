@@ -66,7 +66,7 @@ class FirstOrderModel:
 
     @classmethod
     def from_fit(cls, fit) -> FirstOrderModel:
-        """From a :class:`~mckibben.control.identify.StepFit` (order 1 or 2).
+        """From a :class:`~mckibben.fit.step.StepFit` (order 1 or 2).
 
         Parameters
         ----------

@@ -25,7 +25,7 @@ from mckibben.control.controllers import (FirstOrderModel, design_pid, pid_param
                                           with_supervisor_model)
 from mckibben.control import registry as R
 from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
-from mckibben.control.identify import fit_lift_off, fit_step_response
+from mckibben.fit.step import fit_lift_off, fit_step_response
 from mckibben.control.metrics import step_metrics, step_metrics_batch
 from mckibben.datasets.paper_points import FIG13 as _FIG13
 from mckibben.errors import InputError, unknown_name

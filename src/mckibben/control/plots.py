@@ -263,7 +263,7 @@ def plot_step_fit(time, pressure, fits, ax=None):
     pressure : array_like
         Measured pressure. [Pa]
     fits : sequence of StepFit
-        From :func:`mckibben.control.identify.fit_step_response`. [-]
+        From :func:`mckibben.fit.step.fit_step_response`. [-]
     ax : pair of matplotlib.axes.Axes, optional
         Where to draw; default a new figure. [-]
 

@@ -50,7 +50,7 @@ from mckibben.data.io import read_muscle
 from mckibben.fit.muscle_file import check_direction, muscle_force_law
 from mckibben.models import laws as LW
 from mckibben.control.experiments import tune_gains
-from mckibben.control.identify import read_step_log
+from mckibben.data.steplog import read_step_log
 from mckibben.control.experiments import FIG13_TARGET_PA, sample_plants
 from mckibben.control.experiments import _pct
 from mckibben.plant import CALIBRATION_PWM, open_loop_step

@@ -15,6 +15,7 @@ import numpy as np
 
 from mckibben import hardware as HW
 from mckibben.errors import InputError, check_real, unknown_name
+from mckibben.units import P_ATM  # noqa: F401  (the plant's atmosphere: PP.P_ATM in the kernels)
 from mckibben.models import laws as LW
 from mckibben.models.muscle import FILE_BRAID_ANGLE as MUSCLE_BRAID_ANGLE
 from mckibben.models.muscle import Muscle
@@ -26,7 +27,6 @@ from mckibben.data.io import MuscleSpec, read_muscle
 #: A plant parameter: one value for every instance, or one per instance (shape (N,)). [SI unit of the field]
 Value = float | np.ndarray
 
-P_ATM = 101325.0  #: atmospheric pressure [Pa]
 R_AIR = 287.05  #: specific gas constant of air [J/(kg·K)]
 T0 = 293.15  #: ISO 6358 reference temperature, also the supply temperature [K]
 RHO0 = 1.185  #: ISO 6358 reference density of air (ANR, 20 °C, 1 atm) [kg/m³]
