@@ -179,7 +179,7 @@ def compare_cmd(
     direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
-    """PID tuned on the first-order model vs both sliding-mode laws, over step sizes and loads (§IV.A)."""
+    """PID tuned on the first-order model vs both sliding-mode laws and stsmc, over step sizes and loads (§IV.A)."""
 
     check_outputs(plot, dpi, out)
     res = control.compare(beta, muscle_file=muscle_file, direction=direction)
@@ -187,9 +187,10 @@ def compare_cmd(
     if json:
         emit_json(res.to_dict())
         return
-    print_table("PID (lambda-tuned on the first-order model) vs sliding mode (smc: ours, smc_paper: β = 150)"
-                if muscle_file is None else f"PID vs sliding mode (smc: ours, smc_paper: the paper's law), each "
-                                            f"tuned on the plant of {muscle_file} under each load",
+    others = "".join(f", {c.name}: {c.summary.split(' (')[0]}" for c in R.EXTENSIONS)
+    print_table(f"PID (lambda-tuned on the first-order model) vs sliding mode (smc: ours, smc_paper: β = 150{others})"
+                if muscle_file is None else f"PID vs sliding mode (smc: ours, smc_paper: the paper's law{others}), "
+                                            f"each tuned on the plant of {muscle_file} under each load",
                 ["controller", "from MPa", "to MPa", "load N", "τ s", "overshoot %", "settling s", "ss error kPa"],
                 [[r["controller"], r["from_Pa"] / 1e6, r["to_Pa"] / 1e6, r["load_N"], r["time_constant_s"],
                   r["overshoot_pct"], r["settling_time_s"], r["steady_state_error_Pa"] / 1e3] for r in res.rows])
@@ -208,9 +209,9 @@ def robustness_cmd(
     direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
-    """Monte Carlo over plant uncertainty: PID and both sliding-mode laws, median and 5–95 % of each metric."""
-    if n >= 1:
-        _size_first("--n", "0.6s", instances=3 * n, force=force, extra=0.0)  # 3 controllers, 0.6 s each
+    """Monte Carlo over plant uncertainty: PID, both sliding-mode laws and stsmc, median and 5–95 % of each metric."""
+    if n >= 1:  # every compared controller (control.experiments.CONTROLLER_NAMES), 0.6 s each
+        _size_first("--n", "0.6s", instances=len(control.experiments.CONTROLLER_NAMES) * n, force=force, extra=0.0)
 
     check_outputs(plot, dpi, out)
     with progress_bar("plants", json) as bar:

@@ -671,7 +671,8 @@ def step_size_table(model: FirstOrderModel | None, steps=((0.0, 0.2e6), (0.0, 0.
 
     Each run holds the starting pressure (the "back pressure") for ``hold`` seconds under the
     same controller, then steps; the metrics are taken from the step on. Controllers: ``pid``,
-    ``smc`` (law ``model``, :data:`SMC_TUNING`) and ``smc_paper`` (law ``paper``, β = 150).
+    ``smc`` (law ``model``, :data:`SMC_TUNING`), ``smc_paper`` (law ``paper``, β = 150) and each
+    extension law of the registry (:func:`comparison_controllers`).
 
     Parameters
     ----------
@@ -702,10 +703,7 @@ def step_size_table(model: FirstOrderModel | None, steps=((0.0, 0.2e6), (0.0, 0.
     if controllers_for_load is None:
         if model is None:
             raise InputError("step_size_table: give a model or controllers_for_load")
-        pid = default_pid(model)
-        fixed = {"pid": pid_params(pid, base=with_supervisor_model(CoreParams(), model)),
-                 "smc": smc_core_params(model, beta),
-                 "smc_paper": smc_core_params(model, law="paper")}
+        fixed = comparison_controllers(model, beta)
         controllers_for_load = lambda load, plant: fixed  # noqa: E731
     total = hold + duration
     n, _ = _steps(total)
@@ -839,8 +837,36 @@ def sample_plants(n: int, seed: int = 0, spread: float = 0.3, supply=(0.6e6, 1.0
     return out
 
 
-#: The controllers of :func:`robustness` and :func:`step_size_table`.
-CONTROLLER_NAMES = ("pid", "smc", "smc_paper")
+#: The controllers of :func:`robustness` and :func:`step_size_table`: the paper's PID and both
+#: sliding-mode laws, then every extension law of the registry (:data:`mckibben.control.registry.EXTENSIONS`,
+#: the super-twisting ``stsmc``...), each with its documented design.
+CONTROLLER_NAMES = ("pid", "smc", "smc_paper") + tuple(c.name for c in R.EXTENSIONS)
+
+
+def comparison_controllers(model: FirstOrderModel, beta: float | None = None) -> dict:
+    """The controllers of the comparisons (:data:`CONTROLLER_NAMES`), designed on an identified model.
+
+    ``pid`` (:func:`default_pid`), ``smc`` (law ``model``, β = ``beta``), ``smc_paper`` (the
+    paper's law, β = 150), then each extension law of the registry with its documented design.
+
+    Parameters
+    ----------
+    model : FirstOrderModel
+        Identified model. [-]
+    beta : float, optional
+        Switching gain of the ``smc`` law (default :data:`SMC_TUNING`). [PWM counts]
+
+    Returns
+    -------
+    dict
+        ``{name: CoreParams}``, in :data:`CONTROLLER_NAMES` order.
+    """
+    base = with_supervisor_model(CoreParams(), model)
+    out = {"pid": pid_params(default_pid(model), base=base), "smc": smc_core_params(model, beta),
+           "smc_paper": smc_core_params(model, law="paper")}
+    for spec in R.EXTENSIONS:
+        out[spec.name] = spec.resolve("design")(model, base)
+    return out
 
 
 def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float | None = None,
@@ -849,8 +875,8 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same N plants.
 
     The controllers are designed once, on the model identified on the nominal plant; each plant
-    gets all three (one batch of 3N instances): ``pid``, ``smc`` (law ``model``) and
-    ``smc_paper`` (law ``paper``, β = 150).
+    gets every one (one batch of k·N instances): ``pid``, ``smc`` (law ``model``), ``smc_paper``
+    (law ``paper``, β = 150) and each extension law of the registry (:func:`comparison_controllers`).
 
     Parameters
     ----------
@@ -888,13 +914,12 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
     if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2**63:
         raise InputError(f"seed: {seed!r} must be a whole number in 0..2**63-1")
 
-    check_budget("n", 3 * n * duration / 1e-3, force=True)
+    check_budget("n", len(CONTROLLER_NAMES) * n * duration / 1e-3, force=True)
     samples = sample_plants(n, seed) if samples is None else samples
     k = len(CONTROLLER_NAMES)
     every = {key: np.concatenate([v] * k) for key, v in samples.items()}
     if controllers is None:
-        controllers = {"pid": pid_params(default_pid(model), base=with_supervisor_model(CoreParams(), model)),
-                       "smc": smc_core_params(model, beta), "smc_paper": smc_core_params(model, law="paper")}
+        controllers = comparison_controllers(model, beta)
     params = [controllers[name] for name in CONTROLLER_NAMES for _ in range(n)]
     nn, _ = _steps(duration)
     ref = step_reference(nn, int(round(t_step / 1e-3)), 0.0, target)

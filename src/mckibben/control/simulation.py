@@ -409,11 +409,15 @@ def identify_file_plant(plant) -> FirstOrderModel:
 
 
 def _file_controllers(plant, beta=None) -> dict:
-    """The three controllers of :func:`compare` and :func:`robustness`, tuned on a muscle file's plant:
-    ``pid``, ``smc`` (our law; ``beta`` held when given) and ``smc_paper`` (the paper's law)."""
+    """The controllers of :func:`compare` and :func:`robustness` (:data:`CONTROLLER_NAMES`), tuned on a muscle
+    file's plant: ``pid``, ``smc`` (our law; ``beta`` held when given), ``smc_paper`` (the paper's law) and
+    each extension law of the registry."""
     m = identify_file_plant(plant)
-    return {"pid": tuned_controller("pid", m, plant).params, "smc": tuned_controller("smc", m, plant, beta=beta).params,
-            "smc_paper": tuned_controller("smc", m, plant, law="paper").params}
+    out = {"pid": tuned_controller("pid", m, plant).params, "smc": tuned_controller("smc", m, plant, beta=beta).params,
+           "smc_paper": tuned_controller("smc", m, plant, law="paper").params}
+    for spec in R.EXTENSIONS:
+        out[spec.name] = tuned_controller(spec.name, m, plant).params
+    return out
 
 
 def _refuse_muscle_file(command: str, muscle_file, why: str) -> None:
@@ -1085,8 +1089,9 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
         raise InputError(f"n: {n!r} must be at least 1")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
         raise InputError(f"seed: {seed!r} must be in 0..2**63-1")
-    check_budget("n", 3 * n * ROBUSTNESS_DURATION / TS, force=force,
-                 what="control periods (3 controllers × `n` plants × 0.6 s)")
+    k = len(CONTROLLER_NAMES)
+    check_budget("n", k * n * ROBUSTNESS_DURATION / TS, force=force,
+                 what=f"control periods ({k} controllers × `n` plants × 0.6 s)")
     _no_direction(direction, muscle_file)
     b = _beta(beta)
 
