@@ -6,6 +6,8 @@ against the paper. See ``docs/plant.md``.
 """
 
 import importlib
+import sys
+import types
 from typing import TYPE_CHECKING
 
 #: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
@@ -71,3 +73,20 @@ def __getattr__(name: str):
 
 def __dir__():
     return sorted(set(globals()) | set(_WHERE))
+
+
+class _Package(types.ModuleType):
+    """The package, where a public name of :data:`_WHERE` keeps its meaning when a submodule of that name loads.
+
+    Importing ``mckibben.plant.calibration`` binds the module on the package as ``calibration``;
+    the eager package rebound the name to the function right after, this one refuses the binding
+    (the module stays in ``sys.modules``, where ``from mckibben.plant.calibration import ...`` finds it).
+    """
+
+    def __setattr__(self, name, value):
+        if name in _WHERE and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

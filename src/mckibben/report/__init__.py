@@ -7,6 +7,8 @@
 """
 
 import importlib
+import sys
+import types
 from typing import TYPE_CHECKING
 
 #: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
@@ -15,9 +17,9 @@ from typing import TYPE_CHECKING
 _WHERE = {
     "characterize": "mckibben.report.characterize",
     "check_report_folder": "mckibben.report.html",
-    "published_length_tables": "mckibben.report.reproduce",
+    "published_length_tables": "mckibben.report.reproduction",
     "render_html": "mckibben.report.html",
-    "reproduce": "mckibben.report.reproduce",
+    "reproduce": "mckibben.report.reproduction",
     "summarize": "mckibben.report.html",
     "write_report": "mckibben.report.html",
 }
@@ -28,9 +30,9 @@ __all__ = ["characterize", "check_report_folder", "published_length_tables", "re
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
     from mckibben.report.characterize import characterize as characterize
     from mckibben.report.html import check_report_folder as check_report_folder
-    from mckibben.report.reproduce import published_length_tables as published_length_tables
+    from mckibben.report.reproduction import published_length_tables as published_length_tables
     from mckibben.report.html import render_html as render_html
-    from mckibben.report.reproduce import reproduce as reproduce
+    from mckibben.report.reproduction import reproduce as reproduce
     from mckibben.report.html import summarize as summarize
     from mckibben.report.html import write_report as write_report
 
@@ -51,3 +53,19 @@ def __getattr__(name: str):
 
 def __dir__():
     return sorted(set(globals()) | set(_WHERE))
+
+
+class _Package(types.ModuleType):
+    """The package, where a public name of :data:`_WHERE` keeps its meaning when a submodule of that name loads.
+
+    Importing ``mckibben.report.characterize`` binds the module on the package as ``characterize``;
+    the eager package rebound the name to the function right after, this one refuses the binding.
+    """
+
+    def __setattr__(self, name, value):
+        if name in _WHERE and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
