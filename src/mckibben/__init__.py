@@ -18,6 +18,7 @@ Subpackages: :mod:`~mckibben.models`, :mod:`~mckibben.data`, :mod:`~mckibben.dat
 first use, so ``import mckibben`` stays quick.
 """
 
+import importlib
 from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
 from importlib.metadata import version as _version
 
@@ -56,7 +57,6 @@ _SUBPACKAGES = ("control", "data", "datasets", "fit", "models", "plant", "report
 
 
 def __getattr__(name: str):
-    import importlib
 
     if name in _ENTRY_POINTS:
         module, attr = _ENTRY_POINTS[name]

@@ -24,6 +24,8 @@ import os
 
 from mckibben.errors import InputError
 from mckibben.hardware import P_MAX_LIMIT
+import warnings
+import numpy as np
 
 #: Memory one instance costs per control period (recorded channels and working copies). [B]
 BYTES_PER_SAMPLE = 256
@@ -200,9 +202,7 @@ def clamp_pressure(values, p_max: float, name: str):
     (numpy.ndarray or float, bool)
         The clamped values and whether any was clamped.
     """
-    import warnings
 
-    import numpy as np
 
     arr = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(arr)):
@@ -272,7 +272,6 @@ def first_implausible(values, dimension: str):
     dimension : str
         Their dimension, a key of :data:`PLAUSIBLE_MAX`. [-]
     """
-    import numpy as np
 
     limit = PLAUSIBLE_MAX.get(dimension)
     if limit is None:

@@ -15,7 +15,7 @@ __all__ = ["figure_formats", "check_figure_path", "save_figure"]
 
 def figure_formats() -> tuple[str, ...]:
     """The file suffixes Matplotlib can write (``.png``, ``.pdf``, ``.svg``, ``.eps``, ...)."""
-    from matplotlib.backend_bases import FigureCanvasBase
+    from matplotlib.backend_bases import FigureCanvasBase  # deferred on purpose: Matplotlib
 
     return tuple(f".{s}" for s in sorted(FigureCanvasBase.get_supported_filetypes()))
 

@@ -36,6 +36,9 @@ from mckibben.errors import ArgumentTypeError
 from mckibben import __version__
 from mckibben.atomic import check_output_file
 from mckibben.atomic import atomic_file
+import numpy as _np
+import sys
+import functools
 
 
 __all__ = ["Result", "to_jsonable", "write_table", "read_provenance", "SERIES_SUFFIXES"]
@@ -124,8 +127,8 @@ def write_table(df, path, meta: dict | None = None, name: str = "out") -> str:
         if path.lower().endswith(".csv"):
             df.to_csv(tmp, index=False)
         else:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
+            import pyarrow as pa  # deferred on purpose: pyarrow
+            import pyarrow.parquet as pq  # deferred on purpose: pyarrow
 
             table = pa.Table.from_pandas(df, preserve_index=False)
             md = dict(table.schema.metadata or {})
@@ -142,7 +145,7 @@ def read_provenance(path) -> dict:
     path : str or os.PathLike
         A Parquet file. [-]
     """
-    import pyarrow.parquet as pq
+    import pyarrow.parquet as pq  # deferred on purpose: pyarrow
 
     md = pq.read_schema(path).metadata or {}
     raw = md.get(b"mckibben")
@@ -231,7 +234,6 @@ def check_ax(ax, name: str = "ax"):
 
     if isinstance(ax, Axes):
         return ax
-    import numpy as _np
 
     if isinstance(ax, (list, tuple, _np.ndarray)) and len(ax) and all(isinstance(a, Axes) for a in _np.ravel(ax)):
         return ax  # a plot that draws on several axes takes them as a sequence
@@ -248,24 +250,21 @@ def shown_once(fig):
     that, when the figure is shown as a value, draws it and lets pyplot go of it, so the end of
     the cell does not draw it a second time. Elsewhere nothing changes.
     """
-    import sys
 
     if fig is None or "matplotlib.pyplot" not in sys.modules:
         return fig
-    import matplotlib
+    import matplotlib  # deferred on purpose: Matplotlib
 
     if "inline" in str(matplotlib.get_backend()).lower():
-        import functools
-
         fig._ipython_display_ = functools.partial(_display_once, fig)
     return fig
 
 
 def _display_once(fig) -> None:
     """Draw ``fig`` as a PNG now, and release it from pyplot so the inline backend does not draw it again."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
     from IPython.core.pylabtools import print_figure  # deferred: only inside a Jupyter kernel
-    from IPython.display import display
+    from IPython.display import display  # deferred on purpose: IPython
 
     display({"image/png": print_figure(fig, "png")}, raw=True)
     plt.close(fig)
@@ -273,7 +272,6 @@ def _display_once(fig) -> None:
 
 def _checked_plot(plot):
     """Wrap a result's ``plot(ax=None, ...)``: ``ax`` checked first, the figure shown once in Jupyter."""
-    import functools
 
     @functools.wraps(plot)
     def wrapper(self, ax=None, *args, **kwargs):

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import importlib
 import os
+import pkgutil
 import signal
 import sys
 import threading
@@ -47,7 +49,6 @@ app = typer.Typer(
 
 def _print_version(value: bool) -> None:
     if value:
-
         sys.stdout.write(f"mckibben {__version__}\n")
         raise typer.Exit(0)
 
@@ -65,8 +66,6 @@ def _root(
 
 def _register_commands() -> None:
     """Import every sibling module: each adds its commands to :data:`app` on import."""
-    import importlib
-    import pkgutil
 
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
         if not info.name.startswith("_"):

@@ -8,6 +8,8 @@ from mckibben.errors import InputError
 from mckibben.plotting import check_figure_path, save_figure
 from mckibben.results import check_table_path
 from mckibben.cli._common import err_console
+import sys
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 DPI_OPTION = typer.Option(120, "--dpi", help="Resolution of raster figures (PNG, JPEG...), dots per inch.")
 OUT_OPTION = typer.Option(None, "--out", help="Write the time series: .csv or .parquet (SI, unit-suffixed "
@@ -31,7 +33,7 @@ def check_outputs(plot: str | None = None, dpi: int | None = None, out: str | No
 
 def write_plot(fig, path: str, dpi: int) -> None:
     """Save the figure atomically and close it."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     try:
         save_figure(fig, path, dpi=dpi)
@@ -41,9 +43,7 @@ def write_plot(fig, path: str, dpi: int) -> None:
 
 def progress_bar(label: str, json: bool):
     """A Rich progress bar on stderr, shown only on a terminal (and never with --json)."""
-    import sys
 
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 
     return Progress(TextColumn(label), BarColumn(), TextColumn("{task.completed}/{task.total}"),

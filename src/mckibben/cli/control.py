@@ -95,14 +95,12 @@ def step_cmd(
 
     check_outputs(plot, dpi, out)
     if save_design:
-
         check_output_file(save_design, "--save-design", (".json",))
     res = control.step_response(controller, target, start=start, load=load, supply=supply, duration=duration, p_max=p_max,
                         law=law, beta=beta, eps=eps, ki=ki, lam=lam, force=force, muscle_file=muscle_file,
                         direction=direction)
     _finish(res, plot, dpi, out)
     if save_design:
-
         how = (f"tuned on the plant of {muscle_file} ({direction})" if muscle_file
                else "on the calibrated plant's identified model")
         control.core.save_design(res.params, save_design, note=f"control step {controller} ({law} law) {how}")

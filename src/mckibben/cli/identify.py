@@ -37,7 +37,6 @@ def identify_cmd(
     ts = parse_quantity(t_step, "time", "--t-step") if t_step is not None else None
     p_supply = parse_quantity(supply, "pressure", "--supply", allow_zero=False) if supply is not None else None
     if plot is not None:
-
         check_figure_path(plot)
     res = identify_logs(logs, orders, ts, p_supply)
     results = [(log, r.data, r.meta, r.trials) for log, r in zip(logs, res.logs)]

@@ -61,7 +61,7 @@ def margins_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Gain and phase margins of a PID on the plant's own linear model at the operating point (sampled at 1 kHz)."""
-    import control
+    import control  # deferred on purpose: python-control (0.8 s)
 
     for name, v in (("--kp", kp), ("--ki", ki), ("--kd", kd)):
         if not (math.isfinite(v) and v >= 0):

@@ -21,6 +21,10 @@ from mckibben.rig.recorder import recover
 from mckibben.rig.protocol import fault_names
 from mckibben import control
 from mckibben.cli import tool as T
+from rich.live import Live
+import collections
+import threading
+import os
 
 rig_app = typer.Typer(help="The rig over its serial link: record, step, emulate.", no_args_is_help=True)
 app.add_typer(rig_app, name="rig")
@@ -43,7 +47,6 @@ def record_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Record telemetry (every channel); a kill -9 loses at most the last 0.2 s (see docs/rig.md)."""
-    from rich.live import Live
 
 
     d = _duration(duration)
@@ -72,8 +75,6 @@ def record_cmd(
 
     # A reader thread drains the port while the journal is written: the serial driver buffers
     # only ~4 KB (70 ms of three-channel telemetry at 1 kHz), less than a journal part may take.
-    import collections
-    import threading
 
     chunks = collections.deque()
     stop = threading.Event()
@@ -206,7 +207,6 @@ def emulate_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """A virtual device on a pseudo-terminal: the firmware core on N plants, in real time; it resets when opened."""
-    import os
 
 
     d = _duration(duration) if duration else None
@@ -217,7 +217,6 @@ def emulate_cmd(
         raise InputError(f"--boot-time: {boot_time!r} is longer than 10 s")
     plants = None
     if tool_path is not None:
-
         if channels != 3:
             raise InputError("--tool-path: the tool has three muscles; leave --channels at 3")
         tool = T.build_tool(*(o.default for o in (T.MUSCLE_OPTION, T.PITCH_OPTION, T.DISCS_OPTION, T.PRELOAD_OPTION,
@@ -233,7 +232,6 @@ def emulate_cmd(
             em.stop()
             raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
     if json:
-
         emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels})
     else:
         err_console.print(f"emulated device on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")

@@ -15,6 +15,7 @@ from mckibben.limits import SECONDS_PER_SAMPLE, check_budget, lifted
 from mckibben.atomic import check_output_dir
 from mckibben import sweep as sweep_lib
 from mckibben.sweep.summary import figures
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
 sweep_app = typer.Typer(help="Parameter sweeps on the batch simulator, in-process or on Dask.", no_args_is_help=True)
 app.add_typer(sweep_app, name="sweep")
@@ -33,7 +34,6 @@ def run_cmd(
 ) -> None:
     """Run a sweep; chunks already written are skipped (resume)."""
 
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
 
     if workers is not None and scheduler is not None:
@@ -86,7 +86,6 @@ def summarize_cmd(
     """Best setting under a constraint, Pareto front, sensitivities, figures."""
 
     if plots:
-
         check_output_dir(plots, "--plots")
     table = sweep_lib.read_results(results)
     best = sweep_lib.best_setting(table, objective, constraint, quantile)

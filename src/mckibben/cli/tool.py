@@ -203,7 +203,6 @@ def track_cmd(
                       direction)
     link_out = None
     if port is not None:
-
         link_res, link_info = experiments.link.track_over_link(port, tool, path, beta=beta)
     with progress_bar("periods", json) as bar:
         task = bar.add_task("periods", total=None)
@@ -219,7 +218,6 @@ def track_cmd(
         link_out = {"port": port, **link_res.summary(), **link_info,
                     "rms_error_ratio_to_simulation": link_res.summary()["rms_error_m"] / out_runs[0]["rms_error_m"]}
         if link_res.faults:
-
             err_console.print(f"warning: the device reported faults: {', '.join(fault_names(link_res.faults))} "
                               f"(flags {link_res.faults})", markup=False, highlight=False)
     if json:

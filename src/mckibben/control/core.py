@@ -43,6 +43,9 @@ from mckibben.control.fixed import wrap32 as _wrap32  # noqa: F401  (re-exported
 from mckibben.hardware import ADC_MAX
 from mckibben.atomic import atomic_file, check_output_file
 from mckibben.atomic import check_input_file
+import dataclasses
+import json
+from pathlib import Path
 
 # --- modes and fault flags (firmware/core/controller.h, docs/protocol.md) ---------------------
 
@@ -964,8 +967,6 @@ def save_design(params: CoreParams, path, note: str = "") -> None:
     note : str, optional
         Free text kept in the file (what it was designed on). [-]
     """
-    import dataclasses
-    import json
 
 
     check_output_file(path, "save_design", (".json",))
@@ -997,9 +998,6 @@ def load_design(path, name: str = "path") -> CoreParams:
     InputError
         The file is missing, not JSON, not a design, or names an unknown or out-of-range value.
     """
-    import dataclasses
-    import json
-    from pathlib import Path
 
 
     p = Path(path)

@@ -34,6 +34,7 @@ from mckibben.plant import simulate
 from mckibben.plant import CALIBRATION_PWM
 from mckibben.control.metrics import tracking_metrics_batch
 from mckibben.plant import PlantParams
+import itertools
 
 #: The paper's Fig. 13 (:data:`mckibben.datasets.paper_points.FIG13`): β -> time constant, overshoot.
 PAPER_FIG13 = _FIG13["points"]
@@ -192,7 +193,6 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
         controllers use (τ and θ of that fit, G and u0 from both steps) and the records.
     """
     if u1 is None:
-
         u1 = CALIBRATION_PWM
     u1, du = _counts("u1", u1, 1, 254), _counts("du", du, 1, 254)
     if u1 + du > 255:
@@ -399,7 +399,6 @@ def smc_candidates(model: FirstOrderModel, base: CoreParams, top: float, grid: d
     tuple of list
         The candidates' free gains and their core parameters. [-]
     """
-    import itertools
 
     given = {"beta": beta, "eps": eps, "ki": ki}
     axes = [(v,) if given[k] is not None else grid[k] for k, v in given.items()]

@@ -204,7 +204,7 @@ def _gains_dict(params: CoreParams, controller: str) -> dict:
 
 
 def _record_frame(rec: LoopRecord, i: int = 0):
-    import pandas as pd
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
     return pd.DataFrame({
         "time_s": rec.t, "reference_Pa": rec.reference[i], "pressure_Pa": rec.pressure[i],
@@ -810,7 +810,7 @@ class Fig13Result(Result):
         return to_jsonable({"model": {**_model_dict(self.model), "tau_s_stderr": self.tau_stderr}, "rows": self.rows})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         frames = []
         for i, r in enumerate(self.rows):
@@ -834,7 +834,7 @@ class Fig13Result(Result):
         pandas.DataFrame
             ``beta_counts``, ``time_constant_s``, ``overshoot_pct``.
         """
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         betas = np.arange(110.0, 201.0, 2.0) if betas is None else np.asarray(betas, dtype=float)
         rows, _ = _fig13_runs(self.model, betas=betas, laws=("paper",))
@@ -929,7 +929,7 @@ class CompareResult(Result):
         return to_jsonable({"rows": self.rows})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         return pd.DataFrame(self.rows)
 
@@ -1028,7 +1028,7 @@ class RobustnessResult(Result):
         return to_jsonable({"n": self.arguments["n"], "seed": self.arguments["seed"], "summary": self.summary})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         frames = []
         for c in CONTROLLER_NAMES:
@@ -1159,7 +1159,7 @@ class OpenLoopResult(Result):
                             "duration_s": a["duration_s"], **extra, **self.metrics})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         return pd.DataFrame({"time_s": self.time, "pressure_Pa": self.pressure, "length_m": self.length})
 

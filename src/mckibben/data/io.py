@@ -199,7 +199,6 @@ def read_table(path, kind: str | None = None) -> Table:
     df.columns = [str(c).strip() for c in df.columns]
     cols = _parse_columns(name, list(df.columns))
     if kind is not None and kind not in SCHEMAS:
-
         raise unknown_name("experiment kind", kind, KINDS)
     if kind is None and p.stem in SCHEMAS:
         kind = p.stem
@@ -468,7 +467,6 @@ def apply_pressure_zero(table: Table, method: str = "none") -> tuple[Table, dict
         ``method`` and ``pressure_zero_Pa`` (the offset, or its range for a column). [-]
     """
     if method not in PRESSURE_ZEROS:
-
         raise unknown_name("pressure zero", method, PRESSURE_ZEROS)
     if method == "none":
         return table, {"method": "none"}
@@ -515,7 +513,6 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
         (``"lowest"``) or ``tare_N_range`` (``"column"``). Printed by the CLI when a tare is used.
     """
     if method not in TARES:
-
         raise unknown_name("tare", method, TARES)
     if table.kind != "isometric":
         raise InputError(f"tare: applies to isometric tables; {table.path} is a {table.kind} table")

@@ -57,6 +57,7 @@ from mckibben.models.mpam import MiniatureMuscle, braid_cos_theta
 from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel, spring_force
 from mckibben.errors import unknown_name
 from mckibben.atomic import atomic_dir, check_output_dir
+import tomllib
 
 if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
     import pandas as pd
@@ -161,7 +162,6 @@ def campaign_truth(name: str) -> CampaignTruth:
         ``"mpam97"``, ``"mpam117"`` or ``"mpam143"``.
     """
     if name not in CAMPAIGN_MUSCLES:
-
         raise unknown_name("campaign muscle", name, CAMPAIGN_MUSCLES)
     m = MUSCLES[name]
     fb = _blocked_force_cubic(m.blocked_force[0][1])
@@ -424,7 +424,6 @@ def is_synthetic(root=None) -> bool:
     root : str or pathlib.Path, optional
         The campaign folder (default: the bundled one).
     """
-    import tomllib
 
     root = Path(root) if root is not None else BUNDLED
     meta = root / "campaign.toml"

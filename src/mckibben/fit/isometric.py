@@ -63,6 +63,7 @@ from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SP
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
 from mckibben.data.io import set_point_groups
+from dataclasses import replace
 
 if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
     import pandas as pd
@@ -223,7 +224,7 @@ class IsometricFit(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
         if ax is None:
             fig, ax = plt.subplots(figsize=(6, 4))
@@ -397,7 +398,6 @@ MONOTONE_TOL = 0.02
 
 
 def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
-    from dataclasses import replace
 
     pg = np.linspace(float(d["pressure"].min()), float(d["pressure"].max()), 41)
     peak = float(np.max(np.abs(d["force"]))) or 1.0
@@ -594,7 +594,7 @@ class ModelComparison(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
         if ax is None:
             _, ax = plt.subplots(figsize=(6, 3.5))

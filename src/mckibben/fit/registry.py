@@ -84,7 +84,6 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError("rest_length: sets the rest length of the muscle a family law's file describes; give `save`")
     extra: dict = {}
     if isometric:
-
         if model not in ALL_MODELS and model not in laws.ALIASES:
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
         fit = fit_isometric(table, spec, model, tare, rails, pressure_zero)
@@ -92,7 +91,6 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
                "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
         out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
         if save is not None:
-
             out["saved"] = str(save_muscle_file(save, spec, fit, rest_length))
         return out, [fit]
     if model == "kinematic":
@@ -228,7 +226,7 @@ class TableFit(Result):
         return to_jsonable(self.summary)
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         rows = [{"condition": str(f["condition"]), "parameter": n, "value": v, "stderr": f["stderr"][n],
                  "ci95_low": f["ci95"][n][0], "ci95_high": f["ci95"][n][1]}
@@ -247,7 +245,7 @@ class TableFit(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
 
         if self.fits and isinstance(self.fits[0], IsometricFit):
@@ -327,7 +325,7 @@ class TableComparison(Result):
         return to_jsonable(self.summary)
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         return pd.DataFrame(self.summary["models"])
 
@@ -343,7 +341,7 @@ class TableComparison(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
         if ax is None:
             _, ax = plt.subplots(figsize=(6, 3.5))

@@ -285,7 +285,6 @@ class PlantParams:
 
     def __post_init__(self):
         if self.muscle_name and np.all(np.asarray(self.r0) == 0):
-
             cal = calibrate_force_law(get_muscle(self.muscle_name), alpha0=self._own_alpha0())
             for key, value in cal.items():
                 object.__setattr__(self, key, value)
@@ -522,7 +521,6 @@ class PlantParams:
         if name == "braid-map":
             muscle = self.muscle
             if muscle is None:
-
                 if not self.muscle_name:
                     raise InputError("force_model='empirical' needs a muscle (PlantParams.for_muscle or muscle=...)")
                 muscle = get_muscle(self.muscle_name)

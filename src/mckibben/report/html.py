@@ -19,6 +19,8 @@ from mckibben.datasets.campaign import campaign_muscle_dirs
 from mckibben.results import provenance
 from mckibben.results import to_jsonable
 from mckibben.atomic import atomic_dir
+import hashlib
+import json
 
 MPA = 1e6
 
@@ -246,7 +248,6 @@ def report_provenance(char: dict, out) -> dict:
     out : str or pathlib.Path
         The report folder. [-]
     """
-    import hashlib
 
 
     bundled = char.get("root") in (None, "bundled example campaign")
@@ -280,7 +281,6 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
     (pathlib.Path, dict)
         The folder and the summary.
     """
-    import json
 
 
 

@@ -49,7 +49,7 @@ def open_port(port: str, timeout: float = 0.02):
     timeout : float, default 0.02
         Read timeout. [s]
     """
-    import serial
+    import serial  # deferred on purpose: pyserial (only the rig's commands)
 
     try:
         return serial.serial_for_url(port, baudrate=BAUD, timeout=timeout)
@@ -174,7 +174,7 @@ class GainsResult(Result):
                 "verified": self.verified}
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         rows = [{"channel": ch, "gain": name, "sent": self.gains[name], "read_back": v}
                 for ch, got in self.read_back.items() for name, v in got.items()]
@@ -229,7 +229,7 @@ class RigStepResult(Result):
                             **self.metrics, **self.counters})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         return pd.DataFrame({"time_s": self.time, "reference_Pa": self.reference, "pressure_Pa": self.pressure,
                              "command_pwm": self.command})
@@ -242,7 +242,7 @@ class RigStepResult(Result):
         ax : matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
         if ax is None:
             _, ax = plt.subplots(figsize=(7, 4))

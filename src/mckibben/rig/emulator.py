@@ -136,7 +136,6 @@ class Emulator:
             gid, v = struct.unpack("<Bi", body[1:])
             status = self.bank[ch].set_gain(gid, v)
         elif kind == P.GET_GAIN:
-
             gid = body[1]
             if gid >= N_GAINS:
                 status = 4
@@ -288,7 +287,6 @@ class Emulator:
 
     @staticmethod
     def _n_gains() -> int:
-
         return N_GAINS
 
     def start(self) -> "Emulator":

@@ -206,7 +206,6 @@ def recover(journal: str | Path, out: str | Path, counters: dict | None = None) 
     if not out.parent.is_dir():
         raise InputError(f"out: folder {str(out.parent)!r} does not exist")
     try:
-
         meta = json.loads(check_input_file(meta_file, None, "journal metadata file").read_text())
     except (OSError, ValueError):
         raise InputError(f"{str(meta_file)!r}: unreadable journal metadata") from None

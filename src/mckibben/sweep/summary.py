@@ -91,12 +91,12 @@ def best_setting(table: pd.DataFrame, objective: str = "time_constant_s", constr
         raise unknown_name("objective metric", objective, metrics)
     m = _CONSTRAINT.match(constraint)
     if not m:
-        raise InputError(f"constraint: {constraint!r} must look like overshoot_pct<=10")
+        raise InputError(f"--constraint: {constraint!r} must look like overshoot_pct<=10")
     name, op, value = m.group(1), m.group(2), float(m.group(3))
     if name not in metrics:
         raise unknown_name("constraint metric", name, metrics)
     if not 0 < quantile < 1:
-        raise InputError(f"quantile: {quantile} must be in (0, 1)")
+        raise InputError(f"--quantile: {quantile} must be in (0, 1)")
     s = settings_table(table, quantile)
     q = s[f"{name}_q{int(round(quantile * 100))}"]
     ok = {"<=": q <= value, "<": q < value, ">=": q >= value, ">": q > value}[op]
@@ -162,7 +162,7 @@ def plot_pareto(table: pd.DataFrame, quantile: float = 0.95, ax=None):
         Where to draw; default a new figure. [-]
     """
     import pandas as pd  # deferred on purpose: pandas (0.25 s)
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     s = settings_table(table, quantile)
     qn = int(round(quantile * 100))
@@ -198,7 +198,7 @@ def plot_sensitivity(table: pd.DataFrame, ax=None):
     ax : matplotlib.axes.Axes, optional
         Where to draw; default a new figure. [-]
     """
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     sens = sensitivity(table)
     if sens.empty:
@@ -230,21 +230,21 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
     quantile : float, default 0.95
         Quantile used for the overshoot colour. [-]
     """
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
 
-    folder = check_output_dir(folder, "plots")
+    folder = check_output_dir(folder, "--plots")
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(f"plots: cannot create folder {str(folder)!r} ({exc.strerror})") from None
+        raise InputError(f"--plots: cannot create folder {str(folder)!r} ({exc.strerror})") from None
     paths = []
     for name, fig in (("pareto.png", plot_pareto(table, quantile)), ("sensitivity.png", plot_sensitivity(table))):
         if fig is None:
             continue
         p = folder / name
         try:
-            save_figure(fig, p, name="plots")
+            save_figure(fig, p, name="--plots")
         finally:
             plt.close(fig)
         paths.append(str(p))

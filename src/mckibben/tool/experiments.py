@@ -115,7 +115,6 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
 
     check_direction(direction)
     if muscle_file is not None:
-
         if muscle is not None:
             raise InputError("muscle_file: give either `muscle` (a published set) or `muscle_file`, not both")
         fm = file_muscle(muscle_file, direction)
@@ -263,7 +262,6 @@ def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
     if (lengths is None) == (pressures is None):
         raise InputError("tool fk: give exactly one of `lengths` or `pressures`")
     if lengths is not None:
-
         ls = _three(lengths, "length", "lengths", allow_zero=False)
         arc = arc_from_lengths(ls, tool.geometry.pitch_radius, tool.geometry.n_gaps)
         return pressures_for_tip(tip_position(arc), tool)  # the pressures holding them, as `inverse` finds them
@@ -329,7 +327,7 @@ class WorkspaceResult(Result):
         return to_jsonable({**self.metrics, "grid": self.arguments["grid"], "tool": tool_dict(self.tool)})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         p = self.samples.pressures.reshape(-1, 3)
         tip = self.samples.state.tip.reshape(-1, 3)
@@ -429,7 +427,7 @@ class ToolTrackResult(Result):
                             "runs": self.per_run, "simulated": self.results is not None, "tool": tool_dict(self.tool)})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         frames = []
         for k, (p, ref) in enumerate(self.runs):

@@ -226,7 +226,6 @@ class Tool:
     p_max: float = 0.8e6
 
     def __post_init__(self):
-
         if not (isinstance(self.p_max, (int, float)) and math.isfinite(self.p_max)):
             raise InputError(f"p_max: {self.p_max!r} must be a pressure > 0 Pa")
         check_p_max(float(self.p_max), "p_max")

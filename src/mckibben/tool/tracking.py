@@ -305,7 +305,6 @@ def tracking_setup(tool: Tool, ref: TipReference, beta: float = TRACKING_BETA, c
     plants = muscle_plants(tool, loads)
     key = tuple(np.round(loads, 12))
     if key not in cache:
-
         one = muscle_plants(tool, float(loads.mean()))
         if isinstance(tool.muscle, LawMuscle):  # a large muscle settles in seconds: the control commands' record
 
@@ -375,7 +374,7 @@ def plot_tracking(runs, results, tool: Tool, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     k = len(results)
     if ax is None:
