@@ -26,7 +26,7 @@ from rich.table import Table
 
 from mckibben.errors import InputError
 from mckibben.results import to_jsonable
-from mckibben.fit.muscle_file import check_direction as check
+from mckibben import fit
 
 console = Console(soft_wrap=True)
 err_console = Console(stderr=True, soft_wrap=True)
@@ -45,7 +45,7 @@ def check_direction(direction: str) -> str:
     ``deflate`` for a file whose law has one branch, given the law.
     """
 
-    return check(direction)
+    return fit.muscle_file.check_direction(direction)
 
 
 def command_of(app, args: list[str]):

@@ -15,7 +15,7 @@ from mckibben.limits import check_budget
 from mckibben.units import parse_quantity
 from mckibben.atomic import check_output_file
 from mckibben import control
-from mckibben.rig.protocol import fault_names
+from mckibben import rig
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
                           no_args_is_help=True)
@@ -119,7 +119,7 @@ def _warn_outcome(faults: int, unreachable: bool, final_pa: float, target_pa: fl
     """Faults and an unreachable target on stderr, whatever the output format."""
 
     if faults:
-        err_console.print(f"warning: the supervisor reported faults: {', '.join(fault_names(faults))} "
+        err_console.print(f"warning: the supervisor reported faults: {', '.join(rig.protocol.fault_names(faults))} "
                           f"(flags {faults})", markup=False, highlight=False)
     if unreachable:
         err_console.print(f"warning: the target {target_pa / 1e6:g} MPa is unreachable: the pressure settled at "

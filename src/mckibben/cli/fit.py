@@ -9,10 +9,9 @@ import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
-from mckibben.fit.registry import FIT_MODELS
+from mckibben.fit.names import FIT_MODELS
 from mckibben.units import parse_quantity
-from mckibben.fit.registry import fit_table
-from mckibben.fit.registry import compare_table
+from mckibben import fit
 
 
 def warn_flags(what: str, flags) -> None:
@@ -44,7 +43,7 @@ def fit_cmd(
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
 
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
-    out = fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero).summary
+    out = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero).summary
     _sensor_warnings(f"fit {model} on {data}", out.get("tare", {}))
     warn_flags(f"fit {model} on {data}", out.get("flags", []))
     if json:
@@ -86,7 +85,7 @@ def compare_cmd(
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
 
-    out = compare_table(data, muscle, cv, tare, rails, pressure_zero).summary
+    out = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero).summary
     _sensor_warnings(f"compare on {data}", out.get("tare", {}))
     if out.get("kind") == "isometric":
         flagged = [f"{s['model']} ({', '.join(s['flags'])})" for s in out["models"] if s["flags"]]

@@ -11,7 +11,6 @@ from mckibben.units import parse_quantity
 from mckibben.plotting import check_figure_path
 from mckibben.cli._output import write_plot
 from mckibben.plotting import save_figure
-from mckibben.control.identify import identify_logs
 from mckibben import control
 
 
@@ -38,7 +37,7 @@ def identify_cmd(
     p_supply = parse_quantity(supply, "pressure", "--supply", allow_zero=False) if supply is not None else None
     if plot is not None:
         check_figure_path(plot)
-    res = identify_logs(logs, orders, ts, p_supply)
+    res = control.identify.identify_logs(logs, orders, ts, p_supply)
     results = [(log, r.data, r.meta, r.trials) for log, r in zip(logs, res.logs)]
     lift = res.lift_off
     if plot is not None:

@@ -20,9 +20,7 @@ from mckibben.models.physical import BraidGeometry
 from mckibben.models.physical import chou_hannaford_force
 from mckibben.models.physical import tondu_lopez_force
 from mckibben.models.physical import wall_corrected_force
-from mckibben.data import read_muscle
-from mckibben.fit.muscle_file import check_direction
-from mckibben.fit.muscle_file import muscle_force_law
+from mckibben import data, fit
 
 predict_app = typer.Typer(help="Predict length, pressure or force from a static model.", no_args_is_help=True)
 app.add_typer(predict_app, name="predict")
@@ -200,9 +198,9 @@ def force_cmd(
 def _force_from_muscle_file(path: str, pressure: str, length: str | None, direction: str, json: bool) -> None:
     """``predict force --muscle-file``: the file's fitted force law at the given pressures."""
 
-    check_direction(direction)
-    law = muscle_force_law(read_muscle(path))
-    check_direction(direction, law)
+    fit.muscle_file.check_direction(direction)
+    law = fit.muscle_file.muscle_force_law(data.read_muscle(path))
+    fit.muscle_file.check_direction(direction, law)
     p = parse_values(pressure, "pressure", "--pressure")
     ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else law.spec.nominal_length
     force, flags = law.force(p, ell, direction)

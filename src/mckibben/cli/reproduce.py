@@ -16,7 +16,6 @@ from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.datasets import MUSCLES
 from mckibben import report
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 
 def _print_published(tables: dict) -> None:
@@ -46,6 +45,7 @@ def reproduce_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Characterize the campaign: fit every model, compare them, write the HTML report with figures."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn  # deferred on purpose: Rich's progress display (about 30 ms to import)
 
 
     with Progress(TextColumn("{task.description:<40}"), BarColumn(), TimeElapsedColumn(), console=err_console,

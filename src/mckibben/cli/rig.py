@@ -14,14 +14,9 @@ from mckibben.atomic import check_output_file
 from mckibben.control import registry as R
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
-from mckibben.rig import protocol as P
-from mckibben.rig.recorder import Recorder
 from mckibben import rig
-from mckibben.rig.recorder import recover
-from mckibben.rig.protocol import fault_names
 from mckibben import control
 from mckibben.cli import tool as T
-from rich.live import Live
 import collections
 import threading
 import os
@@ -47,7 +42,7 @@ def record_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Record telemetry (every channel); a kill -9 loses at most the last 0.2 s (see docs/rig.md)."""
-
+    from rich.live import Live  # deferred on purpose: Rich's live display
 
     d = _duration(duration)
     if not 1 <= decimation <= 255:
@@ -57,12 +52,12 @@ def record_cmd(
 
     link, hello, _ = rig.device.connect(port)  # the device resets on open: nothing older than this run is kept
     try:
-        rec = Recorder(rec_out, meta={"port": port, "baud": rig.BAUD, "n_channels": hello.n_channels},
+        rec = rig.Recorder(rec_out, meta={"port": port, "baud": rig.BAUD, "n_channels": hello.n_channels},
                        nominal_length=l0)
     except BaseException:
         link.close()
         raise
-    link.write(P.stream(0, True, decimation))
+    link.write(rig.protocol.stream(0, True, decimation))
     t0 = time.monotonic()
     show = not json and sys.stderr.isatty()
 
@@ -99,7 +94,7 @@ def record_cmd(
         stop.set()
         thread.join(timeout=5)
         rec.feed(b"".join(chunks))
-        link.write(P.stream(1, False, 1))
+        link.write(rig.protocol.stream(1, False, 1))
     finally:
         stop.set()
         thread.join(timeout=5)
@@ -131,7 +126,7 @@ def recover_cmd(
     """Join a recorder's journal into one Parquet file."""
 
     check_output_file(out, "--out", (".parquet",))
-    df = recover(journal, out)
+    df = rig.recover(journal, out)
     result = {"out": out, "telemetry_rows": len(df),
               "time_s": [float(df["time_s"].min()), float(df["time_s"].max())] if len(df) else None}
     if json:
@@ -164,7 +159,7 @@ def _warn_faults(faults: int) -> None:
     """The device's faults on stderr, whatever the output format."""
 
     if faults:
-        err_console.print(f"warning: the device reported faults: {', '.join(fault_names(faults))} (flags {faults})",
+        err_console.print(f"warning: the device reported faults: {', '.join(rig.protocol.fault_names(faults))} (flags {faults})",
                           markup=False, highlight=False)
 
 

@@ -14,8 +14,6 @@ from mckibben.errors import InputError
 from mckibben.limits import SECONDS_PER_SAMPLE, check_budget, lifted
 from mckibben.atomic import check_output_dir
 from mckibben import sweep as sweep_lib
-from mckibben.sweep.summary import figures
-from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
 sweep_app = typer.Typer(help="Parameter sweeps on the batch simulator, in-process or on Dask.", no_args_is_help=True)
 app.add_typer(sweep_app, name="sweep")
@@ -33,6 +31,7 @@ def run_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Run a sweep; chunks already written are skipped (resume)."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn  # deferred on purpose: Rich's progress display (about 30 ms to import)
 
 
 
@@ -94,7 +93,7 @@ def summarize_cmd(
     objs = [c for c in ("time_constant_s_median", "valve_effort_counts_median", f"overshoot_pct_q{qn}") if c in s]
     front = sweep_lib.pareto_front(s, objs) if objs else s.iloc[:0]
     sens = sweep_lib.sensitivity(table)
-    paths = figures(table, plots, quantile) if plots else []
+    paths = sweep_lib.summary.figures(table, plots, quantile) if plots else []
     if json:
         emit_json({"runs": len(table), "settings": len(s), "objective": objective, "constraint": constraint,
                    "quantile": quantile, "best": best, "pareto_front": front.to_dict("records"),

@@ -20,7 +20,7 @@ from mckibben.cli._output import check_outputs, plot_option, progress_bar, write
 from mckibben.control import registry as R
 from mckibben.errors import InputError
 from mckibben import tool as tool_lib
-from mckibben.rig.protocol import fault_names
+from mckibben import rig
 
 tool_app = typer.Typer(help="The three-muscle endoscope: kinematics, pressures for a tip, workspace, tracking.",
                        no_args_is_help=True)
@@ -218,7 +218,7 @@ def track_cmd(
         link_out = {"port": port, **link_res.summary(), **link_info,
                     "rms_error_ratio_to_simulation": link_res.summary()["rms_error_m"] / out_runs[0]["rms_error_m"]}
         if link_res.faults:
-            err_console.print(f"warning: the device reported faults: {', '.join(fault_names(link_res.faults))} "
+            err_console.print(f"warning: the device reported faults: {', '.join(rig.protocol.fault_names(link_res.faults))} "
                               f"(flags {link_res.faults})", markup=False, highlight=False)
     if json:
         emit_json({**res.to_dict(), "plot": plot if simulated else None,
