@@ -188,7 +188,7 @@ def _probe_scheduler(address: str, timeout: float = 3.0) -> dict:
             return {"address": address, "reachable": True, "detail": "accepts connections"}
     except OSError as exc:
         return {"address": address, "reachable": False,
-                "detail": f"{exc.strerror or exc}; start one with: dask scheduler `port` {port}"}
+                "detail": f"{exc.strerror or exc}; start one with: dask scheduler --port {port}"}
 
 
 def check(scheduler: str | None = None) -> Report:

@@ -764,8 +764,8 @@ def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_m
 
 #: Why ``control fig13`` and ``control hysteresis`` refuse a muscle file.
 FIG13_REFUSAL = ("is the paper's Fig. 13 on its miniature muscle: the β of 120 and 150 counts sit just above that "
-                 "rig's holding command and the paper's points are that muscle's; run control step `muscle_file` "
-                 "(gains tuned for the file's plant) or control compare `muscle_file`")
+                 "rig's holding command and the paper's points are that muscle's; run control step --muscle-file "
+                 "(gains tuned for the file's plant) or control compare --muscle-file")
 HYSTERESIS_REFUSAL = ("compensates the hysteresis of the calibrated muscle's braid friction; a muscle file's plant "
                       "runs one branch of its fitted law (`direction`) without friction, so it has no loop to "
                       "compensate")

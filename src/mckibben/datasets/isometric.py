@@ -176,8 +176,8 @@ force with an opening pressure and rubber elasticity (see the module's notes): n
 models. `muscle.toml` gives only what a commercial muscle's datasheet gives (id, nominal length,
 outer diameter).
 
-    mckibben fit isometric.csv `model` spring `json`
-    mckibben compare isometric.csv `cv` leave-one-length-out
+    mckibben fit isometric.csv --model spring --json
+    mckibben compare isometric.csv --cv leave-one-length-out
 """
 
 

@@ -100,6 +100,6 @@ SPRING_MODEL_STRUCTURE = {
     "coefficient_sets": "per direction (elongation dL/dt > 0, contraction dL/dt < 0) and pressure"
     " range (low ≤ 2.5 bar < high ≤ 5 bar)",
     "split_pressure_Pa": 2.5e5,
-    "coefficients": "unreadable in our copy: fit them with `mckibben fit `model` spring`",
+    "coefficients": "unreadable in our copy: fit them with `mckibben fit --model spring`",
     "citation": f"{PAPER_SPRING}, eq. (1)–(2), Tables 1–2, §5",
 }

@@ -50,7 +50,7 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
         rel = d["held_length"].to_numpy(dtype=float) / rest
         valid["length"] = (float(rel.min()) * l0, float(rel.max()) * l0)
         spec = replace(spec, nominal_length=l0)
-    note = f"Force law fitted by mckibben fit `model` {fit.model} to {r.source}."
+    note = f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
     fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": list(r.flags),
           "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": valid,
           "parameters": dict(zip(r.names, (float(v) for v in r.values))),
@@ -197,7 +197,7 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     where = spec.path or spec.id
     fm = spec.force_model
     if fm is None:
-        raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv `model` NAME `save` FILE.toml")
+        raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv --model NAME --save FILE.toml")
     model = fm["model"]
     if model not in ALL_MODELS and model not in laws.ALIASES:
         raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(ALL_MODELS)}")
@@ -229,7 +229,7 @@ DIRECTIONS = ("inflate", "deflate")
 
 
 def check_direction(direction: str, law: MuscleForceLaw | None = None) -> str:
-    """The branch of a muscle file's law to run, checked (``--direction``).
+    """The branch of a muscle file's law to run, checked (the ``direction`` argument of every muscle-file call).
 
     Parameters
     ----------
@@ -252,6 +252,6 @@ def check_direction(direction: str, law: MuscleForceLaw | None = None) -> str:
     if direction not in DIRECTIONS:
         raise InputError(f"direction: {direction!r} must be inflate or deflate")
     if direction == "deflate" and law is not None and getattr(laws.LAWS.get(law.model), "branches", 1) < 2:
-        raise InputError(f"direction deflate: the {law.model} force law of {law.spec.path or law.spec.id} has one "
+        raise InputError(f"`direction` deflate: the {law.model} force law of {law.spec.path or law.spec.id} has one "
                          "branch for both directions; only a spring fit has a deflate branch")
     return direction
