@@ -114,7 +114,7 @@ CASES = [
     *[(f"make_tool-pitch_radius-{v!r}", lambda v=v: _tool(pitch_radius=v), "pitch")
       for v in (0.0, -1e-3, NAN, INF, True, "abc", 1.0)],
     *[(f"make_tool-discs-{v!r}", lambda v=v: _tool(discs=v), "discs") for v in (1, 0, True, "x", 2.5)],
-    *[(f"make_tool-p_max-{v!r}", lambda v=v: _tool(p_max=v), "p-max") for v in (2e6, 0.0, NAN, "5MPa")],
+    *[(f"make_tool-p_max-{v!r}", lambda v=v: _tool(p_max=v), "p_max") for v in (2e6, 0.0, NAN, "5MPa")],
     *[(f"make_tool-preload-{v!r}", lambda v=v: _tool(preload=v), "preload") for v in (NAN, -1.0, True)],
     ("make_tool-direction", lambda: _tool(direction="up"), "direction"),
     # tool.kinematics.tip_from_lengths

@@ -38,5 +38,5 @@ def test_device_step_returns_a_result(tmp_path):
     back = pd.read_parquet(out)
     np.testing.assert_array_equal(back["pressure_Pa"], df["pressure_Pa"])
     assert read_provenance(out)["arguments"]["target_Pa"] == 0.4e6
-    with pytest.raises(InputError, match="--out"):
+    with pytest.raises(InputError, match="out"):
         res.to_file(tmp_path / "step.xlsx")

@@ -390,7 +390,7 @@ def test_a_cache_save_failure_never_reaches_the_run(monkeypatch, tmp_path):
 def test_doctor_refuses_a_bad_scheduler_address_before_the_warm_up(cli, address):
     r = cli("doctor", "--scheduler", address)  # with the warm-up on: refused before any compiling
     assert r.code == 2, (r.code, r.err)
-    assert r.err.count("\n") == 1 and r.err.startswith("error: scheduler:") and address in r.err, r.err
+    assert r.err.count("\n") == 1 and r.err.startswith("error: --scheduler:") and address in r.err, r.err
 
 
 def test_doctor_reports_the_cache_the_tools_and_an_unanswering_scheduler(cli):

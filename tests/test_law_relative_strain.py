@@ -125,6 +125,6 @@ def test_a_family_file_drives_the_plant_to_the_law(family, tmp_path):
 
 def test_muscle_file_refuses_a_bad_rest_length(family, tmp_path):
     fit = fit_isometric(read_table(family[0]), read_muscle(family[1]), "relative-strain", tare="lowest")
-    with pytest.raises(InputError, match="--rest-length"):
+    with pytest.raises(InputError, match="rest_length"):
         save_muscle_file(tmp_path / "x.toml", read_muscle(family[1]), fit, rest_length=-1.0)
     assert not (tmp_path / "x.toml").exists()

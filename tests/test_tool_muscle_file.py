@@ -89,9 +89,9 @@ def test_a_file_tool_is_the_papers_stack_scaled_and_spans_the_fitted_lengths(sav
     # the tool names its file, law and branch
     d = mt.tool_dict(tool)
     assert (d["muscle_file"], d["force_law"], d["direction"]) == (str(saved["spring"]), "spring", "inflate")
-    # a lower p_max is the user's; one above the fitted top is refused, naming --p-max
+    # a lower p_max is the user's; one above the fitted top is refused, naming p_max
     assert mt.make_tool(muscle_file=saved["spring"], p_max="0.5MPa").p_max == 0.5e6
-    with pytest.raises(InputError, match=r"^--p-max: 0\.7 MPa is above the top of the pressures .*0\.622 MPa"):
+    with pytest.raises(InputError, match=r"^p_max: 0\.7 MPa is above the top of the pressures .*0\.622 MPa"):
         mt.make_tool(muscle_file=saved["spring"], p_max="0.7MPa")
     # a 12 mm muscle in the paper's 2.2 mm holes cannot be built
     with pytest.raises(InputError, match=r"^hole diameter: 2\.2 mm holes do not pass the 12 mm muscle commercial10"):
@@ -109,7 +109,7 @@ def test_no_pressure_above_p_max_in_any_answer(saved):
     assert np.nanmax(p) <= tool.p_max and np.isnan(p).any()
     ref = tip_reference(tool, parse_path("circle:radius=30mm,period=0.5s"))
     assert ref.pressures.max() <= tool.p_max
-    with pytest.raises(InputError, match="--pressures"):
+    with pytest.raises(InputError, match="pressures"):
         mt.forward(tool, pressures="0.6MPa,0MPa,0MPa")
 
 

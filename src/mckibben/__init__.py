@@ -18,6 +18,7 @@ Subpackages: :mod:`~mckibben.models`, :mod:`~mckibben.data`, :mod:`~mckibben.dat
 first use, so ``import mckibben`` stays quick.
 """
 
+from importlib import import_module as _import_module
 from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
 from importlib.metadata import version as _version
 
@@ -56,13 +57,12 @@ _SUBPACKAGES = ("control", "data", "datasets", "fit", "models", "plant", "report
 
 
 def __getattr__(name: str):
-    import importlib
 
     if name in _ENTRY_POINTS:
         module, attr = _ENTRY_POINTS[name]
-        value = getattr(importlib.import_module(module), attr)
+        value = getattr(_import_module(module), attr)
     elif name in _SUBPACKAGES:
-        value = importlib.import_module(f"mckibben.{name}")
+        value = _import_module(f"mckibben.{name}")
     else:
         raise AttributeError(f"module 'mckibben' has no attribute {name!r}")
     globals()[name] = value

@@ -11,6 +11,9 @@ arithmetic: tests hold the two equal to the bit.
 Compiled code reaches a marked kernel through its module (``HW.adc_count``), from inside that
 module, or by a name a registered module imported from another (rebound too); a module that is not
 registered and imports a marked kernel by name must import :mod:`mckibben._jit` first.
+
+:func:`jit` is the one place a cheap module loads Numba: it imports :mod:`mckibben._jit` on its
+first call (a function-level import on purpose, the package's only one of its own modules).
 """
 
 from __future__ import annotations
@@ -48,7 +51,24 @@ def compiled() -> bool:
 def need_speed(size: int) -> None:
     """Load Numba (compiling every marked kernel) when a NumPy face has more than :data:`PYTHON_MAX` elements."""
     if size > PYTHON_MAX and not compiled():
-        import mckibben._jit  # noqa: F401  (deferred: Numba, only for large arrays)
+        jit()
+
+
+def jit():
+    """The module :mod:`mckibben._jit`, imported on the first call: loads Numba, compiles every marked kernel.
+
+    The package's one deferred import of its own: every module stays cheap to import (``mckibben
+    --version``, ``predict``), and a caller that needs compiled code (the simulator's batch, a
+    large array, the warm-up) calls this instead of importing :mod:`mckibben._jit` itself.
+
+    Returns
+    -------
+    module
+        :mod:`mckibben._jit`.
+    """
+    from mckibben import _jit  # deferred on purpose: Numba (about 0.5 s to import), only where compiled code runs
+
+    return _jit
 
 
 def modules() -> list:

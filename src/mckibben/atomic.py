@@ -124,7 +124,7 @@ def _stat_destination(p: Path, name: str) -> os.stat_result | None:
         raise InputError(f"{name}: {str(p)!r}: {_why(exc)}") from None
 
 
-def check_output_file(path, name: str = "--out", suffixes: tuple[str, ...] | None = None) -> Path:
+def check_output_file(path, name: str = "out", suffixes: tuple[str, ...] | None = None) -> Path:
     """Check, before any work, that a file can be written at ``path``; return it as a Path.
 
     Parameters
@@ -149,7 +149,7 @@ def check_output_file(path, name: str = "--out", suffixes: tuple[str, ...] | Non
     return p
 
 
-def check_output_dir(path, name: str = "--out") -> Path:
+def check_output_dir(path, name: str = "out") -> Path:
     """Check, before any work, that a folder can be created (or replaced) at ``path``.
 
     Whether an existing folder may be replaced is the caller's rule; this checks that ``path``
@@ -230,7 +230,7 @@ def _tmp_name(p: Path) -> Path:
 
 
 @contextmanager
-def atomic_file(path, name: str = "--out") -> Iterator[Path]:
+def atomic_file(path, name: str = "out") -> Iterator[Path]:
     """Write a file atomically: yield a temporary sibling path; rename it onto ``path`` on success.
 
     On any exception (and on SIGTERM under the command line) the temporary is removed and the
@@ -245,7 +245,7 @@ def atomic_file(path, name: str = "--out") -> Iterator[Path]:
 
     Examples
     --------
-    >>> with atomic_file("fig.png", "--plot") as tmp:  # doctest: +SKIP
+    >>> with atomic_file("fig.png", "plot") as tmp:  # doctest: +SKIP
     ...     fig.savefig(tmp, format="png")
     """
     p = check_output_file(path, name)
@@ -266,7 +266,7 @@ def atomic_file(path, name: str = "--out") -> Iterator[Path]:
 
 
 @contextmanager
-def atomic_dir(path, name: str = "--out") -> Iterator[Path]:
+def atomic_dir(path, name: str = "out") -> Iterator[Path]:
     """Write a folder atomically: yield a fresh temporary sibling folder; on success replace
     ``path`` with it (an existing ``path`` is removed just before the rename).
 

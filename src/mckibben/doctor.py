@@ -17,14 +17,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from urllib.parse import urlparse
 
-import llvmlite
-import numba
-
-from mckibben import __version__, _jit, control, models, tool
+from mckibben import __version__, _kernels, control, models, plant, tool
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
-from mckibben.plant import PlantStepper
-from mckibben.plant.linear import linearize
 
 #: The optional tools: name -> (what it is for, how to install it on Debian/Ubuntu).
 TOOLS = {
@@ -50,8 +45,8 @@ def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
         ("robustness", lambda: control.robustness(4)),
         ("hysteresis", lambda: control.hysteresis_compensation()),
         ("the tool", lambda: tool.track("circle:radius=5mm,period=2s")),
-        ("live stepper", lambda: PlantStepper().advance(100, 0)),
-        ("linear model", lambda: linearize(pressure=0.4e6)),
+        ("live stepper", lambda: plant.PlantStepper().advance(100, 0)),
+        ("linear model", lambda: plant.linearize(pressure=0.4e6)),
     ]
 
 
@@ -65,10 +60,9 @@ def background_kernels() -> list[tuple[str, object, tuple]]:
     list of (str, dispatcher, tuple)
         Name, Numba dispatcher and argument types. [-]
     """
-    from numba import types as T
+    from numba import types as T  # deferred on purpose: Numba
 
-    from mckibben.control import core as C
-    from mckibben.plant import physics as ph
+    C, ph = control.core, plant.physics
 
     f64, i64 = T.Array(T.float64, 1, "C"), T.Array(T.int64, 1, "C")
     return [
@@ -149,6 +143,7 @@ def warm(progress: Callable[[int, int, str], None] | None = None) -> WarmResult:
     if progress is not None and not callable(progress):
         raise InputError(f"progress: a callable progress(done, total, name), not a {type(progress).__name__}")
     steps = _warm_steps()
+    _jit = _kernels.jit()  # loads Numba
     result = WarmResult(cache_dir=None if _jit.cache_dir() is None else str(_jit.cache_dir()))
     for i, (name, run) in enumerate(steps):
         if progress is not None:
@@ -261,6 +256,10 @@ def check(scheduler: str | None = None) -> Report:
     Report
     """
     _scheduler_address(scheduler)
+    import llvmlite  # deferred on purpose: Numba's compiler (loaded with Numba just below)
+
+    _jit = _kernels.jit()  # loads Numba
+    numba = _jit.numba
     where = _jit.cache_dir()
     tools = {name: {"found": shutil.which(name), "for": what, "install": how} for name, (what, how) in TOOLS.items()}
     return Report(

@@ -23,6 +23,9 @@ import math
 import os
 
 from mckibben.errors import InputError
+from mckibben.hardware import P_MAX_LIMIT
+import warnings
+import numpy as np
 
 #: Memory one instance costs per control period (recorded channels and working copies). [B]
 BYTES_PER_SAMPLE = 256
@@ -107,7 +110,7 @@ def check_budget(option: str, samples: float, *, force: bool = False, what: str 
     Parameters
     ----------
     option : str
-        The option (or options) whose value sets the size, for the message, e.g. ``"--duration"``. [-]
+        The option (or options) whose value sets the size, for the message, e.g. ``"duration"``. [-]
     samples : float
         Instances × control periods (or the unit of work ``what`` names). [-]
     force : bool, default False
@@ -144,7 +147,7 @@ def check_budget(option: str, samples: float, *, force: bool = False, what: str 
                          "ask for less")
     if not (force or _LIFTED.get()) and (memory > MEMORY_LIMIT or seconds > TIME_LIMIT):
         raise InputError(f"{option}: {estimate}, past the limit of {format_bytes(MEMORY_LIMIT)} and "
-                         f"{format_seconds(TIME_LIMIT)}; ask for less, or give --force to run it anyway "
+                         f"{format_seconds(TIME_LIMIT)}; ask for less, or give `force` to run it anyway "
                          "(in Python: with mckibben.limits.lifted(): ...)")
     return memory, seconds
 
@@ -157,7 +160,7 @@ class ClampWarning(UserWarning):
     """A request beyond a physical or safety limit was clamped to it (the result says so)."""
 
 
-def check_p_max(p_max: float, name: str = "--p-max") -> float:
+def check_p_max(p_max: float, name: str = "p_max") -> float:
     """Check a maximum pressure against the rig's ceiling :data:`mckibben.hardware.P_MAX_LIMIT`.
 
     Parameters
@@ -172,7 +175,6 @@ def check_p_max(p_max: float, name: str = "--p-max") -> float:
     float
         ``p_max``. [Pa]
     """
-    from mckibben.hardware import P_MAX_LIMIT
 
     if not (math.isfinite(p_max) and 0 < p_max <= P_MAX_LIMIT):
         raise InputError(f"{name}: {p_max / 1e6:g} MPa is outside (0, {P_MAX_LIMIT / 1e6:g}] MPa, the supervisor's "
@@ -200,9 +202,7 @@ def clamp_pressure(values, p_max: float, name: str):
     (numpy.ndarray or float, bool)
         The clamped values and whether any was clamped.
     """
-    import warnings
 
-    import numpy as np
 
     arr = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(arr)):
@@ -213,12 +213,12 @@ def clamp_pressure(values, p_max: float, name: str):
         lo, hi = float(arr.min()), float(arr.max())
         warnings.warn(ClampWarning(
             f"{name}: asks for {lo / 1e6:g}..{hi / 1e6:g} MPa; the supervisor holds every reference in "
-            f"[0, {p_max / 1e6:g}] MPa (--p-max), so that is what is commanded and scored (flag "
+            f"[0, {p_max / 1e6:g}] MPa (`p_max`), so that is what is commanded and scored (flag "
             "reference_clamped)"), stacklevel=2)
     return (float(out) if np.ndim(values) == 0 else out), clamped
 
 
-def check_load(load: float, muscle, name: str = "--load") -> float:
+def check_load(load: float, muscle, name: str = "load") -> float:
     """Refuse a hanging load that no pressure the rig can give would lift.
 
     The blocked force grows about linearly with pressure (Fig. 3 of the miniature-muscle paper);
@@ -239,7 +239,6 @@ def check_load(load: float, muscle, name: str = "--load") -> float:
     float
         ``load``. [N]
     """
-    from mckibben.hardware import P_MAX_LIMIT
 
     p_ref, f_ref = muscle.blocked_force[0]
     most = f_ref * P_MAX_LIMIT / p_ref
@@ -273,7 +272,6 @@ def first_implausible(values, dimension: str):
     dimension : str
         Their dimension, a key of :data:`PLAUSIBLE_MAX`. [-]
     """
-    import numpy as np
 
     limit = PLAUSIBLE_MAX.get(dimension)
     if limit is None:

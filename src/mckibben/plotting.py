@@ -9,25 +9,26 @@ from __future__ import annotations
 import os
 
 from mckibben.atomic import atomic_file, check_output_file
+from mckibben.results import to_jsonable
 
 __all__ = ["figure_formats", "check_figure_path", "save_figure", "figure_metadata"]
 
 
 def figure_formats() -> tuple[str, ...]:
     """The file suffixes Matplotlib can write (``.png``, ``.pdf``, ``.svg``, ``.eps``, ...)."""
-    from matplotlib.backend_bases import FigureCanvasBase
+    from matplotlib.backend_bases import FigureCanvasBase  # deferred on purpose: Matplotlib
 
     return tuple(f".{s}" for s in sorted(FigureCanvasBase.get_supported_filetypes()))
 
 
-def check_figure_path(path, name: str = "--plot") -> str:
+def check_figure_path(path, name: str = "plot") -> str:
     """Refuse, before anything runs, a figure path with no format Matplotlib writes or no folder.
 
     Parameters
     ----------
     path : str or os.PathLike
         The output file; its suffix picks the format. [-]
-    name : str, default "--plot"
+    name : str, default "plot"
         The argument's name, for the message. [-]
     """
     return os.fspath(check_output_file(path, name, suffixes=figure_formats()))
@@ -55,8 +56,6 @@ def figure_metadata(fmt: str, provenance: dict) -> dict | None:
     import json
     from datetime import datetime
 
-    from mckibben.results import to_jsonable
-
     text = json.dumps(to_jsonable(provenance), sort_keys=True, allow_nan=False)
     creator = f"mckibben {provenance.get('mckibben_version', '')}".strip()
     title = str(provenance.get("command") or provenance.get("call") or "")
@@ -74,7 +73,7 @@ def figure_metadata(fmt: str, provenance: dict) -> dict | None:
     return None
 
 
-def save_figure(fig, path, dpi: int = 120, name: str = "--plot", provenance: dict | None = None) -> None:
+def save_figure(fig, path, dpi: int = 120, name: str = "plot", provenance: dict | None = None) -> None:
     """Save a Matplotlib figure atomically (temporary file in the same folder, then rename).
 
     The format follows the file's suffix (.png when it has none). A destination that is a folder,
@@ -89,7 +88,7 @@ def save_figure(fig, path, dpi: int = 120, name: str = "--plot", provenance: dic
         Output file. [-]
     dpi : int, default 120
         Resolution of raster formats. [dots per inch]
-    name : str, default "--plot"
+    name : str, default "plot"
         The option that named the file, for error messages. [-]
     provenance : dict, optional
         Where the figure came from (:func:`mckibben.results.provenance`), written into the file's

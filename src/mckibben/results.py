@@ -34,6 +34,12 @@ from typing import Any
 import numpy as np
 
 from mckibben.errors import ArgumentTypeError
+from mckibben import __version__
+from mckibben.atomic import check_output_file
+from mckibben.atomic import atomic_file
+import numpy as _np
+import sys
+import functools
 
 
 __all__ = ["Result", "to_jsonable", "write_table", "read_provenance", "SERIES_SUFFIXES"]
@@ -76,7 +82,6 @@ def provenance(call: str, arguments: dict | None = None) -> dict:
     arguments : dict, optional
         Its arguments, SI. [-]
     """
-    from mckibben import __version__
 
     prov = {"call": call, "arguments": to_jsonable(arguments or {}), "mckibben_version": __version__,
             "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds")}
@@ -101,22 +106,21 @@ def provenance_sidecar(path) -> str:
     return os.fspath(path) + ".provenance.json"
 
 
-def check_table_path(path, name: str = "--out") -> str:
+def check_table_path(path, name: str = "out") -> str:
     """Refuse, before any work, a table path that is not .csv or .parquet or cannot be written.
 
     Parameters
     ----------
     path : str or os.PathLike
         The output file. [-]
-    name : str, default "--out"
+    name : str, default "out"
         The argument's name, for the message. [-]
     """
-    from mckibben.atomic import check_output_file
 
     return os.fspath(check_output_file(path, name, suffixes=SERIES_SUFFIXES))
 
 
-def write_table(df, path, meta: dict | None = None, name: str = "--out") -> str:
+def write_table(df, path, meta: dict | None = None, name: str = "out") -> str:
     """Write a table as CSV or Parquet, atomically and with the user's umask.
 
     Parameters
@@ -129,7 +133,7 @@ def write_table(df, path, meta: dict | None = None, name: str = "--out") -> str:
         Provenance; default ``df.attrs["provenance"]``. Parquet stores it as JSON under the
         schema metadata key ``mckibben``; a CSV file gets it beside it, as JSON in
         :func:`provenance_sidecar` (a comment line would trip other CSV readers). [-]
-    name : str, default "--out"
+    name : str, default "out"
         The argument's name, for error messages. [-]
 
     Returns
@@ -137,7 +141,6 @@ def write_table(df, path, meta: dict | None = None, name: str = "--out") -> str:
     str
         The path written.
     """
-    from mckibben.atomic import atomic_file
 
     path = check_table_path(path, name)
     meta = meta if meta is not None else df.attrs.get("provenance", {})
@@ -150,8 +153,8 @@ def write_table(df, path, meta: dict | None = None, name: str = "--out") -> str:
                     json.dump(to_jsonable(meta), fh, indent=1, allow_nan=False)
         return path
     with atomic_file(path, name) as tmp:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
+        import pyarrow as pa  # deferred on purpose: pyarrow
+        import pyarrow.parquet as pq  # deferred on purpose: pyarrow
 
         table = pa.Table.from_pandas(df, preserve_index=False)
         md = dict(table.schema.metadata or {})
@@ -171,7 +174,7 @@ def read_provenance(path) -> dict:
     if os.fspath(path).lower().endswith(".csv"):
         side = provenance_sidecar(path)
         return json.loads(Path(side).read_text(encoding="utf-8")) if os.path.exists(side) else {}
-    import pyarrow.parquet as pq
+    import pyarrow.parquet as pq  # deferred on purpose: pyarrow
 
     md = pq.read_schema(path).metadata or {}
     raw = md.get(b"mckibben")
@@ -260,7 +263,6 @@ def check_ax(ax, name: str = "ax"):
 
     if isinstance(ax, Axes):
         return ax
-    import numpy as _np
 
     if isinstance(ax, (list, tuple, _np.ndarray)) and len(ax) and all(isinstance(a, Axes) for a in _np.ravel(ax)):
         return ax  # a plot that draws on several axes takes them as a sequence
@@ -277,24 +279,21 @@ def shown_once(fig):
     that, when the figure is shown as a value, draws it and lets pyplot go of it, so the end of
     the cell does not draw it a second time. Elsewhere nothing changes.
     """
-    import sys
 
     if fig is None or "matplotlib.pyplot" not in sys.modules:
         return fig
-    import matplotlib
+    import matplotlib  # deferred on purpose: Matplotlib
 
     if "inline" in str(matplotlib.get_backend()).lower():
-        import functools
-
         fig._ipython_display_ = functools.partial(_display_once, fig)
     return fig
 
 
 def _display_once(fig) -> None:
     """Draw ``fig`` as a PNG now, and release it from pyplot so the inline backend does not draw it again."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
     from IPython.core.pylabtools import print_figure  # deferred: only inside a Jupyter kernel
-    from IPython.display import display
+    from IPython.display import display  # deferred on purpose: IPython
 
     display({"image/png": print_figure(fig, "png")}, raw=True)
     plt.close(fig)
@@ -302,7 +301,6 @@ def _display_once(fig) -> None:
 
 def _checked_plot(plot):
     """Wrap a result's ``plot(ax=None, ...)``: ``ax`` checked first, the figure shown once in Jupyter."""
-    import functools
 
     @functools.wraps(plot)
     def wrapper(self, ax=None, *args, **kwargs):

@@ -24,11 +24,13 @@ import numpy as np
 
 from mckibben.errors import InputError
 
-__all__ = ["G_N", "SI_UNIT", "UNITS", "parse_quantity", "parse_values", "quantity", "split_column", "to_si",
+__all__ = ["G_N", "P_ATM", "SI_UNIT", "UNITS", "parse_quantity", "parse_values", "quantity", "split_column", "to_si",
            "units_of"]
 
 #: Standard gravity [m/s^2] (for gram-force and hanging masses).
 G_N = 9.80665
+#: Standard atmospheric pressure [Pa]: gauge pressures (the rig's, every table's) + P_ATM = absolute.
+P_ATM = 101325.0
 
 #: Unit -> (dimension, factor to SI). Case-sensitive: "mm" is not "Mm".
 UNITS: dict[str, tuple[str, float]] = {
@@ -153,7 +155,7 @@ def parse_quantity(
         ``"time"``, ``"frequency"`` or ``"dimensionless"``. A ``"force"`` also accepts a mass
         (``"60g"``), taken as the weight of a hanging mass (times standard gravity).
     name : str
-        The argument's name, used in error messages, e.g. ``"--pressure"``.
+        The argument's name, used in error messages, e.g. ``"pressure"`` (the command line writes it as its flag).
     allow_negative : bool, default False
         Whether a negative value is accepted.
     allow_zero : bool, default True

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import importlib
 import os
+import pkgutil
 import shlex
 import signal
 import sys
@@ -32,6 +34,7 @@ _EXITS = (click.exceptions.Exit, typer.Exit)
 _ABORTS = (click.Abort, typer.Abort)
 
 from mckibben import __version__, compile_notice, results  # noqa: E402  (after the Click/Typer compatibility shims)
+from mckibben.cli._common import command_of, flag_names, in_flags  # noqa: E402
 from mckibben.errors import InputError  # noqa: E402
 
 app = typer.Typer(
@@ -47,7 +50,6 @@ app = typer.Typer(
 
 def _print_version(value: bool) -> None:
     if value:
-
         sys.stdout.write(f"mckibben {__version__}\n")
         raise typer.Exit(0)
 
@@ -65,8 +67,6 @@ def _root(
 
 def _register_commands() -> None:
     """Import every sibling module: each adds its commands to :data:`app` on import."""
-    import importlib
-    import pkgutil
 
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
         if not info.name.startswith("_"):
@@ -125,8 +125,8 @@ def _run(args: list[str], debug: bool) -> int:
         return _fail(f"error: {empty}: an empty value; give one, or leave the option out for its default", 2)
     try:
         result = app(args=args, prog_name="mckibben", standalone_mode=False)
-    except InputError as exc:
-        return _fail(f"error: {exc}", 2)
+    except InputError as exc:  # the library names Python arguments: say the flags the user typed
+        return _fail(f"error: {in_flags(str(exc), flag_names(command_of(app, args)))}", 2)
     except _NO_ARGS as exc:
         sys.stdout.write(exc.ctx.get_help() + "\n" if exc.ctx is not None else "")
         return 0

@@ -4,12 +4,18 @@ Every command takes ``--json``: then it prints a single JSON object on stdout, n
 unit-suffixed keys (``length_m``, ``pressure_Pa``). Bad input raises
 :class:`~mckibben.errors.InputError`; :func:`mckibben.cli.main` prints its one line on stderr
 and exits with status 2.
+
+The library's messages name its Python arguments (``beta = 300: ...``, ``p_max: ...``, another
+argument in backquotes: ``equals `start```); :func:`in_flags` turns them into the flags of the
+command that ran (``--beta``, ``--p-max``, ``--from``), read from the command's own options, so
+the one table of names is the commands' signatures.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 import sys
 from typing import Any
 
@@ -20,6 +26,7 @@ from rich.table import Table
 
 from mckibben.errors import InputError
 from mckibben.results import to_jsonable
+from mckibben import fit
 
 console = Console(soft_wrap=True)
 err_console = Console(stderr=True, soft_wrap=True)
@@ -37,9 +44,51 @@ def check_direction(direction: str) -> str:
     The value only; :func:`mckibben.fit.muscle_file.check_direction` (the one check) also refuses
     ``deflate`` for a file whose law has one branch, given the law.
     """
-    from mckibben.fit.muscle_file import check_direction as check  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    return check(direction)
+    return fit.muscle_file.check_direction(direction)
+
+
+def command_of(app, args: list[str]):
+    """The (sub)command a command line runs: ``["control", "step", ...]`` -> the ``control step`` command."""
+    command = typer.main.get_command(app)
+    for arg in args:
+        sub = getattr(command, "commands", {}).get(arg)
+        if sub is not None:
+            command = sub
+        elif not arg.startswith("-"):
+            break
+    return command
+
+
+def flag_names(command) -> dict[str, str]:
+    """Python argument name -> how the command takes it (``start`` -> ``--from``; an argument: ``FILE``)."""
+    flags = {}
+    for param in getattr(command, "params", ()):
+        longs = [o for o in param.opts if o.startswith("--")]
+        if longs:
+            flags[param.name] = longs[0]
+        elif getattr(param, "param_type_name", "") == "argument":
+            flags[param.name] = param.name.upper()
+    return flags
+
+
+_LEADING = re.compile(r"^([A-Za-z_]\w*(?:/[A-Za-z_]\w*)*)(?=[ :=]|$)")
+_QUOTED = re.compile(r"`([A-Za-z_]\w*)`")
+
+
+def in_flags(message: str, flags: dict[str, str]) -> str:
+    """A library message with the Python arguments it names written as the command's flags.
+
+    The argument a message starts with (``p_max: ...``, ``target/start: ...``) and any argument
+    in backquotes (```start```) become the flags of ``flags`` (from :func:`flag_names`); a name
+    the command does not take is left as written.
+    """
+    def leading(m: re.Match) -> str:
+        names = m.group(1).split("/")
+        return "/".join(flags[n] for n in names) if all(n in flags for n in names) else m.group(0)
+
+    message = _LEADING.sub(leading, message, count=1)
+    return _QUOTED.sub(lambda m: flags.get(m.group(1), m.group(0)), message)
 
 
 def emit_json(obj: dict) -> None:

@@ -6,8 +6,9 @@ import typer
 
 from mckibben.errors import InputError
 from mckibben.plotting import check_figure_path, save_figure
-from mckibben.results import check_table_path
+from mckibben.results import check_table_path, provenance
 from mckibben.cli._common import err_console
+import sys
 
 DPI_OPTION = typer.Option(120, "--dpi", help="Resolution of raster figures (PNG, JPEG...), dots per inch.")
 OUT_OPTION = typer.Option(None, "--out", help="Write the time series: .csv or .parquet (SI, unit-suffixed "
@@ -31,9 +32,7 @@ def check_outputs(plot: str | None = None, dpi: int | None = None, out: str | No
 
 def write_plot(fig, path: str, dpi: int, result=None) -> None:
     """Save the figure atomically, with the provenance of ``result`` (or of the command) in its metadata, and close it."""
-    import matplotlib.pyplot as plt
-
-    from mckibben.results import provenance
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     call = getattr(result, "call", None)  # a Result; some figures come from other objects
     prov = provenance(call, getattr(result, "arguments", {})) if call else provenance("mckibben.cli")
@@ -45,9 +44,8 @@ def write_plot(fig, path: str, dpi: int, result=None) -> None:
 
 def progress_bar(label: str, json: bool):
     """A Rich progress bar on stderr, shown only on a terminal (and never with --json)."""
-    import sys
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn  # deferred on purpose: Rich's progress display (about 30 ms to import)
 
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 
     return Progress(TextColumn(label), BarColumn(), TextColumn("{task.completed}/{task.total}"),

@@ -8,6 +8,7 @@ import typer
 
 from mckibben.cli import app
 from mckibben.errors import unknown_name
+from typer.completion import get_completion_script
 
 SHELLS = ("bash", "zsh", "fish", "powershell", "pwsh")
 
@@ -16,7 +17,6 @@ SHELLS = ("bash", "zsh", "fish", "powershell", "pwsh")
 def completion_cmd(shell: str = typer.Argument(..., help="bash, zsh, fish, powershell or pwsh.")) -> None:
     """Print the completion script for SHELL, e.g. ``mckibben completion bash >> ~/.bashrc``
     (or ``eval "$(mckibben completion bash)"``)."""
-    from typer.completion import get_completion_script
 
     if shell not in SHELLS:
         raise unknown_name("shell", shell, SHELLS)

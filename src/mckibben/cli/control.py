@@ -14,6 +14,8 @@ from mckibben.control import registry as R
 from mckibben.limits import check_budget
 from mckibben.units import parse_quantity
 from mckibben.atomic import check_output_file
+from mckibben import control
+from mckibben import rig
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
                           no_args_is_help=True)
@@ -90,22 +92,18 @@ def step_cmd(
 ) -> None:
     """A pressure step on the calibrated plant under the firmware's controller."""
     _size_first("--duration", duration, force=force)
-    from mckibben.control import step_response  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
     if save_design:
-
         check_output_file(save_design, "--save-design", (".json",))
-    res = step_response(controller, target, start=start, load=load, supply=supply, duration=duration, p_max=p_max,
+    res = control.step_response(controller, target, start=start, load=load, supply=supply, duration=duration, p_max=p_max,
                         law=law, beta=beta, eps=eps, ki=ki, lam=lam, force=force, muscle_file=muscle_file,
                         direction=direction)
     _finish(res, plot, dpi, out)
     if save_design:
-        from mckibben.control.core import save_design as write_design  # deferred: the library (SciPy, pandas, Numba) loads per command
-
         how = (f"tuned on the plant of {muscle_file} ({direction})" if muscle_file
                else "on the calibrated plant's identified model")
-        write_design(res.params, save_design, note=f"control step {controller} ({law} law) {how}")
+        control.core.save_design(res.params, save_design, note=f"control step {controller} ({law} law) {how}")
     _warn_outcome(res.faults, res.target_unreachable, float(res.record.pressure[0, -1]), res.arguments["target_Pa"])
     _warn_tuning(res.tuning)
     if json:
@@ -119,10 +117,9 @@ def step_cmd(
 
 def _warn_outcome(faults: int, unreachable: bool, final_pa: float, target_pa: float) -> None:
     """Faults and an unreachable target on stderr, whatever the output format."""
-    from mckibben.rig.protocol import fault_names  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if faults:
-        err_console.print(f"warning: the supervisor reported faults: {', '.join(fault_names(faults))} "
+        err_console.print(f"warning: the supervisor reported faults: {', '.join(rig.protocol.fault_names(faults))} "
                           f"(flags {faults})", markup=False, highlight=False)
     if unreachable:
         err_console.print(f"warning: the target {target_pa / 1e6:g} MPa is unreachable: the pressure settled at "
@@ -155,10 +152,9 @@ def fig13_cmd(
     Rows for both laws: ``paper`` (β·tanh(S/ε) alone, what the paper measured) and ``model``
     (ours, with the model term) at the paper's β.
     """
-    from mckibben.control import fig13  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
-    res = fig13(eps=eps, ki=ki, muscle_file=muscle_file)
+    res = control.fig13(eps=eps, ki=ki, muscle_file=muscle_file)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
@@ -181,18 +177,18 @@ def compare_cmd(
     direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
-    """PID tuned on the first-order model vs both sliding-mode laws, over step sizes and loads (§IV.A)."""
-    from mckibben.control import compare  # deferred: the library (SciPy, pandas, Numba) loads per command
+    """PID tuned on the first-order model vs both sliding-mode laws and stsmc, over step sizes and loads (§IV.A)."""
 
     check_outputs(plot, dpi, out)
-    res = compare(beta, muscle_file=muscle_file, direction=direction)
+    res = control.compare(beta, muscle_file=muscle_file, direction=direction)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
         return
-    print_table("PID (lambda-tuned on the first-order model) vs sliding mode (smc: ours, smc_paper: β = 150)"
-                if muscle_file is None else f"PID vs sliding mode (smc: ours, smc_paper: the paper's law), each "
-                                            f"tuned on the plant of {muscle_file} under each load",
+    others = "".join(f", {c.name}: {c.summary.split(' (')[0]}" for c in R.EXTENSIONS)
+    print_table(f"PID (lambda-tuned on the first-order model) vs sliding mode (smc: ours, smc_paper: β = 150{others})"
+                if muscle_file is None else f"PID vs sliding mode (smc: ours, smc_paper: the paper's law{others}), "
+                                            f"each tuned on the plant of {muscle_file} under each load",
                 ["controller", "from MPa", "to MPa", "load N", "τ s", "overshoot %", "settling s", "ss error kPa"],
                 [[r["controller"], r["from_Pa"] / 1e6, r["to_Pa"] / 1e6, r["load_N"], r["time_constant_s"],
                   r["overshoot_pct"], r["settling_time_s"], r["steady_state_error_Pa"] / 1e3] for r in res.rows])
@@ -211,15 +207,14 @@ def robustness_cmd(
     direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
-    """Monte Carlo over plant uncertainty: PID and both sliding-mode laws, median and 5–95 % of each metric."""
-    if n >= 1:
-        _size_first("--n", "0.6s", instances=3 * n, force=force, extra=0.0)  # 3 controllers, 0.6 s each
-    from mckibben.control import robustness  # deferred: the library (SciPy, pandas, Numba) loads per command
+    """Monte Carlo over plant uncertainty: PID, both sliding-mode laws and stsmc, median and 5–95 % of each metric."""
+    if n >= 1:  # every compared controller (control.experiments.CONTROLLER_NAMES), 0.6 s each
+        _size_first("--n", "0.6s", instances=len(control.experiments.CONTROLLER_NAMES) * n, force=force, extra=0.0)
 
     check_outputs(plot, dpi, out)
     with progress_bar("plants", json) as bar:
         task = bar.add_task("plants", total=n)
-        res = robustness(n, seed=seed, beta=beta, force=force, muscle_file=muscle_file, direction=direction,
+        res = control.robustness(n, seed=seed, beta=beta, force=force, muscle_file=muscle_file, direction=direction,
                          progress=lambda done, total: bar.update(task, completed=done))
     _finish(res, plot, dpi, out)
     if json:
@@ -259,10 +254,9 @@ def track_cmd(
     """Track a pressure trajectory: RMS and maximum error, valve effort."""
     if reference.startswith("sine:"):
         _size_first("--duration", duration, force=force, extra=0.0)
-    from mckibben.control import track  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
-    res = track(reference, controller, duration=duration, load=load, p_max=p_max, law=law, beta=beta, eps=eps,
+    res = control.track(reference, controller, duration=duration, load=load, p_max=p_max, law=law, beta=beta, eps=eps,
                 ki=ki, lam=lam, force=force, muscle_file=muscle_file, direction=direction)
     _finish(res, plot, dpi, out)
     _warn_tuning(res.tuning)
@@ -284,12 +278,11 @@ def hysteresis_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Length tracking with and without hysteresis compensation (inflate/deflate branches)."""
-    from mckibben.control import hysteresis_compensation, plot_hysteresis  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi)
-    res = hysteresis_compensation(period, sweep_period=sweep_period, muscle_file=muscle_file)
+    res = control.hysteresis_compensation(period, sweep_period=sweep_period, muscle_file=muscle_file)
     if plot:
-        write_plot(plot_hysteresis(res), plot, dpi, res)
+        write_plot(control.plot_hysteresis(res), plot, dpi, res)
     if json:
         emit_json(res.summary())
         return

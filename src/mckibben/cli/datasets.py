@@ -9,6 +9,7 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, print_table
 from mckibben.errors import InputError
+from mckibben import data, datasets
 
 datasets_app = typer.Typer(help="The bundled example campaign (synthetic) and published sets.", no_args_is_help=True)
 app.add_typer(datasets_app, name="datasets")
@@ -17,38 +18,34 @@ app.add_typer(datasets_app, name="datasets")
 @datasets_app.command("list")
 def list_cmd(json: bool = JSON_OPTION) -> None:
     """List the bundled campaign's muscles and files, and the published parameter sets."""
-    from mckibben.data import read_muscle, read_table  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.datasets import MUSCLES  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.datasets.campaign import BUNDLED, campaign_muscle_dirs, is_synthetic  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     files = []
-    for folder in campaign_muscle_dirs(BUNDLED):
-        spec = read_muscle(folder / "muscle.toml")
+    for folder in datasets.campaign.campaign_muscle_dirs(datasets.campaign.BUNDLED):
+        spec = data.read_muscle(folder / "muscle.toml")
         for f in sorted(folder.iterdir()):
             if f.suffix in (".csv", ".parquet"):
-                t = read_table(f)
+                t = data.read_table(f)
                 files.append({"muscle": spec.id, "file": str(f), "kind": t.kind, "rows": len(t),
                               "trials": int(t.data["trial"].nunique()), "size_bytes": f.stat().st_size})
-    from mckibben.datasets.isometric import BUNDLED_ISOMETRIC  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    for folder in sorted(p for p in BUNDLED_ISOMETRIC.iterdir() if (p / "muscle.toml").is_file()):
-        spec = read_muscle(folder / "muscle.toml")
+    for folder in sorted(p for p in datasets.isometric.BUNDLED_ISOMETRIC.iterdir() if (p / "muscle.toml").is_file()):
+        spec = data.read_muscle(folder / "muscle.toml")
         for f in sorted(folder.glob("*.csv")):
-            t = read_table(f)
+            t = data.read_table(f)
             files.append({"muscle": spec.id, "file": str(f), "kind": t.kind, "rows": len(t),
                           "trials": int(t.data["trial"].nunique()), "size_bytes": f.stat().st_size,
                           "synthetic": bool(spec.synthetic)})
-    out = {"campaign": str(BUNDLED), "synthetic": is_synthetic(BUNDLED), "files": files,
-           "published_sets": list(MUSCLES)}
+    out = {"campaign": str(datasets.campaign.BUNDLED), "synthetic": datasets.campaign.is_synthetic(datasets.campaign.BUNDLED), "files": files,
+           "published_sets": list(datasets.MUSCLES)}
     if json:
         emit_json(out)
         return
-    console.print(f"[bold yellow]SYNTHETIC[/] example campaign in {BUNDLED} and a SYNTHETIC isometric test of a "
+    console.print(f"[bold yellow]SYNTHETIC[/] example campaign in {datasets.campaign.BUNDLED} and a SYNTHETIC isometric test of a "
                   "commercial-size muscle (commercial10) (generated, not measured)")
     print_table("Bundled campaign", [" muscle", " kind", "rows", "trials", "bytes", " file"],
                 [[f["muscle"], f["kind"], str(f["rows"]), str(f["trials"]), str(f["size_bytes"]), Path(f["file"]).name]
                  for f in files])
-    console.print(f"Published parameter sets: {', '.join(MUSCLES)} (mckibben params list)")
+    console.print(f"Published parameter sets: {', '.join(datasets.MUSCLES)} (mckibben params list)")
 
 
 @datasets_app.command("generate")
@@ -58,11 +55,10 @@ def generate_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Generate the example campaign (deterministic for a seed) from the published parameter sets."""
-    from mckibben.datasets.campaign import write_campaign  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if seed < 0:
         raise InputError(f"--seed: {seed} must be >= 0")
-    folder = write_campaign(out, seed)
+    folder = datasets.campaign.write_campaign(out, seed)
     files = sorted(str(p) for p in folder.rglob("*") if p.is_file())
     if json:
         emit_json({"out": str(folder), "seed": seed, "synthetic": True, "files": files})

@@ -7,6 +7,7 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, print_table
 from mckibben.cli._output import progress_bar
+from mckibben import doctor
 
 
 @app.command("doctor")
@@ -18,7 +19,6 @@ def doctor_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Warm the kernel cache and check the optional parts (AVR toolchain, simulator, programmer, Dask)."""
-    from mckibben import doctor  # deferred: the warm-up imports every experiment (SciPy, Numba)
 
     with progress_bar("compiling kernels", json or not warm) as bar:
         task = bar.add_task("warm", total=None)

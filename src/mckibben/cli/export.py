@@ -7,6 +7,8 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json
 from mckibben.errors import InputError
+from mckibben import control
+from mckibben import export
 
 export_app = typer.Typer(help="Export a calibrated muscle's plant for other simulators.", no_args_is_help=True)
 app.add_typer(export_app, name="export")
@@ -34,20 +36,17 @@ def fmu_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Write the plant (valve commands in; pressure, length, force out) as a co-simulation FMU."""
-    from mckibben.control.core import load_design  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.export import export_fmu  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.export.fmu import CONTROLLERS, controller_mode  # deferred: as above
 
     ctrl: object = controller
     if design is not None:
         if controller is None:
             raise InputError("--design: give --controller smc or pid with it")
-        if controller not in CONTROLLERS:
-            raise InputError(f"--controller: {controller!r}; choose {' or '.join(CONTROLLERS)}")
-        ctrl = load_design(design)
-        if ctrl.mode != controller_mode(controller):
+        if controller not in export.fmu.CONTROLLERS:
+            raise InputError(f"--controller: {controller!r}; choose {' or '.join(export.fmu.CONTROLLERS)}")
+        ctrl = control.core.load_design(design, "design")
+        if ctrl.mode != export.fmu.controller_mode(controller):
             raise InputError(f"--design {design}: its mode is {ctrl.mode}, not --controller {controller}")
-    path = export_fmu(muscle, muscle_file, out, fmi, ctrl, load=load, supply=supply, direction=direction, law=law,
+    path = export.export_fmu(muscle, muscle_file, out, fmi, ctrl, load=load, supply=supply, direction=direction, law=law,
                       beta=beta)
     closed = controller is not None
     if json:

@@ -10,8 +10,9 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
-from mckibben.fit.registry import FIT_MODELS
+from mckibben.fit.names import FIT_MODELS
 from mckibben.units import parse_quantity
+from mckibben import fit
 
 
 def warn_flags(what: str, flags) -> None:
@@ -44,10 +45,9 @@ def fit_cmd(
     check_outputs(plot, dpi)
 
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
-    from mckibben.fit.registry import fit_table  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
-    res = fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero)
+    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero)
     out = res.summary
     if plot:
         write_plot(res.plot(), plot, dpi, res)
@@ -94,9 +94,7 @@ def compare_cmd(
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
     check_outputs(plot, dpi)
-    from mckibben.fit.registry import compare_table  # deferred: the library (SciPy, pandas, Numba) loads per command
-
-    res = compare_table(data, muscle, cv, tare, rails, pressure_zero)
+    res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero)
     out = res.summary
     if plot:
         write_plot(res.plot(), plot, dpi, res)

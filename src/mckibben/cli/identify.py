@@ -11,6 +11,8 @@ from mckibben.units import parse_quantity
 from mckibben.plotting import check_figure_path
 from mckibben.cli._output import write_plot
 from mckibben.plotting import save_figure
+from mckibben.results import provenance
+from mckibben import control
 
 
 @app.command("identify")
@@ -28,7 +30,6 @@ def identify_cmd(
 ) -> None:
     """Identify gain, time constant and dead time (with standard errors) from an open-loop step, one fit per
     trial and pooled across trials; from steps to several commands, the valve's lift-off u0 too."""
-    from mckibben.control.identify import identify_logs  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     orders = {"1": (1,), "2": (2,), "both": (1, 2), "fill": ("fill",), "all": (1, 2, "fill")}.get(order)
     if orders is None:
@@ -36,9 +37,8 @@ def identify_cmd(
     ts = parse_quantity(t_step, "time", "--t-step") if t_step is not None else None
     p_supply = parse_quantity(supply, "pressure", "--supply", allow_zero=False) if supply is not None else None
     if plot is not None:
-
         check_figure_path(plot)
-    res = identify_logs(logs, orders, ts, p_supply)
+    res = control.identify.identify_logs(logs, orders, ts, p_supply)
     results = [(log, r.data, r.meta, r.trials) for log, r in zip(logs, res.logs)]
     lift = res.lift_off
     if plot is not None:
@@ -88,14 +88,11 @@ def _input_label(data: dict) -> str:
 
 
 def _plot(path: str, data: dict, fits) -> None:
-    from mckibben.control import plot_step_fit  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    write_plot(plot_step_fit(data["time_s"], data["pressure_Pa"], fits), path, 120)
+    write_plot(control.plot_step_fit(data["time_s"], data["pressure_Pa"], fits), path, 120)
 
 
 def save_png(fig, path: str) -> None:
     """Write a figure atomically (:func:`mckibben.plotting.save_figure`): nothing half-written."""
-
-    from mckibben.results import provenance
 
     save_figure(fig, path, dpi=120, provenance=provenance("mckibben.control.identify"))

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import typer
 
+from mckibben import export
 from mckibben.cli import app
+from mckibben.results import check_table_path
 from mckibben.cli._common import JSON_OPTION, emit_json
 
 mujoco_app = typer.Typer(help="Calibrated muscles on the tendons of MuJoCo models (the mujoco extra).",
@@ -29,9 +31,8 @@ def hang_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """A mass hanging from one muscle in MuJoCo: its static length against predict length."""
-    from mckibben.export.mujoco import hanging_mass  # deferred: the library (Numba) and mujoco load per command
 
-    res = hanging_mass(muscle, pressure, load, force_model=force_model, duration=duration, friction=not no_friction)
+    res = export.mujoco.hanging_mass(muscle, pressure, load, force_model=force_model, duration=duration, friction=not no_friction)
     if json:
         emit_json(res.to_dict())
         return
@@ -61,12 +62,10 @@ def run_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Run an MJCF model with calibrated muscles on its tendons; print each muscle's final state."""
-    from mckibben.export.mujoco import run_model  # deferred: the library (Numba) and mujoco load per command
-    from mckibben.results import check_table_path
 
     if out:
         check_table_path(out)
-    res = run_model(model, tendon, muscle, reference=reference, inlet=inlet, bleed=bleed, controller=controller,
+    res = export.mujoco.run_model(model, tendon, muscle, reference=reference, inlet=inlet, bleed=bleed, controller=controller,
                     duration=duration, initial_pressure=initial_pressure, offset=offset, force_model=force_model)
     if out:
         res.to_file(out)

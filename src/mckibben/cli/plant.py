@@ -12,6 +12,7 @@ from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
+from mckibben import plant
 
 plant_app = typer.Typer(help="The plant linearized at an operating point, for control design.", no_args_is_help=True)
 app.add_typer(plant_app, name="plant")
@@ -20,11 +21,10 @@ PRESSURE_OPTION = typer.Option("0.55MPa", "--pressure", help="Operating gauge pr
 
 
 def _linear(pressure: str):
-    from mckibben.plant import linearize  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     p = parse_quantity(pressure, "pressure", "--pressure", allow_zero=False)
     try:
-        return linearize(pressure=p)
+        return plant.linearize(pressure=p)
     except InputError as e:
         raise InputError(f"--pressure: {e}") from None
 
@@ -61,7 +61,7 @@ def margins_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Gain and phase margins of a PID on the plant's own linear model at the operating point (sampled at 1 kHz)."""
-    import control
+    import control  # deferred on purpose: python-control (0.8 s)
 
     for name, v in (("--kp", kp), ("--ki", ki), ("--kd", kd)):
         if not (math.isfinite(v) and v >= 0):

@@ -15,6 +15,12 @@ from mckibben.models.flags import flag_names
 from mckibben.models.mpam import predict_length, pressure_for_length
 from mckibben.units import parse_quantity, parse_values
 from mckibben.errors import unknown_name
+from mckibben.models.mpam import force_from_length
+from mckibben.models.physical import BraidGeometry
+from mckibben.models.physical import chou_hannaford_force
+from mckibben.models.physical import tondu_lopez_force
+from mckibben.models.physical import wall_corrected_force
+from mckibben import data, fit
 
 predict_app = typer.Typer(help="Predict length, pressure or force from a static model.", no_args_is_help=True)
 app.add_typer(predict_app, name="predict")
@@ -127,13 +133,6 @@ def force_cmd(
     if muscle_file is not None:
         _force_from_muscle_file(muscle_file, pressure, length, direction, json)
         return
-    from mckibben.models.mpam import force_from_length  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.models.physical import (  # deferred: only the command that runs loads its part of the library
-        BraidGeometry,
-        chou_hannaford_force,
-        tondu_lopez_force,
-        wall_corrected_force,
-    )
 
     if model not in FORCE_MODELS and (model not in laws.LAWS and model not in laws.ALIASES
                                       or laws.resolve(model) not in _PREDICT_LAWS):
@@ -198,12 +197,10 @@ def force_cmd(
 
 def _force_from_muscle_file(path: str, pressure: str, length: str | None, direction: str, json: bool) -> None:
     """``predict force --muscle-file``: the file's fitted force law at the given pressures."""
-    from mckibben.data import read_muscle  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.fit.muscle_file import check_direction, muscle_force_law  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    check_direction(direction)
-    law = muscle_force_law(read_muscle(path))
-    check_direction(direction, law)
+    fit.muscle_file.check_direction(direction)
+    law = fit.muscle_file.muscle_force_law(data.read_muscle(path))
+    fit.muscle_file.check_direction(direction, law)
     p = parse_values(pressure, "pressure", "--pressure")
     ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else law.spec.nominal_length
     force, flags = law.force(p, ell, direction)

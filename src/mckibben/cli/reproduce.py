@@ -15,6 +15,7 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.datasets import MUSCLES
+from mckibben import report
 
 
 def _print_published(tables: dict) -> None:
@@ -44,9 +45,8 @@ def reproduce_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Characterize the campaign: fit every model, compare them, write the HTML report with figures."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn  # deferred on purpose: Rich's progress display (about 30 ms to import)
 
-    from mckibben.report import reproduce  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     with Progress(TextColumn("{task.description:<40}"), BarColumn(), TimeElapsedColumn(), console=err_console,
                   transient=True, disable=json or not err_console.is_terminal) as bar:
@@ -55,7 +55,7 @@ def reproduce_cmd(
         def step(msg: str, done: int, total: int) -> None:
             bar.update(task, description=msg, completed=done, total=total)
 
-        folder, summary, tables = reproduce(out, data=data, progress=step)
+        folder, summary, tables = report.reproduce(out, data=data, progress=step)
     if json:
         emit_json({"out": str(folder), "report_html": str(folder / "index.html"), **summary, "length_tables": tables})
         return

@@ -8,11 +8,18 @@ import time
 import typer
 
 from mckibben.cli import app
+from mckibben import experiments
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
 from mckibben.atomic import check_output_file
 from mckibben.control import registry as R
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
+from mckibben import rig
+from mckibben import control
+from mckibben.cli import tool as T
+import collections
+import threading
+import os
 
 rig_app = typer.Typer(help="The rig over its serial link: record, step, emulate.", no_args_is_help=True)
 app.add_typer(rig_app, name="rig")
@@ -35,26 +42,22 @@ def record_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Record telemetry (every channel); a kill -9 loses at most the last 0.2 s (see docs/rig.md)."""
-    from rich.live import Live
-
-    from mckibben.rig import protocol as P  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.rig.recorder import Recorder  # deferred: the library (SciPy, pandas, Numba) loads per command
+    from rich.live import Live  # deferred on purpose: Rich's live display
 
     d = _duration(duration)
     if not 1 <= decimation <= 255:
         raise InputError(f"--decimation: {decimation} must be in 1..255")
     l0 = parse_quantity(nominal_length, "length", "--nominal-length", allow_zero=False)
     rec_out = check_output_file(out, "--out", (".parquet",))
-    from mckibben.rig.device import BAUD, connect  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    link, hello, _ = connect(port)  # the device resets on open: nothing older than this run is kept
+    link, hello, _ = rig.device.connect(port)  # the device resets on open: nothing older than this run is kept
     try:
-        rec = Recorder(rec_out, meta={"port": port, "baud": BAUD, "n_channels": hello.n_channels},
+        rec = rig.Recorder(rec_out, meta={"port": port, "baud": rig.BAUD, "n_channels": hello.n_channels},
                        nominal_length=l0)
     except BaseException:
         link.close()
         raise
-    link.write(P.stream(0, True, decimation))
+    link.write(rig.protocol.stream(0, True, decimation))
     t0 = time.monotonic()
     show = not json and sys.stderr.isatty()
 
@@ -67,8 +70,6 @@ def record_cmd(
 
     # A reader thread drains the port while the journal is written: the serial driver buffers
     # only ~4 KB (70 ms of three-channel telemetry at 1 kHz), less than a journal part may take.
-    import collections
-    import threading
 
     chunks = collections.deque()
     stop = threading.Event()
@@ -93,7 +94,7 @@ def record_cmd(
         stop.set()
         thread.join(timeout=5)
         rec.feed(b"".join(chunks))
-        link.write(P.stream(1, False, 1))
+        link.write(rig.protocol.stream(1, False, 1))
     finally:
         stop.set()
         thread.join(timeout=5)
@@ -123,10 +124,9 @@ def recover_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Join a recorder's journal into one Parquet file."""
-    from mckibben.rig.recorder import recover  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_output_file(out, "--out", (".parquet",))
-    df = recover(journal, out)
+    df = rig.recover(journal, out)
     result = {"out": out, "telemetry_rows": len(df),
               "time_s": [float(df["time_s"].min()), float(df["time_s"].max())] if len(df) else None}
     if json:
@@ -144,9 +144,8 @@ def step_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Run a pressure step on the device and print the step metrics."""
-    from mckibben.rig import Device  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    res = Device(port).step(target, controller=controller, duration=duration)
+    res = rig.Device(port).step(target, controller=controller, duration=duration)
     _warn_faults(res.counters.get("faults", 0))
     if json:
         emit_json(res.to_dict())
@@ -158,10 +157,9 @@ def step_cmd(
 
 def _warn_faults(faults: int) -> None:
     """The device's faults on stderr, whatever the output format."""
-    from mckibben.rig.protocol import fault_names  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if faults:
-        err_console.print(f"warning: the device reported faults: {', '.join(fault_names(faults))} (flags {faults})",
+        err_console.print(f"warning: the device reported faults: {', '.join(rig.protocol.fault_names(faults))} (flags {faults})",
                           markup=False, highlight=False)
 
 
@@ -174,17 +172,15 @@ def gains_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Send a controller design's gains to the device, read them back and verify them."""
-    from mckibben.control.core import load_design  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.rig import Device  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    params = load_design(source)  # bad files fail before the port is touched
+    params = control.core.load_design(source, "source")  # bad files fail before the port is touched
     if channel == "all":
         chans = None
     elif channel.isdigit():
         chans = [int(channel)]
     else:
         raise InputError(f"--channel: {channel!r} must be a channel number or all")
-    res = Device(port).set_gains(params, chans)
+    res = rig.Device(port).set_gains(params, chans)
     if not res.verified:
         raise InputError(f"--port: the gains read back from {port!r} differ from those sent")
     if json:
@@ -206,9 +202,7 @@ def emulate_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """A virtual device on a pseudo-terminal: the firmware core on N plants, in real time; it resets when opened."""
-    import os
 
-    from mckibben.rig.emulator import Emulator  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     d = _duration(duration) if duration else None
     if not 1 <= channels <= 3:
@@ -218,15 +212,12 @@ def emulate_cmd(
         raise InputError(f"--boot-time: {boot_time!r} is longer than 10 s")
     plants = None
     if tool_path is not None:
-        from mckibben.cli import tool as T  # deferred: the library (SciPy, pandas, Numba) loads per command
-        from mckibben.rig.track import tool_plants  # deferred: the library (SciPy, pandas, Numba) loads per command
-
         if channels != 3:
             raise InputError("--tool-path: the tool has three muscles; leave --channels at 3")
         tool = T.build_tool(*(o.default for o in (T.MUSCLE_OPTION, T.PITCH_OPTION, T.DISCS_OPTION, T.PRELOAD_OPTION,
                                                   T.KB_OPTION, T.KA_OPTION, T.PMAX_OPTION)))  # tool track's defaults
-        plants = tool_plants(tool, tool_path)
-    em = Emulator(plant=plants, n_channels=channels, boot_time=boot)
+        plants = experiments.link.tool_plants(tool, tool_path)
+    em = rig.Emulator(plant=plants, n_channels=channels, boot_time=boot)
     if link:
         try:
             if os.path.islink(link):
@@ -236,9 +227,7 @@ def emulate_cmd(
             em.stop()
             raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
     if json:
-        from mckibben.rig.device import BAUD  # deferred: the library (SciPy, pandas, Numba) loads per command
-
-        emit_json({"port": em.port, "link": link, "baud": BAUD, "channels": channels})
+        emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels})
     else:
         err_console.print(f"emulated device on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
     try:

@@ -8,6 +8,8 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, print_table
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, write_plot
+from mckibben import control
+from mckibben import plant
 
 simulate_app = typer.Typer(help="Simulate the rig: valves, chamber, muscle, load, sensors.", no_args_is_help=True)
 app.add_typer(simulate_app, name="simulate")
@@ -30,10 +32,9 @@ def open_loop_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """An open-loop inlet-valve step from rest: time constant, rise time, final pressure."""
-    from mckibben.control import open_loop  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
-    res = open_loop(valve, supply=supply, load=load, duration=duration, muscle_file=muscle_file, direction=direction)
+    res = control.open_loop(valve, supply=supply, load=load, duration=duration, muscle_file=muscle_file, direction=direction)
     d = res.to_dict()
     if plot:
         write_plot(res.plot(), plot, dpi, res)
@@ -59,9 +60,8 @@ def open_loop_cmd(
 @simulate_app.command("calibrate")
 def calibrate_cmd(json: bool = JSON_OPTION) -> None:
     """Check the default plant against the paper: τ ≈ 0.09 s, 4.2 N blocked, 78.1 mm under 0.6 N."""
-    from mckibben.plant import calibration  # deferred: the library (SciPy, pandas, Numba) loads per command
 
-    c = calibration()
+    c = plant.calibration()
     if json:
         emit_json(c)
         return

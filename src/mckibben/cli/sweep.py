@@ -13,6 +13,7 @@ from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_tabl
 from mckibben.errors import InputError
 from mckibben.limits import SECONDS_PER_SAMPLE, check_budget, lifted
 from mckibben.atomic import check_output_dir
+from mckibben import sweep as sweep_lib
 
 sweep_app = typer.Typer(help="Parameter sweeps on the batch simulator, in-process or on Dask.", no_args_is_help=True)
 app.add_typer(sweep_app, name="sweep")
@@ -30,10 +31,9 @@ def run_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Run a sweep; chunks already written are skipped (resume)."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn  # deferred on purpose: Rich's progress display (about 30 ms to import)
 
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from mckibben.sweep import load_sweep, run_sweep  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if workers is not None and scheduler is not None:
         raise InputError("--workers and --scheduler: give one, not both")
@@ -41,7 +41,7 @@ def run_cmd(
         raise InputError(f"--workers: {workers} must be between 1 and 256")
     if scheduler is not None and not _SCHEDULER.match(scheduler):
         raise InputError(f"--scheduler: {scheduler!r} must look like tcp://HOST:PORT")
-    sweep = load_sweep(file)
+    sweep = sweep_lib.load_sweep(file)
 
     # memory: one chunk per worker at a time; time: the wall time, shared by the workers
     steps = round(sweep.scenario["duration"] / 1e-3)
@@ -64,7 +64,7 @@ def run_cmd(
             progress.update(task, completed=done, rate=rate)
 
         with lifted(force):  # the library applies the same limits; --force lifts them there too
-            stats = run_sweep(sweep, out, workers=workers, scheduler=scheduler, progress=update)
+            stats = sweep_lib.run_sweep(sweep, out, workers=workers, scheduler=scheduler, progress=update)
     stats.update(out=str(out), sweep_sha256=sweep.sha256, seed=sweep.seed)
     if json:
         emit_json(stats)
@@ -83,20 +83,17 @@ def summarize_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Best setting under a constraint, Pareto front, sensitivities, figures."""
-    from mckibben.sweep import best_setting, pareto_front, read_results, sensitivity, settings_table  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.sweep.summary import figures  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if plots:
-
         check_output_dir(plots, "--plots")
-    table = read_results(results)
-    best = best_setting(table, objective, constraint, quantile)
-    s = settings_table(table, quantile)
+    table = sweep_lib.read_results(results)
+    best = sweep_lib.best_setting(table, objective, constraint, quantile)
+    s = sweep_lib.settings_table(table, quantile)
     qn = int(round(quantile * 100))
     objs = [c for c in ("time_constant_s_median", "valve_effort_counts_median", f"overshoot_pct_q{qn}") if c in s]
-    front = pareto_front(s, objs) if objs else s.iloc[:0]
-    sens = sensitivity(table)
-    paths = figures(table, plots, quantile) if plots else []
+    front = sweep_lib.pareto_front(s, objs) if objs else s.iloc[:0]
+    sens = sweep_lib.sensitivity(table)
+    paths = sweep_lib.summary.figures(table, plots, quantile) if plots else []
     if json:
         emit_json({"runs": len(table), "settings": len(s), "objective": objective, "constraint": constraint,
                    "quantile": quantile, "best": best, "pareto_front": front.to_dict("records"),

@@ -6,6 +6,7 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
+from mckibben import experiments
 from mckibben.cli._common import (
     DIRECTION_OPTION,
     JSON_OPTION,
@@ -18,6 +19,8 @@ from mckibben.cli._common import (
 from mckibben.cli._output import check_outputs, plot_option, progress_bar, write_plot
 from mckibben.control import registry as R
 from mckibben.errors import InputError, unknown_name
+from mckibben import tool as tool_lib
+from mckibben import rig
 
 tool_app = typer.Typer(help="The three-muscle endoscope: kinematics, pressures for a tip, workspace, tracking.",
                        no_args_is_help=True)
@@ -43,10 +46,9 @@ PMAX_OPTION = typer.Option(None, "--p-max", help="Highest pressure allowed in an
 def build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file=None,
                direction="inflate"):
     """The tool from the shared options (:func:`mckibben.tool.make_tool`)."""
-    from mckibben.tool import make_tool  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_direction(direction)
-    return make_tool(muscle, muscle_file=muscle_file, direction=direction, pitch_radius=pitch_radius, discs=discs,
+    return tool_lib.make_tool(muscle, muscle_file=muscle_file, direction=direction, pitch_radius=pitch_radius, discs=discs,
                      preload=preload, bending_stiffness=bending_stiffness, axial_stiffness=axial_stiffness,
                      p_max=p_max)
 
@@ -83,15 +85,14 @@ def fk_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Forward kinematics: three muscle lengths (or pressures) → arc → tip position and orientation."""
-    from mckibben.tool import forward, state_dict, tool_dict  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     if (lengths is None) == (pressures is None):
         raise InputError("tool fk: give exactly one of --lengths or --pressures")
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
                       direction)
-    state = forward(tool, lengths=lengths, pressures=pressures)
+    state = tool_lib.forward(tool, lengths=lengths, pressures=pressures)
     source = "lengths" if lengths is not None else "pressures"
-    out = {"input": source, **state_dict(state), "tool": tool_dict(tool)}
+    out = {"input": source, **tool_lib.state_dict(state), "tool": tool_lib.tool_dict(tool)}
     if json:
         emit_json(out)
         return
@@ -113,12 +114,11 @@ def ik_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Inverse: a tip position → arc → muscle lengths → tensions → pressures (unreachable: exit 2)."""
-    from mckibben.tool import inverse, state_dict, tool_dict  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
                       direction)
-    state = inverse(tip, tool)
-    out = {**state_dict(state), "tool": tool_dict(tool)}
+    state = tool_lib.inverse(tip, tool)
+    out = {**tool_lib.state_dict(state), "tool": tool_lib.tool_dict(tool)}
     if json:
         emit_json(out)
         return
@@ -143,12 +143,11 @@ def workspace_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Sample the pressure box [0, p_max]³, report the reachable tip set's extent, optionally plot it."""
-    from mckibben.tool import map_workspace  # deferred: the library (SciPy, pandas, Numba) loads per command
 
     check_outputs(plot, dpi, out)
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
                       direction)
-    res = map_workspace(tool, grid)
+    res = tool_lib.map_workspace(tool, grid)
     ext = res.metrics
     if plot:
         write_plot(res.plot(), plot, dpi, res)
@@ -199,11 +198,10 @@ def track_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Follow a tip path: IK + static inverse → pressure references → three controlled muscles (plant or device)."""
-    from mckibben.tool import track  # deferred: the library (SciPy, pandas, Numba) loads per command
-    from mckibben.tool.experiments import TRACK_ENGINES
+    engines = tool_lib.experiments.TRACK_ENGINES
 
-    if engine not in TRACK_ENGINES:
-        raise unknown_name("engine (--engine)", engine, TRACK_ENGINES)
+    if engine not in engines:
+        raise unknown_name("engine", engine, engines)
     if port is not None and (periods or reference_only):
         raise InputError("--port: runs one path on the device; it takes neither --periods nor --reference-only")
     check_outputs(plot, dpi, out)
@@ -211,13 +209,11 @@ def track_cmd(
                       direction)
     link_out = None
     if port is not None:
-        from mckibben.rig.track import track_over_link  # deferred: the library (SciPy, pandas, Numba) loads per command
-
-        link_res, link_info = track_over_link(port, tool, path, beta=beta)
+        link_res, link_info = experiments.link.track_over_link(port, tool, path, beta=beta)
     with progress_bar("periods", json) as bar:
         task = bar.add_task("periods", total=None)
-        res = track(path, periods=periods, tool=tool, beta=beta, reference_only=reference_only, force=force,
-                    progress=lambda done, total: bar.update(task, completed=done, total=total), engine=engine)
+        res = tool_lib.track(path, periods=periods, tool=tool, beta=beta, reference_only=reference_only, force=force,
+                             progress=lambda done, total: bar.update(task, completed=done, total=total), engine=engine)
     simulated = res.results is not None
     if plot and simulated:
         write_plot(res.plot(), plot, dpi, res)
@@ -228,9 +224,7 @@ def track_cmd(
         link_out = {"port": port, **link_res.summary(), **link_info,
                     "rms_error_ratio_to_simulation": link_res.summary()["rms_error_m"] / out_runs[0]["rms_error_m"]}
         if link_res.faults:
-            from mckibben.rig.protocol import fault_names  # deferred: the library (SciPy, pandas, Numba) loads per command
-
-            err_console.print(f"warning: the device reported faults: {', '.join(fault_names(link_res.faults))} "
+            err_console.print(f"warning: the device reported faults: {', '.join(rig.protocol.fault_names(link_res.faults))} "
                               f"(flags {link_res.faults})", markup=False, highlight=False)
     if json:
         emit_json({**res.to_dict(), "plot": plot if simulated else None,

@@ -35,7 +35,7 @@ _WHERE = {
     "controller_params": "mckibben.control.simulation",
     "design_pid": "mckibben.control.controllers",
     "fig13": "mckibben.control.simulation",
-    "fit_step_response": "mckibben.control.identify",
+    "fit_step_response": "mckibben.fit.step",
     "hysteresis_compensation": "mckibben.control.simulation",
     "identified_model": "mckibben.control.simulation",
     "identify_plant": "mckibben.control.experiments",
@@ -49,7 +49,7 @@ _WHERE = {
     "plot_robustness": "mckibben.control.plots",
     "plot_step_fit": "mckibben.control.plots",
     "pressure_reference": "mckibben.control.simulation",
-    "read_step_log": "mckibben.control.identify",
+    "read_step_log": "mckibben.data.steplog",
     "robustness": "mckibben.control.simulation",
     "run_closed_loop": "mckibben.control.experiments",
     "smc_params": "mckibben.control.controllers",
@@ -80,6 +80,11 @@ def __getattr__(name: str):
         value = getattr(importlib.import_module(_WHERE[name]), name)
         globals()[name] = value
         return value
+    try:  # a submodule by attribute (``mckibben.control.core``), as an eager package would have bound it
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
     raise AttributeError(f"module 'mckibben.control' has no attribute {name!r}")
 
 

@@ -31,6 +31,7 @@ from mckibben.control import core
 from mckibben.control.core import MODE_OPEN_LOOP, MODE_PID, MODE_SMC, CoreController, CoreParams, core_spec
 from mckibben.errors import InputError
 from mckibben.hardware import adc_from_pressure  # noqa: F401  (re-exported: the one sensor model)
+from mckibben.control.metrics import ONE_MINUS_INV_E, crossing_time
 
 if TYPE_CHECKING:  # python-control costs ~0.8 s at import: imported where an LTI object is built
     import control
@@ -65,7 +66,7 @@ class FirstOrderModel:
 
     @classmethod
     def from_fit(cls, fit) -> FirstOrderModel:
-        """From a :class:`~mckibben.control.identify.StepFit` (order 1 or 2).
+        """From a :class:`~mckibben.fit.step.StepFit` (order 1 or 2).
 
         Parameters
         ----------
@@ -213,7 +214,6 @@ def design_pid(model: FirstOrderModel, closed_loop_tau: float, *, derivative: bo
 def _tf_time_constant(sys, tgrid) -> float:
     import control  # deferred: python-control costs ~0.8 s at import (only LTI objects need it)
 
-    from mckibben.control.metrics import ONE_MINUS_INV_E, crossing_time
 
     t, y = control.step_response(sys, tgrid)
     return crossing_time(t, y / sys.dcgain(), ONE_MINUS_INV_E)

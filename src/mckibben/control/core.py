@@ -41,6 +41,11 @@ from mckibben.control.fixed import clamp as _clamp
 from mckibben.control.fixed import rdiv as _rdiv
 from mckibben.control.fixed import wrap32 as _wrap32  # noqa: F401  (re-exported)
 from mckibben.hardware import ADC_MAX
+from mckibben.atomic import atomic_file, check_output_file
+from mckibben.atomic import check_input_file
+import dataclasses
+import json
+from pathlib import Path
 
 # --- modes and fault flags (firmware/core/controller.h, docs/protocol.md) ---------------------
 
@@ -962,27 +967,26 @@ def save_design(params: CoreParams, path, note: str = "") -> None:
     note : str, optional
         Free text kept in the file (what it was designed on). [-]
     """
-    import dataclasses
-    import json
 
-    from mckibben.atomic import atomic_file, check_output_file
 
-    check_output_file(path, "--save-design", (".json",))
+    check_output_file(path, "save_design", (".json",))
     values = gain_values(params)
     doc = {"format": DESIGN_FORMAT, "version": 1, "note": note,
            "params": {f.name: getattr(params, f.name) for f in dataclasses.fields(params)},
            "gains": {g.name: int(values[g.id]) for g in GAINS}}
-    with atomic_file(path, "--save-design") as tmp:
+    with atomic_file(path, "save_design") as tmp:
         tmp.write_text(json.dumps(doc, indent=2) + "\n")
 
 
-def load_design(path) -> CoreParams:
+def load_design(path, name: str = "path") -> CoreParams:
     """Read a design written by :func:`save_design`.
 
     Parameters
     ----------
     path : str or os.PathLike
         The JSON file. [-]
+    name : str, default "path"
+        The caller's argument that gave ``path``, for the messages. [-]
 
     Returns
     -------
@@ -994,36 +998,32 @@ def load_design(path) -> CoreParams:
     InputError
         The file is missing, not JSON, not a design, or names an unknown or out-of-range value.
     """
-    import dataclasses
-    import json
-    from pathlib import Path
 
-    from mckibben.atomic import check_input_file
 
     p = Path(path)
     if not p.exists():
-        raise InputError(f"--from: {str(p)!r} does not exist")
-    check_input_file(p, "--from", "controller design")  # a folder or a FIFO (which would block the read)
+        raise InputError(f"{name}: {str(p)!r} does not exist")
+    check_input_file(p, name, "controller design")  # a folder or a FIFO (which would block the read)
     try:
         doc = json.loads(p.read_text())
     except FileNotFoundError:
-        raise InputError(f"--from: {str(p)!r} does not exist") from None
+        raise InputError(f"{name}: {str(p)!r} does not exist") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"--from: cannot read {str(p)!r} ({exc})") from None
+        raise InputError(f"{name}: cannot read {str(p)!r} ({exc})") from None
     except ValueError as exc:
-        raise InputError(f"--from: {str(p)!r} is not JSON ({exc.args[0].split(':')[0]})") from None
+        raise InputError(f"{name}: {str(p)!r} is not JSON ({exc.args[0].split(':')[0]})") from None
     if not isinstance(doc, dict) or doc.get("format") != DESIGN_FORMAT or not isinstance(doc.get("params"), dict):
-        raise InputError(f"--from: {str(p)!r} is not a controller design (no format {DESIGN_FORMAT!r})")
+        raise InputError(f"{name}: {str(p)!r} is not a controller design (no format {DESIGN_FORMAT!r})")
     names = {f.name for f in dataclasses.fields(CoreParams)}
     unknown = sorted(set(doc["params"]) - names)
     if unknown:
-        raise InputError(f"--from: {str(p)!r}: unknown parameter {unknown[0]!r}")
+        raise InputError(f"{name}: {str(p)!r}: unknown parameter {unknown[0]!r}")
     for k, v in doc["params"].items():
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise InputError(f"--from: {str(p)!r}: parameter {k!r} is not a number")
+            raise InputError(f"{name}: {str(p)!r}: parameter {k!r} is not a number")
     params = CoreParams(**doc["params"])
     try:
         pack_params(params)
     except InputError as exc:
-        raise InputError(f"--from: {str(p)!r}: {exc}") from None
+        raise InputError(f"{name}: {str(p)!r}: {exc}") from None
     return params

@@ -25,11 +25,16 @@ from mckibben.control.controllers import (FirstOrderModel, design_pid, pid_param
                                           with_supervisor_model)
 from mckibben.control import registry as R
 from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
-from mckibben.control.identify import fit_lift_off, fit_step_response
+from mckibben.fit.step import fit_lift_off, fit_step_response
 from mckibben.control.metrics import step_metrics, step_metrics_batch
 from mckibben.datasets.paper_points import FIG13 as _FIG13
 from mckibben.errors import InputError, check_real, unknown_name
 from mckibben.limits import check_budget
+from mckibben.plant import simulate
+from mckibben.plant import CALIBRATION_PWM
+from mckibben.control.metrics import tracking_metrics_batch
+from mckibben.plant import PlantParams
+import itertools
 
 #: The paper's Fig. 13 (:data:`mckibben.datasets.paper_points.FIG13`): β -> time constant, overshoot.
 PAPER_FIG13 = _FIG13["points"]
@@ -134,7 +139,6 @@ def run_closed_loop(spec, reference, duration: float, plant=None, ts: float = 1e
     LoopRecord
         The sampled record.
     """
-    from mckibben.limits import check_budget
 
     n_inst = np.asarray(spec[1]).shape[0]
     # the documented limits are the command line's (--force); here only what cannot fit at all
@@ -144,7 +148,6 @@ def run_closed_loop(spec, reference, duration: float, plant=None, ts: float = 1e
 
 
 def _plant_backend(spec, reference, duration, plant, ts):
-    from mckibben.plant import simulate
 
     n_inst = np.asarray(spec[1]).shape[0]
     sim = simulate(to_plant_params(plant), duration, controller=spec, reference=reference, ts=ts, n=n_inst)
@@ -190,8 +193,6 @@ def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du:
         controllers use (τ and θ of that fit, G and u0 from both steps) and the records.
     """
     if u1 is None:
-        from mckibben.plant import CALIBRATION_PWM
-
         u1 = CALIBRATION_PWM
     u1, du = _counts("u1", u1, 1, 254), _counts("du", du, 1, 254)
     if u1 + du > 255:
@@ -400,7 +401,6 @@ def smc_candidates(model: FirstOrderModel, base: CoreParams, top: float, grid: d
     tuple of list
         The candidates' free gains and their core parameters. [-]
     """
-    import itertools
 
     given = {"beta": beta, "eps": eps, "ki": ki}
     axes = [(v,) if given[k] is not None else grid[k] for k, v in given.items()]
@@ -575,7 +575,6 @@ TUNING_SINE_S, TUNING_SETTLE_S = 2.5, 0.5
 
 def _tune_tracking(plant, controller, law, cands, params, top) -> GainTuning:
     """The candidate with the smallest worst RMS error on :data:`TUNING_SINES` (after the rise)."""
-    from mckibben.control.metrics import tracking_metrics_batch
 
     n, t = _steps(TUNING_SINE_S)
     refs = [m * top + a * top * np.sin(2 * np.pi * f * t) for m, a, f in TUNING_SINES]
@@ -673,7 +672,8 @@ def step_size_table(model: FirstOrderModel | None, steps=((0.0, 0.2e6), (0.0, 0.
 
     Each run holds the starting pressure (the "back pressure") for ``hold`` seconds under the
     same controller, then steps; the metrics are taken from the step on. Controllers: ``pid``,
-    ``smc`` (law ``model``, :data:`SMC_TUNING`) and ``smc_paper`` (law ``paper``, β = 150).
+    ``smc`` (law ``model``, :data:`SMC_TUNING`), ``smc_paper`` (law ``paper``, β = 150) and each
+    extension law of the registry (:func:`comparison_controllers`).
 
     Parameters
     ----------
@@ -704,10 +704,7 @@ def step_size_table(model: FirstOrderModel | None, steps=((0.0, 0.2e6), (0.0, 0.
     if controllers_for_load is None:
         if model is None:
             raise InputError("step_size_table: give a model or controllers_for_load")
-        pid = default_pid(model)
-        fixed = {"pid": pid_params(pid, base=with_supervisor_model(CoreParams(), model)),
-                 "smc": smc_core_params(model, beta),
-                 "smc_paper": smc_core_params(model, law="paper")}
+        fixed = comparison_controllers(model, beta)
         controllers_for_load = lambda load, plant: fixed  # noqa: E731
     total = hold + duration
     n, _ = _steps(total)
@@ -780,7 +777,6 @@ def to_plant_params(plant=None, base=None):
     -------
     PlantParams
     """
-    from mckibben.plant import PlantParams
 
     if plant is None:
         return PlantParams() if base is None else base
@@ -834,7 +830,7 @@ def sample_plants(n: int, seed: int = 0, spread: float = 0.3, supply=(0.6e6, 1.0
         :func:`plant_batch` keyword arguments, arrays of n.
     """
     if int(n) < 1:
-        raise InputError(f"--n: {n!r} must be at least 1")
+        raise InputError(f"n: {n!r} must be at least 1")
     rng = np.random.default_rng(seed)
     out = {k: rng.uniform(1 - spread, 1 + spread, n) for k in UNCERTAIN_FACTORS}
     out["supply_Pa"] = rng.uniform(*supply, n)
@@ -842,8 +838,36 @@ def sample_plants(n: int, seed: int = 0, spread: float = 0.3, supply=(0.6e6, 1.0
     return out
 
 
-#: The controllers of :func:`robustness` and :func:`step_size_table`.
-CONTROLLER_NAMES = ("pid", "smc", "smc_paper")
+#: The controllers of :func:`robustness` and :func:`step_size_table`: the paper's PID and both
+#: sliding-mode laws, then every extension law of the registry (:data:`mckibben.control.registry.EXTENSIONS`,
+#: the super-twisting ``stsmc``...), each with its documented design.
+CONTROLLER_NAMES = ("pid", "smc", "smc_paper") + tuple(c.name for c in R.EXTENSIONS)
+
+
+def comparison_controllers(model: FirstOrderModel, beta: float | None = None) -> dict:
+    """The controllers of the comparisons (:data:`CONTROLLER_NAMES`), designed on an identified model.
+
+    ``pid`` (:func:`default_pid`), ``smc`` (law ``model``, β = ``beta``), ``smc_paper`` (the
+    paper's law, β = 150), then each extension law of the registry with its documented design.
+
+    Parameters
+    ----------
+    model : FirstOrderModel
+        Identified model. [-]
+    beta : float, optional
+        Switching gain of the ``smc`` law (default :data:`SMC_TUNING`). [PWM counts]
+
+    Returns
+    -------
+    dict
+        ``{name: CoreParams}``, in :data:`CONTROLLER_NAMES` order.
+    """
+    base = with_supervisor_model(CoreParams(), model)
+    out = {"pid": pid_params(default_pid(model), base=base), "smc": smc_core_params(model, beta),
+           "smc_paper": smc_core_params(model, law="paper")}
+    for spec in R.EXTENSIONS:
+        out[spec.name] = spec.resolve("design")(model, base)
+    return out
 
 
 def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float | None = None,
@@ -852,8 +876,8 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same N plants.
 
     The controllers are designed once, on the model identified on the nominal plant; each plant
-    gets all three (one batch of 3N instances): ``pid``, ``smc`` (law ``model``) and
-    ``smc_paper`` (law ``paper``, β = 150).
+    gets every one (one batch of k·N instances): ``pid``, ``smc`` (law ``model``), ``smc_paper``
+    (law ``paper``, β = 150) and each extension law of the registry (:func:`comparison_controllers`).
 
     Parameters
     ----------
@@ -890,15 +914,13 @@ def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float
         raise InputError(f"n: {n!r} must be a whole number of plants >= 1")
     if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2**63:
         raise InputError(f"seed: {seed!r} must be a whole number in 0..2**63-1")
-    from mckibben.limits import check_budget
 
-    check_budget("n", 3 * n * duration / 1e-3, force=True)
+    check_budget("n", len(CONTROLLER_NAMES) * n * duration / 1e-3, force=True)
     samples = sample_plants(n, seed) if samples is None else samples
     k = len(CONTROLLER_NAMES)
     every = {key: np.concatenate([v] * k) for key, v in samples.items()}
     if controllers is None:
-        controllers = {"pid": pid_params(default_pid(model), base=with_supervisor_model(CoreParams(), model)),
-                       "smc": smc_core_params(model, beta), "smc_paper": smc_core_params(model, law="paper")}
+        controllers = comparison_controllers(model, beta)
     params = [controllers[name] for name in CONTROLLER_NAMES for _ in range(n)]
     nn, _ = _steps(duration)
     ref = step_reference(nn, int(round(t_step / 1e-3)), 0.0, target)

@@ -41,6 +41,9 @@ from mckibben.control.length import (
     inflating_direction,
 )
 from mckibben.errors import InputError
+from mckibben.control.core import core_spec
+from mckibben.control.experiments import run_closed_loop, smc_core_params
+from mckibben.control.plots import plot_hysteresis
 
 #: Fraction of the sweep's length span left out at each end of the branch fits (saturation).
 FIT_MARGIN = 0.1
@@ -168,7 +171,6 @@ class HysteresisBenefit:
         ax : pair of matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_hysteresis
 
         return plot_hysteresis(self, ax=ax)
 
@@ -268,8 +270,6 @@ def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = 
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III (hysteresis: one cubic per branch).
     """
-    from mckibben.control.core import core_spec
-    from mckibben.control.experiments import run_closed_loop, smc_core_params
 
     if not (math.isfinite(period) and PERIOD_MIN <= period <= PERIOD_MAX):
         raise InputError(f"period: {period!r} s must be between {PERIOD_MIN:g} and {PERIOD_MAX:g} s")

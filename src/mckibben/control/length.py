@@ -35,6 +35,9 @@ from mckibben.errors import InputError
 from mckibben.fit.hysteresis import PIFit, fit_prandtl_ishlinskii
 from mckibben.hardware import ENCODER_RESOLUTION
 from mckibben.models.hysteresis import PrandtlIshlinskii, apply, invert, thresholds_uniform
+from mckibben.datasets import get_muscle
+from mckibben.models.mpam import pressure_for_length, require_reachable
+from mckibben.control.core import pack_params
 
 #: Encoder resolution of the paper's rig (:data:`mckibben.hardware.ENCODER_RESOLUTION`).
 ENCODER_M_PER_COUNT = ENCODER_RESOLUTION
@@ -333,8 +336,6 @@ def length_feedforward(length_ref, *, muscle=None, load: float = 0.6, p_max: flo
         return np.clip(pi.pressure(ell)[0], 0.0, p_max)
     if branches is not None:
         return np.clip(branches.pressure(ell, inflating_direction(ell)), 0.0, p_max)
-    from mckibben.datasets import get_muscle
-    from mckibben.models.mpam import pressure_for_length, require_reachable
 
     m = get_muscle("mpam97") if muscle is None else muscle
     uniq, inv = np.unique(ell, return_inverse=True)
@@ -438,7 +439,6 @@ def length_loop_spec(core_params, length_ref, *, kp: float, ki: float, rest_leng
     tuple
         ``(length_loop_kernel, istate0, iparams, fstate0, fparams)`` with N rows. [-]
     """
-    from mckibben.control.core import pack_params
 
     ref = np.asarray(length_ref, dtype=float)
     if ref.ndim != 1 or ref.size == 0 or not np.all(np.isfinite(ref)):

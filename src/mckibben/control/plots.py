@@ -17,7 +17,7 @@ __all__ = ["plot_step_fit", "plot_record", "plot_fig13", "plot_robustness", "plo
 
 def _axes(ax, n: int, **subplots):
     """``n`` axes: the ones given, or a new figure's."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     if ax is None:
         fig, axes = plt.subplots(*((n, 1) if subplots.pop("vertical", False) else (1, n)), **subplots)
@@ -43,7 +43,7 @@ def plot_record(record, labels, ax=None):
     matplotlib.figure.Figure
     """
     if ax is None:
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
         fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5), gridspec_kw={"height_ratios": [3, 1.3]})
     else:
@@ -263,7 +263,7 @@ def plot_step_fit(time, pressure, fits, ax=None):
     pressure : array_like
         Measured pressure. [Pa]
     fits : sequence of StepFit
-        From :func:`mckibben.control.identify.fit_step_response`. [-]
+        From :func:`mckibben.fit.step.fit_step_response`. [-]
     ax : pair of matplotlib.axes.Axes, optional
         Where to draw; default a new figure. [-]
 
@@ -271,7 +271,7 @@ def plot_step_fit(time, pressure, fits, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     t = np.asarray(time, dtype=float)
     if ax is None:

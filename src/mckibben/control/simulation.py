@@ -41,6 +41,25 @@ from mckibben.hardware import P_MAX_DEFAULT
 from mckibben.limits import check_budget, check_p_max, clamp_pressure
 from mckibben.results import Result, to_jsonable
 from mckibben.units import parse_quantity, quantity
+from mckibben.control.experiments import identify_plant
+from mckibben.hardware import P_MAX_LIMIT
+from mckibben.datasets import get_muscle
+from mckibben.limits import check_load
+from mckibben.plant import PlantParams
+from mckibben.data.io import read_muscle
+from mckibben.fit.muscle_file import check_direction, muscle_force_law
+from mckibben.models import laws as LW
+from mckibben.control.experiments import tune_gains
+from mckibben.data.steplog import read_step_log
+from mckibben.control.experiments import FIG13_TARGET_PA, sample_plants
+from mckibben.control.experiments import _pct
+from mckibben.plant import CALIBRATION_PWM, open_loop_step
+from mckibben.control.hysteresis import PERIOD_MAX, PERIOD_MIN, SWEEP_PERIOD_MAX, SWEEP_PERIOD_MIN, hysteresis_benefit
+from mckibben.control.plots import plot_record
+from mckibben.control.plots import plot_fig13
+from mckibben.control.plots import plot_compare
+from mckibben.control.plots import plot_robustness
+from mckibben.control.plots import plot_open_loop
 
 __all__ = [
     "CONTROLLERS", "CompareResult", "Fig13Result", "OpenLoopResult", "RobustnessResult", "StepResult",
@@ -58,7 +77,6 @@ TS = 1e-3
 
 @lru_cache(maxsize=1)
 def _default_identification():
-    from mckibben.control.experiments import identify_plant
 
     return identify_plant()
 
@@ -82,7 +100,7 @@ def _beta(beta) -> float | None:
         return None
     b = float(beta)
     if not (math.isfinite(b) and 0 <= b <= 255):
-        raise InputError(f"--beta: {beta!r} must be in 0..255 PWM counts")
+        raise InputError(f"beta: {beta!r} must be in 0..255 PWM counts")
     return b
 
 
@@ -91,7 +109,7 @@ def _ki(ki) -> float | None:
         return None
     k = float(ki)
     if not (math.isfinite(k) and k >= 0):
-        raise InputError(f"--ki: {ki!r} must be >= 0 (1/s)")
+        raise InputError(f"ki: {ki!r} must be >= 0 (1/s)")
     return k
 
 
@@ -138,13 +156,13 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     if controller not in CONTROLLERS:
         raise unknown_name("controller", controller, CONTROLLERS)
     if law not in LAWS:
-        raise unknown_name("--law", law, LAWS)
+        raise unknown_name("`law`", law, LAWS)
     b, k = _beta(beta), _ki(ki)
     e = boundary_layer(eps)
-    lm = quantity(lam, "time", "--lambda", allow_zero=False) if lam is not None else None
+    lm = quantity(lam, "time", "lam", allow_zero=False) if lam is not None else None
     model = identified_model() if model is None else model
     # the supervisor's valve model (G, lift-off) comes from the identification too
-    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "--p-max",
+    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "p_max",
                                                                        allow_zero=False))), model)
     return R.get(controller).resolve("design")(model, base, law=law, beta=b, eps=e, ki=k, lam=lm)
 
@@ -186,7 +204,7 @@ def _gains_dict(params: CoreParams, controller: str) -> dict:
 
 
 def _record_frame(rec: LoopRecord, i: int = 0):
-    import pandas as pd
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
     return pd.DataFrame({
         "time_s": rec.t, "reference_Pa": rec.reference[i], "pressure_Pa": rec.pressure[i],
@@ -266,7 +284,6 @@ class StepResult(Result):
         ax : matplotlib.axes.Axes or pair of Axes, optional
             One Axes: the pressure only; two: pressure and command; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_record
 
         return plot_record(self.record, [self.arguments["controller"]], ax=ax)
 
@@ -281,11 +298,10 @@ def boundary_layer(eps) -> float | None:
     """
     if eps is None:
         return None
-    from mckibben.hardware import P_MAX_LIMIT
 
-    e = quantity(eps, "pressure", "--eps", allow_zero=False)
+    e = quantity(eps, "pressure", "eps", allow_zero=False)
     if not 1.0 <= e <= P_MAX_LIMIT:
-        raise InputError(f"--eps: {eps!r} must be between 1 Pa and {P_MAX_LIMIT / 1e6:g} MPa (the supervisor's "
+        raise InputError(f"eps: {eps!r} must be between 1 Pa and {P_MAX_LIMIT / 1e6:g} MPa (the supervisor's "
                          "ceiling)")
     return e
 
@@ -298,11 +314,8 @@ def plant_load(load) -> float:
     load : float or str
         The load. [N]
     """
-    from mckibben.datasets import get_muscle
-    from mckibben.limits import check_load
-    from mckibben.plant import PlantParams
 
-    return check_load(quantity(load, "force", "--load"), get_muscle(PlantParams().muscle_name))
+    return check_load(quantity(load, "force", "load"), get_muscle(PlantParams().muscle_name))
 
 
 def muscle_file_plant(path, load="0.6N", supply=None, direction: str = "inflate"):
@@ -332,32 +345,29 @@ def muscle_file_plant(path, load="0.6N", supply=None, direction: str = "inflate"
         One line starting ``--muscle-file`` and naming the file (missing, no force law, a law the
         plant cannot run) or ``--load``/``--supply``/``--direction``.
     """
-    from mckibben.data.io import read_muscle
-    from mckibben.fit.muscle_file import check_direction, muscle_force_law
-    from mckibben.plant import PlantParams
 
-    f = quantity(load, "force", "--load")
+    f = quantity(load, "force", "load")
     check_direction(direction)
     kw = {}
     if supply is not None:
-        kw["supply_pressure"] = quantity(supply, "pressure", "--supply", allow_zero=False)
+        kw["supply_pressure"] = quantity(supply, "pressure", "supply", allow_zero=False)
         if kw["supply_pressure"] > 1e6:
-            raise InputError(f"--supply: {supply!r} is above the compressor's 1 MPa")
+            raise InputError(f"supply: {supply!r} is above the compressor's 1 MPa")
     try:
         spec = read_muscle(path)
         law = muscle_force_law(spec)
     except InputError as exc:
-        raise InputError(f"--muscle-file {path}: {exc}") from None
+        raise InputError(f"muscle_file {path}: {exc}") from None
     check_direction(direction, law)
     if math.isfinite(f) and f >= 0:
         kw["load_force"] = f  # its mass moves with the muscle: the plant damps it
     try:
         plant = PlantParams.from_muscle_file(spec, direction, **kw)
     except InputError as exc:
-        raise InputError(f"--muscle-file {path}: {exc}") from None
+        raise InputError(f"muscle_file {path}: {exc}") from None
     most = rest_pull(plant)
     if not (math.isfinite(f) and 0 <= f <= most):
-        raise InputError(f"--load: {f:g} N is more than the muscle of {path} pulls at its rest length at "
+        raise InputError(f"load: {f:g} N is more than the muscle of {path} pulls at its rest length at "
                          f"{float(np.asarray(plant.supply_pressure)) / 1e6:g} MPa ({most:.4g} N, its fitted law)")
     return plant
 
@@ -370,7 +380,6 @@ def rest_pull(plant) -> float:
     plant : PlantParams
         One rig. [-]
     """
-    from mckibben.models import laws as LW
 
     name, th = plant.law(1)
     return float(np.maximum(LW.evaluate(name, plant.supply_pressure, plant.nominal_length, th[:, 0]), 0.0))
@@ -395,31 +404,33 @@ def identify_file_plant(plant) -> FirstOrderModel:
     FirstOrderModel
         Gain [Pa/count], time constant [s], dead time [s], lift-off [PWM counts].
     """
-    from mckibben.control.experiments import identify_plant
 
     return identify_plant(plant, duration=FILE_IDENTIFICATION_S)[1]
 
 
 def _file_controllers(plant, beta=None) -> dict:
-    """The three controllers of :func:`compare` and :func:`robustness`, tuned on a muscle file's plant:
-    ``pid``, ``smc`` (our law; ``beta`` held when given) and ``smc_paper`` (the paper's law)."""
+    """The controllers of :func:`compare` and :func:`robustness` (:data:`CONTROLLER_NAMES`), tuned on a muscle
+    file's plant: ``pid``, ``smc`` (our law; ``beta`` held when given), ``smc_paper`` (the paper's law) and
+    each extension law of the registry."""
     m = identify_file_plant(plant)
-    return {"pid": tuned_controller("pid", m, plant).params, "smc": tuned_controller("smc", m, plant, beta=beta).params,
-            "smc_paper": tuned_controller("smc", m, plant, law="paper").params}
+    out = {"pid": tuned_controller("pid", m, plant).params, "smc": tuned_controller("smc", m, plant, beta=beta).params,
+           "smc_paper": tuned_controller("smc", m, plant, law="paper").params}
+    for spec in R.EXTENSIONS:
+        out[spec.name] = tuned_controller(spec.name, m, plant).params
+    return out
 
 
 def _refuse_muscle_file(command: str, muscle_file, why: str) -> None:
     if muscle_file is not None:
-        raise InputError(f"--muscle-file {muscle_file}: control {command} {why}")
+        raise InputError(f"muscle_file {muscle_file}: control {command} {why}")
 
 
 def _no_direction(direction: str, muscle_file) -> None:
     """``--direction`` is the branch of a muscle file's law: refuse it (or a bad value) without one."""
-    from mckibben.fit.muscle_file import check_direction
 
     check_direction(direction)
     if muscle_file is None and direction != "inflate":
-        raise InputError(f"--direction {direction}: picks the branch of a --muscle-file's fitted law; the "
+        raise InputError(f"direction {direction}: picks the branch of a `muscle_file`'s fitted law; the "
                          "calibrated plant runs both branches through its braid friction")
 
 
@@ -460,15 +471,14 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
     GainTuning
         ``.params`` (the core's parameters), ``.gains``, ``.steps``, ``.met``.
     """
-    from mckibben.control.experiments import tune_gains
 
     if controller not in CONTROLLERS:
         raise unknown_name("controller", controller, CONTROLLERS)
     if law not in LAWS:
-        raise unknown_name("--law", law, LAWS)
+        raise unknown_name("`law`", law, LAWS)
     b, k, e = _beta(beta), _ki(ki), boundary_layer(eps)
-    lm = quantity(lam, "time", "--lambda", allow_zero=False) if lam is not None else None
-    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "--p-max",
+    lm = quantity(lam, "time", "lam", allow_zero=False) if lam is not None else None
+    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "p_max",
                                                                        allow_zero=False))), model)
     return tune_gains(plant, model, controller, law=law, base=base, beta=b, eps=e, ki=k, lam=lm, objective=objective)
 
@@ -479,25 +489,25 @@ def _step_args(controller, target, start, load, supply, duration, p_max, force, 
     With a muscle file, its plant's load check replaces the calibrated muscle's (the caller
     builds that plant).
     """
-    dur = _periods(duration, "--duration")
-    pmax = check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    p1 = quantity(target, "pressure", "--target")
-    p0 = quantity(start, "pressure", "--from")
+    dur = _periods(duration, "duration")
+    pmax = check_p_max(quantity(p_max, "pressure", "p_max", allow_zero=False))
+    p1 = quantity(target, "pressure", "target")
+    p0 = quantity(start, "pressure", "start")
     hold = 0.5 if p0 > 0 else 0.05
-    check_budget("--duration", (hold + dur) / TS, force=force)
+    check_budget("duration", (hold + dur) / TS, force=force)
     if p0 == p1:
-        raise InputError("--target: equals --from, there is no step")
-    (p0c, p1c), clamped = clamp_pressure([p0, p1], pmax, "--target/--from")
+        raise InputError("target: equals `start`, there is no step")
+    (p0c, p1c), clamped = clamp_pressure([p0, p1], pmax, "target/start")
     if p0c == p1c:
-        raise InputError(f"--target: {target!r} and --from {start!r} are both clamped to {p1c / 1e6:g} MPa "
-                         "(--p-max): there is no step")
+        raise InputError(f"target: {target!r} and `start` {start!r} are both clamped to {p1c / 1e6:g} MPa "
+                         "(`p_max`): there is no step")
     args = {"controller": controller, "target_Pa": float(p1c), "from_Pa": float(p0c),
-            "load_N": plant_load(load) if muscle_file is None else quantity(load, "force", "--load"),
+            "load_N": plant_load(load) if muscle_file is None else quantity(load, "force", "load"),
             "p_max_Pa": pmax, "duration_s": dur,
             "requested_target_Pa": p1, "requested_from_Pa": p0, "reference_clamped": clamped,
             "step_time_s": hold}
     if supply is not None:
-        args["supply_Pa"] = quantity(supply, "pressure", "--supply", allow_zero=False)
+        args["supply_Pa"] = quantity(supply, "pressure", "supply", allow_zero=False)
     return args
 
 
@@ -604,29 +614,28 @@ def pressure_reference(reference, duration="2s", *, force: bool = False) -> tupl
     if not isinstance(reference, str):
         p = np.asarray(reference, dtype=float)
         if p.ndim != 1 or p.size < 10 or not np.all(np.isfinite(p)):
-            raise InputError("--reference: an array reference must be 1-D, finite, at least 10 samples")
+            raise InputError("reference: an array reference must be 1-D, finite, at least 10 samples")
         return np.arange(p.size) * TS, p
     if reference.startswith("sine:"):
         parts = reference[5:].split(",")
         if len(parts) != 3:
-            raise InputError(f"--reference: {reference!r} must be sine:MEAN,AMPLITUDE,FREQUENCY")
-        mean = parse_quantity(parts[0], "pressure", "--reference mean")
-        amp = parse_quantity(parts[1], "pressure", "--reference amplitude")
-        freq = parse_quantity(parts[2], "frequency", "--reference frequency", allow_zero=False)
-        d = _periods(duration, "--duration")
-        check_budget("--duration", d / TS, force=force)
+            raise InputError(f"reference: {reference!r} must be sine:MEAN,AMPLITUDE,FREQUENCY")
+        mean = parse_quantity(parts[0], "pressure", "reference mean")
+        amp = parse_quantity(parts[1], "pressure", "reference amplitude")
+        freq = parse_quantity(parts[2], "frequency", "reference frequency", allow_zero=False)
+        d = _periods(duration, "duration")
+        check_budget("duration", d / TS, force=force)
         if freq > 500:
-            raise InputError(f"--reference frequency: {parts[2]!r} is above the 500 Hz a 1 kHz controller can follow")
+            raise InputError(f"reference frequency: {parts[2]!r} is above the 500 Hz a 1 kHz controller can follow")
         t = np.arange(int(round(d / TS))) * TS
         return t, mean + amp * np.sin(2 * np.pi * freq * t)
-    from mckibben.control.identify import read_step_log
 
     data, _ = read_step_log(reference)
     t0 = data["time_s"] - data["time_s"][0]
-    check_budget(f"--reference {reference}", float(t0[-1]) / TS, force=force, what="control periods (the file's span)")
+    check_budget(f"reference {reference}", float(t0[-1]) / TS, force=force, what="control periods (the file's span)")
     t = np.arange(int(t0[-1] / TS) + 1) * TS
     if t.size < 10:
-        raise InputError(f"--reference: {reference!r} is shorter than 10 ms")
+        raise InputError(f"reference: {reference!r} is shorter than 10 ms")
     return t, np.interp(t, t0, data["pressure_Pa"])
 
 
@@ -682,7 +691,6 @@ class TrackResult(Result):
         ax : matplotlib.axes.Axes or pair of Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_record
 
         return plot_record(self.record, [self.arguments["controller"]], ax=ax)
 
@@ -730,10 +738,10 @@ def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_m
         A reference outside [0, p_max] is clamped as the supervisor would (``reference_clamped``).
     """
     _no_direction(direction, muscle_file)
-    pmax = check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    f_load = plant_load(load) if muscle_file is None else quantity(load, "force", "--load")
+    pmax = check_p_max(quantity(p_max, "pressure", "p_max", allow_zero=False))
+    f_load = plant_load(load) if muscle_file is None else quantity(load, "force", "load")
     _, ref = pressure_reference(reference, duration, force=force)
-    ref, clamped = clamp_pressure(ref, pmax, "--reference")
+    ref, clamped = clamp_pressure(ref, pmax, "reference")
     tuning = None
     if muscle_file is not None:
         plant = muscle_file_plant(muscle_file, load, None, direction)
@@ -759,7 +767,7 @@ FIG13_REFUSAL = ("is the paper's Fig. 13 on its miniature muscle: the β of 120 
                  "rig's holding command and the paper's points are that muscle's; run control step --muscle-file "
                  "(gains tuned for the file's plant) or control compare --muscle-file")
 HYSTERESIS_REFUSAL = ("compensates the hysteresis of the calibrated muscle's braid friction; a muscle file's plant "
-                      "runs one branch of its fitted law (--direction) without friction, so it has no loop to "
+                      "runs one branch of its fitted law (`direction`) without friction, so it has no loop to "
                       "compensate")
 
 
@@ -802,7 +810,7 @@ class Fig13Result(Result):
         return to_jsonable({"model": {**_model_dict(self.model), "tau_s_stderr": self.tau_stderr}, "rows": self.rows})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         frames = []
         for i, r in enumerate(self.rows):
@@ -826,7 +834,7 @@ class Fig13Result(Result):
         pandas.DataFrame
             ``beta_counts``, ``time_constant_s``, ``overshoot_pct``.
         """
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         betas = np.arange(110.0, 201.0, 2.0) if betas is None else np.asarray(betas, dtype=float)
         rows, _ = _fig13_runs(self.model, betas=betas, laws=("paper",))
@@ -842,7 +850,6 @@ class Fig13Result(Result):
         ax : matplotlib.axes.Axes or pair of Axes, optional
             One Axes: the responses only; two: responses and τ(β); default a new figure with both. [-]
         """
-        from mckibben.control.plots import plot_fig13
 
         return plot_fig13(self, ax=ax)
 
@@ -880,7 +887,7 @@ def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=Non
     betas = tuple(_beta(b) for b in betas)
     for law in laws:
         if law not in LAWS:
-            raise unknown_name("--law", law, LAWS)
+            raise unknown_name("`law`", law, LAWS)
     fit, model, _ = _default_identification()
     rows, rec = _fig13_runs(model, betas=betas, laws=tuple(laws), eps=e, ki=k)
     return Fig13Result(rows, rec, model, float(fit.stderr["tau_s"]),
@@ -922,7 +929,7 @@ class CompareResult(Result):
         return to_jsonable({"rows": self.rows})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         return pd.DataFrame(self.rows)
 
@@ -934,7 +941,6 @@ class CompareResult(Result):
         ax : matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_compare
 
         return plot_compare(self, ax=ax)
 
@@ -1022,7 +1028,7 @@ class RobustnessResult(Result):
         return to_jsonable({"n": self.arguments["n"], "seed": self.arguments["seed"], "summary": self.summary})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         frames = []
         for c in CONTROLLER_NAMES:
@@ -1039,7 +1045,6 @@ class RobustnessResult(Result):
         ax : sequence of three matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_robustness
 
         return plot_robustness(self, ax=ax)
 
@@ -1081,14 +1086,14 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
     RobustnessResult
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise InputError(f"--n: {n!r} must be at least 1")
+        raise InputError(f"n: {n!r} must be at least 1")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
-        raise InputError(f"--seed: {seed!r} must be in 0..2**63-1")
-    check_budget("--n", 3 * n * ROBUSTNESS_DURATION / TS, force=force,
-                 what="control periods (3 controllers × --n plants × 0.6 s)")
+        raise InputError(f"seed: {seed!r} must be in 0..2**63-1")
+    k = len(CONTROLLER_NAMES)
+    check_budget("n", k * n * ROBUSTNESS_DURATION / TS, force=force,
+                 what=f"control periods ({k} controllers × `n` plants × 0.6 s)")
     _no_direction(direction, muscle_file)
     b = _beta(beta)
-    from mckibben.control.experiments import FIG13_TARGET_PA, sample_plants
 
     extra: dict = {}
     if muscle_file is None:
@@ -1113,7 +1118,6 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
                 per_plant[c][k] = np.concatenate([per_plant[c].get(k, np.empty(0)), v])
         if progress is not None:
             progress(hi, int(n))
-    from mckibben.control.experiments import _pct
 
     summary = {c: {k: _pct(v) for k, v in per_plant[c].items()} for c in CONTROLLER_NAMES}
     where = {} if muscle_file is None else {"muscle_file": str(muscle_file), "direction": direction,
@@ -1155,7 +1159,7 @@ class OpenLoopResult(Result):
                             "duration_s": a["duration_s"], **extra, **self.metrics})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         return pd.DataFrame({"time_s": self.time, "pressure_Pa": self.pressure, "length_m": self.length})
 
@@ -1167,7 +1171,6 @@ class OpenLoopResult(Result):
         ax : matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.control.plots import plot_open_loop
 
         return plot_open_loop(self, ax=ax)
 
@@ -1196,27 +1199,26 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
     -------
     OpenLoopResult
     """
-    from mckibben.plant import CALIBRATION_PWM, PlantParams, open_loop_step
 
     _no_direction(direction, muscle_file)
     valve = CALIBRATION_PWM if valve is None else valve
     if isinstance(valve, bool) or not isinstance(valve, (int, np.integer)) or not 0 <= valve <= 255:
-        raise InputError(f"--valve: {valve!r} must be a PWM count in 0..255")
-    d = quantity(duration, "time", "--duration", allow_zero=False)
+        raise InputError(f"valve: {valve!r} must be a PWM count in 0..255")
+    d = quantity(duration, "time", "duration", allow_zero=False)
     steps = d / TS
     if abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
-        raise InputError(f"--duration: {duration!r} must be a whole number of 1 ms control periods")
+        raise InputError(f"duration: {duration!r} must be a whole number of 1 ms control periods")
     if d > 60:
-        raise InputError(f"--duration: {duration!r} is longer than 60 s")
+        raise InputError(f"duration: {duration!r} is longer than 60 s")
     extra: dict = {}
     if muscle_file is not None:
         plant = muscle_file_plant(muscle_file, load, supply, direction)
         s, f = float(plant.supply_pressure), float(plant.load_force)
         extra.update(muscle_file=str(muscle_file), direction=direction)
     else:
-        s = quantity("0.8MPa" if supply is None else supply, "pressure", "--supply", allow_zero=False)
+        s = quantity("0.8MPa" if supply is None else supply, "pressure", "supply", allow_zero=False)
         if s > 1e6:
-            raise InputError(f"--supply: {supply!r} is above the compressor's 1 MPa")
+            raise InputError(f"supply: {supply!r} is above the compressor's 1 MPa")
         f = plant_load(load)
         plant = PlantParams(supply_pressure=s, load_force=f)
     res, m = open_loop_step(plant, valve=int(valve), duration=d)
@@ -1248,21 +1250,14 @@ def hysteresis_compensation(period="4s", *, sweep_period=None, muscle_file=None)
         ``.summary()``, ``.plot()``.
     """
     _refuse_muscle_file("hysteresis", muscle_file, HYSTERESIS_REFUSAL)
-    from mckibben.control.hysteresis import (
-        PERIOD_MAX,
-        PERIOD_MIN,
-        SWEEP_PERIOD_MAX,
-        SWEEP_PERIOD_MIN,
-        hysteresis_benefit,
-    )
 
-    per = quantity(period, "time", "--period", allow_zero=False)
+    per = quantity(period, "time", "period", allow_zero=False)
     if not PERIOD_MIN <= per <= PERIOD_MAX:
-        raise InputError(f"--period: {period!r} must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")
+        raise InputError(f"period: {period!r} must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")
     sweep = None
     if sweep_period is not None:
-        sweep = quantity(sweep_period, "time", "--sweep-period", allow_zero=False)
+        sweep = quantity(sweep_period, "time", "sweep_period", allow_zero=False)
         if not SWEEP_PERIOD_MIN <= sweep <= SWEEP_PERIOD_MAX:
-            raise InputError(f"--sweep-period: {sweep_period!r} must be between {SWEEP_PERIOD_MIN:g} s and "
+            raise InputError(f"sweep_period: {sweep_period!r} must be between {SWEEP_PERIOD_MIN:g} s and "
                              f"{SWEEP_PERIOD_MAX:g} s")
     return hysteresis_benefit(identified_model(), period=per, sweep_period=sweep)

@@ -5,9 +5,60 @@
 ('pressure', 'load', 'length')
 """
 
-from mckibben.data.io import (TARES, MuscleSpec, Table, apply_tare, check_muscle, detect_kind, find_muscle_file,
-                              read_muscle, read_table)
-from mckibben.data.schema import KINDS, QUANTITIES, SCHEMAS, Schema
+import importlib
+from typing import TYPE_CHECKING
+
+#: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
+#: package is cheap (``mckibben --version``/``--help`` import every command module), and a
+#: submodule loads its heavy packages (Numba, SciPy, pandas...) only when a name of it is used.
+_WHERE = {
+    "KINDS": "mckibben.data.schema",
+    "MuscleSpec": "mckibben.data.io",
+    "QUANTITIES": "mckibben.data.schema",
+    "SCHEMAS": "mckibben.data.schema",
+    "Schema": "mckibben.data.schema",
+    "TARES": "mckibben.data.io",
+    "Table": "mckibben.data.io",
+    "apply_tare": "mckibben.data.io",
+    "check_muscle": "mckibben.data.io",
+    "detect_kind": "mckibben.data.io",
+    "find_muscle_file": "mckibben.data.io",
+    "read_muscle": "mckibben.data.io",
+    "read_table": "mckibben.data.io",
+}
 
 __all__ = ["KINDS", "QUANTITIES", "SCHEMAS", "TARES", "MuscleSpec", "Schema", "Table", "apply_tare", "check_muscle", "detect_kind",
            "find_muscle_file", "read_muscle", "read_table"]
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
+    from mckibben.data.schema import KINDS as KINDS
+    from mckibben.data.io import MuscleSpec as MuscleSpec
+    from mckibben.data.schema import QUANTITIES as QUANTITIES
+    from mckibben.data.schema import SCHEMAS as SCHEMAS
+    from mckibben.data.schema import Schema as Schema
+    from mckibben.data.io import TARES as TARES
+    from mckibben.data.io import Table as Table
+    from mckibben.data.io import apply_tare as apply_tare
+    from mckibben.data.io import check_muscle as check_muscle
+    from mckibben.data.io import detect_kind as detect_kind
+    from mckibben.data.io import find_muscle_file as find_muscle_file
+    from mckibben.data.io import read_muscle as read_muscle
+    from mckibben.data.io import read_table as read_table
+
+
+def __getattr__(name: str):
+    # table-driven (see _WHERE): the submodule and its heavy third-party packages load on first use
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    try:  # a submodule by attribute (``mckibben.data.steplog``), as an eager package would have bound it
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

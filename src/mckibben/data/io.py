@@ -23,6 +23,9 @@ from mckibben.data.schema import BARE_COLUMNS, KINDS, PER_MUSCLE, QUANTITIES, SC
 from mckibben.atomic import check_input_file
 from mckibben.errors import InputError
 from mckibben.units import G_N, UNITS, to_si, units_of
+from mckibben.errors import unknown_name
+from mckibben.limits import PLAUSIBLE_MAX, first_implausible
+from mckibben.units import SI_UNIT
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -208,8 +211,6 @@ def read_table(path, kind: str | None = None) -> Table:
     df.columns = [str(c).strip() for c in df.columns]
     cols = _parse_columns(name, list(df.columns))
     if kind is not None and kind not in SCHEMAS:
-        from mckibben.errors import unknown_name
-
         raise unknown_name("experiment kind", kind, KINDS)
     if kind is None and p.stem in SCHEMAS:
         kind = p.stem
@@ -318,8 +319,6 @@ def read_table(path, kind: str | None = None) -> Table:
 
 def _check_plausible(data: pd.DataFrame, cols: dict, name: str, is_csv: bool) -> None:
     """Refuse a magnitude no braided muscle produces (:data:`mckibben.limits.PLAUSIBLE_MAX`)."""
-    from mckibben.limits import PLAUSIBLE_MAX, first_implausible
-    from mckibben.units import SI_UNIT
 
     for q, (_, _, col) in cols.items():
         if q not in QUANTITIES:
@@ -480,8 +479,6 @@ def apply_pressure_zero(table: Table, method: str = "none") -> tuple[Table, dict
         ``method`` and ``pressure_zero_Pa`` (the offset, or its range for a column). [-]
     """
     if method not in PRESSURE_ZEROS:
-        from mckibben.errors import unknown_name
-
         raise unknown_name("pressure zero", method, PRESSURE_ZEROS)
     if method == "none":
         return table, {"method": "none"}
@@ -528,11 +525,9 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
         (``"lowest"``) or ``tare_N_range`` (``"column"``). Printed by the CLI when a tare is used.
     """
     if method not in TARES:
-        from mckibben.errors import unknown_name
-
         raise unknown_name("tare", method, TARES)
     if table.kind != "isometric":
-        raise InputError(f"--tare: applies to isometric tables; {table.path} is a {table.kind} table")
+        raise InputError(f"tare: applies to isometric tables; {table.path} is a {table.kind} table")
     d = table.data.copy()
     report: dict = {"method": method}
     if method == "none":
@@ -669,15 +664,6 @@ class MuscleSpec:
                              f" (e.g. {quantity}_{unit} = ...)")
         return float(value)
 
-    @property
-    def geometry(self):
-        """The construction as a :class:`~mckibben.models.mpam.MiniatureGeometry` (every size needed)."""
-        from mckibben.models.mpam import MiniatureGeometry
-
-        sizes = [self.need(q, "the miniature geometry") for q in ("outer_diameter", "tube_inner_diameter",
-                                                                 "tube_outer_diameter", "strand_diameter",
-                                                                 "braid_angle")]
-        return MiniatureGeometry(*sizes)
 
 
 #: Muscle-file keys: field -> (dimension, required).

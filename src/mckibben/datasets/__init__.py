@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib
+
 from mckibben.datasets.published import MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES
 from mckibben.errors import ArgumentTypeError, unknown_name
 from mckibben.models.mpam import MiniatureMuscle
@@ -37,3 +39,13 @@ def get_muscle(name: str) -> MiniatureMuscle:
 
 
 __all__ = ["MUSCLES", "SPRING_MODEL_STRUCTURE", "SPRING_MUSCLE_SIZES", "get_muscle", "list_muscles"]
+
+
+def __getattr__(name: str):
+    # the generated campaigns (pandas) load on first use: ``datasets.campaign``, ``datasets.isometric``
+    try:
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -42,11 +42,12 @@ Every experiment is drawn from one "truth" per muscle (:func:`campaign_truth`):
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from mckibben.datasets.published import MUSCLES
 from mckibben.errors import InputError
@@ -54,6 +55,12 @@ from mckibben.hardware import ENCODER_RESOLUTION, P_MAX_DEFAULT, quantize_length
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import MiniatureMuscle, braid_cos_theta
 from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel, spring_force
+from mckibben.errors import unknown_name
+from mckibben.atomic import atomic_dir, check_output_dir
+import tomllib
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 #: Where the bundled campaign lives (package data).
 BUNDLED = Path(__file__).with_name("campaign")
@@ -155,8 +162,6 @@ def campaign_truth(name: str) -> CampaignTruth:
         ``"mpam97"``, ``"mpam117"`` or ``"mpam143"``.
     """
     if name not in CAMPAIGN_MUSCLES:
-        from mckibben.errors import unknown_name
-
         raise unknown_name("campaign muscle", name, CAMPAIGN_MUSCLES)
     m = MUSCLES[name]
     fb = _blocked_force_cubic(m.blocked_force[0][1])
@@ -190,6 +195,7 @@ def generate_muscle(name: str, seed: int = 0) -> dict[str, pd.DataFrame]:
     dict
         file name -> pandas.DataFrame with ``quantity_unit`` columns.
     """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
     truth = campaign_truth(name)
     m = truth.muscle
     idx = CAMPAIGN_MUSCLES.index(name)
@@ -366,12 +372,11 @@ def write_campaign(out, seed: int = 0) -> Path:
     pathlib.Path
         The folder.
     """
-    from mckibben.atomic import atomic_dir, check_output_dir
 
-    out = check_output_dir(out, "--out")
+    out = check_output_dir(out, "out")
     if out.is_dir() and any(out.iterdir()) and not (out / "campaign.toml").is_file():
-        raise InputError(f"--out: {out} exists and is not an empty folder or a campaign written before")
-    with atomic_dir(out, "--out") as tmp:
+        raise InputError(f"out: {out} exists and is not an empty folder or a campaign written before")
+    with atomic_dir(out, "out") as tmp:
         (tmp / "campaign.toml").write_text(campaign_toml(seed), encoding="utf-8")
         (tmp / "README.md").write_text(README.format(seed=seed), encoding="utf-8")
         for name in CAMPAIGN_MUSCLES:
@@ -404,10 +409,10 @@ def campaign_muscle_dirs(root=None) -> list[Path]:
     """
     root = Path(root) if root is not None else BUNDLED
     if not root.is_dir():
-        raise InputError(f"--data: {root} is not a folder")
+        raise InputError(f"data: {root} is not a folder")
     dirs = sorted(p for p in root.iterdir() if p.is_dir() and (p / "muscle.toml").is_file())
     if not dirs:
-        raise InputError(f"--data: {root} holds no muscle folders (sub-folders with a muscle.toml)")
+        raise InputError(f"data: {root} holds no muscle folders (sub-folders with a muscle.toml)")
     return dirs
 
 
@@ -419,7 +424,6 @@ def is_synthetic(root=None) -> bool:
     root : str or pathlib.Path, optional
         The campaign folder (default: the bundled one).
     """
-    import tomllib
 
     root = Path(root) if root is not None else BUNDLED
     meta = root / "campaign.toml"

@@ -30,12 +30,16 @@ own load-cell zero (common 2 N + N(0, 1.5 N) per run: offsets not removed), forc
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from mckibben.models.physical import BraidGeometry, wall_corrected_force
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 #: Where the bundled campaign lives (package data).
 BUNDLED_ISOMETRIC = Path(__file__).with_name("isometric")
@@ -138,6 +142,7 @@ def isometric_campaign(seed: int = 0, n_trials: int = N_TRIALS, lengths=None, n_
         Columns ``held_length_mm``, ``pressure_kPa``, ``force_N``, ``direction``, ``trial``,
         ``muscle``.
     """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
     rng = np.random.default_rng(seed)
     lengths = held_lengths() if lengths is None else np.asarray(lengths, dtype=float)
     up = np.linspace(0.0, P_TOP, n_steps)

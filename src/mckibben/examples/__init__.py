@@ -11,6 +11,7 @@ from importlib import resources
 from pathlib import Path
 
 from mckibben.errors import InputError, unknown_name
+from mckibben.atomic import atomic_file
 
 __all__ = ["copy_example", "example_path", "list_examples"]
 
@@ -60,7 +61,6 @@ def copy_example(name: str, dest=".") -> Path:
     pathlib.Path
         The copy.
     """
-    from mckibben.atomic import atomic_file
 
     src = example_path(name)
     dest = Path(dest)

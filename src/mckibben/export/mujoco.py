@@ -50,6 +50,7 @@ import numpy as np
 
 from mckibben import hardware as HW
 from mckibben._jit import njit
+from mckibben import control
 from mckibben.control.core import CoreParams, core_spec
 from mckibben.data.io import MuscleSpec
 from mckibben.datasets import get_muscle
@@ -368,9 +369,7 @@ class MuscleBank:
         if controller is None:
             return None
         if isinstance(controller, str):
-            from mckibben.control.simulation import controller_params  # deferred: identifies a model (SciPy)
-
-            controller = controller_params(controller)
+            controller = control.simulation.controller_params(controller)
         if isinstance(controller, CoreParams):
             controller = core_spec(controller, n)
         if not (isinstance(controller, tuple) and len(controller) == 5):

@@ -42,6 +42,11 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
 
 def __getattr__(name: str):
     if name not in _EXPORTS:
+        try:  # a submodule by attribute (``mckibben.fit.muscle_file``), as an eager package would have bound it
+            return importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
         raise AttributeError(f"module 'mckibben.fit' has no attribute {name!r}")
     value = getattr(importlib.import_module(f"mckibben.fit.{_EXPORTS[name]}"), name)
     globals()[name] = value

@@ -99,8 +99,8 @@ def _physical(fitter, muscle):
 
 
 def _gaussian_process(train: Table, kernel=None, optimize=True):
-    from sklearn.gaussian_process import GaussianProcessRegressor
-    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+    from sklearn.gaussian_process import GaussianProcessRegressor  # deferred on purpose: scikit-learn
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel  # deferred on purpose: scikit-learn
 
     # on the trial means per (pressure, load): the GP's cost grows as n³, and the means carry the
     # same information about the surface

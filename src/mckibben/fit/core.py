@@ -19,7 +19,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy  # its submodules load on first use (scipy.optimize: 0.35 s), not with this module
 
 from mckibben.errors import InputError
 from mckibben.models.flags import Flag, outside
@@ -61,7 +60,6 @@ RANGE_FLAGS = {
     "contraction": Flag.LENGTH_OUT_OF_RANGE,
     "cos_theta": Flag.LENGTH_OUT_OF_RANGE,
     "force": Flag.FORCE_OUT_OF_RANGE,
-    "rest_length": Flag.REST_LENGTH_OUT_OF_RANGE,
 }
 
 #: SI unit of each input quantity, for JSON keys of the valid range.
@@ -140,7 +138,8 @@ class FitResult:
     @property
     def t_quantile(self) -> float:
         """Student's t quantile for a two-sided 95 % interval with :attr:`dof` degrees of freedom. [-]"""
-        return float(scipy.special.stdtrit(self.t_dof if self.t_dof is not None else self.dof, 0.975))  # t quantile, as stats.t.ppf
+        from scipy import special  # deferred on purpose: SciPy
+        return float(special.stdtrit(self.t_dof if self.t_dof is not None else self.dof, 0.975))  # t quantile, as stats.t.ppf
 
     @property
     def ci95(self) -> np.ndarray:
@@ -377,13 +376,14 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
 def _nonnegative_fit(x, y, names, nonneg, cond, *, model, response, valid_range, func, condition, source, scale,
                      clusters) -> FitResult:
     """The bounded branch of :func:`linear_fit`: some coefficients ≥ 0, held at 0 for the covariance."""
+    from scipy import optimize  # deferred on purpose: SciPy
     n, p = x.shape
     if nonneg.shape != (p,):
         raise InputError(f"nonnegative: {nonneg.size} flags for {p} coefficients")
     norms = np.linalg.norm(x, axis=0)
     xs = x / norms
     lo = np.where(nonneg, 0.0, -np.inf)
-    res = scipy.optimize.lsq_linear(xs, y, bounds=(lo, np.full(p, np.inf)), method="bvls", tol=1e-14)
+    res = optimize.lsq_linear(xs, y, bounds=(lo, np.full(p, np.inf)), method="bvls", tol=1e-14)
     beta = res.x / norms
     at = nonneg & (res.x <= 1e-12 * max(float(np.max(np.abs(res.x))), 1e-300))
     beta[at] = 0.0
@@ -454,6 +454,7 @@ def nonlinear_fit(residual, x0, names, *, model: str, response: str, what: str, 
     -------
     FitResult
     """
+    from scipy import optimize  # deferred on purpose: SciPy
     x0 = np.asarray(x0, dtype=float)
     r0 = np.asarray(residual(x0))
     n = int(n_points if n_points is not None else r0.size)
@@ -461,7 +462,7 @@ def nonlinear_fit(residual, x0, names, *, model: str, response: str, what: str, 
     require_points(n, p, what)
     if not np.all(np.isfinite(r0)):
         raise InputError(f"{what}: the model cannot be evaluated at the starting point (check the data)")
-    res = scipy.optimize.least_squares(residual, x0, bounds=bounds, method="trf", x_scale="jac", max_nfev=200 * (p + 1))
+    res = optimize.least_squares(residual, x0, bounds=bounds, method="trf", x_scale="jac", max_nfev=200 * (p + 1))
     if not res.success or not np.all(np.isfinite(res.fun)):
         raise InputError(f"{what}: the fit did not converge ({res.message})")
     jac = res.jac
@@ -645,6 +646,7 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     -------
     FitResult
     """
+    from scipy import optimize  # deferred on purpose: SciPy
     y = np.asarray(y, dtype=float)
     lo = np.asarray(lo, dtype=float)
     hi = np.asarray(hi, dtype=float)
@@ -666,7 +668,7 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
         if not np.all(np.isfinite(r0)):
             continue
         # stage 1: a short run from every start; stage 2 below runs the two best to convergence
-        res = scipy.optimize.least_squares(resid, th0, bounds=(tlo, thi), method="trf", x_scale=1.0,
+        res = optimize.least_squares(resid, th0, bounds=(tlo, thi), method="trf", x_scale=1.0,
                                      max_nfev=5 * (p + 1) if len(starts) > 2 else 100 * (p + 1))
         if np.all(np.isfinite(res.fun)):
             tried.append((res.cost, res.x, resid, tlo, thi, shift, scale))
@@ -674,7 +676,7 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
         raise InputError(f"{what}: the model cannot be evaluated at any starting point (check the data)")
     tried.sort(key=lambda t: t[0])
     for cost, x, resid, tlo, thi, shift, scale in tried[:2]:
-        res = scipy.optimize.least_squares(resid, x, bounds=(tlo, thi), method="trf", x_scale=1.0, max_nfev=100 * (p + 1))
+        res = optimize.least_squares(resid, x, bounds=(tlo, thi), method="trf", x_scale=1.0, max_nfev=100 * (p + 1))
         if np.all(np.isfinite(res.fun)) and (best is None or res.cost < best[0].cost):
             best = (res, shift, scale)
     res, shift, scale = best

@@ -46,9 +46,10 @@ Chou & Hannaford (1996); Tondu & Lopez (2000); Tsagarakis & Caldwell (2000), Dav
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -62,6 +63,11 @@ from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
+from mckibben.data.io import set_point_groups
+from dataclasses import replace
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -203,8 +209,7 @@ class IsometricFit(Result):
 
     def _series(self) -> pd.DataFrame:
         """The fitted points with the model's force and the residual (``quantity_unit`` columns)."""
-        import pandas as pd  # deferred: pandas costs 0.25 s to import, and a command that only reads a muscle file needs none
-
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
         d = self.data.reset_index(drop=True)
         return pd.DataFrame({"held_length_m": d["held_length"], "pressure_Pa": d["pressure"], "force_N": d["force"],
                              "direction": d["direction"], "trial": d["trial"],
@@ -223,7 +228,7 @@ class IsometricFit(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
         if ax is None:
             fig, ax = plt.subplots(figsize=(6, 4))
@@ -319,7 +324,6 @@ def held_length_groups(held_length) -> np.ndarray:
     held_length : array_like
         Held lengths. [m]
     """
-    from mckibben.data.io import set_point_groups
 
     return set_point_groups(np.asarray(held_length, dtype=float), decimals=6)[0]
 
@@ -398,11 +402,9 @@ MONOTONE_TOL = 0.02
 
 
 def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
-    from dataclasses import replace
 
     pg = np.linspace(float(d["pressure"].min()), float(d["pressure"].max()), 41)
     peak = float(np.max(np.abs(d["force"]))) or 1.0
-    from mckibben.data.io import set_point_groups
 
     rests = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(len(d), np.nan)
     pairs = np.unique(np.column_stack([np.round(rests, 9), np.round(d["held_length"].to_numpy(dtype=float), 6)]), axis=0)
@@ -581,8 +583,7 @@ class ModelComparison(Result):
 
     def _series(self) -> pd.DataFrame:
         """One row per model (the scores), sorted by held-out error."""
-        import pandas as pd  # deferred: pandas costs 0.25 s to import, and a command that only reads a muscle file needs none
-
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
         return pd.DataFrame(self.scores).sort_values("cv_rmse_N", na_position="last").reset_index(drop=True)
 
     def to_dict(self) -> dict:
@@ -602,7 +603,7 @@ class ModelComparison(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
         if ax is None:
             _, ax = plt.subplots(figsize=(6, 3.5))
@@ -684,7 +685,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     ModelComparison
     """
     if cv not in CV_METHODS:
-        raise unknown_name("--cv scheme", cv, CV_METHODS)
+        raise unknown_name("`cv` scheme", cv, CV_METHODS)
     d, report = isometric_points(table, tare, rails, pressure_zero)
     family = is_family(d)
     if cv == "leave-one-muscle-out" and not family:

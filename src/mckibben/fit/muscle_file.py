@@ -20,6 +20,7 @@ from mckibben.fit.isometric import ALL_MODELS, force_law, model_name, parameter_
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION
+from mckibben.atomic import atomic_file
 
 def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) -> str:
     """The TOML text of a muscle file holding a fitted force law.
@@ -42,10 +43,10 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
     flags = list(r.flags)
     if rest_length is not None or (law is not None and law.family):
         if law is None or not law.family:
-            raise InputError(f"--rest-length: applies to a family law; {fit.model} describes the muscle it was fitted on")
+            raise InputError(f"rest_length: applies to a family law; {fit.model} describes the muscle it was fitted on")
         l0 = spec.nominal_length if rest_length is None else float(rest_length)
         if not (np.isfinite(l0) and l0 > 0):
-            raise InputError(f"--rest-length: {rest_length!r} must be a positive length")
+            raise InputError(f"rest_length: {rest_length!r} must be a positive length")
         d = fit.data
         rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(len(d), spec.nominal_length)
         rel = d["held_length"].to_numpy(dtype=float) / rest
@@ -80,13 +81,12 @@ def save_muscle_file(path, spec: MuscleSpec, fit, rest_length: float | None = No
     pathlib.Path
         The file written.
     """
-    from mckibben.atomic import atomic_file
 
     p = Path(path)
     if p.suffix.lower() != ".toml":
-        raise InputError(f"--save: {path} must end in .toml")
+        raise InputError(f"save: {path} must end in .toml")
     text = muscle_file_text(spec, fit, rest_length)
-    with atomic_file(p, "--save") as tmp:
+    with atomic_file(p, "save") as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
     return p
 
@@ -233,7 +233,7 @@ DIRECTIONS = ("inflate", "deflate")
 
 
 def check_direction(direction: str, law: MuscleForceLaw | None = None) -> str:
-    """The branch of a muscle file's law to run, checked (``--direction``).
+    """The branch of a muscle file's law to run, checked (the ``direction`` argument of every muscle-file call).
 
     Parameters
     ----------
@@ -254,8 +254,8 @@ def check_direction(direction: str, law: MuscleForceLaw | None = None) -> str:
         fit does not have would silently run the inflate one).
     """
     if direction not in DIRECTIONS:
-        raise InputError(f"--direction: {direction!r} must be inflate or deflate")
+        raise InputError(f"direction: {direction!r} must be inflate or deflate")
     if direction == "deflate" and law is not None and getattr(laws.LAWS.get(law.model), "branches", 1) < 2:
-        raise InputError(f"--direction deflate: the {law.model} force law of {law.spec.path or law.spec.id} has one "
+        raise InputError(f"`direction` deflate: the {law.model} force law of {law.spec.path or law.spec.id} has one "
                          "branch for both directions; only a spring fit has a deflate branch")
     return direction

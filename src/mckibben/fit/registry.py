@@ -18,38 +18,32 @@ import numpy as np
 from mckibben.errors import ArgumentTypeError, InputError, unknown_name
 from mckibben.models import laws
 from mckibben.results import Result
+from mckibben.data import find_muscle_file, read_muscle
+from mckibben.datasets.campaign import is_synthetic
+from mckibben.data import check_muscle, read_table
+from mckibben.fit import static
+from mckibben.fit.isometric import ALL_MODELS, fit_isometric
+from mckibben.fit.muscle_file import save_muscle_file
+from mckibben.fit.isometric import compare_isometric
+from mckibben.fit.compare import compare_models
+from mckibben.results import to_jsonable
+from mckibben.fit.isometric import IsometricFit
+from mckibben.fit.names import FIT_MODELS, NEEDS_MUSCLE  # noqa: F401  (re-exported)
 
-FIT_MODELS = {
-    "kinematic": "eq. 2, l = k1·Ls·cos θ + k2, on braid_angle data (needs the muscle file)",
-    "cubic": "one cubic in pressure per load/direction (isotonic, hysteresis, braid_angle, blocked_force)",
-    "surface": "one cubic-in-pressure, linear-in-load surface of the length (isotonic)",
-    "force-contraction": "one cubic of load vs contraction per pressure, Fig. 5 (isotonic; muscle file)",
-    "spring": "Lu(P) and K(P, Ls) per direction and pressure range (force_length, isotonic or isometric)",
-    "chou-hannaford": "fitted braid geometry: length under load (isotonic) or force(P, L) (isometric); muscle file",
-    "wall-chou-hannaford": "Chou-Hannaford with the tube wall: force(P, L) (isometric; muscle file)",
-    "tondu-lopez": "fitted k and r0 (and alpha0 if unknown): isotonic or isometric; muscle file",
-    "first-order": "p0, p_final, tau of pressure step responses (step_response)",
-}
-# every force law with a fit spec (mckibben.models.laws, the one vocabulary) fits isometric tables
-FIT_MODELS.update({n: f"{law.description} (isometric{', a family table' if law.family else ''}; muscle file)"
-                   for n, law in laws.fit_laws().items() if n not in FIT_MODELS})
-NEEDS_MUSCLE = {"kinematic", "force-contraction", "chou-hannaford", "wall-chou-hannaford", "tondu-lopez"}
 
 
 def load_muscle(data: Path, muscle: str | None, required: bool, what: str):
     """The muscle file given with --muscle, else ``muscle.toml`` beside the data (or None)."""
-    from mckibben.data import find_muscle_file, read_muscle
 
     path = Path(muscle) if muscle else find_muscle_file(data)
     if path is None:
         if required:
-            raise InputError(f"{what}: needs a muscle file; give --muscle FILE.toml or put muscle.toml beside {data}")
+            raise InputError(f"{what}: needs a muscle file; give `muscle` FILE.toml or put muscle.toml beside {data}")
         return None
     return read_muscle(path)
 
 
 def _synthetic(data: Path, spec) -> bool:
-    from mckibben.datasets.campaign import is_synthetic
 
     folder = data if data.is_dir() else data.parent
     return bool(spec is not None and spec.synthetic) or is_synthetic(folder) or is_synthetic(folder.parent)
@@ -59,8 +53,6 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
-    from mckibben.data import check_muscle, read_table
-    from mckibben.fit import static
 
     if model not in FIT_MODELS:
         raise unknown_name("model", model, FIT_MODELS)
@@ -70,17 +62,15 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
     if spec is not None:
         check_muscle(table, spec)
     if tare != "none" and not isometric:
-        raise InputError(f"--tare: applies to isometric tables; {data} is a {table.kind} table")
+        raise InputError(f"tare: applies to isometric tables; {data} is a {table.kind} table")
     if (rails != "keep" or pressure_zero != "none") and not isometric:
-        raise InputError(f"--rails/--pressure-zero: apply to isometric tables; {data} is a {table.kind} table")
+        raise InputError(f"rails/`pressure_zero`: apply to isometric tables; {data} is a {table.kind} table")
     if save is not None and not isometric:
-        raise InputError(f"--save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
+        raise InputError(f"save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
     if rest_length is not None and save is None:
-        raise InputError("--rest-length: sets the rest length of the muscle a family law's file describes; give --save")
+        raise InputError("rest_length: sets the rest length of the muscle a family law's file describes; give `save`")
     extra: dict = {}
     if isometric:
-        from mckibben.fit.isometric import ALL_MODELS, fit_isometric
-
         if model not in ALL_MODELS and model not in laws.ALIASES:
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
         fit = fit_isometric(table, spec, model, tare, rails, pressure_zero)
@@ -88,8 +78,6 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
                "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
         out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
         if save is not None:
-            from mckibben.fit.muscle_file import save_muscle_file
-
             out["saved"] = str(save_muscle_file(save, spec, fit, rest_length))
         return out, [fit]
     if model == "kinematic":
@@ -104,7 +92,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         if split_pressure is not None:
             p = table.data["pressure"].to_numpy()
             if not float(p.min()) <= split_pressure < float(p.max()):
-                raise InputError(f"--split-pressure: {split_pressure / 1e6:g} MPa is outside the pressures of {data} "
+                raise InputError(f"split_pressure: {split_pressure / 1e6:g} MPa is outside the pressures of {data} "
                                  f"({p.min() / 1e6:g}..{p.max() / 1e6:g} MPa): one range would get no point")
         sf = static.fit_spring(table, split_pressure=split_pressure,
                                nominal_length=spec.nominal_length if spec else None)
@@ -130,7 +118,6 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
 
 def _isometric_table(data: Path):
     """The table if DATA is an isometric table file, else None (a folder or another kind)."""
-    from mckibben.data import read_table
 
     data = Path(data)
     if data.is_dir():
@@ -142,8 +129,6 @@ def _isometric_table(data: Path):
 def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
                        pressure_zero: str = "none") -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
-    from mckibben.data import check_muscle
-    from mckibben.fit.isometric import compare_isometric
 
     spec = load_muscle(data, muscle, True, "compare")
     check_muscle(table, spec)
@@ -159,8 +144,6 @@ COMPARE_MIN_PRESSURES = 6
 
 def _compare_isotonic(data: Path, muscle: str | None = None) -> dict:
     """Run the comparison; return the JSON-ready result."""
-    from mckibben.data import check_muscle, read_table
-    from mckibben.fit.compare import compare_models
 
     data = Path(data)
     folder = data if data.is_dir() else data.parent
@@ -226,12 +209,11 @@ class TableFit(Result):
 
     def to_dict(self) -> dict:
         """JSON-ready (what ``--json`` prints)."""
-        from mckibben.results import to_jsonable
 
         return to_jsonable(self.summary)
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         rows = [{"condition": str(f["condition"]), "parameter": n, "value": v, "stderr": f["stderr"][n],
                  "ci95_low": f["ci95"][n][0], "ci95_high": f["ci95"][n][1]}
@@ -250,9 +232,8 @@ class TableFit(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
-        from mckibben.fit.isometric import IsometricFit
 
         if self.fits and isinstance(self.fits[0], IsometricFit):
             return self.fits[0].plot(ax)
@@ -337,12 +318,11 @@ class TableComparison(Result):
 
     def to_dict(self) -> dict:
         """JSON-ready (what ``--json`` prints)."""
-        from mckibben.results import to_jsonable
 
         return to_jsonable(self.summary)
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         return pd.DataFrame(self.summary["models"])
 
@@ -358,7 +338,7 @@ class TableComparison(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
         if ax is None:
             _, ax = plt.subplots(figsize=(6, 3.5))
@@ -404,5 +384,5 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         return TableComparison(_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare, rails,
                                                   pressure_zero))
     if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
-        raise InputError("--cv/--tare: apply to isometric tables; the isotonic comparison chooses its own folds")
+        raise InputError("cv/`tare`: apply to isometric tables; the isotonic comparison chooses its own folds")
     return TableComparison(_compare_isotonic(data, muscle))

@@ -33,6 +33,7 @@ from mckibben.data.io import GROUP_GAP, MuscleSpec, Table, set_point_groups  # n
 from mckibben.errors import InputError
 from mckibben.fit.core import (FitResult, bounded_fit, data_range, linear_fit, nonlinear_fit, require_distinct,
                                require_points)
+from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import BraidAngleMap, MiniatureMuscle
 from mckibben.models.physical import BraidGeometry, length_under_load, tondu_lopez_contraction
@@ -40,6 +41,11 @@ if TYPE_CHECKING:
     import pandas as pd
 
 from mckibben.models.spring import DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel, spring_force
+from mckibben.fit.isometric import D0_FACTOR, THETA_MAX, THETA_STARTS_DEG
+from mckibben.fit.isometric import K_BOUNDS, R0_FACTOR
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 MPA = 1e6
 
@@ -260,7 +266,7 @@ def fitted_muscle(spec: MuscleSpec, kinematic: FitResult, braid_fits: dict[tuple
     return MiniatureMuscle(
         name=spec.id, nominal_length=spec.nominal_length, strand_length=spec.need("strand_length", "the paper's map"),
         k1=kinematic["k1"], k2=kinematic["k2_m"], braid_map=braid_map_from_fits(braid_fits),
-        geometry=spec.geometry, citation=f"fitted to {kinematic.source}", synthetic=spec.synthetic,
+        geometry=MiniatureGeometry.from_spec(spec), citation=f"fitted to {kinematic.source}", synthetic=spec.synthetic,
     )
 
 
@@ -556,7 +562,6 @@ def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Chou & Hannaford (1996); :func:`mckibben.models.physical.length_under_load`.
     """
-    from mckibben.fit.isometric import D0_FACTOR, THETA_MAX, THETA_STARTS_DEG
 
     _need(table, ("isotonic", "hysteresis"), "chou-hannaford")
     d = table.data[_positive(table.data)]
@@ -601,7 +606,6 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Tondu & Lopez (2000); :func:`mckibben.models.physical.tondu_lopez_contraction`.
     """
-    from mckibben.fit.isometric import K_BOUNDS, R0_FACTOR
 
     _need(table, ("isotonic", "hysteresis"), "tondu-lopez")
     d = table.data[_positive(table.data)]

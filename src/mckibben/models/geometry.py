@@ -109,6 +109,17 @@ class MiniatureGeometry:
         """Silicone tube wall thickness. [m]"""
         return 0.5 * (self.tube_outer_diameter - self.tube_inner_diameter)
 
+    @classmethod
+    def from_spec(cls, spec) -> "MiniatureGeometry":
+        """The construction a muscle file states (:class:`mckibben.data.MuscleSpec`; every size needed).
+
+        It was ``MuscleSpec.geometry``; it lives here because ``data`` may not import ``models``.
+        """
+        sizes = [spec.need(q, "the miniature geometry") for q in ("outer_diameter", "tube_inner_diameter",
+                                                                 "tube_outer_diameter", "strand_diameter",
+                                                                 "braid_angle")]
+        return cls(*sizes)
+
 
 def miniature_geometry(nominal_length: float, geometry=None, wall: bool = True) -> BraidGeometry:
     """The physical-model geometry of a miniature muscle of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt).

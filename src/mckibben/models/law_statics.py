@@ -47,7 +47,7 @@ PRESSURE_TOL = 1e-3
 
 def _root(func, lo, hi, args) -> np.ndarray:
     """Roots of ``func(x, *args)`` in the brackets ``[lo, hi]`` (sign change given), element-wise."""
-    from scipy.optimize.elementwise import find_root
+    from scipy.optimize.elementwise import find_root  # deferred on purpose: SciPy
 
     if np.size(args[0]) == 0:
         return np.empty(0)

@@ -95,7 +95,7 @@ def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-ha
 
 def _wall_force_peak(geom: BraidGeometry) -> float:
     """cos θ where the wall-corrected force per unit pressure peaks. [-]"""
-    from scipy.optimize import minimize_scalar
+    from scipy.optimize import minimize_scalar  # deferred on purpose: SciPy
 
     res = minimize_scalar(
         lambda c: -float(wall_corrected_force(1.0, c * geom.strand_length, geom)),

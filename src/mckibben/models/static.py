@@ -26,6 +26,13 @@ import numpy as np
 
 from mckibben.errors import ArgumentTypeError, check_array, unknown_name
 from mckibben.models.flags import Flag, flag_names, flag_where, outside
+from mckibben.models.mpam import _check_muscle as _check_mpam_muscle
+from mckibben.units import quantity
+from mckibben.models.physical import miniature_geometry
+from mckibben.models.mpam import predict_length
+from mckibben.models.physical import length_under_load
+from mckibben.models.mpam import force_from_length
+from mckibben.models.physical import chou_hannaford_force, wall_corrected_force
 
 __all__ = ["FORCE_MODELS", "LENGTH_MODELS", "StaticResult", "force", "force_chou_hannaford", "force_mpam",
            "force_wall_corrected", "length", "length_chou_hannaford", "length_mpam", "length_wall_corrected"]
@@ -61,7 +68,7 @@ class StaticResult:
 
     def to_pandas(self):
         """One row per element: ``pressure_Pa``, ``load_N``, ``length_m``, ``contraction``, ``flags``."""
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         b = np.broadcast_arrays(self.pressure, self.load, self.length, self.contraction, self.flags)
         return pd.DataFrame({"pressure_Pa": b[0].ravel(), "load_N": b[1].ravel(), "length_m": b[2].ravel(),
@@ -79,8 +86,6 @@ class StaticResult:
 
 def _si(value, dimension: str, name: str):
     """The argument ``name`` as a float array: finite numbers (no None, bool, NaN), or text with a unit."""
-    from mckibben.units import quantity
-
     if isinstance(value, str):
         return quantity(value, dimension, name, allow_negative=False)
     return check_array(value, name, lo=0.0)
@@ -96,13 +101,10 @@ def _model_name(model, kind: str, models) -> str:
 
 
 def _check_muscle(muscle) -> None:
-    from mckibben.models.mpam import _check_muscle as check
-
-    check(muscle)
+    _check_mpam_muscle(muscle)
 
 
 def _geometry(muscle, wall: bool):
-    from mckibben.models.physical import miniature_geometry
 
     return miniature_geometry(muscle.nominal_length, muscle.geometry, wall=wall)
 
@@ -127,14 +129,12 @@ def length_mpam(pressure, load, muscle) -> StaticResult:
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
     """
-    from mckibben.models.mpam import predict_length
 
     r = predict_length(muscle, _si(pressure, "pressure", "pressure"), _si(load, "force", "load"))
     return StaticResult("mpam", r.pressure, r.load, r.length, r.contraction, r.flags)
 
 
 def _length_physical(pressure, load, muscle, wall: bool, name: str) -> StaticResult:
-    from mckibben.models.physical import length_under_load
 
     _check_muscle(muscle)
     p, f = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(load, "force", "load"))
@@ -200,7 +200,6 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
     """
-    from mckibben.models.mpam import force_from_length
 
     p, ell = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(length, "length", "length"))
     r = force_from_length(muscle, p, ell)
@@ -209,7 +208,6 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
 
 
 def _force_physical(pressure, length, muscle, wall: bool, name: str) -> StaticResult:
-    from mckibben.models.physical import chou_hannaford_force, wall_corrected_force
 
     p, ell = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(length, "length", "length"))
     _check_muscle(muscle)

@@ -5,13 +5,88 @@ calibrated rig of “Experimental Characterization and Control of Miniaturized P
 against the paper. See ``docs/plant.md``.
 """
 
-from mckibben.plant.calibration import CALIBRATION_PWM, calibration, open_loop_step
-from mckibben.plant.params import FORCE_MODELS, LOADS, THERMAL, Col, Load, PlantParams, calibrate_force_law
-from mckibben.plant.linear import LinearPlant, linearize
-from mckibben.plant.simulator import PlantStepper, SimResult, simulate, static_length
+import importlib
+import sys
+import types
+from typing import TYPE_CHECKING
+
+#: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
+#: package is cheap (``mckibben --version``/``--help`` import every command module), and a
+#: submodule loads its heavy packages (Numba, SciPy, pandas...) only when a name of it is used.
+_WHERE = {
+    "CALIBRATION_PWM": "mckibben.plant.calibration",
+    "Col": "mckibben.plant.params",
+    "FORCE_MODELS": "mckibben.plant.params",
+    "LOADS": "mckibben.plant.params",
+    "LinearPlant": "mckibben.plant.linear",
+    "Load": "mckibben.plant.params",
+    "PlantParams": "mckibben.plant.params",
+    "PlantStepper": "mckibben.plant.simulator",
+    "SimResult": "mckibben.plant.simulator",
+    "THERMAL": "mckibben.plant.params",
+    "calibrate_force_law": "mckibben.plant.params",
+    "calibration": "mckibben.plant.calibration",
+    "linearize": "mckibben.plant.linear",
+    "open_loop_step": "mckibben.plant.calibration",
+    "simulate": "mckibben.plant.simulator",
+    "static_length": "mckibben.plant.simulator",
+}
 
 __all__ = [
     "CALIBRATION_PWM", "FORCE_MODELS", "LOADS", "PlantParams", "PlantStepper", "SimResult", "calibrate_force_law",
     "calibration", "open_loop_step", "simulate", "static_length", "Col", "Load", "THERMAL",
     "LinearPlant", "linearize",
 ]
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
+    from mckibben.plant.calibration import CALIBRATION_PWM as CALIBRATION_PWM
+    from mckibben.plant.params import Col as Col
+    from mckibben.plant.params import FORCE_MODELS as FORCE_MODELS
+    from mckibben.plant.params import LOADS as LOADS
+    from mckibben.plant.linear import LinearPlant as LinearPlant
+    from mckibben.plant.params import Load as Load
+    from mckibben.plant.params import PlantParams as PlantParams
+    from mckibben.plant.simulator import PlantStepper as PlantStepper
+    from mckibben.plant.simulator import SimResult as SimResult
+    from mckibben.plant.params import THERMAL as THERMAL
+    from mckibben.plant.params import calibrate_force_law as calibrate_force_law
+    from mckibben.plant.calibration import calibration as calibration
+    from mckibben.plant.linear import linearize as linearize
+    from mckibben.plant.calibration import open_loop_step as open_loop_step
+    from mckibben.plant.simulator import simulate as simulate
+    from mckibben.plant.simulator import static_length as static_length
+
+
+def __getattr__(name: str):
+    # table-driven (see _WHERE): the submodule and its heavy third-party packages load on first use
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    try:  # a submodule by attribute (``mckibben.plant.params``), as an eager package would have bound it
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))
+
+
+class _Package(types.ModuleType):
+    """The package, where a public name of :data:`_WHERE` keeps its meaning when a submodule of that name loads.
+
+    Importing ``mckibben.plant.calibration`` binds the module on the package as ``calibration``;
+    the eager package rebound the name to the function right after, this one refuses the binding
+    (the module stays in ``sys.modules``, where ``from mckibben.plant.calibration import ...`` finds it).
+    """
+
+    def __setattr__(self, name, value):
+        if name in _WHERE and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

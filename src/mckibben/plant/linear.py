@@ -49,7 +49,7 @@ def _tf(path):
     ``minreal`` on a quotient of paths: its roots lose their accuracy, nothing cancels, and the
     pressure → length path came out of order 11 with a pole at +1e21 rad/s instead of order 2.
     """
-    import control
+    import control  # deferred on purpose: python-control (0.8 s)
 
     a, b, c = (np.asarray(m, dtype=float) for m in (path.A, path.B, path.C))
     tf = control.ss2tf(path)
@@ -94,14 +94,14 @@ class LinearPlant:
     @property
     def length(self):
         """Gauge pressure → length transfer function (the muscle and its load). [m/Pa]"""
-        import control
+        import control  # deferred on purpose: python-control (0.8 s)
 
         return control.minreal(_tf(self.ss[1, 0]) / _tf(self.ss[0, 0]), verbose=False)
 
     @property
     def metrics(self) -> dict:
         """The operating point and the command → pressure path's DC gain and slowest time constant."""
-        import control
+        import control  # deferred on purpose: python-control (0.8 s)
 
         poles = np.asarray(control.poles(self.ss[0, 0]))
         slow = float(-1.0 / np.max(poles.real)) if np.all(poles.real < 0) else math.inf
@@ -179,7 +179,7 @@ def linearize(plant: PP.PlantParams | None = None, pressure: float = 0.55e6) -> 
     cmat = np.zeros((2, 6))
     cmat[0, ph.S_P] = 1.0
     cmat[1, ph.S_LEN] = 1.0
-    import control
+    import control  # deferred on purpose: python-control (0.8 s)
 
     ss = control.ss(a, b, cmat, np.zeros((2, 1)), inputs=["command_counts"], outputs=["pressure_Pa", "length_m"],
                     states=list(STATES))

@@ -15,15 +15,18 @@ import numpy as np
 
 from mckibben import hardware as HW
 from mckibben.errors import InputError, check_real, unknown_name
+from mckibben.units import P_ATM  # noqa: F401  (the plant's atmosphere: PP.P_ATM in the kernels)
 from mckibben.models import laws as LW
 from mckibben.models.muscle import FILE_BRAID_ANGLE as MUSCLE_BRAID_ANGLE
 from mckibben.models.muscle import Muscle
 from mckibben.models.mpam import MiniatureMuscle, predict_length
+from mckibben.models.spring import CONTRACTION, ELONGATION
+from mckibben.datasets import get_muscle
+from mckibben.data.io import MuscleSpec, read_muscle
 
 #: A plant parameter: one value for every instance, or one per instance (shape (N,)). [SI unit of the field]
 Value = float | np.ndarray
 
-P_ATM = 101325.0  #: atmospheric pressure [Pa]
 R_AIR = 287.05  #: specific gas constant of air [J/(kg·K)]
 T0 = 293.15  #: ISO 6358 reference temperature, also the supply temperature [K]
 RHO0 = 1.185  #: ISO 6358 reference density of air (ANR, 20 °C, 1 atm) [kg/m³]
@@ -282,8 +285,6 @@ class PlantParams:
 
     def __post_init__(self):
         if self.muscle_name and np.all(np.asarray(self.r0) == 0):
-            from mckibben.datasets import get_muscle
-
             cal = calibrate_force_law(get_muscle(self.muscle_name), alpha0=self._own_alpha0())
             for key, value in cal.items():
                 object.__setattr__(self, key, value)
@@ -391,8 +392,6 @@ class PlantParams:
             key, a law the plant cannot run (the surface model; a law that pulls less when
             stretched inside the operating range).
         """
-        from mckibben.data.io import MuscleSpec, read_muscle
-        from mckibben.fit.muscle_file import muscle_force_law
 
         if direction not in ("inflate", "deflate"):
             raise InputError(f"direction: {direction!r} must be inflate or deflate")
@@ -401,7 +400,6 @@ class PlantParams:
             direction = m.direction
         else:
             spec = muscle if isinstance(muscle, MuscleSpec) else read_muscle(muscle)
-            muscle_force_law(spec)  # the file's [force_model], checked (names, ranges)
             m = Muscle.from_spec(spec, direction)
         spec = m.spec
         where = spec.path or spec.id
@@ -523,8 +521,6 @@ class PlantParams:
         if name == "braid-map":
             muscle = self.muscle
             if muscle is None:
-                from mckibben.datasets import get_muscle
-
                 if not self.muscle_name:
                     raise InputError("force_model='empirical' needs a muscle (PlantParams.for_muscle or muscle=...)")
                 muscle = get_muscle(self.muscle_name)
@@ -734,7 +730,6 @@ def _critical_damping(model, fields: dict, direction: str) -> float:
     The stiffness is the largest rise of the law's force per metre over the lengths between the
     ideal braid's end stops (k1 = 1, k2 = 0) at the supply pressure.
     """
-    from mckibben.models.spring import CONTRACTION, ELONGATION
 
     name, th = LW.law_of(model, direction=CONTRACTION if direction == "deflate" else ELONGATION)
     b = fields["strand_length"]

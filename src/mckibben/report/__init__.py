@@ -6,85 +6,66 @@
 “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)). On the bundled (synthetic) campaign or on any campaign folder.
 """
 
-from __future__ import annotations
+import importlib
+import sys
+import types
+from typing import TYPE_CHECKING
 
-from collections.abc import Callable
-import os
-
-import numpy as np
-
-from mckibben.errors import ArgumentTypeError, check_callable
-from mckibben.report.characterize import characterize
-from mckibben.report.html import check_report_folder, render_html, summarize, write_report
+#: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
+#: package is cheap (``mckibben --version``/``--help`` import every command module), and a
+#: submodule loads its heavy packages (Numba, SciPy, pandas...) only when a name of it is used.
+_WHERE = {
+    "characterize": "mckibben.report.characterize",
+    "check_report_folder": "mckibben.report.html",
+    "published_length_tables": "mckibben.report.reproduction",
+    "render_html": "mckibben.report.html",
+    "reproduce": "mckibben.report.reproduction",
+    "summarize": "mckibben.report.html",
+    "write_report": "mckibben.report.html",
+}
 
 __all__ = ["characterize", "check_report_folder", "published_length_tables", "render_html", "reproduce",
            "summarize", "write_report"]
 
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
+    from mckibben.report.characterize import characterize as characterize
+    from mckibben.report.html import check_report_folder as check_report_folder
+    from mckibben.report.reproduction import published_length_tables as published_length_tables
+    from mckibben.report.html import render_html as render_html
+    from mckibben.report.reproduction import reproduce as reproduce
+    from mckibben.report.html import summarize as summarize
+    from mckibben.report.html import write_report as write_report
 
-def published_length_tables() -> dict:
-    """Predicted length of every published muscle and load at 0, 0.1, ..., 0.8 MPa (eq. 2 and 3).
 
-    Returns
-    -------
-    dict
-        ``"mpam97@0.6N"`` → pressures [Pa], lengths [m], contractions [-], cos θ [-] and flags.
+def __getattr__(name: str):
+    # table-driven (see _WHERE): the submodule and its heavy third-party packages load on first use
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    try:  # a submodule by attribute (``mckibben.report.figures``), as an eager package would have bound it
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))
+
+
+class _Package(types.ModuleType):
+    """The package, where a public name of :data:`_WHERE` keeps its meaning when a submodule of that name loads.
+
+    Importing ``mckibben.report.characterize`` binds the module on the package as ``characterize``;
+    the eager package rebound the name to the function right after, this one refuses the binding.
     """
-    from mckibben.datasets import MUSCLES
-    from mckibben.models.flags import flag_names
-    from mckibben.models.mpam import predict_length
 
-    pressures = np.linspace(0.0, 0.8e6, 9)
-    tables = {}
-    for name, m in MUSCLES.items():
-        for load in m.braid_map.loads:
-            r = predict_length(m, pressures, load)
-            tables[f"{name}@{load:g}N"] = {
-                "muscle": name,
-                "load_N": load,
-                "pressure_Pa": pressures.tolist(),
-                "length_m": r.length.tolist(),
-                "contraction": r.contraction.tolist(),
-                "cos_theta": r.cos_theta.tolist(),
-                "flags": [flag_names(x) for x in r.flags],
-            }
-    return tables
+    def __setattr__(self, name, value):
+        if name in _WHERE and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
 
 
-def reproduce(out="mckibben-report", *, data=None, progress: Callable[[str, int, int], None] | None = None):
-    """Characterize a campaign and write its HTML report: every fit, the comparison, the figures.
-
-    Parameters
-    ----------
-    out : str or os.PathLike, default "mckibben-report"
-        Report folder (replaced only if it holds a report written before). [-]
-    data : str or os.PathLike, optional
-        Campaign folder (one sub-folder per muscle); default the bundled synthetic campaign. [-]
-    progress : callable, optional
-        ``progress(message, done, total)`` after each step. [-]
-
-    Returns
-    -------
-    (pathlib.Path, dict, dict)
-        The report folder, its summary and :func:`published_length_tables`.
-    """
-    from mckibben.datasets.campaign import campaign_muscle_dirs
-    from mckibben.report.figures import ALL_FIGURES
-
-    check_callable(progress, "progress")  # before the run, not found after it
-    if not isinstance(out, (str, os.PathLike)) or (data is not None and not isinstance(data, (str, os.PathLike))):
-        bad, name = (out, "out") if not isinstance(out, (str, os.PathLike)) else (data, "data")
-        raise ArgumentTypeError(f"{name} = {bad!r}: not a folder path (str or os.PathLike)")
-    check_report_folder(out)
-    tables = published_length_tables()
-    # per muscle: fits and comparison; the isometric comparisons; the figures
-    total = 2 * len(campaign_muscle_dirs(data)) + len(ALL_FIGURES) + 1
-    done = [0]
-
-    def step(msg: str) -> None:
-        done[0] += 1
-        if progress is not None:
-            progress(msg, done[0], max(total, done[0]))
-
-    char = characterize(data, progress=step)
-    folder, summary = write_report(char, out, progress=step)
-    return folder, summary, tables
+sys.modules[__name__].__class__ = _Package

@@ -18,6 +18,7 @@ from mckibben.datasets.campaign import campaign_muscle_dirs, is_synthetic
 from mckibben.fit import static
 from mckibben.fit.compare import compare_models
 from mckibben.fit.isometric import compare_isometric
+from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
 
 KINDS_ORDER = ("braid_angle", "isotonic", "blocked_force", "hysteresis", "force_length", "step_response")
 
@@ -124,7 +125,6 @@ def characterize(root=None, progress: Callable[[str], None] | None = None) -> di
 def _isometric_folders(root, dirs) -> list:
     """Folders holding ``isometric.csv`` and ``muscle.toml``: the campaign's, and the bundled
     commercial-size test when the campaign is the bundled one."""
-    from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
 
     found = [d for d in dirs if (d / "isometric.csv").is_file()]
     if root is None:

@@ -11,17 +11,18 @@ import contextvars
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from mckibben.fit.static import trial_stats
 from mckibben.models.spring import CONTRACTION, ELONGATION
+from mckibben.plotting import figure_metadata
 
 COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf")
 MPA = 1e6
 
 
 def _figure(ncols: int, width=4.2, height=3.4):
+    from matplotlib.figure import Figure  # deferred on purpose: Matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # deferred on purpose: Matplotlib
     fig = Figure(figsize=(width * ncols, height), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, ncols, squeeze=False)[0]
@@ -34,8 +35,6 @@ PROVENANCE: contextvars.ContextVar[dict | None] = contextvars.ContextVar("report
 
 
 def _save(fig, path: Path, synthetic: bool) -> Path:
-    from mckibben.plotting import figure_metadata
-
     if synthetic:
         fig.text(0.995, 0.005, "SYNTHETIC DATA", ha="right", va="bottom", color="#b00", fontsize=8, weight="bold")
     prov = PROVENANCE.get()

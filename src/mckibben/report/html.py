@@ -15,6 +15,13 @@ import numpy as np
 from mckibben.errors import InputError
 from mckibben.report import figures as FIG
 from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
+from mckibben.atomic import check_output_dir
+from mckibben.datasets.campaign import campaign_muscle_dirs
+from mckibben.results import provenance
+from mckibben.results import to_jsonable
+from mckibben.atomic import atomic_dir
+import hashlib
+import json
 
 MPA = 1e6
 
@@ -193,17 +200,15 @@ def check_report_folder(out) -> Path:
     out : str or pathlib.Path
         The report folder. [-]
     """
-    from mckibben.atomic import check_output_dir
 
-    out = check_output_dir(out, "--out")
+    out = check_output_dir(out, "out")
     if out.is_dir() and any(out.iterdir()) and not (out / "index.html").is_file():
-        raise InputError(f"--out: {out} exists and is neither empty nor a report written before; choose another folder")
+        raise InputError(f"out: {out} exists and is neither empty nor a report written before; choose another folder")
     return out
 
 
 def _campaign_base(char: dict) -> Path | None:
     """The folder the campaign's muscle folders share (what input paths are written relative to)."""
-    from mckibben.datasets.campaign import campaign_muscle_dirs
 
     bundled = char.get("root") in (None, "bundled example campaign")
     dirs = [Path(d) for d in campaign_muscle_dirs(None if bundled else char["root"])]
@@ -244,10 +249,7 @@ def report_provenance(char: dict, out) -> dict:
     out : str or pathlib.Path
         The report folder. [-]
     """
-    import hashlib
 
-    from mckibben.datasets.campaign import campaign_muscle_dirs
-    from mckibben.results import provenance
 
     bundled = char.get("root") in (None, "bundled example campaign")
     dirs = [Path(d) for d in campaign_muscle_dirs(None if bundled else char["root"])]
@@ -280,14 +282,11 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
     (pathlib.Path, dict)
         The folder and the summary.
     """
-    import json
 
-    from mckibben.results import to_jsonable
 
-    from mckibben.atomic import atomic_dir
 
     out = check_report_folder(out)
-    with atomic_dir(out, "--out") as tmp:
+    with atomic_dir(out, "out") as tmp:
         summary = summarize(char)
         summary["provenance"] = report_provenance(char, out)
         if isinstance(summary.get("data"), str) and summary["data"].startswith("/"):

@@ -5,8 +5,49 @@ See ``docs/protocol.md`` and ``docs/rig.md``.
 returns a :class:`RigStepResult`; ``Recorder`` and ``recover`` log telemetry to Parquet.
 """
 
-from mckibben.rig.device import BAUD, Device, RigStepResult, open_port
-from mckibben.rig.emulator import Emulator
-from mckibben.rig.recorder import Recorder, read_recording, recover
+import importlib
+from typing import TYPE_CHECKING
+
+#: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
+#: package is cheap (``mckibben --version``/``--help`` import every command module), and a
+#: submodule loads its heavy packages (Numba, SciPy, pandas...) only when a name of it is used.
+_WHERE = {
+    "BAUD": "mckibben.rig.device",
+    "Device": "mckibben.rig.device",
+    "Emulator": "mckibben.rig.emulator",
+    "Recorder": "mckibben.rig.recorder",
+    "RigStepResult": "mckibben.rig.device",
+    "open_port": "mckibben.rig.device",
+    "read_recording": "mckibben.rig.recorder",
+    "recover": "mckibben.rig.recorder",
+}
 
 __all__ = ["BAUD", "Device", "Emulator", "Recorder", "RigStepResult", "open_port", "read_recording", "recover"]
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
+    from mckibben.rig.device import BAUD as BAUD
+    from mckibben.rig.device import Device as Device
+    from mckibben.rig.emulator import Emulator as Emulator
+    from mckibben.rig.recorder import Recorder as Recorder
+    from mckibben.rig.device import RigStepResult as RigStepResult
+    from mckibben.rig.device import open_port as open_port
+    from mckibben.rig.recorder import read_recording as read_recording
+    from mckibben.rig.recorder import recover as recover
+
+
+def __getattr__(name: str):
+    # table-driven (see _WHERE): the submodule and its heavy third-party packages load on first use
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    try:  # a submodule by attribute (``mckibben.plant.params``), as an eager package would have bound it
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

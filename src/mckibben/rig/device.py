@@ -18,6 +18,11 @@ from mckibben.hardware import BAUD as _HW_BAUD
 from mckibben.hardware import P_MAX_DEFAULT, pressure_from_adc
 from mckibben.results import Result
 from mckibben.rig import protocol as P
+from mckibben.control.core import GAINS, gain_values
+from mckibben.control.metrics import step_metrics
+from mckibben.results import to_jsonable
+from mckibben.units import quantity
+from mckibben.control.core import CoreParams, load_design
 
 __all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "GainsResult", "RigStepResult", "connect", "open_port", "write_gains"]
 
@@ -44,12 +49,12 @@ def open_port(port: str, timeout: float = 0.02):
     timeout : float, default 0.02
         Read timeout. [s]
     """
-    import serial
+    import serial  # deferred on purpose: pyserial (only the rig's commands)
 
     try:
         return serial.serial_for_url(port, baudrate=BAUD, timeout=timeout)
     except (serial.SerialException, ValueError, OSError) as exc:
-        raise InputError(f"--port: cannot open {port!r} ({exc})") from None
+        raise InputError(f"port: cannot open {port!r} ({exc})") from None
 
 
 def connect(port: str, hello_timeout: float | None = None, timeout: float = 0.02):
@@ -89,7 +94,7 @@ def connect(port: str, hello_timeout: float | None = None, timeout: float = 0.02
         link.close()
         raise
     link.close()
-    raise InputError(f"--port: no HELLO frame from {port!r} within {hello_timeout:g} s after opening it; is it a "
+    raise InputError(f"port: no HELLO frame from {port!r} within {hello_timeout:g} s after opening it; is it a "
                      f"mckibben device running firmware with protocol version {P.VERSION}?")
 
 
@@ -129,7 +134,7 @@ def command(link, parser: P.Parser, packets, timeout: float = 2.0, on_frame=None
                 elif on_frame is not None:
                     on_frame(f)
         if want - set(acks):
-            raise InputError(f"--port: the device did not acknowledge {len(want - set(acks))} commands within "
+            raise InputError(f"port: the device did not acknowledge {len(want - set(acks))} commands within "
                              f"{timeout:g} s")
     return [acks[seq] for seq, _ in packets]
 
@@ -169,7 +174,7 @@ class GainsResult(Result):
                 "verified": self.verified}
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         rows = [{"channel": ch, "gain": name, "sent": self.gains[name], "read_back": v}
                 for ch, got in self.read_back.items() for name, v in got.items()]
@@ -214,19 +219,17 @@ class RigStepResult(Result):
     @property
     def metrics(self) -> dict:
         """Step metrics (:func:`mckibben.control.metrics.step_metrics`), SI."""
-        from mckibben.control.metrics import step_metrics
 
         return step_metrics(self.time, self.pressure, self.reference, self.command, t_step=self.step_time)
 
     def to_dict(self) -> dict:
         """The target, controller, metrics and frame counters, JSON-ready."""
-        from mckibben.results import to_jsonable
 
         return to_jsonable({"target_Pa": self.arguments["target_Pa"], "controller": self.arguments["controller"],
                             **self.metrics, **self.counters})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         return pd.DataFrame({"time_s": self.time, "reference_Pa": self.reference, "pressure_Pa": self.pressure,
                              "command_pwm": self.command})
@@ -239,7 +242,7 @@ class RigStepResult(Result):
         ax : matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
         if ax is None:
             _, ax = plt.subplots(figsize=(7, 4))
@@ -289,16 +292,15 @@ class Device:
         RigStepResult
             The telemetry and its step metrics.
         """
-        from mckibben.units import quantity
 
-        p = quantity(target, "pressure", "--target", allow_zero=False)
+        p = quantity(target, "pressure", "target", allow_zero=False)
         if p > SAFE_MAX_PRESSURE_PA:
-            raise InputError(f"--target: {target!r} is above the 0.8 MPa safe limit")
+            raise InputError(f"target: {target!r} is above the 0.8 MPa safe limit")
         if controller not in CONTROLLERS:
-            raise InputError(f"--controller: {controller!r} must be smc or pid")
-        d = quantity(duration, "time", "--duration", allow_zero=False)
+            raise InputError(f"controller: {controller!r} must be smc or pid")
+        d = quantity(duration, "time", "duration", allow_zero=False)
         if d > 60:
-            raise InputError(f"--duration: {duration!r} is longer than 60 s")
+            raise InputError(f"duration: {duration!r} is longer than 60 s")
         link, _, parser = connect(self.port)
         rows: list = []
         acks: list = []
@@ -335,11 +337,11 @@ class Device:
         if bad:
             raise InputError(f"the device refused command type 0x{bad[0].cmd_type:02x} (status {bad[0].status})")
         if len(rows) < 50:
-            raise InputError(f"--port: only {len(rows)} telemetry frames arrived from {self.port!r}; "
+            raise InputError(f"port: only {len(rows)} telemetry frames arrived from {self.port!r}; "
                              "is it a mckibben device?")
         a = np.array(rows, dtype=float)
         if t_step is None:
-            raise InputError(f"--port: {self.port!r} stopped streaming before the step to {p:g} Pa took effect "
+            raise InputError(f"port: {self.port!r} stopped streaming before the step to {p:g} Pa took effect "
                              f"({len(rows)} frames, {a[-1, 0] - a[0, 0]:.3f} s of device time)")
         faults = int(np.bitwise_or.reduce(a[:, 4].astype(np.int64)))
         return RigStepResult(a[:, 0], a[:, 1], a[:, 2], a[:, 3], float(t_step),
@@ -366,9 +368,8 @@ class Device:
         InputError
             A bad design, a channel the device does not have, or a refused command.
         """
-        from mckibben.control.core import CoreParams, load_design
 
-        params = design if isinstance(design, CoreParams) else load_design(design)
+        params = design if isinstance(design, CoreParams) else load_design(design, "design")
         link, hello, parser = connect(self.port)
         try:
             return write_gains(link, parser, hello, params, channels, self.port)
@@ -397,13 +398,12 @@ def write_gains(link, parser: P.Parser, hello: P.Hello, params, channels=None, p
     first_seq : int, default 0
         Sequence number of the first command. [-]
     """
-    from mckibben.control.core import GAINS, gain_values
 
     values = gain_values(params)
     chans = list(range(hello.n_channels)) if channels is None else [int(c) for c in channels]
     bad = [c for c in chans if not 0 <= c < hello.n_channels]
     if bad:
-        raise InputError(f"--channel: {bad[0]} is not a channel of the device (0..{hello.n_channels - 1})")
+        raise InputError(f"channel: {bad[0]} is not a channel of the device (0..{hello.n_channels - 1})")
     seq = first_seq
     packets = []
     for c in chans:

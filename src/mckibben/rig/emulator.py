@@ -27,6 +27,11 @@ import time
 import tty
 
 from mckibben.rig import protocol as P
+from mckibben.control.core import CoreParams
+from mckibben.errors import InputError
+from mckibben.control.core import CoreBank
+from mckibben.plant import PlantStepper
+from mckibben.control.core import IP_GAIN0, N_GAINS
 
 #: The firmware's transmit ring (``TX_SIZE`` in firmware/src/main.c). [bytes]
 TX_QUEUE = 256
@@ -59,8 +64,6 @@ class Emulator:
 
     def __init__(self, plant=None, controller=None, n_channels: int = 3, ts: float = 1e-3, wake: float = 0.002,
                  baud: int = 1_000_000, boot_time: float = 0.3, garbage_every: int = 0, cut_every: int = 0):
-        from mckibben.control.core import CoreParams
-        from mckibben.errors import InputError
 
         if not 1 <= int(n_channels) <= P.MAX_CHANNELS:
             raise InputError(f"Emulator: n_channels {n_channels!r} must be 1..{P.MAX_CHANNELS}")
@@ -93,8 +96,6 @@ class Emulator:
     # -- device behaviour ------------------------------------------------------------------
     def _boot(self) -> None:
         """Power-on / reset: plants keep their air, the firmware starts afresh."""
-        from mckibben.control.core import CoreBank
-        from mckibben.plant import PlantStepper
 
         if not hasattr(self, "plants"):
             self.plants = [PlantStepper(p, ts=self.ts) for p in self._plant_params]
@@ -135,8 +136,6 @@ class Emulator:
             gid, v = struct.unpack("<Bi", body[1:])
             status = self.bank[ch].set_gain(gid, v)
         elif kind == P.GET_GAIN:
-            from mckibben.control.core import IP_GAIN0, N_GAINS
-
             gid = body[1]
             if gid >= N_GAINS:
                 status = 4
@@ -288,8 +287,6 @@ class Emulator:
 
     @staticmethod
     def _n_gains() -> int:
-        from mckibben.control.core import N_GAINS
-
         return N_GAINS
 
     def start(self) -> "Emulator":

@@ -26,6 +26,16 @@ import mckibben
 from mckibben.control import registry as R
 from mckibben.errors import ArgumentTypeError, InputError, check_callable, check_instance, check_int
 from mckibben.sweep.spec import Sweep
+from mckibben.datasets import get_muscle
+from mckibben.plant import PlantParams
+from mckibben.plant.params import _FIELDS
+from mckibben.control.core import CoreParams, core_spec
+from mckibben.control.metrics import step_metrics_batch, tracking_metrics_batch
+from mckibben.plant import simulate
+from mckibben.atomic import TMP_TAG
+from mckibben.atomic import check_output_dir, clean_stale
+from mckibben.atomic import atomic_file
+from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
 
 
 def chunk_path(out: Path, k: int) -> Path:
@@ -43,9 +53,6 @@ def chunk_path(out: Path, k: int) -> Path:
 
 def _plants(rows: pd.DataFrame):
     """One PlantParams with array fields for the chunk (muscles may differ between rows)."""
-    from mckibben.datasets import get_muscle
-    from mckibben.plant import PlantParams
-    from mckibben.plant.params import _FIELDS
 
     n = len(rows)
     if "plant.muscle" in rows:
@@ -63,7 +70,6 @@ def _plants(rows: pd.DataFrame):
 
 def _controllers(rows: pd.DataFrame, kind: str):
     """The chunk's controller spec, packed column by column (:func:`mckibben.control.core.pack_batch`)."""
-    from mckibben.control.core import CoreParams, core_spec
 
     names = {f.name for f in fields(CoreParams)}
     cols = {c[11:]: rows[c].to_numpy(dtype=float) for c in rows.columns
@@ -100,8 +106,6 @@ def run_chunk(meta: dict, rows: pd.DataFrame, k: int, out: str) -> dict:
     dict
         ``chunk``, ``runs``, ``seconds``, ``path``.
     """
-    from mckibben.control.metrics import step_metrics_batch, tracking_metrics_batch
-    from mckibben.plant import simulate
 
     t0 = time.perf_counter()
     scenario = meta["scenario"]
@@ -126,7 +130,6 @@ def run_chunk(meta: dict, rows: pd.DataFrame, k: int, out: str) -> dict:
     arrow = pa.Table.from_pandas(table, preserve_index=False)
     arrow = arrow.replace_schema_metadata({**(arrow.schema.metadata or {}), b"mckibben": json.dumps(meta["provenance"]).encode()})
     path = chunk_path(Path(out), k)
-    from mckibben.atomic import TMP_TAG
 
     # not atomic_file: workers on other hosts write here too, so no stale-temporary sweep per chunk
     tmp = path.with_name(f".{path.name}{TMP_TAG}{os.getpid()}-{k:x}")
@@ -172,7 +175,6 @@ def prepare_output(out: str | Path, sweep: Sweep) -> Path:
     sweep : Sweep
         The sweep.
     """
-    from mckibben.atomic import check_output_dir, clean_stale
 
     out = check_output_dir(out, "--out")
     try:
@@ -197,7 +199,6 @@ def prepare_output(out: str | Path, sweep: Sweep) -> Path:
             raise InputError(f"--out: {str(out)!r} holds the results of another sweep; choose another folder")
     if not manifest.exists() or old.get("sweep_sha256") != sweep.sha256:
         # a folder without another sweep's results (e.g. left by a failed run) is reused
-        from mckibben.atomic import atomic_file
 
         with atomic_file(manifest, "--out") as tmp:
             tmp.write_text(json.dumps(info, indent=2))
@@ -232,7 +233,6 @@ def run_sweep(sweep: Sweep, out: str | Path, *, workers: int | None = None, sche
         ``runs``, ``chunks``, ``skipped`` (chunks already written), ``computed`` (chunks),
         ``computed_runs``, ``seconds``, ``sims_per_second``.
     """
-    from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
 
     # every argument checked before a worker starts or a file is written
     check_instance(sweep, "sweep", Sweep, "a Sweep (load_sweep)")
@@ -279,7 +279,7 @@ def run_sweep(sweep: Sweep, out: str | Path, *, workers: int | None = None, sche
 
 
 def _run_dask(sweep, meta, todo, out, workers, scheduler, progress, done_runs):
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, LocalCluster, as_completed  # deferred on purpose: Dask
 
     cluster = None
     try:

@@ -33,6 +33,8 @@ the cartesian product of all grids), ``{uniform = [lo, hi]}``, ``{normal = [mean
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import hashlib
 import itertools
 import math
@@ -41,11 +43,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from mckibben.control import registry as R
 from mckibben.errors import InputError, unknown_name
 from mckibben.units import parse_quantity
+from mckibben.datasets import get_muscle
+from mckibben.limits import PLAUSIBLE_MAX
+from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
+from mckibben.atomic import check_input_file
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 #: Plant fields a sweep may set, with the dimension of a value given with a unit.
 PLANT_FIELDS = {
@@ -119,7 +127,6 @@ def _value(raw, dim, where):
     if dim == "name":
         if not isinstance(raw, str):
             raise InputError(f"{where}: a muscle name is wanted, got {raw!r}")
-        from mckibben.datasets import get_muscle
 
         get_muscle(raw)  # raises with close matches
         return raw
@@ -172,7 +179,6 @@ def _check_design(path, params: dict, cols: dict) -> None:
     """Refuse a design whose drawn values leave the plausible range of their quantity
     (:data:`mckibben.limits.PLAUSIBLE_MAX`) or turn negative where the quantity cannot: a load of
     1e278 N would otherwise be simulated, and fail (or pass) in the middle of the run."""
-    from mckibben.limits import PLAUSIBLE_MAX
 
     for name in params:
         section, field_ = name.split(".", 1)
@@ -192,7 +198,6 @@ def _check_design(path, params: dict, cols: dict) -> None:
 def _check_scenario_pressures(path, scenario: dict, params: dict) -> None:
     """Refuse a scenario whose reference leaves [0, p_max]: the supervisor would clamp it and the
     metrics would be scored against a pressure never commanded."""
-    from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
 
     kind_, args = params.get("controller.p_max", ("const", float(P_MAX_DEFAULT)))
     if kind_ == "const":
@@ -227,7 +232,7 @@ def load_sweep(path: str | Path) -> Sweep:
     Sweep
         The sweep with one design row per simulation.
     """
-    from mckibben.atomic import check_input_file
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
     path = check_input_file(Path(path), None, "sweep file")
     try:

@@ -8,14 +8,20 @@ over those draws.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import re
 
 import numpy as np
-import pandas as pd
 
 from mckibben.errors import InputError, unknown_name
 from mckibben.plotting import save_figure
 from mckibben.results import provenance
+from mckibben.sweep.spec import METRICS
+from mckibben.atomic import check_output_dir
+
+if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
+    import pandas as pd
 
 _CONSTRAINT = re.compile(r"^\s*([a-zA-Z_]+)\s*(<=|>=|<|>)\s*([-+0-9.eE]+)\s*$")
 
@@ -40,7 +46,6 @@ def metric_columns(table: pd.DataFrame) -> list[str]:
     table : pandas.DataFrame
         Sweep results.
     """
-    from mckibben.sweep.spec import METRICS
 
     return [m for m in METRICS if m in table.columns]
 
@@ -55,6 +60,7 @@ def settings_table(table: pd.DataFrame, quantile: float = 0.95) -> pd.DataFrame:
     quantile : float, default 0.95
         The upper quantile reported beside the median. [-]
     """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
     grid_cols = [c for c in parameter_columns(table) if table.groupby("grid_id")[c].nunique().max() == 1]
     metrics = metric_columns(table)
     g = table.groupby("grid_id")
@@ -130,8 +136,8 @@ def sensitivity(table: pd.DataFrame) -> pd.DataFrame:
     table : pandas.DataFrame
         Sweep results.
     """
-    from scipy.stats import spearmanr  # deferred: scipy.stats costs 0.5 s to import, and only the summary needs it
-
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+    from scipy.stats import spearmanr  # deferred on purpose: SciPy
     params = [c for c in parameter_columns(table) if pd.api.types.is_numeric_dtype(table[c])]
     metrics = metric_columns(table)
     out = pd.DataFrame(index=params, columns=metrics, dtype=float)
@@ -156,7 +162,8 @@ def plot_pareto(table: pd.DataFrame, quantile: float = 0.95, ax=None):
     ax : matplotlib.axes.Axes, optional
         Where to draw; default a new figure. [-]
     """
-    import matplotlib.pyplot as plt
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     s = settings_table(table, quantile)
     qn = int(round(quantile * 100))
@@ -192,7 +199,7 @@ def plot_sensitivity(table: pd.DataFrame, ax=None):
     ax : matplotlib.axes.Axes, optional
         Where to draw; default a new figure. [-]
     """
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     sens = sensitivity(table)
     if sens.empty:
@@ -224,9 +231,8 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
     quantile : float, default 0.95
         Quantile used for the overshoot colour. [-]
     """
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
-    from mckibben.atomic import check_output_dir
 
     folder = check_output_dir(folder, "--plots")
     try:

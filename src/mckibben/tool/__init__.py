@@ -6,28 +6,35 @@ See docs/tool.md. From Python: :func:`make_tool`, :func:`forward`, :func:`invers
 :class:`ToolTrackResult` with ``.metrics``, ``.to_pandas()``, ``.plot()``).
 """
 
-from mckibben.tool.experiments import (
-    ToolTrackResult,
-    WorkspaceResult,
-    forward,
-    inverse,
-    make_tool,
-    map_workspace,
-    state_dict,
-    tool_dict,
-    track,
-)
-from mckibben.tool.geometry import MUSCLE_ANGLES, StackLoad, Tool, ToolGeometry
-from mckibben.tool.kinematics import (
-    Arc,
-    arc_from_lengths,
-    arc_from_tip,
-    lengths_from_arc,
-    lengths_from_tip,
-    tip_from_lengths,
-    tip_position,
-    tip_rotation,
-)
+import importlib
+from typing import TYPE_CHECKING
+
+#: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
+#: package is cheap (``mckibben --version``/``--help`` import every command module), and a
+#: submodule loads its heavy packages (Numba, SciPy, pandas...) only when a name of it is used.
+_WHERE = {
+    "Arc": "mckibben.tool.kinematics",
+    "MUSCLE_ANGLES": "mckibben.tool.geometry",
+    "StackLoad": "mckibben.tool.geometry",
+    "Tool": "mckibben.tool.geometry",
+    "ToolGeometry": "mckibben.tool.geometry",
+    "ToolTrackResult": "mckibben.tool.experiments",
+    "WorkspaceResult": "mckibben.tool.experiments",
+    "arc_from_lengths": "mckibben.tool.kinematics",
+    "arc_from_tip": "mckibben.tool.kinematics",
+    "forward": "mckibben.tool.experiments",
+    "inverse": "mckibben.tool.experiments",
+    "lengths_from_arc": "mckibben.tool.kinematics",
+    "lengths_from_tip": "mckibben.tool.kinematics",
+    "make_tool": "mckibben.tool.experiments",
+    "map_workspace": "mckibben.tool.experiments",
+    "state_dict": "mckibben.tool.experiments",
+    "tip_from_lengths": "mckibben.tool.kinematics",
+    "tip_position": "mckibben.tool.kinematics",
+    "tip_rotation": "mckibben.tool.kinematics",
+    "tool_dict": "mckibben.tool.experiments",
+    "track": "mckibben.tool.experiments",
+}
 
 __all__ = [
     "MUSCLE_ANGLES", "Arc", "StackLoad", "Tool", "ToolGeometry", "arc_from_lengths", "arc_from_tip",
@@ -35,3 +42,44 @@ __all__ = [
     "ToolTrackResult", "WorkspaceResult", "forward", "inverse", "make_tool", "map_workspace", "state_dict",
     "tool_dict", "track",
 ]
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
+    from mckibben.tool.kinematics import Arc as Arc
+    from mckibben.tool.geometry import MUSCLE_ANGLES as MUSCLE_ANGLES
+    from mckibben.tool.geometry import StackLoad as StackLoad
+    from mckibben.tool.geometry import Tool as Tool
+    from mckibben.tool.geometry import ToolGeometry as ToolGeometry
+    from mckibben.tool.experiments import ToolTrackResult as ToolTrackResult
+    from mckibben.tool.experiments import WorkspaceResult as WorkspaceResult
+    from mckibben.tool.kinematics import arc_from_lengths as arc_from_lengths
+    from mckibben.tool.kinematics import arc_from_tip as arc_from_tip
+    from mckibben.tool.experiments import forward as forward
+    from mckibben.tool.experiments import inverse as inverse
+    from mckibben.tool.kinematics import lengths_from_arc as lengths_from_arc
+    from mckibben.tool.kinematics import lengths_from_tip as lengths_from_tip
+    from mckibben.tool.experiments import make_tool as make_tool
+    from mckibben.tool.experiments import map_workspace as map_workspace
+    from mckibben.tool.experiments import state_dict as state_dict
+    from mckibben.tool.kinematics import tip_from_lengths as tip_from_lengths
+    from mckibben.tool.kinematics import tip_position as tip_position
+    from mckibben.tool.kinematics import tip_rotation as tip_rotation
+    from mckibben.tool.experiments import tool_dict as tool_dict
+    from mckibben.tool.experiments import track as track
+
+
+def __getattr__(name: str):
+    # table-driven (see _WHERE): the submodule and its heavy third-party packages load on first use
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    try:  # a submodule by attribute (``mckibben.plant.params``), as an eager package would have bound it
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mckibben import tool as tool_package
 from mckibben.errors import ArgumentTypeError, InputError, check_callable, check_instance, unknown_name
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
@@ -23,6 +24,21 @@ from mckibben.tool.geometry import DEFAULT_MUSCLE, StackLoad, Tool, ToolGeometry
 from mckibben.tool.paths import TipPath
 from mckibben.tool.workspace import Workspace
 from mckibben.units import parse_values, quantity
+from mckibben.datasets import get_muscle
+from mckibben.hardware import P_MAX_DEFAULT
+from mckibben.limits import check_p_max
+from mckibben.fit.muscle_file import check_direction
+from mckibben.tool.muscles import file_geometry, file_load, file_muscle
+from mckibben.units import parse_quantity
+from mckibben.tool.statics import pressures_for_tip, tip_from_pressures
+from mckibben.tool.kinematics import arc_from_lengths, tip_position
+from mckibben.tool.statics import require_reachable_tip
+from mckibben.tool.workspace import sample_workspace
+from mckibben.tool.paths import parse_path
+from mckibben.tool.tracking import TRACKING_BETA, resolve_path, simulate_tracking, tip_reference
+from mckibben.limits import check_budget
+from mckibben.tool.workspace import plot_workspace
+from mckibben.tool.tracking import plot_tracking
 
 __all__ = ["ToolTrackResult", "WorkspaceResult", "forward", "inverse", "make_tool", "map_workspace", "state_dict",
            "tool_dict", "track"]
@@ -37,12 +53,12 @@ def _discs(discs):
         try:
             int(discs)
         except ValueError:
-            raise InputError(f"--discs: {discs!r} is not a whole number of discs (or 'continuous')") from None
+            raise InputError(f"discs: {discs!r} is not a whole number of discs (or 'continuous')") from None
     if isinstance(discs, bool) or not isinstance(discs, (int, np.integer, str)):
-        raise InputError(f"--discs: {discs!r} is not a whole number of discs (or 'continuous')")
+        raise InputError(f"discs: {discs!r} is not a whole number of discs (or 'continuous')")
     n = int(discs)
     if n < 2:
-        raise InputError(f"--discs: {discs!r} must be at least 2 (base and tip)")
+        raise InputError(f"discs: {discs!r} must be at least 2 (base and tip)")
     return n
 
 
@@ -92,28 +108,22 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
     -------
     Tool
     """
-    from mckibben.datasets import get_muscle
-    from mckibben.hardware import P_MAX_DEFAULT
-    from mckibben.limits import check_p_max
 
     n_discs = _discs(discs)
-    radius = (quantity(pitch_radius, "length", "--pitch-radius", allow_zero=False)
+    radius = (quantity(pitch_radius, "length", "pitch_radius", allow_zero=False)
               if pitch_radius is not None else None)
-    pmax = None if p_max is None else check_p_max(quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    from mckibben.fit.muscle_file import check_direction
+    pmax = None if p_max is None else check_p_max(quantity(p_max, "pressure", "p_max", allow_zero=False))
 
     check_direction(direction)
     if muscle_file is not None:
-        from mckibben.tool.muscles import file_geometry, file_load, file_muscle
-
         if muscle is not None:
-            raise InputError("--muscle-file: give either --muscle (a published set) or --muscle-file, not both")
+            raise InputError("muscle_file: give either `muscle` (a published set) or `muscle_file`, not both")
         fm = file_muscle(muscle_file, direction)
         top = float(fm.pressure_range[1])
         if pmax is None:
             pmax = min(float(P_MAX_DEFAULT), top)
         elif pmax > top:
-            raise InputError(f"--p-max: {pmax / 1e6:g} MPa is above the top of the pressures the force law of "
+            raise InputError(f"p_max: {pmax / 1e6:g} MPa is above the top of the pressures the force law of "
                              f"{muscle_file} was fitted on ({top / 1e6:g} MPa): the law is not known there")
         geo = file_geometry(fm, radius, n_discs)
         dflt = file_load(fm, float(geo.pitch_radius or 0.0), pmax)
@@ -130,14 +140,14 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
     preload = dflt["preload"] if preload is None else preload
     bending_stiffness = dflt["bending_stiffness"] if bending_stiffness is None else bending_stiffness
     axial_stiffness = dflt["axial_stiffness"] if axial_stiffness is None else axial_stiffness
-    kb = (quantity(bending_stiffness, "bending_stiffness", "--bending-stiffness")
+    kb = (quantity(bending_stiffness, "bending_stiffness", "bending_stiffness")
           if not isinstance(bending_stiffness, str) else
           _parse_kb(bending_stiffness))
     if not 0 < kb <= MAX_BENDING_STIFFNESS:
-        raise InputError(f"bending_stiffness (--bending-stiffness) = {kb:g} N·m²: outside (0, {MAX_BENDING_STIFFNESS:g}] "
+        raise InputError(f"bending_stiffness (`bending_stiffness`) = {kb:g} N·m²: outside (0, {MAX_BENDING_STIFFNESS:g}] "
                          "N·m² (a steel rod of the tool's 12 mm diameter is about 2e2 N·m²)")
-    load = StackLoad(preload=quantity(preload, "force", "--preload"), bending_stiffness=kb,
-                     axial_stiffness=quantity(axial_stiffness, "force", "--axial-stiffness"), reference_length=s_ref)
+    load = StackLoad(preload=quantity(preload, "force", "preload"), bending_stiffness=kb,
+                     axial_stiffness=quantity(axial_stiffness, "force", "axial_stiffness"), reference_length=s_ref)
     try:
         return Tool(m, geo, load, pmax)
     except InputError as exc:  # the Tool names its field; a caller of make_tool gave --discs
@@ -146,9 +156,8 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
 
 
 def _parse_kb(text: str) -> float:
-    from mckibben.units import parse_quantity
 
-    return parse_quantity(text, "bending_stiffness", "--bending-stiffness", default_unit="Nm2")
+    return parse_quantity(text, "bending_stiffness", "bending_stiffness", default_unit="Nm2")
 
 
 def tool_dict(tool: Tool) -> dict:
@@ -249,23 +258,20 @@ def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
     ToolState
         Arc, tip, rotation, lengths, tensions, pressures and flags (:func:`state_dict`).
     """
-    from mckibben.tool.statics import pressures_for_tip, tip_from_pressures
 
     tool = make_tool() if tool is None else tool
     if (lengths is None) == (pressures is None):
-        raise InputError("tool fk: give exactly one of --lengths or --pressures")
+        raise InputError("tool fk: give exactly one of `lengths` or `pressures`")
     if lengths is not None:
-        from mckibben.tool.kinematics import arc_from_lengths, tip_position
-
-        ls = _three(lengths, "length", "--lengths", allow_zero=False)
+        ls = _three(lengths, "length", "lengths", allow_zero=False)
         arc = arc_from_lengths(ls, tool.geometry.pitch_radius, tool.geometry.n_gaps)
         return pressures_for_tip(tip_position(arc), tool)  # the pressures holding them, as `inverse` finds them
-    ps = _three(pressures, "pressure", "--pressures")
+    ps = _three(pressures, "pressure", "pressures")
     if np.any(ps > tool.p_max):
-        raise InputError(f"--pressures: {pressures!r} is above p_max ({tool.p_max / 1e6:g} MPa, --p-max)")
+        raise InputError(f"pressures: {pressures!r} is above p_max ({tool.p_max / 1e6:g} MPa, `p_max`)")
     state = tip_from_pressures(ps, tool)
     if not bool(state.converged):
-        raise InputError(f"--pressures: the static equilibrium did not converge for {pressures!r}")
+        raise InputError(f"pressures: the static equilibrium did not converge for {pressures!r}")
     return state
 
 
@@ -283,11 +289,10 @@ def inverse(tip, tool: Tool | None = None):
     -------
     ToolState
     """
-    from mckibben.tool.statics import pressures_for_tip, require_reachable_tip
 
     tool = make_tool() if tool is None else tool
-    p = _three(tip, "length", "--tip", allow_negative=True)
-    _within_reach(p, tool, "--tip", "a tip")
+    p = _three(tip, "length", "tip", allow_negative=True)
+    _within_reach(p, tool, "tip", "a tip")
     state = pressures_for_tip(p, tool)
     require_reachable_tip(state, tool)
     return state
@@ -323,7 +328,7 @@ class WorkspaceResult(Result):
         return to_jsonable({**self.metrics, "grid": self.arguments["grid"], "tool": tool_dict(self.tool)})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         p = self.samples.pressures.reshape(-1, 3)
         tip = self.samples.state.tip.reshape(-1, 3)
@@ -339,7 +344,6 @@ class WorkspaceResult(Result):
         ax : matplotlib.figure.Figure, optional
             A figure to draw into; default a new one. [-]
         """
-        from mckibben.tool.workspace import plot_workspace
 
         return plot_workspace(self.samples, self.tool, fig=ax)
 
@@ -358,11 +362,10 @@ def map_workspace(tool: Tool | None = None, grid: int = 15) -> WorkspaceResult:
     -------
     WorkspaceResult
     """
-    from mckibben.tool.workspace import sample_workspace
 
     tool = make_tool() if tool is None else tool
     if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or not 2 <= grid <= 101:
-        raise InputError(f"--grid: {grid!r} must be a whole number of points per muscle in 2..101")
+        raise InputError(f"grid: {grid!r} must be a whole number of points per muscle in 2..101")
     return WorkspaceResult(sample_workspace(tool, grid), tool, {"grid": grid})
 
 
@@ -425,7 +428,7 @@ class ToolTrackResult(Result):
                             "runs": self.per_run, "simulated": self.results is not None, "tool": tool_dict(self.tool)})
 
     def _series(self):
-        import pandas as pd
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         frames = []
         for k, (p, ref) in enumerate(self.runs):
@@ -450,7 +453,6 @@ class ToolTrackResult(Result):
         ax : sequence of three matplotlib.axes.Axes, optional
             Where to draw; default a new figure. [-]
         """
-        from mckibben.tool.tracking import plot_tracking
 
         if self.results is None:
             raise InputError("tool track: nothing simulated to plot (reference_only=True)")
@@ -503,15 +505,12 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     -------
     ToolTrackResult
     """
-    from mckibben.tool.paths import parse_path
-    from mckibben.tool.tracking import TRACKING_BETA, resolve_path, simulate_tracking, tip_reference
 
-    from mckibben.limits import check_budget
 
     check_callable(progress, "progress")
     check_instance(tool, "tool", Tool, "a Tool (make_tool)", optional=True)
     if not isinstance(engine, str) or engine not in TRACK_ENGINES:
-        raise unknown_name("engine (--engine)", str(engine), TRACK_ENGINES)
+        raise unknown_name("engine", str(engine), TRACK_ENGINES)
     if not isinstance(path, (str, TipPath)):
         raise ArgumentTypeError(f"path = {path!r}: not a path ({type(path).__name__}); give text such as "
                                 "'circle:radius=5mm,period=2s' or a TipPath")
@@ -520,18 +519,18 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     if periods is None:
         period_list = np.array([spec.period])
     elif isinstance(periods, str):
-        period_list = parse_values(periods, "time", "--periods", allow_zero=False)
+        period_list = parse_values(periods, "time", "periods", allow_zero=False)
     else:
         if isinstance(periods, (bytes, dict, set)) or np.ndim(periods) > 1:
             raise ArgumentTypeError(f"periods = {periods!r}: not a sequence of periods")
-        period_list = np.array([quantity(p, "time", "--periods", allow_zero=False) for p in np.ravel(periods)])
+        period_list = np.array([quantity(p, "time", "periods", allow_zero=False) for p in np.ravel(periods)])
     if period_list.size == 0:
-        raise InputError("periods (--periods): empty; give at least one period, or None for the path's own")
+        raise InputError("periods (`periods`): empty; give at least one period, or None for the path's own")
     short = float(period_list.min())
     if short < MIN_TRACK_PERIOD:
-        raise InputError(f"periods (--path/--periods): a period of {short:g} s is shorter than {MIN_TRACK_PERIOD:g} s "
+        raise InputError(f"periods (`path`/`periods`): a period of {short:g} s is shorter than {MIN_TRACK_PERIOD:g} s "
                          f"({MIN_TRACK_PERIOD / 1e-3:.0f} control periods of 1 ms): too short to sample the path")
-    check_budget("--path/--periods" if periods is not None else "--path",
+    check_budget("path/`periods`" if periods is not None else "path",
                  float(np.sum(period_list)) * spec.cycles / 1e-3, force=force, what="1 ms samples",
                  bytes_per_sample=TRACK_BYTES_PER_SAMPLE,
                  seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)] if engine == "quasi-static" or
@@ -540,8 +539,8 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     if not reference_only:
         b = TRACKING_BETA if beta is None else float(beta)
         if not (np.isfinite(b) and 0 < b <= 255):
-            raise InputError(f"--beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
-    _within_reach(np.array([spec.size]), tool, "--path", f"a {spec.kind} of")
+            raise InputError(f"beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
+    _within_reach(np.array([spec.size]), tool, "path", f"a {spec.kind} of")
     base = resolve_path(spec, tool)
     runs = [(p, tip_reference(tool, p)) for p in (base.with_period(float(t)) for t in period_list)]
     results = None
@@ -549,10 +548,8 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
         results = []
         run_engine = simulate_tracking
         if engine == "mujoco":
-            # deferred: Numba, and the optional mujoco package, load only for this engine
-            from mckibben.tool.mujoco_model import simulate_tracking_mujoco
-
-            run_engine = simulate_tracking_mujoco
+            # through the package: Numba, and the optional mujoco package, load only for this engine
+            run_engine = tool_package.mujoco_model.simulate_tracking_mujoco
         for k, run in enumerate(runs):
             results += run_engine(tool, [run], beta=b)
             if progress is not None:

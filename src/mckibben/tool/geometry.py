@@ -26,6 +26,7 @@ import numpy as np
 from mckibben.errors import InputError
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
+from mckibben.limits import check_p_max
 
 #: The muscle of the paper's tool (§V) when none is named. [-]
 DEFAULT_MUSCLE = "mpam117"
@@ -225,8 +226,6 @@ class Tool:
     p_max: float = 0.8e6
 
     def __post_init__(self):
-        from mckibben.limits import check_p_max
-
         if not (isinstance(self.p_max, (int, float)) and math.isfinite(self.p_max)):
             raise InputError(f"p_max: {self.p_max!r} must be a pressure > 0 Pa")
         check_p_max(float(self.p_max), "p_max")

@@ -41,7 +41,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_int, check_real
 
@@ -281,6 +280,7 @@ def tip_rotation(arc: Arc) -> np.ndarray:
     numpy.ndarray
         Rotation matrices, shape ``(..., 3, 3)``; the third column is the tip direction. [-]
     """
+    from scipy.spatial.transform import Rotation  # deferred on purpose: SciPy
     tx = np.asarray(arc.theta_x, dtype=float)
     ty = np.asarray(arc.theta_y, dtype=float)
     rotvec = np.stack([-ty, tx, np.zeros_like(tx)], axis=-1)

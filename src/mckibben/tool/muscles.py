@@ -19,6 +19,10 @@ from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.muscle import Muscle
 from mckibben.tool.geometry import DEFAULT_MUSCLE, StackLoad, ToolGeometry
+from mckibben.datasets import get_muscle
+from mckibben.data.io import MuscleSpec, read_muscle
+from mckibben.fit.muscle_file import check_direction, muscle_force_law
+from mckibben.plant import PlantParams
 
 def paper_bending_number() -> float:
     """Dimensionless bending stiffness of the paper's tool with its defaults, Kb/(F0·r·L0). [-]
@@ -27,7 +31,6 @@ def paper_bending_number() -> float:
     :data:`DEFAULT_MUSCLE`): 2e-4 N·m² / (1 N · 4 mm · 117 mm) = 0.427. A file's tool keeps it
     (see :func:`file_load`).
     """
-    from mckibben.datasets import get_muscle
 
     load = StackLoad()
     return load.bending_stiffness / (load.preload * ToolGeometry().pitch_radius
@@ -64,9 +67,6 @@ def file_muscle(muscle_file, direction: str = "inflate") -> LawMuscle:
         One line starting ``--muscle-file`` and naming the file: missing, not TOML, no
         ``[force_model]``, the data-driven surface (no physical law), a law the plant cannot run.
     """
-    from mckibben.data.io import MuscleSpec, read_muscle
-    from mckibben.fit.muscle_file import check_direction, muscle_force_law
-    from mckibben.plant import PlantParams
 
     check_direction(direction)
     if isinstance(muscle_file, Muscle):
@@ -83,7 +83,7 @@ def file_muscle(muscle_file, direction: str = "inflate") -> LawMuscle:
         PlantParams.from_muscle_file(m)  # a law the plant cannot run is refused here as there
     except InputError as exc:
         msg = str(exc)
-        raise InputError(msg if msg.startswith("--") else f"--muscle-file {where}: {msg}") from None
+        raise InputError(msg if msg.startswith("--") else f"muscle_file {where}: {msg}") from None
     if m.pressure_range[1] == np.inf:  # no fitted range saved: the plant's supply bounds it
         m = dataclasses.replace(m, pressure_range=(m.pressure_range[0], float(PlantParams.from_muscle_file(m).supply_pressure)))
     return m

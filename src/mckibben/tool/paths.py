@@ -124,14 +124,14 @@ class TipPath:
         return np.stack([x, y, np.full_like(w, z)], axis=-1)
 
 
-def parse_path(spec: str, name: str = "--path") -> TipPath:
+def parse_path(spec: str, name: str = "path") -> TipPath:
     """Parse a path spec such as ``circle:radius=5mm,period=2s`` (see the module docstring).
 
     Parameters
     ----------
     spec : str
         The spec. [-]
-    name : str, default "--path"
+    name : str, default "path"
         The argument's name for error messages. [-]
 
     Returns

@@ -19,6 +19,14 @@ from mckibben.errors import UnreachableError
 from mckibben.tool.geometry import Tool
 from mckibben.tool.paths import TipPath
 from mckibben.tool.statics import ToolState, explain_unreachable, pressures_for_tip, tip_from_pressures
+from mckibben.tool.kinematics import Arc
+from mckibben.control.experiments import identify_plant
+from mckibben.models.law_statics import LawMuscle
+from mckibben.plant import PlantParams
+from mckibben.control.experiments import smc_core_params
+from mckibben.control.simulation import identify_file_plant
+from mckibben.control.core import core_spec
+from mckibben.plant import simulate
 
 
 def straight_height(tool: Tool, fraction: float = 0.5) -> float:
@@ -125,7 +133,6 @@ def tip_reference(tool: Tool, path: TipPath, ts: float = 1e-3) -> TipReference:
 
 def _tile_state(state: ToolState, reps: int, n: int) -> ToolState:
     """Repeat a ToolState along its first axis ``reps`` times and keep ``n`` samples."""
-    from mckibben.tool.kinematics import Arc
 
     def tile(a):
         a = np.asarray(a)
@@ -237,7 +244,6 @@ def identify_muscle_plant(plant_params, pwm: int | None = None):
     FirstOrderModel
         Gain [Pa/count], time constant [s], dead time [s] and lift-off [counts].
     """
-    from mckibben.control.experiments import identify_plant
 
     return identify_plant(plant_params, u1=pwm)[1]
 
@@ -260,8 +266,6 @@ def muscle_plants(tool: Tool, load_force):
     -------
     PlantParams
     """
-    from mckibben.models.law_statics import LawMuscle
-    from mckibben.plant import PlantParams
 
     m = tool.muscle
     if isinstance(m, LawMuscle):
@@ -295,18 +299,14 @@ def tracking_setup(tool: Tool, ref: TipReference, beta: float = TRACKING_BETA, c
         ``(plants, params, model, loads)``: a :class:`PlantParams` of three instances, the
         :class:`CoreParams` of the three controllers, the :class:`FirstOrderModel`, the loads [N].
     """
-    from mckibben.control.experiments import smc_core_params
 
     cache = {} if cache is None else cache
     loads = ref.state.tensions.mean(axis=0)
     plants = muscle_plants(tool, loads)
     key = tuple(np.round(loads, 12))
     if key not in cache:
-        from mckibben.models.law_statics import LawMuscle
-
         one = muscle_plants(tool, float(loads.mean()))
         if isinstance(tool.muscle, LawMuscle):  # a large muscle settles in seconds: the control commands' record
-            from mckibben.control.simulation import identify_file_plant
 
             cache[key] = identify_file_plant(one)
         else:
@@ -342,8 +342,6 @@ def simulate_tracking(tool: Tool, runs, *, beta: float = TRACKING_BETA) -> list[
     list of TrackingResult
         One per run.
     """
-    from mckibben.control.core import core_spec
-    from mckibben.plant import simulate
 
     results = []
     models = {}
@@ -376,7 +374,7 @@ def plot_tracking(runs, results, tool: Tool, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
     k = len(results)
     if ax is None:

@@ -118,9 +118,9 @@ def plot_workspace(ws: Workspace, tool: Tool, fig=None):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib
-    import matplotlib.pyplot as plt
-    from matplotlib import cm
+    import matplotlib  # deferred on purpose: Matplotlib
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
+    from matplotlib import cm  # deferred on purpose: Matplotlib
 
     tip = ws.state.tip * 1e3  # mm for the figure
     theta = np.degrees(ws.state.arc.theta)

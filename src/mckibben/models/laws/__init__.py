@@ -86,7 +86,21 @@ if len(LAW_NAMES) > len(_FIRST) + PLANT_SLOTS:
 
 @kernel(error_model="numpy", inline="always")
 def _no_law(pressure, length, th, o, w):
-    """An empty plant slot: no force (NaN, which the plant's checks refuse). [N]"""
+    """An empty plant slot: no force (NaN, which the plant's checks refuse). [N]
+
+    Parameters
+    ----------
+    pressure : float
+        Gauge pressure. [Pa]
+    length : float
+        Muscle length. [m]
+    th : numpy.ndarray
+        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
+    o : int
+        This instance's column in ``th``. [-]
+    w : int
+        The row stride of ``th`` (the number of instances). [-]
+    """
     return math.nan
 
 
@@ -103,7 +117,7 @@ def resolve(name: str, what: str = "force law") -> str:
     name : str
         A name of :data:`LAWS` or :data:`ALIASES`. [-]
     what : str
-        What the name was given as, for the message (e.g. ``"--model"``). [-]
+        What the name was given as, for the message (e.g. ``"model"``). [-]
 
     Raises
     ------

@@ -16,8 +16,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mckibben import _kernels
 from mckibben._kernels import PYTHON_MAX, compiled
 from mckibben.errors import InputError
+from mckibben.models.laws import _eval_template
 
 #: Rows of the parameter array every law reads from (the largest law's need).
 NTH = 44
@@ -128,11 +130,9 @@ def _eval_python(kernel, p, length, th, col, w, out):
 
 def _eval_compiled(kernel, p, length, th, col, w, out):
     """The loop compiled once per law: a module generated for the kernel (``_eval_template``)."""
-    from mckibben import _jit  # deferred: loads Numba (compiling every marked kernel)
-    from mckibben.models.laws import _eval_template
-
+    jit = _kernels.jit()  # loads Numba (compiling every marked kernel)
     compiled = getattr(sys.modules[kernel.__module__], kernel.__name__)  # the dispatcher, now that Numba is loaded
-    _jit.module_for(_eval_template, "kernel", compiled).eval_loop(p, length, th, col, w, out)
+    jit.module_for(_eval_template, "kernel", compiled).eval_loop(p, length, th, col, w, out)
 
 
 def evaluate_kernel(kernel, name: str, pressure, length, theta) -> np.ndarray:

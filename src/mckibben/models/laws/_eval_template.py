@@ -4,16 +4,22 @@
 loop taking the kernel as an *argument* cannot be cached (``mckibben._jit``); so, as for the
 simulator's runner, :func:`mckibben._jit.module_for` makes one module of this source per law, with
 the ``# kernel-import`` line replaced by an import of that law's kernel.
+
+Its functions are marked (:func:`mckibben._kernels.kernel`), not compiled at import, so that
+:mod:`~mckibben.models.laws._base` can import this template at module level without loading Numba;
+they compile when Numba is loaded (here and in every module generated from this source, which
+registers itself in turn).
 """
 
 from __future__ import annotations
 
 import math
 
-from mckibben._jit import njit
+from mckibben._kernels import kernel as _marked
+from mckibben._kernels import register
 
 
-@njit(error_model="numpy")
+@_marked(error_model="numpy")
 def placeholder(pressure, length, th, o, w):
     """The template's own kernel (never evaluated: every law is bound by a generated module). [N]"""
     return math.nan
@@ -22,8 +28,11 @@ def placeholder(pressure, length, th, o, w):
 kernel = placeholder  # kernel-import
 
 
-@njit(error_model="numpy")
+@_marked(error_model="numpy")
 def eval_loop(p, length, th, col, w, out):
     """``out[i] = kernel(p[i], length[i], th, col[i], w)``: the law at each point. [N]"""
     for i in range(p.size):
         out[i] = kernel(p[i], length[i], th, col[i], w)
+
+
+register(__name__)

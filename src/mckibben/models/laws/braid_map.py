@@ -41,6 +41,19 @@ def braid_map(pressure, length, th, o, w):
     segments extended); the segment whose cos θ interval holds the target gives the load.
     NaN where no segment does (two loads with the same cos θ). “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt),
     eq. (2)–(3), Tables I–II.
+
+    Parameters
+    ----------
+    pressure : float
+        Gauge pressure. [Pa]
+    length : float
+        Muscle length. [m]
+    th : numpy.ndarray
+        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
+    o : int
+        This instance's column in ``th``. [-]
+    w : int
+        The row stride of ``th`` (the number of instances). [-]
     """
     target = (length - th[o + (BM_K2) * w]) / (th[o + (BM_K1) * w] * th[o + (BM_LS) * w])
     x = pressure / MPA

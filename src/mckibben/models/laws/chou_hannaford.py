@@ -32,6 +32,19 @@ def chou_hannaford(pressure, length, th, o, w):
     """Ideal thin-walled muscle: F = (π·D0²·P/4)·(3cos²θ − 1), cos θ = l/b. [N]
 
     Chou & Hannaford (1996), eq. (6).
+
+    Parameters
+    ----------
+    pressure : float
+        Gauge pressure. [Pa]
+    length : float
+        Muscle length. [m]
+    th : numpy.ndarray
+        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
+    o : int
+        This instance's column in ``th``. [-]
+    w : int
+        The row stride of ``th`` (the number of instances). [-]
     """
     c = length / th[o + (CH_B) * w]
     return th[o + (CH_C) * w] * pressure * (3.0 * c * c - 1.0)

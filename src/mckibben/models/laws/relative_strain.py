@@ -55,6 +55,19 @@ def relative_strain(pressure, length, th, o, w):
 
     Hunt, Graber-Tilton & Quinn (2017): force in relative strain, the length effect as an
     end-fitting length le.
+
+    Parameters
+    ----------
+    pressure : float
+        Gauge pressure. [Pa]
+    length : float
+        Muscle length. [m]
+    th : numpy.ndarray
+        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
+    o : int
+        This instance's column in ``th``. [-]
+    w : int
+        The row stride of ``th`` (the number of instances). [-]
     """
     l0 = th[o + RS_L0 * w]
     eps = (l0 - length) / (l0 - th[o + RS_LE * w])

@@ -37,6 +37,19 @@ def spring(pressure, length, th, o, w):
 
     One coefficient set per pressure range (low ≤ split < high), one direction chosen when θ was
     built. Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1)–(2), Table 1.
+
+    Parameters
+    ----------
+    pressure : float
+        Gauge pressure. [Pa]
+    length : float
+        Muscle length. [m]
+    th : numpy.ndarray
+        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
+    o : int
+        This instance's column in ``th``. [-]
+    w : int
+        The row stride of ``th`` (the number of instances). [-]
     """
     p = pressure
     s = length - ((th[o + (SP_H2) * w] * p + th[o + (SP_H1) * w]) * p + th[o + (SP_H0) * w])

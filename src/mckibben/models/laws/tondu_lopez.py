@@ -36,6 +36,19 @@ def tondu_lopez(pressure, length, th, o, w):
 
     F = π·r0²·max(P − P_th, 0)·[a(1 − k·ε)² − b], ε = 1 − l/l0, a = 3/tan²α0, b = 1/sin²α0.
     Tondu & Lopez (2000), eq. (4); the threshold: “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) Fig. 10.
+
+    Parameters
+    ----------
+    pressure : float
+        Gauge pressure. [Pa]
+    length : float
+        Muscle length. [m]
+    th : numpy.ndarray
+        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
+    o : int
+        This instance's column in ``th``. [-]
+    w : int
+        The row stride of ``th`` (the number of instances). [-]
     """
     r0 = th[o + (TL_R0) * w]
     dp = pressure - th[o + (TL_PTH) * w]

@@ -27,6 +27,19 @@ def wall_corrected(pressure, length, th, o, w):
     """Chou–Hannaford with the wall term: + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]. [N]
 
     Tsagarakis & Caldwell (2000); Davis et al. (2003).
+
+    Parameters
+    ----------
+    pressure : float
+        Gauge pressure. [Pa]
+    length : float
+        Muscle length. [m]
+    th : numpy.ndarray
+        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
+    o : int
+        This instance's column in ``th``. [-]
+    w : int
+        The row stride of ``th`` (the number of instances). [-]
     """
     c0 = length / th[o + (CH_B) * w]
     c = -1.0 if c0 < -1.0 else c0

@@ -1,4 +1,4 @@
-"""Steer the three-muscle tool through the device link: ``tool track --port``.
+"""Steer the three-muscle tool through the device link: ``tool track --port`` (an experiment: tool + rig).
 
 The host computes the path's pressure references (:func:`mckibben.tool.tracking.tip_reference`),
 sends the three channels' controller design to the device (:meth:`Device.set_gains`, the same
@@ -22,14 +22,18 @@ from mckibben.errors import InputError
 from mckibben.hardware import pressure_from_adc
 from mckibben.rig import protocol as P
 from mckibben.rig.device import command, connect
+from mckibben.tool.paths import parse_path
+from mckibben.tool.tracking import resolve_path, tip_reference
+from mckibben.tool.tracking import muscle_plants
+from mckibben.rig.device import write_gains
+from mckibben.tool.statics import tip_from_pressures
+from mckibben.tool.tracking import TRACKING_BETA, TrackingResult, tracking_setup
 
 #: Time the chambers get at the first references before the path starts (device time). [s]
 SETTLE_S = 0.5
 
 
 def _resolve(tool, path, ref=None):
-    from mckibben.tool.paths import parse_path
-    from mckibben.tool.tracking import resolve_path, tip_reference
 
     if isinstance(path, str):
         path = parse_path(path)
@@ -55,7 +59,6 @@ def tool_plants(tool, path) -> list:
     list of PlantParams
         One plant per channel. [-]
     """
-    from mckibben.tool.tracking import muscle_plants
 
     _, ref = _resolve(tool, path)
     return [muscle_plants(tool, float(f)) for f in ref.state.tensions.mean(axis=0)]
@@ -85,9 +88,6 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
         ``(TrackingResult, link)``: the run, and the link's counters (frames, missing, corrupt,
         references sent, the device's lag behind the sent references [s]).
     """
-    from mckibben.rig.device import write_gains
-    from mckibben.tool.statics import tip_from_pressures
-    from mckibben.tool.tracking import TRACKING_BETA, TrackingResult, tracking_setup
 
     beta = TRACKING_BETA if beta is None else float(beta)
     path, ref = _resolve(tool, path, ref)
@@ -95,7 +95,7 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
     link, hello, parser = connect(port)
     if hello.n_channels < 3:
         link.close()
-        raise InputError(f"--port: {port!r} has {hello.n_channels} channel(s); the tool needs 3")
+        raise InputError(f"port: {port!r} has {hello.n_channels} channel(s); the tool needs 3")
     try:
         gains = write_gains(link, parser, hello, params, port=port, first_seq=100)
     except BaseException:
@@ -103,7 +103,7 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
         raise
     if not gains.verified:
         link.close()
-        raise InputError(f"--port: the gains read back from {port!r} differ from those sent")
+        raise InputError(f"port: the gains read back from {port!r} differ from those sent")
     refs = np.asarray(ref.pressures, dtype=float)
     n = refs.shape[0]
     sent_at = {}  # rounded reference triple -> index k
@@ -174,7 +174,7 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
         applied.append(key)
         faults |= int(np.bitwise_or.reduce([c.faults for c in f.channels[:3]]))
     if len(idx) < n // 2:
-        raise InputError(f"--port: only {len(idx)} telemetry frames of the {n}-period path arrived from {port!r}")
+        raise InputError(f"port: only {len(idx)} telemetry frames of the {n}-period path arrived from {port!r}")
     idx = np.asarray(idx)
     pressure = np.asarray(pressure)
     achieved = tip_from_pressures(np.clip(pressure, 0.0, tool.p_max), tool).tip

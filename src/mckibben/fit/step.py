@@ -1,0 +1,768 @@
+"""Low-order models fitted to an open-loop step response: first order, second order, the fill.
+
+The paper identifies the pressure loop of its 100 mm muscle from "a voltage step input to the
+driver circuit": first order, τ ≈ 0.09 s, no overshoot (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §IV.A). We fit
+
+- first order plus dead time (FOPDT): ``y = y0 + K·Δu·(1 − exp(−(t − t_step − θ)/τ))`` for
+  ``t ≥ t_step + θ``, else ``y0``;
+- optionally second order plus dead time: ``K·Δu·K₂(t − t_step − θ)`` with ``K₂`` the unit step
+  response of ``ωn²/(s² + 2ζωn·s + ωn²)`` (any damping ζ > 0);
+
+by nonlinear least squares (:func:`scipy.optimize.curve_fit`) with standard errors from the
+covariance scaled by the residual variance, residuals, RMSE and AIC for the comparison. The
+standard errors assume independent residuals; a step response's residuals are correlated
+(unmodelled dynamics show as structure, not noise), so read them as a lower bound of the
+uncertainty — the residuals are returned so their structure can be inspected.
+
+The gain is in output units per input unit (Pa per PWM count for a valve-command step); without
+an input column the input step is taken as 1.
+
+Also the fill model of a chamber through a valve (:func:`fit_fill`), the runs test of the
+residuals (:func:`runs_z`), the pooling of per-trial fits and the valves' lift-off across
+logs. Moved here from :mod:`mckibben.control.identify` (which identifies logs with them and
+re-exports the names it had) to stand beside the other fits.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from mckibben.errors import InputError
+from mckibben.units import P_ATM
+
+if TYPE_CHECKING:  # python-control costs ~0.8 s at import: imported where an LTI object is built
+    import control
+
+
+def fopdt_response(t, gain: float, tau: float, dead_time: float, y0: float = 0.0, t_step: float = 0.0,
+                   input_step: float = 1.0):
+    """Step response of a first-order-plus-dead-time model.
+
+    Parameters
+    ----------
+    t : array_like
+        Time. [s]
+    gain : float
+        Static gain, output per input unit. [output/input]
+    tau : float
+        Time constant. [s]
+    dead_time : float
+        Dead time after the step before the output moves. [s]
+    y0 : float, default 0.0
+        Output before the step. [output]
+    t_step : float, default 0.0
+        Time of the input step. [s]
+    input_step : float, default 1.0
+        Size of the input step. [input]
+
+    Returns
+    -------
+    numpy.ndarray
+        Output. [output]
+
+    Examples
+    --------
+    >>> float(fopdt_response(0.09, gain=2.0, tau=0.09, dead_time=0.0)) == 2.0 * (1 - math.exp(-1))
+    True
+    """
+    s = np.maximum(np.asarray(t, dtype=float) - t_step - dead_time, 0.0)
+    return y0 + gain * input_step * -np.expm1(-s / tau)
+
+
+def sopdt_response(t, gain: float, wn: float, zeta: float, dead_time: float, y0: float = 0.0,
+                   t_step: float = 0.0, input_step: float = 1.0):
+    """Step response of a second-order-plus-dead-time model ``K·ωn²/(s² + 2ζωn·s + ωn²)·e^(−θs)``.
+
+    Parameters
+    ----------
+    t : array_like
+        Time. [s]
+    gain : float
+        Static gain, output per input unit. [output/input]
+    wn : float
+        Natural frequency. [rad/s]
+    zeta : float
+        Damping ratio, > 0 (under-, critically or over-damped). [-]
+    dead_time : float
+        Dead time. [s]
+    y0 : float, default 0.0
+        Output before the step. [output]
+    t_step : float, default 0.0
+        Time of the input step. [s]
+    input_step : float, default 1.0
+        Size of the input step. [input]
+
+    Returns
+    -------
+    numpy.ndarray
+        Output. [output]
+    """
+    s = np.maximum(np.asarray(t, dtype=float) - t_step - dead_time, 0.0)
+    z = zeta if abs(zeta - 1.0) > 1e-6 else 1.0 + 1e-6  # the formula is singular at ζ = 1 exactly
+    root = np.sqrt(complex(z * z - 1.0))
+    p1 = -wn * (z - root)
+    p2 = -wn * (z + root)
+    with np.errstate(over="ignore", invalid="ignore"):
+        unit = 1.0 + (p2 * np.exp(p1 * s) - p1 * np.exp(p2 * s)) / (p1 - p2)
+    return y0 + gain * input_step * np.real(unit)
+
+
+@dataclass(frozen=True)
+class StepFit:
+    """A low-order model fitted to one step response, with its uncertainty.
+
+    Parameters
+    ----------
+    order : int
+        1 (FOPDT) or 2 (SOPDT). [-]
+    params : dict of str to float
+        Fitted values: ``gain`` [output/input], ``dead_time_s``, ``y0`` [output] and ``tau_s``
+        (order 1) or ``wn_rad_s``, ``zeta`` (order 2). [mixed]
+    stderr : dict of str to float
+        Standard errors of ``params`` (covariance scaled by the residual variance). [mixed]
+    t_step : float
+        Time of the input step. [s]
+    input_step : float
+        Size of the input step (1 when no input column was given). [input]
+    t : numpy.ndarray
+        Time of the fitted samples. [s]
+    residuals : numpy.ndarray
+        Measured minus fitted output at ``t``. [output]
+    rmse : float
+        Root mean square of the residuals. [output]
+    r2 : float
+        Coefficient of determination. [-]
+    aic : float
+        Akaike information criterion, n·ln(RSS/n) + 2k (lower is better). [-]
+    flags : tuple of str
+        Why the fit deserves doubt (empty: nothing found): ``<param>_at_lower_bound`` /
+        ``_at_upper_bound`` (a dead time of 0 is a value, not a bound), ``poor_fit_r2``
+        (R² < :data:`R2_POOR`), ``residual_runs`` (residual signs in runs: the model's shape is
+        wrong, :func:`runs_z`).
+    """
+
+    order: int
+    params: dict
+    stderr: dict
+    t_step: float
+    input_step: float
+    t: np.ndarray = field(repr=False)
+    residuals: np.ndarray = field(repr=False)
+    rmse: float
+    r2: float
+    aic: float
+    flags: tuple = ()
+
+    @property
+    def gain(self) -> float:
+        """Static gain. [output/input]"""
+        return self.params["gain"]
+
+    @property
+    def tau(self) -> float:
+        """First-order time constant; for order 2 the equivalent 2ζ/ωn. [s]"""
+        if self.order == 1:
+            return self.params["tau_s"]
+        return 2.0 * self.params["zeta"] / self.params["wn_rad_s"]
+
+    @property
+    def dead_time(self) -> float:
+        """Dead time. [s]"""
+        return self.params["dead_time_s"]
+
+    def predict(self, t) -> np.ndarray:
+        """The fitted response at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Time. [s]
+        """
+        p = self.params
+        if self.order == 1:
+            return fopdt_response(t, p["gain"], p["tau_s"], p["dead_time_s"], p["y0"], self.t_step, self.input_step)
+        return sopdt_response(t, p["gain"], p["wn_rad_s"], p["zeta"], p["dead_time_s"], p["y0"], self.t_step,
+                              self.input_step)
+
+    def transfer_function(self, pade_order: int = 0) -> control.TransferFunction:
+        """The model as a python-control transfer function (input → output deviation).
+
+        Parameters
+        ----------
+        pade_order : int, default 0
+            Order of the Padé approximation of the dead time; 0 leaves the dead time out. [-]
+        """
+        import control  # deferred: python-control costs ~0.8 s at import (only LTI objects need it)
+
+        p = self.params
+        if self.order == 1:
+            sys = control.tf([p["gain"]], [p["tau_s"], 1.0])
+        else:
+            wn, z = p["wn_rad_s"], p["zeta"]
+            sys = control.tf([p["gain"] * wn * wn], [1.0, 2 * z * wn, wn * wn])
+        if pade_order > 0 and p["dead_time_s"] > 0:
+            num, den = control.pade(p["dead_time_s"], pade_order)
+            sys = sys * control.tf(num, den)
+        return sys
+
+    def confidence_intervals(self, level: float = 0.95) -> dict:
+        """Symmetric confidence intervals from the standard errors (Student t).
+
+        Parameters
+        ----------
+        level : float, default 0.95
+            Confidence level. [-]
+        """
+        from scipy import special  # deferred on purpose: SciPy
+        dof = max(len(self.t) - len(self.params), 1)
+        q = special.stdtrit(dof, 0.5 + level / 2.0)  # Student's t quantile (scipy.stats.t.ppf's own)
+        return {k: (v - q * self.stderr[k], v + q * self.stderr[k]) for k, v in self.params.items()}
+
+    def to_dict(self, output_unit: str = "", input_unit: str = "") -> dict:
+        """Plain dict for JSON: values, standard errors and fit statistics.
+
+        Parameters
+        ----------
+        output_unit : str, default ""
+            Unit of the output used as key suffix (``"Pa"`` → ``y0_Pa``, ``rmse_Pa``). [-]
+        input_unit : str, default ""
+            Unit of the input (``"count"`` → ``gain_Pa_per_count``). [-]
+        """
+        suffix = f"_{output_unit}" if output_unit else ""
+        gain_key = f"gain{suffix}_per_{input_unit}" if input_unit else f"gain{suffix}"
+        rename = {"gain": gain_key, "y0": f"y0{suffix}"}
+        out = {"order": self.order, "t_step_s": self.t_step, "input_step": self.input_step}
+        for k, v in self.params.items():
+            out[rename.get(k, k)] = v
+            out[f"{rename.get(k, k)}_stderr"] = self.stderr[k]
+        out.update({f"rmse{suffix}": self.rmse, "r2": self.r2, "aic": self.aic, "n_samples": int(len(self.t)),
+                    f"max_abs_residual{suffix}": float(np.max(np.abs(self.residuals))),
+                    "residual_runs_z": runs_z(self.residuals), "flags": list(self.flags)})
+        return out
+
+
+def _validate(t, y, u):
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if t.ndim != 1 or y.shape != t.shape:
+        raise InputError(f"identify: time and output must be 1-D of equal length, got {t.shape} and {y.shape}")
+    if t.size < 10:
+        raise InputError(f"identify: need at least 10 samples, got {t.size}")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(y))):
+        raise InputError("identify: time or output contains NaN or infinite values")
+    if not np.all(np.diff(t) > 0):
+        raise InputError("identify: time must be strictly increasing")
+    if u is not None:
+        u = np.asarray(u, dtype=float)
+        if u.shape != t.shape or not np.all(np.isfinite(u)):
+            raise InputError("identify: the input column must be finite and as long as the time column")
+    return t, y, u
+
+
+def _locate_step(t, y, u, t_step, input_step):
+    if u is not None:
+        changes = np.flatnonzero(np.diff(u) != 0)
+        if t_step is None:
+            if changes.size == 0:
+                raise InputError("identify: the input column never changes, there is no step")
+            t_step = float(t[changes[0] + 1])
+        k = int(np.searchsorted(t, t_step))
+        before = u[k - 1] if k > 0 else u[0]
+        after = u[min(k, len(u) - 1)]
+        if input_step is None:
+            input_step = float(after - before)
+    else:
+        if t_step is None:
+            t_step = float(t[0])
+        if input_step is None:
+            input_step = 1.0
+    if input_step == 0:
+        raise InputError("identify: the input step is zero")
+    if not t[0] <= t_step < t[-5]:
+        raise InputError(f"identify: the step at {t_step} s is not inside the record")
+    return float(t_step), float(input_step)
+
+
+def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = None,
+                      input_step: float | None = None, p_max: float | None = None) -> StepFit:
+    """Fit a first- or second-order-plus-dead-time model to one step response.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times, strictly increasing. [s]
+    y : array_like
+        Output (e.g. gauge pressure). [output]
+    u : array_like, optional
+        Input per sample (e.g. signed valve command); the first change is the step. [input]
+    order : {1, 2}, default 1
+        Model order. [-]
+    t_step : float, optional
+        Time of the input step (default: the first change of ``u``, else ``t[0]``). [s]
+    input_step : float, optional
+        Input step size (default: from ``u``, else 1). [input]
+    p_max : float, optional
+        Upper bound of the final output p∞ of a rising step, e.g. the supply pressure: a fill
+        cannot end above its supply. Reaching it is flagged ``p_final_at_supply``. [output]
+
+    Returns
+    -------
+    StepFit
+        Fitted parameters (``gain``, ``p_final`` = y0 + gain·Δu, ...), standard errors,
+        residuals, fit statistics and flags.
+
+    Raises
+    ------
+    InputError
+        Bad arrays, no step in the input, or no response to fit.
+    RuntimeError
+        The optimizer failed (carries its message).
+
+    References
+    ----------
+    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §IV.A (first-order model from an open-loop step).
+
+    Examples
+    --------
+    >>> t = np.arange(0, 1, 1e-3)
+    >>> y = fopdt_response(t, 2500.0, 0.09, 0.01, t_step=0.1, input_step=200)
+    >>> f = fit_step_response(t, y, np.where(t >= 0.1, 200, 0))
+    >>> round(f.tau, 3), round(f.gain), round(f.dead_time, 3)
+    (0.09, 2500, 0.01)
+    """
+    from scipy import optimize  # deferred on purpose: SciPy
+    if order not in (1, 2):
+        raise InputError(f"identify: order={order!r} must be 1 or 2")
+    t, y, u = _validate(t, y, u)
+    t_step, du = _locate_step(t, y, u, t_step, input_step)
+    k0 = int(np.searchsorted(t, t_step))
+    y_before = float(np.mean(y[max(0, k0 - 20):k0])) if k0 > 0 else float(y[0])
+    n_end = max(3, len(y) // 10)
+    y_end = float(np.mean(y[-n_end:]))
+    dy = y_end - y_before
+    if dy == 0 or not np.any(np.abs(y[k0:] - y_before) > 0.5 * abs(dy)):
+        raise InputError("identify: the output does not respond to the step")
+    ts = t[k0:] - t_step
+    rel = (y[k0:] - y_before) / dy
+    t10 = float(ts[np.argmax(rel >= 0.1)])
+    t63 = float(ts[np.argmax(rel >= 1 - math.exp(-1))])
+    dt = float(np.median(np.diff(t)))
+    tau0 = max((t63 - t10) / (1 - 0.105), 2 * dt)
+    theta0 = max(t63 - tau0, 0.0)
+    span = float(t[-1] - t_step)
+    pmag = abs(dy) * 10 + abs(y_before) + 1e-12
+    pf_lo, pf_hi = y_before - pmag, y_before + pmag
+    if p_max is not None:
+        if dy > 0 and not p_max > y_before:
+            raise InputError(f"identify: the supply {p_max:g} is not above the pressure before the step ({y_before:g})")
+        pf_hi = min(pf_hi, p_max) if dy > 0 else pf_hi
+    y_end = min(y_end, pf_hi - 1e-9 * abs(pf_hi))
+    if order == 1:
+        names = ["p_final", "tau_s", "dead_time_s", "y0"]
+
+        def f(tt, pf, tau, th, y0):
+            return fopdt_response(tt, (pf - y0) / du, tau, th, y0, t_step, du)
+
+        p0 = [y_end, tau0, theta0, y_before]
+        lo = [pf_lo, dt * 1e-3, 0.0, -np.inf]
+        hi = [pf_hi, 10 * span, span, np.inf]
+    else:
+        names = ["p_final", "wn_rad_s", "zeta", "dead_time_s", "y0"]
+
+        def f(tt, pf, wn, z, th, y0):
+            return sopdt_response(tt, (pf - y0) / du, wn, z, th, y0, t_step, du)
+
+        p0 = [y_end, 2.0 / tau0, 1.2, theta0, y_before]
+        lo = [pf_lo, 1e-3 / span, ZETA_BOUNDS[0], 0.0, -np.inf]
+        hi = [pf_hi, 1e3 / dt, ZETA_BOUNDS[1], span, np.inf]
+    p0 = [min(max(v, a + 1e-12 if np.isfinite(a) else v), b - 1e-12 if np.isfinite(b) else v)
+          for v, a, b in zip(p0, lo, hi)]
+    try:
+        popt, pcov = optimize.curve_fit(f, t, y, p0=p0, bounds=(lo, hi), maxfev=20000)
+    except (RuntimeError, optimize.OptimizeWarning, ValueError) as exc:
+        raise RuntimeError(f"identify: the order-{order} fit failed: {exc}") from exc
+    fit = f(t, *popt)
+    res = y - fit
+    rss = float(np.sum(res**2))
+    n = len(y)
+    tss = float(np.sum((y - np.mean(y)) ** 2))
+    r2 = 1.0 - rss / tss if tss > 0 else math.nan
+    flags = _bound_flags(names, popt, lo, hi, skip=("dead_time_s", "y0"), lower_ok=("dead_time_s",))
+    if p_max is not None and pf_hi - popt[0] <= 1e-3 * abs(dy):
+        flags = tuple(fl for fl in flags if not fl.startswith("p_final")) + ("p_final_at_supply",)
+    flags += _shape_flags(res, r2)
+    with np.errstate(invalid="ignore"):
+        se = np.sqrt(np.clip(np.diag(pcov), 0, None))
+    values = {k: float(v) for k, v in zip(names, popt)}
+    errors = {k: float(v) for k, v in zip(names, se)}
+    # the gain from the final value: K = (p∞ − y0)/Δu, its error by the delta method
+    values["gain"] = (values["p_final"] - values["y0"]) / du
+    i_pf, i_y0 = 0, names.index("y0")
+    with np.errstate(invalid="ignore"):
+        errors["gain"] = float(np.sqrt(max(pcov[i_pf, i_pf] + pcov[i_y0, i_y0] - 2 * pcov[i_pf, i_y0], 0.0)) / abs(du))
+    order_keys = ["gain"] + [k for k in names if k != "p_final"] + ["p_final"]
+    return StepFit(
+        order=order,
+        params={k: values[k] for k in order_keys},
+        stderr={k: errors[k] for k in order_keys},
+        t_step=t_step,
+        input_step=du,
+        t=t,
+        residuals=res,
+        rmse=math.sqrt(rss / n),
+        r2=r2,
+        aic=n * math.log(max(rss, 1e-300) / n) + 2 * len(names),
+        flags=flags,
+    )
+
+
+#: Bounds of the damping ratio of the order-2 fit. [-]
+ZETA_BOUNDS = (0.05, 20.0)
+#: R² below which a step-response fit is flagged ``poor_fit_r2``: a pressure step logged by a
+#: transducer of ~1 % noise explains > 99 % of its variance when the model's shape is right. [-]
+R2_POOR = 0.99
+#: Runs-test z below which residuals are flagged ``residual_runs``: fewer sign changes than
+#: chance by 3 standard deviations (p ≈ 0.001) means structure, i.e. the wrong shape. [-]
+RUNS_Z = -3.0
+
+
+def runs_z(residuals) -> float:
+    """Wald–Wolfowitz runs test of the residuals' signs: z of the number of runs.
+
+    Independent residuals give z ≈ N(0, 1); a model of the wrong shape leaves long runs of one
+    sign (z ≪ 0). Zero residuals are left out.
+
+    Parameters
+    ----------
+    residuals : array_like
+        Residuals in time order. [output]
+
+    Returns
+    -------
+    float
+        z-score (NaN with fewer than 10 non-zero residuals or one sign only). [-]
+
+    References
+    ----------
+    Wald, A., Wolfowitz, J. (1940), On a test whether two samples are from the same population,
+    Ann. Math. Stat. 11(2), 147–162.
+    """
+    r = np.asarray(residuals, dtype=float)
+    s = np.sign(r[r != 0])
+    n1, n2 = int(np.sum(s > 0)), int(np.sum(s < 0))
+    n = n1 + n2
+    if n < 10 or n1 == 0 or n2 == 0:
+        return math.nan
+    runs = 1 + int(np.sum(s[1:] != s[:-1]))
+    mu = 2.0 * n1 * n2 / n + 1.0
+    var = (mu - 1.0) * (mu - 2.0) / (n - 1.0)
+    return float((runs - mu) / math.sqrt(var)) if var > 0 else math.nan
+
+
+def _bound_flags(names, values, lo, hi, skip=(), lower_ok=()) -> tuple:
+    out = []
+    for n_, v, a, b in zip(names, values, lo, hi):
+        if n_ in skip and n_ not in lower_ok:
+            continue
+        # within 0.1 % of the bound (relative to the bound itself: some bounds span decades)
+        span = (b - a) if np.isfinite(a) and np.isfinite(b) else np.inf
+        if np.isfinite(a) and v - a <= 1e-3 * min(span, max(abs(a), 1e-12)) and n_ not in lower_ok:
+            out.append(f"{n_}_at_lower_bound")
+        elif np.isfinite(b) and b - v <= 1e-3 * min(span, max(abs(b), 1e-12)) and n_ not in skip:
+            out.append(f"{n_}_at_upper_bound")
+    return tuple(out)
+
+
+def _shape_flags(res, r2) -> tuple:
+    out = []
+    if not r2 >= R2_POOR:
+        out.append("poor_fit_r2")
+    z = runs_z(res)
+    if np.isfinite(z) and z < RUNS_Z:
+        out.append("residual_runs")
+    return tuple(out)
+
+
+def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0):
+    """Pressure of a volume filled from a supply through an orifice: choked ramp, then subsonic.
+
+    With the ISO 6358 flow of the orifice into a volume of constant size, the absolute pressure
+    ratio r = p/p_s rises as dr/dt = φ(r)/τ_fill with φ = 1 while choked (r ≤ b) and
+    φ = sqrt(1 − ((r − b)/(1 − b))²) above: a straight ramp until r = b, then
+    r = b + (1 − b)·sin(arcsin x0 + (t − t1)/(τ_fill·(1 − b))), reaching the supply in finite
+    time. The curve is a ramp bending into the supply: not a first-order step.
+
+    Parameters
+    ----------
+    t : array_like
+        Time. [s]
+    p0 : float
+        Gauge pressure before the step. [Pa]
+    p_supply : float
+        Supply gauge pressure. [Pa]
+    tau_fill : float
+        Time to fill from vacuum to the supply at the choked rate, p_s/ṗ_choked. [s]
+    b : float
+        Critical pressure ratio of the orifice, 0 < b < 1. [-]
+    dead_time : float
+        Delay from the step to the flow. [s]
+    t_step : float, default 0.0
+        Time of the valve step. [s]
+
+    Returns
+    -------
+    numpy.ndarray
+        Gauge pressure. [Pa]
+
+    References
+    ----------
+    ISO 6358 (sonic conductance C, critical ratio b); the chamber's ṗ = (n/V)·R·T·ṁ at constant
+    volume (NOTES.md, "Higher marks"); notes/lab-data.md (fills are S-shaped or ramp-then-exponential).
+    """
+
+    ps = p_supply + P_ATM
+    r0 = (p0 + P_ATM) / ps
+    s = np.maximum(np.asarray(t, dtype=float) - t_step - dead_time, 0.0)
+    t1 = max(b - r0, 0.0) * tau_fill
+    x0 = min(max((r0 - b) / (1.0 - b), 0.0), 1.0)
+    arg = np.arcsin(x0) + np.maximum(s - t1, 0.0) / (tau_fill * (1.0 - b))
+    x = np.where(arg >= np.pi / 2, 1.0, np.sin(np.minimum(arg, np.pi / 2)))
+    r = np.where(s < t1, r0 + s / tau_fill, b + (1.0 - b) * x)
+    return r * ps - P_ATM
+
+
+@dataclass(frozen=True)
+class FillFit:
+    """The orifice-into-a-volume fill model fitted to a rising step (see :func:`fill_response`).
+
+    Attributes
+    ----------
+    params, stderr : dict
+        ``p0_Pa``, ``p_supply_Pa``, ``tau_fill_s``, ``b``, ``dead_time_s`` and their errors
+        (``p_supply_Pa``'s is 0 when the supply was given). [mixed]
+    t_step : float
+        Time of the step. [s]
+    t, residuals : numpy.ndarray
+        Times and residuals. [s, Pa]
+    rmse, r2, aic : float
+        As in :class:`StepFit`.
+    flags : tuple of str
+        As in :class:`StepFit`.
+    """
+
+    params: dict
+    stderr: dict
+    t_step: float
+    t: np.ndarray = field(repr=False)
+    residuals: np.ndarray = field(repr=False)
+    rmse: float
+    r2: float
+    aic: float
+    flags: tuple = ()
+    order: str = "fill"
+
+    @property
+    def dead_time(self) -> float:
+        """Dead time. [s]"""
+        return self.params["dead_time_s"]
+
+    def predict(self, t) -> np.ndarray:
+        """The fitted fill at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Time. [s]
+        """
+        p = self.params
+        return fill_response(t, p["p0_Pa"], p["p_supply_Pa"], p["tau_fill_s"], p["b"], p["dead_time_s"], self.t_step)
+
+    def to_dict(self, output_unit: str = "Pa", input_unit: str = "") -> dict:
+        """Plain dict for JSON.
+
+        Parameters
+        ----------
+        output_unit : str, default "Pa"
+            Unused (the fill model is in Pa). [-]
+        input_unit : str, default ""
+            Unused. [-]
+        """
+        out = {"order": "fill", "t_step_s": self.t_step}
+        for k, v in self.params.items():
+            out[k] = v
+            out[f"{k}_stderr"] = self.stderr[k]
+        out.update({"rmse_Pa": self.rmse, "r2": self.r2, "aic": self.aic, "n_samples": int(len(self.t)),
+                    "residual_runs_z": runs_z(self.residuals), "flags": list(self.flags)})
+        return out
+
+
+#: Bounds of the fill model's critical pressure ratio (ISO 6358 valves: ~0.1–0.6). [-]
+B_BOUNDS = (0.01, 0.99)
+
+
+def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | None = None) -> FillFit:
+    """Fit the orifice fill model (:func:`fill_response`) to a rising pressure step.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times, strictly increasing. [s]
+    y : array_like
+        Gauge pressure. [Pa]
+    u : array_like, optional
+        Valve command per sample; its first change is the step. [input]
+    t_step : float, optional
+        Time of the step (default: from ``u``, else ``t[0]``). [s]
+    p_supply : float, optional
+        Supply gauge pressure; fitted (at least the highest sample) when not given. [Pa]
+
+    Returns
+    -------
+    FillFit
+    """
+    from scipy import optimize  # deferred on purpose: SciPy
+    t, y, u = _validate(t, y, u)
+    t_step, _ = _locate_step(t, y, u, t_step, None)
+    k0 = int(np.searchsorted(t, t_step))
+    p0 = float(np.mean(y[max(0, k0 - 20):k0])) if k0 > 0 else float(y[0])
+    if not np.max(y) > p0:
+        raise InputError("identify: the fill model needs a rising step")
+    ymax = float(np.max(y))
+    span = float(t[-1] - t_step)
+    dt = float(np.median(np.diff(t)))
+    names = ["p0_Pa", "tau_fill_s", "b", "dead_time_s"] + (["p_supply_Pa"] if p_supply is None else [])
+
+    def model(v):
+        ps = v[4] if p_supply is None else p_supply
+        return fill_response(t, v[0], ps, v[1], v[2], v[3], t_step)
+
+    lo = [p0 - abs(ymax - p0), dt * 1e-2, B_BOUNDS[0], 0.0] + ([0.9 * ymax] if p_supply is None else [])
+    hi = [p0 + abs(ymax - p0), 100 * span, B_BOUNDS[1], span] + ([3.0 * ymax + 1e6] if p_supply is None else [])
+    scale = np.array([max(abs(ymax - p0), 1.0), span, 1.0, span] + ([max(ymax, 1.0)] if p_supply is None else []))
+    best = None
+    for b0 in (0.2, 0.5, 0.8):
+        ps0 = ymax if p_supply is None else p_supply
+        x0 = np.array([p0, max(span / 3, 2 * dt), b0, 0.0] + ([1.05 * ps0] if p_supply is None else []))
+        x0 = np.clip(x0, np.array(lo) + 1e-9 * scale, np.array(hi) - 1e-9 * scale)
+        r = optimize.least_squares(lambda th: model(th * scale) - y, x0 / scale,
+                                   bounds=(np.array(lo) / scale, np.array(hi) / scale), method="trf", max_nfev=2000)
+        if best is None or r.cost < best.cost:
+            best = r
+    v = best.x * scale
+    res = -best.fun
+    n, k = len(y), len(names)
+    rss = float(res @ res)
+    jac = best.jac / scale
+    norms = np.linalg.norm(jac, axis=0)
+    norms[norms == 0] = 1.0
+    cov = rss / max(n - k, 1) * np.linalg.pinv((jac / norms).T @ (jac / norms)) / np.outer(norms, norms)
+    se = np.sqrt(np.clip(np.diag(cov), 0, None))
+    tss = float(np.sum((y - np.mean(y)) ** 2))
+    r2 = 1.0 - rss / tss if tss > 0 else math.nan
+    flags = _bound_flags(names, v, lo, hi, skip=("p0_Pa",), lower_ok=("dead_time_s",)) + _shape_flags(res, r2)
+    params = {nm: float(x) for nm, x in zip(names, v)}
+    errors = {nm: float(e) for nm, e in zip(names, se)}
+    if p_supply is not None:
+        params["p_supply_Pa"], errors["p_supply_Pa"] = float(p_supply), 0.0
+    return FillFit(params, errors, t_step, t, res, math.sqrt(rss / n), r2, n * math.log(max(rss, 1e-300) / n) + 2 * k,
+                   flags)
+
+
+def pooled_step_parameters(fits) -> dict:
+    """Mean of each parameter over trials with its standard error across trials (sd/√n).
+
+    Each trial is one independent realization of the step; the spread between trials is the
+    honest uncertainty of a parameter (it includes what each fit's own error leaves out: the
+    residuals of one step are correlated). 95 % intervals use t with n − 1 degrees of freedom.
+
+    Parameters
+    ----------
+    fits : sequence of StepFit
+        One fit per trial, same order. [-]
+
+    Returns
+    -------
+    dict
+        ``n_trials`` and per parameter: ``mean``, ``stderr``, ``ci95``. [parameter units]
+    """
+    from scipy import special  # deferred on purpose: SciPy
+    fits = list(fits)
+    n = len(fits)
+    out: dict = {"n_trials": n}
+    if n < 2:
+        return out
+    q = float(special.stdtrit(n - 1, 0.975))  # Student's t quantile (scipy.stats.t.ppf's own)
+    for k in fits[0].params:
+        if k in ("p_final", "p_supply_Pa"):  # set by each trial's command or supply, not a property to pool
+            continue
+        v = np.array([f.params[k] for f in fits])
+        m, se = float(np.mean(v)), float(np.std(v, ddof=1) / math.sqrt(n))
+        out[k] = {"mean": m, "stderr": se, "ci95": [m - q * se, m + q * se]}
+    return out
+
+
+def fit_lift_off(fits, commands) -> dict:
+    """The valve's lift-off from steps to different commands: the affine map p = G·(u − u0).
+
+    Each fit's final pressure ``y0 + gain·input_step`` is paired with the command held after its
+    step; a straight line through the pairs (exact for two, least squares with standard errors
+    for more) gives G and u0 = −intercept/G. The identified model ṗ = (G·(u − u0) − p)/τ then
+    holds a pressure p with u0 + p/G counts, where the paper's line through the origin (one step)
+    asks p/G_secant (``docs/control.md``).
+
+    Parameters
+    ----------
+    fits : sequence of StepFit
+        Order-1 or order-2 fits of steps from rest (or from any held command). [-]
+    commands : sequence of float
+        Command held after each step. [PWM counts]
+
+    Returns
+    -------
+    dict
+        ``gain_Pa_per_count`` [Pa/count], ``lift_off_counts`` [counts] and their standard errors
+        (``*_stderr``; NaN with two steps: a line through two points has no residual), with the
+        data they came from: ``final_pressure_Pa`` and ``commands_pwm``.
+
+    Raises
+    ------
+    InputError
+        Fewer than two steps, steps to the same command, final pressures that do not rise with
+        the command, or a lift-off outside [0, smallest command) — the steps do not share one
+        line (a saturated valve, or one far above its lift-off where the map bends). A lift-off
+        within one count below zero is taken as 0 (no lift-off, to the fits' noise).
+    """
+    fits = list(fits)
+    u = np.asarray(commands, dtype=float)
+    if len(fits) < 2 or u.shape != (len(fits),):
+        raise InputError(f"lift-off: needs two or more steps with one command each, got {len(fits)} steps "
+                         f"and {u.size} commands")
+    if np.unique(u).size != u.size:
+        raise InputError(f"lift-off: the steps must end at different commands, got {u.tolist()} counts")
+    p = np.array([f.params["y0"] + f.gain * f.input_step for f in fits])
+    if u.size == 2:
+        g = (p[1] - p[0]) / (u[1] - u[0])
+        cov = np.full((2, 2), np.nan)
+        b = p[0] - g * u[0]
+    else:
+        (g, b), cov = np.polyfit(u, p, 1, cov=True)
+    if not g > 0:
+        raise InputError(f"lift-off: the final pressures {np.round(p).tolist()} Pa do not rise with the commands "
+                         f"{u.tolist()} counts (a saturated or shut valve?)")
+    u0 = -b / g
+    if -1.0 <= u0 < 0.0:  # a valve with no lift-off, within the fits' noise
+        u0 = 0.0
+    if not 0 <= u0 < u.min():
+        raise InputError(f"lift-off: the line through the final pressures {np.round(p).tolist()} Pa at "
+                         f"{u.tolist()} counts meets zero at {u0:.1f} counts, outside [0, {u.min():g}): use steps "
+                         "a few counts apart just above where the pressure starts to rise")
+    # u0 = −b/g: first-order propagation of the line's covariance
+    jac = np.array([b / g**2, -1.0 / g])
+    return {"gain_Pa_per_count": float(g), "lift_off_counts": float(u0),
+            "gain_Pa_per_count_stderr": float(np.sqrt(cov[0, 0])),
+            "lift_off_counts_stderr": float(np.sqrt(jac @ cov @ jac)),
+            "final_pressure_Pa": p.tolist(), "commands_pwm": u.tolist()}

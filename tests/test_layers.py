@@ -1,0 +1,153 @@
+"""DESIGN.md's layer rule and "imports tell the truth", checked on the import graph of ``src/mckibben``.
+
+The graph is built from the source (the AST of every module: its module-level imports and the
+imports inside its functions), not from what happens to be loaded, so an import on a path no test
+runs is checked too.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+PACKAGE = SRC / "mckibben"
+
+#: Modules every layer may import; they import only each other (errors, units, hardware facts,
+#: size limits, files written atomically, the result base class, the kernel machinery).
+BASE = {"mckibben", "errors", "files", "compile_notice", "_kernels", "_jit", "units", "hardware", "limits", "atomic",
+        "results", "plotting"}
+
+#: Layer of each package (DESIGN.md's picture, top to bottom): a module may import a lower layer,
+#: never a higher one nor another package of its own layer (siblings: ``fit`` and ``plant``;
+#: ``rig``, ``tool`` and ``export``).
+LAYER = {
+    "data": 1,
+    "models": 2,
+    "datasets": 3,
+    "fit": 4, "plant": 4,
+    "control": 5,
+    "rig": 6, "export": 6,
+    # the tool's MuJoCo engine drives the endoscope's muscles through the bridge (export.mujoco)
+    "tool": 7,
+    "experiments": 8,
+    "sweep": 9, "report": 9, "doctor": 9, "examples": 9,
+    "cli": 10,
+}
+
+#: The package's deferred imports of its own modules: (importing module, imported module) -> why.
+DEFERRED_OWN = {
+    ("mckibben._kernels", "mckibben._jit"): "loads Numba: the one place a cheap module reaches compiled code",
+}
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(SRC).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+KNOWN = {_module_name(p) for p in PACKAGE.rglob("*.py")}
+
+
+def _targets(module: str, node: ast.Import | ast.ImportFrom, is_package: bool, known=None) -> list[str]:
+    """The modules an import statement names (``from a import b``: ``a.b`` if it is a module, else ``a``)."""
+    if isinstance(node, ast.Import):
+        return [a.name for a in node.names]
+    base = node.module or ""
+    if node.level:
+        pkg = module.split(".") if is_package else module.split(".")[:-1]
+        pkg = pkg[: len(pkg) - (node.level - 1)]
+        base = ".".join(pkg + ([base] if base else []))
+    known = KNOWN if known is None else known
+    return sorted({f"{base}.{a.name}" if f"{base}.{a.name}" in known else base for a in node.names})
+
+
+def _imports() -> list[tuple[str, str, bool, int]]:
+    """Every import of the package's own modules: (importer, imported, inside a function, line)."""
+    known = KNOWN
+    out = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        module = _module_name(path)
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        in_function = set()
+        for fn in ast.walk(tree):
+            if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                in_function.update(id(n) for n in ast.walk(fn) if isinstance(n, (ast.Import, ast.ImportFrom)))
+        for node in ast.walk(tree):
+            if not isinstance(node, (ast.Import, ast.ImportFrom)):
+                continue
+            for target in _targets(module, node, path.name == "__init__.py"):
+                if target in known and target != module:
+                    out.append((module, target, id(node) in in_function, node.lineno))
+    return out
+
+
+def _layer(module: str) -> tuple[str, int | None]:
+    """The module's package (``models``, ``errors``...) and its layer (None for a base module)."""
+    parts = module.split(".")
+    top = parts[1] if len(parts) > 1 else "mckibben"
+    if top in BASE:
+        return top, None
+    assert top in LAYER, f"{module}: a package with no layer in this test's table (DESIGN.md): add it"
+    return top, LAYER[top]
+
+
+IMPORTS = _imports()
+
+
+def test_the_graph_is_not_empty():
+    """The walk found the package (a broken path would make every other test pass vacuously)."""
+    assert len(IMPORTS) > 300
+    assert ("mckibben.plant.params", "mckibben.models.muscle", False) in {(a, b, f) for a, b, f, _ in IMPORTS}
+
+
+def test_no_function_level_import_of_the_packages_own_modules():
+    """Imports of mckibben.* are at module level, so the graph is visible (DESIGN.md), but the documented deferral."""
+    hidden = [f"{a}:{line} imports {b} inside a function" for a, b, inside, line in IMPORTS
+              if inside and (a, b) not in DEFERRED_OWN]
+    assert hidden == []
+
+
+def test_every_import_goes_down_the_layers():
+    bad = []
+    for a, b, _, line in IMPORTS:
+        (pa, la), (pb, lb) = _layer(a), _layer(b)
+        if pa == pb:
+            continue
+        if la is None and lb is not None:
+            bad.append(f"{a}:{line} -> {b}: a base module imports the {pb} layer")
+        elif la is not None and lb is not None and lb >= la:
+            bad.append(f"{a}:{line} -> {b}: {pa} (layer {la}) may not import {pb} (layer {lb})")
+    assert bad == []
+
+
+@pytest.mark.parametrize("importer, imported", [("mckibben.rig", "mckibben.tool"), ("mckibben.plant", "mckibben.fit"),
+                                                ("mckibben.data", "mckibben.models"),
+                                                ("mckibben.models", "mckibben.plant"),
+                                                ("mckibben.control", "mckibben.rig")])
+def test_the_crossings_design_md_names_are_absent(importer, imported):
+    found = [(a, b) for a, b, _, _ in IMPORTS if (a == importer or a.startswith(importer + "."))
+             and (b == imported or b.startswith(imported + "."))]
+    assert found == []
+
+
+def test_the_rule_catches_a_crossing():
+    """The check itself fails on a module that imports upwards (the test can fail)."""
+    assert _layer("mckibben.rig.device")[1] < _layer("mckibben.experiments.link")[1]
+    assert _layer("mckibben.plant.params")[1] == _layer("mckibben.fit.core")[1]  # siblings: refused by ``>=``
+    tree = ast.parse("def f():\n    from mckibben.tool import tracking\n")
+    node = tree.body[0].body[0]
+    assert _targets("mckibben.rig.device", node, False) == ["mckibben.tool.tracking"]
+    bad = [(a, b) for a, b in [("mckibben.rig.device", "mckibben.tool.tracking")] if _layer(b)[1] >= _layer(a)[1]]
+    assert bad  # the rule refuses it
+
+
+def test_the_deferred_import_is_the_documented_one():
+    """The one deferral of the package's own code loads Numba and says so where it is written."""
+    text = (PACKAGE / "_kernels.py").read_text(encoding="utf-8")
+    line = next(x for x in text.splitlines() if "from mckibben import _jit" in x)
+    assert "deferred" in line and "Numba" in line
