@@ -247,3 +247,21 @@ def test_bad_out_and_controller_are_refused(tmp_path):
     with pytest.raises(InputError, match="controller"):
         export_fmu("mpam97", out=tmp_path / "m.fmu", controller="lqr")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.timeout(600)
+def test_a_built_package_carries_the_firmware_core(tmp_path):
+    """pip install . (a wheel) takes the firmware's C core along (setup.py copies firmware/core into
+    mckibben/export/firmware_core), so an installed mckibben closes the FMU's loop with the C that
+    runs on the Mega, byte for byte, without a source checkout."""
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    r = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(root)],
+                       capture_output=True, text=True, timeout=580, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-2000:]
+    (wheel,) = tmp_path.glob("mckibben-*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        for name in ("controller.c", "controller.h", "laws.h", "law_stsmc.h"):
+            assert z.read(f"mckibben/export/firmware_core/{name}") == (root / "firmware" / "core" / name).read_bytes()

@@ -245,13 +245,14 @@ def controller_mode(controller: str) -> int:
 
 
 def _firmware_core() -> Path:
-    """``firmware/core`` of the source tree this package runs from."""
-    core = Path(__file__).resolve().parents[3] / "firmware" / "core"
-    missing = [f for f in FIRMWARE_SOURCES if not (core / f).is_file()]
-    if missing:
-        raise InputError(f"controller: the firmware's C core ({core}) is not in this installation; export a "
-                         "closed-loop FMU from a source checkout of mckibben")
-    return core
+    """The firmware's C core: the copy a built package carries (``export/firmware_core``, made by
+    ``setup.py`` from ``firmware/core``), else ``firmware/core`` of the source tree it runs from."""
+    here = Path(__file__).resolve()
+    for core in (here.parent / "firmware_core", here.parents[3] / "firmware" / "core"):
+        if all((core / f).is_file() for f in FIRMWARE_SOURCES):
+            return core
+    raise InputError("controller: the firmware's C core is not in this installation (a package built "
+                     "without firmware/core); export a closed-loop FMU from a source checkout of mckibben")
 
 
 def _label(plant, muscle, muscle_file) -> str:
