@@ -201,7 +201,7 @@ def track_cmd(
     engines = tool_lib.experiments.TRACK_ENGINES
 
     if engine not in engines:
-        raise unknown_name("engine", engine, engines)
+        raise unknown_name("engine (--engine)", engine, engines)
     if port is not None and (periods or reference_only):
         raise InputError("--port: runs one path on the device; it takes neither --periods nor --reference-only")
     check_outputs(plot, dpi, out)

@@ -60,6 +60,7 @@ RANGE_FLAGS = {
     "contraction": Flag.LENGTH_OUT_OF_RANGE,
     "cos_theta": Flag.LENGTH_OUT_OF_RANGE,
     "force": Flag.FORCE_OUT_OF_RANGE,
+    "rest_length": Flag.REST_LENGTH_OUT_OF_RANGE,
 }
 
 #: SI unit of each input quantity, for JSON keys of the valid range.
