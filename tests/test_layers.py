@@ -17,7 +17,7 @@ PACKAGE = SRC / "mckibben"
 
 #: Modules every layer may import; they import only each other (errors, units, hardware facts,
 #: size limits, files written atomically, the result base class, the kernel machinery).
-BASE = {"mckibben", "errors", "files", "compile_notice", "_kernels", "_jit", "units", "hardware", "limits", "atomic",
+BASE = {"mckibben", "errors", "files", "compile_notice", "_kernels", "_jit", "_lazy", "units", "hardware", "limits", "atomic",
         "results", "plotting"}
 
 #: Layer of each package (DESIGN.md's picture, top to bottom): a module may import a lower layer,

@@ -14,7 +14,7 @@ with the firmware), :mod:`~mckibben.control.identify`, :mod:`~mckibben.control.m
 :mod:`~mckibben.control.hysteresis`, :mod:`~mckibben.control.length`.
 """
 
-import importlib
+from mckibben import _lazy
 
 #: Where each public name lives. The submodules are imported on first use (PEP 562): the control
 #: package pulls in python-control and SciPy, and a light module (the controller registry, which
@@ -74,19 +74,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
-    # deferred on purpose: python-control and SciPy (see _WHERE)
-    if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    try:  # a submodule by attribute (``mckibben.control.core``), as an eager package would have bound it
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-    raise AttributeError(f"module 'mckibben.control' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = _lazy.package(__name__, _WHERE)

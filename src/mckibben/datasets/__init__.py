@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import importlib
+from mckibben import _lazy
 
 from mckibben.datasets.published import MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES
 from mckibben.errors import ArgumentTypeError, unknown_name
@@ -41,11 +41,4 @@ def get_muscle(name: str) -> MiniatureMuscle:
 __all__ = ["MUSCLES", "SPRING_MODEL_STRUCTURE", "SPRING_MUSCLE_SIZES", "get_muscle", "list_muscles"]
 
 
-def __getattr__(name: str):
-    # the generated campaigns (pandas) load on first use: ``datasets.campaign``, ``datasets.isometric``
-    try:
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = _lazy.package(__name__, None)

@@ -5,14 +5,7 @@
 ``mckibben.rig.track``; it moved here because it uses the tool, which the rig may not import.
 """
 
-import importlib
+from mckibben import _lazy
 
 
-def __getattr__(name: str):
-    # the package is cheap to import (every command module imports it); a submodule loads on first use
-    try:
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = _lazy.package(__name__, None)

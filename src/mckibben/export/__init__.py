@@ -1,7 +1,7 @@
 """Bridges out of mckibben: the plant as an FMU (:func:`export_fmu`) for Simulink, Modelica, FMPy, and
 calibrated muscles on MuJoCo tendons (:mod:`mckibben.export.mujoco`, imported on its own: it loads Numba)."""
 
-import importlib
+from mckibben import _lazy
 from typing import TYPE_CHECKING
 
 #: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
@@ -17,19 +17,4 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.export.fmu import export_fmu as export_fmu
 
 
-def __getattr__(name: str):
-    # table-driven (see _WHERE): the submodule and its heavy third-party packages load on first use
-    if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    try:  # a submodule by attribute (``mckibben.plant.params``), as an eager package would have bound it
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = _lazy.package(__name__, _WHERE)

@@ -5,9 +5,7 @@ calibrated rig of “Experimental Characterization and Control of Miniaturized P
 against the paper. See ``docs/plant.md``.
 """
 
-import importlib
-import sys
-import types
+from mckibben import _lazy
 from typing import TYPE_CHECKING
 
 #: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
@@ -57,36 +55,4 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.plant.simulator import static_length as static_length
 
 
-def __getattr__(name: str):
-    # table-driven (see _WHERE): the submodule and its heavy third-party packages load on first use
-    if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    try:  # a submodule by attribute (``mckibben.plant.params``), as an eager package would have bound it
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_WHERE))
-
-
-class _Package(types.ModuleType):
-    """The package, where a public name of :data:`_WHERE` keeps its meaning when a submodule of that name loads.
-
-    Importing ``mckibben.plant.calibration`` binds the module on the package as ``calibration``;
-    the eager package rebound the name to the function right after, this one refuses the binding
-    (the module stays in ``sys.modules``, where ``from mckibben.plant.calibration import ...`` finds it).
-    """
-
-    def __setattr__(self, name, value):
-        if name in _WHERE and isinstance(value, types.ModuleType):
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
+__getattr__, __dir__ = _lazy.package(__name__, _WHERE, keep_names=True)

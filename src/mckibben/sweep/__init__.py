@@ -2,7 +2,7 @@
 results as a Parquet dataset, and summaries (best setting, Pareto front, sensitivity).
 See ``docs/sweep.md``."""
 
-import importlib
+from mckibben import _lazy
 from typing import TYPE_CHECKING
 
 #: Where each public name lives. The submodules are imported on first use (PEP 562): importing the
@@ -37,19 +37,4 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.sweep.summary import settings_table as settings_table
 
 
-def __getattr__(name: str):
-    # table-driven (see _WHERE): the submodule and its heavy third-party packages load on first use
-    if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    try:  # a submodule by attribute (``mckibben.plant.params``), as an eager package would have bound it
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = _lazy.package(__name__, _WHERE)
