@@ -24,8 +24,8 @@ import numpy as np
 
 from mckibben.errors import InputError
 
-__all__ = ["G_N", "P_ATM", "SI_UNIT", "UNITS", "parse_quantity", "parse_values", "quantity", "split_column", "to_si",
-           "units_of"]
+__all__ = ["G_N", "P_ATM", "SI_UNIT", "UNITS", "parse_quantity", "parse_values", "quantity", "si", "split_column",
+           "to_si", "units_of"]
 
 #: Standard gravity [m/s^2] (for gram-force and hanging masses).
 G_N = 9.80665
@@ -350,3 +350,56 @@ def split_column(column: str) -> tuple[str, str]:
         if unit in UNITS and unit:
             return quantity, unit
     return column, ""
+
+
+def si(value, dimension: str, name: str, *, allow_negative: bool = False, allow_zero: bool = True) -> float:
+    """A library argument that must be a number in SI: the library takes numbers, the CLI parses.
+
+    Text with a unit (``"0.55MPa"``) is refused with the number to pass instead, so a notebook user
+    learns the SI value at once; the command line parses its text with :func:`parse_quantity`
+    before it calls the library.
+
+    Parameters
+    ----------
+    value : float
+        The argument, in the SI unit of ``dimension``. [SI]
+    dimension : str
+        Its dimension (a key of :data:`SI_UNIT`). [-]
+    name : str
+        The argument's Python name, for the message. [-]
+    allow_negative, allow_zero : bool
+        Whether a negative value, or zero, is accepted. [-]
+
+    Returns
+    -------
+    float
+        ``value``. [SI]
+
+    Raises
+    ------
+    ArgumentTypeError
+        Text, ``None``, a bool or any other non-number.
+    InputError
+        NaN, infinity, or a negative or zero value where it is not allowed.
+
+    Examples
+    --------
+    >>> si(0.55e6, "pressure", "target")
+    550000.0
+    """
+    from mckibben.errors import ArgumentTypeError, check_real
+
+    unit = SI_UNIT[dimension]
+    if isinstance(value, str):
+        try:
+            hint = f"; pass {parse_quantity(value, dimension, name, allow_negative=True):.6g} for {value!r}"
+        except InputError:
+            hint = ""
+        raise ArgumentTypeError(f"{name} = {value!r}: the library takes a number in {unit} (SI), not text"
+                                f"{hint} (mckibben.units.parse_quantity converts text)")
+    v = check_real(value, name, unit=unit)
+    if v < 0 and not allow_negative:
+        raise InputError(f"{name} = {v:g} {unit}: negative; a {dimension} here must be >= 0")
+    if v == 0 and not allow_zero:
+        raise InputError(f"{name} = 0 {unit}: a {dimension} here must be > 0")
+    return v
