@@ -231,3 +231,47 @@ def test_a_partly_recorded_result_prints_and_keeps_its_reference():
     assert "recorded: pressure" in repr(res) and "2 instances x 50 periods" in repr(res)
     ref[:] = 0.0
     assert np.all(res.reference == 0.3e6)
+
+
+def _every_law_plant(name):
+    """A plant on each registered law (index in LAW_NAMES), for the static start's two brackets."""
+    from mckibben.models.laws.relative_strain import RelativeStrain
+    from mckibben.models.laws.virtual_work import VirtualWork
+
+    m143 = get_muscle("mpam143")
+    return {
+        "tondu-lopez": lambda: PlantParams(),
+        "chou-hannaford": lambda: PlantParams.for_muscle(m143, force_model="chou-hannaford"),
+        "wall-corrected": lambda: PlantParams.for_muscle(m143, force_model="wall-corrected"),
+        "braid-map": lambda: PlantParams.for_muscle(m143, force_model="empirical"),
+        "spring": lambda: PlantParams.for_muscle(get_muscle("mpam97"), force_model=campaign_truth("mpam97").spring),
+        "relative-strain": lambda: PlantParams(force_model=RelativeStrain(4.0, 1.0, 10.0, 5.0, 0.005, 0.097)),
+        "virtual-work": lambda: PlantParams(force_model=VirtualWork(5.3, -24.0, 4.0, 1.3, 0.025, 7.2, 0.02, 0.097)),
+    }[name]()
+
+
+@pytest.mark.parametrize("name", ['tondu-lopez', 'chou-hannaford', 'wall-corrected', 'braid-map', 'spring',
+                                  'relative-strain', 'virtual-work'])
+def test_small_batches_bracket_the_static_start_as_the_compiled_bisection_does(name):
+    # single-rig commands take the NumPy-face bracket (no compiled bisection to wait for): the same bits
+    from mckibben.models import laws as LW
+    from mckibben.plant import simulator as S
+
+    rng = np.random.default_rng(7)
+    base = _every_law_plant(name)
+    n = 120
+    prm, law, th, _ = base.replace(load_force=rng.uniform(0.0, 3.0 * base.load_force + 1.0, n)).prepare()
+    assert LW.LAW_NAMES[law] == name
+    pg = rng.uniform(-5e4, 9e5, n)
+    th = np.ascontiguousarray(th)
+    c = PP.Col
+    out = []
+    for run in (lambda a, b, s: S._bracket_balance(int(law), np.ascontiguousarray(prm), th.ravel(), th.shape[1],
+                                                   pg, a, b, s),
+                lambda a, b, s: S._bracket_balance_small(int(law), prm, th, pg, a, b, s)):
+        a, b, s = prm[:, c.l_min].copy(), prm[:, c.l_max].copy(), np.zeros(n, np.int64)
+        run(a, b, s)
+        out.append((a, b, s))
+    assert np.count_nonzero(out[0][2] == 0) > n // 4 and np.all(out[0][1] - out[0][0] < 1e-15)
+    for x, y in zip(*out):
+        np.testing.assert_array_equal(x, y)

@@ -39,6 +39,7 @@ from mckibben._jit import njit
 from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_instance, check_int, check_real
 from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
 from mckibben.models import laws as LW
+from mckibben.models.laws._base import evaluate_points
 from mckibben.plant import _runner
 from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
@@ -209,6 +210,50 @@ def _bracket_balance(law, prm, th, w, pg, a, b, status):
         b[i] = hi
 
 
+#: Batches up to this many instances bracket their static start through the law's NumPy face
+#: (:func:`_bracket_balance_small`) rather than :func:`_bracket_balance`: the same decisions on
+#: the same numbers, without compiling a bisection that inlines every law (about 8 s on first use,
+#: most of a single-rig command's cold start). Larger batches (sweeps) take the compiled loop,
+#: whose early exit from each grid is faster there.
+SMALL_BATCH = 256
+
+
+def _bracket_balance_small(law, prm, th, pg, a, b, status):
+    """:func:`_bracket_balance`, vectorized over instances and each grid of 64 lengths, in place.
+
+    Every balance is the compiled law at the same point (its NumPy face,
+    :func:`mckibben.models.laws._base.evaluate_kernel`'s loop) followed by the same IEEE operations
+    as :func:`_balance` in the same order; the first positive point of a grid is the one the
+    compiled loop stops at. So the brackets are the same to the last bit (tested on every law).
+    """
+    n = prm.shape[0]
+    kern = LW.LAWS[LW.LAW_NAMES[law]].kernel
+    thf = np.ascontiguousarray(th).ravel()
+    l0, kp = prm[:, C_L0][:, None], prm[:, C_KP][:, None]
+    lf, ks, lfree = prm[:, C_LF][:, None], prm[:, C_KS][:, None], prm[:, C_LFREE][:, None]
+
+    def balance(length):  # (n, k) lengths -> (n, k) balances, as _balance
+        k = length.shape[1]
+        f = evaluate_points(kern, np.repeat(pg, k), np.ascontiguousarray(length).ravel(), thf,
+                            np.repeat(np.arange(n, dtype=np.int64), k), n).reshape(n, k)
+        f = np.where(f != f, 0.0, f)
+        stretch = length - l0
+        fm = np.where(f > 0.0, f, 0.0) + kp * np.where(stretch > 0.0, stretch, 0.0)
+        return fm - (lf - ks * (length - lfree))
+
+    lo, hi = a.copy(), b.copy()
+    ends = balance(np.stack([hi, lo], axis=1))
+    status[:] = np.where(ends[:, 0] < 0.0, 1, np.where(ends[:, 1] > 0.0, 2, 0))
+    frac = np.arange(64) / 63.0
+    for _ in range(9):
+        pos = balance(lo[:, None] + (hi - lo)[:, None] * frac[None, :]) > 0.0
+        first = np.where(pos.any(axis=1), pos.argmax(axis=1), 63)
+        first = np.where(first > 1, first, 1)
+        lo, hi = lo + (hi - lo) * ((first - 1) / 63.0), lo + (hi - lo) * (first / 63.0)
+    a[:] = lo
+    b[:] = hi
+
+
 def static_equilibrium(prm: np.ndarray, law: int, theta: np.ndarray, pressure) -> tuple[np.ndarray, np.ndarray]:
     """Rest length of each instance at a fixed gauge pressure, friction-free: the plant's own statics.
 
@@ -245,7 +290,10 @@ def static_equilibrium(prm: np.ndarray, law: int, theta: np.ndarray, pressure) -
     th = np.ascontiguousarray(theta, dtype=float)
     a, b = lo.copy(), hi.copy()
     status = np.zeros(n, dtype=np.int64)
-    _bracket_balance(int(law), np.ascontiguousarray(prm), th.ravel(), th.shape[1], pg, a, b, status)
+    if n <= SMALL_BATCH:
+        _bracket_balance_small(int(law), prm, th, pg, a, b, status)
+    else:
+        _bracket_balance(int(law), np.ascontiguousarray(prm), th.ravel(), th.shape[1], pg, a, b, status)
     length = np.where(status == 1, hi, np.where(status == 2, lo, 0.5 * (a + b)))
     blocked = prm[:, c.mobile] == 0
     return np.where(blocked, prm[:, c.nominal_length], length), np.where(blocked, 3, status)

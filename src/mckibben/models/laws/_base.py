@@ -128,6 +128,32 @@ def _eval_python(kernel, p, length, th, col, w, out):
         _eval_compiled(kernel, p, length, th, col, w, out)
 
 
+def evaluate_points(kernel, pressure, length, th, col, w) -> np.ndarray:
+    """A kernel at points, each with its own parameter column, compiled: the plant's layout.
+
+    Parameters
+    ----------
+    kernel : function
+        A law's kernel (module-level, as :attr:`Law.kernel`). [-]
+    pressure, length : numpy.ndarray
+        (M,) float64 gauge pressures [Pa] and lengths [m], C-contiguous.
+    th : numpy.ndarray
+        Flat ``(NTH, w)`` parameter table, lanes innermost (the plant's θ). [SI]
+    col : numpy.ndarray
+        (M,) int64 column of ``th`` each point reads. [-]
+    w : int
+        Columns of ``th``. [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        (M,) force. [N]
+    """
+    out = np.empty(pressure.size)
+    _eval_compiled(kernel, pressure, length, th, col, w, out)
+    return out
+
+
 def _eval_compiled(kernel, p, length, th, col, w, out):
     """The loop compiled once per law: a module generated for the kernel (``_eval_template``)."""
     jit = _kernels.jit()  # loads Numba (compiling every marked kernel)
