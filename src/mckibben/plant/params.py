@@ -677,14 +677,22 @@ def check_force_law(name: str, prm: np.ndarray, theta: np.ndarray, label: str = 
         published braid-angle maps (stable above ~0.25 MPa). [Pa]
     """
     c = Col
-    key = np.concatenate([theta.T, prm[:, [c.supply_pressure, c.l_min, c.l_max]]], axis=1)
-    first = _first_of_each_row(key)
-    if len(first) > 64:  # many different instances (a sweep): the envelope of each law vector
-        key2 = np.concatenate([theta.T, prm[:, [c.l_min, c.l_max]]], axis=1)
-        first = _first_of_each_row(key2)
+    lim = prm[:, [c.l_min, c.l_max]]
+    if np.all(theta == theta[:, :1]) and np.all(lim == lim[:1]):  # one law over one range (a sweep of the rest)
+        first = np.unique(prm[:, c.supply_pressure], return_index=True)[1]  # as the rows below, without sorting them
+        envelope = len(first) > 64
+        first = first[:1] if envelope else first
+    else:
+        first = _first_of_each_row(np.concatenate([theta.T, prm[:, [c.supply_pressure]], lim], axis=1))
+        envelope = len(first) > 64
+        if envelope:  # many different instances (a sweep): the envelope of each law vector
+            first = _first_of_each_row(np.concatenate([theta.T, lim], axis=1))
     np_, nl = 17, 97
     for i in np.sort(first)[:256]:
-        supply = float(prm[i, c.supply_pressure]) if len(first) <= 64 else HW.P_MAX_LIMIT
+        supply = HW.P_MAX_LIMIT if envelope else float(prm[i, c.supply_pressure])
+        passed = (name, pressure_floor, supply, theta[:, i].tobytes(), prm[i, [c.l_min, c.l_max]].tobytes())
+        if passed in _LAWS_PASSED:  # the same law over the same range passed before (a sweep's next chunk)
+            continue
         pg = np.linspace(min(pressure_floor, supply), supply, np_)[:, None]
         ln = np.linspace(prm[i, c.l_min], prm[i, c.l_max], nl)[None, :]
         f = LW.evaluate(name, pg, ln, theta[:, i])
@@ -702,6 +710,13 @@ def check_force_law(name: str, prm: np.ndarray, theta: np.ndarray, label: str = 
                 f"stiffness) at {where}, inside its operating range {min(pressure_floor, supply) / 1e6:g}..{supply / 1e6:g} MPa × "
                 f"{prm[i, c.l_min] * 1e3:.1f}..{prm[i, c.l_max] * 1e3:.1f} mm: a load has no stable rest there; "
                 "use another force law or a map that rises with length")
+        if len(_LAWS_PASSED) > 1024:
+            _LAWS_PASSED.clear()
+        _LAWS_PASSED.add(passed)
+
+
+#: Law vectors and ranges :func:`check_force_law` has passed in this process (it is deterministic).
+_LAWS_PASSED: set = set()
 
 
 def _first_of_each_row(key: np.ndarray) -> np.ndarray:
