@@ -13,6 +13,7 @@ from __future__ import annotations
 import itertools
 import json
 import os
+import threading
 import time
 import warnings
 from collections import deque
@@ -115,8 +116,10 @@ def run_chunk(meta: dict, rows: pd.DataFrame, k: int, out: str) -> dict:
     n_steps = int(round(scenario["duration"] / 1e-3))
     ref = _reference(scenario, n_steps)
     # only what the metrics read: the other eight series would be written for nothing
-    res = simulate(_plants(rows), n_steps * 1e-3, controller=_controllers(rows, meta["controller"]),
-                   reference=ref, n=len(rows), record=("pressure", "inlet", "bleed"))
+    plants, controllers = _plants(rows), _controllers(rows, meta["controller"])
+    with _SIMULATING:  # one chunk on the cores at a time; the other chunk in flight does its Python
+        res = simulate(plants, n_steps * 1e-3, controller=controllers, reference=ref, n=len(rows),
+                       record=("pressure", "inlet", "bleed"))
     # every run of the chunk at once; rows the simulator left non-finite get NaN
     if scenario["kind"] == "step":
         m = step_metrics_batch(res.t, res.pressure, ref, res.command, t_step=0.01)
@@ -277,11 +280,14 @@ def run_sweep(sweep: Sweep, out: str | Path, *, workers: int | None = None, sche
             "sims_per_second": computed_runs / seconds if computed_runs and seconds > 0 else None}
 
 
-#: Chunks simulated at once in-process. A chunk's simulation runs compiled on every core without
-#: the GIL, but its Python (design rows, metrics, Parquet, fsync) holds one core; with a second
-#: chunk in flight that Python runs while the other chunk simulates, instead of idling the other
-#: cores (the results do not depend on it: each chunk is computed and written on its own).
+#: Chunks in flight in-process. A chunk's simulation runs compiled on every core without the GIL,
+#: but its Python (design rows, metrics, Parquet, fsync) holds one core; with a second chunk in
+#: flight that Python runs while the other chunk simulates, instead of idling the other cores.
+#: The simulations themselves take turns (:data:`_SIMULATING`), so the cores are not shared between
+#: two chunks' working sets. The results do not depend on it: each chunk is computed and written
+#: on its own.
 IN_FLIGHT = 2
+_SIMULATING = threading.Lock()
 
 
 def _run_local(sweep, meta, todo, out, progress, done_runs):
