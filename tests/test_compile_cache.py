@@ -502,3 +502,21 @@ def test_no_background_warm_up_where_it_cannot_help(tmp_path, monkeypatch):
     assert _jit.start_background_warm() is None
     monkeypatch.setenv("MCKIBBEN_BACKGROUND_WARM", "warming")  # the warm-up itself starts none
     assert _jit.start_background_warm() is None
+
+
+def test_doctor_finds_the_optional_python_packages_without_importing_them(monkeypatch):
+    import importlib.util
+    import sys
+
+    from mckibben import doctor
+
+    loaded = "mujoco" in sys.modules  # (another test of this process may have loaded it)
+    rep = doctor.check()
+    assert set(rep.packages) == set(doctor.PACKAGES)
+    for name, p in rep.packages.items():  # the test extras install both
+        assert p["found"] and name in p["found"] and "pip install" in p["install"]
+    assert ("mujoco" in sys.modules) == loaded  # found, not loaded
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "mujoco" else real(name, *a))
+    gone = doctor.check().packages["mujoco"]
+    assert gone["found"] is None and gone["install"] == "pip install 'mckibben[mujoco]'"

@@ -9,6 +9,7 @@ simulator, the programmer, a Dask scheduler), with what to install when one is m
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 import socket
@@ -27,6 +28,11 @@ TOOLS = {
     "simavr": ("counts the firmware's cycles (make -C firmware cycles)", "apt-get install simavr"),
     "avrdude": ("flashes the Arduino Mega (make -C firmware upload)", "apt-get install avrdude"),
     "arduino-cli": ("an alternative way to build and flash the firmware", "see arduino.github.io/arduino-cli"),
+}
+#: The optional Python packages (the extras of pyproject.toml): name -> (what for, how to install).
+PACKAGES = {
+    "mujoco": ("the MuJoCo bridge (mckibben mujoco, tool track --engine mujoco)", "pip install 'mckibben[mujoco]'"),
+    "fmpy": ("exports and checks FMUs (mckibben export fmu)", "pip install 'mckibben[fmu]'"),
 }
 
 
@@ -181,9 +187,12 @@ class Report:
     cores : int
         Cores of the machine. [-]
     tools : dict
-        Optional tool -> ``{"found": path or None, "for": ..., "install": ...}``.
+        Optional tool (:data:`TOOLS`) -> ``{"found": path or None, "for": ..., "install": ...}``.
     scheduler : dict or None
         The Dask scheduler asked about: ``{"address": ..., "reachable": bool, "detail": ...}``.
+    packages : dict
+        Optional Python package (:data:`PACKAGES`) -> ``{"found": its file or None, "for": ...,
+        "install": ...}``.
     """
 
     version: str
@@ -196,6 +205,7 @@ class Report:
     cores: int
     tools: dict
     scheduler: dict | None = None
+    packages: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return dict(self.__dict__)
@@ -262,11 +272,15 @@ def check(scheduler: str | None = None) -> Report:
     numba = _jit.numba
     where = _jit.cache_dir()
     tools = {name: {"found": shutil.which(name), "for": what, "install": how} for name, (what, how) in TOOLS.items()}
+    packages = {}
+    for name, (what, how) in PACKAGES.items():  # found, not imported: MuJoCo alone takes a second to load
+        spec = importlib.util.find_spec(name)
+        packages[name] = {"found": None if spec is None else spec.origin, "for": what, "install": how}
     return Report(
         version=__version__, cache_dir=None if where is None else str(where), cache_problem=_jit.cache_problem(),
         cache_bytes=0 if where is None else _folder_bytes(where), numba=numba.__version__,
         llvmlite=llvmlite.__version__, threads=numba.get_num_threads(), cores=os.cpu_count() or 1, tools=tools,
-        scheduler=None if scheduler is None else _probe_scheduler(scheduler))
+        scheduler=None if scheduler is None else _probe_scheduler(scheduler), packages=packages)
 
 
 def run(scheduler: str | None = None, *, warm_up: bool = True,

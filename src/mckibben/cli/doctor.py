@@ -37,7 +37,7 @@ def doctor_cmd(
         if warmed is not None:
             rows.append(["warm-up", f"{len(warmed.steps)} experiments, {warmed.compiled} kernels compiled "
                                     f"({sum(s['seconds'] for s in warmed.steps):.1f} s)"])
-        for name, t in report.tools.items():
+        for name, t in {**report.tools, **report.packages}.items():
             rows.append([name, t["found"] or f"missing ({t['for']}): {t['install']}"])
         if report.scheduler is not None:
             s = report.scheduler
