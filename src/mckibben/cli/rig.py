@@ -218,23 +218,24 @@ def emulate_cmd(
                                                   T.KB_OPTION, T.KA_OPTION, T.PMAX_OPTION)))  # tool track's defaults
         plants = experiments.link.tool_plants(tool, tool_path)
     em = rig.Emulator(plant=plants, n_channels=channels, boot_time=boot)
-    if link:
-        try:
-            if os.path.islink(link):
-                os.unlink(link)
-            os.symlink(em.port, link)
-        except OSError as exc:
-            em.stop()
-            raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
-    if json:
-        emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels})
-    else:
-        err_console.print(f"emulated device on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
-    try:
+    made = False
+    try:  # from here on, a Ctrl-C or a SIGTERM at any point stops the device and removes its link
+        if link:
+            try:
+                if os.path.islink(link):
+                    os.unlink(link)
+                os.symlink(em.port, link)
+                made = True
+            except OSError as exc:
+                raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
+        if json:
+            emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels})
+        else:
+            err_console.print(f"emulated device on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
         em.run(d)
     except KeyboardInterrupt:
         pass
     finally:
         em.stop()
-        if link and os.path.islink(link):
+        if made and os.path.islink(link):
             os.unlink(link)
