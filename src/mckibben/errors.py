@@ -32,6 +32,8 @@ def unknown_name(kind: str, name: str, choices: Iterable[str]) -> InputError:
         The valid names. [-]
     """
     choices = sorted(choices)
+    if not isinstance(name, str):  # None, a number: a type error, not a misspelling (difflib takes text only)
+        return ArgumentTypeError(f"{kind} = {name!r}: not a name ({_type_name(name)}); give one of: {', '.join(choices)}")
     close = difflib.get_close_matches(name, choices, n=3)
     hint = f" Did you mean {', '.join(close)}?" if close else ""
     return InputError(f"unknown {kind} {name!r}.{hint} Provide one of: {', '.join(choices)}")

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.data.schema import BARE_COLUMNS, KINDS, PER_MUSCLE, QUANTITIES, SCHEMAS, SENSOR_COLUMNS
-from mckibben.atomic import check_input_file
+from mckibben.atomic import as_path, check_input_file
+from mckibben.errors import ArgumentTypeError, check_instance
 from mckibben.errors import InputError
 from mckibben.units import G_N, UNITS, to_si, units_of
 from mckibben.errors import unknown_name
@@ -224,6 +225,9 @@ def detect_kind(quantities) -> str | None:
     str or None
         The kind, or None if no kind's required columns are all present.
     """
+    if isinstance(quantities, (str, bytes)) or not hasattr(quantities, "__iter__"):
+        raise ArgumentTypeError(f"quantities = {quantities!r}: not a collection of column names "
+                                f"({type(quantities).__name__})")
     present = set(quantities)
     fits = [s for s in SCHEMAS.values() if set(s.required) <= present]
     if not fits:
@@ -276,11 +280,14 @@ def read_table(path, kind: str | None = None) -> Table:
         unknown unit, text in a numeric cell, a missing value, NaN or infinity, a negative pressure
         or load, a direction that is not one of the kind's, time not increasing within a trial.
     """
-    p = Path(path)
+    p = as_path(path, "path")
     name = str(path)
     df, is_csv = _read_frame(p, name)
     df.columns = [str(c).strip() for c in df.columns]
     cols = _parse_columns(name, list(df.columns))
+    if kind is not None and not isinstance(kind, str):
+        raise ArgumentTypeError(f"kind = {kind!r}: not an experiment kind ({type(kind).__name__}); give one of "
+                                f"{', '.join(KINDS)}, or None to detect it")
     if kind is not None and kind not in SCHEMAS:
         raise unknown_name("experiment kind", kind, KINDS)
     if kind is None and p.stem in SCHEMAS:
@@ -595,6 +602,7 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
         ``method`` and, when used, ``per_run_N``: a list of ``{held_length_m, trial, tare_N}``
         (``"lowest"``) or ``tare_N_range`` (``"column"``). Printed by the CLI when a tare is used.
     """
+    check_instance(table, "table", Table, "a Table (read_table)")
     if method not in TARES:
         raise unknown_name("tare", method, TARES)
     if table.kind != "isometric":
@@ -771,7 +779,7 @@ def read_muscle(path) -> MuscleSpec:
         The muscle in SI.
     """
     name = str(path)
-    p = Path(path)
+    p = as_path(path, "path", "muscle file")
     check_input_file(p, None, "muscle file")
     try:
         doc = tomllib.loads(p.read_text(encoding="utf-8"))
@@ -923,6 +931,8 @@ def check_muscle(table: Table, muscle: MuscleSpec) -> None:
     muscle : MuscleSpec
         The muscle file's content.
     """
+    check_instance(table, "table", Table, "a Table (read_table)")
+    check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (read_muscle)")
     d = table.data
     if "muscle" in d and "rest_length" not in d:  # a family table holds several muscles of the file's type
         wrong = np.flatnonzero(d["muscle"].to_numpy() != muscle.id)
@@ -953,7 +963,7 @@ def find_muscle_file(data_path) -> Path | None:
     data_path : str or pathlib.Path
         A data file or a folder. [-]
     """
-    p = Path(data_path)
+    p = as_path(data_path, "data_path")
     folder = p if p.is_dir() else p.parent
     candidate = folder / "muscle.toml"
     return candidate if candidate.is_file() else None
