@@ -135,7 +135,7 @@ def check_int(value, name: str, *, lo: int | None = None, hi: int | None = None)
 
 
 def check_array(value, name: str, *, lo: float | None = None, hi: float | None = None, ndim: int | None = None,
-                size: int | None = None, unit: str = ""):
+                size: int | None = None, unit: str = "", finite: bool = True):
     """A real array (or scalar) of finite values within ``[lo, hi]``, as ``float`` NumPy array.
 
     Parameters
@@ -152,6 +152,9 @@ def check_array(value, name: str, *, lo: float | None = None, hi: float | None =
         The largest number of elements accepted (checked before converting). [-]
     unit : str
         The SI unit, for the message. [-]
+    finite : bool, default True
+        Refuse NaN and infinities; False lets them through (a low-level formula whose NaN in
+        gives NaN out) and checks only the type, shape, size and bounds of the finite values. [-]
 
     Returns
     -------
@@ -174,10 +177,11 @@ def check_array(value, name: str, *, lo: float | None = None, hi: float | None =
     if ndim is not None and raw.ndim != ndim:
         raise InputError(f"{name}: shape {raw.shape}, want {ndim} dimension{'s' if ndim != 1 else ''}")
     a = raw.astype(float, copy=False)
-    if not np.all(np.isfinite(a)):
+    if finite and not np.all(np.isfinite(a)):
         raise InputError(f"{name}: holds a value that is not a finite number")
-    if a.size and ((lo is not None and a.min() < lo) or (hi is not None and a.max() > hi)):
-        bad = a.min() if lo is not None and a.min() < lo else a.max()
+    v = a if finite else a[np.isfinite(a)]
+    if v.size and ((lo is not None and v.min() < lo) or (hi is not None and v.max() > hi)):
+        bad = v.min() if lo is not None and v.min() < lo else v.max()
         raise InputError(f"{name}: {bad:g}{' ' + unit if unit else ''} is outside {_interval(lo, hi, False, False)}")
     return a
 

@@ -113,7 +113,11 @@ def braid_cos_theta(pressure, load, braid_map: BraidAngleMap):
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (3) and Table II (P in MPa).
     """
-    pressure, load = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    if not isinstance(braid_map, BraidAngleMap):
+        raise ArgumentTypeError(f"braid_map = {braid_map!r}: not a BraidAngleMap ({type(braid_map).__name__}); "
+                                "a muscle's is muscle.braid_map")
+    pressure, load = np.broadcast_arrays(check_array(pressure, "pressure", finite=False),
+                                         check_array(load, "load", finite=False))
     c = braid_map.coefficients_at(load)
     p = pressure / MPA
     cos_theta = ((c[..., 0] * p + c[..., 1]) * p + c[..., 2]) * p + c[..., 3]

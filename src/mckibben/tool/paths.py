@@ -197,6 +197,13 @@ def parse_path(spec: str, name: str = "path") -> TipPath:
     missing = [k for k in _REQUIRED[kind] if k not in values]
     if missing:
         raise InputError(f"{name}: {kind} needs {', '.join(missing)} (e.g. {kind}:{_REQUIRED[kind][0]}=5mm,period=2s)")
+    try:
+        return _made(kind, values, spec)
+    except InputError as exc:  # a field of the path: name the argument it came from
+        raise type(exc)(f"{name}: {exc}") from None
+
+
+def _made(kind: str, values: dict, spec: str) -> TipPath:
     return TipPath(
         kind=kind,
         size=values.get("radius", values.get("size")),
