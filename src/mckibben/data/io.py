@@ -281,13 +281,13 @@ def read_table(path, kind: str | None = None) -> Table:
         or load, a direction that is not one of the kind's, time not increasing within a trial.
     """
     p = as_path(path, "path")
+    if kind is not None and not isinstance(kind, str):
+        raise ArgumentTypeError(f"kind = {kind!r}: not an experiment kind ({type(kind).__name__}); give one of "
+                                f"{', '.join(KINDS)}, or None to detect it")
     name = str(path)
     df, is_csv = _read_frame(p, name)
     df.columns = [str(c).strip() for c in df.columns]
     cols = _parse_columns(name, list(df.columns))
-    if kind is not None and not isinstance(kind, str):
-        raise ArgumentTypeError(f"kind = {kind!r}: not an experiment kind ({type(kind).__name__}); give one of "
-                                f"{', '.join(KINDS)}, or None to detect it")
     if kind is not None and kind not in SCHEMAS:
         raise unknown_name("experiment kind", kind, KINDS)
     if kind is None and p.stem in SCHEMAS:

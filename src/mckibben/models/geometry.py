@@ -134,6 +134,11 @@ class MiniatureGeometry:
         return cls(*sizes)
 
 
+def check_geometry(geom) -> "BraidGeometry":
+    """``geom`` if it is a :class:`BraidGeometry`; else an error naming ``geom`` (what the physical laws take)."""
+    return check_instance(geom, "geom", BraidGeometry, "a BraidGeometry (miniature_geometry)")
+
+
 def miniature_geometry(nominal_length: float, geometry=None, wall: bool = True) -> BraidGeometry:
     """The physical-model geometry of a miniature muscle of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt).
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_real
+from mckibben.hardware import P_MAX_LIMIT
 from mckibben.models.flags import Flag, flag_where, outside
 from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.kinematic import braid_from_length, length_from_braid
@@ -116,8 +117,7 @@ def braid_cos_theta(pressure, load, braid_map: BraidAngleMap):
     if not isinstance(braid_map, BraidAngleMap):
         raise ArgumentTypeError(f"braid_map = {braid_map!r}: not a BraidAngleMap ({type(braid_map).__name__}); "
                                 "a muscle's is muscle.braid_map")
-    pressure, load = np.broadcast_arrays(check_array(pressure, "pressure", finite=False),
-                                         check_array(load, "load", finite=False))
+    pressure, load = np.broadcast_arrays(check_array(pressure, "pressure"), check_array(load, "load"))
     c = braid_map.coefficients_at(load)
     p = pressure / MPA
     cos_theta = ((c[..., 0] * p + c[..., 1]) * p + c[..., 2]) * p + c[..., 3]
@@ -241,6 +241,9 @@ def check_points(limit: int = MAX_POINTS, **arrays) -> list[np.ndarray]:
     """
     checked = {name: check_array(value, name, size=limit) for name, value in arrays.items()}
     names = ", ".join(checked)
+    empty = [n for n, a in checked.items() if a.size == 0]
+    if empty:
+        raise InputError(f"{empty[0]}: an empty array; give at least one value")
     try:
         shape = np.broadcast_shapes(*(a.shape for a in checked.values()))
     except ValueError:
@@ -326,7 +329,7 @@ def pressure_for_length(muscle: MiniatureMuscle, length, load, p_max: float = 0.
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) and (3) inverted; §IV uses it as the feed-forward.
     """
     _check_muscle(muscle)
-    p_max = check_real(p_max, "p_max", lo=0.0, lo_open=True, unit="Pa")
+    p_max = check_real(p_max, "p_max", lo=0.0, lo_open=True, hi=P_MAX_LIMIT, unit="Pa")
     length, load = check_points(MAX_SOLVE_POINTS, length=length, load=load)
     target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
     coeffs = muscle.braid_map.coefficients_at(load)

@@ -231,7 +231,8 @@ def _three(value, dimension: str, name: str, **kw) -> np.ndarray:
         raise ArgumentTypeError(f"{name} = {value!r}: the library takes three numbers in {SI_UNIT[dimension]} (SI), "
                                 f"not text{hint} (mckibben.units.parse_values converts text)")
     if isinstance(value, (bytes, dict, set)) or value is None or np.ndim(value) != 1 or len(value) != 3:
-        raise InputError(f"{name}: need exactly 3 values (muscles 1, 2, 3, or x, y, z), got {value!r}")
+        got = f"shape {np.shape(value)}" if isinstance(value, np.ndarray) else repr(value)
+        raise InputError(f"{name}: need exactly 3 values (muscles 1, 2, 3, or x, y, z), got {' '.join(got.split())}")
     return np.array([si(x, dimension, name, **kw) for x in value])
 
 

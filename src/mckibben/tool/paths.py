@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.errors import ArgumentTypeError, InputError, check_real
+from mckibben.limits import PLAUSIBLE_MAX
 from mckibben.units import parse_quantity
 
 _KEYS = {
@@ -71,7 +72,7 @@ class TipPath:
         if not isinstance(self.kind, str) or self.kind not in _KEYS:
             raise InputError(f"kind = {self.kind!r}: not a path kind; use circle or figure8")
         check_real(self.size, "size", lo=0.0, lo_open=True, hi=MAX_PATH_SIZE, unit="m")
-        check_real(self.period, "period", lo=0.0, lo_open=True, unit="s")
+        check_real(self.period, "period", lo=0.0, lo_open=True, hi=PLAUSIBLE_MAX["time"], unit="s")
         if self.z is not None:
             check_real(self.z, "z", lo=0.0, lo_open=True, hi=MAX_PATH_SIZE, unit="m")
         check_real(self.cx, "cx", lo=-MAX_PATH_SIZE, hi=MAX_PATH_SIZE, unit="m")
