@@ -26,7 +26,7 @@ from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
 from mckibben.results import Result, to_jsonable
 from mckibben.tool.geometry import DEFAULT_MUSCLE, MAX_BENDING_STIFFNESS, StackLoad, Tool, ToolGeometry
-from mckibben.tool.paths import TipPath
+from mckibben.tool.paths import TipPath, parse_path
 from mckibben.tool.workspace import Workspace
 from mckibben.units import SI_UNIT, parse_values, si
 from mckibben.datasets import get_muscle
@@ -522,9 +522,9 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     check_instance(tool, "tool", Tool, "a Tool (make_tool)", optional=True)
     if not isinstance(engine, str) or engine not in TRACK_ENGINES:
         raise unknown_name("engine", str(engine), TRACK_ENGINES)
-    if isinstance(path, str):
-        raise ArgumentTypeError(f"path = {path!r}: the library takes a TipPath, not text; build it with "
-                                f"mckibben.tool.parse_path({path!r}) or TipPath(kind, size, period, ...)")
+    text = path if isinstance(path, str) else None
+    if text is not None:  # read it only to check it; text is refused below, once every other argument is checked
+        path = parse_path(text)
     if not isinstance(path, TipPath):
         raise ArgumentTypeError(f"path = {path!r}: not a TipPath ({type(path).__name__}); give e.g. "
                                 "TipPath('circle', size=5e-3, period=2.0) or parse_path('circle:radius=5mm,period=2s')")
@@ -557,6 +557,9 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
         b = check_real(beta, "beta", lo=0.0, hi=255.0, lo_open=True, unit="PWM counts")
     tool = make_tool() if tool is None else tool
     _within_reach(np.array([spec.size]), tool, "path", f"a {spec.kind} of")
+    if text is not None:
+        raise ArgumentTypeError(f"path = {text!r}: the library takes a TipPath, not text; build it with "
+                                f"mckibben.tool.parse_path({text!r}) or TipPath(kind, size, period, ...)")
     base = resolve_path(spec, tool)
     runs = [(p, tip_reference(tool, p)) for p in (base.with_period(float(t)) for t in period_list)]
     results = None
