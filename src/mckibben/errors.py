@@ -190,7 +190,7 @@ def check_callable(value, name: str, *, optional: bool = True):
     """A callable (or ``None`` when ``optional``): checked before a run, not found after it."""
     if (value is None and optional) or callable(value):
         return value
-    raise ArgumentTypeError(f"{name} = {_show(value)}: not callable ({_type_name(value)}); give a function"
+    raise ArgumentTypeError(f"{name} = {show_value(value)}: not callable ({_type_name(value)}); give a function"
                             + (" or None" if optional else ""))
 
 
@@ -198,10 +198,10 @@ def check_instance(value, name: str, cls, what: str, *, optional: bool = False):
     """``value`` if it is a ``cls`` (or ``None`` when ``optional``); else an :class:`ArgumentTypeError`."""
     if (value is None and optional) or isinstance(value, cls):
         return value
-    raise ArgumentTypeError(f"{name} = {_show(value)}: not {what} ({_type_name(value)})")
+    raise ArgumentTypeError(f"{name} = {show_value(value)}: not {what} ({_type_name(value)})")
 
 
-def _show(value) -> str:
+def show_value(value) -> str:
     """``repr(value)`` on one short line (a DataFrame's repr spans many: its type stands in)."""
     r = repr(value)
     return r if "\n" not in r and len(r) <= 80 else f"<{type(value).__name__}>"

@@ -604,7 +604,7 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
     """
     check_instance(table, "table", Table, "a Table (read_table)")
     if method not in TARES:
-        raise unknown_name("tare", method, TARES)
+        raise unknown_name("tare method", method, TARES)
     if table.kind != "isometric":
         raise InputError(f"tare: applies to isometric tables; {table.path} is a {table.kind} table")
     d = table.data.copy()

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_real
+from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_real, show_value
 from mckibben.hardware import P_MAX_LIMIT
 from mckibben.models.flags import Flag, flag_where, outside
 from mckibben.models.geometry import MiniatureGeometry
@@ -260,7 +260,7 @@ def _check_muscle(muscle) -> None:
     """``muscle`` is a :class:`MiniatureMuscle` (not its name, not None): else an error naming it."""
     if not isinstance(muscle, MiniatureMuscle):
         hint = f"; get one with get_muscle({muscle!r})" if isinstance(muscle, str) else ""
-        raise ArgumentTypeError(f"muscle = {muscle!r}: not a MiniatureMuscle ({type(muscle).__name__}){hint}")
+        raise ArgumentTypeError(f"muscle = {show_value(muscle)}: not a MiniatureMuscle ({type(muscle).__name__}){hint}")
 
 
 def predict_length(muscle: MiniatureMuscle, pressure, load) -> LengthPrediction:

@@ -69,7 +69,7 @@ def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-ha
     if not isinstance(geom, BraidGeometry):
         raise ArgumentTypeError(f"geom = {geom!r}: not a BraidGeometry ({type(geom).__name__}); get one from "
                                 "miniature_geometry")
-    p, f = np.broadcast_arrays(check_array(pressure, "pressure"), check_array(load, "load"))
+    p, f = np.broadcast_arrays(check_array(pressure, "pressure"), check_array(load, "load", lo=0.0, unit="N"))
     if model == "chou-hannaford":
         with np.errstate(divide="ignore", invalid="ignore"):
             c = np.sqrt((4.0 * f / (np.pi * geom.d0**2 * p) + 1.0) / 3.0)
