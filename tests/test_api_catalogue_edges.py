@@ -184,6 +184,7 @@ CASES = [
     # sweeps, report, export, results
     *[(f"load_sweep-path-{v!r}", lambda v=v: mk.load_sweep(v), "path") for v in (None, 5)],
     ("characterize-root-5", lambda: _mod("report").characterize(5), "root"),
+    ("characterize-root-missing", lambda: _mod("report").characterize("nope"), "root"),
     ("characterize-progress-5", lambda: _mod("report").characterize(progress=5), "progress"),
     *[(f"summarize-char-{v!r}", lambda v=v: _mod("report").summarize(v), "char") for v in (None, 5, {})],
     ("render_html-summary-None", lambda: _mod("report").render_html(None, []), "summary"),
