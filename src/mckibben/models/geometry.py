@@ -135,7 +135,13 @@ class MiniatureGeometry:
 
 
 def check_geometry(geom) -> "BraidGeometry":
-    """``geom`` if it is a :class:`BraidGeometry`; else an error naming ``geom`` (what the physical laws take)."""
+    """``geom`` if it is a :class:`BraidGeometry`; else an error naming ``geom`` (what the physical laws take).
+
+    Parameters
+    ----------
+    geom : BraidGeometry
+        The argument. [-]
+    """
     return check_instance(geom, "geom", BraidGeometry, "a BraidGeometry (miniature_geometry)")
 
 

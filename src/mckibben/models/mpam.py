@@ -231,7 +231,7 @@ def check_points(limit: int = MAX_POINTS, **arrays) -> list[np.ndarray]:
     ----------
     limit : int, default MAX_POINTS
         The most elements accepted. [-]
-    **arrays : array_like
+    arrays : array_like, as keyword arguments
         The arguments by their Python names, in SI. [SI]
 
     Returns
