@@ -64,9 +64,18 @@ def _tip(lengths=(0.117, 0.117, 0.117), pitch_radius=4e-3, n_gaps=None):
     return tip_from_lengths(lengths, pitch_radius, n_gaps)
 
 
-def _track(path="circle:radius=5mm,period=1s", **kw):
+def _path(text="circle:radius=5mm,period=1s"):
+    from mckibben.tool import parse_path
+
+    return parse_path(text)
+
+
+_DEFAULT_PATH = object()
+
+
+def _track(path=_DEFAULT_PATH, **kw):
     kw.setdefault("reference_only", True)
-    return mk.track_tip(path, **kw)
+    return mk.track_tip(_path() if path is _DEFAULT_PATH else path, **kw)
 
 
 def _quantity(value, dimension="pressure"):
@@ -126,14 +135,14 @@ CASES = [
     # track_tip
     ("track_tip-periods-empty", lambda: _track(periods=[]), "periods"),
     ("track_tip-periods-empty-array", lambda: _track(periods=np.array([])), "periods"),
-    ("track_tip-period-0.2ms", lambda: _track("circle:radius=5mm,period=0.2ms"), "period"),
-    ("track_tip-period-0.2ms-run", lambda: mk.track_tip("circle:radius=5mm,period=0.2ms"), "period"),
+    ("track_tip-period-0.2ms", lambda: _track(_path("circle:radius=5mm,period=0.2ms")), "period"),
+    ("track_tip-period-0.2ms-run", lambda: mk.track_tip(_path("circle:radius=5mm,period=0.2ms")), "period"),
     *[(f"track_tip-periods-{v!r}", lambda v=v: _track(periods=v), "periods")
       for v in ([NAN], [0.0], [-1.0], "0s", [None], [[1.0, 2.0]])],
     *[(f"track_tip-path-{v!r}", lambda v=v: _track(path=v), "path") for v in (None, 97, "spiral:radius=5mm")],
-    ("track_tip-progress-5", lambda: mk.track_tip("circle:radius=5mm,period=1s", progress=5), "progress"),
+    ("track_tip-progress-5", lambda: mk.track_tip(_path(), progress=5), "progress"),
     ("track_tip-tool-5", lambda: _track(tool=5), "tool"),
-    *[(f"track_tip-beta-{v!r}", lambda v=v: mk.track_tip("circle:radius=5mm,period=1s", beta=v), "beta")
+    *[(f"track_tip-beta-{v!r}", lambda v=v: mk.track_tip(_path(), beta=v), "beta")
       for v in (NAN, 0.0, 300.0)],
     # units at the edge: finite in its unit, infinite in SI
     *[(f"quantity-{v!r}", lambda v=v: _quantity(v), "pressure")

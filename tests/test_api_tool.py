@@ -10,13 +10,16 @@ from matplotlib.figure import Figure
 import mckibben.tool as mt
 from mckibben.errors import InputError
 from mckibben.results import read_provenance
+from mckibben.units import parse_quantity, parse_values
 
 
 def test_quantities_as_numbers_or_text():
-    a = mt.make_tool("mpam117", preload="1.2N", bending_stiffness="2e-4Nm2", pitch_radius="4.5mm")
+    a = mt.make_tool("mpam117", preload=parse_quantity("1.2N", "force"),
+                     bending_stiffness=parse_quantity("2e-4Nm2", "bending_stiffness"),
+                     pitch_radius=parse_quantity("4.5mm", "length"))
     b = mt.make_tool("mpam117", preload=1.2, bending_stiffness=2e-4, pitch_radius=4.5 * 1e-3)  # "4.5mm" is 4.5·1e-3
     assert a == b
-    s1 = mt.inverse("20mm,0mm,110mm", a)
+    s1 = mt.inverse(parse_values("20mm,0mm,110mm", "length"), a)
     s2 = mt.inverse([0.02, 0.0, 0.11], b)
     np.testing.assert_array_equal(s1.pressures, s2.pressures)  # same call, same numbers
     back = mt.forward(a, pressures=s1.pressures)
@@ -28,7 +31,7 @@ def test_quantities_as_numbers_or_text():
 
 
 def test_track_result_and_its_series(cli, tmp_path):
-    res = mt.track("circle:radius=3mm,period=1s", periods="1s")
+    res = mt.track(mt.parse_path("circle:radius=3mm,period=1s"), periods=[1.0])
     assert res.metrics["runs"] == 1 and 0 < res.metrics["rms_error_m"] < 3e-3
     df = res.to_pandas()
     assert {"time_s", "target_x_m", "achieved_x_m", "reference_1_Pa", "pressure_3_Pa"} <= set(df.columns)
@@ -43,7 +46,7 @@ def test_track_result_and_its_series(cli, tmp_path):
 
 
 def test_reference_only_has_no_plot():
-    res = mt.track("circle:radius=3mm,period=1s", reference_only=True)
+    res = mt.track(mt.parse_path("circle:radius=3mm,period=1s"), reference_only=True)
     assert np.isnan(res.metrics["rms_error_m"])
     with pytest.raises(InputError, match="nothing simulated"):
         res.plot()

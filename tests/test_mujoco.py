@@ -18,7 +18,7 @@ from mckibben.errors import InputError  # noqa: E402
 from mckibben.export.mujoco import (MuscleBank, hanging_mass, hanging_mass_mjcf, load_model, muscle_plant,  # noqa: E402
                                     run_model)
 from mckibben.plant import simulate, static_length  # noqa: E402
-from mckibben.tool import make_tool, track  # noqa: E402
+from mckibben.tool import make_tool, parse_path, track  # noqa: E402
 from mckibben.tool.kinematics import Arc, lengths_from_arc, tip_position  # noqa: E402
 from mckibben.tool.mujoco_model import _pose, endoscope_mjcf  # noqa: E402
 
@@ -97,7 +97,7 @@ def test_a_muscle_in_mujoco_is_the_plant(mode):
 
 def test_the_endoscope_is_built_from_the_tool():
     """The generated chain has the tool's discs, holes and muscle lengths (chords) at any arc."""
-    tool = make_tool(pitch_radius="3.5mm", discs=9)
+    tool = make_tool(pitch_radius=3.5e-3, discs=9)
     model = load_model(endoscope_mjcf(tool))
     assert model.nbody == 1 + 1 + 2 * 8 and model.ntendon == 3 and model.nu == 3  # world, base, a gap and a disc each
     site = model.site("h2_0")
@@ -110,7 +110,7 @@ def test_the_endoscope_is_built_from_the_tool():
     assert np.allclose(data.ten_length, lengths_from_arc(arc, 3.5e-3, 8), rtol=1e-5)
     assert np.allclose(data.site_xpos[model.site("tip").id], tip_position(arc), atol=2e-6)
     # another tool, another model: stiffness from its backbone
-    stiff = make_tool(bending_stiffness="4e-4Nm2", discs=9)
+    stiff = make_tool(bending_stiffness=4e-4, discs=9)
     assert load_model(endoscope_mjcf(stiff)).jnt_stiffness[1] > model.jnt_stiffness[1]
 
 
@@ -121,7 +121,7 @@ def test_tool_track_in_mujoco_agrees_with_the_quasi_static_tool_on_a_slow_path()
     Measured (benchmarks/RESULTS.md): 0.077 mm against 0.178 mm: the tool's inertia and damping
     filter the pressure controllers' chatter that the quasi-static tool passes straight to the tip.
     """
-    path = "circle:radius=5mm,period=4s"
+    path = parse_path("circle:radius=5mm,period=4s")
     qs = track(path)
     mj = track(path, engine="mujoco")
     assert mj.metrics["rms_error_m"] <= 1.5 * qs.metrics["rms_error_m"]

@@ -90,16 +90,16 @@ def test_a_file_tool_is_the_papers_stack_scaled_and_spans_the_fitted_lengths(sav
     d = mt.tool_dict(tool)
     assert (d["muscle_file"], d["force_law"], d["direction"]) == (str(saved["spring"]), "spring", "inflate")
     # a lower p_max is the user's; one above the fitted top is refused, naming p_max
-    assert mt.make_tool(muscle_file=saved["spring"], p_max="0.5MPa").p_max == 0.5e6
+    assert mt.make_tool(muscle_file=saved["spring"], p_max=0.5e6).p_max == 0.5e6
     with pytest.raises(InputError, match=r"^p_max: 0\.7 MPa is above the top of the pressures .*0\.622 MPa"):
-        mt.make_tool(muscle_file=saved["spring"], p_max="0.7MPa")
+        mt.make_tool(muscle_file=saved["spring"], p_max=0.7e6)
     # a 12 mm muscle in the paper's 2.2 mm holes cannot be built
     with pytest.raises(InputError, match=r"^hole diameter: 2\.2 mm holes do not pass the 12 mm muscle commercial10"):
         Tool(tool.muscle, ToolGeometry(), tool.load, tool.p_max)
 
 
 def test_no_pressure_above_p_max_in_any_answer(saved):
-    tool = mt.make_tool(muscle_file=saved["spring"], p_max="0.5MPa")
+    tool = mt.make_tool(muscle_file=saved["spring"], p_max=0.5e6)
     ws = mt.map_workspace(tool, 7)
     assert ws.samples.pressures.max() == tool.p_max
     # targets past the workspace's faces: NaN, never a pressure above p_max
@@ -110,7 +110,7 @@ def test_no_pressure_above_p_max_in_any_answer(saved):
     ref = tip_reference(tool, parse_path("circle:radius=30mm,period=0.5s"))
     assert ref.pressures.max() <= tool.p_max
     with pytest.raises(InputError, match="pressures"):
-        mt.forward(tool, pressures="0.6MPa,0MPa,0MPa")
+        mt.forward(tool, pressures=[0.6e6, 0.0, 0.0])
 
 
 def test_unreachable_targets_name_the_muscle_and_why(saved):
@@ -118,10 +118,10 @@ def test_unreachable_targets_name_the_muscle_and_why(saved):
     # shorter than the muscle gets at p_max under the backbone's compression
     with pytest.raises(UnreachableError, match=r"muscle 1 \(at 0°\) would have to be .* mm under .* N, shorter than "
                                                r"its .* mm at 0\.622 MPa: more pressure than p_max"):
-        mt.inverse("40mm,0mm,250mm", tool)
+        mt.inverse([0.04, 0.0, 0.25], tool)
     # longer than the straight unpressurized tool: the backbone would have to pull the muscles
     with pytest.raises(UnreachableError, match=r"muscle 2 \(at 120°\) would have to push"):
-        mt.inverse("0mm,0mm,310mm", tool)
+        mt.inverse([0.0, 0.0, 0.31], tool)
 
 
 def test_the_tracking_plant_is_the_statics_muscle(saved):
@@ -208,7 +208,7 @@ def test_cli_bad_muscle_files_and_options_are_one_line(saved, tmp_path):
 def test_tracking_a_circle_with_the_files_plant(saved):
     """Three plants of the file's muscle, each with its controller, follow a 20 mm circle in 1 s."""
     tool = mt.make_tool(muscle_file=saved["spring"])
-    res = mt.track("circle:radius=20mm,period=1s,cycles=1", tool=tool)
+    res = mt.track(parse_path("circle:radius=20mm,period=1s,cycles=1"), tool=tool)
     run = res.results[0]
     assert run.faults == 0 and run.reference.max() <= tool.p_max
     # measured 0.86 mm RMS: the tracking gains are the miniature rig's, on a plant whose fill is

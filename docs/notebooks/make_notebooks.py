@@ -143,8 +143,8 @@ pressures (inverse), back to the pose (forward), the reachable workspace, and a 
 followed by three simulated, pressure-controlled muscles."""),
         ("code", """import mckibben.tool as mt
 
-tool = mt.make_tool("mpam117", preload="1N", bending_stiffness="2e-4Nm2")
-state = mt.inverse("20mm,0mm,110mm", tool)
+tool = mt.make_tool("mpam117", preload=1.0, bending_stiffness=2e-4)  # SI: N, N·m²
+state = mt.inverse([0.02, 0.0, 0.11], tool)  # tip x, y, z in m
 mt.state_dict(state)["pressures_Pa"]"""),
         ("code", """back = mt.forward(tool, pressures=state.pressures)
 back.tip * 1e3  # mm"""),
@@ -152,7 +152,7 @@ back.tip * 1e3  # mm"""),
 print(ws)
 ws.plot();"""),
         ("md", "## Follow a circle at two speeds"),
-        ("code", """trk = mt.track("circle:radius=5mm,period=2s", periods="2s,1s", tool=tool)
+        ("code", """trk = mt.track(mt.parse_path("circle:radius=5mm,period=2s"), periods=[2.0, 1.0], tool=tool)
 print(trk)
 trk.plot();"""),
         ("code", """trk.to_pandas().head()"""),

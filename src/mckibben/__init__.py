@@ -10,7 +10,7 @@ as text with a unit (``"0.8MPa"``, ``"97mm"``). The main entry points are here::
     mk.predict_length(muscle, 0.8e6, 0.6).length              # eq. 2 and 3 -> 0.0781 m
     step = mk.step_response("smc", target="0.55MPa", law="paper", beta=150)
     step.metrics, step.to_pandas(), step.plot()               # result objects
-    mk.track_tip("circle:radius=5mm,period=2s").plot()        # the three-muscle tool
+    mk.track_tip(mk.tool.parse_path("circle:radius=5mm,period=2s")).plot()  # the three-muscle tool
 
 Subpackages: :mod:`~mckibben.models`, :mod:`~mckibben.data`, :mod:`~mckibben.datasets`,
 :mod:`~mckibben.fit`, :mod:`~mckibben.plant`, :mod:`~mckibben.control`, :mod:`~mckibben.rig`,

@@ -25,7 +25,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from mckibben.errors import InputError
+from mckibben.errors import ArgumentTypeError, InputError
 from mckibben.files import apply_umask
 
 #: Marker in the name of every temporary this module creates.
@@ -51,6 +51,24 @@ def _why(exc: OSError) -> str:
     return exc.strerror or errno.errorcode.get(exc.errno or 0, str(exc))
 
 
+def as_path(path, name: str | None = None, what: str = "file") -> Path:
+    """``path`` as a :class:`~pathlib.Path` if it is text or path-like; else an :class:`ArgumentTypeError`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The argument. [-]
+    name : str, optional
+        The argument's name, for the message (default ``path``). [-]
+    what : str
+        What the path names, for the message. [-]
+    """
+    if isinstance(path, (str, os.PathLike)) and not isinstance(path, bytes):
+        return Path(os.fspath(path))
+    raise ArgumentTypeError(f"{name or 'path'} = {path!r}: not a {what} path ({type(path).__name__}); "
+                            "give a str or a pathlib.Path")
+
+
 def check_input_file(path, name: str | None = None, what: str = "file") -> Path:
     """Check that ``path`` is an existing regular file that can be read; return it as a Path.
 
@@ -66,7 +84,7 @@ def check_input_file(path, name: str | None = None, what: str = "file") -> Path:
     what : str
         What the file is, for the message ("file", "muscle file", "sweep file"). [-]
     """
-    p = Path(path)
+    p = as_path(path, name, what)
     where = f"{name}: {str(p)!r}" if name else str(p)
     try:
         st = p.stat()
@@ -136,7 +154,7 @@ def check_output_file(path, name: str = "out", suffixes: tuple[str, ...] | None 
     suffixes : tuple of str, optional
         Accepted suffixes (lower case, with the dot), e.g. ``(".png", ".pdf", ".svg")``.
     """
-    p = Path(os.fspath(path))
+    p = as_path(path, name)
     if str(path) == "" or p.name in ("", ".", ".."):
         raise InputError(f"{name}: {str(path)!r} is not a file name")
     if suffixes is not None and p.suffix.lower() not in suffixes:
@@ -162,7 +180,7 @@ def check_output_dir(path, name: str = "out") -> Path:
     name : str
         The option that gave it. [-]
     """
-    p = Path(os.fspath(path))
+    p = as_path(path, name, "folder")
     if str(path) == "":
         raise InputError(f"{name}: an empty folder name")
     st = _stat_destination(p, name)

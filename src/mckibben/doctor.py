@@ -50,7 +50,7 @@ def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
         ("compare", lambda: control.compare()),
         ("robustness", lambda: control.robustness(4)),
         ("hysteresis", lambda: control.hysteresis_compensation()),
-        ("the tool", lambda: tool.track("circle:radius=5mm,period=2s")),
+        ("the tool", lambda: tool.track(tool.parse_path("circle:radius=5mm,period=2s"))),
         ("live stepper", lambda: plant.PlantStepper().advance(100, 0)),
         ("linear model", lambda: plant.linearize(pressure=0.4e6)),
     ]

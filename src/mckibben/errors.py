@@ -32,6 +32,8 @@ def unknown_name(kind: str, name: str, choices: Iterable[str]) -> InputError:
         The valid names. [-]
     """
     choices = sorted(choices)
+    if not isinstance(name, str):  # None, a number: a type error, not a misspelling (difflib takes text only)
+        return ArgumentTypeError(f"{kind} = {name!r}: not a name ({_type_name(name)}); give one of: {', '.join(choices)}")
     close = difflib.get_close_matches(name, choices, n=3)
     hint = f" Did you mean {', '.join(close)}?" if close else ""
     return InputError(f"unknown {kind} {name!r}.{hint} Provide one of: {', '.join(choices)}")
@@ -133,7 +135,7 @@ def check_int(value, name: str, *, lo: int | None = None, hi: int | None = None)
 
 
 def check_array(value, name: str, *, lo: float | None = None, hi: float | None = None, ndim: int | None = None,
-                size: int | None = None, unit: str = ""):
+                size: int | None = None, unit: str = "", finite: bool = True):
     """A real array (or scalar) of finite values within ``[lo, hi]``, as ``float`` NumPy array.
 
     Parameters
@@ -150,6 +152,9 @@ def check_array(value, name: str, *, lo: float | None = None, hi: float | None =
         The largest number of elements accepted (checked before converting). [-]
     unit : str
         The SI unit, for the message. [-]
+    finite : bool, default True
+        Refuse NaN and infinities; False lets them through (a low-level formula whose NaN in
+        gives NaN out) and checks only the type, shape, size and bounds of the finite values. [-]
 
     Returns
     -------
@@ -172,10 +177,11 @@ def check_array(value, name: str, *, lo: float | None = None, hi: float | None =
     if ndim is not None and raw.ndim != ndim:
         raise InputError(f"{name}: shape {raw.shape}, want {ndim} dimension{'s' if ndim != 1 else ''}")
     a = raw.astype(float, copy=False)
-    if not np.all(np.isfinite(a)):
+    if finite and not np.all(np.isfinite(a)):
         raise InputError(f"{name}: holds a value that is not a finite number")
-    if a.size and ((lo is not None and a.min() < lo) or (hi is not None and a.max() > hi)):
-        bad = a.min() if lo is not None and a.min() < lo else a.max()
+    v = a if finite else a[np.isfinite(a)]
+    if v.size and ((lo is not None and v.min() < lo) or (hi is not None and v.max() > hi)):
+        bad = v.min() if lo is not None and v.min() < lo else v.max()
         raise InputError(f"{name}: {bad:g}{' ' + unit if unit else ''} is outside {_interval(lo, hi, False, False)}")
     return a
 
@@ -184,7 +190,7 @@ def check_callable(value, name: str, *, optional: bool = True):
     """A callable (or ``None`` when ``optional``): checked before a run, not found after it."""
     if (value is None and optional) or callable(value):
         return value
-    raise ArgumentTypeError(f"{name} = {value!r}: not callable ({_type_name(value)}); give a function"
+    raise ArgumentTypeError(f"{name} = {show_value(value)}: not callable ({_type_name(value)}); give a function"
                             + (" or None" if optional else ""))
 
 
@@ -192,7 +198,13 @@ def check_instance(value, name: str, cls, what: str, *, optional: bool = False):
     """``value`` if it is a ``cls`` (or ``None`` when ``optional``); else an :class:`ArgumentTypeError`."""
     if (value is None and optional) or isinstance(value, cls):
         return value
-    raise ArgumentTypeError(f"{name} = {value!r}: not {what} ({_type_name(value)})")
+    raise ArgumentTypeError(f"{name} = {show_value(value)}: not {what} ({_type_name(value)})")
+
+
+def show_value(value) -> str:
+    """``repr(value)`` on one short line (a DataFrame's repr spans many: its type stands in)."""
+    r = repr(value)
+    return r if "\n" not in r and len(r) <= 80 else f"<{type(value).__name__}>"
 
 
 def _type_name(value) -> str:

@@ -35,7 +35,7 @@ import numpy as np
 
 from mckibben.errors import ArgumentTypeError
 from mckibben import __version__
-from mckibben.atomic import check_output_file
+from mckibben.atomic import check_input_file, check_output_file
 from mckibben.atomic import atomic_file
 import numpy as _np
 import sys
@@ -142,6 +142,8 @@ def write_table(df, path, meta: dict | None = None, name: str = "out") -> str:
         The path written.
     """
 
+    if not hasattr(df, "to_csv") or not hasattr(df, "attrs"):
+        raise ArgumentTypeError(f"df = {df!r}: not a pandas DataFrame ({type(df).__name__})")
     path = check_table_path(path, name)
     meta = meta if meta is not None else df.attrs.get("provenance", {})
     if path.lower().endswith(".csv"):
@@ -171,6 +173,7 @@ def read_provenance(path) -> dict:
     path : str or os.PathLike
         A Parquet file, or a CSV file (its :func:`provenance_sidecar`). [-]
     """
+    path = check_input_file(path, "path")
     if os.fspath(path).lower().endswith(".csv"):
         side = provenance_sidecar(path)
         return json.loads(Path(side).read_text(encoding="utf-8")) if os.path.exists(side) else {}

@@ -21,6 +21,7 @@ from mckibben.control import registry as R
 from mckibben.errors import InputError, unknown_name
 from mckibben import tool as tool_lib
 from mckibben import rig
+from mckibben.units import parse_quantity, parse_values
 
 tool_app = typer.Typer(help="The three-muscle endoscope: kinematics, pressures for a tip, workspace, tracking.",
                        no_args_is_help=True)
@@ -45,12 +46,27 @@ PMAX_OPTION = typer.Option(None, "--p-max", help="Highest pressure allowed in an
 
 def build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file=None,
                direction="inflate"):
-    """The tool from the shared options (:func:`mckibben.tool.make_tool`)."""
+    """The tool from the shared options (:func:`mckibben.tool.make_tool`), their text parsed to SI here."""
 
     check_direction(direction)
-    return tool_lib.make_tool(muscle, muscle_file=muscle_file, direction=direction, pitch_radius=pitch_radius, discs=discs,
-                     preload=preload, bending_stiffness=bending_stiffness, axial_stiffness=axial_stiffness,
-                     p_max=p_max)
+
+    def q(text, dim, name, **kw):
+        return None if text is None else parse_quantity(text, dim, name, **kw)
+
+    return tool_lib.make_tool(muscle, muscle_file=muscle_file, direction=direction,
+                              pitch_radius=q(pitch_radius, "length", "pitch_radius", allow_zero=False), discs=discs,
+                              preload=q(preload, "force", "preload"),
+                              bending_stiffness=q(bending_stiffness, "bending_stiffness", "bending_stiffness",
+                                                  default_unit="Nm2"),
+                              axial_stiffness=q(axial_stiffness, "force", "axial_stiffness"),
+                              p_max=q(p_max, "pressure", "p_max", allow_zero=False))
+
+
+def _three(text: str | None, dim: str, name: str, **kw):
+    """A flag of three comma-separated quantities, in SI (the library checks there are three)."""
+    if text is None:
+        return None
+    return [float(v) for v in parse_values(text, dim, name, **kw)] if ":" not in text else []
 
 
 def _print_state(title: str, st: dict) -> None:
@@ -90,7 +106,8 @@ def fk_cmd(
         raise InputError("tool fk: give exactly one of --lengths or --pressures")
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
                       direction)
-    state = tool_lib.forward(tool, lengths=lengths, pressures=pressures)
+    state = tool_lib.forward(tool, lengths=_three(lengths, "length", "lengths", allow_zero=False),
+                             pressures=_three(pressures, "pressure", "pressures"))
     source = "lengths" if lengths is not None else "pressures"
     out = {"input": source, **tool_lib.state_dict(state), "tool": tool_lib.tool_dict(tool)}
     if json:
@@ -117,7 +134,7 @@ def ik_cmd(
 
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
                       direction)
-    state = tool_lib.inverse(tip, tool)
+    state = tool_lib.inverse(_three(tip, "length", "tip", allow_negative=True), tool)
     out = {**tool_lib.state_dict(state), "tool": tool_lib.tool_dict(tool)}
     if json:
         emit_json(out)
@@ -207,6 +224,8 @@ def track_cmd(
     check_outputs(plot, dpi, out)
     tool = build_tool(muscle, pitch_radius, discs, preload, bending_stiffness, axial_stiffness, p_max, muscle_file,
                       direction)
+    path = tool_lib.parse_path(path)
+    periods = None if periods is None else parse_values(periods, "time", "periods", allow_zero=False)
     link_out = None
     if port is not None:
         link_res, link_info = experiments.link.track_over_link(port, tool, path, beta=beta)

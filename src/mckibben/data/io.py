@@ -20,12 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.data.schema import BARE_COLUMNS, KINDS, PER_MUSCLE, QUANTITIES, SCHEMAS, SENSOR_COLUMNS
-from mckibben.atomic import check_input_file
+from mckibben.atomic import as_path, check_input_file
+from mckibben.errors import ArgumentTypeError, check_instance
 from mckibben.errors import InputError
 from mckibben.units import G_N, UNITS, to_si, units_of
 from mckibben.errors import unknown_name
 from mckibben.limits import PLAUSIBLE_MAX, first_implausible
 from mckibben.units import SI_UNIT
+from mckibben.results import check_ax, shown_once
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -86,6 +88,76 @@ class Table:
 
     def __len__(self) -> int:
         return len(self.data)
+
+    def plot(self, ax=None):
+        """Draw the table as its kind is read (what against what, one line per group); return the Figure.
+
+        ``isotonic`` and ``hysteresis``: length against pressure, one line per load (and
+        direction); ``blocked_force``: force against pressure; ``braid_angle``: braid angle
+        against length; ``force_length``: force against length per pressure and direction;
+        ``isometric``: force against pressure per held length and direction; ``step_response``:
+        pressure against time. Each trial is its own line. Axes in the lab's units (kPa, mm, N,
+        deg, s); the figure shows once in Jupyter, as a result's ``.plot()``.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        check_ax(ax)
+        if isinstance(ax, (list, tuple, np.ndarray)):
+            raise InputError(f"ax: a table draws on one Axes, not {len(ax)}")
+        x, y, groups = _TABLE_PLOTS[self.kind]
+        new = ax is None
+        if new:
+            import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
+
+            fig, ax = plt.subplots(figsize=(6.0, 4.0))
+        else:
+            fig = ax.figure
+        df = self.data
+        keys = [g for g in groups if g in df.columns and df[g].nunique() > 1]
+        split = "trial" in df.columns and df["trial"].nunique() > 1
+        parts = df.groupby(keys, sort=True) if keys else [((), df)]
+        for k, (key, part) in enumerate(parts):  # one colour per group, one line per trial
+            key = key if isinstance(key, tuple) else (key,)
+            label = ", ".join(_group_label(c, v) for c, v in zip(keys, key)) or None
+            for t, (_, run) in enumerate(part.groupby("trial", sort=True) if split else [(None, part)]):
+                ax.plot(run[x] * _PLOT_SCALE[x][0], run[y] * _PLOT_SCALE[y][0], marker=".", color=f"C{k % 10}",
+                        label=label if t == 0 else None)
+        ax.set_xlabel(f"{x.replace('_', ' ')} [{_PLOT_SCALE[x][1]}]")
+        ax.set_ylabel(f"{y.replace('_', ' ')} [{_PLOT_SCALE[y][1]}]")
+        ax.set_title(f"{Path(self.path).name} ({self.kind}{', one line per trial' if split else ''})")
+        if keys and len(parts) <= 12:
+            ax.legend(fontsize="small")
+        ax.grid(True, alpha=0.3)
+        return shown_once(fig) if new else fig
+
+
+#: What :meth:`Table.plot` draws for each kind: (x, y, the columns that split it into lines).
+_TABLE_PLOTS = {
+    "blocked_force": ("pressure", "force", ()),
+    "isotonic": ("pressure", "length", ("load",)),
+    "hysteresis": ("pressure", "length", ("load", "direction")),
+    "braid_angle": ("length", "braid_angle", ()),
+    "force_length": ("length", "force", ("pressure", "direction")),
+    "isometric": ("pressure", "force", ("held_length", "direction")),
+    "step_response": ("time", "pressure", ()),
+}
+#: SI quantity -> (factor, unit) of a plot's axis (units at the edges).
+_PLOT_SCALE = {"pressure": (1e-3, "kPa"), "length": (1e3, "mm"), "held_length": (1e3, "mm"), "force": (1.0, "N"),
+               "load": (1.0, "N"), "braid_angle": (180.0 / math.pi, "deg"), "time": (1.0, "s")}
+
+
+def _group_label(column: str, value) -> str:
+    if column in _PLOT_SCALE and isinstance(value, (int, float, np.number)):
+        factor, unit = _PLOT_SCALE[column]
+        return f"{column.replace('_', ' ')} {float(value) * factor:.4g} {unit}"
+    return f"{column} {value}"
 
 
 def _where(path: str, row: int | None, column: str | None, is_csv: bool) -> str:
@@ -153,6 +225,9 @@ def detect_kind(quantities) -> str | None:
     str or None
         The kind, or None if no kind's required columns are all present.
     """
+    if isinstance(quantities, (str, bytes)) or not hasattr(quantities, "__iter__"):
+        raise ArgumentTypeError(f"quantities = {quantities!r}: not a collection of column names "
+                                f"({type(quantities).__name__})")
     present = set(quantities)
     fits = [s for s in SCHEMAS.values() if set(s.required) <= present]
     if not fits:
@@ -205,7 +280,10 @@ def read_table(path, kind: str | None = None) -> Table:
         unknown unit, text in a numeric cell, a missing value, NaN or infinity, a negative pressure
         or load, a direction that is not one of the kind's, time not increasing within a trial.
     """
-    p = Path(path)
+    p = as_path(path, "path")
+    if kind is not None and not isinstance(kind, str):
+        raise ArgumentTypeError(f"kind = {kind!r}: not an experiment kind ({type(kind).__name__}); give one of "
+                                f"{', '.join(KINDS)}, or None to detect it")
     name = str(path)
     df, is_csv = _read_frame(p, name)
     df.columns = [str(c).strip() for c in df.columns]
@@ -524,8 +602,9 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
         ``method`` and, when used, ``per_run_N``: a list of ``{held_length_m, trial, tare_N}``
         (``"lowest"``) or ``tare_N_range`` (``"column"``). Printed by the CLI when a tare is used.
     """
+    check_instance(table, "table", Table, "a Table (read_table)")
     if method not in TARES:
-        raise unknown_name("tare", method, TARES)
+        raise unknown_name("tare method", method, TARES)
     if table.kind != "isometric":
         raise InputError(f"tare: applies to isometric tables; {table.path} is a {table.kind} table")
     d = table.data.copy()
@@ -700,7 +779,7 @@ def read_muscle(path) -> MuscleSpec:
         The muscle in SI.
     """
     name = str(path)
-    p = Path(path)
+    p = as_path(path, "path", "muscle file")
     check_input_file(p, None, "muscle file")
     try:
         doc = tomllib.loads(p.read_text(encoding="utf-8"))
@@ -852,6 +931,8 @@ def check_muscle(table: Table, muscle: MuscleSpec) -> None:
     muscle : MuscleSpec
         The muscle file's content.
     """
+    check_instance(table, "table", Table, "a Table (read_table)")
+    check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (read_muscle)")
     d = table.data
     if "muscle" in d and "rest_length" not in d:  # a family table holds several muscles of the file's type
         wrong = np.flatnonzero(d["muscle"].to_numpy() != muscle.id)
@@ -882,7 +963,7 @@ def find_muscle_file(data_path) -> Path | None:
     data_path : str or pathlib.Path
         A data file or a folder. [-]
     """
-    p = Path(data_path)
+    p = as_path(data_path, "data_path")
     folder = p if p.is_dir() else p.parent
     candidate = folder / "muscle.toml"
     return candidate if candidate.is_file() else None

@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from mckibben.atomic import check_input_file
+from mckibben.atomic import as_path, check_input_file
 from mckibben.errors import InputError
 from mckibben.limits import PLAUSIBLE_MAX, first_implausible
 from mckibben.units import split_column, to_si
-import pathlib
 
 # --- step-response logs --------------------------------------------------------------------------
 
@@ -58,7 +57,7 @@ def read_step_log(path) -> tuple[dict, dict]:
 
 
 
-    p = check_input_file(pathlib.Path(path))
+    p = check_input_file(as_path(path, "path"))
     try:
         if p.suffix.lower() == ".parquet":
             df = pd.read_parquet(p)

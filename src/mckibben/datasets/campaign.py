@@ -56,7 +56,7 @@ from mckibben.models.kinematic import length_from_braid
 from mckibben.models.mpam import MiniatureMuscle, braid_cos_theta
 from mckibben.models.spring import CONTRACTION, DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel, spring_force
 from mckibben.errors import unknown_name
-from mckibben.atomic import atomic_dir, check_output_dir
+from mckibben.atomic import as_path, atomic_dir, check_output_dir
 import tomllib
 
 if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
@@ -407,7 +407,7 @@ def campaign_muscle_dirs(root=None) -> list[Path]:
     root : str or pathlib.Path, optional
         A campaign folder (one sub-folder with a ``muscle.toml`` per muscle).
     """
-    root = Path(root) if root is not None else BUNDLED
+    root = as_path(root, "data", "folder") if root is not None else BUNDLED
     if not root.is_dir():
         raise InputError(f"data: {root} is not a folder")
     dirs = sorted(p for p in root.iterdir() if p.is_dir() and (p / "muscle.toml").is_file())

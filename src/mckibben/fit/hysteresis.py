@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mckibben.errors import InputError
+from mckibben.errors import InputError, check_array
 from mckibben.fit.core import FitResult, linear_fit
 from mckibben.models.hysteresis import PrandtlIshlinskii, descended_state, play_matrix
 
@@ -162,8 +162,9 @@ def fit_prandtl_ishlinskii(u, y, thresholds, *, run=None, start: str = "virgin",
     Kuhnen, K. (2003), European Journal of Control 9(4), 407–418 (identification of the PI
     weights by least squares for fixed thresholds).
     """
-    x = np.asarray(u, dtype=float)
-    yy = np.asarray(y, dtype=float)
+    x = check_array(u, "u", finite=False)
+    yy = check_array(y, "y", finite=False)
+    check_array(thresholds, "thresholds")
     if x.shape != yy.shape or x.ndim != 1:
         raise InputError(f"{what}: u and y must be 1-D of equal length ({x.shape} and {yy.shape})")
     if not np.all(np.isfinite(yy)):

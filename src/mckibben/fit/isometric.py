@@ -54,7 +54,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
-from mckibben.errors import InputError, unknown_name
+from mckibben.errors import InputError, check_instance, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range, linear_fit
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
@@ -458,6 +458,8 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     ----------
     Module notes; Cameron & Miller (2015) for the cluster-robust covariance.
     """
+    check_instance(table, "table", Table, "a Table (mckibben.read_table)")
+    check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
     d, report = isometric_points(table, tare, rails, pressure_zero)
     res = fit_points(d, muscle, model, source=table.path)
     return IsometricFit(model, res, muscle, report, d)
@@ -684,6 +686,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     -------
     ModelComparison
     """
+    check_instance(table, "table", Table, "a Table (mckibben.read_table)")
+    check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
     if cv not in CV_METHODS:
         raise unknown_name("`cv` scheme", cv, CV_METHODS)
     d, report = isometric_points(table, tare, rails, pressure_zero)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError, InputError, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, check_real, unknown_name
 from mckibben.models import laws
 from mckibben.results import Result
 from mckibben.data import find_muscle_file, read_muscle
@@ -69,6 +69,13 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError(f"save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
     if rest_length is not None and save is None:
         raise InputError("rest_length: sets the rest length of the muscle a family law's file describes; give `save`")
+    if split_pressure is not None:
+        check_real(split_pressure, "split_pressure", lo=0.0, unit="Pa")
+        if model != "spring" or isometric:
+            raise InputError(f"split_pressure: splits the data of the spring model on an isotonic or force-length "
+                             f"table; fit {model} on a {table.kind} table has no split")
+    if rest_length is not None:
+        check_real(rest_length, "rest_length", lo=0.0, lo_open=True, unit="m")
     extra: dict = {}
     if isometric:
         if model not in ALL_MODELS and model not in laws.ALIASES:

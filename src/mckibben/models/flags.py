@@ -11,6 +11,8 @@ import enum
 
 import numpy as np
 
+from mckibben.errors import ArgumentTypeError
+
 
 class Flag(enum.IntFlag):
     """Why a predicted value deserves doubt. Combine with ``|``; stored as ``uint16`` arrays."""
@@ -56,6 +58,11 @@ def flag_names(mask: int) -> list[str]:
     mask : int
         One element of a flag array. [-]
     """
+    import numbers
+
+    if isinstance(mask, (bool, np.bool_)) or not isinstance(mask, numbers.Integral) or int(mask) < 0:
+        raise ArgumentTypeError(f"mask = {mask!r}: not a flag mask (a whole number >= 0, one element of a flags "
+                                "array)")
     mask = int(mask)
     return [name for flag, name in FLAG_NAMES.items() if mask & flag]
 

@@ -21,9 +21,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben.errors import InputError
+from mckibben.errors import check_instance, check_real
 
 __all__ = ["BraidGeometry", "MiniatureGeometry", "miniature_geometry"]
+
+#: Largest length or diameter of a braided muscle accepted (the plausible bound of
+#: :data:`mckibben.limits.PLAUSIBLE_MAX`); past it the geometry is a unit slip. [m]
+MAX_SIZE = 10.0
+#: Most turns of a braid strand accepted: far past any braid (the miniature's is about 3). [-]
+MAX_TURNS = 1e6
 
 
 @dataclass(frozen=True)
@@ -45,8 +51,9 @@ class BraidGeometry:
     wall_thickness: float = 0.0
 
     def __post_init__(self):
-        if not (self.strand_length > 0 and self.turns > 0 and self.wall_thickness >= 0):
-            raise InputError("BraidGeometry: strand length and turns must be > 0, wall thickness >= 0")
+        check_real(self.strand_length, "strand_length", lo=0.0, lo_open=True, hi=MAX_SIZE, unit="m")
+        check_real(self.turns, "turns", lo=0.0, lo_open=True, hi=MAX_TURNS, unit="-")
+        check_real(self.wall_thickness, "wall_thickness", lo=0.0, hi=MAX_SIZE, unit="m")
 
     @classmethod
     def from_initial(cls, length: float, diameter: float, braid_angle: float, wall_thickness: float = 0.0):
@@ -63,8 +70,9 @@ class BraidGeometry:
         wall_thickness : float, default 0.0
             Tube wall thickness. [m]
         """
-        if not (length > 0 and diameter > 0 and 0 < braid_angle < np.pi / 2):
-            raise InputError("BraidGeometry.from_initial: need length > 0, diameter > 0, 0 < angle < 90 deg")
+        check_real(length, "length", lo=0.0, lo_open=True, hi=MAX_SIZE, unit="m")
+        check_real(diameter, "diameter", lo=0.0, lo_open=True, hi=MAX_SIZE, unit="m")
+        check_real(braid_angle, "braid_angle", lo=0.0, hi=np.pi / 2, lo_open=True, hi_open=True, unit="rad")
         b = length / np.cos(braid_angle)
         n = b * np.sin(braid_angle) / (np.pi * diameter)
         return cls(float(b), float(n), float(wall_thickness))
@@ -104,6 +112,11 @@ class MiniatureGeometry:
     strand_diameter: float = 0.1e-3
     braid_angle: float = np.deg2rad(20.0)
 
+    def __post_init__(self):
+        for name in ("outer_diameter", "tube_inner_diameter", "tube_outer_diameter", "strand_diameter"):
+            check_real(getattr(self, name), name, lo=0.0, lo_open=True, hi=MAX_SIZE, unit="m")
+        check_real(self.braid_angle, "braid_angle", lo=0.0, hi=np.pi / 2, lo_open=True, hi_open=True, unit="rad")
+
     @property
     def wall_thickness(self) -> float:
         """Silicone tube wall thickness. [m]"""
@@ -119,6 +132,17 @@ class MiniatureGeometry:
                                                                  "tube_outer_diameter", "strand_diameter",
                                                                  "braid_angle")]
         return cls(*sizes)
+
+
+def check_geometry(geom) -> "BraidGeometry":
+    """``geom`` if it is a :class:`BraidGeometry`; else an error naming ``geom`` (what the physical laws take).
+
+    Parameters
+    ----------
+    geom : BraidGeometry
+        The argument. [-]
+    """
+    return check_instance(geom, "geom", BraidGeometry, "a BraidGeometry (miniature_geometry)")
 
 
 def miniature_geometry(nominal_length: float, geometry=None, wall: bool = True) -> BraidGeometry:
@@ -137,7 +161,9 @@ def miniature_geometry(nominal_length: float, geometry=None, wall: bool = True) 
     wall : bool, default True
         Include the tube wall thickness (False: thin-wall ideal).
     """
-    g = geometry or MiniatureGeometry()
+    check_real(nominal_length, "nominal_length", lo=0.0, lo_open=True, hi=MAX_SIZE, unit="m")
+    g = MiniatureGeometry() if geometry is None else check_instance(geometry, "geometry", MiniatureGeometry,
+                                                                   "a MiniatureGeometry")
     return BraidGeometry.from_initial(
         nominal_length,
         g.outer_diameter - g.strand_diameter,

@@ -7,7 +7,8 @@ References
 
 from __future__ import annotations
 
-import numpy as np
+
+from mckibben.errors import check_array
 
 
 def length_from_braid(cos_theta, strand_length, k1=1.0, k2=0.0):
@@ -38,7 +39,8 @@ def length_from_braid(cos_theta, strand_length, k1=1.0, k2=0.0):
     >>> round(float(length_from_braid(0.7508, 0.112, 0.92, 0.77e-3)) * 1e3, 1)
     78.1
     """
-    return k1 * np.asarray(strand_length, dtype=float) * np.asarray(cos_theta, dtype=float) + k2
+    return (k1 * check_array(strand_length, "strand_length", finite=False)
+            * check_array(cos_theta, "cos_theta", finite=False) + k2)
 
 
 def braid_from_length(length, strand_length, k1=1.0, k2=0.0):
@@ -64,4 +66,5 @@ def braid_from_length(length, strand_length, k1=1.0, k2=0.0):
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) solved for cos θ.
     """
-    return (np.asarray(length, dtype=float) - k2) / (k1 * np.asarray(strand_length, dtype=float))
+    return ((check_array(length, "length", finite=False) - k2)
+            / (k1 * check_array(strand_length, "strand_length", finite=False)))

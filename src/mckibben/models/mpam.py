@@ -21,7 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_real
+from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_real, show_value
+from mckibben.hardware import P_MAX_LIMIT
 from mckibben.models.flags import Flag, flag_where, outside
 from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.kinematic import braid_from_length, length_from_braid
@@ -113,7 +114,10 @@ def braid_cos_theta(pressure, load, braid_map: BraidAngleMap):
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (3) and Table II (P in MPa).
     """
-    pressure, load = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    if not isinstance(braid_map, BraidAngleMap):
+        raise ArgumentTypeError(f"braid_map = {braid_map!r}: not a BraidAngleMap ({type(braid_map).__name__}); "
+                                "a muscle's is muscle.braid_map")
+    pressure, load = np.broadcast_arrays(check_array(pressure, "pressure"), check_array(load, "load"))
     c = braid_map.coefficients_at(load)
     p = pressure / MPA
     cos_theta = ((c[..., 0] * p + c[..., 1]) * p + c[..., 2]) * p + c[..., 3]
@@ -207,11 +211,56 @@ class LengthPrediction:
     flags: np.ndarray  #: Flag mask per element (uint16)
 
 
+#: The most elements a static model takes in one call (after broadcasting): the forward maps cost
+#: about 0.2 µs and 120 B per element, so 1e7 elements answer in seconds within a few GiB. [-]
+MAX_POINTS = 10**7
+#: The same for the models that solve per element (the inverse cubic, the physical laws' roots and
+#: bisections): 5 to 10 µs and up to 400 B per element, so 1e6 elements answer in about 10 s;
+#: give more in chunks. [-]
+MAX_SOLVE_POINTS = 10**6
+
+
+def check_points(limit: int = MAX_POINTS, **arrays) -> list[np.ndarray]:
+    """The named arguments as finite float arrays, broadcast together, refused past ``limit`` elements.
+
+    Each argument is checked by :func:`~mckibben.errors.check_array` (None, bool, text, NaN and
+    infinity refused, naming it), then their shapes must broadcast and the broadcast size must be
+    at most ``limit``: both checked before anything of that size is allocated.
+
+    Parameters
+    ----------
+    limit : int, default MAX_POINTS
+        The most elements accepted. [-]
+    arrays : array_like, as keyword arguments
+        The arguments by their Python names, in SI. [SI]
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The arguments as float arrays (broadcast views), in the order given. [SI]
+    """
+    checked = {name: check_array(value, name, size=limit) for name, value in arrays.items()}
+    names = ", ".join(checked)
+    empty = [n for n, a in checked.items() if a.size == 0]
+    if empty:
+        raise InputError(f"{empty[0]}: an empty array; give at least one value")
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in checked.values()))
+    except ValueError:
+        shapes = " and ".join(f"{n} {a.shape}" for n, a in checked.items())
+        raise InputError(f"{names}: shapes {shapes} do not broadcast together") from None
+    n = int(np.prod(shape, dtype=float)) if shape else 1
+    if n > limit:
+        raise InputError(f"{names}: {n:,} points after broadcasting, more than the {limit:,} a call takes; "
+                         "give fewer, or call in chunks")
+    return list(np.broadcast_arrays(*checked.values()))
+
+
 def _check_muscle(muscle) -> None:
     """``muscle`` is a :class:`MiniatureMuscle` (not its name, not None): else an error naming it."""
     if not isinstance(muscle, MiniatureMuscle):
         hint = f"; get one with get_muscle({muscle!r})" if isinstance(muscle, str) else ""
-        raise ArgumentTypeError(f"muscle = {muscle!r}: not a MiniatureMuscle ({type(muscle).__name__}){hint}")
+        raise ArgumentTypeError(f"muscle = {show_value(muscle)}: not a MiniatureMuscle ({type(muscle).__name__}){hint}")
 
 
 def predict_length(muscle: MiniatureMuscle, pressure, load) -> LengthPrediction:
@@ -243,8 +292,7 @@ def predict_length(muscle: MiniatureMuscle, pressure, load) -> LengthPrediction:
     (78.1, 0.195)
     """
     _check_muscle(muscle)
-    pressure = check_array(pressure, "pressure", unit="Pa")
-    load = check_array(load, "load", unit="N")
+    pressure, load = check_points(MAX_POINTS, pressure=pressure, load=load)
     cos_theta, flags = braid_cos_theta(pressure, load, muscle.braid_map)
     length = length_from_braid(cos_theta, muscle.strand_length, muscle.k1, muscle.k2)
     flags = flags | flag_where(length < 0, Flag.NEGATIVE_LENGTH)
@@ -281,11 +329,8 @@ def pressure_for_length(muscle: MiniatureMuscle, length, load, p_max: float = 0.
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) and (3) inverted; §IV uses it as the feed-forward.
     """
     _check_muscle(muscle)
-    if length is None or isinstance(length, (str, bytes, bool, np.bool_)):
-        raise ArgumentTypeError(f"length = {length!r}: not a number or an array of numbers ({type(length).__name__})")
-    load = check_array(load, "load", unit="N")
-    p_max = check_real(p_max, "p_max", lo=0.0, lo_open=True, unit="Pa")
-    length, load = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(load, dtype=float))
+    p_max = check_real(p_max, "p_max", lo=0.0, lo_open=True, hi=P_MAX_LIMIT, unit="Pa")
+    length, load = check_points(MAX_SOLVE_POINTS, length=length, load=load)
     target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
     coeffs = muscle.braid_map.coefficients_at(load)
     p_max_mpa = p_max / MPA
@@ -437,10 +482,11 @@ def force_from_length(muscle: MiniatureMuscle, pressure, length) -> ForcePredict
     ----------
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) and (3), Tables I–II, solved for the load.
     """
+    _check_muscle(muscle)
     bmap = muscle.braid_map
     if len(bmap.loads) < 2:
         raise InputError(f"{muscle.name}: force needs cubics at two or more loads; it has {len(bmap.loads)}")
-    pressure, length = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
+    pressure, length = check_points(MAX_SOLVE_POINTS, pressure=pressure, length=length)
     target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
     loads = np.asarray(bmap.loads)
     force = evaluate_kernel(braid_map, "braid-map", pressure, length, braid_map_theta(muscle))

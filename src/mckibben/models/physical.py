@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mckibben.errors import InputError
+from mckibben.errors import ArgumentTypeError, InputError, check_array
 from mckibben.models.flags import Flag, flag_where
 from mckibben.models.geometry import BraidGeometry, miniature_geometry
 from mckibben.models.laws.chou_hannaford import chou_hannaford_force
@@ -66,7 +66,10 @@ def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-ha
     flags : numpy.ndarray
         ``length_out_of_range`` where capped; ``slack`` where P = 0.
     """
-    p, f = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    if not isinstance(geom, BraidGeometry):
+        raise ArgumentTypeError(f"geom = {geom!r}: not a BraidGeometry ({type(geom).__name__}); get one from "
+                                "miniature_geometry")
+    p, f = np.broadcast_arrays(check_array(pressure, "pressure"), check_array(load, "load", lo=0.0, unit="N"))
     if model == "chou-hannaford":
         with np.errstate(divide="ignore", invalid="ignore"):
             c = np.sqrt((4.0 * f / (np.pi * geom.d0**2 * p) + 1.0) / 3.0)
@@ -85,7 +88,7 @@ def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-ha
         c = 0.5 * (lo + hi)
         c = np.where(wall_corrected_force(p, c_peak * geom.strand_length, geom) < f, np.inf, c)
     else:
-        raise InputError(f"length_under_load: unknown model {model!r}; use chou-hannaford or wall-corrected")
+        raise InputError(f"model = {model!r}: unknown; use chou-hannaford or wall-corrected")
     slack = ~(p > 0)
     capped = ~(c <= 1.0) | slack
     length = np.where(capped, geom.strand_length, c * geom.strand_length)

@@ -27,6 +27,7 @@ import numpy as np
 from mckibben.errors import ArgumentTypeError, check_array, unknown_name
 from mckibben.models.flags import Flag, flag_names, flag_where, outside
 from mckibben.models.mpam import _check_muscle as _check_mpam_muscle
+from mckibben.models.mpam import MAX_POINTS, MAX_SOLVE_POINTS, check_points
 from mckibben.units import quantity
 from mckibben.models.physical import miniature_geometry
 from mckibben.models.mpam import predict_length
@@ -84,11 +85,17 @@ class StaticResult:
         return f"StaticResult(model={self.model!r}, {n} points, {int(np.count_nonzero(self.flags))} flagged)"
 
 
-def _si(value, dimension: str, name: str):
+def _si(value, dimension: str, name: str, limit: int = MAX_POINTS):
     """The argument ``name`` as a float array: finite numbers (no None, bool, NaN), or text with a unit."""
     if isinstance(value, str):
         return quantity(value, dimension, name, allow_negative=False)
-    return check_array(value, name, lo=0.0)
+    return check_array(value, name, lo=0.0, size=limit)
+
+
+def _pair(limit: int, **given) -> list[np.ndarray]:
+    """Two arguments in SI (:func:`_si`), broadcast together within ``limit`` elements (:func:`check_points`)."""
+    dims = {"pressure": "pressure", "load": "force", "length": "length"}
+    return check_points(limit, **{name: _si(v, dims[name], name, limit) for name, v in given.items()})
 
 
 def _model_name(model, kind: str, models) -> str:
@@ -130,14 +137,15 @@ def length_mpam(pressure, load, muscle) -> StaticResult:
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
     """
 
-    r = predict_length(muscle, _si(pressure, "pressure", "pressure"), _si(load, "force", "load"))
+    _check_muscle(muscle)
+    r = predict_length(muscle, *_pair(MAX_POINTS, pressure=pressure, load=load))
     return StaticResult("mpam", r.pressure, r.load, r.length, r.contraction, r.flags)
 
 
 def _length_physical(pressure, load, muscle, wall: bool, name: str) -> StaticResult:
 
     _check_muscle(muscle)
-    p, f = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(load, "force", "load"))
+    p, f = _pair(MAX_SOLVE_POINTS, pressure=pressure, load=load)
     ell, flags = length_under_load(p, f, _geometry(muscle, wall), "wall-corrected" if wall else "chou-hannaford")
     return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)
 
@@ -201,7 +209,8 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
     """
 
-    p, ell = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(length, "length", "length"))
+    _check_muscle(muscle)
+    p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
     r = force_from_length(muscle, p, ell)
     return StaticResult("mpam", p, np.asarray(r.force, dtype=float), ell, 1.0 - ell / muscle.nominal_length,
                         np.asarray(r.flags))
@@ -209,8 +218,8 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
 
 def _force_physical(pressure, length, muscle, wall: bool, name: str) -> StaticResult:
 
-    p, ell = np.broadcast_arrays(_si(pressure, "pressure", "pressure"), _si(length, "length", "length"))
     _check_muscle(muscle)
+    p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
     law = wall_corrected_force if wall else chou_hannaford_force
     geom = _geometry(muscle, wall)
     f = np.asarray(law(p, ell, geom), dtype=float)

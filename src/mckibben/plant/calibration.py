@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mckibben.errors import check_int
 from mckibben.plant import params as PP
 from mckibben.plant.simulator import simulate, static_length
 
@@ -45,6 +46,7 @@ def open_loop_step(plant: PP.PlantParams | None = None, valve: int = CALIBRATION
         ``time_constant_s`` (63 % of the final rise), ``rise_time_s`` (10–90 %),
         ``overshoot_pct``, ``final_pressure_Pa``, ``settling_time_s`` (2 %).
     """
+    valve = check_int(valve, "valve", lo=0, hi=255)
     res = simulate(plant, duration, inlet=valve, ts=ts, substeps=substeps, n=1)
     t, y = res.t, res.pressure[0]
     final = float(np.mean(y[-max(1, len(y) // 20):]))

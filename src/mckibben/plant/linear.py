@@ -17,10 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from mckibben._jit import njit
-from mckibben.errors import InputError
+from mckibben.errors import InputError, check_real
 from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
-from mckibben.plant.simulator import _default_plant, _prepared, initial_states, static_equilibrium
+from mckibben.plant.simulator import _check_plant, _prepared, initial_states, static_equilibrium
 
 #: The states kept in the linear model (the friction row is left out).
 STATES = ("pressure_Pa", "temperature_K", "inlet_opening", "bleed_opening", "length_m", "velocity_m_per_s")
@@ -126,9 +126,10 @@ def linearize(plant: PP.PlantParams | None = None, pressure: float = 0.55e6) -> 
     LinearPlant
         The ``StateSpace`` and the operating point.
     """
-    plant = plant or _default_plant()
+    plant = _check_plant(plant)
     if plant.size() != 1:
-        raise InputError("linearize: one rig (scalar parameters) only")
+        raise InputError("plant: linearize takes one rig (scalar parameters) only")
+    pressure = check_real(pressure, "pressure", unit="Pa")
     prm, law, th = _prepared(plant, 1)
     c = PP.Col
     supply = float(prm[0, c.supply_pressure])

@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben import hardware as HW
-from mckibben.errors import InputError, check_real, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, check_instance, check_real, unknown_name
+from mckibben.limits import PLAUSIBLE_MAX
 from mckibben.units import P_ATM  # noqa: F401  (the plant's atmosphere: PP.P_ATM in the kernels)
 from mckibben.models import laws as LW
 from mckibben.models.muscle import FILE_BRAID_ANGLE as MUSCLE_BRAID_ANGLE
@@ -119,6 +120,12 @@ def calibrate_force_law(muscle: MiniatureMuscle, blocked_force: float | None = N
     ----------
     Tondu & Lopez (2000), eq. (4); “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III.A, eq. (2)–(3), Tables I–II.
     """
+    check_instance(muscle, "muscle", MiniatureMuscle, "a MiniatureMuscle (get_muscle)")
+    if blocked_force is not None:
+        blocked_force = check_real(blocked_force, "blocked_force", lo=0.0, lo_open=True, hi=PLAUSIBLE_MAX["force"],
+                                   unit="N")
+    if alpha0 is not None:
+        alpha0 = check_real(alpha0, "alpha0", lo=0.0, hi=ALPHA0_MAX, lo_open=True, hi_open=True, unit="rad")
     f_b = blocked_force if blocked_force is not None else dict(muscle.blocked_force)[0.8e6]
     a0 = muscle.geometry.braid_angle if alpha0 is None else alpha0
     a = 3.0 / np.tan(a0) ** 2
@@ -130,7 +137,12 @@ def calibrate_force_law(muscle: MiniatureMuscle, blocked_force: float | None = N
     k = (1.0 - np.sqrt((w / a1 + b) / a)) / eps1
     a2 = w / (a * (1.0 - k * eps2) ** 2 - b)  # π r0² (P2 − P_th)
     p_th = (a1 * p2 - a2 * p1) / (a1 - a2)
-    r0 = np.sqrt(a1 / (np.pi * (p1 - p_th)))
+    with np.errstate(invalid="ignore"):
+        r0 = np.sqrt(a1 / (np.pi * (p1 - p_th)))
+    if not all(np.isfinite(v) and v > 0 for v in (r0, k)) or not np.isfinite(p_th):
+        what = "blocked_force" if blocked_force is not None else "alpha0" if alpha0 is not None else "muscle"
+        raise InputError(f"{what}: no Tondu-Lopez law meets these numbers (r0 = {float(r0):g} m, k = {float(k):g}, "
+                         f"P_th = {float(p_th):g} Pa); check the blocked force and the rest braid angle")
     return {"r0": float(r0), "k_tl": float(k), "p_threshold": float(p_th), "alpha0": float(a0)}
 
 
@@ -486,7 +498,17 @@ class PlantParams:
             raise InputError(f"plant parameters have {self.size()} instances, {n} were asked for")
         out = np.empty((n, NP))
         for j, name in enumerate(_FIELDS):
-            value = np.asarray(getattr(self, name), dtype=float)
+            raw = getattr(self, name)
+            if (raw is None or isinstance(raw, (str, bytes, bool, np.bool_))
+                    or (isinstance(raw, np.ndarray) and raw.dtype.kind not in "iuf")):
+                hint = " (PlantParams takes SI numbers)" if isinstance(raw, str) else ""
+                raise ArgumentTypeError(f"{name} = {raw!r}: not a number or an array of numbers "
+                                        f"({type(raw).__name__}){hint}")
+            try:
+                value = np.asarray(raw, dtype=float)
+            except (TypeError, ValueError):
+                raise ArgumentTypeError(f"{name} = {raw!r}: not a number or an array of numbers "
+                                        f"({type(raw).__name__})") from None
             if value.ndim > 1:
                 raise InputError(f"plant parameter {name}: scalar or 1-D array, got shape {value.shape}")
             out[:, j] = np.broadcast_to(value.ravel() if value.ndim else value, (n,))
@@ -509,7 +531,10 @@ class PlantParams:
         col = {f: np.broadcast_to(np.asarray(getattr(self, f), dtype=float), (n,)) for f in
                ("r0", "alpha0", "k_tl", "p_threshold", "nominal_length", "strand_length", "ch_turns", "wall_thickness")}
         if not isinstance(fm, str):
-            name, th = LW.law_of(fm)
+            try:
+                name, th = LW.law_of(fm)
+            except InputError as exc:
+                raise InputError(f"force_model = {fm!r}: {exc}") from None
             return name, np.repeat(th[:, None], n, axis=1)
         name = FORCE_MODELS[fm]
         if name == "tondu-lopez":
@@ -649,6 +674,8 @@ def validate(p: np.ndarray, law_fields: bool = True) -> None:
     check((col["alpha0"] > 0) & (col["alpha0"] < np.pi / 2), "alpha0", "must be in (0, 90°)")
     check(np.isin(col["load_kind"], list(LOADS.values())), "load_kind", "must be 0, 1 or 2 (see LOADS)")
     check(col["load_force"] >= 0, "load_force", "a hanging weight must be >= 0")
+    check(col["load_force"] <= PLAUSIBLE_MAX["force"], "load_force",
+          f"more than {PLAUSIBLE_MAX['force']:g} N, past any muscle's pull (a unit slip?)")
 
 
 def check_force_law(name: str, prm: np.ndarray, theta: np.ndarray, label: str = "", pressure_floor: float = 0.0) -> None:

@@ -447,7 +447,8 @@ def simulate(
     if not math.isfinite(steps):
         raise InputError(f"duration = {duration!r} s: {duration:g} s / ts = {ts:g} s overflows; far beyond any run")
     if round(steps) < 1 or abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
-        raise InputError(f"duration = {duration!r} s: must be a positive whole number of control periods ({ts:g} s)")
+        raise InputError(f"duration = {duration!r} s: must be a positive whole number of control periods "
+                         f"(ts = {ts:g} s)")
     n_steps = int(round(steps))
     spec = controller if isinstance(controller, tuple) else None
     n_ctrl = spec[1].shape[0] if spec is not None else None
@@ -455,14 +456,16 @@ def simulate(
     if plant.size() not in (1, n_inst):
         raise InputError(f"plant parameters describe {plant.size()} instances, the run has {n_inst}")
     recorded = _recorded(record)
+    if controller is not None and not isinstance(controller, tuple) and not callable(controller):
+        raise ArgumentTypeError(f"controller: {controller!r} is not a kernel spec tuple, a Python callable, or None "
+                                "for open loop")
     # the size and time budget (mckibben.limits), before anything is allocated
     check_budget("duration/ts x n (instances) x substeps", float(n_inst) * float(n_steps),
                  bytes_per_sample=8.0 * (len(recorded) + 1),
                  seconds_per_sample=SECONDS_PER_SAMPLE * max(1.0, substeps / 10.0))
-    if controller is not None and not isinstance(controller, tuple) and not callable(controller):
-        raise ArgumentTypeError(f"controller: {controller!r} is not a kernel spec tuple, a Python callable, or None "
-                                "for open loop")
+    check_int(substeps, "substeps", lo=1, hi=MAX_SUBSTEPS)  # after the budget, which names a huge one with the rest
     prm, law, theta = _prepared(plant, n_inst)
+    # any finite reference: the controller's supervisor holds it in [0, p_max] (and is tested doing so)
     ref = _as_rows(check_array(reference, "reference", unit="Pa"), n_inst, n_steps, "reference")
     p_init = _per_instance(check_array(initial_pressure, "initial_pressure", unit="Pa"), n_inst, "initial_pressure")
     if np.any(~(p_init >= 0)) or np.any(p_init > prm[:, PP.Col.supply_pressure]):
@@ -510,6 +513,11 @@ def simulate(
     return _result(n_steps, ts, out, ref, n_inst, flags, recorded)
 
 
+#: The most RK4 steps per control period: 1 µs steps at the 1 ms period, far past where the
+#: integration has converged (the default 10 is tested against 100); more only costs time. [-]
+MAX_SUBSTEPS = 1000
+
+
 def _check_plant(plant) -> PP.PlantParams:
     """``plant``, or the calibrated rig for None; anything but a :class:`PlantParams` is refused."""
     if plant is None:
@@ -518,10 +526,12 @@ def _check_plant(plant) -> PP.PlantParams:
 
 
 def _counts(x, name: str) -> np.ndarray:
-    """PWM counts: whole numbers 0..255 (a float count is rounded down by ``int64``, as before)."""
+    """PWM counts: whole numbers 0..255 (a fractional count is refused: the valve takes whole counts)."""
     a = check_array(x, name, unit="counts")
     if a.size and (a.min() < 0 or a.max() > 255):
         raise InputError(f"{name}: PWM counts must be in 0..255")
+    if a.size and np.any(a != np.floor(a)):
+        raise InputError(f"{name}: {a[a != np.floor(a)].flat[0]:g} is not a whole number of PWM counts (0..255)")
     return a
 
 
@@ -617,7 +627,12 @@ def _recorded(record) -> tuple:
     """The series ``record`` names, in :data:`SERIES` order (``"all"``: every one)."""
     if isinstance(record, str) and record == "all":
         return SERIES
+    if not isinstance(record, (str, list, tuple, set, frozenset)) or not all(isinstance(x, str) for x in record):
+        raise ArgumentTypeError(f"record = {record!r}: not a series name or a sequence of names; choose from "
+                                f"{', '.join(SERIES)} (or 'all')")
     names = (record,) if isinstance(record, str) else tuple(record)
+    if not names:
+        raise InputError(f"record: empty; name at least one series of {', '.join(SERIES)} (or 'all')")
     bad = [x for x in names if x not in _SERIES_SET]
     if bad:
         raise InputError(f"record: unknown series {bad[0]!r}; choose from {', '.join(SERIES)} (or 'all')")
@@ -656,12 +671,14 @@ class PlantStepper:
 
     def __init__(self, plant: PP.PlantParams | None = None, ts: float = HW.CONTROL_PERIOD, substeps: int = 10,
                  initial_pressure: float = 0.0):
-        plant = plant or _default_plant()
+        plant = _check_plant(plant)
         if plant.size() != 1:
-            raise InputError("PlantStepper: one rig (scalar parameters) only")
-        if not (isinstance(substeps, (int, np.integer)) and substeps >= 1) or not ts > 0:
-            raise InputError("PlantStepper: ts > 0 and a whole number of substeps >= 1")
+            raise InputError("plant: PlantStepper takes one rig (scalar parameters) only")
+        substeps = check_int(substeps, "substeps", lo=1, hi=MAX_SUBSTEPS)
+        ts = check_real(ts, "ts", lo=0.0, lo_open=True, hi=1.0, unit="s")
         prm, self.law, theta = _prepared(plant, 1)
+        initial_pressure = check_real(initial_pressure, "initial_pressure", lo=0.0,
+                                      hi=float(prm[0, PP.Col.supply_pressure]), unit="Pa")
         s0 = initial_states(prm, self.law, theta, float(initial_pressure), None, plant.thermal)
         self.p = prm[0]
         self.bk = np.zeros(ph.BLOCK)

@@ -19,6 +19,8 @@ from mckibben.fit import static
 from mckibben.fit.compare import compare_models
 from mckibben.fit.isometric import compare_isometric
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
+from mckibben.atomic import as_path
+from mckibben.errors import InputError, check_callable
 
 KINDS_ORDER = ("braid_angle", "isotonic", "blocked_force", "hysteresis", "force_length", "step_response")
 
@@ -70,6 +72,9 @@ def characterize(root=None, progress: Callable[[str], None] | None = None) -> di
     dict
         ``muscles`` (list of :class:`MuscleResults`), ``synthetic`` (bool), ``root`` (str).
     """
+    check_callable(progress, "progress")
+    if root is not None and not as_path(root, "root", "campaign folder").is_dir():
+        raise InputError(f"root: {str(root)!r} is not a folder (a campaign: one sub-folder per muscle)")
     say = progress or (lambda _msg: None)
     dirs = campaign_muscle_dirs(root)
     synthetic = is_synthetic(root)

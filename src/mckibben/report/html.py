@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mckibben.errors import InputError
+from mckibben.errors import ArgumentTypeError, InputError, check_callable
 from mckibben.report import figures as FIG
 from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
 from mckibben.atomic import check_output_dir
@@ -30,6 +30,15 @@ def _pm(v, se, scale=1.0, digits=3):
     return f"{v * scale:.{digits}g} ± {se * scale:.2g}"
 
 
+def _check_dict(value, name: str, keys: tuple, source: str) -> None:
+    """``value`` is the dict ``source`` returns (it has ``keys``); else an error naming ``name``."""
+    if not isinstance(value, dict):
+        raise ArgumentTypeError(f"{name} = {value!r}: not a dict ({type(value).__name__}); give what {source} returns")
+    missing = [k for k in keys if k not in value]
+    if missing:
+        raise InputError(f"{name}: has no {', '.join(missing)}; give what {source} returns")
+
+
 def summarize(char: dict) -> dict:
     """The fitted Tables I and II beside the published values, blocked force, τ and the comparison.
 
@@ -43,6 +52,7 @@ def summarize(char: dict) -> dict:
     dict
         JSON-ready, SI values with unit-suffixed keys.
     """
+    _check_dict(char, "char", ("muscles",), "characterize()")
     t1, t2, bf, steps, spring, comp = [], [], [], [], [], {}
     for r in char["muscles"]:
         pub = r.published
@@ -104,6 +114,9 @@ def render_html(summary: dict, figures: list[str]) -> str:
     figures : list of str
         PNG file names beside the page.
     """
+    _check_dict(summary, "summary", ("synthetic",), "summarize()")
+    if isinstance(figures, (str, bytes)) or not all(isinstance(f, str) for f in figures):
+        raise ArgumentTypeError(f"figures = {figures!r}: not a list of figure file names")
     parts = ["<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
              "<title>mckibben characterization report</title>", f"<style>{CSS}</style></head><body>",
              "<h1>Characterization report</h1>"]
@@ -282,6 +295,8 @@ def write_report(char: dict, out, progress=None) -> tuple[Path, dict]:
     (pathlib.Path, dict)
         The folder and the summary.
     """
+    _check_dict(char, "char", ("muscles",), "characterize()")
+    check_callable(progress, "progress")
 
 
 

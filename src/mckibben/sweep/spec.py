@@ -35,6 +35,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import dataclasses
 import hashlib
 import itertools
 import math
@@ -50,7 +51,9 @@ from mckibben.units import parse_quantity
 from mckibben.datasets import get_muscle
 from mckibben.limits import PLAUSIBLE_MAX
 from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
-from mckibben.atomic import check_input_file
+from mckibben.atomic import as_path, check_input_file
+from mckibben.control.core import CoreParams, core_spec
+from mckibben.plant.params import PlantParams
 
 if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
     import pandas as pd
@@ -79,6 +82,8 @@ SCENARIOS = ("step", "sine")
 METRICS = ("time_constant_s", "rise_time_s", "settling_time_s", "overshoot_pct", "steady_state_error_Pa",
            "valve_effort_counts", "rms_error_Pa", "max_pressure_Pa")
 DISTRIBUTIONS = ("grid", "uniform", "normal", "lognormal", "choice")
+#: The controller's fields (what :func:`_check_ranges` packs).
+_CORE_FIELDS = frozenset(f.name for f in dataclasses.fields(CoreParams))
 #: Largest spread (standard deviation of the logarithm) of a lognormal distribution. [-]
 MAX_LOG_SPREAD = 3.0
 #: Shortest step scenario: the step at 10 ms and 10 ms of response for its metrics. [s]
@@ -195,6 +200,28 @@ def _check_design(path, params: dict, cols: dict) -> None:
                              f"{limit if limit is not None else 'finite'} of a {dim or 'value'}; narrow its distribution")
 
 
+def _check_ranges(path, cols: dict, controller_kind: str) -> None:
+    """Refuse, before any run, a swept value the plant or the controller would refuse in the middle.
+
+    The plant's :func:`~mckibben.plant.params.validate` and the controller's packing
+    (:func:`~mckibben.control.core.core_spec`) check each field's range on its own; they are run
+    here on two instances holding every swept field's smallest and largest drawn value, so a
+    negative conductance or gain is named now, not by a worker after hours."""
+
+    ends = {name: np.array([np.min(v), np.max(v)], dtype=float) for name, v in cols.items()
+            if name.startswith(("plant.", "controller.")) and name != "plant.muscle"}
+    plant = {name[6:]: v for name, v in ends.items() if name.startswith("plant.")}
+    ctrl = {name[11:]: v for name, v in ends.items() if name.startswith("controller.") and name[11:] in _CORE_FIELDS}
+    try:
+        if plant:
+            PlantParams(**plant).pack()
+        ctrl["mode"] = np.full(2, float(R.get(controller_kind).mode))
+        core_spec(ctrl)
+    except InputError as exc:
+        section = "plant" if str(exc).startswith("plant") else "controller"
+        raise InputError(f"{path} [{section}]: {exc}") from None
+
+
 def _check_scenario_pressures(path, scenario: dict, params: dict) -> None:
     """Refuse a scenario whose reference leaves [0, p_max]: the supervisor would clamp it and the
     metrics would be scored against a pressure never commanded."""
@@ -234,7 +261,7 @@ def load_sweep(path: str | Path) -> Sweep:
     """
     import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
-    path = check_input_file(Path(path), None, "sweep file")
+    path = check_input_file(as_path(path, "path", "sweep file"), None, "sweep file")
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -337,6 +364,7 @@ def load_sweep(path: str | Path) -> Sweep:
         else:  # choice
             cols[name] = [args[i] for i in rng.integers(0, len(args), n)]
     _check_design(path, params, cols)
+    _check_ranges(path, cols, ckind)
     cols["noise_seed"] = rng.integers(0, 2**31 - 1, n)
     return Sweep(str(path), hashlib.sha256(data).hexdigest(), seed, samples, chunk, scenario, ckind, tuple(keep),
                  grid_names, pd.DataFrame(cols))

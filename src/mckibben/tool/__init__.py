@@ -2,7 +2,8 @@
 kinematics, the pressures that put the tip at a target, the workspace and tracking in simulation.
 
 See docs/tool.md. From Python: :func:`make_tool`, :func:`forward`, :func:`inverse`,
-:func:`map_workspace` and :func:`track` (a tip path followed by three simulated muscles, a
+:func:`map_workspace` and :func:`track` (a tip path, :class:`TipPath` or :func:`parse_path` of
+its one-line text, followed by three simulated muscles, a
 :class:`ToolTrackResult` with ``.metrics``, ``.to_pandas()``, ``.plot()``).
 """
 
@@ -16,6 +17,7 @@ _WHERE = {
     "Arc": "mckibben.tool.kinematics",
     "MUSCLE_ANGLES": "mckibben.tool.geometry",
     "StackLoad": "mckibben.tool.geometry",
+    "TipPath": "mckibben.tool.paths",
     "Tool": "mckibben.tool.geometry",
     "ToolGeometry": "mckibben.tool.geometry",
     "ToolTrackResult": "mckibben.tool.experiments",
@@ -28,6 +30,7 @@ _WHERE = {
     "lengths_from_tip": "mckibben.tool.kinematics",
     "make_tool": "mckibben.tool.experiments",
     "map_workspace": "mckibben.tool.experiments",
+    "parse_path": "mckibben.tool.paths",
     "state_dict": "mckibben.tool.experiments",
     "tip_from_lengths": "mckibben.tool.kinematics",
     "tip_position": "mckibben.tool.kinematics",
@@ -37,16 +40,18 @@ _WHERE = {
 }
 
 __all__ = [
-    "MUSCLE_ANGLES", "Arc", "StackLoad", "Tool", "ToolGeometry", "arc_from_lengths", "arc_from_tip",
+    "MUSCLE_ANGLES", "Arc", "StackLoad", "TipPath", "Tool", "ToolGeometry", "arc_from_lengths", "arc_from_tip",
     "lengths_from_arc", "lengths_from_tip", "tip_from_lengths", "tip_position", "tip_rotation",
     "ToolTrackResult", "WorkspaceResult", "forward", "inverse", "make_tool", "map_workspace", "state_dict",
-    "tool_dict", "track",
+    "tool_dict", "track", "parse_path",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
     from mckibben.tool.kinematics import Arc as Arc
     from mckibben.tool.geometry import MUSCLE_ANGLES as MUSCLE_ANGLES
     from mckibben.tool.geometry import StackLoad as StackLoad
+    from mckibben.tool.paths import TipPath as TipPath
+    from mckibben.tool.paths import parse_path as parse_path
     from mckibben.tool.geometry import Tool as Tool
     from mckibben.tool.geometry import ToolGeometry as ToolGeometry
     from mckibben.tool.experiments import ToolTrackResult as ToolTrackResult

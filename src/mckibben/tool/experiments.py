@@ -1,40 +1,43 @@
 """The three-muscle endoscope from Python: build a tool, pose it, sample its workspace, steer its tip.
 
-Each function takes quantities as SI numbers or as text with a unit and returns a result; the
-``mckibben tool`` commands are one call each.
+Each function takes quantities as SI numbers (text with a unit is refused, with the SI number to
+pass: :func:`mckibben.units.si`) and returns a result; a tip path is a
+:class:`~mckibben.tool.paths.TipPath`, written by hand or read from its one-line text by
+:func:`~mckibben.tool.paths.parse_path` (what ``mckibben tool track --path`` does). The
+``mckibben tool`` commands parse their flags and make one call each.
 
->>> import mckibben.tool as mt                                   # doctest: +SKIP
->>> tool = mt.make_tool("mpam117", preload="1N")                 # doctest: +SKIP
->>> res = mt.track("circle:radius=5mm,period=2s", tool=tool)    # doctest: +SKIP
->>> res.metrics, res.to_pandas().head(), res.plot()               # doctest: +SKIP
+>>> import mckibben.tool as mt                                              # doctest: +SKIP
+>>> tool = mt.make_tool("mpam117", preload=1.0)                             # doctest: +SKIP
+>>> res = mt.track(mt.TipPath("circle", size=5e-3, period=2.0), tool=tool)  # doctest: +SKIP
+>>> res = mt.track(mt.parse_path("circle:radius=5mm,period=2s"), tool=tool) # the same path  # doctest: +SKIP
+>>> res.metrics, res.to_pandas().head(), res.plot()                          # doctest: +SKIP
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from mckibben import tool as tool_package
-from mckibben.errors import ArgumentTypeError, InputError, check_callable, check_instance, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, check_callable, check_instance, check_real, unknown_name
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
 from mckibben.results import Result, to_jsonable
-from mckibben.tool.geometry import DEFAULT_MUSCLE, StackLoad, Tool, ToolGeometry
-from mckibben.tool.paths import TipPath
+from mckibben.tool.geometry import DEFAULT_MUSCLE, MAX_BENDING_STIFFNESS, StackLoad, Tool, ToolGeometry
+from mckibben.tool.paths import TipPath, parse_path
 from mckibben.tool.workspace import Workspace
-from mckibben.units import parse_values, quantity
+from mckibben.units import SI_UNIT, parse_values, si
 from mckibben.datasets import get_muscle
 from mckibben.hardware import P_MAX_DEFAULT
 from mckibben.limits import check_p_max
 from mckibben.fit.muscle_file import check_direction
 from mckibben.tool.muscles import file_geometry, file_load, file_muscle
-from mckibben.units import parse_quantity
-from mckibben.tool.statics import pressures_for_tip, tip_from_pressures
+from mckibben.tool.statics import ToolState, pressures_for_tip, tip_from_pressures
 from mckibben.tool.kinematics import arc_from_lengths, tip_position
 from mckibben.tool.statics import require_reachable_tip
 from mckibben.tool.workspace import sample_workspace
-from mckibben.tool.paths import parse_path
 from mckibben.tool.tracking import TRACKING_BETA, resolve_path, simulate_tracking, tip_reference
 from mckibben.limits import check_budget
 from mckibben.tool.workspace import plot_workspace
@@ -62,9 +65,6 @@ def _discs(discs):
     return n
 
 
-#: Largest backbone bending stiffness accepted: a steel rod as wide as the paper's 12 mm disc is
-#: about 2e2 N·m²; far past it the statics' Jacobian is singular in floating point. [N·m²]
-MAX_BENDING_STIFFNESS = 1e4
 
 
 def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radius=None, discs=13, preload=None,
@@ -87,19 +87,19 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
     direction : {"inflate", "deflate"}, default "inflate"
         ``muscle_file``: the spring law's branch (its hysteresis); the other laws have one and
         refuse ``deflate``. [-]
-    pitch_radius : float or str, optional
+    pitch_radius : float, optional
         Radius of the muscle holes' circle; default the middle of the disc's ring (4 mm on the
         paper's 12 mm disc). [m]
-    discs : int or "continuous", default 13
-        Spacer discs including base and tip. [-]
-    preload : float or str, optional
+    discs : int or None, default 13
+        Spacer discs including base and tip; None (or ``"continuous"``) for the limit of many. [-]
+    preload : float, optional
         Tension of each muscle in the straight tool, F0; default 1 N, or a file's
         :func:`~mckibben.tool.muscles.file_load`. [N]
-    bending_stiffness : float or str, optional
+    bending_stiffness : float, optional
         Backbone bending stiffness Kb; default 2e-4 N·m², or a file's. [N·m²]
-    axial_stiffness : float or str, optional
+    axial_stiffness : float, optional
         Backbone axial stiffness Ka (force per unit strain); default 0 N, or a file's. [N]
-    p_max : float or str, optional
+    p_max : float, optional
         Highest pressure allowed in any muscle; default 0.8 MPa
         (:data:`mckibben.hardware.P_MAX_DEFAULT`), for a file at most the top of its fitted
         pressures (a larger ``p_max`` is refused). [Pa]
@@ -110,12 +110,18 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
     """
 
     n_discs = _discs(discs)
-    radius = (quantity(pitch_radius, "length", "pitch_radius", allow_zero=False)
-              if pitch_radius is not None else None)
-    pmax = None if p_max is None else check_p_max(quantity(p_max, "pressure", "p_max", allow_zero=False))
+    radius = si(pitch_radius, "length", "pitch_radius", allow_zero=False) if pitch_radius is not None else None
+    pmax = None if p_max is None else check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))
+    for name, value, dim in (("preload", preload, "force"), ("bending_stiffness", bending_stiffness, "bending_stiffness"),
+                             ("axial_stiffness", axial_stiffness, "force")):
+        if value is not None:
+            si(value, dim, name)
 
     check_direction(direction)
     if muscle_file is not None:
+        if not isinstance(muscle_file, (str, os.PathLike)):
+            raise ArgumentTypeError(f"muscle_file = {muscle_file!r}: not a file path ({type(muscle_file).__name__}); "
+                                    "give a str or a pathlib.Path")
         if muscle is not None:
             raise InputError("muscle_file: give either `muscle` (a published set) or `muscle_file`, not both")
         fm = file_muscle(muscle_file, direction)
@@ -136,28 +142,21 @@ def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radiu
         m = get_muscle(DEFAULT_MUSCLE if muscle is None else muscle) if isinstance(muscle, (str, type(None))) else muscle
         pmax = float(P_MAX_DEFAULT) if pmax is None else pmax
         geo = ToolGeometry(pitch_radius=radius, n_discs=n_discs)
-        dflt, s_ref = {"preload": "1N", "bending_stiffness": "2e-4Nm2", "axial_stiffness": "0N"}, None
+        dflt, s_ref = {"preload": 1.0, "bending_stiffness": 2e-4, "axial_stiffness": 0.0}, None
     preload = dflt["preload"] if preload is None else preload
     bending_stiffness = dflt["bending_stiffness"] if bending_stiffness is None else bending_stiffness
     axial_stiffness = dflt["axial_stiffness"] if axial_stiffness is None else axial_stiffness
-    kb = (quantity(bending_stiffness, "bending_stiffness", "bending_stiffness")
-          if not isinstance(bending_stiffness, str) else
-          _parse_kb(bending_stiffness))
+    kb = si(bending_stiffness, "bending_stiffness", "bending_stiffness")
     if not 0 < kb <= MAX_BENDING_STIFFNESS:
         raise InputError(f"bending_stiffness (`bending_stiffness`) = {kb:g} N·m²: outside (0, {MAX_BENDING_STIFFNESS:g}] "
                          "N·m² (a steel rod of the tool's 12 mm diameter is about 2e2 N·m²)")
-    load = StackLoad(preload=quantity(preload, "force", "preload"), bending_stiffness=kb,
-                     axial_stiffness=quantity(axial_stiffness, "force", "axial_stiffness"), reference_length=s_ref)
+    load = StackLoad(preload=si(preload, "force", "preload"), bending_stiffness=kb,
+                     axial_stiffness=si(axial_stiffness, "force", "axial_stiffness"), reference_length=s_ref)
     try:
         return Tool(m, geo, load, pmax)
     except InputError as exc:  # the Tool names its field; a caller of make_tool gave --discs
         msg = str(exc)
         raise InputError("--" + msg if msg.startswith("discs:") else msg) from None
-
-
-def _parse_kb(text: str) -> float:
-
-    return parse_quantity(text, "bending_stiffness", "bending_stiffness", default_unit="Nm2")
 
 
 def tool_dict(tool: Tool) -> dict:
@@ -168,6 +167,7 @@ def tool_dict(tool: Tool) -> dict:
     tool : Tool
         The tool. [-]
     """
+    check_instance(tool, "tool", Tool, "a Tool (make_tool)")
     g, ld = tool.geometry, tool.load
     return {
         "muscle": tool.muscle.name,
@@ -201,6 +201,7 @@ def state_dict(state) -> dict:
     state : ToolState
         A single pose. [-]
     """
+    check_instance(state, "state", ToolState, "a ToolState (forward, inverse)")
     arc = state.arc
     return to_jsonable({
         "arc_length_m": float(arc.arc_length),
@@ -221,15 +222,18 @@ def state_dict(state) -> dict:
 
 
 def _three(value, dimension: str, name: str, **kw) -> np.ndarray:
+    """Three SI numbers (muscles 1, 2, 3, or x, y, z): text is refused with the numbers to pass."""
     if isinstance(value, str):
-        v = parse_values(value, dimension, name, **kw)
-        if ":" in value:
-            v = np.empty(0)
-    else:
-        v = np.array([quantity(x, dimension, name, **kw) for x in np.ravel(np.asarray(value, dtype=object))])
-    if v.shape != (3,):
-        raise InputError(f"{name}: need exactly 3 comma-separated values (muscles 1, 2, 3), got {value!r}")
-    return v
+        try:
+            hint = f"; pass {[float(f'{v:.6g}') for v in parse_values(value, dimension, name, **kw)]} for {value!r}"
+        except InputError:
+            hint = ""
+        raise ArgumentTypeError(f"{name} = {value!r}: the library takes three numbers in {SI_UNIT[dimension]} (SI), "
+                                f"not text{hint} (mckibben.units.parse_values converts text)")
+    if isinstance(value, (bytes, dict, set)) or value is None or np.ndim(value) != 1 or len(value) != 3:
+        got = f"shape {np.shape(value)}" if isinstance(value, np.ndarray) else repr(value)
+        raise InputError(f"{name}: need exactly 3 values (muscles 1, 2, 3, or x, y, z), got {' '.join(got.split())}")
+    return np.array([si(x, dimension, name, **kw) for x in value])
 
 
 def _within_reach(point: np.ndarray, tool: Tool, name: str, what: str) -> None:
@@ -248,10 +252,10 @@ def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
     ----------
     tool : Tool, optional
         Default :func:`make_tool`'s. [-]
-    lengths : sequence of 3 float or str, optional
-        Muscle lengths (e.g. ``"117mm,112mm,115mm"``). [m]
-    pressures : sequence of 3 float or str, optional
-        Muscle pressures (e.g. ``"0.4MPa,0,0.2MPa"``). [Pa]
+    lengths : sequence of 3 float, optional
+        Muscle lengths (e.g. ``[0.117, 0.112, 0.115]``). [m]
+    pressures : sequence of 3 float, optional
+        Muscle pressures (e.g. ``[0.4e6, 0.0, 0.2e6]``). [Pa]
 
     Returns
     -------
@@ -259,6 +263,7 @@ def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
         Arc, tip, rotation, lengths, tensions, pressures and flags (:func:`state_dict`).
     """
 
+    check_instance(tool, "tool", Tool, "a Tool (make_tool)", optional=True)
     tool = make_tool() if tool is None else tool
     if (lengths is None) == (pressures is None):
         raise InputError("tool fk: give exactly one of `lengths` or `pressures`")
@@ -280,8 +285,8 @@ def inverse(tip, tool: Tool | None = None):
 
     Parameters
     ----------
-    tip : sequence of 3 float or str
-        Target tip X, Y, Z (e.g. ``"20mm,0mm,110mm"``). [m]
+    tip : sequence of 3 float
+        Target tip X, Y, Z (e.g. ``[0.02, 0.0, 0.11]``). [m]
     tool : Tool, optional
         Default :func:`make_tool`'s. [-]
 
@@ -290,6 +295,7 @@ def inverse(tip, tool: Tool | None = None):
     ToolState
     """
 
+    check_instance(tool, "tool", Tool, "a Tool (make_tool)", optional=True)
     tool = make_tool() if tool is None else tool
     p = _three(tip, "length", "tip", allow_negative=True)
     _within_reach(p, tool, "tip", "a tip")
@@ -363,6 +369,7 @@ def map_workspace(tool: Tool | None = None, grid: int = 15) -> WorkspaceResult:
     WorkspaceResult
     """
 
+    check_instance(tool, "tool", Tool, "a Tool (make_tool)", optional=True)
     tool = make_tool() if tool is None else tool
     if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or not 2 <= grid <= 101:
         raise InputError(f"grid: {grid!r} must be a whole number of points per muscle in 2..101")
@@ -470,6 +477,9 @@ TRACK_SECONDS_PER_SAMPLE_MUJOCO = 4e-3
 TRACK_ENGINES = ("quasi-static", "mujoco")
 
 
+#: The most periods (runs) one :func:`track` call takes. [-]
+MAX_TRACK_RUNS = 1000
+
 #: The shortest path period :func:`track` samples: 20 control periods of 1 ms per cycle. [s]
 MIN_TRACK_PERIOD = 0.02
 
@@ -480,11 +490,12 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
 
     Parameters
     ----------
-    path : str or TipPath
-        ``circle:radius=5mm,period=2s[,z=..,cx=..,cy=..,cycles=2]`` or
-        ``figure8:size=5mm,period=2s[,...]``. [-]
-    periods : sequence of float or str, optional
-        Run the path at several periods (speeds), e.g. ``"4s,2s,1s"``; default the path's. [s]
+    path : TipPath
+        The tip path, e.g. ``TipPath("circle", size=5e-3, period=2.0)``, or
+        ``parse_path("circle:radius=5mm,period=2s")`` from its one-line text
+        (:mod:`mckibben.tool.paths`). [-]
+    periods : sequence of float, optional
+        Run the path at several periods (speeds), e.g. ``[4.0, 2.0, 1.0]``; default the path's. [s]
     tool : Tool, optional
         Default :func:`make_tool`'s. [-]
     beta : float, optional
@@ -511,19 +522,25 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
     check_instance(tool, "tool", Tool, "a Tool (make_tool)", optional=True)
     if not isinstance(engine, str) or engine not in TRACK_ENGINES:
         raise unknown_name("engine", str(engine), TRACK_ENGINES)
-    if not isinstance(path, (str, TipPath)):
-        raise ArgumentTypeError(f"path = {path!r}: not a path ({type(path).__name__}); give text such as "
-                                "'circle:radius=5mm,period=2s' or a TipPath")
-    tool = make_tool() if tool is None else tool
-    spec = path if isinstance(path, TipPath) else parse_path(path)
+    text = path if isinstance(path, str) else None
+    if text is not None:  # read it only to check it; text is refused below, once every other argument is checked
+        path = parse_path(text)
+    if not isinstance(path, TipPath):
+        raise ArgumentTypeError(f"path = {path!r}: not a TipPath ({type(path).__name__}); give e.g. "
+                                "TipPath('circle', size=5e-3, period=2.0) or parse_path('circle:radius=5mm,period=2s')")
+    if not isinstance(reference_only, (bool, np.bool_)):
+        raise ArgumentTypeError(f"reference_only = {reference_only!r}: not True or False ({type(reference_only).__name__})")
+    spec = path
     if periods is None:
         period_list = np.array([spec.period])
-    elif isinstance(periods, str):
-        period_list = parse_values(periods, "time", "periods", allow_zero=False)
     else:
+        if isinstance(periods, str):
+            si(periods, "time", "periods")  # raises: the library takes numbers (parse_values converts text)
         if isinstance(periods, (bytes, dict, set)) or np.ndim(periods) > 1:
             raise ArgumentTypeError(f"periods = {periods!r}: not a sequence of periods")
-        period_list = np.array([quantity(p, "time", "periods", allow_zero=False) for p in np.ravel(periods)])
+        if np.size(periods) > MAX_TRACK_RUNS:
+            raise InputError(f"periods: {np.size(periods):,} periods, more than the {MAX_TRACK_RUNS} runs a call takes")
+        period_list = np.array([si(p, "time", "periods", allow_zero=False) for p in np.ravel(periods)])
     if period_list.size == 0:
         raise InputError("periods (`periods`): empty; give at least one period, or None for the path's own")
     short = float(period_list.min())
@@ -536,11 +553,13 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
                  seconds_per_sample=TRACK_SECONDS_PER_SAMPLE[bool(reference_only)] if engine == "quasi-static" or
                  reference_only else TRACK_SECONDS_PER_SAMPLE_MUJOCO)
     b = TRACKING_BETA
-    if not reference_only:
-        b = TRACKING_BETA if beta is None else float(beta)
-        if not (np.isfinite(b) and 0 < b <= 255):
-            raise InputError(f"beta: {beta!r} must be a switching gain in (0, 255] PWM counts")
+    if beta is not None:
+        b = check_real(beta, "beta", lo=0.0, hi=255.0, lo_open=True, unit="PWM counts")
+    tool = make_tool() if tool is None else tool
     _within_reach(np.array([spec.size]), tool, "path", f"a {spec.kind} of")
+    if text is not None:
+        raise ArgumentTypeError(f"path = {text!r}: the library takes a TipPath, not text; build it with "
+                                f"mckibben.tool.parse_path({text!r}) or TipPath(kind, size, period, ...)")
     base = resolve_path(spec, tool)
     runs = [(p, tip_reference(tool, p)) for p in (base.with_period(float(t)) for t in period_list)]
     results = None
@@ -555,6 +574,6 @@ def track(path, *, periods=None, tool: Tool | None = None, beta=None, reference_
             if progress is not None:
                 progress(k + 1, len(runs))
     return ToolTrackResult(base, runs, results, tool,
-                           {"path": path if isinstance(path, str) else base.kind,
+                           {"path": path.text or base.kind,
                             "periods_s": [float(t) for t in period_list],
                             "beta_counts": None if reference_only else b, "engine": engine})

@@ -23,10 +23,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.errors import InputError
+from mckibben.errors import InputError, check_instance, check_int, check_real
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
-from mckibben.limits import check_p_max
+from mckibben.limits import PLAUSIBLE_MAX, check_p_max
+
+#: Largest backbone bending stiffness accepted: a steel rod as wide as the paper's 12 mm disc is
+#: about 2e2 N·m²; far past it the statics' Jacobian is singular in floating point. [N·m²]
+MAX_BENDING_STIFFNESS = 1e4
 
 #: The muscle of the paper's tool (§V) when none is named. [-]
 DEFAULT_MUSCLE = "mpam117"
@@ -120,9 +124,11 @@ class ToolGeometry:
 
     def __post_init__(self):
         for name in ("disc_diameter", "hole_diameter", "channel_diameter"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise InputError(f"{name}: {value!r} must be a positive length")
+            check_real(getattr(self, name), name, lo=0.0, lo_open=True, hi=1.0, unit="m")
+        if self.pitch_radius is not None:
+            check_real(self.pitch_radius, "pitch_radius", unit="m")
+        if self.n_discs is not None:
+            check_int(self.n_discs, "n_discs", lo=2)
         if self.pitch_radius is None:
             object.__setattr__(
                 self, "pitch_radius", default_pitch_radius(self.disc_diameter, self.hole_diameter, self.channel_diameter)
@@ -131,7 +137,7 @@ class ToolGeometry:
         r = self.pitch_radius
         if not (math.isfinite(r) and lo - 1e-12 <= r <= hi + 1e-12):
             raise InputError(
-                f"pitch radius: {r * 1e3:.3g} mm puts the {self.hole_diameter * 1e3:.3g} mm holes outside the"
+                f"pitch_radius: a pitch radius of {r * 1e3:.3g} mm puts the {self.hole_diameter * 1e3:.3g} mm holes outside the"
                 f" {self.disc_diameter * 1e3:.3g} mm disc or into the {self.channel_diameter * 1e3:.3g} mm channel;"
                 f" use {lo * 1e3:.3g}..{hi * 1e3:.3g} mm"
             )
@@ -187,14 +193,13 @@ class StackLoad:
     reference_length: float | None = None
 
     def __post_init__(self):
-        if not (math.isfinite(self.preload) and self.preload >= 0):
-            raise InputError(f"preload: {self.preload!r} must be a tension >= 0 N")
-        if not (math.isfinite(self.bending_stiffness) and self.bending_stiffness >= 0):
-            raise InputError(f"bending stiffness: {self.bending_stiffness!r} must be >= 0 N·m²")
-        if not (math.isfinite(self.axial_stiffness) and self.axial_stiffness >= 0):
-            raise InputError(f"axial stiffness: {self.axial_stiffness!r} must be >= 0 N")
-        if self.reference_length is not None and not (self.reference_length > 0):
-            raise InputError(f"reference length: {self.reference_length!r} must be > 0 m")
+        # bounds: plausible magnitudes (mckibben.limits.PLAUSIBLE_MAX), past which the statics overflow
+        check_real(self.preload, "preload", lo=0.0, hi=PLAUSIBLE_MAX["force"], unit="N")
+        check_real(self.bending_stiffness, "bending_stiffness", lo=0.0, hi=MAX_BENDING_STIFFNESS, unit="N·m²")
+        check_real(self.axial_stiffness, "axial_stiffness", lo=0.0, hi=PLAUSIBLE_MAX["force"], unit="N")
+        if self.reference_length is not None:
+            check_real(self.reference_length, "reference_length", lo=0.0, lo_open=True, hi=PLAUSIBLE_MAX["length"],
+                       unit="m")
 
 
 @dataclass(frozen=True)
@@ -226,9 +231,11 @@ class Tool:
     p_max: float = 0.8e6
 
     def __post_init__(self):
-        if not (isinstance(self.p_max, (int, float)) and math.isfinite(self.p_max)):
-            raise InputError(f"p_max: {self.p_max!r} must be a pressure > 0 Pa")
-        check_p_max(float(self.p_max), "p_max")
+        check_instance(self.muscle, "muscle", (MiniatureMuscle, LawMuscle),
+                       "a muscle (get_muscle, or mckibben.tool.muscles.file_muscle)")
+        check_instance(self.geometry, "geometry", ToolGeometry, "a ToolGeometry")
+        check_instance(self.load, "load", StackLoad, "a StackLoad")
+        check_p_max(check_real(self.p_max, "p_max", unit="Pa"), "p_max")
         m = self.muscle
         if isinstance(m, LawMuscle) and self.p_max > m.pressure_range[1]:
             raise InputError(f"p_max: {self.p_max / 1e6:g} MPa is above the top of the pressures {m.name}'s force law was"

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_int, check_real
+from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_int, check_real
 
 # cos and sin of 0°, 120°, 240° written exactly, so that equal lengths give exactly θ = 0
 # (np.cos(2π/3) is −0.4999999999999998, which would leave a 1e-15 rad bend).
@@ -65,6 +65,13 @@ class Arc:
     arc_length: np.ndarray
     theta_x: np.ndarray
     theta_y: np.ndarray
+
+    def __post_init__(self):
+        for name in ("arc_length", "theta_x", "theta_y"):
+            value = getattr(self, name)
+            if not isinstance(value, (np.ndarray, np.generic)):  # built by hand (not computed): a checked number
+                check_real(value, name, lo=0.0 if name == "arc_length" else None, unit="m" if name == "arc_length"
+                           else "rad")
 
     @property
     def theta(self) -> np.ndarray:
@@ -136,12 +143,25 @@ def _as_lengths(lengths) -> np.ndarray:
         raise ArgumentTypeError("lengths: not an array of numbers (ragged or mixed)") from None
     if raw.dtype == bool or raw.dtype.kind not in "iuf":
         raise ArgumentTypeError(f"lengths: an array of {raw.dtype} values; give lengths in m")
+    if raw.size > MAX_POSES * 3:
+        raise InputError(f"lengths: {raw.size // 3:,} poses, more than the {MAX_POSES:,} a call takes; call in chunks")
     lengths = raw.astype(float)
     if lengths.ndim == 0 or lengths.shape[-1] != 3:
         raise InputError(f"lengths: need 3 muscle lengths (last axis), got shape {lengths.shape}")
     if not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
         raise InputError("lengths: every muscle length must be a finite length > 0 m")
     return lengths
+
+
+#: The most poses (rows of three lengths or coordinates) one kinematics call takes: about 1 s and
+#: 1 GiB of working arrays at the limit. [-]
+MAX_POSES = 10**6
+
+
+def _check_arc(arc) -> None:
+    if not isinstance(arc, Arc):
+        raise ArgumentTypeError(f"arc = {arc!r}: not an Arc ({type(arc).__name__}); get one from arc_from_lengths "
+                                "or arc_from_tip")
 
 
 #: Largest pitch radius accepted by the kinematics: far past any continuum tool. [m]
@@ -236,6 +256,7 @@ def lengths_from_arc(arc: Arc, pitch_radius, n_gaps=None) -> np.ndarray:
     ----------
     Webster & Jones (2010): l_i = s − r·θ·cos(θi − φ), times the chord factor for discs.
     """
+    _check_arc(arc)
     pitch_radius, n_gaps = _check_pitch(pitch_radius), _check_gaps(n_gaps)
     s = np.asarray(arc.arc_length, dtype=float)[..., None]
     tx = np.asarray(arc.theta_x, dtype=float)[..., None]
@@ -261,6 +282,7 @@ def tip_position(arc: Arc) -> np.ndarray:
     ----------
     Webster & Jones (2010), eq. for p with f1 = (1 − cos θ)/θ = θ·½·sinc²(θ/2), f2 = sinc θ.
     """
+    _check_arc(arc)
     s = np.asarray(arc.arc_length, dtype=float)
     theta = np.asarray(arc.theta)
     h1 = 0.5 * _sinc(0.5 * theta) ** 2
@@ -280,6 +302,7 @@ def tip_rotation(arc: Arc) -> np.ndarray:
     numpy.ndarray
         Rotation matrices, shape ``(..., 3, 3)``; the third column is the tip direction. [-]
     """
+    _check_arc(arc)
     from scipy.spatial.transform import Rotation  # deferred on purpose: SciPy
     tx = np.asarray(arc.theta_x, dtype=float)
     ty = np.asarray(arc.theta_y, dtype=float)
@@ -318,11 +341,9 @@ def arc_from_tip(tip) -> Arc:
     >>> float(a.arc_length), float(a.theta)
     (0.11, 0.0)
     """
-    tip = np.asarray(tip, dtype=float)
+    tip = check_array(tip, "tip", size=MAX_POSES * 3, unit="m")
     if tip.ndim == 0 or tip.shape[-1] != 3:
         raise InputError(f"tip: need 3 coordinates (x, y, z), got shape {tip.shape}")
-    if not np.all(np.isfinite(tip)):
-        raise InputError("tip: coordinates must be finite")
     x, y, z = tip[..., 0], tip[..., 1], tip[..., 2]
     rho = np.hypot(x, y)
     dist = np.sqrt(rho * rho + z * z)

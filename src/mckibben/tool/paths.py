@@ -15,11 +15,12 @@ Syntax (units required on every value; keys in any order)::
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.errors import InputError
+from mckibben.errors import ArgumentTypeError, InputError, check_real
+from mckibben.limits import PLAUSIBLE_MAX
 from mckibben.units import parse_quantity
 
 _KEYS = {
@@ -27,6 +28,9 @@ _KEYS = {
     "figure8": {"size": "length", "period": "time", "z": "length", "cx": "length", "cy": "length", "cycles": "dimensionless"},
 }
 _REQUIRED = {"circle": ("radius", "period"), "figure8": ("size", "period")}
+#: Largest size, centre offset or height of a path: far past any tool's reach (each run checks its
+#: tool's own reach). [m]
+MAX_PATH_SIZE = 10.0
 
 
 @dataclass(frozen=True)
@@ -47,6 +51,12 @@ class TipPath:
         Centre of the path. [m]
     cycles : float
         Loops to run. [-]
+    text : str
+        The one-line text it was read from (:func:`parse_path`), for provenance; empty if built
+        by hand. [-]
+
+    Every field is checked when the path is made: a kind of ``circle`` or ``figure8``, a size
+    and a period > 0, finite coordinates (a plane height > 0), cycles > 0.
     """
 
     kind: str
@@ -56,6 +66,20 @@ class TipPath:
     cx: float = 0.0
     cy: float = 0.0
     cycles: float = 2.0
+    text: str = field(default="", compare=False)
+
+    def __post_init__(self):
+        if not isinstance(self.kind, str) or self.kind not in _KEYS:
+            raise InputError(f"kind = {self.kind!r}: not a path kind; use circle or figure8")
+        check_real(self.size, "size", lo=0.0, lo_open=True, hi=MAX_PATH_SIZE, unit="m")
+        check_real(self.period, "period", lo=0.0, lo_open=True, hi=PLAUSIBLE_MAX["time"], unit="s")
+        if self.z is not None:
+            check_real(self.z, "z", lo=0.0, lo_open=True, hi=MAX_PATH_SIZE, unit="m")
+        check_real(self.cx, "cx", lo=-MAX_PATH_SIZE, hi=MAX_PATH_SIZE, unit="m")
+        check_real(self.cy, "cy", lo=-MAX_PATH_SIZE, hi=MAX_PATH_SIZE, unit="m")
+        check_real(self.cycles, "cycles", lo=0.0, lo_open=True, unit="-")
+        if not isinstance(self.text, str):
+            raise ArgumentTypeError(f"text = {self.text!r}: not text ({type(self.text).__name__})")
 
     @property
     def duration(self) -> float:
@@ -84,7 +108,7 @@ class TipPath:
         z : float
             Height of the plane. [m]
         """
-        return TipPath(self.kind, self.size, self.period, z, self.cx, self.cy, self.cycles)
+        return TipPath(self.kind, self.size, self.period, z, self.cx, self.cy, self.cycles, self.text)
 
     def with_period(self, period: float) -> TipPath:
         """The same path run at another period (speed).
@@ -96,7 +120,7 @@ class TipPath:
         """
         if not period > 0:
             raise InputError(f"period: {period!r} must be > 0 s")
-        return TipPath(self.kind, self.size, period, self.z, self.cx, self.cy, self.cycles)
+        return TipPath(self.kind, self.size, period, self.z, self.cx, self.cy, self.cycles, self.text)
 
     def position(self, t, z: float | None = None) -> np.ndarray:
         """Target tip position at times ``t``.
@@ -174,6 +198,13 @@ def parse_path(spec: str, name: str = "path") -> TipPath:
     missing = [k for k in _REQUIRED[kind] if k not in values]
     if missing:
         raise InputError(f"{name}: {kind} needs {', '.join(missing)} (e.g. {kind}:{_REQUIRED[kind][0]}=5mm,period=2s)")
+    try:
+        return _made(kind, values, spec)
+    except InputError as exc:  # a field of the path: name the argument it came from
+        raise type(exc)(f"{name}: {exc}") from None
+
+
+def _made(kind: str, values: dict, spec: str) -> TipPath:
     return TipPath(
         kind=kind,
         size=values.get("radius", values.get("size")),
@@ -182,4 +213,5 @@ def parse_path(spec: str, name: str = "path") -> TipPath:
         cx=values.get("cx", 0.0),
         cy=values.get("cy", 0.0),
         cycles=values.get("cycles", 2.0),
+        text=spec,
     )

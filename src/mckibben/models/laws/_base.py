@@ -18,7 +18,7 @@ import numpy as np
 
 from mckibben import _kernels
 from mckibben._kernels import PYTHON_MAX, compiled
-from mckibben.errors import InputError
+from mckibben.errors import InputError, check_array
 from mckibben.models.laws import _eval_template
 
 #: Rows of the parameter array every law reads from (the largest law's need).
@@ -187,7 +187,8 @@ def evaluate_kernel(kernel, name: str, pressure, length, theta) -> np.ndarray:
     th = np.asarray(theta, dtype=float)
     if th.shape[0] != NTH:
         raise InputError(f"law {name}: parameters have {th.shape[0]} rows, want {NTH}")
-    p, ell = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
+    p, ell = np.broadcast_arrays(check_array(pressure, "pressure", finite=False),
+                                 check_array(length, "length", finite=False))
     if th.ndim > 1:
         p, ell, idx = np.broadcast_arrays(p, ell, np.arange(int(np.prod(th.shape[1:]))).reshape(th.shape[1:]))
         th2 = np.ascontiguousarray(th.reshape(NTH, -1))

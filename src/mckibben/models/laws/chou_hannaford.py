@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from mckibben._kernels import kernel, register
 
-from mckibben.models.geometry import BraidGeometry
+from mckibben.models.geometry import BraidGeometry, check_geometry
 from mckibben.models.laws._base import (NTH, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec, Law, evaluate_kernel,
                                         geometry_params, offset_flag)
 
@@ -92,6 +92,7 @@ def chou_hannaford_force(pressure, length, geom: BraidGeometry):
     ----------
     Chou & Hannaford (1996), eq. (6); NOTES.md.
     """
+    check_geometry(geom)
     return evaluate_kernel(chou_hannaford, "chou-hannaford", pressure, length,
                            chou_hannaford_theta(geom.strand_length, geom.turns))
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from mckibben._kernels import kernel, register
 
-from mckibben.errors import InputError
+from mckibben.errors import InputError, check_array
 from mckibben.models.flags import Flag, flag_where, outside
 from mckibben.models.laws._base import NTH, FitSpec, Law, evaluate_kernel
 
@@ -127,7 +127,7 @@ def unstretched_length(pressure, h):
     ----------
     Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), Table 1.
     """
-    p = np.asarray(pressure, dtype=float)
+    p = check_array(pressure, "pressure", finite=False)
     return (h[0] * p + h[1]) * p + h[2]
 
 

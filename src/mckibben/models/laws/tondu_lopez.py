@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from mckibben._kernels import kernel, register
 
+from mckibben.errors import check_array
 from mckibben.models.flags import Flag, flag_where
 from mckibben.models.laws._base import (NTH, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec, Law, evaluate_kernel,
                                         geometry_params, offset_flag)
@@ -73,8 +74,10 @@ def tondu_lopez_theta(initial_radius, initial_angle, k=1.0, p_threshold=0.0, nom
     nominal_length : array_like, default 1.0
         Rest length l0. [m]
     """
-    r0, a0, k, pth, l0 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in
-                                               (initial_radius, initial_angle, k, p_threshold, nominal_length)))
+    r0, a0, k, pth, l0 = np.broadcast_arrays(*(check_array(v, n, finite=False) for v, n in
+                                               zip((initial_radius, initial_angle, k, p_threshold, nominal_length),
+                                                   ("initial_radius", "initial_angle", "k", "p_threshold",
+                                                    "nominal_length"))))
     th = np.zeros((NTH,) + r0.shape)
     th[TL_R0], th[TL_A], th[TL_B] = r0, 3.0 / np.tan(a0) ** 2, 1.0 / np.sin(a0) ** 2
     th[TL_K], th[TL_PTH], th[TL_IL0] = k, pth, 1.0 / l0
@@ -140,7 +143,11 @@ def tondu_lopez_contraction(pressure, force, initial_radius, initial_angle, k=1.
     ----------
     Tondu & Lopez (2000), eq. (4) solved for ε.
     """
-    p, f = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(force, dtype=float))
+    p, f = np.broadcast_arrays(check_array(pressure, "pressure", finite=False),
+                               check_array(force, "force", finite=False))
+    initial_radius = check_array(initial_radius, "initial_radius", finite=False)
+    initial_angle = check_array(initial_angle, "initial_angle", finite=False)
+    k = check_array(k, "k", finite=False)
     a = 3.0 / np.tan(initial_angle) ** 2
     b = 1.0 / np.sin(initial_angle) ** 2
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -16,7 +16,7 @@ import math
 
 from mckibben._kernels import kernel, register
 
-from mckibben.models.geometry import BraidGeometry
+from mckibben.models.geometry import BraidGeometry, check_geometry
 from mckibben.models.laws._base import Law, evaluate_kernel
 from mckibben.models.laws.chou_hannaford import (CH_B, CH_C, CH_D0, CH_T, _theta, braid_from_values, braid_spec,
                                                  chou_hannaford_theta)
@@ -73,6 +73,7 @@ def wall_corrected_force(pressure, length, geom: BraidGeometry):
     ----------
     Tsagarakis & Caldwell (2000); Davis et al. (2003); NOTES.md.
     """
+    check_geometry(geom)
     th = chou_hannaford_theta(geom.strand_length, geom.turns, geom.wall_thickness)
     return evaluate_kernel(wall_corrected, "wall-corrected", pressure, length, th)
 
