@@ -22,7 +22,7 @@ import re
 
 import numpy as np
 
-from mckibben.errors import InputError
+from mckibben.errors import ArgumentTypeError, InputError, check_real
 
 __all__ = ["G_N", "P_ATM", "SI_UNIT", "UNITS", "parse_quantity", "parse_values", "quantity", "si", "split_column",
            "to_si", "units_of"]
@@ -387,8 +387,6 @@ def si(value, dimension: str, name: str, *, allow_negative: bool = False, allow_
     >>> si(0.55e6, "pressure", "target")
     550000.0
     """
-    from mckibben.errors import ArgumentTypeError, check_real
-
     unit = SI_UNIT[dimension]
     if isinstance(value, str):
         try:
