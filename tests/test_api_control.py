@@ -71,7 +71,7 @@ def test_fig13_track_robustness_compare_objects(tmp_path):
     assert f.metrics["paper@150"]["paper_time_constant_s"] == 0.01  # from datasets.paper_points
     df = f.to_pandas()
     assert set(df["law"]) == {"paper"} and "pressure_Pa" in df
-    t = mc.track("sine:0.4MPa,0.1MPa,2Hz", duration="0.5s")
+    t = mc.track_pressure("sine:0.4MPa,0.1MPa,2Hz", duration="0.5s")
     assert t.metrics["rms_error_Pa"] < 0.1e6 and len(t.to_pandas()) == 500
     rob = mc.robustness(4, seed=1)
     assert rob.to_pandas().shape[0] == 16 and set(rob.metrics) == {"pid", "smc", "smc_paper", "stsmc"}

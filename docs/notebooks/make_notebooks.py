@@ -130,7 +130,7 @@ cmp"""),
 rob.plot()
 pd.DataFrame({c: {k: v["median"] for k, v in s.items()} for c, s in rob.metrics.items()})"""),
         ("md", "## Track a pressure trajectory"),
-        ("code", """tr = mc.track("sine:0.4MPa,0.1MPa,2Hz", duration="1s")
+        ("code", """tr = mc.track_pressure("sine:0.4MPa,0.1MPa,2Hz", duration="1s")
 print(tr.metrics)
 tr.plot();"""),
     ],

@@ -42,7 +42,7 @@ _ENTRY_POINTS = {
     "open_loop": ("mckibben.control", "open_loop"),
     "identify_plant": ("mckibben.control", "identify_plant"),
     "step_response": ("mckibben.control", "step_response"),
-    "track_pressure": ("mckibben.control", "track"),
+    "track_pressure": ("mckibben.control", "track_pressure"),
     "fig13": ("mckibben.control", "fig13"),
     "robustness": ("mckibben.control", "robustness"),
     "make_tool": ("mckibben.tool", "make_tool"),

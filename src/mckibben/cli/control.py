@@ -256,7 +256,7 @@ def track_cmd(
         _size_first("--duration", duration, force=force, extra=0.0)
 
     check_outputs(plot, dpi, out)
-    res = control.track(reference, controller, duration=duration, load=load, p_max=p_max, law=law, beta=beta, eps=eps,
+    res = control.track_pressure(reference, controller, duration=duration, load=load, p_max=p_max, law=law, beta=beta, eps=eps,
                 ki=ki, lam=lam, force=force, muscle_file=muscle_file, direction=direction)
     _finish(res, plot, dpi, out)
     _warn_tuning(res.tuning)

@@ -56,7 +56,7 @@ _WHERE = {
     "step_metrics": "mckibben.control.metrics",
     "step_metrics_batch": "mckibben.control.metrics",
     "step_response": "mckibben.control.simulation",
-    "track": "mckibben.control.simulation",
+    "track_pressure": "mckibben.control.simulation",
     "tracking_metrics": "mckibben.control.metrics",
     "tracking_metrics_batch": "mckibben.control.metrics",
     "tuned_controller": "mckibben.control.simulation",
@@ -69,7 +69,7 @@ __all__ = [
     "fig13", "fit_step_response", "hysteresis_compensation", "identified_model", "identify_plant", "open_loop", "pid_params",
     "plot_compare", "plot_fig13", "plot_hysteresis", "plot_open_loop", "plot_record", "plot_robustness", "plot_step_fit",
     "pressure_reference", "read_step_log", "robustness", "run_closed_loop", "smc_params", "step_metrics",
-    "step_metrics_batch", "step_response", "track",
+    "step_metrics_batch", "step_response", "track_pressure",
     "tracking_metrics", "tracking_metrics_batch", "tuned_controller",
 ]
 

@@ -32,8 +32,7 @@ from mckibben.control.experiments import (
     run_closed_loop,
     step_reference,
 )
-from mckibben.control.experiments import fig13 as _fig13_runs
-from mckibben.control.experiments import robustness as _robustness_runs
+from mckibben.control.experiments import fig13_runs, robustness_runs
 from mckibben.control.experiments import step_size_table as _step_size_rows
 from mckibben.control.metrics import tracking_metrics
 from mckibben.errors import InputError, unknown_name
@@ -66,7 +65,7 @@ __all__ = [
     "TrackResult", "compare", "controller_params", "fig13", "hysteresis_compensation", "identified_model", "open_loop",
     "plant_load",
     "pressure_reference",
-    "robustness", "step_response", "track", "tuned_controller",
+    "robustness", "step_response", "track_pressure", "tuned_controller",
 ]
 
 #: Controllers the firmware core runs (:data:`mckibben.control.registry.NAMES`).
@@ -464,7 +463,7 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
     p_max : float or str, default "0.8MPa"
         Supervisor's maximum pressure (the design steps stay below it). [Pa]
     objective : {"step", "track"}, default "step"
-        Tune on design steps (:func:`step_response`) or design sines (:func:`track`). [-]
+        Tune on design steps (:func:`step_response`) or design sines (:func:`track_pressure`). [-]
 
     Returns
     -------
@@ -641,7 +640,7 @@ def pressure_reference(reference, duration="2s", *, force: bool = False) -> tupl
 
 @dataclass(frozen=True, repr=False)
 class TrackResult(Result):
-    """A pressure trajectory followed on the simulated plant (:func:`track`).
+    """A pressure trajectory followed on the simulated plant (:func:`track_pressure`).
 
     Attributes
     ----------
@@ -662,7 +661,7 @@ class TrackResult(Result):
     params: CoreParams
     arguments: dict = field(default_factory=dict)
     tuning: GainTuning | None = None
-    call = "mckibben.control.track"
+    call = "mckibben.control.track_pressure"
 
     @property
     def metrics(self) -> dict:
@@ -695,7 +694,7 @@ class TrackResult(Result):
         return plot_record(self.record, [self.arguments["controller"]], ax=ax)
 
 
-def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_max="0.8MPa", law: str = "model",
+def track_pressure(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_max="0.8MPa", law: str = "model",
           beta=None, eps=None, ki=None, lam=None, model: FirstOrderModel | None = None,
           force: bool = False, muscle_file=None, direction: str = "inflate") -> TrackResult:
     """Track a pressure trajectory on the calibrated plant.
@@ -837,7 +836,7 @@ class Fig13Result(Result):
         import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         betas = np.arange(110.0, 201.0, 2.0) if betas is None else np.asarray(betas, dtype=float)
-        rows, _ = _fig13_runs(self.model, betas=betas, laws=("paper",))
+        rows, _ = fig13_runs(self.model, betas=betas, laws=("paper",))
         return pd.DataFrame({"beta_counts": [r["beta_counts"] for r in rows],
                              "time_constant_s": [r["time_constant_s"] for r in rows],
                              "overshoot_pct": [r["overshoot_pct"] for r in rows]})
@@ -889,7 +888,7 @@ def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=Non
         if law not in LAWS:
             raise unknown_name("`law`", law, LAWS)
     fit, model, _ = _default_identification()
-    rows, rec = _fig13_runs(model, betas=betas, laws=tuple(laws), eps=e, ki=k)
+    rows, rec = fig13_runs(model, betas=betas, laws=tuple(laws), eps=e, ki=k)
     return Fig13Result(rows, rec, model, float(fit.stderr["tau_s"]),
                        {"betas_counts": list(betas), "laws": list(laws), "eps_Pa": e, "ki_per_s": k})
 
@@ -1111,7 +1110,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
     per_plant: dict[str, dict[str, np.ndarray]] = {c: {} for c in CONTROLLER_NAMES}
     for lo in range(0, int(n), chunk):
         hi = min(int(n), lo + chunk)
-        part = _robustness_runs(model, n=hi - lo, seed=seed, beta=b, samples={k: v[lo:hi] for k, v in samples.items()},
+        part = robustness_runs(model, n=hi - lo, seed=seed, beta=b, samples={k: v[lo:hi] for k, v in samples.items()},
                                 **extra)
         for c in CONTROLLER_NAMES:
             for k, v in part["metrics"][c].items():
