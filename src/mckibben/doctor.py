@@ -39,7 +39,7 @@ def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
         ("open loop", lambda: control.open_loop()),
         ("sliding-mode step", lambda: control.step_response("smc", law="paper", beta=150)),
         ("PID step", lambda: control.step_response("pid")),
-        ("tracking", lambda: control.track_pressure("sine:0.4MPa,0.1MPa,2Hz")),
+        ("tracking", lambda: control.track_pressure(control.SineReference(0.4e6, 0.1e6, 2.0))),
         ("Fig. 13", lambda: control.fig13()),
         ("compare", lambda: control.compare()),
         ("robustness", lambda: control.robustness(4)),

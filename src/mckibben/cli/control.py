@@ -1,6 +1,9 @@
 """``mckibben control step|track|fig13|compare|robustness|hysteresis``: the controller on the plant simulator.
 
-Each command parses its options, makes one call of :mod:`mckibben.control` and prints the result.
+Each command parses its options (quantities with :func:`~mckibben.units.parse_quantity`, named by the
+library's Python arguments so that a refusal names the flag; the reference with
+:func:`~mckibben.control.references.parse_reference`), makes one call of :mod:`mckibben.control` with
+numbers in SI and prints the result.
 """
 
 from __future__ import annotations
@@ -58,6 +61,11 @@ def _size_first(option: str, seconds_text: str | None, instances: float = 1.0, f
     check_budget(option, instances * (seconds + extra) / 1e-3, force=force)
 
 
+def _si(text: str | None, dimension: str, name: str, **kw) -> float | None:
+    """A flag's text in SI (None stays None), the error naming the library's argument ``name`` (its flag)."""
+    return None if text is None else parse_quantity(text, dimension, name, **kw)
+
+
 def _finish(res, plot, dpi, out, plot_kw=None) -> None:
     """Write the figure and the time series a command was asked for."""
     if plot:
@@ -96,9 +104,13 @@ def step_cmd(
     check_outputs(plot, dpi, out)
     if save_design:
         check_output_file(save_design, "--save-design", (".json",))
-    res = control.step_response(controller, target, start=start, load=load, supply=supply, duration=duration, p_max=p_max,
-                        law=law, beta=beta, eps=eps, ki=ki, lam=lam, force=force, muscle_file=muscle_file,
-                        direction=direction)
+    res = control.step_response(controller, _si(target, "pressure", "target"), start=_si(start, "pressure", "start"),
+                                load=_si(load, "force", "load"), supply=_si(supply, "pressure", "supply", allow_zero=False),
+                                duration=_si(duration, "time", "duration", allow_zero=False),
+                                p_max=_si(p_max, "pressure", "p_max", allow_zero=False), law=law, beta=beta,
+                                eps=_si(eps, "pressure", "eps", allow_zero=False), ki=ki,
+                                lam=_si(lam, "time", "lam", allow_zero=False), force=force, muscle_file=muscle_file,
+                                direction=direction)
     _finish(res, plot, dpi, out)
     if save_design:
         how = (f"tuned on the plant of {muscle_file} ({direction})" if muscle_file
@@ -154,7 +166,7 @@ def fig13_cmd(
     """
 
     check_outputs(plot, dpi, out)
-    res = control.fig13(eps=eps, ki=ki, muscle_file=muscle_file)
+    res = control.fig13(eps=_si(eps, "pressure", "eps", allow_zero=False), ki=ki, muscle_file=muscle_file)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
@@ -256,8 +268,12 @@ def track_cmd(
         _size_first("--duration", duration, force=force, extra=0.0)
 
     check_outputs(plot, dpi, out)
-    res = control.track_pressure(reference, controller, duration=duration, load=load, p_max=p_max, law=law, beta=beta, eps=eps,
-                ki=ki, lam=lam, force=force, muscle_file=muscle_file, direction=direction)
+    res = control.track_pressure(control.parse_reference(reference), controller,
+                                 duration=_si(duration, "time", "duration", allow_zero=False),
+                                 load=_si(load, "force", "load"), p_max=_si(p_max, "pressure", "p_max", allow_zero=False),
+                                 law=law, beta=beta, eps=_si(eps, "pressure", "eps", allow_zero=False), ki=ki,
+                                 lam=_si(lam, "time", "lam", allow_zero=False), force=force, muscle_file=muscle_file,
+                                 direction=direction)
     _finish(res, plot, dpi, out)
     _warn_tuning(res.tuning)
     if json:
@@ -280,7 +296,9 @@ def hysteresis_cmd(
     """Length tracking with and without hysteresis compensation (inflate/deflate branches)."""
 
     check_outputs(plot, dpi)
-    res = control.hysteresis_compensation(period, sweep_period=sweep_period, muscle_file=muscle_file)
+    res = control.hysteresis_compensation(_si(period, "time", "period", allow_zero=False),
+                                          sweep_period=_si(sweep_period, "time", "sweep_period", allow_zero=False),
+                                          muscle_file=muscle_file)
     if plot:
         write_plot(control.plot_hysteresis(res), plot, dpi, res)
     if json:

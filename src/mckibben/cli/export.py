@@ -9,6 +9,7 @@ from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json
 from mckibben.errors import InputError
 from mckibben import control
 from mckibben import export
+from mckibben.units import parse_quantity
 
 export_app = typer.Typer(help="Export a calibrated muscle's plant for other simulators.", no_args_is_help=True)
 app.add_typer(export_app, name="export")
@@ -46,8 +47,11 @@ def fmu_cmd(
         ctrl = control.core.load_design(design, "design")
         if ctrl.mode != export.fmu.controller_mode(controller):
             raise InputError(f"--design {design}: its mode is {ctrl.mode}, not --controller {controller}")
-    path = export.export_fmu(muscle, muscle_file, out, fmi, ctrl, load=load, supply=supply, direction=direction, law=law,
-                      beta=beta)
+    path = export.export_fmu(muscle, muscle_file, out, fmi, ctrl,
+                             load=None if load is None else parse_quantity(load, "force", "load"),
+                             supply=None if supply is None else parse_quantity(supply, "pressure", "supply",
+                                                                               allow_zero=False),
+                             direction=direction, law=law, beta=beta)
     closed = controller is not None
     if json:
         emit_json({"fmu": str(path), "fmi_version": f"{fmi}.0", "interface": "co-simulation",

@@ -145,7 +145,8 @@ def step_cmd(
 ) -> None:
     """Run a pressure step on the device and print the step metrics."""
 
-    res = rig.Device(port).step(target, controller=controller, duration=duration)
+    res = rig.Device(port).step(parse_quantity(target, "pressure", "target", allow_zero=False), controller=controller,
+                                duration=parse_quantity(duration, "time", "duration", allow_zero=False))
     _warn_faults(res.counters.get("faults", 0))
     if json:
         emit_json(res.to_dict())

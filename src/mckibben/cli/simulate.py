@@ -10,6 +10,7 @@ from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, print
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, write_plot
 from mckibben import control
 from mckibben import plant
+from mckibben.units import parse_quantity
 
 simulate_app = typer.Typer(help="Simulate the rig: valves, chamber, muscle, load, sensors.", no_args_is_help=True)
 app.add_typer(simulate_app, name="simulate")
@@ -34,7 +35,11 @@ def open_loop_cmd(
     """An open-loop inlet-valve step from rest: time constant, rise time, final pressure."""
 
     check_outputs(plot, dpi, out)
-    res = control.open_loop(valve, supply=supply, load=load, duration=duration, muscle_file=muscle_file, direction=direction)
+    res = control.open_loop(valve, supply=None if supply is None else parse_quantity(supply, "pressure", "supply",
+                                                                                      allow_zero=False),
+                            load=parse_quantity(load, "force", "load"),
+                            duration=parse_quantity(duration, "time", "duration", allow_zero=False),
+                            muscle_file=muscle_file, direction=direction)
     d = res.to_dict()
     if plot:
         write_plot(res.plot(), plot, dpi, res)

@@ -1,10 +1,13 @@
 """Pressure control: identification, PID and sliding mode, the firmware's core, experiments.
 
 The experiments of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV on the simulated plant, one call each, returning
-result objects (``.metrics``, ``.to_pandas()``, ``.plot(ax=None)``):
+result objects (``.metrics``, ``.to_pandas()``, ``.plot(ax=None)``). Quantities are numbers in SI
+(Pa, N, s); a pressure reference is an object (:class:`SineReference`, a file, an array), which
+:func:`parse_reference` makes from the command line's text:
 
 >>> import mckibben.control as mc                                  # doctest: +SKIP
->>> mc.step_response("smc", target="0.55MPa", law="paper", beta=150)   # doctest: +SKIP
+>>> mc.step_response("smc", target=0.55e6, law="paper", beta=150)      # doctest: +SKIP
+>>> mc.track_pressure(mc.SineReference(0.4e6, 0.1e6, 2.0)).metrics    # doctest: +SKIP
 >>> mc.fig13().plot()                                               # doctest: +SKIP
 
 Building blocks: :func:`identify_plant` (FOPDT fit and the valves' lift-off, §IV.A),
@@ -29,6 +32,7 @@ _WHERE = {
     "OpenLoopResult": "mckibben.control.simulation",
     "PIDDesign": "mckibben.control.controllers",
     "RobustnessResult": "mckibben.control.simulation",
+    "SineReference": "mckibben.control.references",
     "StepResult": "mckibben.control.simulation",
     "TrackResult": "mckibben.control.simulation",
     "compare": "mckibben.control.simulation",
@@ -48,6 +52,7 @@ _WHERE = {
     "plot_record": "mckibben.control.plots",
     "plot_robustness": "mckibben.control.plots",
     "plot_step_fit": "mckibben.control.plots",
+    "parse_reference": "mckibben.control.references",
     "pressure_reference": "mckibben.control.simulation",
     "read_step_log": "mckibben.data.steplog",
     "robustness": "mckibben.control.simulation",
@@ -65,10 +70,10 @@ _WHERE = {
 
 __all__ = [
     "CONTROLLERS", "LAWS", "CompareResult", "CoreParams", "Fig13Result", "FirstOrderModel", "OpenLoopResult",
-    "PIDDesign", "RobustnessResult", "StepResult", "TrackResult", "compare", "controller_params", "design_pid",
+    "PIDDesign", "RobustnessResult", "SineReference", "StepResult", "TrackResult", "compare", "controller_params", "design_pid",
     "fig13", "fit_step_response", "hysteresis_compensation", "identified_model", "identify_plant", "open_loop", "pid_params",
     "plot_compare", "plot_fig13", "plot_hysteresis", "plot_open_loop", "plot_record", "plot_robustness", "plot_step_fit",
-    "pressure_reference", "read_step_log", "robustness", "run_closed_loop", "smc_params", "step_metrics",
+    "parse_reference", "pressure_reference", "read_step_log", "robustness", "run_closed_loop", "smc_params", "step_metrics",
     "step_metrics_batch", "step_response", "track_pressure",
     "tracking_metrics", "tracking_metrics_batch", "tuned_controller",
 ]

@@ -1,20 +1,24 @@
 """Closed-loop experiments on the simulated plant, one public call each, returning result objects.
 
-Every function here takes quantities as SI numbers or as text with a unit (``"0.55MPa"``,
-``0.55e6``), identifies the calibrated plant when no model is given (§IV.A of
+Every function here takes quantities as numbers in SI (Pa, N, s: ``target=0.55e6``) and a
+pressure reference as an object (:class:`~mckibben.control.references.SineReference`, a file,
+an array); text with a unit is refused with the number to pass (:func:`mckibben.units.si`: the
+command line parses its flags with :func:`~mckibben.units.parse_quantity` and
+:func:`~mckibben.control.references.parse_reference` before it calls). It identifies the calibrated plant when no model is given (§IV.A of
 “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), :func:`~mckibben.control.experiments.identify_plant`), designs the
 controller with the documented tuning (``docs/control.md``) and runs the firmware core on the
 batch plant simulator (:func:`~mckibben.control.experiments.run_closed_loop`). The command line
 (``mckibben control ...``) is a thin shell over these calls.
 
 >>> from mckibben.control import step_response          # doctest: +SKIP
->>> res = step_response("smc", target="0.55MPa", law="paper", beta=150)   # doctest: +SKIP
+>>> res = step_response("smc", target=0.55e6, law="paper", beta=150)   # doctest: +SKIP
 >>> res.metrics["time_constant_s"], res.to_pandas().columns[:3].tolist()   # doctest: +SKIP
 """
 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -35,11 +39,12 @@ from mckibben.control.experiments import (
 from mckibben.control.experiments import fig13_runs, robustness_runs
 from mckibben.control.experiments import step_size_table as _step_size_rows
 from mckibben.control.metrics import tracking_metrics
-from mckibben.errors import InputError, unknown_name
+from mckibben.control.references import SineReference, refuse_text
+from mckibben.errors import ArgumentTypeError, InputError, unknown_name
 from mckibben.hardware import P_MAX_DEFAULT
 from mckibben.limits import check_budget, check_p_max, clamp_pressure
 from mckibben.results import Result, to_jsonable
-from mckibben.units import parse_quantity, quantity
+from mckibben.units import si
 from mckibben.control.experiments import identify_plant
 from mckibben.hardware import P_MAX_LIMIT
 from mckibben.datasets import get_muscle
@@ -94,10 +99,17 @@ def identified_model() -> FirstOrderModel:
     return _default_identification()[1]
 
 
+def _counts_or_rate(value, name: str) -> float:
+    """A gain given as a number (PWM counts, 1/s): text is refused, as every quantity of the library."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ArgumentTypeError(f"{name}: {value!r} is not a number")
+    return float(value)
+
+
 def _beta(beta) -> float | None:
     if beta is None:
         return None
-    b = float(beta)
+    b = _counts_or_rate(beta, "beta")
     if not (math.isfinite(b) and 0 <= b <= 255):
         raise InputError(f"beta: {beta!r} must be in 0..255 PWM counts")
     return b
@@ -106,7 +118,7 @@ def _beta(beta) -> float | None:
 def _ki(ki) -> float | None:
     if ki is None:
         return None
-    k = float(ki)
+    k = _counts_or_rate(ki, "ki")
     if not (math.isfinite(k) and k >= 0):
         raise InputError(f"ki: {ki!r} must be >= 0 (1/s)")
     return k
@@ -114,17 +126,17 @@ def _ki(ki) -> float | None:
 
 def _periods(value, name: str) -> float:
     """A positive time that is a whole number of 1 ms control periods. [s]"""
-    d = quantity(value, "time", name, allow_zero=False)
+    d = si(value, "time", name, allow_zero=False)
     steps = d / TS
     if steps >= 1 and abs(steps - round(steps)) > 1e-6 * steps:
-        raise InputError(f"{name}: {value!r} must be a whole number of 1 ms control periods")
+        raise InputError(f"{name}: {d:g} s must be a whole number of 1 ms control periods")
     if steps < 1 - 1e-9:
-        raise InputError(f"{name}: {value!r} is shorter than one 1 ms control period")
+        raise InputError(f"{name}: {d:g} s is shorter than one 1 ms control period")
     return d
 
 
 def controller_params(controller: str = "smc", model: FirstOrderModel | None = None, *, law: str = "model",
-                      beta=None, eps=None, ki=None, lam=None, p_max="0.8MPa") -> CoreParams:
+                      beta=None, eps=None, ki=None, lam=None, p_max=P_MAX_DEFAULT) -> CoreParams:
     """The firmware core's parameters for a controller with the documented tuning.
 
     Parameters
@@ -139,13 +151,13 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
         β·tanh(S/ε) alone. [-]
     beta : float, optional
         Switching gain; default 50 (``model``) or 150 (``paper``). [PWM counts]
-    eps : float or str, optional
+    eps : float, optional
         Boundary layer; default the law's tuning. [Pa]
     ki : float, optional
         Surface integral weight; default the law's tuning. [1/s]
-    lam : float or str, optional
+    lam : float, optional
         PID closed-loop time constant; default τ/3. [s]
-    p_max : float or str, default "0.8MPa"
+    p_max : float, default P_MAX_DEFAULT (0.8e6)
         Supervisor's maximum pressure. [Pa]
 
     Returns
@@ -158,11 +170,11 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
         raise unknown_name("`law`", law, LAWS)
     b, k = _beta(beta), _ki(ki)
     e = boundary_layer(eps)
-    lm = quantity(lam, "time", "lam", allow_zero=False) if lam is not None else None
+    lm = si(lam, "time", "lam", allow_zero=False) if lam is not None else None
     model = identified_model() if model is None else model
     # the supervisor's valve model (G, lift-off) comes from the identification too
-    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "p_max",
-                                                                       allow_zero=False))), model)
+    base = with_supervisor_model(CoreParams(p_max=check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))),
+                                 model)
     return R.get(controller).resolve("design")(model, base, law=law, beta=b, eps=e, ki=k, lam=lm)
 
 
@@ -292,15 +304,15 @@ def boundary_layer(eps) -> float | None:
 
     Parameters
     ----------
-    eps : float or str or None
+    eps : float or None
         The boundary layer; None for the default. [Pa]
     """
     if eps is None:
         return None
 
-    e = quantity(eps, "pressure", "eps", allow_zero=False)
+    e = si(eps, "pressure", "eps", allow_zero=False)
     if not 1.0 <= e <= P_MAX_LIMIT:
-        raise InputError(f"eps: {eps!r} must be between 1 Pa and {P_MAX_LIMIT / 1e6:g} MPa (the supervisor's "
+        raise InputError(f"eps: {e:g} Pa must be between 1 Pa and {P_MAX_LIMIT / 1e6:g} MPa (the supervisor's "
                          "ceiling)")
     return e
 
@@ -310,25 +322,25 @@ def plant_load(load) -> float:
 
     Parameters
     ----------
-    load : float or str
+    load : float
         The load. [N]
     """
 
-    return check_load(quantity(load, "force", "load"), get_muscle(PlantParams().muscle_name))
+    return check_load(si(load, "force", "load"), get_muscle(PlantParams().muscle_name))
 
 
-def muscle_file_plant(path, load="0.6N", supply=None, direction: str = "inflate"):
+def muscle_file_plant(path, load=0.6, supply=None, direction: str = "inflate"):
     """The plant of a muscle file's own fitted force law (:meth:`PlantParams.from_muscle_file`), loaded.
 
     Parameters
     ----------
     path : str or pathlib.Path
         A muscle file with a ``[force_model]`` table (``mckibben fit … --save``). [-]
-    load : float or str, default "0.6N"
+    load : float, default 0.6
         Hanging load: at most the law's force at the rest length and the supply (a heavier load
         would stretch the muscle past the lengths it was fitted on). Its mass moves with the
         muscle (and is critically damped, ``docs/plant.md``). [N]
-    supply : float or str, optional
+    supply : float, optional
         Supply pressure (gauge); default the top of the fitted pressure range. [Pa]
     direction : {"inflate", "deflate"}, default "inflate"
         The branch of the law (:func:`~mckibben.fit.muscle_file.check_direction`: a spring fit
@@ -341,17 +353,17 @@ def muscle_file_plant(path, load="0.6N", supply=None, direction: str = "inflate"
     Raises
     ------
     InputError
-        One line starting ``--muscle-file`` and naming the file (missing, no force law, a law the
-        plant cannot run) or ``--load``/``--supply``/``--direction``.
+        One line starting ``muscle_file`` and naming the file (missing, no force law, a law the
+        plant cannot run) or ``load``/``supply``/``direction``.
     """
 
-    f = quantity(load, "force", "load")
+    f = si(load, "force", "load")
     check_direction(direction)
     kw = {}
     if supply is not None:
-        kw["supply_pressure"] = quantity(supply, "pressure", "supply", allow_zero=False)
+        kw["supply_pressure"] = si(supply, "pressure", "supply", allow_zero=False)
         if kw["supply_pressure"] > 1e6:
-            raise InputError(f"supply: {supply!r} is above the compressor's 1 MPa")
+            raise InputError(f"supply: {kw['supply_pressure'] / 1e6:g} MPa is above the compressor's 1 MPa")
     try:
         spec = read_muscle(path)
         law = muscle_force_law(spec)
@@ -434,7 +446,7 @@ def _no_direction(direction: str, muscle_file) -> None:
 
 
 def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str = "model", beta=None, eps=None,
-                     ki=None, lam=None, p_max="0.8MPa", objective: str = "step"):
+                     ki=None, lam=None, p_max=P_MAX_DEFAULT, objective: str = "step"):
     """A controller whose free gains are tuned on a plant (:func:`~mckibben.control.experiments.tune_gains`).
 
     What a muscle file's plant gets instead of the calibrated rig's gains (``docs/control.md``,
@@ -454,13 +466,13 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
         Sliding-mode law. [-]
     beta : float, optional
         Switching gain to hold. [PWM counts]
-    eps : float or str, optional
+    eps : float, optional
         Boundary layer to hold. [Pa]
     ki : float, optional
         Surface integral weight to hold. [1/s]
-    lam : float or str, optional
+    lam : float, optional
         PID closed-loop time constant to hold. [s]
-    p_max : float or str, default "0.8MPa"
+    p_max : float, default P_MAX_DEFAULT (0.8e6)
         Supervisor's maximum pressure (the design steps stay below it). [Pa]
     objective : {"step", "track"}, default "step"
         Tune on design steps (:func:`step_response`) or design sines (:func:`track_pressure`). [-]
@@ -476,9 +488,9 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
     if law not in LAWS:
         raise unknown_name("`law`", law, LAWS)
     b, k, e = _beta(beta), _ki(ki), boundary_layer(eps)
-    lm = quantity(lam, "time", "lam", allow_zero=False) if lam is not None else None
-    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "p_max",
-                                                                       allow_zero=False))), model)
+    lm = si(lam, "time", "lam", allow_zero=False) if lam is not None else None
+    base = with_supervisor_model(CoreParams(p_max=check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))),
+                                 model)
     return tune_gains(plant, model, controller, law=law, base=base, beta=b, eps=e, ki=k, lam=lm, objective=objective)
 
 
@@ -489,29 +501,29 @@ def _step_args(controller, target, start, load, supply, duration, p_max, force, 
     builds that plant).
     """
     dur = _periods(duration, "duration")
-    pmax = check_p_max(quantity(p_max, "pressure", "p_max", allow_zero=False))
-    p1 = quantity(target, "pressure", "target")
-    p0 = quantity(start, "pressure", "start")
+    pmax = check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))
+    p1 = si(target, "pressure", "target")
+    p0 = si(start, "pressure", "start")
     hold = 0.5 if p0 > 0 else 0.05
     check_budget("duration", (hold + dur) / TS, force=force)
     if p0 == p1:
         raise InputError("target: equals `start`, there is no step")
     (p0c, p1c), clamped = clamp_pressure([p0, p1], pmax, "target/start")
     if p0c == p1c:
-        raise InputError(f"target: {target!r} and `start` {start!r} are both clamped to {p1c / 1e6:g} MPa "
+        raise InputError(f"target: {p1 / 1e6:g} MPa and `start` {p0 / 1e6:g} MPa are both clamped to {p1c / 1e6:g} MPa "
                          "(`p_max`): there is no step")
     args = {"controller": controller, "target_Pa": float(p1c), "from_Pa": float(p0c),
-            "load_N": plant_load(load) if muscle_file is None else quantity(load, "force", "load"),
+            "load_N": plant_load(load) if muscle_file is None else si(load, "force", "load"),
             "p_max_Pa": pmax, "duration_s": dur,
             "requested_target_Pa": p1, "requested_from_Pa": p0, "reference_clamped": clamped,
             "step_time_s": hold}
     if supply is not None:
-        args["supply_Pa"] = quantity(supply, "pressure", "supply", allow_zero=False)
+        args["supply_Pa"] = si(supply, "pressure", "supply", allow_zero=False)
     return args
 
 
-def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", load="0.6N", supply=None,
-                  duration="1s", p_max="0.8MPa", law: str = "model", beta=None, eps=None, ki=None, lam=None,
+def step_response(controller: str = "smc", target=FIG13_TARGET_PA, *, start=0.0, load=0.6, supply=None,
+                  duration=1.0, p_max=P_MAX_DEFAULT, law: str = "model", beta=None, eps=None, ki=None, lam=None,
                   model: FirstOrderModel | None = None, force: bool = False, muscle_file=None,
                   direction: str = "inflate") -> StepResult:
     """A pressure step on the calibrated plant under the firmware's controller.
@@ -525,27 +537,27 @@ def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", lo
     ----------
     controller : {"smc", "pid"}, default "smc"
         The controller (:func:`controller_params`). [-]
-    target : float or str, default "0.55MPa"
-        Pressure after the step. [Pa]
-    start : float or str, default "0MPa"
+    target : float, default 0.55e6
+        Pressure after the step (Fig. 13's, :data:`~mckibben.control.experiments.FIG13_TARGET_PA`). [Pa]
+    start : float, default 0.0
         Pressure held before the step. [Pa]
-    load : float or str, default "0.6N"
+    load : float, default 0.6
         Hanging load. [N]
-    supply : float or str, optional
+    supply : float, optional
         Supply pressure; default the calibrated plant's. [Pa]
-    duration : float or str, default "1s"
+    duration : float, default 1.0
         Time after the step. [s]
-    p_max : float or str, default "0.8MPa"
+    p_max : float, default P_MAX_DEFAULT (0.8e6)
         Supervisor's maximum pressure. [Pa]
     law : {"model", "paper"}, default "model"
         Sliding-mode law. [-]
     beta : float, optional
         Switching gain. [PWM counts]
-    eps : float or str, optional
+    eps : float, optional
         Boundary layer. [Pa]
     ki : float, optional
         Surface integral weight. [1/s]
-    lam : float or str, optional
+    lam : float, optional
         PID closed-loop time constant. [s]
     model : FirstOrderModel, optional
         Design model; default :func:`identified_model`. [-]
@@ -591,16 +603,18 @@ def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", lo
     return StepResult(rec, hold, params_model, params, args, tuning)
 
 
-def pressure_reference(reference, duration="2s", *, force: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def pressure_reference(reference, duration=2.0, *, force: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """A pressure reference sampled at the control period.
 
     Parameters
     ----------
-    reference : str or array_like
-        ``"sine:MEAN,AMPLITUDE,FREQUENCY"`` (e.g. ``"sine:0.4MPa,0.2MPa,2Hz"``), a CSV/Parquet
-        file with ``time_<unit>`` and ``pressure_<unit>`` columns (resampled), or one pressure
-        per control period. [Pa]
-    duration : float or str, default "2s"
+    reference : SineReference or str or pathlib.Path or array_like
+        A :class:`~mckibben.control.references.SineReference` (at most 500 Hz, what a 1 kHz
+        controller can follow), the path of a CSV/Parquet file with ``time_<unit>`` and
+        ``pressure_<unit>`` columns (resampled), or one pressure per control period. The command
+        line's text (``sine:0.4MPa,0.2MPa,2Hz``) is read by
+        :func:`~mckibben.control.references.parse_reference`. [Pa]
+    duration : float, default 2.0
         Length of a sine reference. [s]
     force : bool, default False
         Go past the documented size limits (:mod:`mckibben.limits`). [-]
@@ -610,31 +624,27 @@ def pressure_reference(reference, duration="2s", *, force: bool = False) -> tupl
     (numpy.ndarray, numpy.ndarray)
         Times [s] and pressures [Pa].
     """
-    if not isinstance(reference, str):
+    refuse_text(reference)
+    if isinstance(reference, SineReference):
+        d = _periods(duration, "duration")
+        check_budget("duration", d / TS, force=force)
+        if reference.frequency > 500:
+            raise InputError(f"reference frequency: {reference.frequency:g} Hz is above the 500 Hz a 1 kHz "
+                             "controller can follow")
+        t = np.arange(int(round(d / TS))) * TS
+        return t, reference.sample(t)
+    if not isinstance(reference, (str, os.PathLike)):
         p = np.asarray(reference, dtype=float)
         if p.ndim != 1 or p.size < 10 or not np.all(np.isfinite(p)):
             raise InputError("reference: an array reference must be 1-D, finite, at least 10 samples")
         return np.arange(p.size) * TS, p
-    if reference.startswith("sine:"):
-        parts = reference[5:].split(",")
-        if len(parts) != 3:
-            raise InputError(f"reference: {reference!r} must be sine:MEAN,AMPLITUDE,FREQUENCY")
-        mean = parse_quantity(parts[0], "pressure", "reference mean")
-        amp = parse_quantity(parts[1], "pressure", "reference amplitude")
-        freq = parse_quantity(parts[2], "frequency", "reference frequency", allow_zero=False)
-        d = _periods(duration, "duration")
-        check_budget("duration", d / TS, force=force)
-        if freq > 500:
-            raise InputError(f"reference frequency: {parts[2]!r} is above the 500 Hz a 1 kHz controller can follow")
-        t = np.arange(int(round(d / TS))) * TS
-        return t, mean + amp * np.sin(2 * np.pi * freq * t)
 
     data, _ = read_step_log(reference)
     t0 = data["time_s"] - data["time_s"][0]
     check_budget(f"reference {reference}", float(t0[-1]) / TS, force=force, what="control periods (the file's span)")
     t = np.arange(int(t0[-1] / TS) + 1) * TS
     if t.size < 10:
-        raise InputError(f"reference: {reference!r} is shorter than 10 ms")
+        raise InputError(f"reference: {str(reference)!r} is shorter than 10 ms")
     return t, np.interp(t, t0, data["pressure_Pa"])
 
 
@@ -694,32 +704,32 @@ class TrackResult(Result):
         return plot_record(self.record, [self.arguments["controller"]], ax=ax)
 
 
-def track_pressure(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_max="0.8MPa", law: str = "model",
-          beta=None, eps=None, ki=None, lam=None, model: FirstOrderModel | None = None,
-          force: bool = False, muscle_file=None, direction: str = "inflate") -> TrackResult:
+def track_pressure(reference, controller: str = "smc", *, duration=2.0, load=0.6, p_max=P_MAX_DEFAULT,
+                   law: str = "model", beta=None, eps=None, ki=None, lam=None, model: FirstOrderModel | None = None,
+                   force: bool = False, muscle_file=None, direction: str = "inflate") -> TrackResult:
     """Track a pressure trajectory on the calibrated plant.
 
     Parameters
     ----------
-    reference : str or array_like
-        See :func:`pressure_reference`. [Pa]
+    reference : SineReference or str or pathlib.Path or array_like
+        A sine, a file or samples: see :func:`pressure_reference`. [Pa]
     controller : {"smc", "pid"}, default "smc"
         The controller. [-]
-    duration : float or str, default "2s"
+    duration : float, default 2.0
         Length of a sine reference. [s]
-    load : float or str, default "0.6N"
+    load : float, default 0.6
         Hanging load. [N]
-    p_max : float or str, default "0.8MPa"
+    p_max : float, default P_MAX_DEFAULT (0.8e6)
         Supervisor's maximum pressure. [Pa]
     law : {"model", "paper"}, default "model"
         Sliding-mode law. [-]
     beta : float, optional
         Switching gain. [PWM counts]
-    eps : float or str, optional
+    eps : float, optional
         Boundary layer. [Pa]
     ki : float, optional
         Surface integral weight. [1/s]
-    lam : float or str, optional
+    lam : float, optional
         PID closed-loop time constant. [s]
     model : FirstOrderModel, optional
         Design model; default :func:`identified_model`. [-]
@@ -737,8 +747,8 @@ def track_pressure(reference, controller: str = "smc", *, duration="2s", load="0
         A reference outside [0, p_max] is clamped as the supervisor would (``reference_clamped``).
     """
     _no_direction(direction, muscle_file)
-    pmax = check_p_max(quantity(p_max, "pressure", "p_max", allow_zero=False))
-    f_load = plant_load(load) if muscle_file is None else quantity(load, "force", "load")
+    pmax = check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))
+    f_load = plant_load(load) if muscle_file is None else si(load, "force", "load")
     _, ref = pressure_reference(reference, duration, force=force)
     ref, clamped = clamp_pressure(ref, pmax, "reference")
     tuning = None
@@ -753,12 +763,19 @@ def track_pressure(reference, controller: str = "smc", *, duration="2s", load="0
         m = identified_model() if model is None else model
         params = controller_params(controller, m, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax)
     rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant)
-    args = {"controller": controller, "reference": reference if isinstance(reference, str) else "array",
+    args = {"controller": controller, "reference": _reference_text(reference),
             "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
             "law": law if R.get(controller).laws else None}
     if muscle_file is not None:
         args.update(muscle_file=str(muscle_file), direction=direction)
     return TrackResult(rec, m, params, args, tuning)
+
+
+def _reference_text(reference) -> str:
+    """How a result's arguments (a table's provenance) name its reference."""
+    if isinstance(reference, SineReference):
+        return reference.text
+    return str(reference) if isinstance(reference, (str, os.PathLike)) else "array"
 
 
 #: Why ``control fig13`` and ``control hysteresis`` refuse a muscle file.
@@ -1174,7 +1191,7 @@ class OpenLoopResult(Result):
         return plot_open_loop(self, ax=ax)
 
 
-def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0.5s",
+def open_loop(valve: int | None = None, *, supply=None, load=0.6, duration=0.5,
               muscle_file=None, direction: str = "inflate") -> OpenLoopResult:
     """An open-loop inlet-valve step from rest (bleed shut): the identification experiment of §IV.A.
 
@@ -1182,12 +1199,12 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
     ----------
     valve : int, optional
         Inlet PWM count, 0..255; default the calibration step. [PWM counts]
-    supply : float or str, optional
-        Supply pressure (gauge), at most 1 MPa; default 0.8 MPa, or a muscle file's top fitted
-        pressure. [Pa]
-    load : float or str, default "0.6N"
+    supply : float, optional
+        Supply pressure (gauge), at most 1 MPa; default the calibrated plant's (0.8e6,
+        :class:`~mckibben.plant.PlantParams`), or a muscle file's top fitted pressure. [Pa]
+    load : float, default 0.6
         Hanging load. [N]
-    duration : float or str, default "0.5s"
+    duration : float, default 0.5
         Simulated time, whole control periods, at most 60 s. [s]
     muscle_file : str or pathlib.Path, optional
         Run a muscle file's own fitted force law (:func:`muscle_file_plant`). [-]
@@ -1203,21 +1220,22 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
     valve = CALIBRATION_PWM if valve is None else valve
     if isinstance(valve, bool) or not isinstance(valve, (int, np.integer)) or not 0 <= valve <= 255:
         raise InputError(f"valve: {valve!r} must be a PWM count in 0..255")
-    d = quantity(duration, "time", "duration", allow_zero=False)
+    d = si(duration, "time", "duration", allow_zero=False)
     steps = d / TS
     if abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
-        raise InputError(f"duration: {duration!r} must be a whole number of 1 ms control periods")
+        raise InputError(f"duration: {d:g} s must be a whole number of 1 ms control periods")
     if d > 60:
-        raise InputError(f"duration: {duration!r} is longer than 60 s")
+        raise InputError(f"duration: {d:g} s is longer than 60 s")
     extra: dict = {}
     if muscle_file is not None:
         plant = muscle_file_plant(muscle_file, load, supply, direction)
         s, f = float(plant.supply_pressure), float(plant.load_force)
         extra.update(muscle_file=str(muscle_file), direction=direction)
     else:
-        s = quantity("0.8MPa" if supply is None else supply, "pressure", "supply", allow_zero=False)
+        s = float(PlantParams().supply_pressure) if supply is None else si(supply, "pressure", "supply",
+                                                                           allow_zero=False)
         if s > 1e6:
-            raise InputError(f"supply: {supply!r} is above the compressor's 1 MPa")
+            raise InputError(f"supply: {s / 1e6:g} MPa is above the compressor's 1 MPa")
         f = plant_load(load)
         plant = PlantParams(supply_pressure=s, load_force=f)
     res, m = open_loop_step(plant, valve=int(valve), duration=d)
@@ -1225,7 +1243,7 @@ def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0
                           {"valve_pwm": int(valve), "supply_Pa": s, "load_N": f, "duration_s": d, **extra})
 
 
-def hysteresis_compensation(period="4s", *, sweep_period=None, muscle_file=None):
+def hysteresis_compensation(period=4.0, *, sweep_period=None, muscle_file=None):
     """Length tracking with and without hysteresis compensation (inflate/deflate branches, Prandtl–Ishlinskii).
 
     Identifies the plant (:func:`identified_model`), records a quasi-static pressure triangle,
@@ -1236,9 +1254,9 @@ def hysteresis_compensation(period="4s", *, sweep_period=None, muscle_file=None)
 
     Parameters
     ----------
-    period : float or str, default "4s"
+    period : float, default 4.0
         Period of the length sinusoid, 1 to 60 s. [s]
-    sweep_period : float or str, optional
+    sweep_period : float, optional
         Period of the identification triangle, 1 to 600 s; default 8 × ``period``. [s]
     muscle_file : str or pathlib.Path, optional
         Refused (:data:`HYSTERESIS_REFUSAL`): a muscle file's plant has no friction loop. [-]
@@ -1250,13 +1268,13 @@ def hysteresis_compensation(period="4s", *, sweep_period=None, muscle_file=None)
     """
     _refuse_muscle_file("hysteresis", muscle_file, HYSTERESIS_REFUSAL)
 
-    per = quantity(period, "time", "period", allow_zero=False)
+    per = si(period, "time", "period", allow_zero=False)
     if not PERIOD_MIN <= per <= PERIOD_MAX:
-        raise InputError(f"period: {period!r} must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")
+        raise InputError(f"period: {per:g} s must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")
     sweep = None
     if sweep_period is not None:
-        sweep = quantity(sweep_period, "time", "sweep_period", allow_zero=False)
+        sweep = si(sweep_period, "time", "sweep_period", allow_zero=False)
         if not SWEEP_PERIOD_MIN <= sweep <= SWEEP_PERIOD_MAX:
-            raise InputError(f"sweep_period: {sweep_period!r} must be between {SWEEP_PERIOD_MIN:g} s and "
+            raise InputError(f"sweep_period: {sweep:g} s must be between {SWEEP_PERIOD_MIN:g} s and "
                              f"{SWEEP_PERIOD_MAX:g} s")
     return hysteresis_benefit(identified_model(), period=per, sweep_period=sweep)
