@@ -2,13 +2,14 @@
 
 characterize -> fit -> predict -> simulate -> control -> deploy -> steer a three-muscle tool.
 
-SI units inside every function (Pa, m, N, s, rad); every public function also takes quantities
-as text with a unit (``"0.8MPa"``, ``"97mm"``). The main entry points are here::
+SI units inside every function (Pa, m, N, s, rad): the experiments take numbers in SI (text with
+a unit is refused with the number to pass) and the command line parses units
+(:func:`mckibben.units.parse_quantity`). The main entry points are here::
 
     import mckibben as mk
     muscle = mk.get_muscle("mpam97")                          # a published set (Table I, II)
     mk.predict_length(muscle, 0.8e6, 0.6).length              # eq. 2 and 3 -> 0.0781 m
-    step = mk.step_response("smc", target="0.55MPa", law="paper", beta=150)
+    step = mk.step_response("smc", target=0.55e6, law="paper", beta=150)   # Pa
     step.metrics, step.to_pandas(), step.plot()               # result objects
     mk.track_tip("circle:radius=5mm,period=2s").plot()        # the three-muscle tool
 
