@@ -75,7 +75,7 @@ def test_a_sine_reference_checks_its_numbers():
 
 #: Where the library takes numbers (issue 23): these packages and modules, and the one parser of
 #: text among them (the command line's ``--reference``).
-TAKES_NUMBERS = ("control", "rig", "experiments", "export/fmu.py")
+TAKES_NUMBERS = ("control", "rig", "experiments", "export")
 PARSERS = {("control/references.py", "parse_reference")}
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, err_console, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, err_console, parse_flag, print_table
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, progress_bar, write_plot
 from mckibben.control import registry as R
 from mckibben.limits import check_budget
@@ -61,11 +61,6 @@ def _size_first(option: str, seconds_text: str | None, instances: float = 1.0, f
     check_budget(option, instances * (seconds + extra) / 1e-3, force=force)
 
 
-def _si(text: str | None, dimension: str, name: str, **kw) -> float | None:
-    """A flag's text in SI (None stays None), the error naming the library's argument ``name`` (its flag)."""
-    return None if text is None else parse_quantity(text, dimension, name, **kw)
-
-
 def _finish(res, plot, dpi, out, plot_kw=None) -> None:
     """Write the figure and the time series a command was asked for."""
     if plot:
@@ -104,12 +99,12 @@ def step_cmd(
     check_outputs(plot, dpi, out)
     if save_design:
         check_output_file(save_design, "--save-design", (".json",))
-    res = control.step_response(controller, _si(target, "pressure", "target"), start=_si(start, "pressure", "start"),
-                                load=_si(load, "force", "load"), supply=_si(supply, "pressure", "supply", allow_zero=False),
-                                duration=_si(duration, "time", "duration", allow_zero=False),
-                                p_max=_si(p_max, "pressure", "p_max", allow_zero=False), law=law, beta=beta,
-                                eps=_si(eps, "pressure", "eps", allow_zero=False), ki=ki,
-                                lam=_si(lam, "time", "lam", allow_zero=False), force=force, muscle_file=muscle_file,
+    res = control.step_response(controller, parse_flag(target, "pressure", "target"), start=parse_flag(start, "pressure", "start"),
+                                load=parse_flag(load, "force", "load"), supply=parse_flag(supply, "pressure", "supply", allow_zero=False),
+                                duration=parse_flag(duration, "time", "duration", allow_zero=False),
+                                p_max=parse_flag(p_max, "pressure", "p_max", allow_zero=False), law=law, beta=beta,
+                                eps=parse_flag(eps, "pressure", "eps", allow_zero=False), ki=ki,
+                                lam=parse_flag(lam, "time", "lam", allow_zero=False), force=force, muscle_file=muscle_file,
                                 direction=direction)
     _finish(res, plot, dpi, out)
     if save_design:
@@ -166,7 +161,7 @@ def fig13_cmd(
     """
 
     check_outputs(plot, dpi, out)
-    res = control.fig13(eps=_si(eps, "pressure", "eps", allow_zero=False), ki=ki, muscle_file=muscle_file)
+    res = control.fig13(eps=parse_flag(eps, "pressure", "eps", allow_zero=False), ki=ki, muscle_file=muscle_file)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
@@ -269,10 +264,10 @@ def track_cmd(
 
     check_outputs(plot, dpi, out)
     res = control.track_pressure(control.parse_reference(reference), controller,
-                                 duration=_si(duration, "time", "duration", allow_zero=False),
-                                 load=_si(load, "force", "load"), p_max=_si(p_max, "pressure", "p_max", allow_zero=False),
-                                 law=law, beta=beta, eps=_si(eps, "pressure", "eps", allow_zero=False), ki=ki,
-                                 lam=_si(lam, "time", "lam", allow_zero=False), force=force, muscle_file=muscle_file,
+                                 duration=parse_flag(duration, "time", "duration", allow_zero=False),
+                                 load=parse_flag(load, "force", "load"), p_max=parse_flag(p_max, "pressure", "p_max", allow_zero=False),
+                                 law=law, beta=beta, eps=parse_flag(eps, "pressure", "eps", allow_zero=False), ki=ki,
+                                 lam=parse_flag(lam, "time", "lam", allow_zero=False), force=force, muscle_file=muscle_file,
                                  direction=direction)
     _finish(res, plot, dpi, out)
     _warn_tuning(res.tuning)
@@ -296,8 +291,8 @@ def hysteresis_cmd(
     """Length tracking with and without hysteresis compensation (inflate/deflate branches)."""
 
     check_outputs(plot, dpi)
-    res = control.hysteresis_compensation(_si(period, "time", "period", allow_zero=False),
-                                          sweep_period=_si(sweep_period, "time", "sweep_period", allow_zero=False),
+    res = control.hysteresis_compensation(parse_flag(period, "time", "period", allow_zero=False),
+                                          sweep_period=parse_flag(sweep_period, "time", "sweep_period", allow_zero=False),
                                           muscle_file=muscle_file)
     if plot:
         write_plot(control.plot_hysteresis(res), plot, dpi, res)

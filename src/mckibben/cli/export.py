@@ -5,11 +5,10 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, parse_flag
 from mckibben.errors import InputError
 from mckibben import control
 from mckibben import export
-from mckibben.units import parse_quantity
 
 export_app = typer.Typer(help="Export a calibrated muscle's plant for other simulators.", no_args_is_help=True)
 app.add_typer(export_app, name="export")
@@ -48,9 +47,8 @@ def fmu_cmd(
         if ctrl.mode != export.fmu.controller_mode(controller):
             raise InputError(f"--design {design}: its mode is {ctrl.mode}, not --controller {controller}")
     path = export.export_fmu(muscle, muscle_file, out, fmi, ctrl,
-                             load=None if load is None else parse_quantity(load, "force", "load"),
-                             supply=None if supply is None else parse_quantity(supply, "pressure", "supply",
-                                                                               allow_zero=False),
+                             load=parse_flag(load, "force", "load"),
+                             supply=parse_flag(supply, "pressure", "supply", allow_zero=False),
                              direction=direction, law=law, beta=beta)
     closed = controller is not None
     if json:

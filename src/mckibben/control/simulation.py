@@ -129,9 +129,9 @@ def _periods(value, name: str) -> float:
     d = si(value, "time", name, allow_zero=False)
     steps = d / TS
     if steps >= 1 and abs(steps - round(steps)) > 1e-6 * steps:
-        raise InputError(f"{name}: {d:g} s must be a whole number of 1 ms control periods")
+        raise InputError(f"{name}: {value!r} must be a whole number of 1 ms control periods")
     if steps < 1 - 1e-9:
-        raise InputError(f"{name}: {d:g} s is shorter than one 1 ms control period")
+        raise InputError(f"{name}: {value!r} is shorter than one 1 ms control period")
     return d
 
 
@@ -312,7 +312,7 @@ def boundary_layer(eps) -> float | None:
 
     e = si(eps, "pressure", "eps", allow_zero=False)
     if not 1.0 <= e <= P_MAX_LIMIT:
-        raise InputError(f"eps: {e:g} Pa must be between 1 Pa and {P_MAX_LIMIT / 1e6:g} MPa (the supervisor's "
+        raise InputError(f"eps: {eps!r} must be between 1 Pa and {P_MAX_LIMIT / 1e6:g} MPa (the supervisor's "
                          "ceiling)")
     return e
 
@@ -363,7 +363,7 @@ def muscle_file_plant(path, load=0.6, supply=None, direction: str = "inflate"):
     if supply is not None:
         kw["supply_pressure"] = si(supply, "pressure", "supply", allow_zero=False)
         if kw["supply_pressure"] > 1e6:
-            raise InputError(f"supply: {kw['supply_pressure'] / 1e6:g} MPa is above the compressor's 1 MPa")
+            raise InputError(f"supply: {supply!r} is above the compressor's 1 MPa")
     try:
         spec = read_muscle(path)
         law = muscle_force_law(spec)
@@ -431,9 +431,9 @@ def _file_controllers(plant, beta=None) -> dict:
     return out
 
 
-def _refuse_muscle_file(command: str, muscle_file, why: str) -> None:
+def _refuse_muscle_file(function: str, muscle_file, why: str) -> None:
     if muscle_file is not None:
-        raise InputError(f"muscle_file {muscle_file}: control {command} {why}")
+        raise InputError(f"muscle_file {muscle_file}: {function}() {why}")
 
 
 def _no_direction(direction: str, muscle_file) -> None:
@@ -510,7 +510,7 @@ def _step_args(controller, target, start, load, supply, duration, p_max, force, 
         raise InputError("target: equals `start`, there is no step")
     (p0c, p1c), clamped = clamp_pressure([p0, p1], pmax, "target/start")
     if p0c == p1c:
-        raise InputError(f"target: {p1 / 1e6:g} MPa and `start` {p0 / 1e6:g} MPa are both clamped to {p1c / 1e6:g} MPa "
+        raise InputError(f"target: {target!r} and `start` {start!r} are both clamped to {p1c / 1e6:g} MPa "
                          "(`p_max`): there is no step")
     args = {"controller": controller, "target_Pa": float(p1c), "from_Pa": float(p0c),
             "load_N": plant_load(load) if muscle_file is None else si(load, "force", "load"),
@@ -778,10 +778,11 @@ def _reference_text(reference) -> str:
     return str(reference) if isinstance(reference, (str, os.PathLike)) else "array"
 
 
-#: Why ``control fig13`` and ``control hysteresis`` refuse a muscle file.
+#: Why :func:`fig13` and :func:`hysteresis_compensation` (``control fig13|hysteresis``) refuse a muscle file.
 FIG13_REFUSAL = ("is the paper's Fig. 13 on its miniature muscle: the β of 120 and 150 counts sit just above that "
-                 "rig's holding command and the paper's points are that muscle's; run control step --muscle-file "
-                 "(gains tuned for the file's plant) or control compare --muscle-file")
+                 "rig's holding command and the paper's points are that muscle's; step_response(muscle_file=...) "
+                 "tunes the gains for the file's plant (the control step command), compare(muscle_file=...) "
+                 "compares the controllers on it")
 HYSTERESIS_REFUSAL = ("compensates the hysteresis of the calibrated muscle's braid friction; a muscle file's plant "
                       "runs one branch of its fitted law (`direction`) without friction, so it has no loop to "
                       "compensate")
@@ -1223,9 +1224,9 @@ def open_loop(valve: int | None = None, *, supply=None, load=0.6, duration=0.5,
     d = si(duration, "time", "duration", allow_zero=False)
     steps = d / TS
     if abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
-        raise InputError(f"duration: {d:g} s must be a whole number of 1 ms control periods")
+        raise InputError(f"duration: {duration!r} must be a whole number of 1 ms control periods")
     if d > 60:
-        raise InputError(f"duration: {d:g} s is longer than 60 s")
+        raise InputError(f"duration: {duration!r} is longer than 60 s")
     extra: dict = {}
     if muscle_file is not None:
         plant = muscle_file_plant(muscle_file, load, supply, direction)
@@ -1235,7 +1236,7 @@ def open_loop(valve: int | None = None, *, supply=None, load=0.6, duration=0.5,
         s = float(PlantParams().supply_pressure) if supply is None else si(supply, "pressure", "supply",
                                                                            allow_zero=False)
         if s > 1e6:
-            raise InputError(f"supply: {s / 1e6:g} MPa is above the compressor's 1 MPa")
+            raise InputError(f"supply: {supply!r} is above the compressor's 1 MPa")
         f = plant_load(load)
         plant = PlantParams(supply_pressure=s, load_force=f)
     res, m = open_loop_step(plant, valve=int(valve), duration=d)
@@ -1266,15 +1267,15 @@ def hysteresis_compensation(period=4.0, *, sweep_period=None, muscle_file=None):
     HysteresisBenefit
         ``.summary()``, ``.plot()``.
     """
-    _refuse_muscle_file("hysteresis", muscle_file, HYSTERESIS_REFUSAL)
+    _refuse_muscle_file("hysteresis_compensation", muscle_file, HYSTERESIS_REFUSAL)
 
     per = si(period, "time", "period", allow_zero=False)
     if not PERIOD_MIN <= per <= PERIOD_MAX:
-        raise InputError(f"period: {per:g} s must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")
+        raise InputError(f"period: {period!r} must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")
     sweep = None
     if sweep_period is not None:
         sweep = si(sweep_period, "time", "sweep_period", allow_zero=False)
         if not SWEEP_PERIOD_MIN <= sweep <= SWEEP_PERIOD_MAX:
-            raise InputError(f"sweep_period: {sweep:g} s must be between {SWEEP_PERIOD_MIN:g} s and "
+            raise InputError(f"sweep_period: {sweep_period!r} must be between {SWEEP_PERIOD_MIN:g} s and "
                              f"{SWEEP_PERIOD_MAX:g} s")
     return hysteresis_benefit(identified_model(), period=per, sweep_period=sweep)

@@ -206,7 +206,7 @@ def _plant(muscle, muscle_file, plant, load, supply, direction) -> PP.PlantParam
     s = float(PP.PlantParams().supply_pressure) if supply is None else si(supply, "pressure", "supply",
                                                                           allow_zero=False)
     if not 0 < s <= HW.P_MAX_LIMIT:
-        raise InputError(f"supply: {s / 1e6:g} MPa must be above 0 and at most the compressor's 1 MPa")
+        raise InputError(f"supply: {supply!r} must be above 0 and at most the compressor's 1 MPa")
     name = "mpam97" if muscle is None else muscle
     try:
         published = get_muscle(name)

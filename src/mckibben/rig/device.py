@@ -295,12 +295,12 @@ class Device:
 
         p = si(target, "pressure", "target", allow_zero=False)
         if p > SAFE_MAX_PRESSURE_PA:
-            raise InputError(f"target: {p / 1e6:g} MPa is above the {SAFE_MAX_PRESSURE_PA / 1e6:g} MPa safe limit")
+            raise InputError(f"target: {target!r} is above the {SAFE_MAX_PRESSURE_PA / 1e6:g} MPa safe limit")
         if controller not in CONTROLLERS:
             raise InputError(f"controller: {controller!r} must be smc or pid")
         d = si(duration, "time", "duration", allow_zero=False)
         if d > 60:
-            raise InputError(f"duration: {d:g} s is longer than 60 s")
+            raise InputError(f"duration: {duration!r} is longer than 60 s")
         link, _, parser = connect(self.port)
         rows: list = []
         acks: list = []
