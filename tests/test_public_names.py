@@ -66,7 +66,7 @@ SOURCES = {_module(p): p.read_text(encoding="utf-8") for layer in LAYERS for p i
 def test_the_walk_sees_the_layers():
     """The walk found the experiments (a broken path would make the next test pass vacuously)."""
     found = public_definitions(SOURCES)
-    assert found["step_response"] == ["mckibben.control.simulation"]
+    assert found["step_response"] == ["mckibben.experiments.pressure"]
     assert found["track_over_link"] == ["mckibben.experiments.link"]
     assert "make_tool" in found and len(SOURCES) > 15
 

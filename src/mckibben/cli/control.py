@@ -2,7 +2,7 @@
 
 Each command parses its options (quantities with :func:`~mckibben.units.parse_quantity`, named by the
 library's Python arguments so that a refusal names the flag; the reference with
-:func:`~mckibben.control.references.parse_reference`), makes one call of :mod:`mckibben.control` with
+:func:`~mckibben.control.references.parse_reference`), makes one call of :mod:`mckibben.experiments` with
 numbers in SI and prints the result.
 """
 
@@ -18,6 +18,7 @@ from mckibben.limits import check_budget
 from mckibben.units import parse_quantity
 from mckibben.atomic import check_output_file
 from mckibben import control
+from mckibben import experiments
 from mckibben import rig
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
@@ -99,7 +100,7 @@ def step_cmd(
     check_outputs(plot, dpi, out)
     if save_design:
         check_output_file(save_design, "--save-design", (".json",))
-    res = control.step_response(controller, parse_flag(target, "pressure", "target"), start=parse_flag(start, "pressure", "start"),
+    res = experiments.step_response(controller, parse_flag(target, "pressure", "target"), start=parse_flag(start, "pressure", "start"),
                                 load=parse_flag(load, "force", "load"), supply=parse_flag(supply, "pressure", "supply", allow_zero=False),
                                 duration=parse_flag(duration, "time", "duration", allow_zero=False),
                                 p_max=parse_flag(p_max, "pressure", "p_max", allow_zero=False), law=law, beta=beta,
@@ -161,7 +162,7 @@ def fig13_cmd(
     """
 
     check_outputs(plot, dpi, out)
-    res = control.fig13(eps=parse_flag(eps, "pressure", "eps", allow_zero=False), ki=ki, muscle_file=muscle_file)
+    res = experiments.fig13(eps=parse_flag(eps, "pressure", "eps", allow_zero=False), ki=ki, muscle_file=muscle_file)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
@@ -187,7 +188,7 @@ def compare_cmd(
     """PID tuned on the first-order model vs both sliding-mode laws and stsmc, over step sizes and loads (§IV.A)."""
 
     check_outputs(plot, dpi, out)
-    res = control.compare(beta, muscle_file=muscle_file, direction=direction)
+    res = experiments.compare(beta, muscle_file=muscle_file, direction=direction)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
@@ -221,7 +222,7 @@ def robustness_cmd(
     check_outputs(plot, dpi, out)
     with progress_bar("plants", json) as bar:
         task = bar.add_task("plants", total=n)
-        res = control.robustness(n, seed=seed, beta=beta, force=force, muscle_file=muscle_file, direction=direction,
+        res = experiments.robustness(n, seed=seed, beta=beta, force=force, muscle_file=muscle_file, direction=direction,
                          progress=lambda done, total: bar.update(task, completed=done))
     _finish(res, plot, dpi, out)
     if json:
@@ -263,7 +264,7 @@ def track_cmd(
         _size_first("--duration", duration, force=force, extra=0.0)
 
     check_outputs(plot, dpi, out)
-    res = control.track_pressure(control.parse_reference(reference), controller,
+    res = experiments.track_pressure(control.parse_reference(reference), controller,
                                  duration=parse_flag(duration, "time", "duration", allow_zero=False),
                                  load=parse_flag(load, "force", "load"), p_max=parse_flag(p_max, "pressure", "p_max", allow_zero=False),
                                  law=law, beta=beta, eps=parse_flag(eps, "pressure", "eps", allow_zero=False), ki=ki,
@@ -291,7 +292,7 @@ def hysteresis_cmd(
     """Length tracking with and without hysteresis compensation (inflate/deflate branches)."""
 
     check_outputs(plot, dpi)
-    res = control.hysteresis_compensation(parse_flag(period, "time", "period", allow_zero=False),
+    res = experiments.hysteresis_compensation(parse_flag(period, "time", "period", allow_zero=False),
                                           sweep_period=parse_flag(sweep_period, "time", "sweep_period", allow_zero=False),
                                           muscle_file=muscle_file)
     if plot:
