@@ -101,7 +101,7 @@ def simulator() -> dict:
     """The seed paper's miniature on the plant simulator: the three feed-forwards' errors."""
     from mckibben.control import hysteresis_compensation
 
-    return hysteresis_compensation("4s").summary()
+    return hysteresis_compensation(4.0).summary()
 
 
 def main(argv: list[str]) -> int:

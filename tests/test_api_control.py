@@ -41,8 +41,8 @@ def test_step_plot_in_any_matplotlib_format(cli, tmp_path):
 
 
 def test_step_response_in_python():
-    res = mc.step_response("smc", target="0.55MPa", law="paper", beta=150, duration=0.3)
-    assert res.metrics == mc.step_response("smc", target=0.55e6, law="paper", beta=150, duration="300ms").metrics
+    res = mc.step_response("smc", target=0.55e6, law="paper", beta=150, duration=0.3)
+    assert res.metrics == mc.step_response("smc", target=0.55e6, law="paper", beta=150, duration=0.3).metrics
     assert res.metrics["time_constant_s"] <= 0.015  # the paper's β = 150, Fig. 13 (~0.01 s)
     assert repr(res).startswith("StepResult(controller='smc', target_Pa=5.5e+05")
     assert isinstance(res.plot(), Figure)
@@ -71,7 +71,7 @@ def test_fig13_track_robustness_compare_objects(tmp_path):
     assert f.metrics["paper@150"]["paper_time_constant_s"] == 0.01  # from datasets.paper_points
     df = f.to_pandas()
     assert set(df["law"]) == {"paper"} and "pressure_Pa" in df
-    t = mc.track("sine:0.4MPa,0.1MPa,2Hz", duration="0.5s")
+    t = mc.track_pressure(mc.SineReference(0.4e6, 0.1e6, 2.0), duration=0.5)
     assert t.metrics["rms_error_Pa"] < 0.1e6 and len(t.to_pandas()) == 500
     rob = mc.robustness(4, seed=1)
     assert rob.to_pandas().shape[0] == 16 and set(rob.metrics) == {"pid", "smc", "smc_paper", "stsmc"}
@@ -79,7 +79,7 @@ def test_fig13_track_robustness_compare_objects(tmp_path):
     out = tmp_path / "t.csv"
     t.to_file(out)
     assert list(pd.read_csv(out).columns)[:3] == ["time_s", "reference_Pa", "pressure_Pa"]
-    ol = mc.open_loop(supply="0.8MPa")
+    ol = mc.open_loop(supply=0.8e6)
     assert 0.08 <= ol.metrics["time_constant_s"] <= 0.10  # the paper's ~0.09 s (§IV.A)
     assert isinstance(ol.plot(), Figure)
 

@@ -26,7 +26,7 @@ def test_quantities_are_si_numbers_or_text_with_a_unit():
 
 def test_device_step_returns_a_result(tmp_path):
     with Emulator() as em:
-        res = Device(em.port).step("0.4MPa", duration="0.5s")
+        res = Device(em.port).step(0.4e6, duration=0.5)
     m = res.metrics
     assert 0 < m["rise_time_s"] < 0.3 and res.counters["missing"] == 0
     df = res.to_pandas()

@@ -61,7 +61,7 @@ def test_fig13_model_term_makes_beta_matter_little(fig13_rows):
 
 
 def test_paper_law_tau_falls_as_beta_passes_the_holding_command(model):
-    rows, _ = E.fig13(model, betas=[108.0, 120.0, 150.0, 180.0], laws=("paper",))
+    rows, _ = E.fig13_runs(model, betas=[108.0, 120.0, 150.0, 180.0], laws=("paper",))
     tc = [r["time_constant_s"] for r in rows]
     # below the command that holds 0.55 MPa (~117 counts) the step never gets to 63 %: eq. (11)
     assert np.isnan(tc[0])
@@ -165,7 +165,7 @@ def test_reference_above_the_maximum_is_clamped_on_the_plant(model):
 
 
 def test_robustness_runs_all_controllers_on_the_same_plants(model):
-    out = E.robustness(model, n=16, seed=3)
+    out = E.robustness_runs(model, n=16, seed=3)
     assert set(out["summary"]) == set(E.CONTROLLER_NAMES)
     for name in E.CONTROLLER_NAMES:
         tc = out["metrics"][name]["time_constant_s"]

@@ -26,7 +26,8 @@ from fmpy.validation import validate_fmu  # noqa: E402
 
 from mckibben.control.core import MODE_PID, core_spec, save_design  # noqa: E402
 from mckibben.control.metrics import step_metrics  # noqa: E402
-from mckibben.control.simulation import controller_params, muscle_file_plant, step_response  # noqa: E402
+from mckibben.control.simulation import controller_params, muscle_file_plant  # noqa: E402
+from mckibben.experiments.pressure import step_response  # noqa: E402
 from mckibben.data import read_muscle, read_table  # noqa: E402
 from mckibben.datasets import get_muscle  # noqa: E402
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC  # noqa: E402
@@ -163,7 +164,7 @@ def test_closed_loop_fmu_is_control_step_with_the_firmware_core(tmp_path, contro
     """The issue's bar: ``control step --controller smc --law paper --beta 150 --target 0.55MPa``'s time
     constant within 5 % (measured: the same to round-off, the firmware's C core being the Python
     mirror's bit for bit)."""
-    want = step_response(controller, target="0.55MPa", law=law, beta=beta)
+    want = step_response(controller, target=0.55e6, law=law, beta=beta)
     df = want.to_pandas()
     fmu = export_fmu("mpam97", out=tmp_path / "c.fmu", fmi=fmi, controller=controller, law=law, beta=beta)
     assert validate_fmu(str(fmu)) == []

@@ -187,8 +187,8 @@ def _two_masses(tmp_path, plant):
 def test_run_model_holds_one_pressure_per_muscle(tmp_path):
     plant = muscle_plant("mpam97").replace(friction_force=0.0, friction_per_pa=0.0)
     path = _two_masses(tmp_path, plant)
-    res = run_model(path, "muscle,muscle2", plant, reference="0.4,0.6MPa", initial_pressure="0.4,0.6MPa",
-                    duration="0.6s")
+    res = run_model(path, "muscle,muscle2", plant, reference=[0.4e6, 0.6e6], initial_pressure=[0.4e6, 0.6e6],
+                    duration=0.6)
     m = res.metrics
     assert m["tendons"] == ["muscle", "muscle2"] and m["controller_faults"] == [0, 0]
     assert m["final_pressure_Pa"] == pytest.approx([0.4e6, 0.6e6], abs=3e3)  # held (the controller's chatter ~1 kPa)

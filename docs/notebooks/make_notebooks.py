@@ -68,7 +68,7 @@ for name in LENGTH_MODELS:
 ax.plot(measured["pressure"] / 1e6, measured["length"] * 1e3, ".", label="campaign (synthetic)")
 ax.set_xlabel("pressure [MPa]"); ax.set_ylabel("length [mm]"); ax.legend();"""),
         ("md", "## Simulate an open-loop step\n\nThe inlet valve steps from rest; the paper measured a time constant of about 0.09 s (§IV.A)."),
-        ("code", """ol = mk.open_loop(supply="0.8MPa", load="0.6N")
+        ("code", """ol = mk.open_loop(supply=0.8e6, load=0.6)
 print(ol)
 ol.plot();"""),
         ("md", "## Identify\n\nA first-order-plus-dead-time model of the campaign's recorded step, with standard errors, and the model identified on the simulated plant (two steps give the valves' lift-off too)."),
@@ -87,9 +87,9 @@ smc = controller_params("smc", model, law="paper", beta=150)    # the paper's la
 pid.kp, pid.ki, smc.beta, smc.eps"""),
         ("md", "## Run a closed-loop step and compare"),
         ("code", """steps = {
-    "PID": mk.step_response("pid", target="0.55MPa", model=model, duration="0.5s"),
-    "SMC, paper's law": mk.step_response("smc", target="0.55MPa", law="paper", beta=150, model=model, duration="0.5s"),
-    "SMC, ours": mk.step_response("smc", target="0.55MPa", model=model, duration="0.5s"),
+    "PID": mk.step_response("pid", target=0.55e6, model=model, duration=0.5),
+    "SMC, paper's law": mk.step_response("smc", target=0.55e6, law="paper", beta=150, model=model, duration=0.5),
+    "SMC, ours": mk.step_response("smc", target=0.55e6, model=model, duration=0.5),
 }
 fig, ax = plt.subplots()
 for name, res in steps.items():
@@ -130,7 +130,7 @@ cmp"""),
 rob.plot()
 pd.DataFrame({c: {k: v["median"] for k, v in s.items()} for c, s in rob.metrics.items()})"""),
         ("md", "## Track a pressure trajectory"),
-        ("code", """tr = mc.track("sine:0.4MPa,0.1MPa,2Hz", duration="1s")
+        ("code", """tr = mc.track_pressure(mc.SineReference(0.4e6, 0.1e6, 2.0), duration=1.0)
 print(tr.metrics)
 tr.plot();"""),
     ],

@@ -2,13 +2,14 @@
 
 characterize -> fit -> predict -> simulate -> control -> deploy -> steer a three-muscle tool.
 
-SI units inside every function (Pa, m, N, s, rad); every public function also takes quantities
-as text with a unit (``"0.8MPa"``, ``"97mm"``). The main entry points are here::
+SI units inside every function (Pa, m, N, s, rad): the experiments take numbers in SI (text with
+a unit is refused with the number to pass) and the command line parses units
+(:func:`mckibben.units.parse_quantity`). The main entry points are here::
 
     import mckibben as mk
     muscle = mk.get_muscle("mpam97")                          # a published set (Table I, II)
     mk.predict_length(muscle, 0.8e6, 0.6).length              # eq. 2 and 3 -> 0.0781 m
-    step = mk.step_response("smc", target="0.55MPa", law="paper", beta=150)
+    step = mk.step_response("smc", target=0.55e6, law="paper", beta=150)   # Pa
     step.metrics, step.to_pandas(), step.plot()               # result objects
     mk.track_tip(mk.tool.parse_path("circle:radius=5mm,period=2s")).plot()  # the three-muscle tool
 
@@ -39,12 +40,12 @@ _ENTRY_POINTS = {
     "predict_length": ("mckibben.models", "predict_length"),
     "pressure_for_length": ("mckibben.models", "pressure_for_length"),
     "force_from_length": ("mckibben.models", "force_from_length"),
-    "open_loop": ("mckibben.control", "open_loop"),
+    "open_loop": ("mckibben.experiments", "open_loop"),
     "identify_plant": ("mckibben.control", "identify_plant"),
-    "step_response": ("mckibben.control", "step_response"),
-    "track_pressure": ("mckibben.control", "track"),
-    "fig13": ("mckibben.control", "fig13"),
-    "robustness": ("mckibben.control", "robustness"),
+    "step_response": ("mckibben.experiments", "step_response"),
+    "track_pressure": ("mckibben.experiments", "track_pressure"),
+    "fig13": ("mckibben.experiments", "fig13"),
+    "robustness": ("mckibben.experiments", "robustness"),
     "make_tool": ("mckibben.tool", "make_tool"),
     "track_tip": ("mckibben.tool", "track"),
     "Device": ("mckibben.rig", "Device"),

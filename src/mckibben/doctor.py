@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from urllib.parse import urlparse
 
-from mckibben import __version__, _kernels, control, models, plant, tool
+from mckibben import __version__, _kernels, control, experiments, models, plant, tool
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
 
@@ -42,14 +42,14 @@ def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
     return [
         ("static models", lambda: (models.predict_length(muscle, 0.8e6, 0.6),
                                    models.force(0.5e6, 0.09, muscle, model="chou-hannaford"))),
-        ("open loop", lambda: control.open_loop()),
-        ("sliding-mode step", lambda: control.step_response("smc", law="paper", beta=150)),
-        ("PID step", lambda: control.step_response("pid")),
-        ("tracking", lambda: control.track("sine:0.4MPa,0.1MPa,2Hz")),
-        ("Fig. 13", lambda: control.fig13()),
-        ("compare", lambda: control.compare()),
-        ("robustness", lambda: control.robustness(4)),
-        ("hysteresis", lambda: control.hysteresis_compensation()),
+        ("open loop", lambda: experiments.open_loop()),
+        ("sliding-mode step", lambda: experiments.step_response("smc", law="paper", beta=150)),
+        ("PID step", lambda: experiments.step_response("pid")),
+        ("tracking", lambda: experiments.track_pressure(control.SineReference(0.4e6, 0.1e6, 2.0))),
+        ("Fig. 13", lambda: experiments.fig13()),
+        ("compare", lambda: experiments.compare()),
+        ("robustness", lambda: experiments.robustness(4)),
+        ("hysteresis", lambda: experiments.hysteresis_compensation()),
         ("the tool", lambda: tool.track(tool.parse_path("circle:radius=5mm,period=2s"))),
         ("live stepper", lambda: plant.PlantStepper().advance(100, 0)),
         ("linear model", lambda: plant.linearize(pressure=0.4e6)),

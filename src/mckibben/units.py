@@ -215,9 +215,9 @@ def quantity(
 ) -> float:
     """A quantity given either in SI (a number) or as text with a unit (``"0.8MPa"``).
 
-    Every public function of the library that takes a physical quantity passes it through
-    here, so ``step_response(target=0.55e6)`` and ``step_response(target="0.55MPa")`` are the
-    same call.
+    For the readers and models that still take either; the experiments take numbers in SI only
+    (:func:`si`: ``step_response(target=0.55e6)``), and the command line parses text with
+    :func:`parse_quantity`.
 
     Parameters
     ----------

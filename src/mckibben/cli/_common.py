@@ -26,6 +26,7 @@ from rich.table import Table
 
 from mckibben.errors import InputError
 from mckibben.results import to_jsonable
+from mckibben.units import parse_quantity
 from mckibben import fit
 
 console = Console(soft_wrap=True)
@@ -89,6 +90,43 @@ def in_flags(message: str, flags: dict[str, str]) -> str:
 
     message = _LEADING.sub(leading, message, count=1)
     return _QUOTED.sub(lambda m: flags.get(m.group(1), m.group(0)), message)
+
+
+class FlagValue(float):
+    """A flag's quantity in SI that prints (``repr``) as the user typed it.
+
+    The library takes numbers and quotes the argument it refuses with ``{value!r}``; given a
+    :class:`FlagValue`, that quote is the flag's text (``--supply: '2MPa' is above the
+    compressor's 1 MPa``), while every computation, ``str``, ``format`` and JSON see the number.
+    """
+
+    text: str
+
+    def __new__(cls, value: float, text: str):
+        obj = super().__new__(cls, value)
+        obj.text = text
+        return obj
+
+    def __repr__(self) -> str:
+        return repr(self.text)
+
+
+def parse_flag(text: str | None, dimension: str, name: str, **kw) -> FlagValue | None:
+    """A flag's text in SI (None stays None), for the library argument ``name``.
+
+    Parameters
+    ----------
+    text : str or None
+        What the user typed. [-]
+    dimension : str
+        Its dimension (:func:`mckibben.units.parse_quantity`). [-]
+    name : str
+        The library's Python argument it goes to: a refusal names it, and :func:`in_flags` writes
+        it as the flag. [-]
+    **kw
+        ``allow_negative``, ``allow_zero`` of :func:`~mckibben.units.parse_quantity`. [-]
+    """
+    return None if text is None else FlagValue(parse_quantity(text, dimension, name, **kw), text)
 
 
 def emit_json(obj: dict) -> None:

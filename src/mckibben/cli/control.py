@@ -1,6 +1,9 @@
 """``mckibben control step|track|fig13|compare|robustness|hysteresis``: the controller on the plant simulator.
 
-Each command parses its options, makes one call of :mod:`mckibben.control` and prints the result.
+Each command parses its options (quantities with :func:`~mckibben.units.parse_quantity`, named by the
+library's Python arguments so that a refusal names the flag; the reference with
+:func:`~mckibben.control.references.parse_reference`), makes one call of :mod:`mckibben.experiments` with
+numbers in SI and prints the result.
 """
 
 from __future__ import annotations
@@ -8,13 +11,14 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, err_console, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, err_console, parse_flag, print_table
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, progress_bar, write_plot
 from mckibben.control import registry as R
 from mckibben.limits import check_budget
 from mckibben.units import parse_quantity
 from mckibben.atomic import check_output_file
 from mckibben import control
+from mckibben import experiments
 from mckibben import rig
 
 control_app = typer.Typer(help="Control on the simulated plant: step, track, fig13, compare, robustness, hysteresis.",
@@ -96,9 +100,13 @@ def step_cmd(
     check_outputs(plot, dpi, out)
     if save_design:
         check_output_file(save_design, "--save-design", (".json",))
-    res = control.step_response(controller, target, start=start, load=load, supply=supply, duration=duration, p_max=p_max,
-                        law=law, beta=beta, eps=eps, ki=ki, lam=lam, force=force, muscle_file=muscle_file,
-                        direction=direction)
+    res = experiments.step_response(controller, parse_flag(target, "pressure", "target"), start=parse_flag(start, "pressure", "start"),
+                                load=parse_flag(load, "force", "load"), supply=parse_flag(supply, "pressure", "supply", allow_zero=False),
+                                duration=parse_flag(duration, "time", "duration", allow_zero=False),
+                                p_max=parse_flag(p_max, "pressure", "p_max", allow_zero=False), law=law, beta=beta,
+                                eps=parse_flag(eps, "pressure", "eps", allow_zero=False), ki=ki,
+                                lam=parse_flag(lam, "time", "lam", allow_zero=False), force=force, muscle_file=muscle_file,
+                                direction=direction)
     _finish(res, plot, dpi, out)
     if save_design:
         how = (f"tuned on the plant of {muscle_file} ({direction})" if muscle_file
@@ -154,7 +162,7 @@ def fig13_cmd(
     """
 
     check_outputs(plot, dpi, out)
-    res = control.fig13(eps=eps, ki=ki, muscle_file=muscle_file)
+    res = experiments.fig13(eps=parse_flag(eps, "pressure", "eps", allow_zero=False), ki=ki, muscle_file=muscle_file)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
@@ -180,7 +188,7 @@ def compare_cmd(
     """PID tuned on the first-order model vs both sliding-mode laws and stsmc, over step sizes and loads (§IV.A)."""
 
     check_outputs(plot, dpi, out)
-    res = control.compare(beta, muscle_file=muscle_file, direction=direction)
+    res = experiments.compare(beta, muscle_file=muscle_file, direction=direction)
     _finish(res, plot, dpi, out)
     if json:
         emit_json(res.to_dict())
@@ -214,7 +222,7 @@ def robustness_cmd(
     check_outputs(plot, dpi, out)
     with progress_bar("plants", json) as bar:
         task = bar.add_task("plants", total=n)
-        res = control.robustness(n, seed=seed, beta=beta, force=force, muscle_file=muscle_file, direction=direction,
+        res = experiments.robustness(n, seed=seed, beta=beta, force=force, muscle_file=muscle_file, direction=direction,
                          progress=lambda done, total: bar.update(task, completed=done))
     _finish(res, plot, dpi, out)
     if json:
@@ -256,8 +264,12 @@ def track_cmd(
         _size_first("--duration", duration, force=force, extra=0.0)
 
     check_outputs(plot, dpi, out)
-    res = control.track(reference, controller, duration=duration, load=load, p_max=p_max, law=law, beta=beta, eps=eps,
-                ki=ki, lam=lam, force=force, muscle_file=muscle_file, direction=direction)
+    res = experiments.track_pressure(control.parse_reference(reference), controller,
+                                 duration=parse_flag(duration, "time", "duration", allow_zero=False),
+                                 load=parse_flag(load, "force", "load"), p_max=parse_flag(p_max, "pressure", "p_max", allow_zero=False),
+                                 law=law, beta=beta, eps=parse_flag(eps, "pressure", "eps", allow_zero=False), ki=ki,
+                                 lam=parse_flag(lam, "time", "lam", allow_zero=False), force=force, muscle_file=muscle_file,
+                                 direction=direction)
     _finish(res, plot, dpi, out)
     _warn_tuning(res.tuning)
     if json:
@@ -280,7 +292,9 @@ def hysteresis_cmd(
     """Length tracking with and without hysteresis compensation (inflate/deflate branches)."""
 
     check_outputs(plot, dpi)
-    res = control.hysteresis_compensation(period, sweep_period=sweep_period, muscle_file=muscle_file)
+    res = experiments.hysteresis_compensation(parse_flag(period, "time", "period", allow_zero=False),
+                                          sweep_period=parse_flag(sweep_period, "time", "sweep_period", allow_zero=False),
+                                          muscle_file=muscle_file)
     if plot:
         write_plot(control.plot_hysteresis(res), plot, dpi, res)
     if json:

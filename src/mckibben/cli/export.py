@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, parse_flag
 from mckibben.errors import InputError
 from mckibben import control
 from mckibben import export
@@ -46,8 +46,10 @@ def fmu_cmd(
         ctrl = control.core.load_design(design, "design")
         if ctrl.mode != export.fmu.controller_mode(controller):
             raise InputError(f"--design {design}: its mode is {ctrl.mode}, not --controller {controller}")
-    path = export.export_fmu(muscle, muscle_file, out, fmi, ctrl, load=load, supply=supply, direction=direction, law=law,
-                      beta=beta)
+    path = export.export_fmu(muscle, muscle_file, out, fmi, ctrl,
+                             load=parse_flag(load, "force", "load"),
+                             supply=parse_flag(supply, "pressure", "supply", allow_zero=False),
+                             direction=direction, law=law, beta=beta)
     closed = controller is not None
     if json:
         emit_json({"fmu": str(path), "fmi_version": f"{fmi}.0", "interface": "co-simulation",

@@ -7,7 +7,9 @@ import typer
 from mckibben import export
 from mckibben.cli import app
 from mckibben.results import check_table_path
-from mckibben.cli._common import JSON_OPTION, emit_json
+from mckibben.cli._common import JSON_OPTION, emit_json, parse_flag
+from mckibben.errors import InputError
+from mckibben.units import parse_values
 
 mujoco_app = typer.Typer(help="Calibrated muscles on the tendons of MuJoCo models (the mujoco extra).",
                          no_args_is_help=True)
@@ -32,7 +34,10 @@ def hang_cmd(
 ) -> None:
     """A mass hanging from one muscle in MuJoCo: its static length against predict length."""
 
-    res = export.mujoco.hanging_mass(muscle, pressure, load, force_model=force_model, duration=duration, friction=not no_friction)
+    res = export.mujoco.hanging_mass(muscle, parse_flag(pressure, "pressure", "pressure", allow_zero=False),
+                                     parse_flag(load, "force", "load", allow_zero=False), force_model=force_model,
+                                     duration=parse_flag(duration, "time", "duration", allow_zero=False),
+                                     friction=not no_friction)
     if json:
         emit_json(res.to_dict())
         return
@@ -41,6 +46,14 @@ def hang_cmd(
                f"{m['static_length_m'] * 1e3:.3f} mm in MuJoCo, {m['predicted_length_m'] * 1e3:.3f} mm predicted "
                f"({m['length_error_vs_predict_pct']:+.2f} %), {m['plant_static_length_m'] * 1e3:.3f} mm the plant's "
                f"static length ({m['length_error_vs_plant_pct']:+.2f} %)")
+
+
+def _counts(text: str, name: str) -> list[float]:
+    """PWM counts from the command line: one, or one per muscle, comma-separated."""
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"{name}: {text!r} is not a PWM count 0..255 (or one per muscle, comma-separated)") from None
 
 
 @mujoco_app.command("run")
@@ -65,8 +78,12 @@ def run_cmd(
 
     if out:
         check_table_path(out)
-    res = export.mujoco.run_model(model, tendon, muscle, reference=reference, inlet=inlet, bleed=bleed, controller=controller,
-                    duration=duration, initial_pressure=initial_pressure, offset=offset, force_model=force_model)
+    res = export.mujoco.run_model(
+        model, tendon, muscle, reference=None if reference is None else parse_values(reference, "pressure", "reference"),
+        inlet=None if inlet is None else _counts(inlet, "inlet"), bleed=_counts(bleed, "bleed"), controller=controller,
+        duration=parse_flag(duration, "time", "duration", allow_zero=False),
+        initial_pressure=parse_values(initial_pressure, "pressure", "initial_pressure"),
+        offset=parse_values(offset, "length", "offset"), force_model=force_model)
     if out:
         res.to_file(out)
     if json:

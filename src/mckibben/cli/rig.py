@@ -9,7 +9,7 @@ import typer
 
 from mckibben.cli import app
 from mckibben import experiments
-from mckibben.cli._common import JSON_OPTION, emit_json, err_console, print_table
+from mckibben.cli._common import JSON_OPTION, emit_json, err_console, parse_flag, print_table
 from mckibben.atomic import check_output_file
 from mckibben.control import registry as R
 from mckibben.errors import InputError
@@ -145,7 +145,8 @@ def step_cmd(
 ) -> None:
     """Run a pressure step on the device and print the step metrics."""
 
-    res = rig.Device(port).step(target, controller=controller, duration=duration)
+    res = rig.Device(port).step(parse_flag(target, "pressure", "target", allow_zero=False), controller=controller,
+                                duration=parse_flag(duration, "time", "duration", allow_zero=False))
     _warn_faults(res.counters.get("faults", 0))
     if json:
         emit_json(res.to_dict())

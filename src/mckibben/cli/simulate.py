@@ -6,9 +6,9 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, parse_flag, print_table
 from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, write_plot
-from mckibben import control
+from mckibben import experiments
 from mckibben import plant
 
 simulate_app = typer.Typer(help="Simulate the rig: valves, chamber, muscle, load, sensors.", no_args_is_help=True)
@@ -34,7 +34,10 @@ def open_loop_cmd(
     """An open-loop inlet-valve step from rest: time constant, rise time, final pressure."""
 
     check_outputs(plot, dpi, out)
-    res = control.open_loop(valve, supply=supply, load=load, duration=duration, muscle_file=muscle_file, direction=direction)
+    res = experiments.open_loop(valve, supply=parse_flag(supply, "pressure", "supply", allow_zero=False),
+                            load=parse_flag(load, "force", "load"),
+                            duration=parse_flag(duration, "time", "duration", allow_zero=False),
+                            muscle_file=muscle_file, direction=direction)
     d = res.to_dict()
     if plot:
         write_plot(res.plot(), plot, dpi, res)

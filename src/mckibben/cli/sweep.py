@@ -79,13 +79,13 @@ def summarize_cmd(
     objective: str = typer.Option("time_constant_s", "--objective", help="Metric to minimise (median over plants)."),
     constraint: str = typer.Option("overshoot_pct<=10", "--constraint", help="METRIC<=VALUE the quantile must meet."),
     quantile: float = typer.Option(0.95, "--quantile", help="Fraction of plants that must meet the constraint."),
-    plots: str = typer.Option(None, "--plots", help="Folder for pareto.png and sensitivity.png."),
+    folder: str = typer.Option(None, "--plots", help="Folder for pareto.png and sensitivity.png."),
     json: bool = JSON_OPTION,
 ) -> None:
     """Best setting under a constraint, Pareto front, sensitivities, figures."""
 
-    if plots:
-        check_output_dir(plots, "--plots")
+    if folder:
+        check_output_dir(folder, "--plots")
     table = sweep_lib.read_results(results)
     best = sweep_lib.best_setting(table, objective, constraint, quantile)
     s = sweep_lib.settings_table(table, quantile)
@@ -93,7 +93,7 @@ def summarize_cmd(
     objs = [c for c in ("time_constant_s_median", "valve_effort_counts_median", f"overshoot_pct_q{qn}") if c in s]
     front = sweep_lib.pareto_front(s, objs) if objs else s.iloc[:0]
     sens = sweep_lib.sensitivity(table)
-    paths = sweep_lib.summary.figures(table, plots, quantile) if plots else []
+    paths = sweep_lib.summary.figures(table, folder, quantile) if folder else []
     if json:
         emit_json({"runs": len(table), "settings": len(s), "objective": objective, "constraint": constraint,
                    "quantile": quantile, "best": best, "pareto_front": front.to_dict("records"),

@@ -617,7 +617,7 @@ def step_reference(n: int, t_step_index: int, p0: float, p1: float) -> np.ndarra
     return r
 
 
-def fig13(model: FirstOrderModel, plant=None, betas=(120.0, 150.0), *, laws=LAWS, eps: float | None = None,
+def fig13_runs(model: FirstOrderModel, plant=None, betas=(120.0, 150.0), *, laws=LAWS, eps: float | None = None,
           ki: float | None = None, duration: float = 1.0, t_step: float = 0.1):
     """The paper's Fig. 13 on the plant: sliding mode, step 0 → 0.55 MPa, for each law and β.
 
@@ -838,7 +838,7 @@ def sample_plants(n: int, seed: int = 0, spread: float = 0.3, supply=(0.6e6, 1.0
     return out
 
 
-#: The controllers of :func:`robustness` and :func:`step_size_table`: the paper's PID and both
+#: The controllers of :func:`robustness_runs` and :func:`step_size_table`: the paper's PID and both
 #: sliding-mode laws, then every extension law of the registry (:data:`mckibben.control.registry.EXTENSIONS`,
 #: the super-twisting ``stsmc``...), each with its documented design.
 CONTROLLER_NAMES = ("pid", "smc", "smc_paper") + tuple(c.name for c in R.EXTENSIONS)
@@ -870,7 +870,7 @@ def comparison_controllers(model: FirstOrderModel, beta: float | None = None) ->
     return out
 
 
-def robustness(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float | None = None,
+def robustness_runs(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float | None = None,
                target: float = FIG13_TARGET_PA, duration: float = 0.6, t_step: float = 0.05, samples=None,
                base_plant=None, controllers=None):
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same N plants.

@@ -1,72 +1,47 @@
-"""Closed-loop experiments on the simulated plant, one public call each, returning result objects.
+"""The building blocks of the closed-loop experiments: the identified model, the documented designs, the plants.
 
-Every function here takes quantities as SI numbers or as text with a unit (``"0.55MPa"``,
-``0.55e6``), identifies the calibrated plant when no model is given (§IV.A of
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), :func:`~mckibben.control.experiments.identify_plant`), designs the
-controller with the documented tuning (``docs/control.md``) and runs the firmware core on the
-batch plant simulator (:func:`~mckibben.control.experiments.run_closed_loop`). The command line
-(``mckibben control ...``) is a thin shell over these calls.
+:func:`identified_model` (the calibrated plant identified as the paper did, §IV.A of
+“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
+000_909f662a44080c85.txt), :func:`~mckibben.control.experiments.identify_plant`),
+:func:`controller_params` (a controller with the documented tuning, ``docs/control.md``),
+:func:`tuned_controller` (gains tuned on a plant), :func:`muscle_file_plant` (a muscle file's own
+plant), :func:`pressure_reference` (a reference sampled at the control period) and the checks of
+the gains the experiments share. The experiments themselves (:func:`step_response`,
+:func:`fig13`, ...) are in :mod:`mckibben.experiments.pressure`, above control, tool and rig.
 
->>> from mckibben.control import step_response          # doctest: +SKIP
->>> res = step_response("smc", target="0.55MPa", law="paper", beta=150)   # doctest: +SKIP
->>> res.metrics["time_constant_s"], res.to_pandas().columns[:3].tolist()   # doctest: +SKIP
+Every function takes numbers in SI (Pa, N, s) and objects
+(:class:`~mckibben.control.references.SineReference`); text with a unit is refused with the number
+to pass (:func:`mckibben.units.si`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import os
 from functools import lru_cache
 
 import numpy as np
 
 from mckibben.control import registry as R
 from mckibben.control.controllers import FirstOrderModel, with_supervisor_model
-from mckibben.control.core import CoreParams, core_spec
-from mckibben.control.experiments import (
-    CONTROLLER_NAMES,
-    LAWS,
-    GainTuning,
-    LoopRecord,
-    plant_batch,
-    run_closed_loop,
-    step_reference,
-)
-from mckibben.control.experiments import fig13 as _fig13_runs
-from mckibben.control.experiments import robustness as _robustness_runs
-from mckibben.control.experiments import step_size_table as _step_size_rows
-from mckibben.control.metrics import tracking_metrics
-from mckibben.errors import InputError, unknown_name
-from mckibben.hardware import P_MAX_DEFAULT
-from mckibben.limits import check_budget, check_p_max, clamp_pressure
-from mckibben.results import Result, to_jsonable
-from mckibben.units import parse_quantity, quantity
-from mckibben.control.experiments import identify_plant
-from mckibben.hardware import P_MAX_LIMIT
-from mckibben.datasets import get_muscle
-from mckibben.limits import check_load
-from mckibben.plant import PlantParams
+from mckibben.control.core import CoreParams
+from mckibben.control.experiments import LAWS, identify_plant, tune_gains
+from mckibben.control.references import SineReference, refuse_text
 from mckibben.data.io import read_muscle
-from mckibben.fit.muscle_file import check_direction, muscle_force_law
-from mckibben.models import laws as LW
-from mckibben.control.experiments import tune_gains
 from mckibben.data.steplog import read_step_log
-from mckibben.control.experiments import FIG13_TARGET_PA, sample_plants
-from mckibben.control.experiments import _pct
-from mckibben.plant import CALIBRATION_PWM, open_loop_step
-from mckibben.control.hysteresis import PERIOD_MAX, PERIOD_MIN, SWEEP_PERIOD_MAX, SWEEP_PERIOD_MIN, hysteresis_benefit
-from mckibben.control.plots import plot_record
-from mckibben.control.plots import plot_fig13
-from mckibben.control.plots import plot_compare
-from mckibben.control.plots import plot_robustness
-from mckibben.control.plots import plot_open_loop
+from mckibben.datasets import get_muscle
+from mckibben.errors import ArgumentTypeError, InputError, unknown_name
+from mckibben.fit.muscle_file import check_direction, muscle_force_law
+from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
+from mckibben.limits import check_budget, check_load, check_p_max
+from mckibben.models import laws as LW
+from mckibben.plant import PlantParams
+from mckibben.units import si
 
 __all__ = [
-    "CONTROLLERS", "CompareResult", "Fig13Result", "OpenLoopResult", "RobustnessResult", "StepResult",
-    "TrackResult", "compare", "controller_params", "fig13", "hysteresis_compensation", "identified_model", "open_loop",
-    "plant_load",
-    "pressure_reference",
-    "robustness", "step_response", "track", "tuned_controller",
+    "CONTROLLERS", "FILE_IDENTIFICATION_S", "TS", "boundary_layer", "check_beta", "check_ki", "check_periods",
+    "controller_params", "default_identification", "identified_model", "identify_file_plant", "muscle_file_plant",
+    "pid_gains_dict", "plant_load", "pressure_reference", "rest_pull", "smc_gains_dict", "tuned_controller",
 ]
 
 #: Controllers the firmware core runs (:data:`mckibben.control.registry.NAMES`).
@@ -76,8 +51,14 @@ TS = 1e-3
 
 
 @lru_cache(maxsize=1)
-def _default_identification():
+def default_identification():
+    """:func:`~mckibben.control.experiments.identify_plant` on the calibrated plant, once per process.
 
+    Returns
+    -------
+    tuple
+        ``(StepFit, FirstOrderModel, LoopRecord)``.
+    """
     return identify_plant()
 
 
@@ -92,30 +73,59 @@ def identified_model() -> FirstOrderModel:
     FirstOrderModel
         Gain [Pa/count], time constant [s], dead time [s], lift-off [PWM counts].
     """
-    return _default_identification()[1]
+    return default_identification()[1]
 
 
-def _beta(beta) -> float | None:
+def _counts_or_rate(value, name: str) -> float:
+    """A gain given as a number (PWM counts, 1/s): text is refused, as every quantity of the library."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ArgumentTypeError(f"{name}: {value!r} is not a number")
+    return float(value)
+
+
+def check_beta(beta) -> float | None:
+    """A sliding-mode switching gain β, 0..255 (None stays None: the design's).
+
+    Parameters
+    ----------
+    beta : float or None
+        The gain. [PWM counts]
+    """
     if beta is None:
         return None
-    b = float(beta)
+    b = _counts_or_rate(beta, "beta")
     if not (math.isfinite(b) and 0 <= b <= 255):
         raise InputError(f"beta: {beta!r} must be in 0..255 PWM counts")
     return b
 
 
-def _ki(ki) -> float | None:
+def check_ki(ki) -> float | None:
+    """A sliding-surface integral weight, at least 0 (None stays None: the design's).
+
+    Parameters
+    ----------
+    ki : float or None
+        The weight. [1/s]
+    """
     if ki is None:
         return None
-    k = float(ki)
+    k = _counts_or_rate(ki, "ki")
     if not (math.isfinite(k) and k >= 0):
         raise InputError(f"ki: {ki!r} must be >= 0 (1/s)")
     return k
 
 
-def _periods(value, name: str) -> float:
-    """A positive time that is a whole number of 1 ms control periods. [s]"""
-    d = quantity(value, "time", name, allow_zero=False)
+def check_periods(value, name: str) -> float:
+    """A positive time that is a whole number of 1 ms control periods.
+
+    Parameters
+    ----------
+    value : float
+        The time. [s]
+    name : str
+        The argument, for messages. [-]
+    """
+    d = si(value, "time", name, allow_zero=False)
     steps = d / TS
     if steps >= 1 and abs(steps - round(steps)) > 1e-6 * steps:
         raise InputError(f"{name}: {value!r} must be a whole number of 1 ms control periods")
@@ -125,7 +135,7 @@ def _periods(value, name: str) -> float:
 
 
 def controller_params(controller: str = "smc", model: FirstOrderModel | None = None, *, law: str = "model",
-                      beta=None, eps=None, ki=None, lam=None, p_max="0.8MPa") -> CoreParams:
+                      beta=None, eps=None, ki=None, lam=None, p_max=P_MAX_DEFAULT) -> CoreParams:
     """The firmware core's parameters for a controller with the documented tuning.
 
     Parameters
@@ -140,13 +150,13 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
         β·tanh(S/ε) alone. [-]
     beta : float, optional
         Switching gain; default 50 (``model``) or 150 (``paper``). [PWM counts]
-    eps : float or str, optional
+    eps : float, optional
         Boundary layer; default the law's tuning. [Pa]
     ki : float, optional
         Surface integral weight; default the law's tuning. [1/s]
-    lam : float or str, optional
+    lam : float, optional
         PID closed-loop time constant; default τ/3. [s]
-    p_max : float or str, default "0.8MPa"
+    p_max : float, default P_MAX_DEFAULT (0.8e6)
         Supervisor's maximum pressure. [Pa]
 
     Returns
@@ -157,19 +167,14 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
         raise unknown_name("controller", controller, CONTROLLERS)
     if law not in LAWS:
         raise unknown_name("`law`", law, LAWS)
-    b, k = _beta(beta), _ki(ki)
+    b, k = check_beta(beta), check_ki(ki)
     e = boundary_layer(eps)
-    lm = quantity(lam, "time", "lam", allow_zero=False) if lam is not None else None
+    lm = si(lam, "time", "lam", allow_zero=False) if lam is not None else None
     model = identified_model() if model is None else model
     # the supervisor's valve model (G, lift-off) comes from the identification too
-    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "p_max",
-                                                                       allow_zero=False))), model)
+    base = with_supervisor_model(CoreParams(p_max=check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))),
+                                 model)
     return R.get(controller).resolve("design")(model, base, law=law, beta=b, eps=e, ki=k, lam=lm)
-
-
-def _model_dict(model: FirstOrderModel) -> dict:
-    return {"gain_Pa_per_count": model.gain, "tau_s": model.tau, "dead_time_s": model.dead_time,
-            "lift_off_counts": model.lift_off}
 
 
 def smc_gains_dict(params: CoreParams) -> dict:
@@ -196,110 +201,18 @@ def pid_gains_dict(params: CoreParams) -> dict:
             "tf_s": params.tf}
 
 
-def _gains_dict(params: CoreParams, controller: str) -> dict:
-    spec = R.get(controller)
-    if spec.describe:
-        return spec.resolve("describe")(params)
-    return {f"{g.param}_{g.unit.replace(' ', '_').replace('/', '_per_')}": getattr(params, g.param) for g in spec.gains}
-
-
-def _record_frame(rec: LoopRecord, i: int = 0):
-    import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-    return pd.DataFrame({
-        "time_s": rec.t, "reference_Pa": rec.reference[i], "pressure_Pa": rec.pressure[i],
-        "inlet_pwm": rec.inlet[i], "bleed_pwm": rec.bleed[i], "command_pwm": rec.command[i],
-        "length_m": rec.length[i], "fault_flags": rec.faults[i],
-    })
-
-
-@dataclass(frozen=True, repr=False)
-class StepResult(Result):
-    """A closed-loop pressure step on the simulated plant (:func:`step_response`).
-
-    Attributes
-    ----------
-    record : LoopRecord
-        The sampled run (one instance). [-]
-    step_time : float
-        Time of the step. [s]
-    model : FirstOrderModel
-        The identified model the controller was designed on. [-]
-    params : CoreParams
-        The controller's parameters. [-]
-    arguments : dict
-        Controller, target [Pa], start [Pa], load [N], p_max [Pa], step time [s]. [-]
-    tuning : GainTuning or None
-        How the gains were tuned on a muscle file's plant (None: the documented gains). [-]
-    """
-
-    record: LoopRecord
-    step_time: float
-    model: FirstOrderModel
-    params: CoreParams
-    arguments: dict = field(default_factory=dict)
-    tuning: GainTuning | None = None
-    call = "mckibben.control.step_response"
-    _repr_keys = ("time_constant_s", "overshoot_pct", "settling_time_s", "steady_state_error_Pa")
-
-    @property
-    def metrics(self) -> dict:
-        """Step metrics (:func:`~mckibben.control.metrics.step_metrics`) from the step on. [SI]"""
-        return self.record.metrics(0, self.step_time)
-
-    def to_dict(self) -> dict:
-        """What ``mckibben control step --json`` prints."""
-        a = self.arguments
-        return to_jsonable({
-            "controller": a["controller"], "target_Pa": a["target_Pa"], "from_Pa": a["from_Pa"],
-            "load_N": a["load_N"], "p_max_Pa": a["p_max_Pa"], "requested_target_Pa": a["requested_target_Pa"],
-            "requested_from_Pa": a["requested_from_Pa"], "reference_clamped": a["reference_clamped"],
-            "step_time_s": self.step_time,
-            "model": _model_dict(self.model), "gains": _gains_dict(self.params, a["controller"]),
-            "peak_pressure_Pa": float(np.nanmax(self.record.pressure[0])),
-            "faults": self.faults, "target_unreachable": self.target_unreachable,
-            **({"muscle_file": a["muscle_file"], "direction": a["direction"], "supply_Pa": a["supply_Pa"]}
-               if "muscle_file" in a else {}),
-            **({"tuning": self.tuning.to_dict()} if self.tuning is not None else {}),
-            **self.metrics})
-
-    @property
-    def faults(self) -> int:
-        """OR of the supervisor's fault flags over the run (0: none). [-]"""
-        return int(np.bitwise_or.reduce(self.record.faults[0].astype(np.int64)))
-
-    @property
-    def target_unreachable(self) -> bool:
-        """Whether the run ended settled below the target with the inlet open (the supply's limit)."""
-        return bool(self.record.target_unreachable(0))
-
-    def _series(self):
-        return _record_frame(self.record)
-
-    def plot(self, ax=None):
-        """Pressure against reference, and the valve command; return the Figure.
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes or pair of Axes, optional
-            One Axes: the pressure only; two: pressure and command; default a new figure. [-]
-        """
-
-        return plot_record(self.record, [self.arguments["controller"]], ax=ax)
-
-
 def boundary_layer(eps) -> float | None:
     """The sliding-mode boundary layer ε, checked to lie in 1 Pa .. :data:`~mckibben.hardware.P_MAX_LIMIT`.
 
     Parameters
     ----------
-    eps : float or str or None
+    eps : float or None
         The boundary layer; None for the default. [Pa]
     """
     if eps is None:
         return None
 
-    e = quantity(eps, "pressure", "eps", allow_zero=False)
+    e = si(eps, "pressure", "eps", allow_zero=False)
     if not 1.0 <= e <= P_MAX_LIMIT:
         raise InputError(f"eps: {eps!r} must be between 1 Pa and {P_MAX_LIMIT / 1e6:g} MPa (the supervisor's "
                          "ceiling)")
@@ -311,25 +224,25 @@ def plant_load(load) -> float:
 
     Parameters
     ----------
-    load : float or str
+    load : float
         The load. [N]
     """
 
-    return check_load(quantity(load, "force", "load"), get_muscle(PlantParams().muscle_name))
+    return check_load(si(load, "force", "load"), get_muscle(PlantParams().muscle_name))
 
 
-def muscle_file_plant(path, load="0.6N", supply=None, direction: str = "inflate"):
+def muscle_file_plant(path, load=0.6, supply=None, direction: str = "inflate"):
     """The plant of a muscle file's own fitted force law (:meth:`PlantParams.from_muscle_file`), loaded.
 
     Parameters
     ----------
     path : str or pathlib.Path
         A muscle file with a ``[force_model]`` table (``mckibben fit … --save``). [-]
-    load : float or str, default "0.6N"
+    load : float, default 0.6
         Hanging load: at most the law's force at the rest length and the supply (a heavier load
         would stretch the muscle past the lengths it was fitted on). Its mass moves with the
         muscle (and is critically damped, ``docs/plant.md``). [N]
-    supply : float or str, optional
+    supply : float, optional
         Supply pressure (gauge); default the top of the fitted pressure range. [Pa]
     direction : {"inflate", "deflate"}, default "inflate"
         The branch of the law (:func:`~mckibben.fit.muscle_file.check_direction`: a spring fit
@@ -342,15 +255,15 @@ def muscle_file_plant(path, load="0.6N", supply=None, direction: str = "inflate"
     Raises
     ------
     InputError
-        One line starting ``--muscle-file`` and naming the file (missing, no force law, a law the
-        plant cannot run) or ``--load``/``--supply``/``--direction``.
+        One line starting ``muscle_file`` and naming the file (missing, no force law, a law the
+        plant cannot run) or ``load``/``supply``/``direction``.
     """
 
-    f = quantity(load, "force", "load")
+    f = si(load, "force", "load")
     check_direction(direction)
     kw = {}
     if supply is not None:
-        kw["supply_pressure"] = quantity(supply, "pressure", "supply", allow_zero=False)
+        kw["supply_pressure"] = si(supply, "pressure", "supply", allow_zero=False)
         if kw["supply_pressure"] > 1e6:
             raise InputError(f"supply: {supply!r} is above the compressor's 1 MPa")
     try:
@@ -408,34 +321,8 @@ def identify_file_plant(plant) -> FirstOrderModel:
     return identify_plant(plant, duration=FILE_IDENTIFICATION_S)[1]
 
 
-def _file_controllers(plant, beta=None) -> dict:
-    """The controllers of :func:`compare` and :func:`robustness` (:data:`CONTROLLER_NAMES`), tuned on a muscle
-    file's plant: ``pid``, ``smc`` (our law; ``beta`` held when given), ``smc_paper`` (the paper's law) and
-    each extension law of the registry."""
-    m = identify_file_plant(plant)
-    out = {"pid": tuned_controller("pid", m, plant).params, "smc": tuned_controller("smc", m, plant, beta=beta).params,
-           "smc_paper": tuned_controller("smc", m, plant, law="paper").params}
-    for spec in R.EXTENSIONS:
-        out[spec.name] = tuned_controller(spec.name, m, plant).params
-    return out
-
-
-def _refuse_muscle_file(command: str, muscle_file, why: str) -> None:
-    if muscle_file is not None:
-        raise InputError(f"muscle_file {muscle_file}: control {command} {why}")
-
-
-def _no_direction(direction: str, muscle_file) -> None:
-    """``--direction`` is the branch of a muscle file's law: refuse it (or a bad value) without one."""
-
-    check_direction(direction)
-    if muscle_file is None and direction != "inflate":
-        raise InputError(f"direction {direction}: picks the branch of a `muscle_file`'s fitted law; the "
-                         "calibrated plant runs both branches through its braid friction")
-
-
 def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str = "model", beta=None, eps=None,
-                     ki=None, lam=None, p_max="0.8MPa", objective: str = "step"):
+                     ki=None, lam=None, p_max=P_MAX_DEFAULT, objective: str = "step"):
     """A controller whose free gains are tuned on a plant (:func:`~mckibben.control.experiments.tune_gains`).
 
     What a muscle file's plant gets instead of the calibrated rig's gains (``docs/control.md``,
@@ -455,16 +342,16 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
         Sliding-mode law. [-]
     beta : float, optional
         Switching gain to hold. [PWM counts]
-    eps : float or str, optional
+    eps : float, optional
         Boundary layer to hold. [Pa]
     ki : float, optional
         Surface integral weight to hold. [1/s]
-    lam : float or str, optional
+    lam : float, optional
         PID closed-loop time constant to hold. [s]
-    p_max : float or str, default "0.8MPa"
+    p_max : float, default P_MAX_DEFAULT (0.8e6)
         Supervisor's maximum pressure (the design steps stay below it). [Pa]
     objective : {"step", "track"}, default "step"
-        Tune on design steps (:func:`step_response`) or design sines (:func:`track`). [-]
+        Tune on design steps (:func:`step_response`) or design sines (:func:`track_pressure`). [-]
 
     Returns
     -------
@@ -476,132 +363,25 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
         raise unknown_name("controller", controller, CONTROLLERS)
     if law not in LAWS:
         raise unknown_name("`law`", law, LAWS)
-    b, k, e = _beta(beta), _ki(ki), boundary_layer(eps)
-    lm = quantity(lam, "time", "lam", allow_zero=False) if lam is not None else None
-    base = with_supervisor_model(CoreParams(p_max=check_p_max(quantity(p_max, "pressure", "p_max",
-                                                                       allow_zero=False))), model)
+    b, k, e = check_beta(beta), check_ki(ki), boundary_layer(eps)
+    lm = si(lam, "time", "lam", allow_zero=False) if lam is not None else None
+    base = with_supervisor_model(CoreParams(p_max=check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))),
+                                 model)
     return tune_gains(plant, model, controller, law=law, base=base, beta=b, eps=e, ki=k, lam=lm, objective=objective)
 
 
-def _step_args(controller, target, start, load, supply, duration, p_max, force, muscle_file=None):
-    """Check a step's numbers, limits first: a refusal comes before any plant is built.
-
-    With a muscle file, its plant's load check replaces the calibrated muscle's (the caller
-    builds that plant).
-    """
-    dur = _periods(duration, "duration")
-    pmax = check_p_max(quantity(p_max, "pressure", "p_max", allow_zero=False))
-    p1 = quantity(target, "pressure", "target")
-    p0 = quantity(start, "pressure", "start")
-    hold = 0.5 if p0 > 0 else 0.05
-    check_budget("duration", (hold + dur) / TS, force=force)
-    if p0 == p1:
-        raise InputError("target: equals `start`, there is no step")
-    (p0c, p1c), clamped = clamp_pressure([p0, p1], pmax, "target/start")
-    if p0c == p1c:
-        raise InputError(f"target: {target!r} and `start` {start!r} are both clamped to {p1c / 1e6:g} MPa "
-                         "(`p_max`): there is no step")
-    args = {"controller": controller, "target_Pa": float(p1c), "from_Pa": float(p0c),
-            "load_N": plant_load(load) if muscle_file is None else quantity(load, "force", "load"),
-            "p_max_Pa": pmax, "duration_s": dur,
-            "requested_target_Pa": p1, "requested_from_Pa": p0, "reference_clamped": clamped,
-            "step_time_s": hold}
-    if supply is not None:
-        args["supply_Pa"] = quantity(supply, "pressure", "supply", allow_zero=False)
-    return args
-
-
-def step_response(controller: str = "smc", target="0.55MPa", *, start="0MPa", load="0.6N", supply=None,
-                  duration="1s", p_max="0.8MPa", law: str = "model", beta=None, eps=None, ki=None, lam=None,
-                  model: FirstOrderModel | None = None, force: bool = False, muscle_file=None,
-                  direction: str = "inflate") -> StepResult:
-    """A pressure step on the calibrated plant under the firmware's controller.
-
-    The pressure ``start`` is held (0.05 s from rest, 0.5 s from a back pressure), then the
-    reference steps to ``target``; a reference outside [0, p_max] is clamped as the supervisor
-    would (one warning, ``reference_clamped``), and scored as commanded; Fig. 13 of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) is this experiment with
-    ``law="paper"``, ``beta`` 120 or 150 and ``target`` 0.55 MPa.
-
-    Parameters
-    ----------
-    controller : {"smc", "pid"}, default "smc"
-        The controller (:func:`controller_params`). [-]
-    target : float or str, default "0.55MPa"
-        Pressure after the step. [Pa]
-    start : float or str, default "0MPa"
-        Pressure held before the step. [Pa]
-    load : float or str, default "0.6N"
-        Hanging load. [N]
-    supply : float or str, optional
-        Supply pressure; default the calibrated plant's. [Pa]
-    duration : float or str, default "1s"
-        Time after the step. [s]
-    p_max : float or str, default "0.8MPa"
-        Supervisor's maximum pressure. [Pa]
-    law : {"model", "paper"}, default "model"
-        Sliding-mode law. [-]
-    beta : float, optional
-        Switching gain. [PWM counts]
-    eps : float or str, optional
-        Boundary layer. [Pa]
-    ki : float, optional
-        Surface integral weight. [1/s]
-    lam : float or str, optional
-        PID closed-loop time constant. [s]
-    model : FirstOrderModel, optional
-        Design model; default :func:`identified_model`. [-]
-    force : bool, default False
-        Run past the documented size limits (:mod:`mckibben.limits`). [-]
-    muscle_file : str or pathlib.Path, optional
-        Run a muscle file's own fitted force law (:func:`muscle_file_plant`) instead of the
-        calibrated plant; the design model is identified on that plant and the gains not given
-        are tuned on it (:func:`tuned_controller`). [-]
-    direction : {"inflate", "deflate"}, default "inflate"
-        With ``muscle_file``: the branch of its law. [-]
-
-    Returns
-    -------
-    StepResult
-        ``.metrics`` (time constant, rise, overshoot, settling, errors, effort), ``.to_pandas()``
-        (``time_s``, ``reference_Pa``, ``pressure_Pa``, ``inlet_pwm``, ``bleed_pwm``,
-        ``command_pwm``, ``length_m``, ``fault_flags``), ``.plot()``.
-    """
-    _no_direction(direction, muscle_file)
-    args = _step_args(controller, target, start, load, supply, duration, p_max, force, muscle_file)
-    tuning = None
-    if muscle_file is not None:
-        plant = muscle_file_plant(muscle_file, load, supply, direction)
-        params_model = identify_file_plant(plant) if model is None else model
-        tuning = tuned_controller(controller, params_model, plant, law=law, beta=beta, eps=eps, ki=ki, lam=lam,
-                                  p_max=p_max)
-        params = tuning.params
-        args.update(muscle_file=str(muscle_file), direction=direction, supply_Pa=float(plant.supply_pressure))
-    else:
-        plant_kw = {"load_N": args["load_N"]}
-        if "supply_Pa" in args:
-            plant_kw["supply_Pa"] = args["supply_Pa"]
-        plant = plant_batch(**plant_kw)
-        params_model = identified_model() if model is None else model
-        params = controller_params(controller, params_model, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=p_max)
-    hold = args["step_time_s"]
-    total = hold + args["duration_s"]
-    n = int(round(total / TS))
-    ref = step_reference(n, int(round(hold / TS)), args["from_Pa"], args["target_Pa"])
-    rec = run_closed_loop(core_spec(params), ref, total, plant)
-    args.update(law=law if R.get(controller).laws else None)
-    return StepResult(rec, hold, params_model, params, args, tuning)
-
-
-def pressure_reference(reference, duration="2s", *, force: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def pressure_reference(reference, duration=2.0, *, force: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """A pressure reference sampled at the control period.
 
     Parameters
     ----------
-    reference : str or array_like
-        ``"sine:MEAN,AMPLITUDE,FREQUENCY"`` (e.g. ``"sine:0.4MPa,0.2MPa,2Hz"``), a CSV/Parquet
-        file with ``time_<unit>`` and ``pressure_<unit>`` columns (resampled), or one pressure
-        per control period. [Pa]
-    duration : float or str, default "2s"
+    reference : SineReference or str or pathlib.Path or array_like
+        A :class:`~mckibben.control.references.SineReference` (at most 500 Hz, what a 1 kHz
+        controller can follow), the path of a CSV/Parquet file with ``time_<unit>`` and
+        ``pressure_<unit>`` columns (resampled), or one pressure per control period. The command
+        line's text (``sine:0.4MPa,0.2MPa,2Hz``) is read by
+        :func:`~mckibben.control.references.parse_reference`. [Pa]
+    duration : float, default 2.0
         Length of a sine reference. [s]
     force : bool, default False
         Go past the documented size limits (:mod:`mckibben.limits`). [-]
@@ -611,653 +391,25 @@ def pressure_reference(reference, duration="2s", *, force: bool = False) -> tupl
     (numpy.ndarray, numpy.ndarray)
         Times [s] and pressures [Pa].
     """
-    if not isinstance(reference, str):
+    refuse_text(reference)
+    if isinstance(reference, SineReference):
+        d = check_periods(duration, "duration")
+        check_budget("duration", d / TS, force=force)
+        if reference.frequency > 500:
+            raise InputError(f"reference frequency: {reference.frequency:g} Hz is above the 500 Hz a 1 kHz "
+                             "controller can follow")
+        t = np.arange(int(round(d / TS))) * TS
+        return t, reference.sample(t)
+    if not isinstance(reference, (str, os.PathLike)):
         p = np.asarray(reference, dtype=float)
         if p.ndim != 1 or p.size < 10 or not np.all(np.isfinite(p)):
             raise InputError("reference: an array reference must be 1-D, finite, at least 10 samples")
         return np.arange(p.size) * TS, p
-    if reference.startswith("sine:"):
-        parts = reference[5:].split(",")
-        if len(parts) != 3:
-            raise InputError(f"reference: {reference!r} must be sine:MEAN,AMPLITUDE,FREQUENCY")
-        mean = parse_quantity(parts[0], "pressure", "reference mean")
-        amp = parse_quantity(parts[1], "pressure", "reference amplitude")
-        freq = parse_quantity(parts[2], "frequency", "reference frequency", allow_zero=False)
-        d = _periods(duration, "duration")
-        check_budget("duration", d / TS, force=force)
-        if freq > 500:
-            raise InputError(f"reference frequency: {parts[2]!r} is above the 500 Hz a 1 kHz controller can follow")
-        t = np.arange(int(round(d / TS))) * TS
-        return t, mean + amp * np.sin(2 * np.pi * freq * t)
 
     data, _ = read_step_log(reference)
     t0 = data["time_s"] - data["time_s"][0]
     check_budget(f"reference {reference}", float(t0[-1]) / TS, force=force, what="control periods (the file's span)")
     t = np.arange(int(t0[-1] / TS) + 1) * TS
     if t.size < 10:
-        raise InputError(f"reference: {reference!r} is shorter than 10 ms")
+        raise InputError(f"reference: {str(reference)!r} is shorter than 10 ms")
     return t, np.interp(t, t0, data["pressure_Pa"])
-
-
-@dataclass(frozen=True, repr=False)
-class TrackResult(Result):
-    """A pressure trajectory followed on the simulated plant (:func:`track`).
-
-    Attributes
-    ----------
-    record : LoopRecord
-        The sampled run. [-]
-    model : FirstOrderModel
-        Design model. [-]
-    params : CoreParams
-        Controller parameters. [-]
-    arguments : dict
-        Controller, reference, load [N], p_max [Pa]. [-]
-    tuning : GainTuning or None
-        How the gains were tuned on a muscle file's plant (None: the documented gains). [-]
-    """
-
-    record: LoopRecord
-    model: FirstOrderModel
-    params: CoreParams
-    arguments: dict = field(default_factory=dict)
-    tuning: GainTuning | None = None
-    call = "mckibben.control.track"
-
-    @property
-    def metrics(self) -> dict:
-        """RMS and maximum error, valve effort (:func:`~mckibben.control.metrics.tracking_metrics`). [SI]"""
-        r = self.record
-        return tracking_metrics(r.t, r.pressure[0], r.reference[0], r.command[0])
-
-    def to_dict(self) -> dict:
-        """What ``mckibben control track --json`` prints."""
-        a = self.arguments
-        return to_jsonable({"controller": a["controller"], "load_N": a["load_N"], "p_max_Pa": a["p_max_Pa"],
-                            "reference_clamped": a["reference_clamped"],
-                            **({"muscle_file": a["muscle_file"], "direction": a["direction"]}
-                               if "muscle_file" in a else {}),
-                            **({"tuning": self.tuning.to_dict()} if self.tuning is not None else {}),
-                            "gains": _gains_dict(self.params, a["controller"]), **self.metrics})
-
-    def _series(self):
-        return _record_frame(self.record)
-
-    def plot(self, ax=None):
-        """Reference, pressure and command against time; return the Figure.
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes or pair of Axes, optional
-            Where to draw; default a new figure. [-]
-        """
-
-        return plot_record(self.record, [self.arguments["controller"]], ax=ax)
-
-
-def track(reference, controller: str = "smc", *, duration="2s", load="0.6N", p_max="0.8MPa", law: str = "model",
-          beta=None, eps=None, ki=None, lam=None, model: FirstOrderModel | None = None,
-          force: bool = False, muscle_file=None, direction: str = "inflate") -> TrackResult:
-    """Track a pressure trajectory on the calibrated plant.
-
-    Parameters
-    ----------
-    reference : str or array_like
-        See :func:`pressure_reference`. [Pa]
-    controller : {"smc", "pid"}, default "smc"
-        The controller. [-]
-    duration : float or str, default "2s"
-        Length of a sine reference. [s]
-    load : float or str, default "0.6N"
-        Hanging load. [N]
-    p_max : float or str, default "0.8MPa"
-        Supervisor's maximum pressure. [Pa]
-    law : {"model", "paper"}, default "model"
-        Sliding-mode law. [-]
-    beta : float, optional
-        Switching gain. [PWM counts]
-    eps : float or str, optional
-        Boundary layer. [Pa]
-    ki : float, optional
-        Surface integral weight. [1/s]
-    lam : float or str, optional
-        PID closed-loop time constant. [s]
-    model : FirstOrderModel, optional
-        Design model; default :func:`identified_model`. [-]
-    force : bool, default False
-        Run past the documented size limits (:mod:`mckibben.limits`). [-]
-    muscle_file : str or pathlib.Path, optional
-        Run a muscle file's own fitted force law (:func:`muscle_file_plant`); the design model is
-        identified on that plant and the gains not given are tuned on it (:func:`tuned_controller`). [-]
-    direction : {"inflate", "deflate"}, default "inflate"
-        With ``muscle_file``: the branch of its law. [-]
-
-    Returns
-    -------
-    TrackResult
-        A reference outside [0, p_max] is clamped as the supervisor would (``reference_clamped``).
-    """
-    _no_direction(direction, muscle_file)
-    pmax = check_p_max(quantity(p_max, "pressure", "p_max", allow_zero=False))
-    f_load = plant_load(load) if muscle_file is None else quantity(load, "force", "load")
-    _, ref = pressure_reference(reference, duration, force=force)
-    ref, clamped = clamp_pressure(ref, pmax, "reference")
-    tuning = None
-    if muscle_file is not None:
-        plant = muscle_file_plant(muscle_file, load, None, direction)
-        m = identify_file_plant(plant) if model is None else model
-        tuning = tuned_controller(controller, m, plant, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax,
-                                  objective="track")
-        params = tuning.params
-    else:
-        plant = plant_batch(load_N=f_load)
-        m = identified_model() if model is None else model
-        params = controller_params(controller, m, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax)
-    rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant)
-    args = {"controller": controller, "reference": reference if isinstance(reference, str) else "array",
-            "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
-            "law": law if R.get(controller).laws else None}
-    if muscle_file is not None:
-        args.update(muscle_file=str(muscle_file), direction=direction)
-    return TrackResult(rec, m, params, args, tuning)
-
-
-#: Why ``control fig13`` and ``control hysteresis`` refuse a muscle file.
-FIG13_REFUSAL = ("is the paper's Fig. 13 on its miniature muscle: the β of 120 and 150 counts sit just above that "
-                 "rig's holding command and the paper's points are that muscle's; run control step --muscle-file "
-                 "(gains tuned for the file's plant) or control compare --muscle-file")
-HYSTERESIS_REFUSAL = ("compensates the hysteresis of the calibrated muscle's braid friction; a muscle file's plant "
-                      "runs one branch of its fitted law (`direction`) without friction, so it has no loop to "
-                      "compensate")
-
-
-@dataclass(frozen=True, repr=False)
-class Fig13Result(Result):
-    """The paper's Fig. 13 on the plant (:func:`fig13`): each (law, β) beside the paper's values.
-
-    Attributes
-    ----------
-    rows : list of dict
-        One per (law, β): step metrics beside ``paper_time_constant_s``, ``paper_overshoot_pct``. [-]
-    record : LoopRecord
-        The runs, one instance per row. [-]
-    model : FirstOrderModel
-        Identified model. [-]
-    tau_stderr : float
-        Standard error of the identified τ. [s]
-    arguments : dict
-        β values, laws, ε, Ki. [-]
-    """
-
-    rows: list
-    record: LoopRecord
-    model: FirstOrderModel
-    tau_stderr: float
-    arguments: dict = field(default_factory=dict)
-    call = "mckibben.control.fig13"
-
-    @property
-    def metrics(self) -> dict:
-        """Step metrics per case, keyed ``"law@β"`` (e.g. ``"paper@150"``). [SI]"""
-        return {f"{r['law']}@{r['beta_counts']:g}": r for r in self.rows}
-
-    def __repr__(self) -> str:
-        cases = ", ".join(f"{k}: τ={v['time_constant_s']:.4g} s" for k, v in self.metrics.items())
-        return f"Fig13Result({cases})"
-
-    def to_dict(self) -> dict:
-        """What ``mckibben control fig13 --json`` prints."""
-        return to_jsonable({"model": {**_model_dict(self.model), "tau_s_stderr": self.tau_stderr}, "rows": self.rows})
-
-    def _series(self):
-        import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-        frames = []
-        for i, r in enumerate(self.rows):
-            df = _record_frame(self.record, i)
-            df.insert(0, "beta_counts", r["beta_counts"])
-            df.insert(0, "law", r["law"])
-            frames.append(df)
-        return pd.concat(frames, ignore_index=True)
-
-    def tau_against_beta(self, betas=None):
-        """The paper's law's time constant against β on the plant (τ falls once β exceeds the
-        holding command, eq. 11 of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)).
-
-        Parameters
-        ----------
-        betas : array_like, optional
-            Switching gains; default 110–200 in steps of 2. [PWM counts]
-
-        Returns
-        -------
-        pandas.DataFrame
-            ``beta_counts``, ``time_constant_s``, ``overshoot_pct``.
-        """
-        import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-        betas = np.arange(110.0, 201.0, 2.0) if betas is None else np.asarray(betas, dtype=float)
-        rows, _ = _fig13_runs(self.model, betas=betas, laws=("paper",))
-        return pd.DataFrame({"beta_counts": [r["beta_counts"] for r in rows],
-                             "time_constant_s": [r["time_constant_s"] for r in rows],
-                             "overshoot_pct": [r["overshoot_pct"] for r in rows]})
-
-    def plot(self, ax=None):
-        """The step responses and τ against β beside the paper's points; return the Figure.
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes or pair of Axes, optional
-            One Axes: the responses only; two: responses and τ(β); default a new figure with both. [-]
-        """
-
-        return plot_fig13(self, ax=ax)
-
-
-def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=None) -> Fig13Result:
-    """The paper's Fig. 13 on the plant: sliding mode, step 0 → 0.55 MPa, each law and β.
-
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV.B measured the ``paper`` law at β = 120 (τ ≈ 0.06 s) and 150
-    (τ ≈ 0.01 s, ~7 % overshoot); those values come from
-    :data:`mckibben.datasets.paper_points.FIG13`. The ``model`` law at the same β shows what our
-    model term changes.
-
-    Parameters
-    ----------
-    betas : sequence of float, default (120, 150)
-        Switching gains. [PWM counts]
-    laws : sequence of str, default ("model", "paper")
-        Sliding-mode laws. [-]
-    eps : float or str, optional
-        Boundary layer; default each law's tuning. [Pa]
-    ki : float, optional
-        Surface integral weight; default each law's tuning. [1/s]
-    muscle_file : str or pathlib.Path, optional
-        Refused: Fig. 13 is the miniature muscle's (its β sit just above that rig's holding
-        command, its points are that muscle's); ``step_response(..., muscle_file=)`` tunes a
-        muscle file's controller instead. [-]
-
-    Returns
-    -------
-    Fig13Result
-    """
-    _refuse_muscle_file("fig13", muscle_file, FIG13_REFUSAL)
-    e = boundary_layer(eps)
-    k = _ki(ki)
-    betas = tuple(_beta(b) for b in betas)
-    for law in laws:
-        if law not in LAWS:
-            raise unknown_name("`law`", law, LAWS)
-    fit, model, _ = _default_identification()
-    rows, rec = _fig13_runs(model, betas=betas, laws=tuple(laws), eps=e, ki=k)
-    return Fig13Result(rows, rec, model, float(fit.stderr["tau_s"]),
-                       {"betas_counts": list(betas), "laws": list(laws), "eps_Pa": e, "ki_per_s": k})
-
-
-@dataclass(frozen=True, repr=False)
-class CompareResult(Result):
-    """PID against both sliding-mode laws over step sizes and loads (:func:`compare`).
-
-    Attributes
-    ----------
-    rows : list of dict
-        One per (controller, step, load) with the step metrics. [-]
-    arguments : dict
-        β of our law. [-]
-    """
-
-    rows: list
-    arguments: dict = field(default_factory=dict)
-    call = "mckibben.control.compare"
-
-    @property
-    def metrics(self) -> dict:
-        """Per controller: median time constant [s], overshoot [%] and absolute steady-state error [Pa] over the runs."""
-        out = {}
-        for c in CONTROLLER_NAMES:
-            rs = [r for r in self.rows if r["controller"] == c]
-            out[c] = {k: float(np.nanmedian([abs(r[k]) if k.startswith("steady") else r[k] for r in rs]))
-                      for k in ("time_constant_s", "overshoot_pct", "steady_state_error_Pa")}
-        return out
-
-    def __repr__(self) -> str:
-        body = ", ".join(f"{c}: τ={v['time_constant_s']:.3g} s" for c, v in self.metrics.items())
-        return f"CompareResult({len(self.rows)} runs; median {body})"
-
-    def to_dict(self) -> dict:
-        """What ``mckibben control compare --json`` prints."""
-        return to_jsonable({"rows": self.rows})
-
-    def _series(self):
-        import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-        return pd.DataFrame(self.rows)
-
-    def plot(self, ax=None):
-        """Time constant of each controller for each step and load; return the Figure.
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes, optional
-            Where to draw; default a new figure. [-]
-        """
-
-        return plot_compare(self, ax=ax)
-
-
-#: The comparison's steps (0→0.2, 0→0.55, 0.3→0.7 and 0.55→0.2 MPa) as fractions of the 0.8 MPa
-#: they are taken under (the rig's maximum, :data:`mckibben.hardware.P_MAX_DEFAULT`); a muscle
-#: file's comparison scales them to min(its supply, that maximum).
-COMPARE_STEPS = tuple((a / P_MAX_DEFAULT, b / P_MAX_DEFAULT) for a, b in ((0.0, 0.2e6), (0.0, 0.55e6),
-                                                                          (0.3e6, 0.7e6), (0.55e6, 0.2e6)))
-#: A muscle file's comparison loads, as fractions of what it pulls at rest length and supply
-#: (:func:`rest_pull`).
-COMPARE_LOADS = (0.0, 0.25, 0.5)
-
-
-def compare(beta=None, *, muscle_file=None, direction: str = "inflate") -> CompareResult:
-    """PID (lambda-tuned on the first-order model) against both sliding-mode laws (§IV.A).
-
-    Steps 0→0.2, 0→0.55, 0.3→0.7 and 0.55→0.2 MPa under 0, 1.5 and 3 N: the paper found the PID's
-    performance "varied with different step size and back pressure". With a muscle file, the same
-    steps scaled to its top pressure (:data:`COMPARE_STEPS`) under 0, 1/4 and 1/2 of what it pulls
-    at rest (:data:`COMPARE_LOADS`), each controller tuned on each loaded plant
-    (:func:`tuned_controller`; ``smc_paper`` is the paper's law with β tuned too).
-
-    Parameters
-    ----------
-    beta : float, optional
-        Switching gain of our law (default 50; tuned with a muscle file). [PWM counts]
-    muscle_file : str or pathlib.Path, optional
-        Compare on a muscle file's plant (:func:`muscle_file_plant`). [-]
-    direction : {"inflate", "deflate"}, default "inflate"
-        With ``muscle_file``: the branch of its law. [-]
-
-    Returns
-    -------
-    CompareResult
-    """
-    _no_direction(direction, muscle_file)
-    b = _beta(beta)
-    if muscle_file is None:
-        return CompareResult(_step_size_rows(identified_model(), beta=b), {"beta_counts": b})
-    plant = muscle_file_plant(muscle_file, 0.0, None, direction)
-    top = min(float(plant.supply_pressure), float(P_MAX_DEFAULT))
-    most = rest_pull(plant)
-    loads = tuple(round(f * most, 1) for f in COMPARE_LOADS)
-    plants = {w: muscle_file_plant(muscle_file, w, None, direction) for w in loads}
-    rows = _step_size_rows(None, steps=tuple((a * top, c * top) for a, c in COMPARE_STEPS), loads=loads,
-                           plant_for_load=plants.__getitem__,
-                           controllers_for_load=lambda w, pl: _file_controllers(pl, b))
-    return CompareResult(rows, {"beta_counts": b, "muscle_file": str(muscle_file), "direction": direction})
-
-
-@dataclass(frozen=True, repr=False)
-class RobustnessResult(Result):
-    """Monte Carlo over plant uncertainty (:func:`robustness`).
-
-    Attributes
-    ----------
-    samples : dict of str to numpy.ndarray
-        The plant factors of each random plant. [-]
-    per_plant : dict
-        {controller: {metric: array over plants}}. [SI]
-    summary : dict
-        {controller: {metric: median, p5, p95, n_undefined}}. [SI]
-    arguments : dict
-        n, seed, β. [-]
-    """
-
-    samples: dict
-    per_plant: dict
-    summary: dict
-    arguments: dict = field(default_factory=dict)
-    call = "mckibben.control.robustness"
-
-    @property
-    def metrics(self) -> dict:
-        """The summary: per controller and metric, median, 5 % and 95 % and the undefined count."""
-        return self.summary
-
-    def __repr__(self) -> str:
-        body = ", ".join(f"{c}: τ median {s['time_constant_s']['median']:.3g} s" for c, s in self.summary.items())
-        return f"RobustnessResult(n={self.arguments['n']}, seed={self.arguments['seed']}; {body})"
-
-    def to_dict(self) -> dict:
-        """What ``mckibben control robustness --json`` prints."""
-        return to_jsonable({"n": self.arguments["n"], "seed": self.arguments["seed"], "summary": self.summary})
-
-    def _series(self):
-        import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-        frames = []
-        for c in CONTROLLER_NAMES:
-            df = pd.DataFrame({"controller": c, "plant": np.arange(self.arguments["n"]), **self.samples,
-                               **self.per_plant[c]})
-            frames.append(df)
-        return pd.concat(frames, ignore_index=True)
-
-    def plot(self, ax=None):
-        """Distributions of time constant, overshoot and steady-state error; return the Figure.
-
-        Parameters
-        ----------
-        ax : sequence of three matplotlib.axes.Axes, optional
-            Where to draw; default a new figure. [-]
-        """
-
-        return plot_robustness(self, ax=ax)
-
-
-#: Record length of each robustness run. [s]
-ROBUSTNESS_DURATION = 0.6
-
-
-def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force: bool = False, muscle_file=None,
-               direction: str = "inflate") -> RobustnessResult:
-    """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same n plants.
-
-    ±30 % on valve gain, dead band, volumes and leak, supply 0.6–1.0 MPa, load 0–3 N
-    (:func:`~mckibben.control.experiments.sample_plants`); the controllers are designed once on
-    the nominal plant's identified model. With a muscle file: the same factors around its plant,
-    supply 0.75–1 × its top fitted pressure, load 0–1/2 of what it pulls at rest, step to 0.55/0.8
-    of min(supply, 0.8 MPa); the controllers tuned once on the nominal plant (1/4 of that pull)
-    (:func:`tuned_controller`).
-
-    Parameters
-    ----------
-    n : int, default 1000
-        Number of random plants. [-]
-    seed : int, default 0
-        Random seed. [-]
-    beta : float, optional
-        Switching gain of our law (default 50). [PWM counts]
-    progress : callable, optional
-        ``progress(done, total)`` after each chunk of plants. [-]
-    force : bool, default False
-        Run past the documented size limits (:mod:`mckibben.limits`). [-]
-    muscle_file : str or pathlib.Path, optional
-        Random plants around a muscle file's plant (:func:`muscle_file_plant`). [-]
-    direction : {"inflate", "deflate"}, default "inflate"
-        With ``muscle_file``: the branch of its law. [-]
-
-    Returns
-    -------
-    RobustnessResult
-    """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise InputError(f"n: {n!r} must be at least 1")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
-        raise InputError(f"seed: {seed!r} must be in 0..2**63-1")
-    k = len(CONTROLLER_NAMES)
-    check_budget("n", k * n * ROBUSTNESS_DURATION / TS, force=force,
-                 what=f"control periods ({k} controllers × `n` plants × 0.6 s)")
-    _no_direction(direction, muscle_file)
-    b = _beta(beta)
-
-    extra: dict = {}
-    if muscle_file is None:
-        model = identified_model()
-        samples = sample_plants(int(n), seed)
-    else:
-        nominal = muscle_file_plant(muscle_file, 0.0, None, direction)
-        top, most = float(nominal.supply_pressure), rest_pull(nominal)
-        nominal = muscle_file_plant(muscle_file, 0.25 * most, None, direction)
-        model = FirstOrderModel(1.0, 1.0)  # unused: the controllers are tuned on the plant
-        samples = sample_plants(int(n), seed, supply=(0.75 * top, top), load=(0.0, 0.5 * most))
-        extra = {"base_plant": nominal, "controllers": _file_controllers(nominal, b),
-                 "target": float(np.asarray(FIG13_TARGET_PA)) / P_MAX_DEFAULT * min(top, P_MAX_DEFAULT)}
-    chunk = max(1, min(int(n), 250))
-    per_plant: dict[str, dict[str, np.ndarray]] = {c: {} for c in CONTROLLER_NAMES}
-    for lo in range(0, int(n), chunk):
-        hi = min(int(n), lo + chunk)
-        part = _robustness_runs(model, n=hi - lo, seed=seed, beta=b, samples={k: v[lo:hi] for k, v in samples.items()},
-                                **extra)
-        for c in CONTROLLER_NAMES:
-            for k, v in part["metrics"][c].items():
-                per_plant[c][k] = np.concatenate([per_plant[c].get(k, np.empty(0)), v])
-        if progress is not None:
-            progress(hi, int(n))
-
-    summary = {c: {k: _pct(v) for k, v in per_plant[c].items()} for c in CONTROLLER_NAMES}
-    where = {} if muscle_file is None else {"muscle_file": str(muscle_file), "direction": direction,
-                                            "target_Pa": extra["target"]}
-    return RobustnessResult(samples, per_plant, summary, {"n": int(n), "seed": seed, "beta_counts": b, **where})
-
-
-@dataclass(frozen=True, repr=False)
-class OpenLoopResult(Result):
-    """An open-loop inlet-valve step from rest on the plant (:func:`open_loop`).
-
-    Attributes
-    ----------
-    time, pressure, length : numpy.ndarray
-        Samples [s], gauge pressure [Pa], muscle length [m].
-    step_metrics : dict
-        Time constant, rise time, overshoot, final pressure. [SI]
-    arguments : dict
-        Valve [PWM counts], supply [Pa], load [N], duration [s]. [-]
-    """
-
-    time: np.ndarray
-    pressure: np.ndarray
-    length: np.ndarray
-    step_metrics: dict
-    arguments: dict = field(default_factory=dict)
-    call = "mckibben.control.open_loop"
-
-    @property
-    def metrics(self) -> dict:
-        """Time constant (63 %), rise time (10–90 %), overshoot, final pressure and length. [SI]"""
-        return {**self.step_metrics, "final_length_m": float(self.length[-1])}
-
-    def to_dict(self) -> dict:
-        """What ``mckibben simulate open-loop --json`` prints."""
-        a = self.arguments
-        extra = {"muscle_file": a["muscle_file"], "direction": a["direction"]} if "muscle_file" in a else {}
-        return to_jsonable({"valve_pwm": a["valve_pwm"], "supply_Pa": a["supply_Pa"], "load_N": a["load_N"],
-                            "duration_s": a["duration_s"], **extra, **self.metrics})
-
-    def _series(self):
-        import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-        return pd.DataFrame({"time_s": self.time, "pressure_Pa": self.pressure, "length_m": self.length})
-
-    def plot(self, ax=None):
-        """The pressure rise with its 63 % time; return the Figure.
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes, optional
-            Where to draw; default a new figure. [-]
-        """
-
-        return plot_open_loop(self, ax=ax)
-
-
-def open_loop(valve: int | None = None, *, supply=None, load="0.6N", duration="0.5s",
-              muscle_file=None, direction: str = "inflate") -> OpenLoopResult:
-    """An open-loop inlet-valve step from rest (bleed shut): the identification experiment of §IV.A.
-
-    Parameters
-    ----------
-    valve : int, optional
-        Inlet PWM count, 0..255; default the calibration step. [PWM counts]
-    supply : float or str, optional
-        Supply pressure (gauge), at most 1 MPa; default 0.8 MPa, or a muscle file's top fitted
-        pressure. [Pa]
-    load : float or str, default "0.6N"
-        Hanging load. [N]
-    duration : float or str, default "0.5s"
-        Simulated time, whole control periods, at most 60 s. [s]
-    muscle_file : str or pathlib.Path, optional
-        Run a muscle file's own fitted force law (:func:`muscle_file_plant`). [-]
-    direction : {"inflate", "deflate"}, default "inflate"
-        With ``muscle_file``: the branch of its law. [-]
-
-    Returns
-    -------
-    OpenLoopResult
-    """
-
-    _no_direction(direction, muscle_file)
-    valve = CALIBRATION_PWM if valve is None else valve
-    if isinstance(valve, bool) or not isinstance(valve, (int, np.integer)) or not 0 <= valve <= 255:
-        raise InputError(f"valve: {valve!r} must be a PWM count in 0..255")
-    d = quantity(duration, "time", "duration", allow_zero=False)
-    steps = d / TS
-    if abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
-        raise InputError(f"duration: {duration!r} must be a whole number of 1 ms control periods")
-    if d > 60:
-        raise InputError(f"duration: {duration!r} is longer than 60 s")
-    extra: dict = {}
-    if muscle_file is not None:
-        plant = muscle_file_plant(muscle_file, load, supply, direction)
-        s, f = float(plant.supply_pressure), float(plant.load_force)
-        extra.update(muscle_file=str(muscle_file), direction=direction)
-    else:
-        s = quantity("0.8MPa" if supply is None else supply, "pressure", "supply", allow_zero=False)
-        if s > 1e6:
-            raise InputError(f"supply: {supply!r} is above the compressor's 1 MPa")
-        f = plant_load(load)
-        plant = PlantParams(supply_pressure=s, load_force=f)
-    res, m = open_loop_step(plant, valve=int(valve), duration=d)
-    return OpenLoopResult(res.t, res.pressure[0], res.length[0], m,
-                          {"valve_pwm": int(valve), "supply_Pa": s, "load_N": f, "duration_s": d, **extra})
-
-
-def hysteresis_compensation(period="4s", *, sweep_period=None, muscle_file=None):
-    """Length tracking with and without hysteresis compensation (inflate/deflate branches, Prandtl–Ishlinskii).
-
-    Identifies the plant (:func:`identified_model`), records a quasi-static pressure triangle,
-    fits one cubic per branch and one through both, then tracks a length sinusoid with each
-    (:func:`~mckibben.control.hysteresis.hysteresis_benefit`); a second sweep with minor loops
-    fits a Prandtl–Ishlinskii operator whose exact inverse gives a third pressure reference
-    (summary key ``prandtl_ishlinskii``).
-
-    Parameters
-    ----------
-    period : float or str, default "4s"
-        Period of the length sinusoid, 1 to 60 s. [s]
-    sweep_period : float or str, optional
-        Period of the identification triangle, 1 to 600 s; default 8 × ``period``. [s]
-    muscle_file : str or pathlib.Path, optional
-        Refused (:data:`HYSTERESIS_REFUSAL`): a muscle file's plant has no friction loop. [-]
-
-    Returns
-    -------
-    HysteresisBenefit
-        ``.summary()``, ``.plot()``.
-    """
-    _refuse_muscle_file("hysteresis", muscle_file, HYSTERESIS_REFUSAL)
-
-    per = quantity(period, "time", "period", allow_zero=False)
-    if not PERIOD_MIN <= per <= PERIOD_MAX:
-        raise InputError(f"period: {period!r} must be between {PERIOD_MIN:g} s and {PERIOD_MAX:g} s")
-    sweep = None
-    if sweep_period is not None:
-        sweep = quantity(sweep_period, "time", "sweep_period", allow_zero=False)
-        if not SWEEP_PERIOD_MIN <= sweep <= SWEEP_PERIOD_MAX:
-            raise InputError(f"sweep_period: {sweep_period!r} must be between {SWEEP_PERIOD_MIN:g} s and "
-                             f"{SWEEP_PERIOD_MAX:g} s")
-    return hysteresis_benefit(identified_model(), period=per, sweep_period=sweep)

@@ -1,5 +1,8 @@
 """Experiments above control, tool and rig (DESIGN.md): the layer that may use all three.
 
+:mod:`~mckibben.experiments.pressure`: the pressure-control experiments on the simulated plant
+(:func:`step_response`, :func:`track_pressure`, :func:`open_loop`, :func:`fig13`, :func:`compare`,
+:func:`robustness`, :func:`hysteresis_compensation`), one call each returning a result object.
 :mod:`~mckibben.experiments.link`: the three-muscle tool steered through the device link
 (``mckibben tool track --port``; :func:`~mckibben.experiments.link.track_over_link`). It was
 ``mckibben.rig.track``; it moved here because it uses the tool, which the rig may not import.
@@ -8,4 +11,12 @@
 from mckibben import _lazy
 
 
-__getattr__, __dir__ = _lazy.package(__name__, None)
+#: Where each public name lives; the submodules load on first use (PEP 562).
+_WHERE = {name: "mckibben.experiments.pressure" for name in (
+    "CompareResult", "Fig13Result", "OpenLoopResult", "RobustnessResult", "StepResult", "TrackResult", "compare",
+    "fig13", "hysteresis_compensation", "open_loop", "robustness", "step_response", "track_pressure")}
+_WHERE["track_over_link"] = "mckibben.experiments.link"
+
+__all__ = sorted(_WHERE)
+
+__getattr__, __dir__ = _lazy.package(__name__, _WHERE)

@@ -55,7 +55,7 @@ from mckibben.models import laws as LW
 from mckibben.models.laws import relative_strain as RS
 from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
-from mckibben.units import quantity
+from mckibben.units import si
 
 #: The laws the C port implements, by registry name: the macro of each one's index in ``mk_model.h``.
 C_LAWS = {"tondu-lopez": "MK_LAW_TONDU_LOPEZ", "chou-hannaford": "MK_LAW_CHOU_HANNAFORD",
@@ -111,10 +111,10 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         :class:`~mckibben.control.core.CoreParams` (``mckibben.control.core.load_design``). The FMU
         then takes a pressure ``reference`` [Pa] and gives the valve commands as outputs. None: the
         open plant. [-]
-    load : float or str, optional
+    load : float, optional
         Hanging load, the FMU's ``load_force`` start value; default 0.6 N (as ``mckibben simulate
         open-loop``). [N]
-    supply : float or str, optional
+    supply : float, optional
         Supply pressure (gauge), the ``supply_pressure`` start value; default 0.8 MPa, or a muscle
         file's top fitted pressure. [Pa]
     direction : {"inflate", "deflate"}, default "inflate"
@@ -199,11 +199,12 @@ def _plant(muscle, muscle_file, plant, load, supply, direction) -> PP.PlantParam
             raise InputError("load, supply: give them in the PlantParams (load_force, supply_pressure)")
         return plant
     if muscle_file is not None:
-        return muscle_file_plant(muscle_file, "0.6N" if load is None else load, supply, direction)
+        return muscle_file_plant(muscle_file, 0.6 if load is None else load, supply, direction)
     if direction != "inflate":
         raise InputError(f"direction: {direction!r} applies to a muscle file's law only")
-    f = plant_load("0.6N" if load is None else load)
-    s = 0.8e6 if supply is None else quantity(supply, "pressure", "supply", allow_zero=False)
+    f = plant_load(0.6 if load is None else load)
+    s = float(PP.PlantParams().supply_pressure) if supply is None else si(supply, "pressure", "supply",
+                                                                          allow_zero=False)
     if not 0 < s <= HW.P_MAX_LIMIT:
         raise InputError(f"supply: {supply!r} must be above 0 and at most the compressor's 1 MPa")
     name = "mpam97" if muscle is None else muscle

@@ -62,7 +62,7 @@ from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import static_equilibrium
 from mckibben.results import Result
-from mckibben.units import parse_values, quantity
+from mckibben.units import si
 
 __all__ = ["MuscleBank", "HangingMassResult", "MuscleRunResult", "hanging_mass", "hanging_mass_mjcf", "load_model",
            "muscle_plant", "run_model", "MUJOCO_HINT"]
@@ -633,17 +633,17 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     ----------
     muscle : str or MiniatureMuscle, default "mpam97"
         A published set. [-]
-    pressure : float or str, default 0.4e6
-        Pressure reference (gauge), e.g. ``"0.8MPa"``. [Pa]
-    load : float or str, default 0.6
-        Hanging weight, e.g. ``"0.6N"``. [N]
+    pressure : float, default 0.4e6
+        Pressure reference (gauge). [Pa]
+    load : float, default 0.6
+        Hanging weight. [N]
     force_model : str, optional
         ``"calibrated"`` (default) or ``"empirical"`` (:func:`muscle_plant`). [-]
     controller : str, default "smc"
         A controller of the registry. [-]
-    duration : float or str, default 1.5
+    duration : float, default 1.5
         Simulated time. [s]
-    timestep : float or str, default 1e-4
+    timestep : float, default 1e-4
         MuJoCo's step (the plant's own RK4 step), at most the control period. [s]
     friction : bool, default True
         The braid's friction (the plant's Dahl element, ``docs/plant.md``); False turns it off,
@@ -657,10 +657,10 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     m_obj = get_muscle(muscle) if isinstance(muscle, str) else muscle
     if not isinstance(m_obj, MiniatureMuscle):
         raise ArgumentTypeError("muscle: a published set (mpam97, mpam117, mpam143): predict length needs its eq. 2+3")
-    pressure = quantity(pressure, "pressure", "pressure (--pressure)", allow_zero=False)
-    load = quantity(load, "force", "load (--load)", allow_zero=False)
-    duration = quantity(duration, "time", "duration (--duration)", allow_zero=False)
-    timestep = check_real(quantity(timestep, "time", "timestep", allow_zero=False), "timestep",
+    pressure = si(pressure, "pressure", "pressure", allow_zero=False)
+    load = si(load, "force", "load", allow_zero=False)
+    duration = si(duration, "time", "duration", allow_zero=False)
+    timestep = check_real(si(timestep, "time", "timestep", allow_zero=False), "timestep",
                           hi=HW.CONTROL_PERIOD, unit="s")
     plant = muscle_plant(m_obj, force_model, **({} if friction else {"friction_force": 0.0, "friction_per_pa": 0.0}))
     model = load_model(hanging_mass_mjcf(plant, load, timestep))
@@ -779,17 +779,17 @@ def run_model(model, tendons, muscle="mpam97", *, reference=None, inlet=None, bl
         The muscles' tendons (text: comma-separated). [-]
     muscle : str, muscle or PlantParams, default "mpam97"
         For every tendon (:func:`muscle_plant`); a ``.toml`` path is a fitted muscle file. [-]
-    reference : float, str or sequence, optional
-        Pressure held by ``controller``, one or one per muscle (``"0.5MPa"``, ``"0.3,0.5MPa"``). [Pa]
+    reference : float or sequence, optional
+        Pressure held by ``controller``, one or one per muscle (``0.5e6``, ``[0.3e6, 0.5e6]``). [Pa]
     inlet, bleed : int or sequence, optional
         Without ``reference``: valve PWM counts held over the run, one or one per muscle. [counts]
     controller : str, default "smc"
         The registry's controller for ``reference`` (``smc``, ``pid``). [-]
-    duration : float or str, default 1.0
+    duration : float, default 1.0
         Simulated time. [s]
-    initial_pressure : float, str or sequence, default 0.0
+    initial_pressure : float or sequence, default 0.0
         Each chamber's gauge pressure at the start. [Pa]
-    offset : float, str or sequence, default 0.0
+    offset : float or sequence, default 0.0
         Tendon length that is not muscle, one or one per muscle. [m]
     force_model : str, optional
         A published set's law: ``"calibrated"`` or ``"empirical"`` (:func:`muscle_plant`). [-]
@@ -801,17 +801,17 @@ def run_model(model, tendons, muscle="mpam97", *, reference=None, inlet=None, bl
     """
     mujoco = _mujoco()
     names = [t.strip() for t in tendons.split(",")] if isinstance(tendons, str) else list(tendons)
-    duration = quantity(duration, "time", "duration (--duration)", allow_zero=False)
+    duration = si(duration, "time", "duration", allow_zero=False)
     if (reference is None) == (inlet is None):
-        raise InputError("give either a pressure reference (--reference) or valve counts (--inlet), not both or neither")
+        raise InputError("reference/inlet: give either a pressure reference or valve counts, not both or neither")
 
     def values(x, dimension, name):
         if isinstance(x, str):
-            return parse_values(x, dimension, name)
-        return np.array([quantity(v, dimension, name) for v in np.ravel(x)])
+            si(x, dimension, name)  # text: refused with the number to pass
+        return np.array([si(v, dimension, name) for v in np.ravel(x)])
 
-    p0 = values(initial_pressure, "pressure", "initial_pressure (--initial-pressure)")
-    off = values(offset, "length", "offset (--offset)")
+    p0 = values(initial_pressure, "pressure", "initial_pressure")
+    off = values(offset, "length", "offset")
     ctrl = controller if reference is not None else None
     bank = MuscleBank(model, names, muscle, force_model=force_model, controller=ctrl,
                       initial_pressure=p0 if p0.size > 1 else float(p0[0]), offset=off if off.size > 1 else float(off[0]))
@@ -819,12 +819,12 @@ def run_model(model, tendons, muscle="mpam97", *, reference=None, inlet=None, bl
     data = mujoco.MjData(m)
     n_periods = int(round(duration / bank.ts))
     if n_periods < 1:
-        raise InputError(f"duration (--duration): {duration:g} s is shorter than one control period ({bank.ts:g} s)")
+        raise InputError(f"duration: {duration:g} s is shorter than one control period ({bank.ts:g} s)")
     if reference is not None:
-        ref = values(reference, "pressure", "reference (--reference)")
+        ref = values(reference, "pressure", "reference")
         first = {"reference": ref if ref.size > 1 else float(ref[0])}
     else:
-        first = {"inlet": _count_list(inlet, "inlet (--inlet)"), "bleed": _count_list(bleed, "bleed (--bleed)")}
+        first = {"inlet": _count_list(inlet, "inlet"), "bleed": _count_list(bleed, "bleed")}
     mujoco.mj_forward(m, data)
     t, p, ln, f = [], [], [], []
     for k in range(n_periods):
@@ -842,13 +842,14 @@ def run_model(model, tendons, muscle="mpam97", *, reference=None, inlet=None, bl
 
 
 def _count_list(value, name: str) -> np.ndarray:
-    """PWM counts from a number, a sequence or comma-separated text (checked 0..255 by the bank)."""
+    """PWM counts from a number or a sequence (checked 0..255 by the bank)."""
+    if isinstance(value, str):
+        raise ArgumentTypeError(f"{name} = {value!r}: the library takes PWM counts as numbers, one or one per muscle, "
+                                "not text")
     try:
-        if isinstance(value, str):
-            return np.array([float(v) for v in value.split(",")])
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise InputError(f"{name}: {value!r} is not a PWM count 0..255 (or one per muscle, comma-separated)") from None
+        raise InputError(f"{name}: {value!r} is not a PWM count 0..255 (or one per muscle)") from None
 
 
 def _model_label(model) -> str:

@@ -21,7 +21,7 @@ from mckibben.rig import protocol as P
 from mckibben.control.core import GAINS, gain_values
 from mckibben.control.metrics import step_metrics
 from mckibben.results import to_jsonable
-from mckibben.units import quantity
+from mckibben.units import si
 from mckibben.control.core import CoreParams, load_design
 
 __all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "GainsResult", "RigStepResult", "connect", "open_port", "write_gains"]
@@ -266,7 +266,7 @@ class Device:
     --------
     >>> from mckibben.rig import Device, Emulator   # doctest: +SKIP
     >>> with Emulator() as em:                       # doctest: +SKIP
-    ...     res = Device(em.port).step("0.4MPa", duration=0.5)
+    ...     res = Device(em.port).step(0.4e6, duration=0.5)
     """
 
     def __init__(self, port: str):
@@ -275,16 +275,16 @@ class Device:
     def __repr__(self) -> str:
         return f"Device({self.port!r})"
 
-    def step(self, target="0.55MPa", controller: str = "smc", duration=1.0) -> RigStepResult:
+    def step(self, target=0.55e6, controller: str = "smc", duration=1.0) -> RigStepResult:
         """Run a pressure step on the device: hold 0 Pa for 0.1 s, then ``target``; record it.
 
         Parameters
         ----------
-        target : float or str, default "0.55MPa"
+        target : float, default 0.55e6
             Set-point of the step, at most :data:`SAFE_MAX_PRESSURE_PA`. [Pa]
         controller : {"smc", "pid"}, default "smc"
             The device's pressure controller. [-]
-        duration : float or str, default 1.0
+        duration : float, default 1.0
             Recording time after the step, at most 60 s. [s]
 
         Returns
@@ -293,12 +293,12 @@ class Device:
             The telemetry and its step metrics.
         """
 
-        p = quantity(target, "pressure", "target", allow_zero=False)
+        p = si(target, "pressure", "target", allow_zero=False)
         if p > SAFE_MAX_PRESSURE_PA:
-            raise InputError(f"target: {target!r} is above the 0.8 MPa safe limit")
+            raise InputError(f"target: {target!r} is above the {SAFE_MAX_PRESSURE_PA / 1e6:g} MPa safe limit")
         if controller not in CONTROLLERS:
             raise InputError(f"controller: {controller!r} must be smc or pid")
-        d = quantity(duration, "time", "duration", allow_zero=False)
+        d = si(duration, "time", "duration", allow_zero=False)
         if d > 60:
             raise InputError(f"duration: {duration!r} is longer than 60 s")
         link, _, parser = connect(self.port)

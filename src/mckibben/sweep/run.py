@@ -182,14 +182,14 @@ def prepare_output(out: str | Path, sweep: Sweep) -> Path:
         The sweep.
     """
 
-    out = check_output_dir(out, "--out")
+    out = check_output_dir(out, "out")
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".probe-{os.getpid()}"
         probe.write_bytes(b"")
         probe.unlink()
     except OSError as exc:
-        raise InputError(f"--out: cannot write to {str(out)!r} ({exc.strerror})") from None
+        raise InputError(f"out: cannot write to {str(out)!r} ({exc.strerror})") from None
     clean_stale(out)
     manifest = out / "sweep.json"
     old: dict = {}
@@ -202,11 +202,11 @@ def prepare_output(out: str | Path, sweep: Sweep) -> Path:
             old = {}
         other = old.get("sweep_sha256")
         if other != sweep.sha256 and any(chunk_done(f, other) for f in out.glob("chunk-*.parquet")):
-            raise InputError(f"--out: {str(out)!r} holds the results of another sweep; choose another folder")
+            raise InputError(f"out: {str(out)!r} holds the results of another sweep; choose another folder")
     if not manifest.exists() or old.get("sweep_sha256") != sweep.sha256:
         # a folder without another sweep's results (e.g. left by a failed run) is reused
 
-        with atomic_file(manifest, "--out") as tmp:
+        with atomic_file(manifest, "out") as tmp:
             tmp.write_text(json.dumps(info, indent=2))
     return out
 
@@ -319,7 +319,7 @@ def _run_dask(sweep, meta, todo, out, workers, scheduler, progress, done_runs):
             try:
                 client = Client(scheduler, timeout="3s")
             except (OSError, TimeoutError) as exc:
-                raise InputError(f"--scheduler: cannot reach {scheduler} ({exc})") from None
+                raise InputError(f"scheduler: cannot reach {scheduler} ({exc})") from None
         else:
             cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=40)

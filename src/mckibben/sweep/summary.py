@@ -92,12 +92,12 @@ def best_setting(table: pd.DataFrame, objective: str = "time_constant_s", constr
         raise unknown_name("objective metric", objective, metrics)
     m = _CONSTRAINT.match(constraint)
     if not m:
-        raise InputError(f"--constraint: {constraint!r} must look like overshoot_pct<=10")
+        raise InputError(f"constraint: {constraint!r} must look like overshoot_pct<=10")
     name, op, value = m.group(1), m.group(2), float(m.group(3))
     if name not in metrics:
         raise unknown_name("constraint metric", name, metrics)
     if not 0 < quantile < 1:
-        raise InputError(f"--quantile: {quantile} must be in (0, 1)")
+        raise InputError(f"quantile: {quantile} must be in (0, 1)")
     s = settings_table(table, quantile)
     q = s[f"{name}_q{int(round(quantile * 100))}"]
     ok = {"<=": q <= value, "<": q < value, ">=": q >= value, ">": q > value}[op]
@@ -234,18 +234,18 @@ def figures(table: pd.DataFrame, folder, quantile: float = 0.95) -> list[str]:
     import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
 
-    folder = check_output_dir(folder, "--plots")
+    folder = check_output_dir(folder, "folder")
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(f"--plots: cannot create folder {str(folder)!r} ({exc.strerror})") from None
+        raise InputError(f"folder: cannot create folder {str(folder)!r} ({exc.strerror})") from None
     paths = []
     for name, fig in (("pareto.png", plot_pareto(table, quantile)), ("sensitivity.png", plot_sensitivity(table))):
         if fig is None:
             continue
         p = folder / name
         try:
-            save_figure(fig, p, name="--plots", provenance=provenance("mckibben.sweep.figures", {"quantile": quantile}))
+            save_figure(fig, p, name="folder", provenance=provenance("mckibben.sweep.figures", {"quantile": quantile}))
         finally:
             plt.close(fig)
         paths.append(str(p))
