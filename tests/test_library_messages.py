@@ -24,12 +24,6 @@ KNOWN = {
     ("datasets/isometric.py", "mckibben fit isometric.csv --model spring --json"): "the generated data's README",
     ("datasets/published.py", "unreadable in our copy: fit them with `mckibben fit --model spring`"): "a data note",
     ("fit/muscle_file.py", "Force law fitted by mckibben fit --model "): "provenance note written into the file",
-    # not converted on this branch: packages another helper owns (issue 23, item 3)
-    ("fit/muscle_file.py", ": no [force_model] table; write one with mckibben fit ISO.csv --model NAME --save FILE.toml"):
-        "fit/ belongs to another helper",
-    ("models/muscle.py", "--save FILE.toml"): "models/ belongs to another helper",
-    ("tool/mujoco_model.py", "tool track --engine mujoco: the MuJoCo model diverged (non-finite tip); "):
-        "tool/ belongs to another helper",
 }
 
 

@@ -31,7 +31,7 @@ TOOLS = {
 }
 #: The optional Python packages (the extras of pyproject.toml): name -> (what for, how to install).
 PACKAGES = {
-    "mujoco": ("the MuJoCo bridge (mckibben mujoco, tool track --engine mujoco)", "pip install 'mckibben[mujoco]'"),
+    "mujoco": ("the MuJoCo bridge (mckibben.export.mujoco; the tool's MuJoCo engine)", "pip install 'mckibben[mujoco]'"),
     "fmpy": ("exports and checks FMUs (mckibben export fmu)", "pip install 'mckibben[fmu]'"),
 }
 

@@ -201,7 +201,8 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     where = spec.path or spec.id
     fm = spec.force_model
     if fm is None:
-        raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv --model NAME --save FILE.toml")
+        raise InputError(f"{where}: no [force_model] table; fit one (fit_table, then save_muscle_file; or the fit "
+                         "command) and save it into the file")
     model = fm["model"]
     if model not in ALL_MODELS and model not in laws.ALIASES:
         raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(ALL_MODELS)}")

@@ -103,8 +103,8 @@ class Muscle(LawMuscle):
             spec = dataclasses.replace(spec, nominal_length=float(rest_length))
         fm = spec.force_model
         if fm is None:
-            raise InputError(f"{where}: no [force_model] table; write one with mckibben fit ISO.csv --model NAME "
-                             "--save FILE.toml")
+            raise InputError(f"{where}: no [force_model] table; fit one (mckibben.fit.fit_table, then "
+                             "save_muscle_file; or the fit command) and save it into the file")
         name = fm["model"]
         law = laws.LAWS.get(laws.ALIASES.get(name, name))
         if law is None or law.from_values is None:

@@ -338,7 +338,7 @@ def simulate_tracking_mujoco(tool: Tool, runs, *, beta: float = TRACKING_BETA,
             for _ in range(per - 1):
                 bank.step(data)
         if not np.all(np.isfinite(achieved)):
-            raise InputError("tool track --engine mujoco: the MuJoCo model diverged (non-finite tip); "
+            raise InputError("engine: the MuJoCo model diverged (non-finite tip); "
                              "use a shorter time step (MujocoTool.timestep)")
         results.append(TrackingResult(ref.time, ref.target, achieved, ref.pressures, pressure, loads, float(beta),
                                       float(ident.gain), float(ident.tau), int(np.bitwise_or.reduce(bank.faults))))
