@@ -213,6 +213,18 @@ def _fit_iso(**kw):
     return _mod("fit").fit_table(BUNDLED / "mpam97" / "isotonic.csv", "cubic", **kw)
 
 
+# the experiments and the rig (found by the probe after the experiments moved)
+CASES += [
+    ("robustness-progress-not-callable", lambda: _mod("experiments").robustness(4, progress=5), "progress"),
+    ("fig13-betas-none", lambda: _mod("experiments").fig13(betas=None), "betas"),
+    ("fig13-betas-empty", lambda: _mod("experiments").fig13(betas=()), "betas"),
+    ("fig13-laws-empty", lambda: _mod("experiments").fig13(laws=()), "laws"),
+    ("fig13-betas-out-of-range", lambda: _mod("experiments").fig13(betas=(300.0,)), "betas"),
+    ("device-port-none", lambda: _mod("rig").Device(None), "port"),
+    ("device-port-number", lambda: _mod("rig").Device(5), "port"),
+]
+
+
 def _named(message: str, name: str) -> bool:
     return name in message or name.replace("_", "-") in message
 
@@ -238,6 +250,7 @@ HEAVY = {
     "length-1e7": "models.length(np.full(10**7, 4e5), 0.6, M, model='wall-corrected')",
     "substeps-1e7": "plant.simulate(duration=0.05, substeps=10**7)",
     "tip_from_lengths-1e7": "kinematics.tip_from_lengths(np.full((10**7, 3), 0.1), 4e-3)",
+    "track_pressure-1e8": "experiments.track_pressure(np.full(10**8, 4e5))",
 }
 
 
@@ -247,7 +260,7 @@ def test_memory_and_time_cases_are_refused_quickly():
         resource.setrlimit(resource.RLIMIT_AS, (3 * 2**30, 3 * 2**30))
         import numpy as np
         import mckibben as mk
-        from mckibben import models, plant
+        from mckibben import experiments, models, plant
         from mckibben.tool import kinematics
         from mckibben.errors import InputError
         M = mk.get_muscle("mpam97")
@@ -267,7 +280,8 @@ def test_memory_and_time_cases_are_refused_quickly():
     assert run.returncode == 0, run.stderr
     got = json.loads(run.stdout.strip().splitlines()[-1])
     names = {"pressure_for_length-1e7": "length", "predict_length-1e8": "pressure", "force-1e7": "length",
-             "length-1e7": "pressure", "substeps-1e7": "substeps", "tip_from_lengths-1e7": "lengths"}
+             "length-1e7": "pressure", "substeps-1e7": "substeps", "tip_from_lengths-1e7": "lengths",
+             "track_pressure-1e8": "reference"}
     for key, message in got.items():
         assert names[key] in message and not message.startswith(("ran", "crash")), (key, message)
 

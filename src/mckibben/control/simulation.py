@@ -83,19 +83,21 @@ def _counts_or_rate(value, name: str) -> float:
     return float(value)
 
 
-def check_beta(beta) -> float | None:
+def check_beta(beta, name: str = "beta") -> float | None:
     """A sliding-mode switching gain β, 0..255 (None stays None: the design's).
 
     Parameters
     ----------
     beta : float or None
         The gain. [PWM counts]
+    name : str, default "beta"
+        The argument's name, for the message. [-]
     """
     if beta is None:
         return None
-    b = _counts_or_rate(beta, "beta")
+    b = _counts_or_rate(beta, name)
     if not (math.isfinite(b) and 0 <= b <= 255):
-        raise InputError(f"beta: {beta!r} must be in 0..255 PWM counts")
+        raise InputError(f"{name}: {beta!r} must be in 0..255 PWM counts")
     return b
 
 
@@ -404,6 +406,7 @@ def pressure_reference(reference, duration=2.0, *, force: bool = False) -> tuple
         p = np.asarray(reference, dtype=float)
         if p.ndim != 1 or p.size < 10 or not np.all(np.isfinite(p)):
             raise InputError("reference: an array reference must be 1-D, finite, at least 10 samples")
+        check_budget("reference", p.size, force=force, what="control periods (one per sample of the array)")
         return np.arange(p.size) * TS, p
 
     data, _ = read_step_log(reference)

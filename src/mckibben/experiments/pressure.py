@@ -65,7 +65,7 @@ from mckibben.control.simulation import (
     rest_pull,
     tuned_controller,
 )
-from mckibben.errors import InputError, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, check_callable, unknown_name
 from mckibben.fit.muscle_file import check_direction
 from mckibben.hardware import P_MAX_DEFAULT
 from mckibben.limits import check_budget, check_p_max, clamp_pressure
@@ -565,7 +565,10 @@ def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=Non
     _refuse_muscle_file("fig13", muscle_file, FIG13_REFUSAL)
     e = boundary_layer(eps)
     k = check_ki(ki)
-    betas = tuple(check_beta(b) for b in betas)
+    for name, value in (("betas", betas), ("laws", laws)):
+        if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list, np.ndarray)) or len(value) == 0:
+            raise ArgumentTypeError(f"{name} = {value!r}: want a non-empty sequence (a tuple or list)")
+    betas = tuple(check_beta(b, "betas") for b in betas)
     for law in laws:
         if law not in LAWS:
             raise unknown_name("`law`", law, LAWS)
@@ -766,6 +769,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
     -------
     RobustnessResult
     """
+    check_callable(progress, "progress")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise InputError(f"n: {n!r} must be at least 1")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.control import registry as R
-from mckibben.errors import InputError
+from mckibben.errors import ArgumentTypeError, InputError
 from mckibben.hardware import BAUD as _HW_BAUD
 from mckibben.hardware import P_MAX_DEFAULT, pressure_from_adc
 from mckibben.results import Result
@@ -270,6 +270,8 @@ class Device:
     """
 
     def __init__(self, port: str):
+        if not isinstance(port, str) or not port:
+            raise ArgumentTypeError(f"port = {port!r}: want the serial port's path (text), e.g. /dev/ttyACM0")
         self.port = port
 
     def __repr__(self) -> str:
