@@ -15,6 +15,7 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -411,16 +412,25 @@ def test_doctor_reports_the_cache_the_tools_and_an_unanswering_scheduler(cli):
 # one compiler per kernel across processes, and the background warm-up of a first command
 
 
-def test_the_background_warm_up_compiles_what_the_runner_calls():
+@pytest.mark.timeout(300)
+def test_the_background_warm_up_compiles_what_the_runner_calls(tmp_path):
     """The warm-up compiles the integrator, its outputs and the firmware core with the very
     signatures the generated runner calls them with; a mismatch would compile them twice."""
-    from mckibben import doctor
-    from mckibben.control import core as C
-    from mckibben.plant import PlantParams, simulate
+    # a fresh process and an empty cache: the runner is compiled here, not loaded (a loaded runner
+    # leaves its callees' dispatchers without signatures, and the check would see nothing)
+    code = textwrap.dedent("""
+        from mckibben import doctor
+        from mckibben.control import core as C
+        from mckibben.plant import PlantParams, simulate
 
-    simulate(PlantParams(), 0.003, controller=C.core_spec(C.CoreParams()), reference=4e5)
-    for name, dispatcher, signature in doctor.background_kernels():
-        assert tuple(signature) in [tuple(s) for s in dispatcher.signatures], (name, dispatcher.signatures)
+        simulate(PlantParams(), 0.003, controller=C.core_spec(C.CoreParams()), reference=4e5)
+        for name, dispatcher, signature in doctor.background_kernels():
+            assert tuple(signature) in [tuple(s) for s in dispatcher.signatures], (name, dispatcher.signatures)
+        print("same signatures")
+    """)
+    env = {**os.environ, "MCKIBBEN_CACHE_DIR": str(tmp_path / "cache"), "MCKIBBEN_BACKGROUND_WARM": "0"}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+    assert run.returncode == 0 and "same signatures" in run.stdout, run.stderr[-2000:]
 
 
 _HOLD = """

@@ -18,6 +18,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from urllib.parse import urlparse
 
+import numpy as np
+
 from mckibben import __version__, _kernels, control, experiments, models, plant, tool
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
@@ -52,6 +54,8 @@ def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
         ("hysteresis", lambda: experiments.hysteresis_compensation()),
         ("the tool", lambda: tool.track(tool.parse_path("circle:radius=5mm,period=2s"))),
         ("live stepper", lambda: plant.PlantStepper().advance(100, 0)),
+        ("a sweep's static start", lambda: plant.static_length(  # batches above SMALL_BATCH: the compiled bisection
+            plant.PlantParams(load_force=np.full(plant.simulator.SMALL_BATCH + 1, 0.6)))),
         ("linear model", lambda: plant.linearize(pressure=0.4e6)),
     ]
 
