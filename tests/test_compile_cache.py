@@ -530,3 +530,16 @@ def test_doctor_finds_the_optional_python_packages_without_importing_them(monkey
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "mujoco" else real(name, *a))
     gone = doctor.check().packages["mujoco"]
     assert gone["found"] is None and gone["install"] == "pip install 'mckibben[mujoco]'"
+
+
+def test_every_kernel_states_its_fast_math_flags():
+    # Numba compiles a callee that leaves fastmath unset with the flags of whichever caller compiles
+    # it first, so a kernel reached from the integrator (which contracts to FMA) and from the output
+    # stage gave last bits that depended on what had filled the cache; every kernel states its own
+    from mckibben import _kernels
+    from mckibben.plant import simulate  # noqa: F401 (loads the plant's kernels)
+
+    jit = _kernels.jit()
+    assert len(jit.DISPATCHERS) > 50
+    unset = [d.py_func.__qualname__ for d in jit.DISPATCHERS if "fastmath" not in d.targetoptions]
+    assert unset == []

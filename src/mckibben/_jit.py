@@ -342,6 +342,11 @@ def njit(*args, **options):
     """
     if "cache" in options:
         raise TypeError("mckibben._jit.njit decides caching itself; do not pass cache=")
+    # Explicit, never inherited: Numba compiles a callee that leaves ``fastmath`` unset with the
+    # flags of the caller that compiles it first. ``law_force`` compiled from the integrator (whose
+    # stages contract a·b + c into one FMA) then differed from ``law_force`` compiled from the
+    # output stage, so the plant's last bits depended on which command had filled the cache.
+    options.setdefault("fastmath", False)
 
     def wrap(func):
         with _LOCK:
@@ -354,7 +359,7 @@ def njit(*args, **options):
             DISPATCHERS.append(disp)
         return disp
 
-    if args and callable(args[0]) and not options:
+    if args and callable(args[0]):
         return wrap(args[0])
     return wrap
 
