@@ -213,6 +213,12 @@ def _fit_iso(**kw):
     return _mod("fit").fit_table(BUNDLED / "mpam97" / "isotonic.csv", "cubic", **kw)
 
 
+def _frame():
+    import pandas as pd
+
+    return pd.DataFrame({"time_constant_s_median": [0.01, 0.02], "grid_id": [0, 1]})
+
+
 # the experiments and the rig (found by the probe after the experiments moved)
 CASES += [
     ("robustness-progress-not-callable", lambda: _mod("experiments").robustness(4, progress=5), "progress"),
@@ -222,6 +228,19 @@ CASES += [
     ("fig13-betas-out-of-range", lambda: _mod("experiments").fig13(betas=(300.0,)), "betas"),
     ("device-port-none", lambda: _mod("rig").Device(None), "port"),
     ("device-port-number", lambda: _mod("rig").Device(5), "port"),
+    ("fig13-laws-typo", lambda: _mod("experiments").fig13(laws=("mdoel",)), "laws"),
+    # the sweep's summaries: a table that is not a sweep's results, and their own arguments
+    ("best_setting-table-none", lambda: _mod("sweep").best_setting(None), "table"),
+    ("best_setting-not-a-sweep", lambda: _mod("sweep").best_setting(_table()), "table"),
+    ("best_setting-constraint-number", lambda: _mod("sweep").best_setting(_table(), constraint=5), "constraint"),
+    ("best_setting-quantile-above-1", lambda: _mod("sweep").best_setting(_table(), quantile=2.0), "quantile"),
+    ("settings_table-quantile-nan", lambda: _mod("sweep").settings_table(_table(), quantile=NAN), "quantile"),
+    ("pareto_front-objectives-typo", lambda: _mod("sweep").pareto_front(_frame(), ["nope"]), "objectives"),
+    ("pareto_front-objectives-none", lambda: _mod("sweep").pareto_front(_frame(), None), "objectives"),
+    ("sensitivity-table-none", lambda: _mod("sweep").sensitivity(None), "table"),
+    ("read_results-out-none", lambda: _mod("sweep").read_results(None), "out"),
+    ("plot_pareto-ax-text", lambda: _mod("sweep").plot_pareto(_table(), ax="x"), "ax"),
+    ("plot_sensitivity-ax-text", lambda: _mod("sweep").plot_sensitivity(_table(), ax="x"), "ax"),
 ]
 
 

@@ -571,7 +571,7 @@ def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=Non
     betas = tuple(check_beta(b, "betas") for b in betas)
     for law in laws:
         if law not in LAWS:
-            raise unknown_name("`law`", law, LAWS)
+            raise unknown_name("`laws` entry", law, LAWS)
     fit, model, _ = default_identification()
     rows, rec = fig13_runs(model, betas=betas, laws=tuple(laws), eps=e, ki=k)
     return Fig13Result(rows, rec, model, float(fit.stderr["tau_s"]),

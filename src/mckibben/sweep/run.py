@@ -37,7 +37,7 @@ from mckibben.control.core import CoreParams, core_spec
 from mckibben.control.metrics import step_metrics_batch, tracking_metrics_batch
 from mckibben.plant import simulate
 from mckibben.atomic import TMP_TAG
-from mckibben.atomic import check_output_dir, clean_stale
+from mckibben.atomic import as_path, check_output_dir, clean_stale
 from mckibben.atomic import atomic_file
 from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
 
@@ -345,7 +345,7 @@ def read_results(out: str | Path) -> pd.DataFrame:
     out : str or Path
         Results folder.
     """
-    out = Path(out)
+    out = as_path(out, "out", "results folder")
     files = sorted(f for f in out.glob("chunk-*.parquet") if f.is_file())  # never open a FIFO
     if not out.is_dir() or not files:
         raise InputError(f"{str(out)!r}: no sweep results (chunk-*.parquet) there")

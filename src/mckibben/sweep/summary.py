@@ -14,9 +14,9 @@ import re
 
 import numpy as np
 
-from mckibben.errors import InputError, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, check_real, unknown_name
 from mckibben.plotting import save_figure
-from mckibben.results import provenance
+from mckibben.results import check_ax, provenance
 from mckibben.sweep.spec import METRICS
 from mckibben.atomic import check_output_dir
 
@@ -24,6 +24,21 @@ if TYPE_CHECKING:  # annotations only; the modules are imported where used (defe
     import pandas as pd
 
 _CONSTRAINT = re.compile(r"^\s*([a-zA-Z_]+)\s*(<=|>=|<|>)\s*([-+0-9.eE]+)\s*$")
+
+
+def _check_table(table, name: str = "table", need: tuple = ()) -> None:
+    """``table`` a DataFrame of sweep results (:func:`~mckibben.sweep.run.read_results`) with ``need`` columns."""
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    if not isinstance(table, pd.DataFrame):
+        raise ArgumentTypeError(f"{name}: a DataFrame of sweep results (read_results), not {type(table).__name__}")
+    missing = [c for c in need if c not in table.columns]
+    if missing:
+        raise InputError(f"{name}: no column {', '.join(map(repr, missing))}; is it a sweep's results (read_results)?")
+
+
+def _check_quantile(quantile) -> float:
+    return check_real(quantile, "quantile", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
 
 
 def parameter_columns(table: pd.DataFrame) -> list[str]:
@@ -34,6 +49,7 @@ def parameter_columns(table: pd.DataFrame) -> list[str]:
     table : pandas.DataFrame
         Sweep results.
     """
+    _check_table(table)
     cols = [c for c in table.columns if c.startswith(("plant.", "controller."))]
     return [c for c in cols if table[c].nunique() > 1]
 
@@ -46,7 +62,7 @@ def metric_columns(table: pd.DataFrame) -> list[str]:
     table : pandas.DataFrame
         Sweep results.
     """
-
+    _check_table(table)
     return [m for m in METRICS if m in table.columns]
 
 
@@ -61,6 +77,8 @@ def settings_table(table: pd.DataFrame, quantile: float = 0.95) -> pd.DataFrame:
         The upper quantile reported beside the median. [-]
     """
     import pandas as pd  # deferred on purpose: pandas (0.25 s)
+    quantile = _check_quantile(quantile)
+    _check_table(table, need=("grid_id",))
     grid_cols = [c for c in parameter_columns(table) if table.groupby("grid_id")[c].nunique().max() == 1]
     metrics = metric_columns(table)
     g = table.groupby("grid_id")
@@ -87,17 +105,23 @@ def best_setting(table: pd.DataFrame, objective: str = "time_constant_s", constr
     quantile : float, default 0.95
         "in 95 % of plants". [-]
     """
-    metrics = metric_columns(table)
-    if objective not in metrics:
-        raise unknown_name("objective metric", objective, metrics)
+    quantile = _check_quantile(quantile)  # the arguments first, then the table they apply to
+    if not isinstance(objective, str):
+        raise ArgumentTypeError(f"objective: a metric name (text), not {type(objective).__name__}")
+    if not isinstance(constraint, str):
+        raise ArgumentTypeError(f"constraint: text like overshoot_pct<=10, not {type(constraint).__name__}")
     m = _CONSTRAINT.match(constraint)
     if not m:
         raise InputError(f"constraint: {constraint!r} must look like overshoot_pct<=10")
+    if objective not in METRICS:
+        raise unknown_name("objective metric", objective, METRICS)
+    _check_table(table, need=("grid_id",))
+    metrics = metric_columns(table)
+    if objective not in metrics:
+        raise unknown_name("objective metric", objective, metrics)
     name, op, value = m.group(1), m.group(2), float(m.group(3))
     if name not in metrics:
         raise unknown_name("constraint metric", name, metrics)
-    if not 0 < quantile < 1:
-        raise InputError(f"quantile: {quantile} must be in (0, 1)")
     s = settings_table(table, quantile)
     q = s[f"{name}_q{int(round(quantile * 100))}"]
     ok = {"<=": q <= value, "<": q < value, ">=": q >= value, ">": q > value}[op]
@@ -117,6 +141,12 @@ def pareto_front(settings: pd.DataFrame, objectives: list[str]) -> pd.DataFrame:
     objectives : list of str
         Columns of ``settings`` to minimise. [-]
     """
+    _check_table(settings, "settings")
+    if isinstance(objectives, str) or not isinstance(objectives, (list, tuple)) or not objectives:
+        raise ArgumentTypeError(f"objectives: a non-empty list of column names, not {objectives!r}")
+    for o in objectives:
+        if o not in settings.columns:
+            raise unknown_name("objectives column", o, [str(c) for c in settings.columns])
     v = settings[objectives].to_numpy(dtype=float)
     keep = np.ones(len(v), dtype=bool)
     for i in range(len(v)):
@@ -165,6 +195,7 @@ def plot_pareto(table: pd.DataFrame, quantile: float = 0.95, ax=None):
     import pandas as pd  # deferred on purpose: pandas (0.25 s)
     import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
+    check_ax(ax)
     s = settings_table(table, quantile)
     qn = int(round(quantile * 100))
     if not {"time_constant_s_median", "valve_effort_counts_median"} <= set(s.columns):
@@ -201,6 +232,7 @@ def plot_sensitivity(table: pd.DataFrame, ax=None):
     """
     import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
+    check_ax(ax)
     sens = sensitivity(table)
     if sens.empty:
         return None
