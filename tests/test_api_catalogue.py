@@ -422,3 +422,77 @@ def test_a_muscle_file_with_an_implausible_size_is_refused(tmp_path, key, value)
     p.write_text('id = "m"\n' + "".join(f"{k} = {v}\n" for k, v in {**base, key: value}.items()))
     with pytest.raises(InputError, match=key):
         mk.read_muscle(p)
+
+
+# every public entry point's numeric arguments, each replaced by a random value in turn: a result or
+# the project's error; and never a result for a value that is no number at all (None where a number
+# is required, a bool, text, a mapping, NaN)
+
+def _experiments():
+    import importlib
+
+    return importlib.import_module("mckibben.experiments")
+
+
+_ENTRY_POINTS = {
+    # name: (call taking the replaced keyword, numeric arguments, those that take None)
+    "predict_length": (lambda **k: mk.predict_length(mk.get_muscle("mpam97"), **{"pressure": 4e5, "load": 0.6, **k}),
+                       ("pressure", "load"), ()),
+    "pressure_for_length": (lambda **k: mk.pressure_for_length(mk.get_muscle("mpam97"),
+                                                               **{"length": 0.09, "load": 0.6, **k}),
+                            ("length", "load", "p_max"), ()),
+    "models.force": (lambda **k: _mod_models().force(**{"pressure": 4e5, "length": 0.09, "muscle": mk.get_muscle("mpam97"),
+                                                        "model": "chou-hannaford", **k}), ("pressure", "length"), ()),
+    "models.length": (lambda **k: _mod_models().length(**{"pressure": 4e5, "load": 0.6, "muscle": mk.get_muscle("mpam97"),
+                                                          **k}), ("pressure", "load"), ()),
+    "step_response": (lambda **k: _experiments().step_response(**{"duration": 0.05, **k}),
+                      ("target", "start", "load", "supply", "duration", "p_max", "beta", "eps", "ki"),
+                      ("supply", "beta", "eps", "ki")),
+    "open_loop": (lambda **k: _experiments().open_loop(**{"duration": 0.05, **k}),
+                  ("valve", "supply", "load", "duration"), ("valve", "supply")),
+    "linearize": (lambda **k: _mod_plant().linearize(**k), ("pressure",), ()),
+    "static_length": (lambda **k: _mod_plant().static_length(**k), ("pressure",), ()),
+    "make_tool": (lambda **k: _mod_tool().make_tool(**k),
+                  ("pitch_radius", "discs", "preload", "bending_stiffness", "axial_stiffness", "p_max"),
+                  ("pitch_radius", "preload", "bending_stiffness", "axial_stiffness", "p_max")),
+}
+
+
+def _mod_models():
+    from mckibben import models
+
+    return models
+
+
+def _mod_plant():
+    from mckibben import plant
+
+    return plant
+
+
+def _mod_tool():
+    from mckibben import tool
+
+    return tool
+
+
+def _no_number(value, takes_none: bool) -> bool:
+    if value is None:
+        return not takes_none
+    if isinstance(value, (bool, str, dict)):
+        return True
+    return isinstance(value, float) and math.isnan(value)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_every_entry_point_random_values(data):
+    name = data.draw(st.sampled_from(sorted(_ENTRY_POINTS)))
+    call, numeric, takes_none = _ENTRY_POINTS[name]
+    which = data.draw(st.sampled_from(numeric))
+    value = data.draw(_weird)
+    try:
+        call(**{which: value})
+    except ERR:
+        return
+    assert not _no_number(value, which in takes_none), f"{name}({which}={value!r}) returned a result"
