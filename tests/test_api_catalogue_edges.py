@@ -343,3 +343,28 @@ def test_a_table_plot_shows_once_in_jupyter(monkeypatch):
     monkeypatch.setattr(matplotlib, "get_backend", lambda: "module://matplotlib_inline.backend_inline")
     fig = _table().plot()
     assert hasattr(fig, "_ipython_display_")
+
+
+# ---------------------------------------------------------------------------------------------
+# answers that used to come back bare: now flagged
+
+
+@pytest.mark.parametrize("force", [NAN, INF, -0.5, 1e308])
+def test_the_tondu_lopez_inverse_flags_a_load_that_is_no_finite_pull(force):
+    from mckibben.models.laws.tondu_lopez import tondu_lopez_contraction
+
+    eps, flags = tondu_lopez_contraction(4e5, force, 2.5e-4, 0.4)
+    assert int(flags) != 0, (force, eps)
+    ok, none = tondu_lopez_contraction(4e5, 0.6, 2.5e-4, 0.4)
+    assert int(none) == 0 and 0.0 < float(ok) < 0.3
+
+
+@pytest.mark.parametrize("reference", [-1.0, 2e6, 1e308])
+def test_a_reference_outside_the_rigs_range_is_flagged(reference):
+    from mckibben.control.core import CoreParams, core_spec
+    from mckibben.plant import PlantParams, simulate
+    from mckibben.plant.simulator import FLAG_REFERENCE_OUTSIDE
+
+    r = simulate(PlantParams(), 0.01, controller=core_spec(CoreParams(), 2), n=2,
+                 reference=np.array([[5e5] * 10, [reference] * 10]))
+    assert r.flags[0] & FLAG_REFERENCE_OUTSIDE == 0 and r.flags[1] & FLAG_REFERENCE_OUTSIDE

@@ -45,6 +45,10 @@ from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
 from mckibben.plant._runner import FLAG_ABOVE_SUPPLY, FLAG_END_STOP, FLAG_NONFINITE  # noqa: F401 (public here)
 
+#: The reference left the rig's physical range [0, 1 MPa] somewhere: the controller's supervisor
+#: held it in [0, p_max], so the run followed another reference than the one given.
+FLAG_REFERENCE_OUTSIDE = 8
+
 #: The recorded series of a :class:`SimResult`, in the simulator's order; ``simulate(record=...)`` picks some.
 SERIES = ("pressure", "pressure_measured", "length", "force", "air_mass", "temperature", "inlet", "bleed", "faults",
           "adc", "encoder")
@@ -85,7 +89,8 @@ class SimResult:
     reference : numpy.ndarray
         Pressure reference given to the controller, (N, n), read-only (the given reference broadcast). [Pa]
     flags : numpy.ndarray
-        Per instance: 1 non-finite state, 2 chamber above supply, 4 an end stop reached. [-]
+        Per instance: 1 non-finite state, 2 chamber above supply, 4 an end stop reached, 8 the
+        reference outside [0, 1 MPa] (held in range by the supervisor). [-]
     istate, fstate : numpy.ndarray
         The controllers' state at the end of the run (kernel path), (N, ·). [-]
     temperature : numpy.ndarray
@@ -492,6 +497,9 @@ def simulate(
     out = _outputs(n_inst, n_steps, recorded)
     rec = np.array([-1 if name in recorded else 0 for name in SERIES], dtype=np.int64)
     flags = np.zeros(n_inst, dtype=np.int64)
+    outside = (ref < 0.0) | (ref > HW.P_MAX_LIMIT)
+    if outside.any():  # (rows: one per instance, or one for all)
+        flags |= np.where(np.broadcast_to(outside.any(axis=1), (n_inst,)), FLAG_REFERENCE_OUTSIDE, 0)
     common = (sched, prm, theta, law, s0, ref, n_steps, int(substeps), float(ts))
     if spec is not None:
         kernel, i0, ip, f0, fp = spec

@@ -150,11 +150,15 @@ def tondu_lopez_contraction(pressure, force, initial_radius, initial_angle, k=1.
     k = check_array(k, "k", finite=False)
     a = 3.0 / np.tan(initial_angle) ** 2
     b = 1.0 / np.sin(initial_angle) ** 2
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         q = (f / (np.pi * initial_radius**2 * p) + b) / a
         eps = (1.0 - np.sqrt(q)) / k
     bad = ~(p > 0) | ~(q >= 0)
-    return np.where(bad, np.nan, eps), flag_where(bad, Flag.SLACK)
+    # a load that is no finite pull (NaN, infinite, pushing) or a result past the braid's range
+    # (a contraction above 1, or a stretch the model cannot give): flagged, never a bare number
+    odd = ~np.isfinite(f) | (f < 0) | ~np.isfinite(eps) | (eps > 1.0) | (eps < -1.0)
+    return (np.where(bad, np.nan, eps),
+            flag_where(bad, Flag.SLACK) | flag_where(odd & ~bad, Flag.LOAD_OUT_OF_RANGE))
 
 
 @dataclass(frozen=True)
