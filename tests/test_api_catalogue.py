@@ -454,7 +454,7 @@ _ENTRY_POINTS = {
     "static_length": (lambda **k: _mod_plant().static_length(**k), ("pressure",), ()),
     "make_tool": (lambda **k: _mod_tool().make_tool(**k),
                   ("pitch_radius", "discs", "preload", "bending_stiffness", "axial_stiffness", "p_max"),
-                  ("pitch_radius", "preload", "bending_stiffness", "axial_stiffness", "p_max")),
+                  ("pitch_radius", "discs", "preload", "bending_stiffness", "axial_stiffness", "p_max")),  # discs=None: continuous
 }
 
 

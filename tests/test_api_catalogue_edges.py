@@ -229,6 +229,9 @@ CASES += [
     ("device-port-none", lambda: _mod("rig").Device(None), "port"),
     ("device-port-number", lambda: _mod("rig").Device(5), "port"),
     ("fig13-laws-typo", lambda: _mod("experiments").fig13(laws=("mdoel",)), "laws"),
+    # durations so long that duration / 1 ms overflows (found by the entry points' hypothesis test)
+    ("open_loop-duration-1e305", lambda: _mod("experiments").open_loop(duration=1.8e305), "duration"),
+    ("step_response-duration-1e306", lambda: _mod("experiments").step_response(duration=1e306), "duration"),
     # the sweep's summaries: a table that is not a sweep's results, and their own arguments
     ("best_setting-table-none", lambda: _mod("sweep").best_setting(None), "table"),
     ("best_setting-not-a-sweep", lambda: _mod("sweep").best_setting(_table()), "table"),

@@ -129,6 +129,8 @@ def check_periods(value, name: str) -> float:
     """
     d = si(value, "time", name, allow_zero=False)
     steps = d / TS
+    if not math.isfinite(steps):  # (1e306 s: past any budget, and no whole number of periods)
+        raise InputError(f"{name}: {value!r} is longer than any run can be")
     if steps >= 1 and abs(steps - round(steps)) > 1e-6 * steps:
         raise InputError(f"{name}: {value!r} must be a whole number of 1 ms control periods")
     if steps < 1 - 1e-9:

@@ -890,11 +890,11 @@ def open_loop(valve: int | None = None, *, supply=None, load=0.6, duration=0.5,
     if isinstance(valve, bool) or not isinstance(valve, (int, np.integer)) or not 0 <= valve <= 255:
         raise InputError(f"valve: {valve!r} must be a PWM count in 0..255")
     d = si(duration, "time", "duration", allow_zero=False)
+    if d > 60:
+        raise InputError(f"duration: {duration!r} is longer than 60 s")
     steps = d / TS
     if abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
         raise InputError(f"duration: {duration!r} must be a whole number of 1 ms control periods")
-    if d > 60:
-        raise InputError(f"duration: {duration!r} is longer than 60 s")
     extra: dict = {}
     if muscle_file is not None:
         plant = muscle_file_plant(muscle_file, load, supply, direction)
