@@ -14,7 +14,7 @@ import re
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError, InputError, check_real, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, check_instance, check_real, unknown_name
 from mckibben.plotting import save_figure
 from mckibben.results import check_ax, provenance
 from mckibben.sweep.spec import METRICS
@@ -30,8 +30,7 @@ def _check_table(table, name: str = "table", need: tuple = ()) -> None:
     """``table`` a DataFrame of sweep results (:func:`~mckibben.sweep.run.read_results`) with ``need`` columns."""
     import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
-    if not isinstance(table, pd.DataFrame):
-        raise ArgumentTypeError(f"{name}: a DataFrame of sweep results (read_results), not {type(table).__name__}")
+    check_instance(table, name, pd.DataFrame, "a DataFrame of sweep results (read_results)")
     missing = [c for c in need if c not in table.columns]
     if missing:
         raise InputError(f"{name}: no column {', '.join(map(repr, missing))}; is it a sweep's results (read_results)?")
