@@ -284,8 +284,9 @@ class Device:
         ----------
         target : float, default 0.55e6
             Set-point of the step, at most :data:`SAFE_MAX_PRESSURE_PA`. [Pa]
-        controller : {"smc", "pid"}, default "smc"
-            The device's pressure controller. [-]
+        controller : str, default "smc"
+            The device's pressure controller, a name of the controller registry
+            (:data:`mckibben.control.registry.NAMES`: ``"smc"``, ``"pid"``, ``"stsmc"``). [-]
         duration : float, default 1.0
             Recording time after the step, at most 60 s. [s]
 
@@ -299,7 +300,8 @@ class Device:
         if p > SAFE_MAX_PRESSURE_PA:
             raise InputError(f"target: {target!r} is above the {SAFE_MAX_PRESSURE_PA / 1e6:g} MPa safe limit")
         if controller not in CONTROLLERS:
-            raise InputError(f"controller: {controller!r} must be smc or pid")
+            *first, last = CONTROLLERS  # the registry's names, in mode order
+            raise InputError(f"controller: {controller!r} must be {', '.join(first)} or {last}")
         d = si(duration, "time", "duration", allow_zero=False)
         if d > 60:
             raise InputError(f"duration: {duration!r} is longer than 60 s")
