@@ -99,7 +99,7 @@ def real_data() -> list[dict]:
 
 def simulator() -> dict:
     """The seed paper's miniature on the plant simulator: the three feed-forwards' errors."""
-    from mckibben.control import hysteresis_compensation
+    from mckibben.experiments import hysteresis_compensation
 
     return hysteresis_compensation(4.0).summary()
 

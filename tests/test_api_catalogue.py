@@ -195,7 +195,7 @@ def _models():
 
 
 def _identify(**kw):
-    from mckibben.control.experiments import identify_plant
+    from mckibben.control.runs import identify_plant
 
     return identify_plant(**kw)
 

@@ -10,6 +10,7 @@ import pytest
 from matplotlib.figure import Figure
 
 import mckibben.control as mc
+import mckibben.experiments as mx
 from mckibben.errors import InputError
 from mckibben.results import read_provenance
 
@@ -24,7 +25,7 @@ def test_step_series_reproduces_the_json_metrics(cli, tmp_path):
     df = pd.read_parquet(out)
     assert {"time_s", "reference_Pa", "pressure_Pa", "command_pwm", "length_m"} <= set(df.columns)
     meta = read_provenance(out)
-    assert meta["call"] == "mckibben.control.step_response" and meta["arguments"]["target_Pa"] == 0.55e6
+    assert meta["call"] == "mckibben.experiments.step_response" and meta["arguments"]["target_Pa"] == 0.55e6
     again = mc.step_metrics(df["time_s"], df["pressure_Pa"], df["reference_Pa"], df["command_pwm"],
                             t_step=meta["arguments"]["step_time_s"])
     for key, value in again.items():
@@ -41,8 +42,8 @@ def test_step_plot_in_any_matplotlib_format(cli, tmp_path):
 
 
 def test_step_response_in_python():
-    res = mc.step_response("smc", target=0.55e6, law="paper", beta=150, duration=0.3)
-    assert res.metrics == mc.step_response("smc", target=0.55e6, law="paper", beta=150, duration=0.3).metrics
+    res = mx.step_response("smc", target=0.55e6, law="paper", beta=150, duration=0.3)
+    assert res.metrics == mx.step_response("smc", target=0.55e6, law="paper", beta=150, duration=0.3).metrics
     assert res.metrics["time_constant_s"] <= 0.015  # the paper's β = 150, Fig. 13 (~0.01 s)
     assert repr(res).startswith("StepResult(controller='smc', target_Pa=5.5e+05")
     assert isinstance(res.plot(), Figure)
@@ -62,24 +63,24 @@ def test_step_response_in_python():
 ])
 def test_step_response_bad_input(kwargs, message):
     with pytest.raises(InputError, match=message):
-        mc.step_response(**kwargs)
+        mx.step_response(**kwargs)
 
 
 def test_fig13_track_robustness_compare_objects(tmp_path):
-    f = mc.fig13(betas=(150.0,), laws=("paper",))
+    f = mx.fig13(betas=(150.0,), laws=("paper",))
     assert list(f.metrics) == ["paper@150"]
     assert f.metrics["paper@150"]["paper_time_constant_s"] == 0.01  # from datasets.paper_points
     df = f.to_pandas()
     assert set(df["law"]) == {"paper"} and "pressure_Pa" in df
-    t = mc.track_pressure(mc.SineReference(0.4e6, 0.1e6, 2.0), duration=0.5)
+    t = mx.track_pressure(mc.SineReference(0.4e6, 0.1e6, 2.0), duration=0.5)
     assert t.metrics["rms_error_Pa"] < 0.1e6 and len(t.to_pandas()) == 500
-    rob = mc.robustness(4, seed=1)
+    rob = mx.robustness(4, seed=1)
     assert rob.to_pandas().shape[0] == 16 and set(rob.metrics) == {"pid", "smc", "smc_paper", "stsmc"}
     assert "RobustnessResult(n=4" in repr(rob)
     out = tmp_path / "t.csv"
     t.to_file(out)
     assert list(pd.read_csv(out).columns)[:3] == ["time_s", "reference_Pa", "pressure_Pa"]
-    ol = mc.open_loop(supply=0.8e6)
+    ol = mx.open_loop(supply=0.8e6)
     assert 0.08 <= ol.metrics["time_constant_s"] <= 0.10  # the paper's ~0.09 s (§IV.A)
     assert isinstance(ol.plot(), Figure)
 

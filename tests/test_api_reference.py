@@ -14,7 +14,7 @@ import mckibben as mk
 
 DOCS = pathlib.Path(__file__).resolve().parents[1] / "docs"
 #: Entry points whose reference names the function where it lives, under another name.
-ALIASES = {"track_pressure": "mckibben.control.track_pressure", "track_tip": "mckibben.tool.track"}
+ALIASES = {"track_pressure": "mckibben.experiments.track_pressure", "track_tip": "mckibben.experiments.track_tip"}
 
 
 @pytest.mark.parametrize("name", sorted(set(mk.__all__) - {"__version__"}))

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import mckibben.control as mc
+import mckibben.experiments as mx
 from mckibben.control.references import SineReference, parse_reference
 from mckibben.errors import ArgumentTypeError, InputError
 from mckibben.rig import Device
@@ -22,17 +23,17 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "mckibben"
 
 
 @pytest.mark.parametrize("call, name, number", [
-    (lambda: mc.step_response("smc", target="0.55MPa"), "target", "550000"),
-    (lambda: mc.step_response("smc", start="0.1MPa"), "start", "100000"),
-    (lambda: mc.step_response("smc", load="0.6N"), "load", "0.6"),
-    (lambda: mc.step_response("smc", duration="300ms"), "duration", "0.3"),
-    (lambda: mc.step_response("smc", p_max="0.7MPa"), "p_max", "700000"),
-    (lambda: mc.step_response("smc", eps="20kPa"), "eps", "20000"),
-    (lambda: mc.step_response("pid", lam="30ms"), "lam", "0.03"),
-    (lambda: mc.track_pressure(SineReference(0.4e6, 0.1e6, 2.0), duration="1s"), "duration", "1"),
-    (lambda: mc.open_loop(supply="0.8MPa"), "supply", "800000"),
-    (lambda: mc.hysteresis_compensation("4s"), "period", "4"),
-    (lambda: mc.fig13(eps="50kPa"), "eps", "50000"),
+    (lambda: mx.step_response("smc", target="0.55MPa"), "target", "550000"),
+    (lambda: mx.step_response("smc", start="0.1MPa"), "start", "100000"),
+    (lambda: mx.step_response("smc", load="0.6N"), "load", "0.6"),
+    (lambda: mx.step_response("smc", duration="300ms"), "duration", "0.3"),
+    (lambda: mx.step_response("smc", p_max="0.7MPa"), "p_max", "700000"),
+    (lambda: mx.step_response("smc", eps="20kPa"), "eps", "20000"),
+    (lambda: mx.step_response("pid", lam="30ms"), "lam", "0.03"),
+    (lambda: mx.track_pressure(SineReference(0.4e6, 0.1e6, 2.0), duration="1s"), "duration", "1"),
+    (lambda: mx.open_loop(supply="0.8MPa"), "supply", "800000"),
+    (lambda: mx.hysteresis_compensation("4s"), "period", "4"),
+    (lambda: mx.fig13(eps="50kPa"), "eps", "50000"),
     (lambda: mc.controller_params("smc", mc.FirstOrderModel(3000.0, 0.09), p_max="0.8MPa"), "p_max", "800000"),
     (lambda: Device("/nonexistent/tty").step("0.4MPa"), "target", "400000"),
 ])
@@ -45,7 +46,7 @@ def test_text_is_refused_with_the_si_number_to_pass(call, name, number):
 
 def test_a_sine_reference_is_an_object_and_its_text_is_refused():
     with pytest.raises(ArgumentTypeError) as info:
-        mc.track_pressure("sine:0.4MPa,0.1MPa,2Hz")
+        mx.track_pressure("sine:0.4MPa,0.1MPa,2Hz")
     assert "SineReference(mean=400000.0, amplitude=100000.0, frequency=2.0)" in str(info.value)
     t, p = mc.pressure_reference(SineReference(0.4e6, 0.1e6, 2.0), 0.5)
     assert t.size == 500 and np.allclose(p, 0.4e6 + 0.1e6 * np.sin(2 * np.pi * 2.0 * t))

@@ -1,4 +1,4 @@
-"""The tool from Python: make_tool, forward, inverse, map_workspace, track; tool track --out."""
+"""The tool from Python: make_tool, forward, inverse, map_workspace, and the experiment track_tip; tool track --out."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 from matplotlib.figure import Figure
 
+import mckibben.experiments as mx
 import mckibben.tool as mt
 from mckibben.errors import InputError
 from mckibben.results import read_provenance
@@ -31,7 +32,7 @@ def test_quantities_as_numbers_or_text():
 
 
 def test_track_result_and_its_series(cli, tmp_path):
-    res = mt.track(mt.parse_path("circle:radius=3mm,period=1s"), periods=[1.0])
+    res = mx.track_tip(mt.parse_path("circle:radius=3mm,period=1s"), periods=[1.0])
     assert res.metrics["runs"] == 1 and 0 < res.metrics["rms_error_m"] < 3e-3
     df = res.to_pandas()
     assert {"time_s", "target_x_m", "achieved_x_m", "reference_1_Pa", "pressure_3_Pa"} <= set(df.columns)
@@ -41,12 +42,12 @@ def test_track_result_and_its_series(cli, tmp_path):
     assert r.code == 0, r.err
     back = pd.read_parquet(out)
     np.testing.assert_array_equal(back["achieved_x_m"], df["achieved_x_m"])
-    assert read_provenance(out)["call"] == "mckibben.tool.track"
+    assert read_provenance(out)["call"] == "mckibben.experiments.track_tip"
     assert r.json()["runs"][0]["rms_error_m"] == pytest.approx(res.metrics["rms_error_m"], rel=1e-12)
 
 
 def test_reference_only_has_no_plot():
-    res = mt.track(mt.parse_path("circle:radius=3mm,period=1s"), reference_only=True)
+    res = mx.track_tip(mt.parse_path("circle:radius=3mm,period=1s"), reference_only=True)
     assert np.isnan(res.metrics["rms_error_m"])
     with pytest.raises(InputError, match="nothing simulated"):
         res.plot()

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from mckibben import control
+from mckibben import experiments
 from mckibben.cli import app
 from mckibben.cli._common import command_of, flag_names, in_flags
 from mckibben.errors import InputError
@@ -32,7 +32,7 @@ def test_in_flags_rewrites_the_arguments_a_message_names(message, shown):
 
 def test_the_library_names_the_python_argument():
     with pytest.raises(InputError) as info:
-        control.step_response("smc", beta=300)
+        experiments.step_response("smc", beta=300)
     assert str(info.value).startswith("beta:") and "--" not in str(info.value)
 
 

@@ -143,10 +143,10 @@ def test_no_cached_function_takes_a_compiled_function_as_an_argument():
     """A dispatcher-typed argument cannot be cached (numba-cache.md): check every kernel's compiled signatures."""
     import numba
 
-    from mckibben import _jit, control
+    from mckibben import _jit, experiments
 
-    control.step_response("smc", law="paper", beta=150)
-    control.open_loop()
+    experiments.step_response("smc", law="paper", beta=150)
+    experiments.open_loop()
     seen = set()
     for disp in _jit.DISPATCHERS:  # entry points loaded from the cache list their signatures; callees are inside
         for sig in disp.signatures:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mckibben.control.experiments import identify_plant
+from mckibben.control.runs import identify_plant
 from mckibben.control.hysteresis import hysteresis_benefit
 from mckibben.errors import InputError
 

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mckibben.control import experiments as E
+from mckibben.control import runs as E
 from mckibben.control.core import MODE_OPEN_LOOP, MODE_PID, MODE_SMC, CoreParams, core_spec
 from mckibben.control.faults import instrumented_spec
 from mckibben.errors import InputError

@@ -83,7 +83,7 @@ def _plant_step_log(path, u1):
 
 
 def test_identify_two_logs_gives_the_lift_off(cli, tmp_path):
-    from mckibben.control.experiments import identify_plant
+    from mckibben.control.runs import identify_plant
 
     a = _plant_step_log(tmp_path / "a.csv", 117)
     b = _plant_step_log(tmp_path / "b.csv", 119)

@@ -151,3 +151,38 @@ def test_the_deferred_import_is_the_documented_one():
     text = (PACKAGE / "_kernels.py").read_text(encoding="utf-8")
     line = next(x for x in text.splitlines() if "from mckibben import _jit" in x)
     assert "deferred" in line and "Numba" in line
+
+
+def _named_modules() -> list[tuple[str, str, int]]:
+    """Modules named in strings that the package resolves by name: the lazy maps of its packages
+    (``_WHERE``: PEP 562) and ``"module:function"`` references (the controller registry's hooks).
+    An exact string constant that is a known module, or a known module and ``:attribute``."""
+    out = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        module = _module_name(path)
+        if module == "mckibben":  # the top-level facade: it names the entry points of every layer by design
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str):
+                target = node.value.split(":", 1)[0]
+                if target in KNOWN and target != module:
+                    out.append((module, target, node.lineno))
+    return out
+
+
+NAMED = _named_modules()
+
+
+def test_names_resolved_at_run_time_go_down_the_layers_too():
+    """A lazy map or a registry hook that names a higher layer is an upward import made at first use
+    (e.g. ``mckibben.control.step_response`` resolving to the experiment layer): refused like one."""
+    assert any(a == "mckibben.control" and b == "mckibben.control.core" for a, b, _ in NAMED)  # the walk sees maps
+    assert any(b == "mckibben.control.stsmc" for _, b, _ in NAMED)  # and registry hooks
+    bad = []
+    for a, b, line in NAMED:
+        (pa, la), (pb, lb) = _layer(a), _layer(b)
+        if pa != pb and la is not None and lb is not None and lb >= la:
+            bad.append(f"{a}:{line} names {b}: {pa} (layer {la}) may not reach {pb} (layer {lb})")
+        elif pa != pb and la is None and lb is not None:
+            bad.append(f"{a}:{line} names {b}: a base module reaches the {pb} layer")
+    assert bad == []

@@ -18,7 +18,8 @@ from mckibben.errors import InputError  # noqa: E402
 from mckibben.export.mujoco import (MuscleBank, hanging_mass, hanging_mass_mjcf, load_model, muscle_plant,  # noqa: E402
                                     run_model)
 from mckibben.plant import simulate, static_length  # noqa: E402
-from mckibben.tool import make_tool, parse_path, track  # noqa: E402
+from mckibben.experiments import track_tip as track  # noqa: E402
+from mckibben.tool import make_tool, parse_path  # noqa: E402
 from mckibben.tool.kinematics import Arc, lengths_from_arc, tip_position  # noqa: E402
 from mckibben.tool.mujoco_model import _pose, endoscope_mjcf  # noqa: E402
 

@@ -118,7 +118,7 @@ def test_control_step_gains_are_tuned_for_the_file_plant(cli, files, controller)
 def test_tuned_gains_stay_under_p_max(cli, files, tmp_path):
     """A target above --p-max is clamped; the tuned design steps stay below it; so does the chamber."""
     from mckibben.control.core import CoreParams
-    from mckibben.control.experiments import SAFETY_TRANSIENT_PA
+    from mckibben.control.runs import SAFETY_TRANSIENT_PA
 
     out = tmp_path / "run.csv"
     r = cli("control", "step", "--muscle-file", files["spring"], "--load", "20N", "--target", "0.4MPa",
@@ -171,8 +171,8 @@ def test_commands_that_make_no_sense_for_a_muscle_file_refuse_it(cli, files, com
 
 def test_compare_and_robustness_run_on_the_file_plant(files, monkeypatch):
     """The wiring: the file's steps, loads and tuned controllers (one candidate each, for time)."""
-    from mckibben.control import compare, robustness
-    from mckibben.control import experiments as E
+    from mckibben.experiments import compare, robustness
+    from mckibben.control import runs as E
     from mckibben.control.simulation import muscle_file_plant, rest_pull
     from mckibben.experiments.pressure import COMPARE_LOADS, COMPARE_STEPS
 

@@ -62,14 +62,14 @@ def test_figures_and_csv_tables_say_where_they_came_from(tmp_path, monkeypatch):
     for fmt in ("png", "pdf", "svg"):
         assert main(["simulate", "open-loop", "--valve", "117", "--plot", str(tmp_path / f"o.{fmt}")]) == 0
         prov = _provenance_of(tmp_path / f"o.{fmt}")
-        assert prov["call"] == "mckibben.control.open_loop" and prov["arguments"]["valve_pwm"] == 117
+        assert prov["call"] == "mckibben.experiments.open_loop" and prov["arguments"]["valve_pwm"] == 117
         assert prov["mckibben_version"] == mckibben.__version__
         assert re.match(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\+00:00", prov["created_utc"])
         assert prov["command"] == f"mckibben simulate open-loop --valve 117 --plot o.{fmt}"
     assert main(["control", "step", "--out", "s.csv"]) == 0
     side = json.loads((tmp_path / "s.csv.provenance.json").read_text(encoding="utf-8"))
     assert side == read_provenance(tmp_path / "s.csv")
-    assert side["call"] == "mckibben.control.step_response" and side["command"] == "mckibben control step --out s.csv"
+    assert side["call"] == "mckibben.experiments.step_response" and side["command"] == "mckibben control step --out s.csv"
     assert (tmp_path / "s.csv").read_text(encoding="utf-8").startswith("time_s,")  # the table itself unchanged
     assert main(["control", "step", "--out", "s.parquet"]) == 0
     assert read_provenance(tmp_path / "s.parquet")["command"] == "mckibben control step --out s.parquet"

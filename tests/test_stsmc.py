@@ -10,7 +10,7 @@ import numpy as np
 
 from mckibben.control import core, stsmc
 from mckibben.control import registry as R
-from mckibben.control.experiments import identify_plant, run_closed_loop, step_reference
+from mckibben.control.runs import identify_plant, run_closed_loop, step_reference
 
 
 def test_sqrt_table_and_interpolation():

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mckibben.control import experiments as E
+from mckibben.control import runs as E
 from mckibben.control.controllers import pid_params, with_supervisor_model
 from mckibben.control.core import FAULT_ADC_RANGE, FAULT_MISSING, FAULT_STUCK, CoreParams, core_spec
 from mckibben.control.faults import FAULT_FIXED_READING, FAULT_STUCK_SENSOR, instrumented_spec

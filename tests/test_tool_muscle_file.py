@@ -14,6 +14,7 @@ import json
 import numpy as np
 import pytest
 
+import mckibben.experiments as mx
 import mckibben.tool as mt
 from conftest import run_cli
 from mckibben.data import read_muscle, read_table
@@ -208,7 +209,7 @@ def test_cli_bad_muscle_files_and_options_are_one_line(saved, tmp_path):
 def test_tracking_a_circle_with_the_files_plant(saved):
     """Three plants of the file's muscle, each with its controller, follow a 20 mm circle in 1 s."""
     tool = mt.make_tool(muscle_file=saved["spring"])
-    res = mt.track(parse_path("circle:radius=20mm,period=1s,cycles=1"), tool=tool)
+    res = mx.track_tip(parse_path("circle:radius=20mm,period=1s,cycles=1"), tool=tool)
     run = res.results[0]
     assert run.faults == 0 and run.reference.max() <= tool.p_max
     # measured 0.86 mm RMS: the tracking gains are the miniature rig's, on a plant whose fill is

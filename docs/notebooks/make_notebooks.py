@@ -116,21 +116,22 @@ beside our law with the model term; then the PID against both laws over step siz
 and a Monte Carlo over plant uncertainty."""),
         ("code", """import pandas as pd
 
-import mckibben.control as mc"""),
-        ("code", """f13 = mc.fig13()
+import mckibben.control as mc
+import mckibben.experiments as mx"""),
+        ("code", """f13 = mx.fig13()
 f13"""),
         ("code", """pd.DataFrame(f13.rows)[["law", "beta_counts", "paper_time_constant_s", "time_constant_s", "paper_overshoot_pct", "overshoot_pct"]]"""),
         ("code", """f13.plot();"""),
         ("md", "## PID against sliding mode, over step sizes and loads"),
-        ("code", """cmp = mc.compare()
+        ("code", """cmp = mx.compare()
 cmp"""),
         ("code", """cmp.plot();"""),
         ("md", "## Robustness: the same three controllers on random plants\n\n±30 % on valve gain, dead band, volumes and leak; supply 0.6–1.0 MPa; load 0–3 N."),
-        ("code", """rob = mc.robustness(60, seed=0)
+        ("code", """rob = mx.robustness(60, seed=0)
 rob.plot()
 pd.DataFrame({c: {k: v["median"] for k, v in s.items()} for c, s in rob.metrics.items()})"""),
         ("md", "## Track a pressure trajectory"),
-        ("code", """tr = mc.track_pressure(mc.SineReference(0.4e6, 0.1e6, 2.0), duration=1.0)
+        ("code", """tr = mx.track_pressure(mc.SineReference(0.4e6, 0.1e6, 2.0), duration=1.0)
 print(tr.metrics)
 tr.plot();"""),
     ],
@@ -141,7 +142,8 @@ The endoscope of §V of *Experimental Characterization and Control of Miniaturiz
 Artificial Muscle*: three miniature muscles 120° apart bend a disc stack. From a tip target to
 pressures (inverse), back to the pose (forward), the reachable workspace, and a tip path
 followed by three simulated, pressure-controlled muscles."""),
-        ("code", """import mckibben.tool as mt
+        ("code", """import mckibben.experiments as mx
+import mckibben.tool as mt
 
 tool = mt.make_tool("mpam117", preload=1.0, bending_stiffness=2e-4)  # SI: N, N·m²
 state = mt.inverse([0.02, 0.0, 0.11], tool)  # tip x, y, z in m
@@ -152,7 +154,7 @@ back.tip * 1e3  # mm"""),
 print(ws)
 ws.plot();"""),
         ("md", "## Follow a circle at two speeds"),
-        ("code", """trk = mt.track(mt.parse_path("circle:radius=5mm,period=2s"), periods=[2.0, 1.0], tool=tool)
+        ("code", """trk = mx.track_tip(mt.parse_path("circle:radius=5mm,period=2s"), periods=[2.0, 1.0], tool=tool)
 print(trk)
 trk.plot();"""),
         ("code", """trk.to_pandas().head()"""),

@@ -15,7 +15,7 @@ a unit is refused with the number to pass) and the command line parses units
 
 Subpackages: :mod:`~mckibben.models`, :mod:`~mckibben.data`, :mod:`~mckibben.datasets`,
 :mod:`~mckibben.fit`, :mod:`~mckibben.plant`, :mod:`~mckibben.control`, :mod:`~mckibben.rig`,
-:mod:`~mckibben.tool`, :mod:`~mckibben.sweep`, :mod:`~mckibben.report`. They are imported on
+:mod:`~mckibben.tool`, :mod:`~mckibben.experiments`, :mod:`~mckibben.sweep`, :mod:`~mckibben.report`. They are imported on
 first use, so ``import mckibben`` stays quick.
 """
 
@@ -47,14 +47,14 @@ _ENTRY_POINTS = {
     "fig13": ("mckibben.experiments", "fig13"),
     "robustness": ("mckibben.experiments", "robustness"),
     "make_tool": ("mckibben.tool", "make_tool"),
-    "track_tip": ("mckibben.tool", "track"),
+    "track_tip": ("mckibben.experiments", "track_tip"),
     "Device": ("mckibben.rig", "Device"),
     "load_sweep": ("mckibben.sweep", "load_sweep"),
     "run_sweep": ("mckibben.sweep", "run_sweep"),
     "reproduce": ("mckibben.report", "reproduce"),
 }
-_SUBPACKAGES = ("control", "data", "datasets", "fit", "models", "plant", "report", "rig", "sweep", "tool", "units",
-                "results")
+_SUBPACKAGES = ("control", "data", "datasets", "experiments", "fit", "models", "plant", "report", "rig", "sweep", "tool",
+                "units", "results")
 
 
 def __getattr__(name: str):

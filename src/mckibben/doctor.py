@@ -52,7 +52,7 @@ def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
         ("compare", lambda: experiments.compare()),
         ("robustness", lambda: experiments.robustness(4)),
         ("hysteresis", lambda: experiments.hysteresis_compensation()),
-        ("the tool", lambda: tool.track(tool.parse_path("circle:radius=5mm,period=2s"))),
+        ("the tool", lambda: experiments.track_tip(tool.parse_path("circle:radius=5mm,period=2s"))),
         ("live stepper", lambda: plant.PlantStepper().advance(100, 0)),
         ("a sweep's static start", lambda: plant.static_length(  # batches above SMALL_BATCH: the compiled bisection
             plant.PlantParams(load_force=np.full(plant.simulator.SMALL_BATCH + 1, 0.6)))),

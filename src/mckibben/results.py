@@ -78,7 +78,7 @@ def provenance(call: str, arguments: dict | None = None) -> dict:
     Parameters
     ----------
     call : str
-        The public function that produced it, e.g. ``"mckibben.control.step_response"``. [-]
+        The public function that produced it, e.g. ``"mckibben.experiments.step_response"``. [-]
     arguments : dict, optional
         Its arguments, SI. [-]
     """

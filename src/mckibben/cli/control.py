@@ -216,8 +216,8 @@ def robustness_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Monte Carlo over plant uncertainty: PID, both sliding-mode laws and stsmc, median and 5–95 % of each metric."""
-    if n >= 1:  # every compared controller (control.experiments.CONTROLLER_NAMES), 0.6 s each
-        _size_first("--n", "0.6s", instances=len(control.experiments.CONTROLLER_NAMES) * n, force=force, extra=0.0)
+    if n >= 1:  # every compared controller (control.runs.CONTROLLER_NAMES), 0.6 s each
+        _size_first("--n", "0.6s", instances=len(control.runs.CONTROLLER_NAMES) * n, force=force, extra=0.0)
 
     check_outputs(plot, dpi, out)
     with progress_bar("plants", json) as bar:

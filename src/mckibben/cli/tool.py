@@ -215,7 +215,7 @@ def track_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Follow a tip path: IK + static inverse → pressure references → three controlled muscles (plant or device)."""
-    engines = tool_lib.experiments.TRACK_ENGINES
+    engines = experiments.tool.TRACK_ENGINES
 
     if engine not in engines:
         raise unknown_name("engine (--engine)", engine, engines)
@@ -231,7 +231,7 @@ def track_cmd(
         link_res, link_info = experiments.link.track_over_link(port, tool, path, beta=beta)
     with progress_bar("periods", json) as bar:
         task = bar.add_task("periods", total=None)
-        res = tool_lib.track(path, periods=periods, tool=tool, beta=beta, reference_only=reference_only, force=force,
+        res = experiments.track_tip(path, periods=periods, tool=tool, beta=beta, reference_only=reference_only, force=force,
                              progress=lambda done, total: bar.update(task, completed=done, total=total), engine=engine)
     simulated = res.results is not None
     if plot and simulated:

@@ -32,7 +32,7 @@ def plot_record(record, labels, ax=None):
     Parameters
     ----------
     record : LoopRecord
-        A closed-loop record (:func:`mckibben.control.experiments.run_closed_loop`). [-]
+        A closed-loop record (:func:`mckibben.control.runs.run_closed_loop`). [-]
     labels : sequence of str
         One label per instance to draw. [-]
     ax : matplotlib.axes.Axes or pair of Axes, optional
@@ -73,7 +73,7 @@ def plot_fig13(result, ax=None, tau_vs_beta=None):
     Parameters
     ----------
     result : Fig13Result
-        From :func:`mckibben.control.fig13`. [-]
+        From :func:`mckibben.experiments.fig13`. [-]
     ax : matplotlib.axes.Axes or pair of Axes, optional
         One Axes: the responses only; two: responses and τ(β); default a new figure with both. [-]
     tau_vs_beta : pandas.DataFrame, optional
@@ -124,7 +124,7 @@ def plot_robustness(result, ax=None):
     Parameters
     ----------
     result : RobustnessResult
-        From :func:`mckibben.control.robustness`. [-]
+        From :func:`mckibben.experiments.robustness`. [-]
     ax : sequence of three matplotlib.axes.Axes, optional
         Where to draw; default a new figure. [-]
 
@@ -153,7 +153,7 @@ def plot_compare(result, ax=None):
     Parameters
     ----------
     result : CompareResult
-        From :func:`mckibben.control.compare`. [-]
+        From :func:`mckibben.experiments.compare`. [-]
     ax : matplotlib.axes.Axes, optional
         Where to draw; default a new figure. [-]
 
@@ -186,7 +186,7 @@ def plot_open_loop(result, ax=None):
     Parameters
     ----------
     result : OpenLoopResult
-        From :func:`mckibben.control.open_loop`. [-]
+        From :func:`mckibben.experiments.open_loop`. [-]
     ax : matplotlib.axes.Axes, optional
         Where to draw; default a new figure. [-]
 

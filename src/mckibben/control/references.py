@@ -1,4 +1,4 @@
-"""Pressure references as objects: what :func:`~mckibben.control.track_pressure` follows.
+"""Pressure references as objects: what :func:`~mckibben.experiments.track_pressure` follows.
 
 The library takes a reference as an object in SI: a :class:`SineReference` (mean and amplitude
 [Pa], frequency [Hz]), a CSV/Parquet file with ``time_<unit>`` and ``pressure_<unit>`` columns

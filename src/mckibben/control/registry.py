@@ -114,7 +114,7 @@ class ControllerSpec:
         with its documented design on an identified model. [-]
     candidates : str
         ``module:qualname`` of ``candidates(model, base, top, law, given) -> (gains, params)``:
-        the candidates :func:`~mckibben.control.experiments.tune_gains` simulates. [-]
+        the candidates :func:`~mckibben.control.runs.tune_gains` simulates. [-]
     designs : mapping
         The documented designs, by name: design parameter -> value (SI or PWM counts). [-]
     grid : mapping
@@ -195,7 +195,7 @@ SUPERVISOR_GAINS: tuple[GainSpec, ...] = (
     _G(19, "sup_u0", "sup_u0", "PWM counts", 1e3, 0, 255_000, 112.0, "MCK_GAIN_SUP_U0", "u0_s, its lift-off"),
 )
 
-_SMC = "mckibben.control.experiments"
+_SMC = "mckibben.control.runs"
 SMC = ControllerSpec(
     name="smc", mode=1, c_name="SMC", label="SMC\n(ours)",
     summary="sliding mode, eq. (5)-(12) with the signs corrected; law 'model' (model term) or 'paper'",

@@ -46,7 +46,7 @@ if TYPE_CHECKING:  # typing only: the core imports the registry, which imports t
 #: SET_MODE id (``MCK_MODE_STSMC``).
 MODE = 4
 #: The documented design: k1 [PWM counts], k2 [PWM counts/s], φ [Pa] (chosen by
-#: :func:`mckibben.control.experiments.tune_gains` on the calibrated plant, docs/controller.md).
+#: :func:`mckibben.control.runs.tune_gains` on the calibrated plant, docs/controller.md).
 DESIGN = {"k1": 10.0, "k2": 20.0, "phi": 50e3}
 #: The candidate grid of its tuning.
 GRID = {"k1": (1.0, 2.0, 5.0, 10.0), "k2": (20.0, 100.0, 500.0), "phi": (20e3, 50e3, 100e3)}

@@ -3,6 +3,8 @@
 :mod:`~mckibben.experiments.pressure`: the pressure-control experiments on the simulated plant
 (:func:`step_response`, :func:`track_pressure`, :func:`open_loop`, :func:`fig13`, :func:`compare`,
 :func:`robustness`, :func:`hysteresis_compensation`), one call each returning a result object.
+:mod:`~mckibben.experiments.tool`: the three-muscle tool's tip following a path in simulation
+(:func:`track_tip`, ``mckibben tool track``).
 :mod:`~mckibben.experiments.link`: the three-muscle tool steered through the device link
 (``mckibben tool track --port``; :func:`~mckibben.experiments.link.track_over_link`). It was
 ``mckibben.rig.track``; it moved here because it uses the tool, which the rig may not import.
@@ -15,7 +17,8 @@ from mckibben import _lazy
 _WHERE = {name: "mckibben.experiments.pressure" for name in (
     "CompareResult", "Fig13Result", "OpenLoopResult", "RobustnessResult", "StepResult", "TrackResult", "compare",
     "fig13", "hysteresis_compensation", "open_loop", "robustness", "step_response", "track_pressure")}
-_WHERE["track_over_link"] = "mckibben.experiments.link"
+_WHERE.update({"track_over_link": "mckibben.experiments.link",
+               "ToolTrackResult": "mckibben.experiments.tool", "track_tip": "mckibben.experiments.tool"})
 
 __all__ = sorted(_WHERE)
 

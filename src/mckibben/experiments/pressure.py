@@ -11,9 +11,9 @@ flags before it calls.
 
 The building blocks are :mod:`mckibben.control`'s: the identified model and the documented designs
 (:mod:`mckibben.control.simulation`), the runs on the batch plant simulator
-(:mod:`mckibben.control.experiments`), the figures (:mod:`mckibben.control.plots`). This layer sits
-above control, tool and rig (DESIGN.md); ``mckibben.control.step_response`` and the others stay
-reachable by name from the control package, and their results' provenance names them there.
+(:mod:`mckibben.control.runs`), the figures (:mod:`mckibben.control.plots`). This layer sits
+above control, tool and rig (DESIGN.md); the results' provenance names the calls here
+(``mckibben.experiments.step_response``).
 
 >>> from mckibben.experiments import step_response        # doctest: +SKIP
 >>> res = step_response("smc", target=0.55e6, law="paper", beta=150)   # doctest: +SKIP
@@ -30,7 +30,7 @@ import numpy as np
 from mckibben.control import registry as R
 from mckibben.control.controllers import FirstOrderModel
 from mckibben.control.core import CoreParams, core_spec
-from mckibben.control.experiments import (
+from mckibben.control.runs import (
     CONTROLLER_NAMES,
     FIG13_TARGET_PA,
     LAWS,
@@ -44,7 +44,7 @@ from mckibben.control.experiments import (
     sample_plants,
     step_reference,
 )
-from mckibben.control.experiments import step_size_table as _step_size_rows
+from mckibben.control.runs import step_size_table as _step_size_rows
 from mckibben.control.hysteresis import PERIOD_MAX, PERIOD_MIN, SWEEP_PERIOD_MAX, SWEEP_PERIOD_MIN, hysteresis_benefit
 from mckibben.control.metrics import tracking_metrics
 from mckibben.control.plots import plot_compare, plot_fig13, plot_open_loop, plot_record, plot_robustness
@@ -128,7 +128,7 @@ class StepResult(Result):
     params: CoreParams
     arguments: dict = field(default_factory=dict)
     tuning: GainTuning | None = None
-    call = "mckibben.control.step_response"
+    call = "mckibben.experiments.step_response"
     _repr_keys = ("time_constant_s", "overshoot_pct", "settling_time_s", "steady_state_error_Pa")
 
     @property
@@ -247,7 +247,7 @@ def step_response(controller: str = "smc", target=FIG13_TARGET_PA, *, start=0.0,
     controller : {"smc", "pid"}, default "smc"
         The controller (:func:`controller_params`). [-]
     target : float, default 0.55e6
-        Pressure after the step (Fig. 13's, :data:`~mckibben.control.experiments.FIG13_TARGET_PA`). [Pa]
+        Pressure after the step (Fig. 13's, :data:`~mckibben.control.runs.FIG13_TARGET_PA`). [Pa]
     start : float, default 0.0
         Pressure held before the step. [Pa]
     load : float, default 0.6
@@ -335,7 +335,7 @@ class TrackResult(Result):
     params: CoreParams
     arguments: dict = field(default_factory=dict)
     tuning: GainTuning | None = None
-    call = "mckibben.control.track_pressure"
+    call = "mckibben.experiments.track_pressure"
 
     @property
     def metrics(self) -> dict:
@@ -475,7 +475,7 @@ class Fig13Result(Result):
     model: FirstOrderModel
     tau_stderr: float
     arguments: dict = field(default_factory=dict)
-    call = "mckibben.control.fig13"
+    call = "mckibben.experiments.fig13"
 
     @property
     def metrics(self) -> dict:
@@ -592,7 +592,7 @@ class CompareResult(Result):
 
     rows: list
     arguments: dict = field(default_factory=dict)
-    call = "mckibben.control.compare"
+    call = "mckibben.experiments.compare"
 
     @property
     def metrics(self) -> dict:
@@ -696,7 +696,7 @@ class RobustnessResult(Result):
     per_plant: dict
     summary: dict
     arguments: dict = field(default_factory=dict)
-    call = "mckibben.control.robustness"
+    call = "mckibben.experiments.robustness"
 
     @property
     def metrics(self) -> dict:
@@ -742,7 +742,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same n plants.
 
     ±30 % on valve gain, dead band, volumes and leak, supply 0.6–1.0 MPa, load 0–3 N
-    (:func:`~mckibben.control.experiments.sample_plants`); the controllers are designed once on
+    (:func:`~mckibben.control.runs.sample_plants`); the controllers are designed once on
     the nominal plant's identified model. With a muscle file: the same factors around its plant,
     supply 0.75–1 × its top fitted pressure, load 0–1/2 of what it pulls at rest, step to 0.55/0.8
     of min(supply, 0.8 MPa); the controllers tuned once on the nominal plant (1/4 of that pull)
@@ -829,7 +829,7 @@ class OpenLoopResult(Result):
     length: np.ndarray
     step_metrics: dict
     arguments: dict = field(default_factory=dict)
-    call = "mckibben.control.open_loop"
+    call = "mckibben.experiments.open_loop"
 
     @property
     def metrics(self) -> dict:

@@ -1,10 +1,11 @@
 """The three-muscle endoscope of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §V: geometry, constant-curvature
-kinematics, the pressures that put the tip at a target, the workspace and tracking in simulation.
+kinematics, the pressures that put the tip at a target, the workspace, and the building blocks of
+tracking (:mod:`~mckibben.tool.tracking`).
 
 See docs/tool.md. From Python: :func:`make_tool`, :func:`forward`, :func:`inverse`,
-:func:`map_workspace` and :func:`track` (a tip path, :class:`TipPath` or :func:`parse_path` of
-its one-line text, followed by three simulated muscles, a
-:class:`ToolTrackResult` with ``.metrics``, ``.to_pandas()``, ``.plot()``).
+:func:`map_workspace`, and tip paths (:class:`TipPath`, :func:`parse_path` of its one-line text).
+Following a path with three simulated muscles is an experiment, in the layer above:
+:func:`mckibben.experiments.track_tip`.
 """
 
 from mckibben import _lazy
@@ -20,30 +21,28 @@ _WHERE = {
     "TipPath": "mckibben.tool.paths",
     "Tool": "mckibben.tool.geometry",
     "ToolGeometry": "mckibben.tool.geometry",
-    "ToolTrackResult": "mckibben.tool.experiments",
-    "WorkspaceResult": "mckibben.tool.experiments",
+    "WorkspaceResult": "mckibben.tool.api",
     "arc_from_lengths": "mckibben.tool.kinematics",
     "arc_from_tip": "mckibben.tool.kinematics",
-    "forward": "mckibben.tool.experiments",
-    "inverse": "mckibben.tool.experiments",
+    "forward": "mckibben.tool.api",
+    "inverse": "mckibben.tool.api",
     "lengths_from_arc": "mckibben.tool.kinematics",
     "lengths_from_tip": "mckibben.tool.kinematics",
-    "make_tool": "mckibben.tool.experiments",
-    "map_workspace": "mckibben.tool.experiments",
+    "make_tool": "mckibben.tool.api",
+    "map_workspace": "mckibben.tool.api",
     "parse_path": "mckibben.tool.paths",
-    "state_dict": "mckibben.tool.experiments",
+    "state_dict": "mckibben.tool.api",
     "tip_from_lengths": "mckibben.tool.kinematics",
     "tip_position": "mckibben.tool.kinematics",
     "tip_rotation": "mckibben.tool.kinematics",
-    "tool_dict": "mckibben.tool.experiments",
-    "track": "mckibben.tool.experiments",
+    "tool_dict": "mckibben.tool.api",
 }
 
 __all__ = [
     "MUSCLE_ANGLES", "Arc", "StackLoad", "TipPath", "Tool", "ToolGeometry", "arc_from_lengths", "arc_from_tip",
     "lengths_from_arc", "lengths_from_tip", "tip_from_lengths", "tip_position", "tip_rotation",
-    "ToolTrackResult", "WorkspaceResult", "forward", "inverse", "make_tool", "map_workspace", "state_dict",
-    "tool_dict", "track", "parse_path",
+    "WorkspaceResult", "forward", "inverse", "make_tool", "map_workspace", "state_dict",
+    "tool_dict", "parse_path",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
@@ -54,22 +53,20 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.tool.paths import parse_path as parse_path
     from mckibben.tool.geometry import Tool as Tool
     from mckibben.tool.geometry import ToolGeometry as ToolGeometry
-    from mckibben.tool.experiments import ToolTrackResult as ToolTrackResult
-    from mckibben.tool.experiments import WorkspaceResult as WorkspaceResult
+    from mckibben.tool.api import WorkspaceResult as WorkspaceResult
     from mckibben.tool.kinematics import arc_from_lengths as arc_from_lengths
     from mckibben.tool.kinematics import arc_from_tip as arc_from_tip
-    from mckibben.tool.experiments import forward as forward
-    from mckibben.tool.experiments import inverse as inverse
+    from mckibben.tool.api import forward as forward
+    from mckibben.tool.api import inverse as inverse
     from mckibben.tool.kinematics import lengths_from_arc as lengths_from_arc
     from mckibben.tool.kinematics import lengths_from_tip as lengths_from_tip
-    from mckibben.tool.experiments import make_tool as make_tool
-    from mckibben.tool.experiments import map_workspace as map_workspace
-    from mckibben.tool.experiments import state_dict as state_dict
+    from mckibben.tool.api import make_tool as make_tool
+    from mckibben.tool.api import map_workspace as map_workspace
+    from mckibben.tool.api import state_dict as state_dict
     from mckibben.tool.kinematics import tip_from_lengths as tip_from_lengths
     from mckibben.tool.kinematics import tip_position as tip_position
     from mckibben.tool.kinematics import tip_rotation as tip_rotation
-    from mckibben.tool.experiments import tool_dict as tool_dict
-    from mckibben.tool.experiments import track as track
+    from mckibben.tool.api import tool_dict as tool_dict
 
 
 __getattr__, __dir__ = _lazy.package(__name__, _WHERE)

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError, InputError, check_callable, check_instance, check_real, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, check_instance
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
 from mckibben.results import Result, to_jsonable

@@ -20,10 +20,10 @@ from mckibben.tool.geometry import Tool
 from mckibben.tool.paths import TipPath
 from mckibben.tool.statics import ToolState, explain_unreachable, pressures_for_tip, tip_from_pressures
 from mckibben.tool.kinematics import Arc
-from mckibben.control.experiments import identify_plant
+from mckibben.control.runs import identify_plant
 from mckibben.models.law_statics import LawMuscle
 from mckibben.plant import PlantParams
-from mckibben.control.experiments import smc_core_params
+from mckibben.control.runs import smc_core_params
 from mckibben.control.simulation import identify_file_plant
 from mckibben.control.core import core_spec
 from mckibben.plant import simulate
@@ -216,11 +216,11 @@ class TrackingResult:
 
 
 #: Switching gain of the tracking controllers (law ``model``): the step design's
-#: (:data:`mckibben.control.experiments.SMC_TUNING`); with the model term carrying the holding
+#: (:data:`mckibben.control.runs.SMC_TUNING`); with the model term carrying the holding
 #: command (valve lift-off included) the switching term only covers the model's error.
 TRACKING_BETA = R.SMC.designs["model"]["beta"]
 #: Boundary layer [Pa] and surface integral weight [1/s] of the tracking controllers: narrower
-#: than the step tuning of :data:`mckibben.control.experiments.SMC_TUNING` (100 kPa, 5 1/s),
+#: than the step tuning of :data:`mckibben.control.runs.SMC_TUNING` (100 kPa, 5 1/s),
 #: which trades holding accuracy for a clean step; tracking a moving reference wants the
 #: pressure held to ~1 kPa. Narrower still chatters: β/ε is the loop's gain near the surface
 #: (20 kPa: 2.6 kPa RMS pressure error on a 2 Hz circle, 0.9 mm of tip error; 50 kPa: 0.9 kPa,
@@ -230,7 +230,7 @@ TRACKING_SMC = {"eps": 50e3, "ki": 5.0}
 
 def identify_muscle_plant(plant_params, pwm: int | None = None):
     """The first-order model of one muscle's plant, with the valves' lift-off, from two open-loop
-    inlet steps (§IV.A; :func:`mckibben.control.experiments.identify_plant`).
+    inlet steps (§IV.A; :func:`mckibben.control.runs.identify_plant`).
 
     Parameters
     ----------
