@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from mckibben.control.registry import EXTENSIONS
+
 
 @pytest.mark.parametrize(
     "args, message",
@@ -58,5 +60,5 @@ def test_fig13_and_robustness_plots_are_written(cli, tmp_path):
     png = tmp_path / "rob.png"
     r = cli("control", "robustness", "--n", "4", "--plot", str(png), "--json")
     assert r.code == 0, r.err
-    assert set(r.json()["summary"]) == {"pid", "smc", "smc_paper", "stsmc"} and png.stat().st_size > 10_000
+    assert set(r.json()["summary"]) == {"pid", "smc", "smc_paper", *(c.name for c in EXTENSIONS)} and png.stat().st_size > 10_000
     assert not list(tmp_path.glob("*.tmp*"))  # written atomically, nothing left behind

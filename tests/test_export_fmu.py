@@ -33,7 +33,7 @@ from mckibben.datasets import get_muscle  # noqa: E402
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC  # noqa: E402
 from mckibben.errors import InputError  # noqa: E402
 from mckibben.export import export_fmu  # noqa: E402
-from mckibben.export.fmu import CFLAGS  # noqa: E402
+from mckibben.export.fmu import CFLAGS, FIRMWARE_SOURCES  # noqa: E402
 from mckibben.fit.isometric import fit_isometric  # noqa: E402
 from mckibben.fit.muscle_file import save_muscle_file  # noqa: E402
 from mckibben.models.laws.relative_strain import RelativeStrain  # noqa: E402
@@ -264,5 +264,8 @@ def test_a_built_package_carries_the_firmware_core(tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
     (wheel,) = tmp_path.glob("mckibben-*.whl")
     with zipfile.ZipFile(wheel) as z:
-        for name in ("controller.c", "controller.h", "laws.h", "law_stsmc.h"):
-            assert z.read(f"mckibben/export/firmware_core/{name}") == (root / "firmware" / "core" / name).read_bytes()
+        core = root / "firmware" / "core"
+        for name in sorted(f.name for f in core.glob("*.[ch]")):  # every file of the core, each law's header too
+            assert z.read(f"mckibben/export/firmware_core/{name}") == (core / name).read_bytes()
+    # and the FMU compiles every law the core's registry includes
+    assert {f for f in FIRMWARE_SOURCES if f.startswith("law_")} == {f.name for f in core.glob("law_*.h")}

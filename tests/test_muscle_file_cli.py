@@ -9,6 +9,7 @@ from __future__ import annotations
 import pytest
 
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
+from mckibben.control.registry import EXTENSIONS
 
 FOLDER = BUNDLED_ISOMETRIC / "commercial10"
 ISO, MUSCLE = str(FOLDER / "isometric.csv"), str(FOLDER / "muscle.toml")
@@ -185,8 +186,8 @@ def test_compare_and_robustness_run_on_the_file_plant(files, monkeypatch):
     top, most = float(plant.supply_pressure), rest_pull(plant)
     assert {r["load_N"] for r in res.rows} == {round(f * most, 1) for f in COMPARE_LOADS}
     assert {(r["from_Pa"], r["to_Pa"]) for r in res.rows} == {(a * top, b * top) for a, b in COMPARE_STEPS}
-    assert {r["controller"] for r in res.rows} == {"pid", "smc", "smc_paper", "stsmc"}
+    assert {r["controller"] for r in res.rows} == {"pid", "smc", "smc_paper", *(c.name for c in EXTENSIONS)}
     rob = robustness(3, muscle_file=files["spring"])
     assert rob.arguments["muscle_file"] == files["spring"]
     assert rob.samples["supply_Pa"].min() >= 0.75 * top and rob.samples["load_N"].max() <= 0.5 * most
-    assert set(rob.summary) == {"pid", "smc", "smc_paper", "stsmc"}
+    assert set(rob.summary) == {"pid", "smc", "smc_paper", *(c.name for c in EXTENSIONS)}

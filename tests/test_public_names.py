@@ -85,5 +85,6 @@ def test_the_rule_catches_a_name_defined_twice():
 
 def test_a_registry_hook_is_not_a_public_name():
     """A controller module's ``derive`` is the registry's protocol, not a second ``core.derive``."""
-    found = public_definitions({m: SOURCES[m] for m in ("mckibben.control.core", "mckibben.control.stsmc")})
+    modules = ("mckibben.control.core", *(c.derive.split(":")[0] for c in R.EXTENSIONS))
+    found = public_definitions({m: SOURCES[m] for m in modules})
     assert found["derive"] == ["mckibben.control.core"]

@@ -240,7 +240,7 @@ def test_emulate_removes_its_link_on_signals(tmp_path, kind):
         (["rig", "record", "--port", "{pty}", "--out", "{tmp}/a.parquet", "--duration", "10"], "error: --duration: '10' has no unit"),
         (["rig", "recover", "{tmp}", "--out", "{tmp}/a.parquet"], "error: '{tmp}' is not a recorder journal (no meta.json)"),
         (["rig", "step", "--port", "{pty}", "--target", "0.9MPa"], "error: --target: '0.9MPa' is above the 0.8 MPa safe limit"),
-        (["rig", "step", "--port", "{pty}", "--controller", "lqr"], "error: --controller: 'lqr' must be smc, pid or stsmc"),
+        (["rig", "step", "--port", "{pty}", "--controller", "lqr"], "error: --controller: 'lqr' must be smc, pid"),
         (["rig", "emulate", "--link", "/no/such/dir/tty"], "error: --link: cannot create '/no/such/dir/tty'"),
         (["rig", "emulate", "--channels", "4"], "error: --channels: 4 must be 1, 2 or 3"),
         (["rig", "gains", "--port", "{pty}", "--from", "{tmp}/none.json"], "error: --from: '{tmp}/none.json' does not exist"),

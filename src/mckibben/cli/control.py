@@ -185,7 +185,7 @@ def compare_cmd(
     direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
-    """PID tuned on the first-order model vs both sliding-mode laws and stsmc, over step sizes and loads (§IV.A)."""
+    """PID tuned on the first-order model vs both sliding-mode laws and the registry's other laws, over step sizes and loads (§IV.A)."""
 
     check_outputs(plot, dpi, out)
     res = experiments.compare(beta, muscle_file=muscle_file, direction=direction)
@@ -215,7 +215,7 @@ def robustness_cmd(
     direction: str = DIRECTION_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
-    """Monte Carlo over plant uncertainty: PID, both sliding-mode laws and stsmc, median and 5–95 % of each metric."""
+    """Monte Carlo over plant uncertainty: PID, both sliding-mode laws and the registry's other laws, median and 5–95 % of each metric."""
     if n >= 1:  # every compared controller (control.runs.CONTROLLER_NAMES), 0.6 s each
         _size_first("--n", "0.6s", instances=len(control.runs.CONTROLLER_NAMES) * n, force=force, extra=0.0)
 

@@ -46,6 +46,7 @@ import numpy as np
 from mckibben import __version__
 from mckibben import hardware as HW
 from mckibben.atomic import atomic_file, check_output_file
+from mckibben.control import registry as R
 from mckibben.control.core import MODE_PID, MODE_SMC, CoreParams, gain_values
 from mckibben.control.simulation import (controller_params, identify_file_plant, muscle_file_plant, plant_load,
                                          tuned_controller)
@@ -66,7 +67,7 @@ MODEL_IDENTIFIER = "mckibben_plant"
 #: The C sources of the plant, package data of :mod:`mckibben.export` (``c/``).
 PLANT_SOURCES = ("mk_plant.h", "mk_plant.c", "mk_loop.h", "mk_loop.c")
 #: The firmware's controller core compiled into a closed-loop FMU (``firmware/core``, the C that runs on the Mega).
-FIRMWARE_SOURCES = ("controller.c", "controller.h", "laws.h", "law_stsmc.h")
+FIRMWARE_SOURCES = ("controller.c", "controller.h", "laws.h", *(f"law_{c.name}.h" for c in R.EXTENSIONS))
 #: Controllers that close the loop inside the FMU (the firmware core's modes).
 CONTROLLERS = ("smc", "pid")
 #: FMI versions written. [-]

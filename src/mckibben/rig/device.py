@@ -286,7 +286,7 @@ class Device:
             Set-point of the step, at most :data:`SAFE_MAX_PRESSURE_PA`. [Pa]
         controller : str, default "smc"
             The device's pressure controller, a name of the controller registry
-            (:data:`mckibben.control.registry.NAMES`: ``"smc"``, ``"pid"``, ``"stsmc"``). [-]
+            (:data:`mckibben.control.registry.NAMES`: ``"smc"``, ``"pid"`` and the extension laws). [-]
         duration : float, default 1.0
             Recording time after the step, at most 60 s. [s]
 
