@@ -277,3 +277,13 @@ def test_bad_input(cli, tmp_path, args, message):
     assert r.code == 2, r.err
     assert r.err.startswith(message.format(**fill)) and r.err.count("\n") == 1
     assert not (tmp_path / "a.parquet").exists() and not (tmp_path / "d.txt").exists()
+
+
+def test_device_step_names_every_controller_of_the_registry(tmp_path):
+    """The refusal lists the registry's names (a new controller appears without touching the rig)."""
+    from mckibben.control.registry import NAMES
+    from mckibben.rig import Device
+
+    with pytest.raises(InputError, match="controller: 'lqr' must be") as e:
+        Device(str(tmp_path / "no-port")).step(0.3e6, controller="lqr")  # refused before the port is opened
+    assert all(name in str(e.value) for name in NAMES) and len(NAMES) >= 3
