@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from mckibben.control import core
+from mckibben.control.registry import MODES
 from mckibben.errors import InputError
 
 ADC_PA = 1e6 / 1023  # default pa_per_count [Pa/count]
@@ -216,7 +217,7 @@ def test_vent_off_and_open_loop():
     ({"ts": 1.5e-7}, "ts=1.5e-07 must be a whole number of microseconds"),
     ({"ts": 0.02}, "ts=0.02 must be"),
     ({"p_max": 1.2e6}, "p_max=1200000.0 outside [0, 1000000] Pa"),
-    ({"mode": 5}, "mode=5 outside the integers 0..4"),  # 4: the super-twisting law (registry)
+    ({"mode": max(MODES) + 1}, f"mode={max(MODES) + 1} outside the integers 0..{max(MODES)}"),  # past the registry's
 ])
 def test_bad_parameters_raise_input_error(kwargs, message):
     with pytest.raises(InputError, match=message.replace("[", r"\[").replace("(", r"\(")):

@@ -300,8 +300,7 @@ class Device:
         if p > SAFE_MAX_PRESSURE_PA:
             raise InputError(f"target: {target!r} is above the {SAFE_MAX_PRESSURE_PA / 1e6:g} MPa safe limit")
         if controller not in CONTROLLERS:
-            *first, last = CONTROLLERS  # the registry's names, in mode order
-            raise InputError(f"controller: {controller!r} must be {', '.join(first)} or {last}")
+            raise InputError(f"controller: {controller!r} must be one of {', '.join(CONTROLLERS)}")  # the registry's
         d = si(duration, "time", "duration", allow_zero=False)
         if d > 60:
             raise InputError(f"duration: {duration!r} is longer than 60 s")
