@@ -21,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-import mckibben.plant
+import mckibben.sweep.run as sweep_run
 from mckibben.sweep import load_sweep, read_results, run_sweep
 
 TEMPLATE = """
@@ -48,7 +48,9 @@ keep = ["time_constant_s", "overshoot_pct", "steady_state_error_Pa", "valve_effo
 
 
 class _Timed:
-    """``mckibben.plant.simulate`` with its wall-clock and CPU time summed (the sweep imports it per chunk)."""
+    """``mckibben.plant.simulate`` with its wall-clock and CPU time summed, as the sweep calls it
+    (``mckibben.sweep.run.simulate``). With two chunks in flight the process's CPU time during a call
+    includes the other chunk's Python, so the split of CPU time is approximate."""
 
     def __init__(self, simulate):
         self.simulate, self.wall, self.cpu = simulate, 0.0, 0.0
@@ -76,15 +78,15 @@ def main() -> None:
         run_sweep(load_sweep(warm), Path(d) / "warm")
         rows = []
         for label, kw in (("in-process", {}), ("local cluster, 2 workers", {"workers": 2})):
-            timed = _Timed(mckibben.plant.simulate)
+            timed = _Timed(sweep_run.simulate)
             if not kw:
-                mckibben.plant.simulate = timed
+                sweep_run.simulate = timed  # the name the sweep calls (imported at its module level)
             load = os.getloadavg()[0]
             t, c = time.perf_counter(), time.process_time()
             try:
                 stats = run_sweep(sweep, Path(d) / label.split(",")[0].replace(" ", "-"), **kw)
             finally:
-                mckibben.plant.simulate = timed.simulate
+                sweep_run.simulate = timed.simulate
             sec, cpu = time.perf_counter() - t, time.process_time() - c
             rows.append((label, stats["computed_runs"], sec, stats["computed_runs"] / sec))
             if not kw:
