@@ -2,7 +2,7 @@
 the runs of Fig. 13, PID vs sliding mode and robustness.
 
 The experiments themselves (one public call each, returning a result) are
-:mod:`mckibben.experiments`'; this module gives them their runs. Every run goes through the
+:mod:`mckibben.experiments`; this module gives them their runs. Every run goes through the
 firmware core (:mod:`mckibben.control.core`) on the batch plant simulator (:mod:`mckibben.plant`)
 through one seam, :func:`run_closed_loop`. The gains are the
 ones of ``docs/control.md``, chosen on the calibrated default plant:

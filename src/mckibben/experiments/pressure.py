@@ -194,6 +194,32 @@ def _refuse_muscle_file(function: str, muscle_file, why: str) -> None:
         raise InputError(f"muscle_file {muscle_file}: {function}() {why}")
 
 
+def _plant_and_controller(controller: str, muscle_file, file_plant: tuple, plant_kw: dict, model, gains: dict,
+                          objective: str):
+    """The plant a pressure experiment runs on, its design model and its controller.
+
+    A muscle file's plant (:func:`muscle_file_plant` of ``muscle_file`` with ``file_plant`` = (load [N],
+    supply [Pa] or None, direction)), its model identified on it and the gains not in ``gains`` tuned
+    on it for ``objective`` (:func:`tuned_controller`); else the calibrated plant
+    (:func:`plant_batch` of ``plant_kw``) with the documented design (:func:`controller_params`).
+    ``model`` replaces the identified model when given; ``gains`` holds ``law``, ``beta``, ``eps``,
+    ``ki``, ``lam`` and ``p_max`` [Pa].
+
+    Returns
+    -------
+    tuple
+        ``(plant, model, params, tuning)``; ``tuning`` is None without a muscle file.
+    """
+    if muscle_file is not None:
+        plant = muscle_file_plant(muscle_file, *file_plant)
+        m = identify_file_plant(plant) if model is None else model
+        tuning = tuned_controller(controller, m, plant, **gains, objective=objective)
+        return plant, m, tuning.params, tuning
+    plant = plant_batch(**plant_kw)
+    m = identified_model() if model is None else model
+    return plant, m, controller_params(controller, m, **gains), None
+
+
 def _no_direction(direction: str, muscle_file) -> None:
     """``--direction`` is the branch of a muscle file's law: refuse it (or a bad value) without one."""
 
@@ -288,21 +314,14 @@ def step_response(controller: str = "smc", target=FIG13_TARGET_PA, *, start=0.0,
     """
     _no_direction(direction, muscle_file)
     args = _step_args(controller, target, start, load, supply, duration, p_max, force, muscle_file)
-    tuning = None
+    plant_kw = {"load_N": args["load_N"]}
+    if "supply_Pa" in args:
+        plant_kw["supply_Pa"] = args["supply_Pa"]
+    plant, params_model, params, tuning = _plant_and_controller(
+        controller, muscle_file, (load, supply, direction), plant_kw, model,
+        dict(law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=p_max), "step")
     if muscle_file is not None:
-        plant = muscle_file_plant(muscle_file, load, supply, direction)
-        params_model = identify_file_plant(plant) if model is None else model
-        tuning = tuned_controller(controller, params_model, plant, law=law, beta=beta, eps=eps, ki=ki, lam=lam,
-                                  p_max=p_max)
-        params = tuning.params
         args.update(muscle_file=str(muscle_file), direction=direction, supply_Pa=float(plant.supply_pressure))
-    else:
-        plant_kw = {"load_N": args["load_N"]}
-        if "supply_Pa" in args:
-            plant_kw["supply_Pa"] = args["supply_Pa"]
-        plant = plant_batch(**plant_kw)
-        params_model = identified_model() if model is None else model
-        params = controller_params(controller, params_model, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=p_max)
     hold = args["step_time_s"]
     total = hold + args["duration_s"]
     n = int(round(total / TS))
@@ -415,17 +434,9 @@ def track_pressure(reference, controller: str = "smc", *, duration=2.0, load=0.6
     f_load = plant_load(load) if muscle_file is None else si(load, "force", "load")
     _, ref = pressure_reference(reference, duration, force=force)
     ref, clamped = clamp_pressure(ref, pmax, "reference")
-    tuning = None
-    if muscle_file is not None:
-        plant = muscle_file_plant(muscle_file, load, None, direction)
-        m = identify_file_plant(plant) if model is None else model
-        tuning = tuned_controller(controller, m, plant, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax,
-                                  objective="track")
-        params = tuning.params
-    else:
-        plant = plant_batch(load_N=f_load)
-        m = identified_model() if model is None else model
-        params = controller_params(controller, m, law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax)
+    plant, m, params, tuning = _plant_and_controller(
+        controller, muscle_file, (load, None, direction), {"load_N": f_load}, model,
+        dict(law=law, beta=beta, eps=eps, ki=ki, lam=lam, p_max=pmax), "track")
     rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant)
     args = {"controller": controller, "reference": _reference_text(reference),
             "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
