@@ -66,13 +66,16 @@ def _targets(module: str, node: ast.Import | ast.ImportFrom, is_package: bool, k
     return sorted({f"{base}.{a.name}" if f"{base}.{a.name}" in known else base for a in node.names})
 
 
+#: Every module of the package, parsed once: (name, is a package's __init__, syntax tree).
+TREES = [(_module_name(path), path.name == "__init__.py", ast.parse(path.read_text(encoding="utf-8")))
+         for path in sorted(PACKAGE.rglob("*.py"))]
+
+
 def _imports() -> list[tuple[str, str, bool, int]]:
     """Every import of the package's own modules: (importer, imported, inside a function, line)."""
     known = KNOWN
     out = []
-    for path in sorted(PACKAGE.rglob("*.py")):
-        module = _module_name(path)
-        tree = ast.parse(path.read_text(encoding="utf-8"))
+    for module, is_package, tree in TREES:
         in_function = set()
         for fn in ast.walk(tree):
             if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
@@ -80,7 +83,7 @@ def _imports() -> list[tuple[str, str, bool, int]]:
         for node in ast.walk(tree):
             if not isinstance(node, (ast.Import, ast.ImportFrom)):
                 continue
-            for target in _targets(module, node, path.name == "__init__.py"):
+            for target in _targets(module, node, is_package):
                 if target in known and target != module:
                     out.append((module, target, id(node) in in_function, node.lineno))
     return out
@@ -112,16 +115,20 @@ def test_no_function_level_import_of_the_packages_own_modules():
     assert hidden == []
 
 
+def _crossing(a: str, b: str) -> str | None:
+    """Why module ``a`` may not reach module ``b`` (DESIGN.md's layer rule), or None if it may."""
+    (pa, la), (pb, lb) = _layer(a), _layer(b)
+    if pa == pb:
+        return None
+    if la is None and lb is not None:
+        return f"a base module reaches the {pb} layer"
+    if la is not None and lb is not None and lb >= la:
+        return f"{pa} (layer {la}) may not reach {pb} (layer {lb})"
+    return None
+
+
 def test_every_import_goes_down_the_layers():
-    bad = []
-    for a, b, _, line in IMPORTS:
-        (pa, la), (pb, lb) = _layer(a), _layer(b)
-        if pa == pb:
-            continue
-        if la is None and lb is not None:
-            bad.append(f"{a}:{line} -> {b}: a base module imports the {pb} layer")
-        elif la is not None and lb is not None and lb >= la:
-            bad.append(f"{a}:{line} -> {b}: {pa} (layer {la}) may not import {pb} (layer {lb})")
+    bad = [f"{a}:{line} -> {b}: {why}" for a, b, _, line in IMPORTS if (why := _crossing(a, b))]
     assert bad == []
 
 
@@ -142,7 +149,7 @@ def test_the_rule_catches_a_crossing():
     tree = ast.parse("def f():\n    from mckibben.tool import tracking\n")
     node = tree.body[0].body[0]
     assert _targets("mckibben.rig.device", node, False) == ["mckibben.tool.tracking"]
-    bad = [(a, b) for a, b in [("mckibben.rig.device", "mckibben.tool.tracking")] if _layer(b)[1] >= _layer(a)[1]]
+    bad = [(a, b) for a, b in [("mckibben.rig.device", "mckibben.tool.tracking")] if _crossing(a, b)]
     assert bad  # the rule refuses it
 
 
@@ -158,11 +165,10 @@ def _named_modules() -> list[tuple[str, str, int]]:
     (``_WHERE``: PEP 562) and ``"module:function"`` references (the controller registry's hooks).
     An exact string constant that is a known module, or a known module and ``:attribute``."""
     out = []
-    for path in sorted(PACKAGE.rglob("*.py")):
-        module = _module_name(path)
+    for module, _, tree in TREES:
         if module == "mckibben":  # the top-level facade: it names the entry points of every layer by design
             continue
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in ast.walk(tree):
             if isinstance(node, ast.Constant) and isinstance(node.value, str):
                 target = node.value.split(":", 1)[0]
                 if target in KNOWN and target != module:
@@ -178,11 +184,5 @@ def test_names_resolved_at_run_time_go_down_the_layers_too():
     (e.g. ``mckibben.control.step_response`` resolving to the experiment layer): refused like one."""
     assert any(a == "mckibben.control" and b == "mckibben.control.core" for a, b, _ in NAMED)  # the walk sees maps
     assert any(a == "mckibben.control.registry" for a, _, _ in NAMED)  # and the registry's hooks
-    bad = []
-    for a, b, line in NAMED:
-        (pa, la), (pb, lb) = _layer(a), _layer(b)
-        if pa != pb and la is not None and lb is not None and lb >= la:
-            bad.append(f"{a}:{line} names {b}: {pa} (layer {la}) may not reach {pb} (layer {lb})")
-        elif pa != pb and la is None and lb is not None:
-            bad.append(f"{a}:{line} names {b}: a base module reaches the {pb} layer")
+    bad = [f"{a}:{line} names {b}: {why}" for a, b, line in NAMED if (why := _crossing(a, b))]
     assert bad == []
