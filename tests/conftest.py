@@ -45,3 +45,37 @@ def run_cli(*args: str) -> CliResult:
 @pytest.fixture
 def cli():
     return run_cli
+
+
+def refusals_in_subprocess(setup: str, cases: dict, memory_limit: int | None = None, timeout: float = 120) -> dict:
+    """Evaluate each case's Python expression in one fresh interpreter, for calls that could eat the
+    machine's memory or hang if a size guard failed.
+
+    ``setup`` is the code that imports what the expressions use; ``memory_limit`` [bytes] caps the
+    interpreter's address space. Returns case -> the :class:`~mckibben.errors.InputError`'s
+    message, ``"ran"`` if the call returned, or ``"crash <exception type>"``.
+    """
+    import subprocess
+    import sys
+    import textwrap
+
+    limit = ("import resource\n"
+             f"resource.setrlimit(resource.RLIMIT_AS, ({memory_limit}, {memory_limit}))\n") if memory_limit else ""
+    code = limit + textwrap.dedent(setup) + textwrap.dedent("""
+        import json, sys
+        from mckibben.errors import InputError
+        out = {}
+        for key, expr in json.loads(sys.argv[1]).items():
+            try:
+                eval(expr)
+                out[key] = "ran"
+            except InputError as exc:
+                out[key] = str(exc)
+            except BaseException as exc:
+                out[key] = "crash " + type(exc).__name__
+        print(json.dumps(out))
+    """)
+    run = subprocess.run([sys.executable, "-c", code, json.dumps(cases)], capture_output=True, text=True,
+                         timeout=timeout, env={**os.environ, "MCKIBBEN_NO_COMPILE_NOTICE": "1"})
+    assert run.returncode == 0, run.stderr
+    return json.loads(run.stdout.strip().splitlines()[-1])

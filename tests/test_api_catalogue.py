@@ -13,11 +13,7 @@ the project's error, never another exception.
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
-import sys
 import textwrap
 
 import numpy as np
@@ -26,6 +22,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import mckibben as mk
+from conftest import refusals_in_subprocess
 from mckibben.errors import ArgumentTypeError, InputError
 
 NAN, INF = float("nan"), float("inf")
@@ -311,25 +308,7 @@ HEAVY = {
 
 
 def test_memory_and_hang_cases_are_refused_quickly():
-    code = textwrap.dedent("""
-        import json, sys
-        from mckibben.plant import simulate
-        from mckibben.errors import InputError
-        out = {}
-        for key, expr in json.loads(sys.argv[1]).items():
-            try:
-                eval(expr)
-                out[key] = "ran"
-            except InputError as exc:
-                out[key] = str(exc)
-            except BaseException as exc:
-                out[key] = "crash " + type(exc).__name__
-        print(json.dumps(out))
-    """)
-    run = subprocess.run([sys.executable, "-c", code, json.dumps(HEAVY)], capture_output=True, text=True,
-                         timeout=120, env={**os.environ, "MCKIBBEN_NO_COMPILE_NOTICE": "1"})
-    assert run.returncode == 0, run.stderr
-    got = json.loads(run.stdout.strip().splitlines()[-1])
+    got = refusals_in_subprocess("from mckibben.plant import simulate\n", HEAVY)
     for key, message in got.items():
         assert "duration" in message and "substeps" in message, (key, message)
         assert "limit" in message or "available" in message, (key, message)

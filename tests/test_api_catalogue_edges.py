@@ -11,17 +11,13 @@ is not shipped; these are the ones it found wrong, kept so they stay right.
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
-import sys
-import textwrap
 
 import numpy as np
 import pytest
 
 import mckibben as mk
+from conftest import refusals_in_subprocess
 from mckibben.errors import ArgumentTypeError, InputError
 
 NAN, INF = float("nan"), float("inf")
@@ -277,30 +273,13 @@ HEAVY = {
 
 
 def test_memory_and_time_cases_are_refused_quickly():
-    code = textwrap.dedent("""
-        import json, resource, sys
-        resource.setrlimit(resource.RLIMIT_AS, (3 * 2**30, 3 * 2**30))
+    got = refusals_in_subprocess("""
         import numpy as np
         import mckibben as mk
         from mckibben import experiments, models, plant
         from mckibben.tool import kinematics
-        from mckibben.errors import InputError
         M = mk.get_muscle("mpam97")
-        out = {}
-        for key, expr in json.loads(sys.argv[1]).items():
-            try:
-                eval(expr)
-                out[key] = "ran"
-            except InputError as exc:
-                out[key] = str(exc)
-            except BaseException as exc:
-                out[key] = "crash " + type(exc).__name__
-        print(json.dumps(out))
-    """)
-    run = subprocess.run([sys.executable, "-c", code, json.dumps(HEAVY)], capture_output=True, text=True,
-                         timeout=120, env={**os.environ, "MCKIBBEN_NO_COMPILE_NOTICE": "1"})
-    assert run.returncode == 0, run.stderr
-    got = json.loads(run.stdout.strip().splitlines()[-1])
+    """, HEAVY, memory_limit=3 * 2**30)
     names = {"pressure_for_length-1e7": "length", "predict_length-1e8": "pressure", "force-1e7": "length",
              "length-1e7": "pressure", "substeps-1e7": "substeps", "tip_from_lengths-1e7": "lengths",
              "track_pressure-1e8": "reference"}
