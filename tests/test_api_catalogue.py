@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 import mckibben as mk
 from conftest import refusals_in_subprocess
 from mckibben.errors import ArgumentTypeError, InputError
+from mckibben.units import parse_quantity
 
 NAN, INF = float("nan"), float("inf")
 ERR = (InputError, ArgumentTypeError)
@@ -437,6 +438,12 @@ _ENTRY_POINTS = {
 }
 
 
+#: The arguments that take text with a unit by design (``mckibben.models.force``/``length``: "0.8MPa"),
+#: with their dimension: text there is refused or gives the result of the number it reads as.
+_TAKES_TEXT = {"models.force": {"pressure": "pressure", "length": "length"},
+               "models.length": {"pressure": "pressure", "load": "force"}}
+
+
 def _mod_models():
     from mckibben import models
 
@@ -471,7 +478,12 @@ def test_every_entry_point_random_values(data):
     which = data.draw(st.sampled_from(numeric))
     value = data.draw(_weird)
     try:
-        call(**{which: value})
+        res = call(**{which: value})
     except ERR:
+        return
+    dimension = _TAKES_TEXT.get(name, {}).get(which)
+    if isinstance(value, str) and dimension is not None:
+        same = call(**{which: parse_quantity(value, dimension)})
+        assert res.to_pandas().equals(same.to_pandas()), f"{name}({which}={value!r}) is not its number's result"
         return
     assert not _no_number(value, which in takes_none), f"{name}({which}={value!r}) returned a result"
