@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
 import signal
 from contextlib import redirect_stderr, redirect_stdout
 from dataclasses import dataclass
@@ -45,6 +46,15 @@ def run_cli(*args: str) -> CliResult:
 @pytest.fixture
 def cli():
     return run_cli
+
+
+def names_argument(message: str, name: str) -> bool:
+    """True where ``message`` names the argument ``name`` as a word, or its flag form with hyphens.
+
+    A substring test would let a one-letter name such as ``n`` or ``ax`` pass on almost any message.
+    """
+    return any(re.search(rf"(?<![A-Za-z0-9_]){re.escape(form)}(?![A-Za-z0-9_])", message)
+               for form in {name, name.replace("_", "-")})
 
 
 def refusals_in_subprocess(setup: str, cases: dict, memory_limit: int | None = None, timeout: float = 120) -> dict:

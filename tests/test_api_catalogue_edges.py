@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import mckibben as mk
-from conftest import refusals_in_subprocess
+from conftest import names_argument as _named, refusals_in_subprocess
 from mckibben.errors import ArgumentTypeError, InputError
 
 NAN, INF = float("nan"), float("inf")
@@ -243,8 +243,6 @@ CASES += [
 ]
 
 
-def _named(message: str, name: str) -> bool:
-    return name in message or name.replace("_", "-") in message
 
 
 @pytest.mark.parametrize("call,name", [pytest.param(c, n, id=i) for i, c, n in CASES])
