@@ -47,3 +47,13 @@ def test_the_lock_pins_every_dependency_within_pyproject_ranges():
         assert req.specifier.contains(pins[name]), f"{name}=={pins[name]} is outside {spec!r}: refresh the lock"
     # every pin carries its hashes (pip's --require-hashes refuses the install otherwise)
     assert len(re.findall(r"^\S+==\S+ \\\n +--hash=sha256:[0-9a-f]{64}", LOCK.read_text(), re.M)) == len(pins)
+
+
+def test_the_compiler_stack_has_an_upper_bound_within_the_tested_lock():
+    """numba and llvmlite carry an upper bound (the compile layer is tested on the lock's versions only)."""
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    pins = _pins()
+    for name in ("numba", "llvmlite"):
+        spec = next(Requirement(s) for s in project["dependencies"] if canonicalize_name(Requirement(s).name) == name)
+        assert any(s.operator in ("<", "<=", "~=", "==") for s in spec.specifier), f"{name} has no upper bound"
+        assert spec.specifier.contains(pins[name])
