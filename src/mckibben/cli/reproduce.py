@@ -20,7 +20,7 @@ from mckibben import report
 
 def _print_published(tables: dict) -> None:
     print_table(
-        "Table I (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)): l = k1·Ls·cos θ + k2",
+        "Table I ([mpam-characterization]): l = k1·Ls·cos θ + k2",
         ["muscle", "L0 mm", "Ls mm", "k1", "k2 mm", "blocked force N @ 0.8 MPa"],
         [[n, f"{m.nominal_length * 1e3:g}", f"{m.strand_length * 1e3:g}", f"{m.k1:g}", f"{m.k2 * 1e3:g}", f"{m.blocked_force[0][1]:g}"] for n, m in MUSCLES.items()],
     )

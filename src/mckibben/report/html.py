@@ -193,8 +193,8 @@ def render_html(summary: dict, figures: list[str]) -> str:
         parts.append(f"<p><img src='{html.escape(f)}' alt='{html.escape(f)}'></p>")
     if summary["skipped"]:
         parts.append("<p class='note'>Skipped: " + html.escape("; ".join(summary["skipped"])) + "</p>")
-    parts.append("<p class='note'>Made by <code>mckibben reproduce</code>. Sources: “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) (eq. 1–3,"
-                 " Tables I–II, Figs. 3, 5, 6, 9, 10, §IV.A); Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt) (eq. 1–2).</p></body></html>")
+    parts.append("<p class='note'>Made by <code>mckibben reproduce</code>. Sources: [mpam-characterization] (eq. 1–3,"
+                 " Tables I–II, Figs. 3, 5, 6, 9, 10, §IV.A); Wickramatunge & Leephakpreeda (2010) [wickramatunge2010] (eq. 1–2).</p></body></html>")
     return "\n".join(parts)
 
 
