@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from mckibben.datasets.references import cited, render
 from mckibben.models.mpam import BraidAngleMap, MiniatureGeometry, MiniatureMuscle
 
 MM = 1e-3
+#: The bibliography keys (:mod:`mckibben.datasets.references`) of the two papers.
 PAPER_MPAM = "[mpam-characterization]"
-PAPER_SPRING = "Wickramatunge & Leephakpreeda (2010) [wickramatunge2010]"
+PAPER_SPRING = "[wickramatunge2010]"
 
 #: Construction shared by the three miniature muscles (§II).
 MPAM_GEOMETRY = MiniatureGeometry(
@@ -103,3 +105,21 @@ SPRING_MODEL_STRUCTURE = {
     "coefficients": "unreadable in our copy: fit them with `mckibben fit --model spring`",
     "citation": f"{PAPER_SPRING}, eq. (1)–(2), Tables 1–2, §5",
 }
+
+
+def parameter_sets() -> list[dict]:
+    """Every published parameter set with what it is and whom it cites.
+
+    Returns
+    -------
+    list of dict
+        One per set, in the order ``mckibben params list`` prints them: ``name``, ``kind``,
+        ``citation`` (the cited work's record, :meth:`~mckibben.datasets.references.Reference.to_dict`:
+        key, short author–year form, title, authors, venue, year, DOI) and ``source`` (where in it,
+        with the work named by its short form).
+    """
+    sets = [(name, "miniature muscle", m.citation) for name, m in MUSCLES.items()]
+    sets += [(f"spring-{name}", "spring model (structure and size only)", SPRING_MODEL_STRUCTURE["citation"])
+             for name in SPRING_MUSCLE_SIZES]
+    return [{"name": name, "kind": kind, "citation": cited(text)[0].to_dict(), "source": render(text)}
+            for name, kind, text in sets]
