@@ -79,7 +79,7 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
         key="wickramatunge2010",
         title="Study on mechanical behaviors of pneumatic artificial muscle",
         authors=("Wickramatunge", "Leephakpreeda"),
-        venue="International Journal of Engineering Science 48, 188–198", year=2010, doi=None,
+        venue="International Journal of Engineering Science, vol. 48, pp. 188–198", year=2010, doi=None,
         unestablished="DOI: our copy prints it with digits lost in extraction (doi:1.11/j.ijengsci.9.8.1)"
         " and no source found gives it whole",
     ),
