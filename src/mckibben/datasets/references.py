@@ -83,6 +83,32 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
         unestablished="DOI: our copy prints it with digits lost in extraction (doi:1.11/j.ijengsci.9.8.1)"
         " and no source found gives it whole",
     ),
+    # works the code uses beside the two papers (docs/references.md, "Other works")
+    Reference(
+        key="webster2010",
+        title="Design and Kinematic Modeling of Constant Curvature Continuum Robots: A Review",
+        authors=("Webster", "Jones"), venue="The International Journal of Robotics Research", year=2010,
+        doi="10.1177/0278364910368147",
+        unestablished="volume and pages: the source found is the OnlineFirst version, without them",
+    ),
+    Reference(
+        key="cameron2015",
+        title="A Practitioner's Guide to Cluster-Robust Inference",
+        authors=("Cameron", "Miller"), venue="Journal of Human Resources, vol. 50, no. 2, pp. 317–372", year=2015,
+        doi="10.3368/jhr.50.2.317",
+    ),
+    Reference(
+        key="levant1993",
+        title="Sliding order and sliding accuracy in sliding mode control",
+        authors=("Levant",), venue="International Journal of Control, vol. 58, no. 6, pp. 1247–1263", year=1993,
+        doi=None, unestablished="DOI: the source found (the author's institution's record) does not give it",
+    ),
+    Reference(
+        key="seeber2025",
+        title="Proper implicit discretization of the super-twisting controller — without and with actuator saturation",
+        authors=("Seeber", "Andritsch"), venue="Automatica, vol. 173, 112027", year=2025,
+        doi="10.1016/j.automatica.2024.112027",
+    ),
 )}
 
 #: A citation key in brackets, as docstrings and citation fields write it.
