@@ -19,7 +19,7 @@ import typer
 
 from mckibben.cli import app
 from mckibben.datasets import MUSCLES, parameter_sets
-from mckibben.datasets.references import REFERENCES, cited, reference, render
+from mckibben.datasets.references import KEY_PATTERN, REFERENCES, cited, reference, render
 from mckibben.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -105,10 +105,6 @@ def _sources() -> list[Path]:
     return docs + src + [ROOT / "README.md"]
 
 
-#: A citation key as written in prose: words joined by hyphens, or a name and a year.
-CITATION = re.compile(r"\[([a-z]{2,}(?:-[a-z]{2,})+|[a-z]{2,}[0-9]{4}[a-z]?)\]")
-
-
 def _prose(path: Path) -> str:
     """A file's text, or for Python its string constants (docstrings and messages, not code)."""
     text = path.read_text(encoding="utf-8", errors="replace")
@@ -123,7 +119,7 @@ def test_docs_and_docstrings_cite_by_key():
     keys = set()
     for path in _sources():
         _clean(path.read_text(encoding="utf-8", errors="replace"), str(path.relative_to(ROOT)))
-        for key in CITATION.findall(_prose(path)):
+        for key in KEY_PATTERN.findall(_prose(path)):
             assert key in REFERENCES, f"{path.relative_to(ROOT)} cites [{key}], which docs/references.md does not hold"
             keys.add(key)
     assert keys == set(REFERENCES)  # and every record is cited somewhere
@@ -156,5 +152,6 @@ def test_short_forms_and_rendering():
         "Wickramatunge & Leephakpreeda (2010), eq. (1)")
     assert render("[wickramatunge2010]: Table 1") == "Wickramatunge & Leephakpreeda (2010): Table 1"
     assert [r.key for r in cited(MUSCLES["mpam97"].citation)] == ["mpam-characterization"]
+    assert render("length [mm], row [n-1]") == "length [mm], row [n-1]"  # not keys
     with pytest.raises(InputError, match="unknown citation key 'wickramatunge2011'. Did you mean wickramatunge2010"):
         reference("wickramatunge2011")

@@ -111,8 +111,10 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
     ),
 )}
 
-#: A citation key in brackets, as docstrings and citation fields write it.
-KEY_PATTERN = re.compile(r"\[([a-z][a-z0-9-]*[0-9a-z])\]")
+#: A citation key in brackets, as docstrings and citation fields write it: words joined by hyphens
+#: (``[mpam-characterization]``) or a name and a year (``[wickramatunge2010]``), so that units and
+#: indices in brackets (``[mm]``, ``[n-1]``) are never taken for one.
+KEY_PATTERN = re.compile(r"\[([a-z]{2,}(?:-[a-z]{2,})+|[a-z]{2,}[0-9]{4}[a-z]?)\]")
 
 
 def reference(key: str) -> Reference:
