@@ -31,12 +31,20 @@ def _clean(text: str, where: str) -> None:
         assert name not in text, f"{where} shows {name}"
 
 
-def _mckibben(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    """``mckibben ARGS`` as a user runs it: a separate process."""
+def _mckibben(*args: str, cwd: Path) -> tuple[str, str]:
+    """``mckibben ARGS`` as a user runs it, a separate process: (stdout, stderr)."""
     r = subprocess.run([sys.executable, "-m", "mckibben.cli", *args], capture_output=True, text=True, timeout=600,
                        cwd=cwd)
     assert r.returncode == 0, (args, r.stderr[-2000:])
-    return r
+    return r.stdout, r.stderr
+
+
+def _in_process(cli):
+    def run(*args: str) -> tuple[str, str]:
+        r = cli(*args)
+        assert r.code == 0, (args, r.err)
+        return r.out, r.err
+    return run
 
 
 def _commands(cmd=None, path=()):
@@ -46,13 +54,14 @@ def _commands(cmd=None, path=()):
         yield from _commands(sub, (*path, name))
 
 
-def test_params_list_and_show_print_citations(tmp_path):
-    r = _mckibben("params", "list", cwd=tmp_path)
-    _clean(r.stdout + r.stderr, "params list")
-    assert "Wickramatunge & Leephakpreeda (2010) [wickramatunge2010]" in r.stdout
-    assert "[mpam-characterization]" in r.stdout
+def _check_params(run) -> None:
+    """``params list``, ``params list --json`` and ``params show NAME [--json]`` of every set."""
+    out, err = run("params", "list")
+    _clean(out + err, "params list")
+    assert "Wickramatunge & Leephakpreeda (2010) [wickramatunge2010]" in out
+    assert "[mpam-characterization]" in out
 
-    sets = json.loads(_mckibben("params", "list", "--json", cwd=tmp_path).stdout)["parameter_sets"]
+    sets = json.loads(run("params", "list", "--json")[0])["parameter_sets"]
     assert [s["name"] for s in sets] == [s["name"] for s in parameter_sets()] and len(sets) == 6
     for s in sets:
         record = REFERENCES[s["citation"]["key"]]
@@ -65,12 +74,21 @@ def test_params_list_and_show_print_citations(tmp_path):
     assert {s["citation"]["year"] for s in spring} == {2010}
 
     for s in sets:
-        shown = _mckibben("params", "show", s["name"], cwd=tmp_path)
-        _clean(shown.stdout + shown.stderr, f"params show {s['name']}")
-        assert s["citation"]["short"] in shown.stdout
-        data = json.loads(_mckibben("params", "show", s["name"], "--json", cwd=tmp_path).stdout)
+        out, err = run("params", "show", s["name"])
+        _clean(out + err, f"params show {s['name']}")
+        assert s["citation"]["short"] in out
+        data = json.loads(run("params", "show", s["name"], "--json")[0])
         assert data["citation"] == s["citation"], s["name"]
         _clean(json.dumps(data), f"params show {s['name']} --json")
+
+
+def test_params_list_and_show_print_citations(cli):
+    _check_params(_in_process(cli))
+
+
+@pytest.mark.slow
+def test_params_commands_as_separate_processes(tmp_path):
+    _check_params(lambda *args: _mckibben(*args, cwd=tmp_path))
 
 
 def test_every_help_text_is_clean(cli):
@@ -85,18 +103,18 @@ def test_every_help_text_is_clean(cli):
 @pytest.mark.slow
 def test_reproduce_prints_and_reports_citations(tmp_path):
     out = tmp_path / "report"
-    r = _mckibben("reproduce", "--out", str(out), cwd=tmp_path)
-    _clean(r.stdout + r.stderr, "reproduce")
+    stdout, stderr = _mckibben("reproduce", "--out", str(out), cwd=tmp_path)
+    _clean(stdout + stderr, "reproduce")
     assert "Table I (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle”" \
-           " (n.d.))" in r.stdout
+           " (n.d.))" in stdout
     page = (out / "index.html").read_text(encoding="utf-8")
     assert "Spring model of Wickramatunge &amp; Leephakpreeda (2010):" in page
     assert "<h2>References</h2>" in page and "Study on mechanical behaviors of pneumatic artificial muscle" in page
     for f in out.rglob("*"):  # every file the report writes: the page, its data, its figures' metadata
         if f.is_file():
             _clean(f.read_bytes().decode("utf-8", errors="replace"), str(f.relative_to(tmp_path)))
-    j = _mckibben("reproduce", "--out", str(tmp_path / "again"), "--json", cwd=tmp_path)
-    _clean(j.stdout + j.stderr, "reproduce --json")
+    _clean("".join(_mckibben("reproduce", "--out", str(tmp_path / "again"), "--json", cwd=tmp_path)),
+           "reproduce --json")
 
 
 def _sources() -> list[Path]:
