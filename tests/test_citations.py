@@ -118,9 +118,12 @@ def test_reproduce_prints_and_reports_citations(tmp_path):
 
 
 def _sources() -> list[Path]:
-    docs = [p for p in (ROOT / "docs").rglob("*") if p.is_file() and p.suffix in {".md", ".py", ".ipynb", ".rst", ".txt"}]
-    src = [p for p in (ROOT / "src").rglob("*") if p.is_file() and p.suffix in {".py", ".md", ".toml", ".csv", ".txt"}]
-    return docs + src + [ROOT / "README.md"]
+    """The text files a user reads or a command prints from: docs, the package (with its bundled
+    data), the firmware shipped in the wheel, the benchmarks, README and CHANGELOG."""
+    text = {".md", ".py", ".ipynb", ".rst", ".txt", ".toml", ".csv", ".json", ".c", ".h", ".ino", ".cfg", ".in"}
+    found = [p for d in ("docs", "src", "firmware", "benchmarks") for p in (ROOT / d).rglob("*")
+             if p.is_file() and p.suffix in text and "__pycache__" not in p.parts]
+    return found + [ROOT / "README.md", ROOT / "CHANGELOG.md"]
 
 
 def _prose(path: Path) -> str:
@@ -132,8 +135,8 @@ def _prose(path: Path) -> str:
 
 
 def test_docs_and_docstrings_cite_by_key():
-    # the docs pages, and the package whose docstrings the API page renders, name no file of ours
-    # and cite only keys the bibliography holds
+    # the docs pages, and the package whose docstrings the API page renders (and the rest a user
+    # reads), name no file of ours and cite only keys the bibliography holds
     keys = set()
     for path in _sources():
         _clean(path.read_text(encoding="utf-8", errors="replace"), str(path.relative_to(ROOT)))
