@@ -57,7 +57,8 @@ def list_cmd(json: bool = JSON_OPTION) -> None:
         emit_json({"parameter_sets": rows})
         return
     print_table("Parameter sets", ["name", "kind", "source"], [[r["name"], r["kind"], f"{r['citation']['short']} [{r['citation']['key']}]"] for r in rows])
-    print("Full references: docs/references.md (key in brackets); `mckibben params show NAME` gives the tables cited.")
+    print("Each work in full (title, authors, venue, year, DOI) under its key in brackets: the References page of the"
+          " documentation (docs/references.md); `mckibben params show NAME` gives the tables and equations cited.")
 
 
 @params_app.command("show")
