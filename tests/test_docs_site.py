@@ -58,3 +58,8 @@ def test_site_builds_without_warnings_and_notebooks_run(tmp_path):
         assert "Traceback" not in page, name
     api = (tmp_path / "html" / "api.html").read_text(encoding="utf-8")
     assert "step_response" in api and "Result" in api
+    # no built page names the file of our copy of a paper (test_citations.py checks the sources and the commands)
+    for page in (tmp_path / "html").rglob("*.html"):
+        text = page.read_text(encoding="utf-8", errors="replace")
+        assert "000_909f662a44080c85" not in text and "001_9d98bcef9f07dbeb" not in text, page.name
+    assert "wickramatunge2010" in (tmp_path / "html" / "references.html").read_text(encoding="utf-8")

@@ -1,4 +1,4 @@
-"""The miniature muscle's empirical model against 000_909f662a44080c85.txt."""
+"""The miniature muscle's empirical model against [mpam-characterization]."""
 
 import numpy as np
 import pytest

@@ -18,7 +18,7 @@ from mckibben.models.physical import (
     wall_corrected_force,
 )
 
-MEASURED_BLOCKED_97 = 4.2  # N at 0.8 MPa, 000_909f662a44080c85.txt §III.A
+MEASURED_BLOCKED_97 = 4.2  # N at 0.8 MPa, [mpam-characterization] §III.A
 
 
 def test_ideal_model_over_predicts_the_blocked_force_of_the_miniature_muscle():

@@ -1,4 +1,4 @@
-"""The plant simulator: calibration to 000_909f662a44080c85.txt, physics checks, batch behaviour."""
+"""The plant simulator: calibration to [mpam-characterization], physics checks, batch behaviour."""
 
 import os
 import subprocess

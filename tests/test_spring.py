@@ -1,4 +1,4 @@
-"""The spring model F = K(P, Ls)·Ls of 001_9d98bcef9f07dbeb.txt."""
+"""The spring model F = K(P, Ls)·Ls of Wickramatunge & Leephakpreeda (2010) [wickramatunge2010]."""
 
 import dataclasses
 

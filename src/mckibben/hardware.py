@@ -1,6 +1,6 @@
 """The rig's hardware facts, shared with the firmware, and its one sensor model.
 
-Everything here is a fact of the paper's rig (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §III.B) or of the
+Everything here is a fact of the paper's rig ([mpam-characterization] §III.B) or of the
 firmware that runs it (``firmware/core/controller.h``, ``firmware/core/controller.c``,
 ``firmware/src/main.c``); ``tests/test_hardware.py`` parses those files and holds the numbers
 below equal to theirs. The plant, the controllers, the rig emulator and recorder and the

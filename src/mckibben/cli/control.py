@@ -167,7 +167,7 @@ def fig13_cmd(
     if json:
         emit_json(res.to_dict())
         return
-    print_table("Fig. 13 (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV.B): step to 0.55 MPa, paper vs ours",
+    print_table("Fig. 13 ([mpam-characterization] §IV.B): step to 0.55 MPa, paper vs ours",
                 ["law", "β counts", "τ paper s", "τ ours s", "overshoot paper %", "overshoot ours %", "rise s",
                  "settling s", "ss error Pa"],
                 [[r["law"], r["beta_counts"], r["paper_time_constant_s"], r["time_constant_s"],

@@ -9,7 +9,8 @@ import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
-from mckibben.datasets import MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES, get_muscle
+from mckibben.datasets import MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES, get_muscle, parameter_sets
+from mckibben.datasets.references import cited, render
 from mckibben.errors import unknown_name
 from mckibben.models.mpam import MiniatureMuscle
 
@@ -43,24 +44,21 @@ def muscle_to_dict(m: MiniatureMuscle) -> dict:
             "braid_angle_rad": g.braid_angle,
         },
         "synthetic": m.synthetic,
-        "citation": m.citation,
+        "citation": cited(m.citation)[0].to_dict(),
+        "source": render(m.citation),
     }
 
 
 @params_app.command("list")
 def list_cmd(json: bool = JSON_OPTION) -> None:
     """List the parameter sets by name."""
-    rows = [
-        {"name": name, "kind": "miniature muscle", "citation": m.citation.split(":")[0]}
-        for name, m in MUSCLES.items()
-    ] + [
-        {"name": name, "kind": "spring model (structure and size only)", "citation": SPRING_MODEL_STRUCTURE["citation"].split(",")[0]}
-        for name in SPRING_SETS
-    ]
+    rows = parameter_sets()
     if json:
         emit_json({"parameter_sets": rows})
         return
-    print_table("Parameter sets", ["name", "kind", "source"], [[r["name"], r["kind"], r["citation"]] for r in rows])
+    print_table("Parameter sets", ["name", "kind", "source"], [[r["name"], r["kind"], f"{r['citation']['short']} [{r['citation']['key']}]"] for r in rows])
+    print("Each work in full (title, authors, venue, year, DOI) under its key in brackets: the References page of the"
+          " documentation (docs/references.md); `mckibben params show NAME` gives the tables and equations cited.")
 
 
 @params_app.command("show")
@@ -68,12 +66,16 @@ def show_cmd(name: str = typer.Argument(..., help="A name from `mckibben params 
     """Show one parameter set with its citation."""
     key = name.strip().lower()
     if key in SPRING_SETS:
-        data = {"name": key, "kind": "spring", **SPRING_SETS[key], "structure": SPRING_MODEL_STRUCTURE}
+        text = SPRING_MODEL_STRUCTURE["citation"]
+        data = {"name": key, "kind": "spring", **SPRING_SETS[key], "structure": SPRING_MODEL_STRUCTURE,
+                "citation": cited(text)[0].to_dict(), "source": render(text)}
         if json:
             emit_json(data)
             return
-        print_table(f"{key} (spring model)", ["field", "value"], [[k, str(v)] for k, v in data.items() if k != "structure"])
-        print_table("structure", ["field", "value"], [[k, str(v)] for k, v in SPRING_MODEL_STRUCTURE.items()])
+        print_table(f"{key} (spring model)", ["field", "value"],
+                    [[k, str(v)] for k, v in data.items() if k not in ("structure", "citation")])
+        print_table("structure", ["field", "value"],
+                    [[k, render(v) if k == "citation" else str(v)] for k, v in SPRING_MODEL_STRUCTURE.items()])
         return
     if key not in MUSCLES:
         raise unknown_name("parameter set", name, list(MUSCLES) + list(SPRING_SETS))
@@ -96,7 +98,7 @@ def show_cmd(name: str = typer.Argument(..., help="A name from `mckibben params 
         ["tube ID / OD", f"{g.tube_inner_diameter * 1e3:g} / {g.tube_outer_diameter * 1e3:g} mm"],
         ["strand diameter", f"{g.strand_diameter * 1e3:g} mm"],
         ["braid angle", f"{np.rad2deg(g.braid_angle):g}°"],
-        ["citation", m.citation],
+        ["citation", render(m.citation)],
     ]
     print_table(m.name, ["parameter", "value"], rows)
 

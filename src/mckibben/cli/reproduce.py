@@ -15,12 +15,13 @@ import typer
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
 from mckibben.datasets import MUSCLES
+from mckibben.datasets.references import render
 from mckibben import report
 
 
 def _print_published(tables: dict) -> None:
     print_table(
-        "Table I (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)): l = k1·Ls·cos θ + k2",
+        render("Table I ([mpam-characterization]): l = k1·Ls·cos θ + k2"),
         ["muscle", "L0 mm", "Ls mm", "k1", "k2 mm", "blocked force N @ 0.8 MPa"],
         [[n, f"{m.nominal_length * 1e3:g}", f"{m.strand_length * 1e3:g}", f"{m.k1:g}", f"{m.k2 * 1e3:g}", f"{m.blocked_force[0][1]:g}"] for n, m in MUSCLES.items()],
     )

@@ -71,7 +71,7 @@ def calibrate_cmd(json: bool = JSON_OPTION) -> None:
     ok = lambda b: "ok" if b else "FAIL"  # noqa: E731
     ch = c["checks"]
     print_table(
-        "Default plant vs “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)",
+        "Default plant vs [mpam-characterization]",
         ["quantity", "paper", "plant", "accepted", "check"],
         [["open-loop time constant", "≈ 0.09 s", f"{c['time_constant_s']:.4f} s", "0.08–0.10 s", ok(ch["time_constant"])],
          ["open-loop overshoot", "none", f"{c['overshoot_pct']:.2f} %", "< 1 %", ok(ch["no_overshoot"])],

@@ -1,7 +1,6 @@
 """Pressure control: the controller registry, identification, PID and sliding mode, the firmware's core.
 
-The experiments of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial
-Muscle” (text: 000_909f662a44080c85.txt) §IV on the simulated plant (step, tracking, Fig. 13,
+The experiments of [mpam-characterization] §IV on the simulated plant (step, tracking, Fig. 13,
 compare, robustness...) live in the layer above, :mod:`mckibben.experiments`, one call each,
 returning result objects. Quantities are numbers in SI (Pa, N, s); a pressure reference is an
 object (:class:`SineReference`, a file, an array), which :func:`parse_reference` makes from the

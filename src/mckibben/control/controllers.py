@@ -249,7 +249,7 @@ def smc_params(model: FirstOrderModel, beta: float, eps: float, ki: float, *, i_
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (5), (8), (12); signs corrected in docs/controller.md.
+    [mpam-characterization], eq. (5), (8), (12); signs corrected in docs/controller.md.
     """
     if model.gain > 0:
         base = with_supervisor_model(base, model)

@@ -1,7 +1,7 @@
 """Measured benefit of hysteresis compensation for length control, on the plant simulator.
 
 The muscle needs more pressure inflating than deflating for the same contraction (§III of
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt); in :mod:`mckibben.plant` a Dahl friction element on the braid gives
+[mpam-characterization]; in :mod:`mckibben.plant` a Dahl friction element on the braid gives
 this rate-independent hysteresis). :func:`hysteresis_benefit` measures what the per-branch
 feed-forward of :mod:`mckibben.control.length` buys over a single static map:
 
@@ -268,7 +268,7 @@ def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = 
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III (hysteresis: one cubic per branch).
+    [mpam-characterization], §III (hysteresis: one cubic per branch).
     """
 
     if not (math.isfinite(period) and PERIOD_MIN <= period <= PERIOD_MAX):

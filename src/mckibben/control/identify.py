@@ -2,7 +2,7 @@
 
 :func:`identify_logs` reads logs (:func:`mckibben.data.steplog.read_step_log`), fits each trial
 with the low-order models of :mod:`mckibben.fit.step` (first and second order plus dead time,
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV.A), pools the trials and, given several logs,
+[mpam-characterization] §IV.A), pools the trials and, given several logs,
 fits the valves' lift-off. The reader and the fits moved to ``data`` and ``fit``; their names are
 re-exported here.
 """

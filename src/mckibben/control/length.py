@@ -1,7 +1,7 @@
 """Length (contraction) control: static feed-forward, hysteresis compensation, outer loop.
 
 A target length becomes a target pressure through the inverse static model (eq. 2 + 3 of
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) inverted, :func:`mckibben.models.mpam.pressure_for_length`: "a static
+[mpam-characterization] inverted, :func:`mckibben.models.mpam.pressure_for_length`: "a static
 feed-forward term in the closed loop control of the MPAM", §III). The pressure loop (the core's
 sliding mode or PID) runs inside. Two refinements:
 
@@ -114,7 +114,7 @@ def fit_hysteresis_branches(pressure, length, inflating, degree: int = 3) -> Hys
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III (cubic fit of each hysteresis branch).
+    [mpam-characterization], §III (cubic fit of each hysteresis branch).
     """
     p = np.asarray(pressure, dtype=float)
     ell = np.asarray(length, dtype=float)
@@ -325,7 +325,7 @@ def length_feedforward(length_ref, *, muscle=None, load: float = 0.6, p_max: flo
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) and (3) inverted (§III: the model as a static feed-forward).
+    [mpam-characterization], eq. (2) and (3) inverted (§III: the model as a static feed-forward).
     """
     ell = np.asarray(length_ref, dtype=float)
     if ell.ndim != 1 or not np.all(np.isfinite(ell)):

@@ -67,7 +67,7 @@ def plot_record(record, labels, ax=None):
 
 
 def plot_fig13(result, ax=None, tau_vs_beta=None):
-    """Fig. 13 of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) on the plant: step responses, and τ against β beside
+    """Fig. 13 of [mpam-characterization] on the plant: step responses, and τ against β beside
     the paper's points (:data:`mckibben.datasets.paper_points.FIG13`).
 
     Parameters

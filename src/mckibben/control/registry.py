@@ -21,8 +21,7 @@ coefficients (``derive``), its float reference and its design; a header
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), §IV (the sliding mode and the PID).
+[mpam-characterization], §IV (the sliding mode and the PID).
 """
 
 from __future__ import annotations
@@ -225,7 +224,7 @@ SMC = ControllerSpec(
                     "tau_factor": (1.0, 1 / 4, 1 / 16, 1 / 64, 1 / 256)},
           "paper": {"beta": (115.0, 120.0, 130.0, 150.0, 175.0, 200.0), "eps": (25e3, 50e3, 100e3, 200e3),
                     "ki": (4.0, 12.0, 24.0)}},
-    references="000_909f662a44080c85.txt §IV eq. (5)-(12); docs/controller.md",
+    references="[mpam-characterization] §IV eq. (5)-(12); docs/controller.md",
     extension=False,
 )
 
@@ -245,7 +244,7 @@ PID = ControllerSpec(
     # λ = τ/3 of the identified τ: three times faster than open loop, a usual aggressive choice
     designs={"pid": {"tau_over_lambda": 3.0}},
     grid={"pid": {"tau_factor": (1.0, 1 / 4, 1 / 16, 1 / 64), "lam_factor": (1 / 4, 1 / 2, 1.0, 2.0, 4.0)}},
-    references="000_909f662a44080c85.txt §IV.A; docs/controller.md",
+    references="[mpam-characterization] §IV.A; docs/controller.md",
     extension=False,
 )
 

@@ -1,8 +1,7 @@
 """The building blocks of the closed-loop experiments: the identified model, the documented designs, the plants.
 
 :func:`identified_model` (the calibrated plant identified as the paper did, §IV.A of
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), :func:`~mckibben.control.runs.identify_plant`),
+[mpam-characterization], :func:`~mckibben.control.runs.identify_plant`),
 :func:`controller_params` (a controller with the documented tuning, ``docs/control.md``),
 :func:`tuned_controller` (gains tuned on a plant), :func:`muscle_file_plant` (a muscle file's own
 plant), :func:`pressure_reference` (a reference sampled at the control period) and the checks of
@@ -66,7 +65,7 @@ def identified_model() -> FirstOrderModel:
     """The first-order model (with the valves' lift-off) identified on the calibrated plant.
 
     Two open-loop inlet steps, as the paper did with one voltage step (§IV.A of
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)); computed once per process.
+    [mpam-characterization]); computed once per process.
 
     Returns
     -------
@@ -145,7 +144,7 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     Parameters
     ----------
     controller : {"smc", "pid"}, default "smc"
-        Sliding mode (eq. 9–12, §IV.A of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)) or the lambda-tuned PID the
+        Sliding mode (eq. 9–12, §IV.A of [mpam-characterization]) or the lambda-tuned PID the
         paper found wanting. [-]
     model : FirstOrderModel, optional
         Model the controller is designed on; default :func:`identified_model`. [-]

@@ -19,11 +19,11 @@ no model of τ. G = 0 switches the feed-forward off (and u0 with it).
 
 References
 ----------
-A. Levant, "Sliding order and sliding accuracy in sliding mode control", Int. J. Control 58(6),
+[levant1993] A. Levant, "Sliding order and sliding accuracy in sliding mode control", Int. J. Control 58(6),
 1993, doi:10.1080/00207179308923053 (the super-twisting algorithm).
 J. A. Moreno and M. Osorio, "Strict Lyapunov functions for the super-twisting algorithm", IEEE
 Trans. Automatic Control 57(4), 2012, doi:10.1109/TAC.2012.2186179 (gain conditions).
-R. Seeber and B. Andritsch, "Proper implicit discretization of the super-twisting controller —
+[seeber2025] R. Seeber and B. Andritsch, "Proper implicit discretization of the super-twisting controller —
 without and with actuator saturation", Automatica 173, 112027, 2025,
 doi:10.1016/j.automatica.2024.112027 (conditioning the integral against the actuator's limits).
 """

@@ -102,7 +102,7 @@ SCHEMAS: dict[str, Schema] = {
                description="braid angle from photographs with the length at that moment (Fig. 9, 10)"),
         Schema("force_length", ("pressure", "length", "force", "direction"), ("trial", "muscle"),
                ELONGATION_CONTRACTION,
-               description="force-length loops at constant pressure (Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), Fig. 5)"),
+               description="force-length loops at constant pressure (Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], Fig. 5)"),
         Schema("isometric", ("held_length", "pressure", "force", "direction", "trial"), ("tare", "muscle", "rest_length", "pressure_zero"),
                INFLATE_DEFLATE,
                description="force at held lengths while the pressure is stepped up (inflate) and back"

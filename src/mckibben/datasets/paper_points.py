@@ -2,7 +2,7 @@
 
 Plots and tables read these values from here; no plotting routine holds a paper's number.
 
-``FIG13``: the sliding-mode pressure step of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §IV.B and Fig. 13: a step
+``FIG13``: the sliding-mode pressure step of [mpam-characterization], §IV.B and Fig. 13: a step
 to 0.55 MPa (80 psi) under the paper's law β·tanh(S/ε); "the time constant of the controller
 response is found to be ~0.06 s for the low gain [β = 120]. By choosing β to be 150, the response
 time can be further reduced to 0.01 s with a small increase in overshoot (~7 %)". The overshoot
@@ -19,7 +19,7 @@ import math
 __all__ = ["FIG13", "OPEN_LOOP"]
 
 FIG13 = {
-    "source": "000_909f662a44080c85.txt, §IV.B, Fig. 13",
+    "source": "[mpam-characterization], §IV.B, Fig. 13",
     "target_Pa": 0.55e6,
     "law": "paper",
     #: β [PWM counts] -> what the text states
@@ -30,7 +30,7 @@ FIG13 = {
 }
 
 OPEN_LOOP = {
-    "source": "000_909f662a44080c85.txt, §IV.A",
+    "source": "[mpam-characterization], §IV.A",
     "time_constant_s": 0.09,
     "overshoot_pct": 0.0,
 }

@@ -1,6 +1,6 @@
 """Published parameter sets, each reproducing a table of its paper.
 
-Miniature muscles of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) (OD ≈ 1.2 mm):
+Miniature muscles of [mpam-characterization] (OD ≈ 1.2 mm):
 
 =========  ======  ======  ====  =======  ==========================  ===================
 name       L0      Ls      k1    k2       cos θ(P) cubics (P in MPa)  blocked force
@@ -16,7 +16,7 @@ the worked example 97 mm, 0.6 N, 0.8 MPa → 78.1 mm both support it). The cubic
 characterized on 0–0.8 MPa (the paper's safe operating limit). Construction (§II): silicone tube
 ID 0.5 mm / OD 0.9 mm, nylon strand ~0.1 mm, braid angle ~20°, outer diameter ~1.2 mm.
 
-The spring model of Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt) (Festo muscles PAM-A, -B, -C) is shipped as its
+The spring model of Wickramatunge & Leephakpreeda (2010) [wickramatunge2010] (Festo muscles PAM-A, -B, -C) is shipped as its
 structure and muscle sizes only: its coefficient tables are unreadable in our copy, and we ship
 no invented numbers; ``mckibben fit`` fits them from data.
 """
@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from mckibben.datasets.references import cited, render
 from mckibben.models.mpam import BraidAngleMap, MiniatureGeometry, MiniatureMuscle
 
 MM = 1e-3
-PAPER_MPAM = "000_909f662a44080c85.txt"
-PAPER_SPRING = "001_9d98bcef9f07dbeb.txt"
+#: The bibliography keys (:mod:`mckibben.datasets.references`) of the two papers.
+PAPER_MPAM = "[mpam-characterization]"
+PAPER_SPRING = "[wickramatunge2010]"
 
 #: Construction shared by the three miniature muscles (§II).
 MPAM_GEOMETRY = MiniatureGeometry(
@@ -65,7 +67,7 @@ def _mpam(name, l0_mm, ls_mm, k1, k2_mm, rows, force_n, cubic_source):
     )
 
 
-#: The miniature muscles of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), by name.
+#: The miniature muscles of [mpam-characterization], by name.
 MUSCLES: dict[str, MiniatureMuscle] = {
     "mpam97": _mpam(
         "mpam97", 97, 112, 0.92, 0.77,
@@ -84,7 +86,7 @@ MUSCLES: dict[str, MiniatureMuscle] = {
     ),
 }
 
-#: Festo muscles of Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt): nominal diameter and length (read as cm in the
+#: Festo muscles of Wickramatunge & Leephakpreeda (2010) [wickramatunge2010]: nominal diameter and length (read as cm in the
 #: extraction; PAM-A's diameter digit was lost and is read as 20 mm). Coefficients: none shipped.
 SPRING_MUSCLE_SIZES: dict[str, dict[str, float]] = {
     "pam-a": {"nominal_diameter_m": 20e-3, "nominal_length_m": 0.30},
@@ -92,7 +94,7 @@ SPRING_MUSCLE_SIZES: dict[str, dict[str, float]] = {
     "pam-c": {"nominal_diameter_m": 10e-3, "nominal_length_m": 0.075},
 }
 
-#: The spring model's published structure (Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. 1–2, Tables 1–2).
+#: The spring model's published structure (Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. 1–2, Tables 1–2).
 SPRING_MODEL_STRUCTURE = {
     "force": "F = K(P, Ls)·Ls, Ls = L − Lu(P)  (eq. 1)",
     "unstretched_length": "Lu = h2·P² + h1·P + h0  (Table 1)",
@@ -103,3 +105,21 @@ SPRING_MODEL_STRUCTURE = {
     "coefficients": "unreadable in our copy: fit them with `mckibben fit --model spring`",
     "citation": f"{PAPER_SPRING}, eq. (1)–(2), Tables 1–2, §5",
 }
+
+
+def parameter_sets() -> list[dict]:
+    """Every published parameter set with what it is and whom it cites.
+
+    Returns
+    -------
+    list of dict
+        One per set, in the order ``mckibben params list`` prints them: ``name``, ``kind``,
+        ``citation`` (the cited work's record, :meth:`~mckibben.datasets.references.Reference.to_dict`:
+        key, short author–year form, title, authors, venue, year, DOI) and ``source`` (where in it,
+        with the work named by its short form).
+    """
+    sets = [(name, "miniature muscle", m.citation) for name, m in MUSCLES.items()]
+    sets += [(f"spring-{name}", "spring model (structure and size only)", SPRING_MODEL_STRUCTURE["citation"])
+             for name in SPRING_MUSCLE_SIZES]
+    return [{"name": name, "kind": kind, "citation": cited(text)[0].to_dict(), "source": render(text)}
+            for name, kind, text in sets]

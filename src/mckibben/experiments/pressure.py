@@ -3,8 +3,7 @@
 Step (:func:`step_response`), tracking (:func:`track_pressure`), the open-loop identification step
 (:func:`open_loop`), the paper's Fig. 13 (:func:`fig13`), PID against sliding mode
 (:func:`compare`), Monte Carlo robustness (:func:`robustness`) and hysteresis compensation
-(:func:`hysteresis_compensation`) of “Experimental Characterization and Control of Miniaturized
-Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV. Each takes numbers in SI (Pa, N,
+(:func:`hysteresis_compensation`) of [mpam-characterization] §IV. Each takes numbers in SI (Pa, N,
 s: ``target=0.55e6``) and objects (a :class:`~mckibben.control.references.SineReference`); text with
 a unit is refused with the number to pass (:func:`mckibben.units.si`), the command line parses its
 flags before it calls.
@@ -265,7 +264,7 @@ def step_response(controller: str = "smc", target=FIG13_TARGET_PA, *, start=0.0,
 
     The pressure ``start`` is held (0.05 s from rest, 0.5 s from a back pressure), then the
     reference steps to ``target``; a reference outside [0, p_max] is clamped as the supervisor
-    would (one warning, ``reference_clamped``), and scored as commanded; Fig. 13 of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) is this experiment with
+    would (one warning, ``reference_clamped``), and scored as commanded; Fig. 13 of [mpam-characterization] is this experiment with
     ``law="paper"``, ``beta`` 120 or 150 and ``target`` 0.55 MPa.
 
     Parameters
@@ -514,7 +513,7 @@ class Fig13Result(Result):
 
     def tau_against_beta(self, betas=None):
         """The paper's law's time constant against β on the plant (τ falls once β exceeds the
-        holding command, eq. 11 of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)).
+        holding command, eq. 11 of [mpam-characterization]).
 
         Parameters
         ----------
@@ -549,7 +548,7 @@ class Fig13Result(Result):
 def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=None) -> Fig13Result:
     """The paper's Fig. 13 on the plant: sliding mode, step 0 → 0.55 MPa, each law and β.
 
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV.B measured the ``paper`` law at β = 120 (τ ≈ 0.06 s) and 150
+    [mpam-characterization] §IV.B measured the ``paper`` law at β = 120 (τ ≈ 0.06 s) and 150
     (τ ≈ 0.01 s, ~7 % overshoot); those values come from
     :data:`mckibben.datasets.paper_points.FIG13`. The ``model`` law at the same β shows what our
     model term changes.

@@ -1,7 +1,6 @@
 """Tool tracking in simulation: a tip path followed by the three-muscle endoscope's simulated muscles.
 
-The experiment of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial
-Muscle” (text: 000_909f662a44080c85.txt) §V on the simulated tool: inverse kinematics and the static
+The experiment of [mpam-characterization] §V on the simulated tool: inverse kinematics and the static
 inverse give three pressure references (:mod:`mckibben.tool.tracking`), three controlled muscles
 follow them, the tool's statics (or MuJoCo) give the tip. It takes SI numbers and a
 :class:`~mckibben.tool.paths.TipPath`, written by hand or read from its one-line text by

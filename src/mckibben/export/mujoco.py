@@ -35,8 +35,7 @@ the functions that need it, so nothing else in mckibben loads it.
 References
 ----------
 MuJoCo documentation, "Computation" (actuation model, ``mj_step1``/``mj_step2``); MuJoCo issue
-#1525, "Muscle for artificial muscle application"; “Experimental Characterization and Control of
-Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2)–(3), §III–IV.
+#1525, "Muscle for artificial muscle application"; [mpam-characterization], eq. (2)–(3), §III–IV.
 """
 
 from __future__ import annotations

@@ -532,7 +532,7 @@ def cluster_covariance(jac, resid, clusters, p_scale=None):
 
     References
     ----------
-    Cameron, A. C., Miller, D. L. (2015), A practitioner's guide to cluster-robust inference,
+    [cameron2015] Cameron, A. C., Miller, D. L. (2015), A practitioner's guide to cluster-robust inference,
     J. Human Resources 50(2), 317–372. doi:10.3368/jhr.50.2.317 (§VI: few clusters, CR2).
     Bell, R. M., McCaffrey, D. F. (2002), Bias reduction in standard errors for linear regression
     with multi-stage samples, Survey Methodology 28(2), 169–181.

@@ -41,7 +41,7 @@ cluster-robust by run (held length and trial): see :func:`fit_isometric`.
 References
 ----------
 Chou & Hannaford (1996); Tondu & Lopez (2000); Tsagarakis & Caldwell (2000), Davis et al. (2003):
-:mod:`mckibben.models.physical`. Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1)–(2): :mod:`mckibben.models.spring`.
+:mod:`mckibben.models.physical`. Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (1)–(2): :mod:`mckibben.models.spring`.
 """
 
 from __future__ import annotations

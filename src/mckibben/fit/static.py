@@ -105,7 +105,7 @@ def fit_kinematic(table: Table, muscle: MuscleSpec) -> FitResult:
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2), Table I, Fig. 9.
+    [mpam-characterization], eq. (2), Table I, Fig. 9.
     """
     _need(table, ("braid_angle",), "kinematic")
     d = table.data
@@ -175,7 +175,7 @@ def fit_cubic(pressure, response, *, what: str, response_name: str, unit: str, c
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (3), Table II, Figs. 3, 5, 6, 10 (cubic fits).
+    [mpam-characterization], eq. (3), Table II, Figs. 3, 5, 6, 10 (cubic fits).
     """
     p = np.asarray(pressure, dtype=float)
     require_distinct(p, 5, "pressures", what, "a cubic in pressure (4 coefficients and a check of its fit)")
@@ -296,7 +296,7 @@ def fit_force_contraction(table: Table, muscle: MuscleSpec) -> dict[float, FitRe
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III.B, Fig. 5.
+    [mpam-characterization], §III.B, Fig. 5.
     """
     _need(table, ("isotonic",), "force-contraction")
     d = table.data
@@ -434,7 +434,7 @@ def fit_spring(table: Table, terms=DEFAULT_TERMS, split_pressure: float | None =
 
     References
     ----------
-    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1)–(2), Tables 1–2, §5.
+    Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (1)–(2), Tables 1–2, §5.
     """
     _need(table, ("force_length", "isotonic"), "spring")
     d = table.data
@@ -654,7 +654,7 @@ def first_order_step(t, p0, p_final, tau, t0):
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §IV.A: first order, τ ≈ 0.09 s, no overshoot.
+    [mpam-characterization], §IV.A: first order, τ ≈ 0.09 s, no overshoot.
     """
     t = np.asarray(t, dtype=float)
     return p0 + (p_final - p0) * np.where(t >= t0, -np.expm1(-(t - t0) / tau), 0.0)

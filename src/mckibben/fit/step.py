@@ -1,7 +1,7 @@
 """Low-order models fitted to an open-loop step response: first order, second order, the fill.
 
 The paper identifies the pressure loop of its 100 mm muscle from "a voltage step input to the
-driver circuit": first order, τ ≈ 0.09 s, no overshoot (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §IV.A). We fit
+driver circuit": first order, τ ≈ 0.09 s, no overshoot ([mpam-characterization], §IV.A). We fit
 
 - first order plus dead time (FOPDT): ``y = y0 + K·Δu·(1 − exp(−(t − t_step − θ)/τ))`` for
   ``t ≥ t_step + θ``, else ``y0``;
@@ -324,7 +324,7 @@ def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = No
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §IV.A (first-order model from an open-loop step).
+    [mpam-characterization], §IV.A (first-order model from an open-loop step).
 
     Examples
     --------

@@ -11,8 +11,7 @@ References
 ----------
 Chou, C.-P., Hannaford, B. (1996), Measurement and modeling of McKibben pneumatic artificial
 muscles, IEEE Trans. Robot. Autom. 12(1), 90–102. doi:10.1109/70.481753 (the braid's geometry).
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), §II (the miniature muscle's construction).
+[mpam-characterization], §II (the miniature muscle's construction).
 """
 
 from __future__ import annotations
@@ -146,7 +145,7 @@ def check_geometry(geom) -> "BraidGeometry":
 
 
 def miniature_geometry(nominal_length: float, geometry=None, wall: bool = True) -> BraidGeometry:
-    """The physical-model geometry of a miniature muscle of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt).
+    """The physical-model geometry of a miniature muscle of [mpam-characterization].
 
     The braid diameter is the outer diameter less one strand diameter (the braid's mid-line,
     1.1 mm), the braid angle the construction's ~20° (§II), and the wall the silicone tube's

@@ -2,7 +2,7 @@
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III.C: eq. (1) l = Ls·cos θ, eq. (2) l = k1·Ls·cos θ + k2, Table I.
+[mpam-characterization], §III.C: eq. (1) l = Ls·cos θ, eq. (2) l = k1·Ls·cos θ + k2, Table I.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ def length_from_braid(cos_theta, strand_length, k1=1.0, k2=0.0):
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (1) and (2), Table I.
+    [mpam-characterization], eq. (1) and (2), Table I.
 
     Examples
     --------
@@ -64,7 +64,7 @@ def braid_from_length(length, strand_length, k1=1.0, k2=0.0):
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) solved for cos θ.
+    [mpam-characterization], eq. (2) solved for cos θ.
     """
     return ((check_array(length, "length", finite=False) - k2)
             / (k1 * check_array(strand_length, "strand_length", finite=False)))

@@ -1,6 +1,6 @@
 """The miniature muscle's empirical model: braid-angle cubics and the kinematic length map.
 
-Length under a hanging load follows from two fits of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt): the braid angle
+Length under a hanging load follows from two fits of [mpam-characterization]: the braid angle
 as a cubic in pressure per load (eq. 3, Table II) and the fitted pantograph (eq. 2, Table I).
 
 Loads between and beyond the characterized ones
@@ -112,7 +112,7 @@ def braid_cos_theta(pressure, load, braid_map: BraidAngleMap):
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (3) and Table II (P in MPa).
+    [mpam-characterization], eq. (3) and Table II (P in MPa).
     """
     if not isinstance(braid_map, BraidAngleMap):
         raise ArgumentTypeError(f"braid_map = {braid_map!r}: not a BraidAngleMap ({type(braid_map).__name__}); "
@@ -282,7 +282,7 @@ def predict_length(muscle: MiniatureMuscle, pressure, load) -> LengthPrediction:
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3) and Tables I–II.
+    [mpam-characterization], eq. (2) with (3) and Tables I–II.
 
     Examples
     --------
@@ -326,7 +326,7 @@ def pressure_for_length(muscle: MiniatureMuscle, length, load, p_max: float = 0.
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) and (3) inverted; §IV uses it as the feed-forward.
+    [mpam-characterization], eq. (2) and (3) inverted; §IV uses it as the feed-forward.
     """
     _check_muscle(muscle)
     p_max = check_real(p_max, "p_max", lo=0.0, lo_open=True, hi=P_MAX_LIMIT, unit="Pa")
@@ -480,7 +480,7 @@ def force_from_length(muscle: MiniatureMuscle, pressure, length) -> ForcePredict
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) and (3), Tables I–II, solved for the load.
+    [mpam-characterization], eq. (2) and (3), Tables I–II, solved for the load.
     """
     _check_muscle(muscle)
     bmap = muscle.braid_map

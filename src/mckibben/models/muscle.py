@@ -15,8 +15,7 @@ The stops are the locking angle ``b/√3`` (the shortest, full contraction) and 
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), eq. (1)–(2) (the braid); Chou & Hannaford (1996) (the locking angle).
+[mpam-characterization], eq. (1)–(2) (the braid); Chou & Hannaford (1996) (the locking angle).
 """
 
 from __future__ import annotations

@@ -22,7 +22,7 @@ IEEE Control Syst. Mag. 20(2), 15–38. doi:10.1109/37.833638
 Tsagarakis, N., Caldwell, D. G. (2000), Improved modelling and assessment of pneumatic muscle
 actuators, ICRA 2000; Davis, S. et al. (2003), Enhanced modelling and performance in braided
 pneumatic muscle actuators, IJRR 22(3–4), 213–227 (wall-thickness term).
-Both cited as the standard physical models in Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt) §1; NOTES.md.
+Both cited as the standard physical models in Wickramatunge & Leephakpreeda (2010) [wickramatunge2010] §1; NOTES.md.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ N/(m·Pa^i·m^j) for the term P^i·Ls^j. The paper's bar and cm are converted at
 
 References
 ----------
-Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt) (Wickramatunge & Leephakpreeda, Int. J. Eng. Sci. 48, 2010), eq. (1)
+Wickramatunge & Leephakpreeda (2010) [wickramatunge2010] (Wickramatunge & Leephakpreeda, Int. J. Eng. Sci. 48, 2010), eq. (1)
 and (2), Tables 1 and 2, §5. Its coefficient tables are unreadable in our copy: fit them from
 data (``mckibben fit --model spring``).
 """
@@ -61,7 +61,7 @@ def spring_length(force, pressure, model: SpringModel, direction=ELONGATION, max
 
     References
     ----------
-    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1) solved for L (§5, "determine the position/length of the
+    Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (1) solved for L (§5, "determine the position/length of the
     PAM when the pulling force exerts on the PAM").
     """
     force, pressure = np.broadcast_arrays(np.asarray(force, dtype=float), np.asarray(pressure, dtype=float))
@@ -127,7 +127,7 @@ def spring_length_series(pressure, force, model: SpringModel, initial_direction=
 
     References
     ----------
-    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), §5 and Fig. 8.
+    Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], §5 and Fig. 8.
     """
     p = np.asarray(pressure, dtype=float).ravel()
     f = np.asarray(force, dtype=float).ravel()

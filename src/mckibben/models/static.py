@@ -8,7 +8,7 @@ carries the inputs, the outputs, the contraction and the flags (:mod:`mckibben.m
 of every element, whatever the model.
 
 The models themselves stay where they are written once: :mod:`~mckibben.models.mpam` (eq. 2
-with eq. 3 of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)) and :mod:`~mckibben.models.physical` (Chou–Hannaford,
+with eq. 3 of [mpam-characterization]) and :mod:`~mckibben.models.physical` (Chou–Hannaford,
 with and without the tube wall, on the muscle's construction, §II).
 
 >>> from mckibben.datasets import get_muscle
@@ -134,7 +134,7 @@ def length_mpam(pressure, load, muscle) -> StaticResult:
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
+    [mpam-characterization], eq. (2) with (3), Tables I and II.
     """
 
     _check_muscle(muscle)
@@ -160,7 +160,7 @@ def length_chou_hannaford(pressure, load, muscle) -> StaticResult:
     load : array_like or str
         Hanging load. [N]
     muscle : MiniatureMuscle
-        The muscle (its nominal length and construction, §II of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)). [-]
+        The muscle (its nominal length and construction, §II of [mpam-characterization]). [-]
 
     Returns
     -------
@@ -206,7 +206,7 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
+    [mpam-characterization], eq. (2) with (3), Tables I and II.
     """
 
     _check_muscle(muscle)

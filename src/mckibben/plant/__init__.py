@@ -1,7 +1,7 @@
 """The dynamic plant: supply, valves, chamber, muscle, load and sensors, simulated in batch.
 
 :func:`simulate` runs N rigs at once (Numba); :class:`PlantParams` holds their parameters (the
-calibrated rig of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) by default); :func:`calibration` checks the default
+calibrated rig of [mpam-characterization] by default); :func:`calibration` checks the default
 against the paper. See ``docs/plant.md``.
 """
 

@@ -1,4 +1,4 @@
-"""Calibration of the default plant against “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt).
+"""Calibration of the default plant against [mpam-characterization].
 
 Three published numbers: the open-loop response of the 100 mm muscle to a valve-voltage step is
 first order with τ ≈ 0.09 s and no overshoot (§IV.A); the 97 mm muscle's blocked force at

@@ -118,7 +118,7 @@ def calibrate_force_law(muscle: MiniatureMuscle, blocked_force: float | None = N
 
     References
     ----------
-    Tondu & Lopez (2000), eq. (4); “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), §III.A, eq. (2)–(3), Tables I–II.
+    Tondu & Lopez (2000), eq. (4); [mpam-characterization], §III.A, eq. (2)–(3), Tables I–II.
     """
     check_instance(muscle, "muscle", MiniatureMuscle, "a MiniatureMuscle (get_muscle)")
     if blocked_force is not None:

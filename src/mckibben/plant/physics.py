@@ -43,7 +43,7 @@ References
 ----------
 ISO 6358-1:2013; Richer, E., Hurmuzlu, Y. (2000), A high performance pneumatic force actuator
 system, ASME J. Dyn. Syst. Meas. Control 122(3), 416–425; Tondu & Lopez (2000); Chou &
-Hannaford (1996); “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) eq. (2)–(3), §III–IV; Dahl, P. R. (1968).
+Hannaford (1996); [mpam-characterization] eq. (2)–(3), §III–IV; Dahl, P. R. (1968).
 """
 
 from __future__ import annotations

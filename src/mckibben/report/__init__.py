@@ -3,7 +3,7 @@
 :func:`reproduce` does the whole job (``mckibben reproduce``): :func:`characterize` fits,
 :func:`write_report` writes ``index.html``, ``summary.json`` and the PNG figures atomically,
 :func:`published_length_tables` evaluates the published sets (Table I, Table II and eq. 3 of
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt)). On the bundled (synthetic) campaign or on any campaign folder.
+[mpam-characterization]). On the bundled (synthetic) campaign or on any campaign folder.
 """
 
 from mckibben import _lazy

@@ -1,5 +1,5 @@
-"""Figures of the characterization report, in the spirit of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) Figs. 3, 5, 6,
-9 and 10 and of the force-length loops of Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt): data as mean ± standard
+"""Figures of the characterization report, in the spirit of [mpam-characterization] Figs. 3, 5, 6,
+9 and 10 and of the force-length loops of Wickramatunge & Leephakpreeda (2010) [wickramatunge2010]: data as mean ± standard
 deviation over trials (error bars), fitted curves, and shaded 95 % confidence bands of the fits.
 
 Matplotlib's object API (:class:`matplotlib.figure.Figure`, Agg canvas): no global pyplot state.

@@ -17,6 +17,7 @@ from mckibben.report import figures as FIG
 from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
 from mckibben.atomic import check_output_dir
 from mckibben.datasets.campaign import campaign_muscle_dirs
+from mckibben.datasets.references import cited, render
 from mckibben.results import provenance
 from mckibben.results import to_jsonable
 from mckibben.atomic import atomic_dir
@@ -89,6 +90,23 @@ def summarize(char: dict) -> dict:
     return {"synthetic": char["synthetic"], "data": char["root"], "table_I": t1, "table_II": t2,
             "blocked_force": bf, "step_response": steps, "spring": spring, "comparison": comp, "isometric": iso,
             "skipped": [s for r in char["muscles"] for s in r.skipped]}
+
+
+#: What the report takes from which work, by bibliography key (mckibben.datasets.references).
+_SPRING = "[wickramatunge2010]"
+_SOURCES = ("[mpam-characterization] (eq. 1–3, Tables I–II, Figs. 3, 5, 6, 9, 10, §IV.A); "
+            f"{_SPRING} (eq. 1–2)")
+
+
+def _reference_html(ref) -> str:
+    """One bibliography record as a line of the report: authors, year, title, venue, DOI, and what
+    could not be established."""
+    who = ", ".join(ref.authors) if ref.authors else "authors not established"
+    when = str(ref.year) if ref.year is not None else "n.d."
+    doi = (f" doi:<a href='https://doi.org/{html.escape(ref.doi)}'>{html.escape(ref.doi)}</a>" if ref.doi else "")
+    missing = f" <span class='note'>(not established: {html.escape(ref.unestablished)})</span>" if ref.unestablished else ""
+    venue = f" {html.escape(ref.venue)}." if ref.venue else ""
+    return f"[{html.escape(ref.key)}] {html.escape(who)} ({when}). <i>{html.escape(ref.title)}</i>.{venue}{doi}{missing}"
 
 
 def _table(headers, rows) -> str:
@@ -172,7 +190,8 @@ def render_html(summary: dict, figures: list[str]) -> str:
                               f"[{s['tau_ci95_s'][0] * 1e3:.1f}, {s['tau_ci95_s'][1] * 1e3:.1f}]", f"{s['p_final_Pa'] / MPA:.3f}"]
                              for s in summary["step_response"]]))
     if summary["spring"]:
-        parts.append("<h2>Spring model of 001: Lu(P) = h2·P² + h1·P + h0, K = c3·P + c2·P·Ls + c1·Ls + c0 (SI)</h2>")
+        parts.append(f"<h2>Spring model of {html.escape(render(_SPRING))}: Lu(P) = h2·P² + h1·P + h0,"
+                     " K = c3·P + c2·P·Ls + c1·Ls + c0 (SI)</h2>")
         for s in summary["spring"]:
             parts.append(f"<p>{html.escape(s['muscle'])}: split {s['split_pressure_Pa'] / MPA:.3g} MPa, R² {s['r2']:.5f},"
                          f" force RMS {s['residual_rms_N'] * 1e3:.1f} mN, n {s['n_points']}</p>")
@@ -193,8 +212,9 @@ def render_html(summary: dict, figures: list[str]) -> str:
         parts.append(f"<p><img src='{html.escape(f)}' alt='{html.escape(f)}'></p>")
     if summary["skipped"]:
         parts.append("<p class='note'>Skipped: " + html.escape("; ".join(summary["skipped"])) + "</p>")
-    parts.append("<p class='note'>Made by <code>mckibben reproduce</code>. Sources: “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) (eq. 1–3,"
-                 " Tables I–II, Figs. 3, 5, 6, 9, 10, §IV.A); Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt) (eq. 1–2).</p></body></html>")
+    parts.append(f"<p class='note'>Made by <code>mckibben reproduce</code>. Sources: {html.escape(render(_SOURCES))}.</p>")
+    parts.append("<h2>References</h2><ul>" + "".join(f"<li>{_reference_html(r)}</li>" for r in cited(_SOURCES)) + "</ul>")
+    parts.append("</body></html>")
     return "\n".join(parts)
 
 

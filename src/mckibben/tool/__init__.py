@@ -1,4 +1,4 @@
-"""The three-muscle endoscope of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §V: geometry, constant-curvature
+"""The three-muscle endoscope of [mpam-characterization] §V: geometry, constant-curvature
 kinematics, the pressures that put the tip at a target, the workspace, and the building blocks of
 tracking (:mod:`~mckibben.tool.tracking`).
 

@@ -60,7 +60,7 @@ def _discs(discs):
 
 def make_tool(muscle=None, *, muscle_file=None, direction="inflate", pitch_radius=None, discs=13, preload=None,
               bending_stiffness=None, axial_stiffness=None, p_max=None) -> Tool:
-    """The three-muscle tool of §V of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) with its stack's load model.
+    """The three-muscle tool of §V of [mpam-characterization] with its stack's load model.
 
     With ``muscle_file``, the three muscles are a lab's own (a muscle file with a fitted force
     law, ``mckibben fit … --save``) in the paper's disc stack scaled to their outer diameter, with

@@ -1,6 +1,6 @@
 """The three-muscle endoscope: its geometry and the load model its muscles share.
 
-The tool of “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §V (Fig. 14): a stack of spacer discs 12 mm across, each
+The tool of [mpam-characterization] §V (Fig. 14): a stack of spacer discs 12 mm across, each
 with three peripheral holes 2.2 mm across, 120° apart, and a 4 mm central channel for a
 fibre-optic camera or an instrument. One miniature muscle runs through each ring of holes; the
 three are pressurized independently and bend the stack.
@@ -35,7 +35,7 @@ MAX_BENDING_STIFFNESS = 1e4
 #: The muscle of the paper's tool (§V) when none is named. [-]
 DEFAULT_MUSCLE = "mpam117"
 
-PAPER = "000_909f662a44080c85.txt"
+PAPER = "[mpam-characterization]"
 
 #: Angular positions of muscles 1, 2, 3, counter-clockwise from the base x axis. [rad]
 #: Closest spacing of two discs along the tool (a disc is about this thick, §V). [m]
@@ -92,7 +92,7 @@ def pitch_radius_limits(disc_diameter: float, hole_diameter: float, channel_diam
 
 @dataclass(frozen=True)
 class ToolGeometry:
-    """The spacer-disc stack of the endoscope (“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §V).
+    """The spacer-disc stack of the endoscope ([mpam-characterization] §V).
 
     Attributes
     ----------

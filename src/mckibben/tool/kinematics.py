@@ -28,7 +28,7 @@ circle through the base tangent to z, so α = θ/2 = atan2(ρ, z), s = |p|·α/s
 
 References
 ----------
-Webster, R. J. & Jones, B. A. (2010), Design and kinematic modeling of constant curvature
+[webster2010] Webster, R. J. & Jones, B. A. (2010), Design and kinematic modeling of constant curvature
 continuum robots: a review, IJRR 29(13), doi:10.1177/0278364910368147.
 Grassmann, R. M. & Burgner-Kahrs, J. (2024), On the merits of joint space and orientation
 representations in learning the forward kinematics in SE(3) / Clarke coordinates.

@@ -36,8 +36,7 @@ as the quasi-static :func:`~mckibben.tool.tracking.simulate_tracking` and return
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt) §V; Webster, R. J. & Jones, B. A. (2010), Design and kinematic modeling of
+[mpam-characterization] §V; [webster2010] Webster, R. J. & Jones, B. A. (2010), Design and kinematic modeling of
 constant curvature continuum robots, IJRR 29(13); /work/shared/notes/continuum-kinematics.md.
 """
 

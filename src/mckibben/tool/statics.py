@@ -125,7 +125,7 @@ def pressures_for_tip(tip, tool: Tool) -> ToolState:
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) eq. (2)–(3) inverted per muscle; kinematics as in
+    [mpam-characterization] eq. (2)–(3) inverted per muscle; kinematics as in
     :mod:`mckibben.tool.kinematics`.
     """
     arc = arc_from_tip(tip)
@@ -242,7 +242,7 @@ def tip_from_pressures(pressures, tool: Tool, *, tol: float = 1e-12, max_iter: i
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) eq. (2)–(3) per muscle; load model :func:`muscle_tensions`.
+    [mpam-characterization] eq. (2)–(3) per muscle; load model :func:`muscle_tensions`.
     """
     p = np.asarray(pressures, dtype=float)
     if p.ndim == 0 or p.shape[-1] != 3:

@@ -14,8 +14,7 @@ It is rate independent (only the order of the input's values counts, not their t
 w_0 > 0 and w_i ≥ 0, its output rises with a rising input and falls with a falling one: the
 output lags the input, the loop runs counter-clockwise in the (u, y) plane. For a muscle:
 contraction (or pulling force) against pressure, where "inflating needs more pressure than
-deflating for the same contraction" (§III of “Experimental Characterization and Control of
-Miniaturized Pneumatic Artificial Muscle”, text 000_909f662a44080c85.txt, its Fig. 6).
+deflating for the same contraction" (§III of [mpam-characterization], its Fig. 6).
 
 Starting from the virgin state (every play at zero) and rising, the output follows the *initial
 loading curve* φ(u) = y_0 + Σ_i w_i·max(u − u_0 − r_i, 0), piecewise linear with slope

@@ -8,8 +8,7 @@ of :mod:`mckibben.fit.static`, not by an isometric fit spec.
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), eq. (2)–(3), Tables I–II.
+[mpam-characterization], eq. (2)–(3), Tables I–II.
 """
 
 from __future__ import annotations
@@ -39,7 +38,7 @@ def braid_map(pressure, length, th, o, w):
 
     cos θ is a cubic in P per characterized load and linear in load between them (the end
     segments extended); the segment whose cos θ interval holds the target gives the load.
-    NaN where no segment does (two loads with the same cos θ). “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt),
+    NaN where no segment does (two loads with the same cos θ). [mpam-characterization],
     eq. (2)–(3), Tables I–II.
 
     Parameters
@@ -92,7 +91,7 @@ def braid_map_theta(muscle) -> np.ndarray:
 
 
 LAW = Law(
-    "braid-map", braid_map, "000_909f662a44080c85.txt eq. (2)+(3), solved for the load",
+    "braid-map", braid_map, "[mpam-characterization] eq. (2)+(3), solved for the load",
     description="the miniature muscle's braid-angle cubics (eq. 3) and pantograph (eq. 2), solved for the load",
     aliases=("empirical", "mpam"), theta_of=lambda m, direction="elongation": braid_map_theta(m),
     accepts=lambda m: hasattr(m, "braid_map") and hasattr(m, "k1"),

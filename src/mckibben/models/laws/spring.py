@@ -11,8 +11,7 @@ are in :mod:`mckibben.models.spring`.
 
 References
 ----------
-Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”,
-Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1) and (2), Tables 1
+Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (1) and (2), Tables 1
 and 2, §5.
 """
 
@@ -36,7 +35,7 @@ def spring(pressure, length, th, o, w):
     """Spring model: stretch Ls = l − Lu(P), F = (c3·P + c2·P·Ls + c1·Ls + c0)·Ls, 0 when slack. [N]
 
     One coefficient set per pressure range (low ≤ split < high), one direction chosen when θ was
-    built. Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1)–(2), Table 1.
+    built. Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (1)–(2), Table 1.
 
     Parameters
     ----------
@@ -98,7 +97,7 @@ class SpringModel:
     split_pressure: float = 2.5e5
     pressure_range: tuple[float, float] = (0.0, 5e5)
     stretch_range: tuple[float, float] = (0.0, np.inf)
-    citation: str = "001_9d98bcef9f07dbeb.txt, eq. (1)-(2)"
+    citation: str = "Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (1)-(2)"
 
     def __post_init__(self):
         for key, c in self.coefficients.items():
@@ -125,7 +124,7 @@ def unstretched_length(pressure, h):
 
     References
     ----------
-    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), Table 1.
+    Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], Table 1.
     """
     p = check_array(pressure, "pressure", finite=False)
     return (h[0] * p + h[1]) * p + h[2]
@@ -153,7 +152,7 @@ def stiffness(pressure, stretch, coefficients, terms=DEFAULT_TERMS):
 
     References
     ----------
-    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (2).
+    Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (2).
     """
     p = np.asarray(pressure, dtype=float)
     s = np.asarray(stretch, dtype=float)
@@ -195,7 +194,7 @@ def spring_force(length, pressure, model: SpringModel, direction=ELONGATION):
 
     References
     ----------
-    Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt), eq. (1) with (2) and Table 1.
+    Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (1) with (2) and Table 1.
     """
     length, pressure = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(pressure, dtype=float))
     stretch = length - unstretched_length(pressure, model.h)
@@ -364,7 +363,7 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
 
 
 LAW = Law(
-    "spring", spring, "001_9d98bcef9f07dbeb.txt eq. (1)-(2)",
+    "spring", spring, "Wickramatunge & Leephakpreeda (2010) [wickramatunge2010] eq. (1)-(2)",
     description="F = K(P, Ls)*Ls of 001 (Lu(P) quadratic, K per inflate/deflate)",
     params=SpringModel, theta_of=spring_theta, fit_spec=fit_spec, from_values=from_values,
     needs=("nominal_length",), branches=2,

@@ -5,9 +5,7 @@ F = π·r0²·max(P − P_th, 0)·[a(1 − k·ε)² − b], ε = 1 − l/l0, a =
 References
 ----------
 Tondu, B., Lopez, P. (2000), Modeling and control of McKibben artificial muscle robot actuators,
-IEEE Control Syst. Mag. 20(2), 15–38. doi:10.1109/37.833638, eq. (4). The threshold: “Experimental
-Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt) Fig. 10.
+IEEE Control Syst. Mag. 20(2), 15–38. doi:10.1109/37.833638, eq. (4). The threshold: [mpam-characterization] Fig. 10.
 """
 
 from __future__ import annotations
@@ -36,7 +34,7 @@ def tondu_lopez(pressure, length, th, o, w):
     """Tondu–Lopez force with a pressure threshold. [N]
 
     F = π·r0²·max(P − P_th, 0)·[a(1 − k·ε)² − b], ε = 1 − l/l0, a = 3/tan²α0, b = 1/sin²α0.
-    Tondu & Lopez (2000), eq. (4); the threshold: “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) Fig. 10.
+    Tondu & Lopez (2000), eq. (4); the threshold: [mpam-characterization] Fig. 10.
 
     Parameters
     ----------
