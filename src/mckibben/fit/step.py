@@ -686,8 +686,8 @@ def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | Non
 
     **Supply.** When the fill settles (:func:`measured_plateau`) the supply is estimated within
     the range of the measured plateau, whatever the nominal ``p_supply`` says (a regulator set to
-    620 kPa delivers 626–646 kPa on the Festo 20 mm fills, and a fit pinned at 620 kPa is up to
-    5× worse); the nominal is reported beside it. When the fill does not settle, the data bound
+    620 kPa delivers 624–646 kPa on the Festo 20 mm fills, and a fixed-volume fit pinned at 620 kPa
+    has up to 2.3× the RMS of one with its supply free); the nominal is reported beside it. When the fill does not settle, the data bound
     the supply only from below: it is the given ``p_supply`` (``supply_source`` ``"nominal"``), or
     fitted above the highest sample.
 
