@@ -84,3 +84,21 @@ def test_notes_are_split_from_flags():
     flags, notes = split_fit_flags(["large_offset", "negative_area", "x_at_lower_bound"])
     assert flags == ("large_offset", "x_at_lower_bound") and notes == ("negative_area",)
     assert set(FIT_NOTES) == {"correlated_parameters", "negative_area"}
+
+
+def test_heldout_far_above_insample_is_a_flag_of_compare():
+    from mckibben.data import read_muscle, read_table
+    from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
+    from mckibben.fit.core import HELDOUT_RATIO, heldout_flags
+    from mckibben.fit.isometric import compare_isometric
+
+    assert heldout_flags(3.01, 1.0) == ("heldout_far_above_insample",) and heldout_flags(2.99, 1.0) == ()
+    assert HELDOUT_RATIO == 3.0
+    folder = BUNDLED_ISOMETRIC / "commercial10"
+    c = compare_isometric(read_table(folder / "isometric.csv"), read_muscle(folder / "muscle.toml"),
+                          models=["surface", "chou-hannaford"])
+    for s in c.scores:  # the comparison's own figures decide the flag, and it is in the flags `best` reads
+        far = s["cv_rmse_N"] > HELDOUT_RATIO * s["rmse_N"]
+        assert ("heldout_far_above_insample" in s["flags"]) == far, s
+        assert isinstance(s["notes"], list)
+    assert c.best in {s["model"] for s in c.scores if not s["flags"]} or c.best_flagged

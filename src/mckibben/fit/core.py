@@ -592,6 +592,23 @@ def cluster_covariance(jac, resid, clusters, p_scale=None):
     return c * (bread @ meat @ bread) / np.outer(norms, norms)
 
 
+def heldout_flags(cv_rmse: float, rmse: float) -> tuple:
+    """``("heldout_far_above_insample",)`` when a held-out RMSE exceeds :data:`HELDOUT_RATIO` × the in-sample one.
+
+    Parameters
+    ----------
+    cv_rmse : float
+        Held-out (cross-validated) RMSE. [response unit]
+    rmse : float
+        In-sample RMSE of the fit on all the data. [response unit]
+
+    Returns
+    -------
+    tuple of str
+    """
+    return ("heldout_far_above_insample",) if cv_rmse > HELDOUT_RATIO * rmse else ()
+
+
 def reference_magnitude(values, lo, hi, starts=()) -> np.ndarray:
     """Each parameter's plausible magnitude: its bound span, else the larger of |value| and |starts|.
 

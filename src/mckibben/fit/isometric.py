@@ -55,7 +55,7 @@ import numpy as np
 
 from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
 from mckibben.errors import InputError, check_instance, unknown_name
-from mckibben.fit.core import HELDOUT_RATIO, FitResult, bounded_fit, data_range, linear_fit
+from mckibben.fit.core import FitResult, bounded_fit, data_range, heldout_flags, linear_fit
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
 from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
@@ -747,7 +747,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         if not ok.all():
             notes.append(f"{int((~ok).sum())} points not predicted")
         pct = [x["rmse_pct_of_peak"] for x in folds if np.isfinite(x["rmse_pct_of_peak"])]
-        heldout = ["heldout_far_above_insample"] if cv_rmse > HELDOUT_RATIO * full.residual_rms else []
+        heldout = list(heldout_flags(cv_rmse, full.residual_rms))
         scores.append({"model": model, "n_parameters": len(full.values), "rmse_N": full.residual_rms,
                        "r2": full.r2, "cv_rmse_N": cv_rmse, "cv_rmse_pct_of_peak": cv_rmse / peak * 100.0,
                        "median_fold_pct_of_peak": float(np.median(pct)) if pct else None,
