@@ -105,6 +105,11 @@ def test_runs_that_differ_are_pooled_apart():
     assert "tau_fill_s" not in pooled  # nothing pooled across the groups
     assert g_fast["tau_fill_s"]["mean"] == pytest.approx(0.25, rel=0.05)
     assert g_slow["tau_fill_s"]["mean"] == pytest.approx(0.8, rel=0.05)
+    # t50 is the measured one: the first sample past half the rise, from the samples themselves
+    t, y = _fill(seed=1, tau=0.25)
+    plateau = np.median(y[-len(y) // 10:])
+    k = int(np.argmax(y >= y[0] + 0.5 * (plateau - y[0])))
+    assert half_rise_time(fast[0]) == pytest.approx(t[k], abs=1e-12)
     # like runs stay one pool
     same = pooled_step_parameters(fast)
     assert same["n_groups"] == 1 and same["tau_fill_s"]["mean"] == pytest.approx(0.25, rel=0.05)
@@ -133,3 +138,4 @@ def test_identify_reports_groups_apart_in_a_real_cli_run(tmp_path):
     assert text.returncode == 0, text.stderr
     assert "pooled over trials 1, 2 (group 1 of 2" in text.stdout
     assert "trial 3 differs from the others" in text.stdout
+    assert "the measured plateau" in text.stdout and "--supply (nominal) Pa" in text.stdout
