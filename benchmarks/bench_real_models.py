@@ -10,8 +10,9 @@ table (``muscle``, ``rest_length_mm``) with a muscle file of the type; then it r
 - on the family: ``mckibben compare FAMILY.csv --muscle fam.toml --cv leave-one-muscle-out --tare lowest --json``
   and ``--cv leave-one-length-out`` (one muscle's length held out, the other muscles kept),
 
-and prints every model's held-out RMSE as % of the held-out muscle's peak force, the best model
-per muscle (picked on held-out error), and any model that is best but carries flags.
+and prints every model's held-out RMSE as % of the held-out muscle's peak force, its flags (doubt
+about its predictions) and notes, the best model per muscle (picked on held-out error among the
+unflagged), and any model that is best but carries flags.
 
 Run: python benchmarks/bench_real_models.py [--quick]   (--quick: the family only)
 """
@@ -78,7 +79,8 @@ def table(out: dict) -> list[str]:
             continue
         lines.append(f"    {s['model']:<16} held out {s['cv_rmse_pct_of_peak']:6.2f} % of peak "
                      f"(folds: median {s['median_fold_pct_of_peak']:5.2f} %, worst {s['worst_fold_pct_of_peak']:5.2f} %)"
-                     f"  in-sample {s['rmse_N']:.3g} N  flags: {', '.join(s['flags']) or 'none'}")
+                     f"  in-sample {s['rmse_N']:.3g} N  flags: {', '.join(s['flags']) or 'none'}"
+                     + (f"  notes: {', '.join(s['notes'])}" if s.get("notes") else ""))
     return lines
 
 

@@ -23,8 +23,10 @@ def identify_cmd(
                                                "valve's lift-off."),
     order: str = typer.Option("1", "--order", help="Model: 1, 2, both, fill (orifice into a volume) or all."),
     t_step: str = typer.Option(None, "--t-step", help="Time of the step, e.g. 0.1s (default: first command change)."),
-    supply: str = typer.Option(None, "--supply", help="Supply pressure, e.g. 620kPa: bounds the final pressure "
-                                                      "(and is the fill model's supply)."),
+    supply: str = typer.Option(None, "--supply", help="Nominal supply pressure, e.g. 620kPa: bounds the final "
+                                                      "pressure of orders 1 and 2; the fill model estimates its "
+                                                      "supply from the measured plateau and uses this one only "
+                                                      "when the fill does not settle."),
     plot: str = typer.Option(None, "--plot", help="Write a PNG of data, fit and residuals (the first log)."),
     json: bool = JSON_OPTION,
 ) -> None:
@@ -61,6 +63,13 @@ def identify_cmd(
             for f in fits:
                 for k, v in f.params.items():
                     rows.append([f"order {f.order}", k, v, f.stderr[k]])
+                if f.order == "fill":
+                    src = f.supply.get("source")
+                    rows.append(["order fill", "supply from", {"plateau": "the measured plateau",
+                                                               "fitted": "the fit (no plateau)",
+                                                               "nominal": "--supply (no plateau)"}.get(src, src), ""])
+                    if f.supply.get("nominal_Pa") is not None and src != "nominal":
+                        rows.append(["order fill", "--supply (nominal) Pa", f.supply["nominal_Pa"], ""])
                 rows.append([f"order {f.order}", "rmse Pa", f.rmse, ""])
                 rows.append([f"order {f.order}", "AIC", f.aic, ""])
                 rows.append([f"order {f.order}", "flags", ", ".join(f.flags) or "none", ""])
@@ -68,10 +77,23 @@ def identify_cmd(
             print_table(f"{log}{label}: step at {fits[0].t_step:.4g} s ({_input_label(trial_data)})",
                         ["model", "parameter", "value", "std. error"], rows)
         if "pooled" in o:
-            rows = [[f"order {k}", name, v["mean"], v["stderr"], f"[{v['ci95'][0]:.4g}, {v['ci95'][1]:.4g}]"]
-                    for k, pooled in o["pooled"].items() for name, v in pooled.items() if isinstance(v, dict)]
-            print_table(f"{log}: pooled over {o['n_trials']} trials (mean, standard error across trials)",
-                        ["model", "parameter", "mean", "std. error", "95 % interval"], rows)
+            labels = [t["trial"] for t in o["trials"]]
+            for k, pooled in o["pooled"].items():
+                groups = pooled.get("groups") or [dict(pooled, members=list(range(len(labels))))]
+                for g in groups:
+                    who = ", ".join(str(labels[i]) for i in g["members"])
+                    apart = (f" (group {groups.index(g) + 1} of {len(groups)}: half-rise "
+                             f"{min(g['half_rise_s']):.3g}–{max(g['half_rise_s']):.3g} s; runs that differ are "
+                             "not pooled)") if len(groups) > 1 else ""
+                    rows = [[f"order {k}", name, v["mean"], v["stderr"], f"[{v['ci95'][0]:.4g}, {v['ci95'][1]:.4g}]"]
+                            for name, v in g.items() if isinstance(v, dict)]
+                    if rows:
+                        print_table(f"{log}: order {k} pooled over trials {who}{apart} (mean, standard error "
+                                    "across trials)", ["model", "parameter", "mean", "std. error", "95 % interval"],
+                                    rows)
+                    else:
+                        console.print(f"{log}: order {k}: trial {who} differs from the others{apart}: reported "
+                                      "alone, not pooled", markup=False, highlight=False)
     if lift is not None:
         print_table("lift-off: p = G·(u − u0) through the final pressures",
                     ["parameter", "value", "std. error"],

@@ -21,16 +21,37 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.errors import InputError
-from mckibben.models.flags import Flag, outside
+from mckibben.models.flags import Flag, outside, split_fit_flags
 
 #: Largest condition number of the column-scaled design (or Jacobian) we accept. Beyond it the
 #: data cannot tell the parameters apart: doubles keep ~16 digits, and 1e10 leaves ~6 for the fit.
 COND_MAX = 1e10
 
-#: Condition number of the scaled Jacobian above which a bounded fit's covariance is flagged
-#: ``ill_conditioned``: beyond it a standard error moves by more than ~1 % per 1e-4 relative change
-#: of the data, so the intervals are not to be trusted even if the fit converged.
+#: Condition number of the column-scaled Jacobian above which a fit carries the note
+#: ``correlated_parameters``: beyond it parameters trade off, so their separate intervals are wide.
+#: A note, not a flag: the fit's predictions can still be the best held out (correlation is no doubt
+#: about predictions by itself; :data:`UNCONSTRAINED_REL` catches a parameter the data do not see).
 COND_FLAG = 1e6
+
+#: A parameter is flagged ``<name>_unconstrained`` when its 95 % interval *with every other parameter
+#: held at its fitted value* (half-width t·σ/‖J_k‖, the unscaled sensitivity: the change that raises the
+#: sum of squares by t²σ²) is wider than this multiple of its reference magnitude (the bound span when
+#: both bounds are finite, else the larger of its value and its starting values). Conditional, so two
+#: parameters that only trade off are not flagged; wider than its whole plausible range, so the data
+#: cannot tell the parameter's value at all. [-]
+UNCONSTRAINED_REL = 1.0
+
+#: A fit is within a bound (``<name>_at_lower_bound``/``_upper_bound``) when its distance to it is at
+#: most this fraction of the parameter's reference magnitude (as for :data:`UNCONSTRAINED_REL`), or the
+#: optimizer holds it there (its active set). One-sided bounds use the magnitude, not the value: a
+#: parameter fitted to 1e-11 above a bound of 0 is at the bound. [-]
+AT_BOUND_REL = 1e-3
+
+#: Held-out RMSE above this multiple of the in-sample RMSE flags a compared fit
+#: ``heldout_far_above_insample``: it describes the data it saw much better than data it did not.
+#: Leaving one held length out is an extrapolation at the extreme lengths and costs a law that
+#: generalizes ~1.5–2× (the real Festo campaigns, benchmarks/RESULTS.md); 3× is beyond that. [-]
+HELDOUT_RATIO = 3.0
 
 #: Fewest trials (clusters) for a cluster-robust covariance. With fewer, its variance estimate has
 #: too few degrees of freedom to be trusted draw by draw (Cameron & Miller 2015, §VI), and the
@@ -103,9 +124,12 @@ class FitResult:
     source : str
         The file the data came from.
     flags : tuple of str
-        Why the fit deserves doubt (empty when nothing was found): a parameter at a bound,
-        R² < 0.5, an ill-conditioned covariance, a non-physical value (see
+        Why the fit's predictions deserve doubt (empty when nothing was found): a bound that
+        binds, a parameter the data do not constrain, R² < 0.5, a non-physical value (see
         :func:`fit_flags`). The CLI prints them on stderr and in the JSON.
+    notes : tuple of str
+        What is worth reporting but casts no doubt on the predictions by itself
+        (:data:`mckibben.models.flags.FIT_NOTES`: ``correlated_parameters``, ...).
     t_dof : int, optional
         Degrees of freedom of the intervals' t quantile when they differ from :attr:`dof`
         (cluster-robust covariance: number of clusters − 1). [-]
@@ -130,6 +154,7 @@ class FitResult:
     flags: tuple = ()
     t_dof: int | None = None
     covariance_method: str = "ols"
+    notes: tuple = ()
 
     @property
     def stderr(self) -> np.ndarray:
@@ -234,6 +259,7 @@ class FitResult:
             f"rmse_{unit}" if unit else "rmse": self.residual_rms,
             "r2": self.r2,
             "flags": list(self.flags),
+            "notes": list(self.notes),
             "covariance": self.covariance_method,
             "n_points": self.n_points,
             "dof": self.dof,
@@ -566,8 +592,76 @@ def cluster_covariance(jac, resid, clusters, p_scale=None):
     return c * (bread @ meat @ bread) / np.outer(norms, norms)
 
 
-def fit_flags(names, values, lo, hi, r2, condition_number, extra=()) -> tuple:
-    """The doubt flags of a bounded fit (see :attr:`FitResult.flags`).
+def heldout_flags(cv_rmse: float, rmse: float) -> tuple:
+    """``("heldout_far_above_insample",)`` when a held-out RMSE exceeds :data:`HELDOUT_RATIO` × the in-sample one.
+
+    Parameters
+    ----------
+    cv_rmse : float
+        Held-out (cross-validated) RMSE. [response unit]
+    rmse : float
+        In-sample RMSE of the fit on all the data. [response unit]
+
+    Returns
+    -------
+    tuple of str
+    """
+    return ("heldout_far_above_insample",) if cv_rmse > HELDOUT_RATIO * rmse else ()
+
+
+def reference_magnitude(values, lo, hi, starts=()) -> np.ndarray:
+    """Each parameter's plausible magnitude: its bound span, else the larger of |value| and |starts|.
+
+    Parameters
+    ----------
+    values, lo, hi : array_like
+        Fitted values and their bounds (``-inf``/``inf`` for none). [parameter units]
+    starts : sequence of array_like, optional
+        The starting values tried. [parameter units]
+
+    Returns
+    -------
+    numpy.ndarray
+        One magnitude per parameter, > 0. [parameter units]
+    """
+    values, lo, hi = (np.asarray(x, dtype=float) for x in (values, lo, hi))
+    mag = np.abs(values)
+    for x0 in starts:
+        mag = np.maximum(mag, np.abs(np.asarray(x0, dtype=float)))
+    span = hi - lo
+    return np.where(np.isfinite(span) & (span > 0), span, np.maximum(mag, 1e-300))
+
+
+def at_bounds(values, lo, hi, ref, active=None) -> np.ndarray:
+    """Which parameters a bound binds: within :data:`AT_BOUND_REL`·ref of it, or held by the optimizer.
+
+    Parameters
+    ----------
+    values, lo, hi : array_like
+        Fitted values and their bounds. [parameter units]
+    ref : array_like
+        Reference magnitudes (:func:`reference_magnitude`). [parameter units]
+    active : array_like, optional
+        The optimizer's active set (``scipy.optimize.least_squares``' ``active_mask``: −1 lower, 1 upper). [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        −1 at the lower bound, 1 at the upper, 0 free, per parameter. [-]
+    """
+    values, lo, hi, ref = (np.asarray(x, dtype=float) for x in (values, lo, hi, ref))
+    out = np.zeros(values.size, dtype=int)
+    out[np.isfinite(hi) & (hi - values <= AT_BOUND_REL * ref)] = 1
+    out[np.isfinite(lo) & (values - lo <= AT_BOUND_REL * ref)] = -1
+    if active is not None:
+        act = np.asarray(active, dtype=int)
+        out = np.where(out == 0, act, out)
+    return out
+
+
+def fit_flags(names, values, lo, hi, r2, condition_number, extra=(), *, ref=None, at=None,
+              conditional_halfwidth=None) -> tuple:
+    """The doubt flags and notes of a bounded fit (see :attr:`FitResult.flags`, :attr:`FitResult.notes`).
 
     Parameters
     ----------
@@ -580,26 +674,38 @@ def fit_flags(names, values, lo, hi, r2, condition_number, extra=()) -> tuple:
     condition_number : float
         Of the column-scaled Jacobian of the free parameters. [-]
     extra : sequence of str
-        Model-specific flags (non-physical values). [-]
+        Model-specific flags (non-physical values); the ones in
+        :data:`mckibben.models.flags.FIT_NOTES` become notes. [-]
+    ref : array_like, optional
+        Reference magnitudes (default :func:`reference_magnitude` without starts). [parameter units]
+    at : array_like, optional
+        Bound side per parameter (default :func:`at_bounds`). [-]
+    conditional_halfwidth : array_like, optional
+        95 % half-width of each parameter with the others held (NaN for parameters at a bound). [parameter units]
 
     Returns
     -------
-    tuple of str
-        ``"<name>_at_lower_bound"``/``"<name>_at_upper_bound"`` (within 0.1 % of the bound's
-        span), ``"r2_below_0.5"``, ``"ill_conditioned"`` and the extra flags.
+    flags, notes : tuple of str
+        Flags: ``"<name>_at_lower_bound"``/``"<name>_at_upper_bound"``, ``"<name>_unconstrained"``
+        (:data:`UNCONSTRAINED_REL`), ``"r2_below_0.5"`` and the extra flags that doubt predictions.
+        Notes: ``"correlated_parameters"`` (:data:`COND_FLAG`) and the extra notes.
     """
+    ref = reference_magnitude(values, lo, hi) if ref is None else np.asarray(ref, dtype=float)
+    at = at_bounds(values, lo, hi, ref) if at is None else np.asarray(at)
     out = []
-    for n_, v, a, b in zip(names, values, lo, hi):
-        span = (b - a) if np.isfinite(a) and np.isfinite(b) else max(abs(v), 1e-300)
-        if np.isfinite(a) and v - a <= 1e-3 * span:
+    for k, n_ in enumerate(names):
+        if at[k] < 0:
             out.append(f"{n_}_at_lower_bound")
-        elif np.isfinite(b) and b - v <= 1e-3 * span:
+        elif at[k] > 0:
             out.append(f"{n_}_at_upper_bound")
+        elif conditional_halfwidth is not None and not conditional_halfwidth[k] <= UNCONSTRAINED_REL * ref[k]:
+            out.append(f"{n_}_unconstrained")
     if not np.isfinite(r2) or r2 < R2_FLAG:
         out.append("r2_below_0.5")
+    flags, notes = split_fit_flags(tuple(out) + tuple(extra))
     if not np.isfinite(condition_number) or condition_number > COND_FLAG:
-        out.append("ill_conditioned")
-    return tuple(out) + tuple(extra)
+        notes = ("correlated_parameters",) + notes
+    return flags, notes
 
 
 def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str, what: str, valid_range: dict,
@@ -611,8 +717,9 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     each parameter scaled by its bound span or start value), the two lowest are run to
     convergence and the lowest cost wins: the physical models are non-convex (D0 trades against
     the braid angle), so one start is not enough. A
-    fit never fails silently: parameters at a bound, R² < 0.5, an ill-conditioned covariance and
-    the model's own non-physical checks are listed in :attr:`FitResult.flags`. Parameters at a
+    fit never fails silently: a bound that binds, a parameter the data do not constrain, R² < 0.5
+    and the model's own non-physical checks are listed in :attr:`FitResult.flags`; parameters that
+    only trade off are a note (:attr:`FitResult.notes`), not a flag. Parameters at a
     bound are held there for the covariance (their standard error is NaN).
 
     Parameters
@@ -684,17 +791,16 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     values = res.x * scale + shift
     resid = -np.asarray(res.fun)  # data - model
     n = y.size
-    span = hi - lo
-    at = np.zeros(p, bool)
-    for k in range(p):
-        sp = span[k] if np.isfinite(span[k]) else max(abs(values[k]), 1e-300)
-        at[k] = (np.isfinite(lo[k]) and values[k] - lo[k] <= 1e-3 * sp) or (np.isfinite(hi[k]) and hi[k] - values[k] <= 1e-3 * sp)
+    ref = reference_magnitude(values, lo, hi, [np.clip(np.asarray(x0, dtype=float), lo, hi) for x0 in starts])
+    side = at_bounds(values, lo, hi, ref, res.active_mask)
+    at = side != 0
     free = ~at
     jac = res.jac / scale  # d prediction / d physical value
     cov = np.full((p, p), np.nan)
     cond = float("inf")
     t_dof = None
     method = "ols"
+    sigma = float(np.sqrt(resid @ resid / max(n - p, 1)))
     if free.any():
         jf = jac[:, free]
         norms = np.linalg.norm(jf, axis=0)
@@ -706,12 +812,15 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
                 t_dof = int(labels.size - 1)
                 method = f"cluster-robust ({labels.size} trials)"
             else:
-                s2 = float(resid @ resid) / max(n - p, 1)
                 js = jf / norms
-                cf = s2 * np.linalg.pinv(js.T @ js) / np.outer(norms, norms)
+                cf = sigma**2 * np.linalg.pinv(js.T @ js) / np.outer(norms, norms)
             cov[np.ix_(free, free)] = cf
+    from scipy import special  # deferred on purpose: SciPy
+    tq = float(special.stdtrit(t_dof if t_dof is not None else max(n - p, 1), 0.975))
+    with np.errstate(divide="ignore"):
+        half = np.where(free, tq * sigma / np.linalg.norm(jac, axis=0), np.nan)  # unscaled sensitivity
     r2 = _r2(y, resid)
     extra = list(physical_flags(values)) if physical_flags is not None else []
-    flags = fit_flags(names, values, lo, hi, r2, cond, extra)
+    flags, notes = fit_flags(names, values, lo, hi, r2, cond, extra, ref=ref, at=side, conditional_halfwidth=half)
     return FitResult(model, tuple(names), values, cov, n - p, n, resid, response, r2, dict(valid_range), cond,
-                     dict(condition or {}), func, source, flags, t_dof, method)
+                     dict(condition or {}), func, source, flags, t_dof, method, notes)

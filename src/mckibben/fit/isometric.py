@@ -55,7 +55,7 @@ import numpy as np
 
 from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
 from mckibben.errors import InputError, check_instance, unknown_name
-from mckibben.fit.core import FitResult, bounded_fit, data_range, linear_fit
+from mckibben.fit.core import FitResult, bounded_fit, data_range, heldout_flags, linear_fit
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
 from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
@@ -658,8 +658,11 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     too: on one rest length a family law has no end length to find and is a force law of that
     muscle's contraction (its own file says which parameters it drops).
 
-    **Best.** The model with the smallest held-out RMSE among those whose fit on all the data
-    carries no flag (a flagged fit is non-physical or doubtful: it is reported, not recommended);
+    **Best.** The model with the smallest held-out RMSE among those whose predictions carry no
+    doubt: no flag on its fit on all the data (a bound that binds, a parameter the data do not
+    constrain, a non-physical value) and a held-out error at most :data:`~mckibben.fit.core.HELDOUT_RATIO`
+    times its in-sample error (else ``heldout_far_above_insample``). Notes (parameters that only
+    trade off) do not discard a model. A flagged model is reported, not recommended;
     when every model is flagged, the smallest held-out RMSE of all, and ``best_flagged`` says so.
 
     Per fold, ``folds`` gives the held-out RMSE and that RMSE as a percentage of the held-out
@@ -744,11 +747,12 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         if not ok.all():
             notes.append(f"{int((~ok).sum())} points not predicted")
         pct = [x["rmse_pct_of_peak"] for x in folds if np.isfinite(x["rmse_pct_of_peak"])]
+        heldout = list(heldout_flags(cv_rmse, full.residual_rms))
         scores.append({"model": model, "n_parameters": len(full.values), "rmse_N": full.residual_rms,
                        "r2": full.r2, "cv_rmse_N": cv_rmse, "cv_rmse_pct_of_peak": cv_rmse / peak * 100.0,
                        "median_fold_pct_of_peak": float(np.median(pct)) if pct else None,
                        "worst_fold_pct_of_peak": float(np.max(pct)) if pct else None,
-                       "extrapolated_folds": extrapolated, "flags": list(full.flags), "note": "; ".join(notes),
+                       "extrapolated_folds": extrapolated, "flags": list(full.flags) + heldout, "notes": list(full.notes), "note": "; ".join(notes),
                        "folds": folds})
     ranked = [s for s in scores if s["cv_rmse_N"] is not None and np.isfinite(s["cv_rmse_N"])]
     clean = [s for s in ranked if not s["flags"]]

@@ -50,6 +50,44 @@ FLAG_NAMES = {
 }
 
 
+#: The flags a fit can carry (strings in ``FitResult.flags``): each says why the fit's **predictions**
+#: deserve doubt, so a comparison does not recommend a fit that carries one. Model-specific physics
+#: flags (``large_offset``, ``negative_stiffness``, ...) are named in the law's own file.
+FIT_FLAGS = {
+    "<name>_at_lower_bound": "a bound binds: the fit would go beyond it (one-sided bounds included)",
+    "<name>_at_upper_bound": "a bound binds: the fit would go beyond it",
+    "<name>_unconstrained": "the data do not constrain the parameter: its 95 % interval, even with every other "
+                            "parameter held, is wider than its bound span (or its magnitude)",
+    "r2_below_0.5": "the model explains less than half the variance",
+    "heldout_far_above_insample": "held-out error more than HELDOUT_RATIO times the in-sample error",
+}
+
+#: Notes a fit can carry (strings in ``FitResult.notes``): worth reporting, but no doubt about the
+#: predictions on their own, so a comparison still ranks the fit on its held-out error.
+FIT_NOTES = {
+    "correlated_parameters": "parameters trade off (the column-scaled Jacobian's condition number exceeds "
+                             "COND_FLAG): their separate intervals are wide, the predictions are not",
+    "negative_area": "a virtual-work law's effective area is negative at a corner of the measured box "
+                     "(the held-out error says whether its predictions suffer)",
+}
+
+
+def split_fit_flags(names) -> tuple[tuple, tuple]:
+    """Split fit flags into the ones that doubt predictions (``flags``) and :data:`FIT_NOTES` (``notes``).
+
+    Parameters
+    ----------
+    names : sequence of str
+        Flags as a fit or a law's physics checks produced them. [-]
+
+    Returns
+    -------
+    flags, notes : tuple of str
+    """
+    names = tuple(names)
+    return tuple(n for n in names if n not in FIT_NOTES), tuple(n for n in names if n in FIT_NOTES)
+
+
 def flag_names(mask: int) -> list[str]:
     """The names of the flags set in one element's mask, in a fixed order.
 
