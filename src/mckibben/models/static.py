@@ -303,7 +303,7 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
         The muscle. [-]
     model : str, default "braid-map"
         A law's registry name (old names such as ``mpam`` are read, with a deprecation warning). [-]
-    **options
+    options : keyword arguments
         Fields of the law's parameter object to replace (e.g. ``k=1.3`` for Tondu–Lopez's
         contraction correction). [SI]
 
