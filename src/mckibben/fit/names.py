@@ -20,7 +20,9 @@ FIT_MODELS = {
     "tondu-lopez": "fitted k and r0 (and alpha0 if unknown): isotonic or isometric; muscle file",
     "first-order": "p0, p_final, tau of pressure step responses (step_response)",
 }
-# every force law with a fit spec (mckibben.models.laws, the one vocabulary) fits isometric tables
-FIT_MODELS.update({n: f"{law.description} (isometric{', a family table' if law.family else ''}; muscle file)"
+# every force law with a fit spec (mckibben.models.laws, the one vocabulary) fits isometric tables,
+# and isotonic ones through its force (mckibben.fit.isometric.fit_isotonic_law)
+FIT_MODELS.update({n: f"{law.description} (isometric{', a family table' if law.family else ''}, or isotonic "
+                      "through its force; muscle file)"
                    for n, law in laws.fit_laws().items() if n not in FIT_MODELS})
-NEEDS_MUSCLE = {"kinematic", "force-contraction", "chou-hannaford", "wall-chou-hannaford", "tondu-lopez"}
+NEEDS_MUSCLE = {"kinematic", "force-contraction", "wall-chou-hannaford", *laws.fit_laws()} - {"spring"}
