@@ -16,7 +16,6 @@ FIT_MODELS = {
     "force-contraction": "one cubic of load vs contraction per pressure, Fig. 5 (isotonic; muscle file)",
     "spring": "Lu(P) and K(P, Ls) per direction and pressure range (force_length, isotonic or isometric)",
     "chou-hannaford": "fitted braid geometry: length under load (isotonic) or force(P, L) (isometric); muscle file",
-    "wall-chou-hannaford": "Chou-Hannaford with the tube wall: force(P, L) (isometric; muscle file)",
     "tondu-lopez": "fitted k and r0 (and alpha0 if unknown): isotonic or isometric; muscle file",
     "first-order": "p0, p_final, tau of pressure step responses (step_response)",
 }
@@ -25,4 +24,5 @@ FIT_MODELS = {
 FIT_MODELS.update({n: f"{law.description} (isometric{', a family table' if law.family else ''}, or isotonic "
                       "through its force; muscle file)"
                    for n, law in laws.fit_laws().items() if n not in FIT_MODELS})
-NEEDS_MUSCLE = {"kinematic", "force-contraction", "wall-chou-hannaford", *laws.fit_laws()} - {"spring"}
+NEEDS_MUSCLE = ({"kinematic", "force-contraction", *laws.fit_laws()} - {"spring"}
+                | {a for a, n in laws.ALIASES.items() if n in laws.fit_laws()})

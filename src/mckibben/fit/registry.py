@@ -54,7 +54,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
 
-    if model not in FIT_MODELS:
+    if model not in FIT_MODELS and model not in laws.ALIASES:  # an old law name is read (deprecated)
         raise unknown_name("model", model, FIT_MODELS)
     table = read_table(data, kind)
     isometric = table.kind == "isometric"
