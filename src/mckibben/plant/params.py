@@ -41,7 +41,7 @@ K_AIR = 0.0257  #: thermal conductivity of air at 20 °C [W/(m·K)]
 
 #: Force laws, by name: the registry's names and old aliases (:mod:`mckibben.models.laws`, the one
 #: vocabulary), plus ``calibrated``: Tondu–Lopez with the plant's calibrated columns.
-FORCE_MODELS = {"calibrated": "tondu-lopez", **{n: n for n in LW.LAW_NAMES}, **LW.ALIASES}
+LAW_NAMES = {"calibrated": "tondu-lopez", **{n: n for n in LW.LAW_NAMES}, **LW.ALIASES}
 #: Chamber thermodynamics, by name.
 THERMAL = ("energy", "polytropic")
 
@@ -239,7 +239,7 @@ class PlantParams:
     seed : float
         Seed of the instance's noise generator. [-]
     force_model : str or model
-        The force law: a name of :data:`FORCE_MODELS` (``"calibrated"``: Tondu–Lopez with the
+        The force law: a name of :data:`LAW_NAMES` (``"calibrated"``: Tondu–Lopez with the
         threshold from the fields above; ``"empirical"``: the muscle's braid-angle map) or a static
         model object (a published or fitted ``MiniatureMuscle``, ``TonduLopez``, ``BraidGeometry``,
         ``SpringModel``; see :func:`mckibben.models.laws.law_of`).
@@ -310,8 +310,8 @@ class PlantParams:
             d = np.asarray(self.tube_diameter, dtype=float)
             with np.errstate(divide="ignore", invalid="ignore"):
                 object.__setattr__(self, "heat_transfer_coefficient", NUSSELT_TUBE * K_AIR / d)
-        if isinstance(self.force_model, str) and self.force_model not in FORCE_MODELS:
-            raise InputError(f"force_model: {unknown_name('force model', self.force_model, FORCE_MODELS)}")
+        if isinstance(self.force_model, str) and self.force_model not in LAW_NAMES:
+            raise InputError(f"force_model: {unknown_name('force model', self.force_model, LAW_NAMES)}")
         if not isinstance(self.thermal, str) or self.thermal not in THERMAL:
             raise InputError(f"thermal: {unknown_name('thermal model', str(self.thermal), THERMAL)}")
 
@@ -370,7 +370,8 @@ class PlantParams:
           ``braid_angle_deg`` or :data:`FILE_BRAID_ANGLE`: it sets the chamber volume's change
           with length and the end stops;
         - lumen: ``tube_inner_diameter_mm``, else the outer diameter less the fitted wall (wall-
-          corrected fit), else :data:`FILE_LUMEN_FRACTION` of the outer diameter;
+          corrected fit, unless the wall sits at a bound of its fit: not identified), else
+          :data:`FILE_LUMEN_FRACTION` of the outer diameter;
         - tubing: :data:`FILE_TUBE_LENGTH` of :data:`FILE_TUBE_BORE` bore;
         - valves and leak: the calibrated rig's sonic conductances scaled by the ratio of the
           chamber volumes at rest, so the fill keeps the calibrated rig's time constant
@@ -420,7 +421,12 @@ class PlantParams:
         od = spec.need("outer_diameter", "the plant's chamber volume")
         # the braid that moves the chamber and sets the end stops: the muscle's (models/muscle.py)
         b = m.strand_length
-        wall = float(getattr(obj, "wall_thickness", 0.0))  # a fitted braid's wall
+        # a fitted braid's wall, when the fit identified it: a wall at a bound of its fit (flagged) is
+        # no measure of the tube (at the lower bound it is a rounding-size number, ~1e-19 m on a 26 mm
+        # Festo muscle, and od − 2·wall is od itself: no lumen wall at all)
+        wall = float(getattr(obj, "wall_thickness", 0.0))
+        if any(f.startswith("wall_m_at_") for f in m.flags):
+            wall = 0.0
         if spec.tube_inner_diameter is not None:
             inner = float(spec.tube_inner_diameter)
         elif wall > 0:
@@ -536,7 +542,7 @@ class PlantParams:
             except InputError as exc:
                 raise InputError(f"force_model = {fm!r}: {exc}") from None
             return name, np.repeat(th[:, None], n, axis=1)
-        name = FORCE_MODELS[fm]
+        name = LAW_NAMES[fm]
         if name == "tondu-lopez":
             return name, LW.tondu_lopez_theta(col["r0"], col["alpha0"], col["k_tl"], col["p_threshold"],
                                               col["nominal_length"])

@@ -12,9 +12,49 @@ branch per index, :data:`LAW_INDEX`); :func:`resolve` reads old names (``"empiri
 → ``braid-map``; ``"wall-chou-hannaford"`` → ``wall-corrected``) with a deprecation warning.
 Predict, fit, compare, the plant, the tool, muscle files and the CLI read it.
 
-**Adding a law** is adding its file (and its test): every module of this package not starting
-with ``_`` is imported and its ``LAW`` registered after the five laws the plant was first
-compiled with, in file-name order. The plant reserves :data:`PLANT_SLOTS` branches for them.
+**Adding a law is adding its file** ``laws/<stem>.py`` (and its test), nothing else: every module of
+this package not starting with ``_`` is imported and its ``LAW`` registered after the five laws the
+plant was first compiled with, in file-name order, and every consumer (predict, fit, compare, the
+plant, the tool, muscle files, ``params``, the MuJoCo bridge, the FMU) and the conformance suite
+(``tests/test_law_conformance.py``) read it from :data:`LAWS`. A law file defines:
+
+1. **The kernel**: a module-level function ``<name>(pressure, length, th, o, w) -> force`` [Pa, m ->
+   N], parameter r at ``th[o + r·w]`` (at most :data:`NTH` rows), marked
+   ``@kernel(error_model="numpy", inline="always")`` (:mod:`mckibben._kernels`); the file ends with
+   ``register(__name__)``. Its θ rows are module constants (``XX_A, XX_B = range(2)``).
+2. **The parameters**: a frozen dataclass with a ``citation`` field (and the fitted range, if fitted)
+   whose θ the law reads.
+3. **Its C face**, for the FMU: a file ``laws/<stem>.c`` beside the ``.py`` (same stem), C99,
+   defining exactly one function ``static double mk_law_<stem>(double pressure, double length, const
+   double *th)`` [Pa, m -> N] with θ row r at ``th[r]``; rows by the macros ``MK_<KEY>`` of
+   :attr:`Law.c_rows` (``c_rows={"XX_A": XX_A, ...}``), constants by ``MK_MPA`` (and the other
+   ``MK_*`` of the FMU's ``mk_model.h``), ``<math.h>`` only. The FMU's exporter concatenates every
+   registered law's C face into one generated ``mk_laws.c`` with the dispatch ``mk_law(index, …)`` by
+   :data:`LAW_INDEX`; no hand list. It must equal the kernel to 1e-9 relative (the conformance suite
+   compiles it with the system ``cc`` and checks). A law without a ``.c`` file runs everywhere but
+   the FMU, which refuses it by name.
+4. ``LAW = Law(name, kernel, citation, ...)`` (:class:`~mckibben.models.laws._base.Law`): registry
+   name (lower-case, hyphens; old names in ``aliases``), ``description`` (one line for listings),
+   ``params`` and ``theta_of`` (parameter object -> θ), ``c_rows``, and as the law allows:
+   ``fit_spec`` + ``from_values`` + ``needs`` (fitted to an isometric table; ``family=True`` across
+   rest lengths), ``branches=2`` (inflate/deflate), ``published`` (``published(muscle) -> parameter
+   object``: the law's parameters for a catalogue muscle, from its geometry or a published set;
+   ``predict force --model <name>`` and :func:`mckibben.models.force` use it; None: the law needs a
+   fit or a muscle file), ``static_flags`` (``static_flags(params, pressure, length, force) ->
+   Flag mask``: where the law itself does not hold; every law is flagged for the pressure range,
+   slack and NaN without it).
+
+The conformance suite checks a law on its fit to the bundled commercial table when it has a fit
+spec, else on ``published(get_muscle("mpam143"))``; a law with neither fails it (nothing could use
+it). The table of laws in ``docs/fit.md`` is :func:`law_table_markdown` (a test holds the page to
+it): regenerate it when a law comes or goes.
+
+**The plant dispatches over any number of laws**: it has no slots. Its two law dispatchers
+(``law_force`` over a block's lanes, ``law_value`` at one point) are generated from :data:`LAW_NAMES`
+by :mod:`mckibben.plant.physics`, one branch per index calling each law's kernel as a true global,
+written as a module into the per-user cache folder and imported from there
+(:func:`mckibben._jit.generated_module`), so they compile once per machine like every kernel; a new
+law file changes the package's fingerprint and the generated source, so both recompile once.
 
 The kernels return the law's raw value (negative where the law would push); the plant adds
 what is not the law's (never pushing, the tube's passive stiffness, the braid's end stops).
@@ -24,12 +64,11 @@ All take SI units (Pa, m, N); the papers' cubics take P in MPa and convert insid
 from __future__ import annotations
 
 import importlib
-import math
 import pkgutil
 import warnings
 
 import numpy as np
-from mckibben._kernels import kernel, register
+from mckibben._kernels import register
 
 from mckibben.errors import InputError, unknown_name
 from mckibben.models.laws import braid_map as _braid_map_file
@@ -45,8 +84,8 @@ from mckibben.models.laws.tondu_lopez import TL_A, TL_B, TL_IL0, TL_K, TL_PTH, T
 from mckibben.models.laws.wall_corrected import wall_corrected
 
 __all__ = [
-    "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "PLANT_SLOTS", "FitSpec", "Law",
-    "evaluate", "fit_laws", "get_law", "law_of", "resolve",
+    "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "FitSpec", "Law",
+    "evaluate", "fit_laws", "get_law", "law_of", "law_table_markdown", "resolve",
     "tondu_lopez", "chou_hannaford", "wall_corrected", "braid_map", "spring",
     "tondu_lopez_theta", "chou_hannaford_theta", "braid_map_theta", "spring_theta",
     "TL_R0", "TL_A", "TL_B", "TL_K", "TL_PTH", "TL_IL0", "CH_B", "CH_C", "CH_D0", "CH_T",
@@ -56,8 +95,6 @@ __all__ = [
 
 #: The laws the plant was first compiled with, in their index order (their indices never change).
 _FIRST = (_tondu_lopez_file, _chou_hannaford_file, _wall_corrected_file, _braid_map_file, _spring_file)
-#: Branches the plant keeps for laws added after the first five. [-]
-PLANT_SLOTS = 3
 
 
 def _discover() -> list:
@@ -79,34 +116,6 @@ LAW_NAMES = tuple(LAWS)
 LAW_INDEX = {name: i for i, name in enumerate(LAW_NAMES)}
 #: Old names, still read: old name -> registry name.
 ALIASES: dict[str, str] = {a: law.name for law in LAWS.values() for a in law.aliases}
-if len(LAW_NAMES) > len(_FIRST) + PLANT_SLOTS:
-    raise ImportError(f"mckibben.models.laws: {len(LAW_NAMES)} laws, the plant has branches for "
-                      f"{len(_FIRST) + PLANT_SLOTS}; raise PLANT_SLOTS and add its branches in mckibben.plant.physics")
-
-
-@kernel(error_model="numpy", inline="always")
-def _no_law(pressure, length, th, o, w):
-    """An empty plant slot: no force (NaN, which the plant's checks refuse). [N]
-
-    Parameters
-    ----------
-    pressure : float
-        Gauge pressure. [Pa]
-    length : float
-        Muscle length. [m]
-    th : numpy.ndarray
-        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
-    o : int
-        This instance's column in ``th``. [-]
-    w : int
-        The row stride of ``th`` (the number of instances). [-]
-    """
-    return math.nan
-
-
-_slots = [LAWS[n].kernel for n in LAW_NAMES[len(_FIRST):]] + [_no_law] * PLANT_SLOTS
-#: The kernels of the plant's extra branches (laws added after the first five; empty slots NaN).
-slot_5, slot_6, slot_7 = _slots[:PLANT_SLOTS]
 
 
 def resolve(name: str, what: str = "force law") -> str:
@@ -176,6 +185,28 @@ def evaluate(name: str, pressure, length, theta) -> np.ndarray:
     """
     name = resolve(name)
     return evaluate_kernel(LAWS[name].kernel, name, pressure, length, theta)
+
+
+def law_table_markdown() -> str:
+    """The table of registered laws in ``docs/fit.md``, generated from :data:`LAWS`.
+
+    ``tests/test_docs.py`` checks that ``docs/fit.md`` holds exactly this text, so the
+    documentation lists every law the registry has, and nothing else.
+
+    Returns
+    -------
+    str
+        Markdown: one row per law, with its source, what it is, where it is used and its old names.
+    """
+    rows = ["| law | source | what it is | fitted to isometric data | published set | FMU | old names |",
+            "| --- | --- | --- | --- | --- | --- | --- |"]
+    for name, law in LAWS.items():
+        fitted = "no" if law.fit_spec is None else ("yes, a family across rest lengths" if law.family else "yes")
+        rows.append(f"| `{name}` | {law.citation} | {law.description} | {fitted} | "
+                    f"{'yes' if law.published is not None else 'no'} | "
+                    f"{'yes' if law.c_source() is not None else 'no'} | "
+                    f"{', '.join(f'`{a}`' for a in law.aliases) or '-'} |")
+    return "\n".join(rows) + "\n"
 
 
 def law_of(model, law: str | None = None, direction: str = "elongation") -> tuple[str, np.ndarray]:

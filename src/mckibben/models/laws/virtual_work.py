@@ -75,6 +75,19 @@ def virtual_work(pressure, length, th, o, w):
 
     Chou & Hannaford (1996) effective area, Klute & Hannaford (2000) elastic energy, Hunt,
     Graber-Tilton & Quinn (2017) length effect.
+
+    Parameters
+    ----------
+    pressure : float
+        Gauge pressure. [Pa]
+    length : float
+        Muscle length. [m]
+    th : numpy.ndarray
+        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
+    o : int
+        This instance's column in ``th``. [-]
+    w : int
+        The row stride of ``th`` (the number of instances). [-]
     """
     l0 = th[o + VW_L0 * w]
     eps = (l0 - length) / l0
@@ -286,6 +299,8 @@ LAW = Law(
                 "cost across rest lengths",
     params=VirtualWork, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
     from_values=from_values, needs=("nominal_length",), family=True, extra={"optional_names": OPTIONAL},
+    c_rows={"VW_A0": VW_A0, "VW_A1": VW_A1, "VW_A2": VW_A2, "VW_G0": VW_G0, "VW_E0": VW_E0, "VW_G1": VW_G1,
+            "VW_L0": VW_L0, "VW_LAM": VW_LAM},
 )
 
 
