@@ -14,13 +14,13 @@ stiffness at zero pressure, so zero-pressure rows are left out for all models al
 - ``cubic per load``: the paper's way on the lengths themselves, one cubic in P per load,
   linear in load between loads.
 - ``surface``: one cubic-in-P, linear-in-load surface (:func:`~mckibben.fit.static.fit_surface`).
-- ``spring``: the spring model of 001 with the load as the force, solved for the length.
+- ``spring``: the spring model of [wickramatunge2010] with the load as the force, solved for the length.
 - ``chou-hannaford``, ``tondu-lopez``: physical models with fitted corrections.
 - every other registered law with a fit spec (:func:`mckibben.models.laws.fit_laws`:
   ``wall-corrected``, the family laws, any law added), fitted through its force
   (:func:`~mckibben.fit.isometric.fit_isotonic_law`) and solved for the length by bisection.
 - ``gaussian process``: a data-driven regressor (scikit-learn, RBF + white noise kernel on scaled
-  inputs, fitted to the trial means), as 001 suggests a universal approximator. Its kernel's
+  inputs, fitted to the trial means), as [wickramatunge2010] suggests a universal approximator. Its kernel's
   hyperparameters (4 numbers) are optimized once on all the data and kept in the cross-validation
   folds (a refit per fold takes seconds and moves them little); the GP itself is refitted per fold.
 

@@ -9,7 +9,7 @@ model                       force                                               
 ``chou-hannaford``          π·D0²·P/4·(3cos²θ − 1), cos θ = L·cos θ0/L0                 θ0, D0
 ``wall-corrected``          the same + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]              θ0, D0, t
 ``tondu-lopez``             π·r0²·P·[a(1 − kε)² − b], ε = 1 − L/L0                       α0, r0, k
-``spring``                  K(P, Ls)·Ls, Ls = L − Lu(P), K per direction (001, eq. 1–2)  h, c
+``spring``                  K(P, Ls)·Ls, Ls = L − Lu(P), K per direction ([wickramatunge2010], eq. 1–2)  h, c
 ``surface``                 Σ a_ij·P^i·ε^j (i ≤ 3, j ≤ 1) + deflate·(b0 + b1·P)         a, b
 ==========================  ===========================================================  ==========
 

@@ -3,7 +3,7 @@
 ========================  =================  ===================================================
 function                  data kind          model
 ========================  =================  ===================================================
-fit_kinematic             braid_angle        l = k1·Ls·cos θ + k2 (000, eq. 2, Table I)
+fit_kinematic             braid_angle        l = k1·Ls·cos θ + k2 ([mpam-characterization], eq. 2, Table I)
 fit_cubics                isotonic,          one cubic in pressure per load (and direction):
                           hysteresis,        length (Fig. 5/6), cos θ (eq. 3, Table II, Fig. 10),
                           braid_angle,       blocked force (Fig. 3)
@@ -11,7 +11,7 @@ fit_cubics                isotonic,          one cubic in pressure per load (and
 fit_force_contraction     isotonic           one cubic of load vs contraction per pressure (Fig. 5)
 fit_surface               isotonic           l = Σ a_ij·P^i·F^j, i ≤ 3, j ≤ 1: one smooth surface
 fit_spring                force_length,      Lu(P) and K(P, Ls) per direction and pressure range
-                          isotonic           (001, eq. 1–2, Tables 1–2)
+                          isotonic           ([wickramatunge2010], eq. 1–2, Tables 1–2)
 fit_chou_hannaford        isotonic           length under load, effective strand length and D0
 fit_tondu_lopez           isotonic           length under load, fitted k and r0 (α0 from the file)
 fit_first_order           step_response      p = p0 + (p∞ − p0)(1 − e^{−(t − t0)/τ}) (§IV.A)
@@ -374,7 +374,7 @@ def fit_surface(table: Table, load_degree: int = 1) -> FitResult:
 
 
 # --------------------------------------------------------------------------------------------
-# the spring model of 001
+# the spring model of [wickramatunge2010]
 
 
 @dataclass(frozen=True)

@@ -218,7 +218,7 @@ def fig10_braid_angle(results, path: Path, synthetic: bool) -> Path | None:
 
 
 def fig_spring_loops(results, path: Path, synthetic: bool) -> Path | None:
-    """Force-length loops at constant pressure with the fitted spring model (001, Figs. 5 and 7).
+    """Force-length loops at constant pressure with the fitted spring model ([wickramatunge2010], Figs. 5 and 7).
 
     Parameters
     ----------

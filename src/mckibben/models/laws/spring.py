@@ -364,7 +364,7 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
 
 LAW = Law(
     "spring", spring, "Wickramatunge & Leephakpreeda (2010) [wickramatunge2010] eq. (1)-(2)",
-    description="F = K(P, Ls)*Ls of 001 (Lu(P) quadratic, K per inflate/deflate)",
+    description="F = K(P, Ls)*Ls of Wickramatunge & Leephakpreeda (2010) (Lu(P) quadratic, K per inflate/deflate)",
     params=SpringModel, theta_of=spring_theta, fit_spec=fit_spec, from_values=from_values,
     needs=("nominal_length",), branches=2,
     c_rows={"SP_H2": SP_H2, "SP_H1": SP_H1, "SP_H0": SP_H0, "SP_SPLIT": SP_SPLIT, "SP_LOW": SP_LOW, "SP_HIGH": SP_HIGH},
