@@ -27,12 +27,12 @@ from mckibben import _lazy
 _WHERE = {
     "CONTROLLERS": "mckibben.control.simulation",
     "CoreParams": "mckibben.control.core",
-    "FirstOrderModel": "mckibben.control.controllers",
-    "LAWS": "mckibben.control.runs",
-    "PIDDesign": "mckibben.control.controllers",
+    "FirstOrderModel": "mckibben.control.first_order",
+    "PIDDesign": "mckibben.control.laws.pid",
+    "SMC_LAWS": "mckibben.control.runs",
     "SineReference": "mckibben.control.references",
     "controller_params": "mckibben.control.simulation",
-    "design_pid": "mckibben.control.controllers",
+    "design_pid": "mckibben.control.laws.pid",
     "fit_step_response": "mckibben.fit.step",
     "identified_model": "mckibben.control.simulation",
     "identify_plant": "mckibben.control.runs",
@@ -58,7 +58,7 @@ _WHERE = {
 
 
 __all__ = [
-    "CONTROLLERS", "LAWS", "CoreParams", "FirstOrderModel",
+    "CONTROLLERS", "CoreParams", "FirstOrderModel", "SMC_LAWS",
     "PIDDesign", "SineReference", "controller_params", "design_pid",
     "fit_step_response", "identified_model", "identify_plant", "pid_params",
     "plot_compare", "plot_fig13", "plot_hysteresis", "plot_open_loop", "plot_record", "plot_robustness", "plot_step_fit",

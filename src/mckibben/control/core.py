@@ -35,11 +35,17 @@ from mckibben._jit import njit
 from mckibben import hardware as HW
 from mckibben.errors import InputError, unknown_name
 from mckibben.control import registry as R
-from mckibben.control.fixed import TERM_LIM as _TERM_LIM
 from mckibben.control.fixed import _TANH, mulq16, tanh_q15, tanh_table  # noqa: F401  (re-exported)
 from mckibben.control.fixed import clamp as _clamp
 from mckibben.control.fixed import rdiv as _rdiv
 from mckibben.control.fixed import wrap32 as _wrap32  # noqa: F401  (re-exported)
+from mckibben.control.laws import pid, smc
+from mckibben.control.layout import (  # noqa: F401  (the layout's names, re-exported: the core's arrays)
+    IP_ADC_MAX, IP_ADC_MIN, IP_ADC_ZERO, IP_ALPHA, IP_BETA_Q8, IP_C_DREF, IP_C_E, IP_C_EPS, IP_C_KD, IP_C_KI,
+    IP_C_KIP, IP_C_KP, IP_C_P, IP_C_U0, IP_GAIN0, IP_GS_PA, IP_ISUM_MAX, IP_N_MISSING, IP_N_STUCK, IP_OL_BLEED,
+    IP_OL_INLET, IP_P_MAX, IP_P_OVER, IP_PPC_Q8, IP_RESP_U, IP_S_SAT, IP_TS_US, IS_DQ, IS_E_PREV, IS_FIRST,
+    IS_HELD_ADC, IS_ISUM, IS_IU, IS_LAST_BLEED, IS_LAST_INLET, IS_LATCHED, IS_MISSING_N, IS_MODE, IS_OVER,
+    IS_P_PREV, IS_P_SEEN, IS_PREF_PREV, IS_REFERENCE, IS_STUCK_N, IS_SURFACE)
 from mckibben.hardware import ADC_MAX
 from mckibben.atomic import atomic_file, check_output_file
 from mckibben.atomic import check_input_file
@@ -87,30 +93,11 @@ GAINS: tuple[Gain, ...] = tuple(Gain(g.id, g.name, g.unit, g.scale, g.lo, g.hi, 
 GAIN_IDS = {g.name: g.id for g in GAINS}
 N_GAINS = len(GAINS)
 
-# --- array layouts ----------------------------------------------------------------------------
+# --- array layouts (mckibben.control.layout); the extension laws' slots follow the core's ------
 
-# iparams (int64): settings, derived coefficients and the supervisor's settings by name (the
-# fields of mck_coef_t), then the raw gain values (IP_GAIN0 + id) that the setters keep.
-IP_P_MAX, IP_TS_US, IP_OL_INLET, IP_OL_BLEED = 0, 1, 2, 3
-IP_PPC_Q8, IP_BETA_Q8, IP_C_P, IP_C_DREF, IP_C_E, IP_C_KI = 4, 5, 6, 7, 8, 9
-IP_C_EPS, IP_S_SAT, IP_ISUM_MAX, IP_C_KP, IP_C_KIP, IP_C_KD, IP_ALPHA = 10, 11, 12, 13, 14, 15, 16
-IP_C_U0 = 17
-IP_P_OVER, IP_ADC_ZERO, IP_ADC_MIN, IP_ADC_MAX, IP_N_STUCK, IP_N_MISSING = 18, 19, 20, 21, 22, 23
-IP_GS_PA, IP_RESP_U = 24, 25
-IP_GAIN0 = 26
-#: Then the extension laws' coefficients (:data:`mckibben.control.registry.LAYOUT`).
+#: Lengths of the arrays with every registered extension law's slots (:data:`mckibben.control.registry.LAYOUT`).
 N_IPARAMS = R.N_IPARAMS
-
-# istate (int64): mode, supervisor and law state, last telemetry values.
-IS_MODE, IS_LATCHED, IS_OVER, IS_FIRST, IS_LAST_INLET, IS_LAST_BLEED = 0, 1, 2, 3, 4, 5
-IS_HELD_ADC, IS_STUCK_N, IS_MISSING_N = 6, 7, 8
-IS_ISUM, IS_IU, IS_DQ, IS_E_PREV, IS_PREF_PREV = 9, 10, 11, 12, 13
-IS_SURFACE, IS_REFERENCE, IS_P_PREV = 14, 15, 16
-IS_P_SEEN = 17  #: supply estimate: highest pressure shown since SET_MODE (a bank's channel 0 holds the shared one)
-#: Then the extension laws' state (:data:`mckibben.control.registry.LAYOUT`).
 N_ISTATE = R.N_ISTATE
-if (R.CORE_N_ISTATE, R.CORE_IP_GAIN0) != (IS_P_SEEN + 1, IP_GAIN0):  # the registry lays out after these
-    raise ImportError("mckibben.control.registry: CORE_N_ISTATE/CORE_IP_GAIN0 disagree with the core's layout")
 #: Supervisor 2b: the inlet is shut while p + LEAD_SAMPLES·(p − p_prev) > p_max + margin.
 LEAD_SAMPLES = 4
 P_NONE = 2_000_000  #: IS_P_PREV before the first step: a falling 'rate', so no cut on the first sample
@@ -120,62 +107,6 @@ P_NONE = 2_000_000  #: IS_P_PREV before the first step: a falling 'rate', so no 
 #: bleed lower it from RESP_P_MIN up.
 RESP_DU = 24
 RESP_P_MIN = 20_000
-
-
-@njit(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
-def smc_law_q8(ip, p, dpref, e, isum):
-    """Sliding-mode command for given state, without side effects.
-
-    Parameters
-    ----------
-    ip : numpy.ndarray
-        iparams of one instance (:func:`pack_params`). [-]
-    p : int
-        Measured pressure. [Pa]
-    dpref : int
-        Reference increment over one period, p_ref,k - p_ref,k-1. [Pa]
-    e : int
-        Error p_ref - p. [Pa]
-    isum : int
-        Sum of the errors (the integral is isum * Ts), already updated and clamped. [Pa]
-
-    Returns
-    -------
-    tuple of int
-        The command u in PWM counts Q8 (256 = one count) and the surface S. [-], [Pa]
-    """
-    s = e + (mulq16(isum, ip[IP_C_KI]) >> 8)
-    u = _clamp(mulq16(p, ip[IP_C_P]), -_TERM_LIM, _TERM_LIM)
-    u += _clamp(mulq16(dpref, ip[IP_C_DREF]), -_TERM_LIM, _TERM_LIM)
-    u += _clamp(mulq16(e, ip[IP_C_E]), -_TERM_LIM, _TERM_LIM)
-    sabs = -s if s < 0 else s
-    if sabs >= ip[IP_S_SAT]:
-        th = 32768
-    else:
-        th = tanh_q15(mulq16(sabs, ip[IP_C_EPS]))
-    t4 = (ip[IP_BETA_Q8] * th) >> 15
-    u = u - t4 if s < 0 else u + t4
-    # the valves' lift-off: inverse of the dead zone, on the side the command opens
-    if u > 0:
-        return u + ip[IP_C_U0], s
-    if u < 0:
-        return u - ip[IP_C_U0], s
-    return 0, s
-
-
-@njit(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
-def _pid_law_q8(st, ip, e):
-    st[IS_DQ] += mulq16((e - st[IS_E_PREV]) * 16 - st[IS_DQ], ip[IP_ALPHA])
-    st[IS_E_PREV] = e
-    tp = _clamp(mulq16(e, ip[IP_C_KP]), -_TERM_LIM, _TERM_LIM)
-    td = _clamp(mulq16(st[IS_DQ], ip[IP_C_KD]), -_TERM_LIM, _TERM_LIM)
-    u = tp + td + (st[IS_IU] >> 8)
-    ucnt = (u + 128) >> 8
-    if not ((ucnt >= 255 and e > 0) or (ucnt <= -255 and e < 0)):
-        inc = _clamp(mulq16(e, ip[IP_C_KIP]), -(1 << 25), 1 << 25)
-        st[IS_IU] = _clamp(st[IS_IU] + inc, -(1 << 24), 1 << 24)
-        u = tp + td + (st[IS_IU] >> 8)
-    return u
 
 
 @njit(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
@@ -256,10 +187,10 @@ def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
             st[IS_E_PREV] = e
         if mode == MODE_SMC:
             st[IS_ISUM] = _clamp(st[IS_ISUM] + e, -ip[IP_ISUM_MAX], ip[IP_ISUM_MAX])
-            u, surface = smc_law_q8(ip, p, pref - st[IS_PREF_PREV], e, st[IS_ISUM])
+            u, surface = smc.law(ip, p, pref - st[IS_PREF_PREV], e, st[IS_ISUM])
             st[IS_PREF_PREV] = pref
         elif mode == MODE_PID:
-            u = _pid_law_q8(st, ip, e)
+            u = pid.law(st, ip, e)
         else:  # the registry's extension laws (modes 4, 5, ...)
             u, surface = R.extension_law(mode, st, ip, p, pref, e)
         u = (u + 128) >> 8
@@ -399,7 +330,7 @@ def _fill_coefficients(ip: np.ndarray) -> None:
     # the extension laws' coefficients (their derive(), called at the end of derive() in controller.c)
     for spec in R.EXTENSIONS:
         io = R.LAYOUT[spec.name][1]
-        values = spec.resolve("derive")({g.param: gains[..., g.id] for g in spec.gains}, ip[..., IP_TS_US])
+        values = spec.derive({g.param: gains[..., g.id] for g in spec.gains}, ip[..., IP_TS_US])
         for j, name in enumerate(spec.coefs):
             ip[..., io + j] = values[name]
     # the supervisor's settings in the step's fields (derive() in controller.c)

@@ -9,7 +9,7 @@ ones of ``docs/control.md``, chosen on the calibrated default plant:
 
 1. identify the plant with two open-loop steps of the inlet valve (:func:`identify_plant`): τ and
    θ as the paper did (§IV.A), and the valves' lift-off u0 with the gain above it;
-2. two sliding-mode laws (:data:`LAWS`): ``model`` (ours; its model term uses τ, G and u0;
+2. two sliding-mode laws (:data:`SMC_LAWS`): ``model`` (ours; its model term uses τ, G and u0;
    :data:`SMC_TUNING`) and ``paper`` (β·tanh(S/ε) alone, as the paper ran it;
    :data:`PAPER_SMC_TUNING`);
 3. the PID is lambda-tuned on the paper's line through the origin at 0.55 MPa (:func:`default_pid`).
@@ -19,13 +19,14 @@ from __future__ import annotations
 
 import math
 import operator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from mckibben.control.controllers import (FirstOrderModel, design_pid, pid_params, smc_params,
-                                          with_supervisor_model)
+from mckibben.control.first_order import FirstOrderModel
+from mckibben.control.laws import smc, with_supervisor_model
+from mckibben.control.laws.pid import default_pid  # noqa: F401  (re-exported: the PID the paper found wanting)
 from mckibben.control import registry as R
 from mckibben.control.core import MODE_OPEN_LOOP, CoreParams, core_spec
 from mckibben.fit.step import fit_lift_off, fit_step_response
@@ -37,7 +38,6 @@ from mckibben.plant import simulate
 from mckibben.plant import CALIBRATION_PWM
 from mckibben.control.metrics import tracking_metrics_batch
 from mckibben.plant import PlantParams
-import itertools
 
 #: The paper's Fig. 13 (:data:`mckibben.datasets.paper_points.FIG13`): β -> time constant, overshoot.
 PAPER_FIG13 = _FIG13["points"]
@@ -239,37 +239,35 @@ def _counts(name: str, value, lo: int, hi: int) -> int:
 #: (``docs/control.md``, Safety; a property test in ``tests/test_control_plant.py``).
 SAFETY_TRANSIENT_PA = 90e3
 
-#: The sliding-mode laws: ``model`` is ours, the corrected eq. (12) with the model term from the
-#: identified first-order model and the valves' lift-off (``docs/controller.md``); ``paper`` is
-#: β·tanh(S/ε) alone, the law as the paper ran it ("all the terms in A are difficult to
-#: estimate … we set β to a large value", §IV.A), which Fig. 13 measured.
-LAWS = R.SMC.laws
+#: The sliding-mode variants (:data:`mckibben.control.laws.smc.VARIANTS`): ``model`` is ours,
+#: ``paper`` the law as the paper ran it.
+SMC_LAWS = smc.VARIANTS
 
 #: Our sliding-mode design (law ``model``; ``docs/control.md`` says how it was chosen): with the
 #: model term carrying the holding command, a small switching gain suffices (the registry's
 #: design ``model`` of ``smc``).
-SMC_TUNING = dict(R.SMC.designs["model"])
+SMC_TUNING = dict(smc.DESIGNS["model"])
 #: The paper's law (``paper``): β is the paper's (120 or 150; 150 by default, the registry's
 #: design ``paper``); ε and Ki are ours, chosen so that the integral brings the β = 120 step to
 #: its target within Fig. 13's second.
-PAPER_SMC_TUNING = {k: v for k, v in R.SMC.designs["paper"].items() if k != "beta"}
+PAPER_SMC_TUNING = {k: v for k, v in smc.DESIGNS["paper"].items() if k != "beta"}
 
 
 def smc_core_params(model: FirstOrderModel, beta: float | None = None, *, law: str = "model",
                     eps: float | None = None, ki: float | None = None,
                     base: CoreParams = CoreParams()) -> CoreParams:
-    """Sliding-mode core parameters of one law with the documented tuning.
+    """Sliding-mode core parameters of one variant with its documented design, base defaulted.
+
+    :func:`mckibben.control.laws.smc.variant_params` with the core's defaults as ``base``.
 
     Parameters
     ----------
     model : FirstOrderModel
         Identified model (used by the ``model`` law only). [-]
     beta : float, optional
-        Switching gain; default the law's documented design (registry ``smc``: 50 for
-        ``model``, 150, the paper's faster setting, for ``paper``). [PWM counts]
+        Switching gain; default the law's documented design. [PWM counts]
     law : {"model", "paper"}, default "model"
-        ``model``: u = v + u0·sign(v), v = (p + τ(ṗ_ref + Ki·e))/G + β·tanh(S/ε);
-        ``paper``: u = β·tanh(S/ε) (the core with G = 0). [-]
+        Sliding-mode variant (:data:`SMC_LAWS`). [-]
     eps : float, optional
         Boundary layer; default from the law's tuning. [Pa]
     ki : float, optional
@@ -282,85 +280,7 @@ def smc_core_params(model: FirstOrderModel, beta: float | None = None, *, law: s
     CoreParams
         With ``mode = MODE_SMC``; ``g = 0`` for the ``paper`` law.
     """
-    if law not in LAWS:
-        raise unknown_name("sliding-mode law", law, LAWS)
-    tuning = R.SMC.designs[law]
-    beta = tuning["beta"] if beta is None else beta
-    eps = tuning["eps"] if eps is None else eps
-    ki = tuning["ki"] if ki is None else ki
-    if law == "paper":
-        base = with_supervisor_model(base, model) if model.gain > 0 else base  # the supervisor keeps it
-        model = FirstOrderModel(gain=0.0, tau=0.0)  # G = 0: no model term (nor lift-off)
-    return smc_params(model, beta, eps, ki, i_max=tuning["i_max"], base=base)
-
-
-def smc_design(model: FirstOrderModel, base: CoreParams = CoreParams(), *, law: str = "model",
-               beta: float | None = None, eps: float | None = None, ki: float | None = None,
-               lam: float | None = None) -> CoreParams:
-    """The registry's design of ``smc``: :func:`smc_core_params` (``lam`` is the PID's, unused).
-
-    Parameters
-    ----------
-    model : FirstOrderModel
-        Identified model. [-]
-    base : CoreParams, optional
-        Supervisor settings. [-]
-    law : {"model", "paper"}, default "model"
-        Sliding-mode law. [-]
-    beta, eps, ki : float, optional
-        Gains to hold instead of the documented design. [PWM counts, Pa, 1/s]
-    lam : float, optional
-        Ignored. [s]
-    """
-    return smc_core_params(model, beta, law=law, eps=eps, ki=ki, base=base)
-
-
-def pid_design(model: FirstOrderModel, base: CoreParams = CoreParams(), *, law: str | None = None,
-               beta: float | None = None, eps: float | None = None, ki: float | None = None,
-               lam: float | None = None) -> CoreParams:
-    """The registry's design of ``pid``: :func:`default_pid` on ``model`` (the sliding-mode gains unused).
-
-    Parameters
-    ----------
-    model : FirstOrderModel
-        Identified model. [-]
-    base : CoreParams, optional
-        Supervisor settings. [-]
-    law : str, optional
-        Ignored. [-]
-    beta, eps, ki : float, optional
-        Ignored. [-]
-    lam : float, optional
-        Closed-loop time constant λ; default the registry's design (τ/3). [s]
-    """
-    return pid_params(default_pid(model, lam), base=base)
-
-
-def default_pid(model: FirstOrderModel, closed_loop_tau: float | None = None,
-                operating_point: float = FIG13_TARGET_PA):
-    """The PID the paper found wanting: lambda-tuned on a first-order model through the origin.
-
-    The paper designed its PID on the first-order model of one voltage step (§IV.A), a line
-    through the origin; here that line is the secant of the identified model at
-    ``operating_point`` (:meth:`FirstOrderModel.through_origin`), exact there and wrong away
-    from it, as the valves' lift-off makes it.
-
-    Parameters
-    ----------
-    model : FirstOrderModel
-        Identified model. [-]
-    closed_loop_tau : float, optional
-        λ; default τ/3 (three times faster than open loop, a usual aggressive choice). [s]
-    operating_point : float, default 0.55e6
-        Pressure at which the line through the origin meets the model. [Pa]
-
-    Returns
-    -------
-    PIDDesign
-        Gains in PWM counts per Pa and python-control's verdict on them.
-    """
-    lam = model.tau / R.PID.designs["pid"]["tau_over_lambda"] if closed_loop_tau is None else closed_loop_tau
-    return design_pid(model.through_origin(operating_point), lam)
+    return smc.variant_params(model, beta, law=law, eps=eps, ki=ki, base=base)
 
 
 #: Design steps of a plant tuned by :func:`tune_gains`, as fractions of its top pressure
@@ -376,77 +296,6 @@ TUNING_BAR = {"overshoot_pct": 10.0, "steady_state_error": 0.02}
 #: muscle file's plant (the chamber at the braid's straight stop fills in milliseconds), which a
 #: first-order fit of the whole step puts at the slow phase (tenths of a second).
 TUNING_CANDIDATES = {name: dict(grid) for c in R.CONTROLLERS.values() for name, grid in c.grid.items()}
-
-
-def smc_candidates(model: FirstOrderModel, base: CoreParams, top: float, grid: dict, *, law: str = "model",
-                   beta=None, eps=None, ki=None, lam=None):
-    """The sliding mode's tuning candidates (registry ``smc``): β, ε, Ki and the model term's τ.
-
-    Parameters
-    ----------
-    model : FirstOrderModel
-        Identified model. [-]
-    base : CoreParams
-        Supervisor settings. [-]
-    top : float
-        Top pressure of the design steps. [Pa]
-    grid : dict
-        The candidate grid of the law (:data:`TUNING_CANDIDATES`). [-]
-    law : {"model", "paper"}, default "model"
-        Sliding-mode law. [-]
-    beta, eps, ki : float, optional
-        Gains held instead of tuned. [PWM counts, Pa, 1/s]
-    lam : float, optional
-        Ignored. [s]
-
-    Returns
-    -------
-    tuple of list
-        The candidates' free gains and their core parameters. [-]
-    """
-
-    given = {"beta": beta, "eps": eps, "ki": ki}
-    axes = [(v,) if given[k] is not None else grid[k] for k, v in given.items()]
-    axes.append(grid.get("tau_factor", (1.0,)))
-    cands = [dict(zip(("beta_counts", "eps_Pa", "ki_per_s", "tau_s"), (*map(float, c[:3]), c[3] * model.tau)))
-             for c in itertools.product(*axes)]
-    params = [smc_core_params(replace(model, tau=c["tau_s"]), c["beta_counts"], law=law, eps=c["eps_Pa"],
-                              ki=c["ki_per_s"], base=base) for c in cands]
-    if law == "paper":  # no model term: τ plays no part
-        cands = [{k: v for k, v in c.items() if k != "tau_s"} for c in cands]
-    return cands, params
-
-
-def pid_candidates(model: FirstOrderModel, base: CoreParams, top: float, grid: dict, *, law=None, beta=None,
-                   eps=None, ki=None, lam=None):
-    """The PID's tuning candidates (registry ``pid``): the design τ and λ.
-
-    Parameters
-    ----------
-    model : FirstOrderModel
-        Identified model. [-]
-    base : CoreParams
-        Supervisor settings. [-]
-    top : float
-        Top pressure of the design steps; the line through the origin is taken at half of it. [Pa]
-    grid : dict
-        The candidate grid (:data:`TUNING_CANDIDATES`). [-]
-    law, beta, eps, ki : optional
-        Ignored. [-]
-    lam : float, optional
-        Closed-loop time constant held instead of tuned. [s]
-
-    Returns
-    -------
-    tuple of list
-        The candidates' free gains and their core parameters. [-]
-    """
-    op = 0.5 * top
-    cands = [{"tau_s": f * model.tau, "lambda_s": float(lam) if lam is not None else g * f * model.tau}
-             for f in grid["tau_factor"] for g in ((1.0,) if lam is not None else grid["lam_factor"])]
-    params = [pid_params(design_pid(replace(model, tau=c["tau_s"]).through_origin(op), c["lambda_s"],
-                                    verdict=False), base=base) for c in cands]
-    return cands, params
 
 
 @dataclass(frozen=True)
@@ -538,12 +387,12 @@ def tune_gains(plant, model: FirstOrderModel, controller: str = "smc", *, law: s
     GainTuning
     """
     spec = R.get(controller)
-    if law not in LAWS:
-        raise unknown_name("sliding-mode law", law, LAWS)
-    law_of = law if spec.laws else None
+    if law not in SMC_LAWS:
+        raise unknown_name("sliding-mode law", law, SMC_LAWS)
+    law_of = law if spec.variants else None
     top = min(float(to_plant_params(plant).supply_pressure), float(base.p_max))
-    grid = TUNING_CANDIDATES[law if spec.laws else next(iter(spec.grid))]
-    cands, params = spec.resolve("candidates")(model, base, top, grid, law=law, beta=beta, eps=eps, ki=ki, lam=lam)
+    grid = TUNING_CANDIDATES[law if spec.variants else next(iter(spec.grid))]
+    cands, params = spec.candidates(model, base, top, grid, law=law, beta=beta, eps=eps, ki=ki, lam=lam)
     if objective == "track":
         return _tune_tracking(plant, controller, law_of, cands, params, top)
     if objective != "step":
@@ -620,7 +469,7 @@ def step_reference(n: int, t_step_index: int, p0: float, p1: float) -> np.ndarra
     return r
 
 
-def fig13_runs(model: FirstOrderModel, plant=None, betas=(120.0, 150.0), *, laws=LAWS, eps: float | None = None,
+def fig13_runs(model: FirstOrderModel, plant=None, betas=(120.0, 150.0), *, laws=SMC_LAWS, eps: float | None = None,
           ki: float | None = None, duration: float = 1.0, t_step: float = 0.1):
     """The paper's Fig. 13 on the plant: sliding mode, step 0 → 0.55 MPa, for each law and β.
 
@@ -636,7 +485,7 @@ def fig13_runs(model: FirstOrderModel, plant=None, betas=(120.0, 150.0), *, laws
     betas : sequence of float
         Switching gains. [PWM counts]
     laws : sequence of str, default ("model", "paper")
-        Sliding-mode laws (:data:`LAWS`). [-]
+        Sliding-mode laws (:data:`SMC_LAWS`). [-]
     eps : float, optional
         Boundary layer (default: each law's tuning). [Pa]
     ki : float, optional
@@ -841,17 +690,37 @@ def sample_plants(n: int, seed: int = 0, spread: float = 0.3, supply=(0.6e6, 1.0
     return out
 
 
-#: The controllers of :func:`robustness_runs` and :func:`step_size_table`: the paper's PID and both
-#: sliding-mode laws, then every extension law of the registry (:data:`mckibben.control.registry.EXTENSIONS`,
-#: the super-twisting ``stsmc``...), each with its documented design.
-CONTROLLER_NAMES = ("pid", "smc", "smc_paper") + tuple(c.name for c in R.EXTENSIONS)
+def comparison_entries() -> tuple[tuple[str, str, str | None], ...]:
+    """Every compared controller, from the registry: ``(row name, controller, variant)``.
+
+    One row per controller of :data:`mckibben.control.registry.CONTROLLERS` and per variant of
+    its law: the first variant under the controller's name (``smc``), the others under
+    ``<name>_<variant>`` (``smc_paper``). A registered controller is compared without a change
+    here.
+
+    Returns
+    -------
+    tuple of (str, str, str or None)
+        In mode order. [-]
+    """
+    out = []
+    for spec in R.CONTROLLERS.values():
+        for i, variant in enumerate(spec.variants or (None,)):
+            out.append((spec.name if i == 0 else f"{spec.name}_{variant}", spec.name, variant))
+    return tuple(out)
+
+
+#: The controllers of :func:`robustness_runs`, :func:`step_size_table` and the comparisons, by row
+#: name (:func:`comparison_entries`): ``smc``, ``smc_paper``, ``pid``, then every extension law.
+CONTROLLER_NAMES = tuple(name for name, _, _ in comparison_entries())
 
 
 def comparison_controllers(model: FirstOrderModel, beta: float | None = None) -> dict:
     """The controllers of the comparisons (:data:`CONTROLLER_NAMES`), designed on an identified model.
 
-    ``pid`` (:func:`default_pid`), ``smc`` (law ``model``, β = ``beta``), ``smc_paper`` (the
-    paper's law, β = 150), then each extension law of the registry with its documented design.
+    Each controller of the registry with its documented design (each variant of its law); ``beta``
+    replaces the switching gain of a law's first variant (``smc``: our law), the paper's law keeps
+    its β = 150.
 
     Parameters
     ----------
@@ -866,11 +735,8 @@ def comparison_controllers(model: FirstOrderModel, beta: float | None = None) ->
         ``{name: CoreParams}``, in :data:`CONTROLLER_NAMES` order.
     """
     base = with_supervisor_model(CoreParams(), model)
-    out = {"pid": pid_params(default_pid(model), base=base), "smc": smc_core_params(model, beta),
-           "smc_paper": smc_core_params(model, law="paper")}
-    for spec in R.EXTENSIONS:
-        out[spec.name] = spec.resolve("design")(model, base)
-    return out
+    return {name: R.get(controller).design(model, base, law=variant, beta=beta if name == controller else None)
+            for name, controller, variant in comparison_entries()}
 
 
 def robustness_runs(model: FirstOrderModel, n: int = 1000, seed: int = 0, beta: float | None = None,

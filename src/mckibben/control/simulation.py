@@ -23,9 +23,10 @@ from functools import lru_cache
 import numpy as np
 
 from mckibben.control import registry as R
-from mckibben.control.controllers import FirstOrderModel, with_supervisor_model
+from mckibben.control.first_order import FirstOrderModel
+from mckibben.control.laws import with_supervisor_model
 from mckibben.control.core import CoreParams
-from mckibben.control.runs import LAWS, identify_plant, tune_gains
+from mckibben.control.runs import SMC_LAWS, identify_plant, tune_gains
 from mckibben.control.references import SineReference, refuse_text
 from mckibben.data.io import read_muscle
 from mckibben.data.steplog import read_step_log
@@ -41,7 +42,7 @@ from mckibben.units import si
 __all__ = [
     "CONTROLLERS", "FILE_IDENTIFICATION_S", "TS", "boundary_layer", "check_beta", "check_ki", "check_periods",
     "controller_params", "default_identification", "identified_model", "identify_file_plant", "muscle_file_plant",
-    "pid_gains_dict", "plant_load", "pressure_reference", "rest_pull", "smc_gains_dict", "tuned_controller",
+    "plant_load", "pressure_reference", "rest_pull", "tuned_controller",
 ]
 
 #: Controllers the firmware core runs (:data:`mckibben.control.registry.NAMES`).
@@ -169,8 +170,8 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     """
     if controller not in CONTROLLERS:
         raise unknown_name("controller", controller, CONTROLLERS)
-    if law not in LAWS:
-        raise unknown_name("`law`", law, LAWS)
+    if law not in SMC_LAWS:
+        raise unknown_name("`law`", law, SMC_LAWS)
     b, k = check_beta(beta), check_ki(ki)
     e = boundary_layer(eps)
     lm = si(lam, "time", "lam", allow_zero=False) if lam is not None else None
@@ -178,31 +179,7 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     # the supervisor's valve model (G, lift-off) comes from the identification too
     base = with_supervisor_model(CoreParams(p_max=check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))),
                                  model)
-    return R.get(controller).resolve("design")(model, base, law=law, beta=b, eps=e, ki=k, lam=lm)
-
-
-def smc_gains_dict(params: CoreParams) -> dict:
-    """The sliding mode's gains as reported in results (registry ``smc``: ``describe``).
-
-    Parameters
-    ----------
-    params : CoreParams
-        Core parameters. [-]
-    """
-    return {"law": "paper" if params.g == 0 else "model", "beta_counts": params.beta, "eps_Pa": params.eps,
-            "ki_per_s": params.ki, "tau_s": params.tau, "g_Pa_per_count": params.g, "lift_off_counts": params.u0}
-
-
-def pid_gains_dict(params: CoreParams) -> dict:
-    """The PID's gains as reported in results (registry ``pid``: ``describe``).
-
-    Parameters
-    ----------
-    params : CoreParams
-        Core parameters. [-]
-    """
-    return {"kp_counts_per_Pa": params.kp, "ki_counts_per_Pa_s": params.ki_pid, "kd_counts_s_per_Pa": params.kd,
-            "tf_s": params.tf}
+    return R.get(controller).design(model, base, law=law, beta=b, eps=e, ki=k, lam=lm)
 
 
 def boundary_layer(eps) -> float | None:
@@ -365,8 +342,8 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
 
     if controller not in CONTROLLERS:
         raise unknown_name("controller", controller, CONTROLLERS)
-    if law not in LAWS:
-        raise unknown_name("`law`", law, LAWS)
+    if law not in SMC_LAWS:
+        raise unknown_name("`law`", law, SMC_LAWS)
     b, k, e = check_beta(beta), check_ki(ki), boundary_layer(eps)
     lm = si(lam, "time", "lam", allow_zero=False) if lam is not None else None
     base = with_supervisor_model(CoreParams(p_max=check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))),

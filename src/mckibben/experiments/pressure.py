@@ -32,8 +32,9 @@ from mckibben.control.controllers import FirstOrderModel
 from mckibben.control.core import CoreParams, core_spec
 from mckibben.control.runs import (
     CONTROLLER_NAMES,
+    comparison_entries,
     FIG13_TARGET_PA,
-    LAWS,
+    SMC_LAWS,
     GainTuning,
     LoopRecord,
     _pct,
@@ -86,10 +87,7 @@ def _model_dict(model: FirstOrderModel) -> dict:
 
 
 def _gains_dict(params: CoreParams, controller: str) -> dict:
-    spec = R.get(controller)
-    if spec.describe:
-        return spec.resolve("describe")(params)
-    return {f"{g.param}_{g.unit.replace(' ', '_').replace('/', '_per_')}": getattr(params, g.param) for g in spec.gains}
+    return R.get(controller).describe(params)
 
 
 def _record_frame(rec: LoopRecord, i: int = 0):
@@ -179,14 +177,12 @@ class StepResult(Result):
 
 def _file_controllers(plant, beta=None) -> dict:
     """The controllers of :func:`compare` and :func:`robustness` (:data:`CONTROLLER_NAMES`), tuned on a muscle
-    file's plant: ``pid``, ``smc`` (our law; ``beta`` held when given), ``smc_paper`` (the paper's law) and
-    each extension law of the registry."""
+    file's plant: every controller of the registry and variant of its law
+    (:func:`~mckibben.control.runs.comparison_entries`); ``beta`` held by the first variant when given."""
     m = identify_file_plant(plant)
-    out = {"pid": tuned_controller("pid", m, plant).params, "smc": tuned_controller("smc", m, plant, beta=beta).params,
-           "smc_paper": tuned_controller("smc", m, plant, law="paper").params}
-    for spec in R.EXTENSIONS:
-        out[spec.name] = tuned_controller(spec.name, m, plant).params
-    return out
+    return {name: tuned_controller(controller, m, plant, law=variant or "model",
+                                   beta=beta if name == controller else None).params
+            for name, controller, variant in comparison_entries()}
 
 
 def _refuse_muscle_file(function: str, muscle_file, why: str) -> None:
@@ -327,7 +323,7 @@ def step_response(controller: str = "smc", target=FIG13_TARGET_PA, *, start=0.0,
     n = int(round(total / TS))
     ref = step_reference(n, int(round(hold / TS)), args["from_Pa"], args["target_Pa"])
     rec = run_closed_loop(core_spec(params), ref, total, plant)
-    args.update(law=law if R.get(controller).laws else None)
+    args.update(law=law if R.get(controller).variants else None)
     return StepResult(rec, hold, params_model, params, args, tuning)
 
 
@@ -440,7 +436,7 @@ def track_pressure(reference, controller: str = "smc", *, duration=2.0, load=0.6
     rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant)
     args = {"controller": controller, "reference": _reference_text(reference),
             "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
-            "law": law if R.get(controller).laws else None}
+            "law": law if R.get(controller).variants else None}
     if muscle_file is not None:
         args.update(muscle_file=str(muscle_file), direction=direction)
     return TrackResult(rec, m, params, args, tuning)
@@ -546,7 +542,7 @@ class Fig13Result(Result):
         return plot_fig13(self, ax=ax)
 
 
-def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=None) -> Fig13Result:
+def fig13(betas=(120.0, 150.0), *, laws=SMC_LAWS, eps=None, ki=None, muscle_file=None) -> Fig13Result:
     """The paper's Fig. 13 on the plant: sliding mode, step 0 → 0.55 MPa, each law and β.
 
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt) §IV.B measured the ``paper`` law at β = 120 (τ ≈ 0.06 s) and 150
@@ -581,8 +577,8 @@ def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=Non
             raise ArgumentTypeError(f"{name} = {value!r}: want a non-empty sequence (a tuple or list)")
     betas = tuple(check_beta(b, "betas") for b in betas)
     for law in laws:
-        if law not in LAWS:
-            raise unknown_name("`laws` entry", law, LAWS)
+        if law not in SMC_LAWS:
+            raise unknown_name("`laws` entry", law, SMC_LAWS)
     fit, model, _ = default_identification()
     rows, rec = fig13_runs(model, betas=betas, laws=tuple(laws), eps=e, ki=k)
     return Fig13Result(rows, rec, model, float(fit.stderr["tau_s"]),
