@@ -24,7 +24,7 @@ from test_firmware import BANK_CYCLE_BUDGET, Lcg, _mix
 
 from mckibben.control import core, laws, runs
 from mckibben.control import registry as R
-from mckibben.control.simulation import identified_model
+from mckibben.control.experiment_setup import identified_model
 
 FIRMWARE = Path(__file__).resolve().parents[1] / "firmware"
 HEADER = (FIRMWARE / "core" / "controller.h").read_text()

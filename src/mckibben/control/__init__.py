@@ -25,17 +25,17 @@ from mckibben import _lazy
 #: the rig, the sweeps and the command line read) must not wait for them. Every name is of this
 #: package or below it: the experiments are the layer above's (:mod:`mckibben.experiments`).
 _WHERE = {
-    "CONTROLLERS": "mckibben.control.simulation",
+    "CONTROLLERS": "mckibben.control.experiment_setup",
     "CoreParams": "mckibben.control.core",
     "FirstOrderModel": "mckibben.control.first_order",
     "PIDDesign": "mckibben.control.laws.pid",
-    "SMC_LAWS": "mckibben.control.runs",
+    "SMC_LAWS": "mckibben.control.controllers",
     "SineReference": "mckibben.control.references",
-    "controller_params": "mckibben.control.simulation",
+    "controller_params": "mckibben.control.experiment_setup",
     "design_pid": "mckibben.control.laws.pid",
     "fit_step_response": "mckibben.fit.step",
-    "identified_model": "mckibben.control.simulation",
-    "identify_plant": "mckibben.control.runs",
+    "identified_model": "mckibben.control.experiment_setup",
+    "identify_plant": "mckibben.control.identify",
     "pid_params": "mckibben.control.controllers",
     "plot_compare": "mckibben.control.plots",
     "plot_fig13": "mckibben.control.plots",
@@ -45,15 +45,15 @@ _WHERE = {
     "plot_robustness": "mckibben.control.plots",
     "plot_step_fit": "mckibben.control.plots",
     "parse_reference": "mckibben.control.references",
-    "pressure_reference": "mckibben.control.simulation",
+    "pressure_reference": "mckibben.control.experiment_setup",
     "read_step_log": "mckibben.data.steplog",
-    "run_closed_loop": "mckibben.control.runs",
+    "run_closed_loop": "mckibben.control.loop",
     "smc_params": "mckibben.control.controllers",
     "step_metrics": "mckibben.control.metrics",
     "step_metrics_batch": "mckibben.control.metrics",
     "tracking_metrics": "mckibben.control.metrics",
     "tracking_metrics_batch": "mckibben.control.metrics",
-    "tuned_controller": "mckibben.control.simulation",
+    "tuned_controller": "mckibben.control.experiment_setup",
 }
 
 

@@ -82,6 +82,50 @@ def pid_params(design: PIDDesign, *, base: CoreParams = CoreParams()) -> CorePar
     return pid.from_design(design, base=base)
 
 
+#: The sliding-mode variants (:data:`mckibben.control.laws.smc.VARIANTS`): ``model`` is ours,
+#: ``paper`` the law as the paper ran it.
+SMC_LAWS = smc.VARIANTS
+
+#: Our sliding-mode design (law ``model``; ``docs/control.md`` says how it was chosen): with the
+#: model term carrying the holding command, a small switching gain suffices (the registry's
+#: design ``model`` of ``smc``).
+SMC_TUNING = dict(smc.DESIGNS["model"])
+#: The paper's law (``paper``): β is the paper's (120 or 150; 150 by default, the registry's
+#: design ``paper``); ε and Ki are ours, chosen so that the integral brings the β = 120 step to
+#: its target within Fig. 13's second.
+PAPER_SMC_TUNING = {k: v for k, v in smc.DESIGNS["paper"].items() if k != "beta"}
+
+
+def smc_core_params(model: FirstOrderModel, beta: float | None = None, *, law: str = "model",
+                    eps: float | None = None, ki: float | None = None,
+                    base: CoreParams = CoreParams()) -> CoreParams:
+    """Sliding-mode core parameters of one variant with its documented design, base defaulted.
+
+    :func:`mckibben.control.laws.smc.variant_params` with the core's defaults as ``base``.
+
+    Parameters
+    ----------
+    model : FirstOrderModel
+        Identified model (used by the ``model`` law only). [-]
+    beta : float, optional
+        Switching gain; default the law's documented design. [PWM counts]
+    law : {"model", "paper"}, default "model"
+        Sliding-mode variant (:data:`SMC_LAWS`). [-]
+    eps : float, optional
+        Boundary layer; default from the law's tuning. [Pa]
+    ki : float, optional
+        Surface integral weight; default from the law's tuning. [1/s]
+    base : CoreParams, optional
+        Supervisor and other settings. [-]
+
+    Returns
+    -------
+    CoreParams
+        With ``mode = MODE_SMC``; ``g = 0`` for the ``paper`` law.
+    """
+    return smc.variant_params(model, beta, law=law, eps=eps, ki=ki, base=base)
+
+
 # --- controller objects -------------------------------------------------------------------------
 
 
@@ -213,6 +257,7 @@ def supervised(func: Callable, params: CoreParams = CoreParams()) -> Callable:
 
 
 __all__ = [
+    "PAPER_SMC_TUNING", "SMC_LAWS", "SMC_TUNING", "smc_core_params",
     "FirstOrderModel", "PIDDesign", "design_pid", "smc_params", "pid_params", "with_supervisor_model",
     "adc_from_pressure",
     "CoreLoopController", "SlidingModeController", "PIDController", "supervised", "core",

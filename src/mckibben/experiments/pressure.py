@@ -10,7 +10,7 @@ a unit is refused with the number to pass (:func:`mckibben.units.si`), the comma
 flags before it calls.
 
 The building blocks are :mod:`mckibben.control`'s: the identified model and the documented designs
-(:mod:`mckibben.control.simulation`), the runs on the batch plant simulator
+(:mod:`mckibben.control.experiment_setup`), the runs on the batch plant simulator
 (:mod:`mckibben.control.runs`), the figures (:mod:`mckibben.control.plots`). This layer sits
 above control, tool and rig (DESIGN.md); the results' provenance names the calls here
 (``mckibben.experiments.step_response``).
@@ -30,27 +30,18 @@ import numpy as np
 from mckibben.control import registry as R
 from mckibben.control.controllers import FirstOrderModel
 from mckibben.control.core import CoreParams, core_spec
-from mckibben.control.runs import (
-    CONTROLLER_NAMES,
-    comparison_entries,
-    FIG13_TARGET_PA,
-    SMC_LAWS,
-    GainTuning,
-    LoopRecord,
-    _pct,
-    fig13_runs,
-    plant_batch,
-    robustness_runs,
-    run_closed_loop,
-    sample_plants,
-    step_reference,
-)
-from mckibben.control.runs import step_size_table as _step_size_rows
+from mckibben.control.loop import LoopRecord, run_closed_loop, step_reference
+from mckibben.control.controllers import SMC_LAWS
+from mckibben.control.plant_sampling import plant_batch, sample_plants
+from mckibben.control.studies import (CONTROLLER_NAMES, FIG13_TARGET_PA, comparison_entries, fig13_runs, percentiles,
+                                      robustness_runs)
+from mckibben.control.studies import step_size_table as _step_size_rows
+from mckibben.control.tuning import GainTuning
 from mckibben.control.hysteresis import PERIOD_MAX, PERIOD_MIN, SWEEP_PERIOD_MAX, SWEEP_PERIOD_MIN, hysteresis_benefit
 from mckibben.control.metrics import tracking_metrics
 from mckibben.control.plots import plot_compare, plot_fig13, plot_open_loop, plot_record, plot_robustness
 from mckibben.control.references import SineReference
-from mckibben.control.simulation import (
+from mckibben.control.experiment_setup import (
     TS,
     boundary_layer,
     check_beta,
@@ -178,7 +169,7 @@ class StepResult(Result):
 def _file_controllers(plant, beta=None) -> dict:
     """The controllers of :func:`compare` and :func:`robustness` (:data:`CONTROLLER_NAMES`), tuned on a muscle
     file's plant: every controller of the registry and variant of its law
-    (:func:`~mckibben.control.runs.comparison_entries`); ``beta`` held by the first variant when given."""
+    (:func:`~mckibben.control.studies.comparison_entries`); ``beta`` held by the first variant when given."""
     m = identify_file_plant(plant)
     return {name: tuned_controller(controller, m, plant, law=variant or "model",
                                    beta=beta if name == controller else None).params
@@ -269,7 +260,7 @@ def step_response(controller: str = "smc", target=FIG13_TARGET_PA, *, start=0.0,
     controller : {"smc", "pid"}, default "smc"
         The controller (:func:`controller_params`). [-]
     target : float, default 0.55e6
-        Pressure after the step (Fig. 13's, :data:`~mckibben.control.runs.FIG13_TARGET_PA`). [Pa]
+        Pressure after the step (Fig. 13's, :data:`~mckibben.control.studies.FIG13_TARGET_PA`). [Pa]
     start : float, default 0.0
         Pressure held before the step. [Pa]
     load : float, default 0.6
@@ -749,7 +740,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same n plants.
 
     ±30 % on valve gain, dead band, volumes and leak, supply 0.6–1.0 MPa, load 0–3 N
-    (:func:`~mckibben.control.runs.sample_plants`); the controllers are designed once on
+    (:func:`~mckibben.control.plant_sampling.sample_plants`); the controllers are designed once on
     the nominal plant's identified model. With a muscle file: the same factors around its plant,
     supply 0.75–1 × its top fitted pressure, load 0–1/2 of what it pulls at rest, step to 0.55/0.8
     of min(supply, 0.8 MPa); the controllers tuned once on the nominal plant (1/4 of that pull)
@@ -811,7 +802,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
         if progress is not None:
             progress(hi, int(n))
 
-    summary = {c: {k: _pct(v) for k, v in per_plant[c].items()} for c in CONTROLLER_NAMES}
+    summary = {c: {k: percentiles(v) for k, v in per_plant[c].items()} for c in CONTROLLER_NAMES}
     where = {} if muscle_file is None else {"muscle_file": str(muscle_file), "direction": direction,
                                             "target_Pa": extra["target"]}
     return RobustnessResult(samples, per_plant, summary, {"n": int(n), "seed": seed, "beta_counts": b, **where})

@@ -2,7 +2,7 @@
 
 :func:`identified_model` (the calibrated plant identified as the paper did, §IV.A of
 “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), :func:`~mckibben.control.runs.identify_plant`),
+000_909f662a44080c85.txt), :func:`~mckibben.control.identify.identify_plant`),
 :func:`controller_params` (a controller with the documented tuning, ``docs/control.md``),
 :func:`tuned_controller` (gains tuned on a plant), :func:`muscle_file_plant` (a muscle file's own
 plant), :func:`pressure_reference` (a reference sampled at the control period) and the checks of
@@ -26,7 +26,9 @@ from mckibben.control import registry as R
 from mckibben.control.first_order import FirstOrderModel
 from mckibben.control.laws import with_supervisor_model
 from mckibben.control.core import CoreParams
-from mckibben.control.runs import SMC_LAWS, identify_plant, tune_gains
+from mckibben.control.controllers import SMC_LAWS
+from mckibben.control.identify import identify_plant
+from mckibben.control.tuning import tune_gains
 from mckibben.control.references import SineReference, refuse_text
 from mckibben.data.io import read_muscle
 from mckibben.data.steplog import read_step_log
@@ -53,7 +55,7 @@ TS = 1e-3
 
 @lru_cache(maxsize=1)
 def default_identification():
-    """:func:`~mckibben.control.runs.identify_plant` on the calibrated plant, once per process.
+    """:func:`~mckibben.control.identify.identify_plant` on the calibrated plant, once per process.
 
     Returns
     -------
@@ -285,7 +287,7 @@ FILE_IDENTIFICATION_S = 2.0
 
 
 def identify_file_plant(plant) -> FirstOrderModel:
-    """The first-order model of a muscle file's plant: :func:`~mckibben.control.runs.identify_plant`
+    """The first-order model of a muscle file's plant: :func:`~mckibben.control.identify.identify_plant`
     over :data:`FILE_IDENTIFICATION_S`.
 
     Parameters
@@ -304,7 +306,7 @@ def identify_file_plant(plant) -> FirstOrderModel:
 
 def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str = "model", beta=None, eps=None,
                      ki=None, lam=None, p_max=P_MAX_DEFAULT, objective: str = "step"):
-    """A controller whose free gains are tuned on a plant (:func:`~mckibben.control.runs.tune_gains`).
+    """A controller whose free gains are tuned on a plant (:func:`~mckibben.control.tuning.tune_gains`).
 
     What a muscle file's plant gets instead of the calibrated rig's gains (``docs/control.md``,
     "Gains for a muscle file's plant"): the model term and the supervisor's valve model come from
