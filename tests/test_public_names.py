@@ -83,7 +83,7 @@ def test_the_rule_catches_a_name_defined_twice():
 
 
 def test_a_registry_hook_is_not_a_public_name():
-    """A controller module's ``derive`` is the registry's protocol, not a second ``core.derive``."""
-    modules = ("mckibben.control.core", *(c.derive.__module__ for c in R.EXTENSIONS))
+    """A controller module's ``derive`` is the registry's protocol, not a second ``core_params.derive``."""
+    modules = ("mckibben.control.core_params", *(c.derive.__module__ for c in R.EXTENSIONS))
     found = public_definitions({m: SOURCES[m] for m in modules})
-    assert found["derive"] == ["mckibben.control.core"]
+    assert found["derive"] == ["mckibben.control.core_params"]

@@ -27,7 +27,9 @@ from dataclasses import replace
 import numpy as np
 
 from mckibben.control import core
-from mckibben.control.core import MODE_OPEN_LOOP, MODE_PID, MODE_SMC, CoreController, CoreParams, core_spec
+from mckibben.control.bank import CoreController
+from mckibben.control.core_params import CoreParams, core_spec
+from mckibben.control.step import MODE_OPEN_LOOP, MODE_PID, MODE_SMC
 from mckibben.control.first_order import FirstOrderModel
 from mckibben.control.laws import pid, smc
 from mckibben.control.laws import with_supervisor_model  # noqa: F401  (re-exported)

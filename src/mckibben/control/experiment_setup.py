@@ -25,7 +25,7 @@ import numpy as np
 from mckibben.control import registry as R
 from mckibben.control.first_order import FirstOrderModel
 from mckibben.control.laws import with_supervisor_model
-from mckibben.control.core import CoreParams
+from mckibben.control.core_params import CoreParams
 from mckibben.control.controllers import SMC_LAWS
 from mckibben.control.identify import identify_plant
 from mckibben.control.tuning import tune_gains

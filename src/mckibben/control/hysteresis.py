@@ -41,7 +41,7 @@ from mckibben.control.length import (
     inflating_direction,
 )
 from mckibben.errors import InputError
-from mckibben.control.core import core_spec
+from mckibben.control.core_params import core_spec
 from mckibben.control.controllers import smc_core_params
 from mckibben.control.loop import run_closed_loop
 from mckibben.control.plots import plot_hysteresis

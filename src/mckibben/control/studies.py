@@ -16,7 +16,7 @@ import numpy as np
 
 from mckibben.control import registry as R
 from mckibben.control.controllers import SMC_LAWS, smc_core_params
-from mckibben.control.core import CoreParams, core_spec
+from mckibben.control.core_params import CoreParams, core_spec
 from mckibben.control.first_order import FirstOrderModel
 from mckibben.control.laws import with_supervisor_model
 from mckibben.control.loop import time_grid, run_closed_loop, step_reference

@@ -16,7 +16,7 @@ import numpy as np
 
 from mckibben.control import registry as R
 from mckibben.control.controllers import SMC_LAWS
-from mckibben.control.core import CoreParams, core_spec
+from mckibben.control.core_params import CoreParams, core_spec
 from mckibben.control.first_order import FirstOrderModel
 from mckibben.control.loop import time_grid, run_closed_loop, step_reference
 from mckibben.control.metrics import step_metrics_batch, tracking_metrics_batch

@@ -29,7 +29,7 @@ import numpy as np
 
 from mckibben.control import registry as R
 from mckibben.control.controllers import FirstOrderModel
-from mckibben.control.core import CoreParams, core_spec
+from mckibben.control.core_params import CoreParams, core_spec
 from mckibben.control.loop import LoopRecord, run_closed_loop, step_reference
 from mckibben.control.controllers import SMC_LAWS
 from mckibben.control.plant_sampling import plant_batch, sample_plants
