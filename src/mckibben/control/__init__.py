@@ -13,9 +13,16 @@ command line's text:
 
 Building blocks: :func:`identify_plant` (FOPDT fit and the valves' lift-off, §IV.A),
 :func:`design_pid`, :func:`smc_params`, :func:`controller_params`, :func:`step_metrics` (and :func:`step_metrics_batch` for N runs),
-:func:`run_closed_loop`. Modules: :mod:`~mckibben.control.core` (the controller core shared
-with the firmware), :mod:`~mckibben.control.identify`, :mod:`~mckibben.control.metrics`,
-:mod:`~mckibben.control.hysteresis`, :mod:`~mckibben.control.length`.
+:func:`run_closed_loop`. Modules, each named for what it holds: :mod:`~mckibben.control.laws`
+(the controllers, one file each, and the one table of their mode and gain ids),
+:mod:`~mckibben.control.registry` (the tables built from them), the firmware's core
+(:mod:`~mckibben.control.layout`, :mod:`~mckibben.control.step`,
+:mod:`~mckibben.control.core_params`, :mod:`~mckibben.control.bank`,
+:mod:`~mckibben.control.design_file`), :mod:`~mckibben.control.identify`,
+:mod:`~mckibben.control.loop`, :mod:`~mckibben.control.tuning`, :mod:`~mckibben.control.studies`,
+:mod:`~mckibben.control.plant_sampling`, :mod:`~mckibben.control.experiment_setup`,
+:mod:`~mckibben.control.metrics`, :mod:`~mckibben.control.hysteresis`,
+:mod:`~mckibben.control.length` (``docs/control.md`` has the table).
 """
 
 from mckibben import _lazy
