@@ -63,8 +63,8 @@ if tuple(g.name for g in SUPERVISOR_GAINS) != tuple(laws.TABLE["supervisor"][1])
 
 #: Every controller of the core, by name, in mode order.
 CONTROLLERS: dict[str, ControllerSpec] = laws.CONTROLLERS
-#: The core's own two laws (``controller.c``): every build has them, and the tables of the
-#: supervisor's design read their designs.
+#: The core's own two laws (``controller.c``): every build has them, and the command line's and
+#: the tool's defaults read their designs.
 SMC, PID = CONTROLLERS["smc"], CONTROLLERS["pid"]
 
 # --- derived tables -----------------------------------------------------------------------------
