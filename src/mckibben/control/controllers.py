@@ -66,7 +66,7 @@ def smc_params(model: FirstOrderModel, beta: float, eps: float, ki: float, *, i_
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (5), (8), (12); signs corrected in docs/controller.md.
+    [mpam-characterization], eq. (5), (8), (12); signs corrected in docs/controller.md.
     """
     return smc.from_gains(model, beta, eps, ki, i_max=i_max, base=base)
 

@@ -19,8 +19,7 @@ Arduino Mega. It lives in modules that say what they hold; this module defines n
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), section IV, eq. (5)-(12) (sliding mode; signs corrected as in
+[mpam-characterization], section IV, eq. (5)-(12) (sliding mode; signs corrected as in
 ``docs/controller.md``).
 """
 

@@ -486,7 +486,7 @@ def float_command(params: CoreParams, p, p_ref, dp_ref, integral, mode: int = MO
 
     References
     ----------
-    “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (5) and (12), signs as corrected in docs/controller.md.
+    [mpam-characterization], eq. (5) and (12), signs as corrected in docs/controller.md.
     """
     p, p_ref, dp_ref, integral = (np.asarray(x, dtype=float) for x in (p, p_ref, dp_ref, integral))
     e = p_ref - p

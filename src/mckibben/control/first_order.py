@@ -6,8 +6,7 @@ a controller file can take it without importing what is built on the registry.
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), §IV.A (the first-order model of a voltage step).
+[mpam-characterization], §IV.A (the first-order model of a voltage step).
 """
 
 from __future__ import annotations

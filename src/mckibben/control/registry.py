@@ -16,8 +16,7 @@ through the same checks (C against Python step by step, design, experiments, cyc
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), §IV (the sliding mode and the PID).
+[mpam-characterization], §IV (the sliding mode and the PID).
 """
 
 from __future__ import annotations

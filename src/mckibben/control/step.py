@@ -11,8 +11,7 @@ and packed by :mod:`mckibben.control.core_params`.
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), section IV, eq. (5)-(12) (sliding mode; signs corrected as in
+[mpam-characterization], section IV, eq. (5)-(12) (sliding mode; signs corrected as in
 ``docs/controller.md``).
 """
 

@@ -8,8 +8,7 @@ through the origin, the PID the paper found wanting (§IV.A), checked with pytho
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), §IV.A. S. Skogestad, "Simple analytic rules for model reduction and PID
+[mpam-characterization], §IV.A. S. Skogestad, "Simple analytic rules for model reduction and PID
 controller tuning", J. Process Control 13 (2003) 291–309, eq. (20)–(21).
 """
 
@@ -289,7 +288,7 @@ CONTROLLER = ControllerSpec(
     summary="PID with filtered derivative and conditional integration, lambda-tuned on the first-order model",
     gains=GAINS, law=law, design=design, candidates=candidates, describe=describe,
     designs=DESIGNS, grid=GRID, extension=False,
-    references="000_909f662a44080c85.txt §IV.A; docs/controller.md",
+    references="[mpam-characterization] §IV.A; docs/controller.md",
 )
 
 register(__name__)  # the kernel above compiles once the package loads Numba (mckibben._kernels)

@@ -10,8 +10,7 @@ measured; their documented designs, tuning candidates and description in results
 
 References
 ----------
-“Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text:
-000_909f662a44080c85.txt), §IV, eq. (5)–(12); signs corrected in docs/controller.md.
+[mpam-characterization], §IV, eq. (5)–(12); signs corrected in docs/controller.md.
 """
 
 from __future__ import annotations
@@ -128,7 +127,7 @@ def from_gains(model: FirstOrderModel, beta: float, eps: float, ki: float, *, i_
 
     References
     ----------
-    000_909f662a44080c85.txt, eq. (5), (8), (12); signs corrected in docs/controller.md.
+    [mpam-characterization], eq. (5), (8), (12); signs corrected in docs/controller.md.
     """
     if model.gain > 0:
         base = with_supervisor_model(base, model)
@@ -249,7 +248,7 @@ CONTROLLER = ControllerSpec(
     summary="sliding mode, eq. (5)-(12) with the signs corrected; law 'model' (model term) or 'paper'",
     gains=GAINS, law=law, design=design, candidates=candidates, describe=describe,
     designs=DESIGNS, grid=GRID, variants=VARIANTS, extension=False,
-    references="000_909f662a44080c85.txt §IV eq. (5)-(12); docs/controller.md",
+    references="[mpam-characterization] §IV eq. (5)-(12); docs/controller.md",
 )
 
 register(__name__)  # the kernel above compiles once the package loads Numba (mckibben._kernels)
