@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from mckibben.control import core
+from mckibben.control.laws import smc
 from mckibben.control.registry import MODES
 from mckibben.errors import InputError
 
@@ -61,7 +62,7 @@ def test_fixed_point_law_matches_float64(params):
                    0, 800_000)
     dpref = rng.integers(-2000, 2001, n)  # ramps up to 2 MPa/s at 1 kHz
     isum = rng.integers(-ip[core.IP_ISUM_MAX], ip[core.IP_ISUM_MAX] + 1, n) // 37
-    uq = np.array([core.smc_law_q8(ip, int(a), int(d), int(r - a), int(s))[0]
+    uq = np.array([smc.law(ip, int(a), int(d), int(r - a), int(s))[0]
                    for a, d, r, s in zip(p, dpref, pref, isum, strict=True)]) / 256.0
     uf = core.float_command(params, p, pref, dpref, isum * params.ts)
     # 0.3 counts: tanh table (4.4e-4 * beta <= 0.11), 1 Pa quantization of S through the

@@ -26,7 +26,7 @@ from fmpy.validation import validate_fmu  # noqa: E402
 
 from mckibben.control.core import MODE_PID, core_spec, save_design  # noqa: E402
 from mckibben.control.metrics import step_metrics  # noqa: E402
-from mckibben.control.simulation import controller_params, muscle_file_plant  # noqa: E402
+from mckibben.control.experiment_setup import controller_params, muscle_file_plant  # noqa: E402
 from mckibben.experiments.pressure import step_response  # noqa: E402
 from mckibben.data import read_muscle, read_table  # noqa: E402
 from mckibben.datasets import get_muscle  # noqa: E402

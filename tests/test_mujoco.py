@@ -13,7 +13,7 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 from mckibben.control.core import core_spec  # noqa: E402
-from mckibben.control.simulation import controller_params  # noqa: E402
+from mckibben.control.experiment_setup import controller_params  # noqa: E402
 from mckibben.errors import InputError  # noqa: E402
 from mckibben.export.mujoco import (MuscleBank, hanging_mass, hanging_mass_mjcf, load_model, muscle_plant,  # noqa: E402
                                     run_model)

@@ -174,7 +174,7 @@ def test_compare_and_robustness_run_on_the_file_plant(files, monkeypatch):
     """The wiring: the file's steps, loads and tuned controllers (one candidate each, for time)."""
     from mckibben.experiments import compare, robustness
     from mckibben.control import runs as E
-    from mckibben.control.simulation import muscle_file_plant, rest_pull
+    from mckibben.control.experiment_setup import muscle_file_plant, rest_pull
     from mckibben.experiments.pressure import COMPARE_LOADS, COMPARE_STEPS
 
     monkeypatch.setitem(E.TUNING_CANDIDATES, "model", {"beta": (50.0,), "eps": (100e3,), "ki": (5.0,),

@@ -4,10 +4,10 @@ A newcomer who reads ``fig13`` or ``track`` in two modules cannot tell which one
 runs. The walk reads the source (the AST of every module of ``mckibben.control``,
 ``mckibben.experiments`` and ``mckibben.tool``), so a module no test imports is checked too.
 
-The one exception is the controller registry's hooks: a controller's module names its law, its
-coefficients, its float reference and its design with the registry's protocol names (``derive``,
-``float_command``, ``design``...), reached through its entry (``spec.resolve("derive")``), never
-imported by name; a second controller's module has the same names by design.
+The one exception is the controller registry's hooks: a controller's file (``control/laws/<name>.py``)
+names its law, its coefficients, its float reference and its design with the registry's protocol
+names (``law``, ``derive``, ``float_command``, ``design``...), reached through its entry
+(``spec.derive``), never imported by name; a second controller's file has the same names by design.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from mckibben.control import registry as R
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "mckibben"
 #: The layers whose public names a user reads side by side.
 LAYERS = ("control", "experiments", "tool")
-#: The fields of a registry entry that name a function (``module:qualname``).
+#: The fields of a registry entry that hold a function.
 HOOKS = ("law", "design", "candidates", "describe", "derive", "float_law")
 
 
@@ -35,10 +35,9 @@ def _registry_hooks() -> set[tuple[str, str]]:
     out = set()
     for spec in R.CONTROLLERS.values():
         for field in HOOKS:
-            where = getattr(spec, field)
-            if where:
-                module, _, qualname = where.partition(":")
-                out.add((module, qualname))
+            func = getattr(spec, field)
+            if func is not None:
+                out.add((func.__module__, func.__qualname__))
     return out
 
 
@@ -84,7 +83,7 @@ def test_the_rule_catches_a_name_defined_twice():
 
 
 def test_a_registry_hook_is_not_a_public_name():
-    """A controller module's ``derive`` is the registry's protocol, not a second ``core.derive``."""
-    modules = ("mckibben.control.core", *(c.derive.split(":")[0] for c in R.EXTENSIONS))
+    """A controller module's ``derive`` is the registry's protocol, not a second ``core_params.derive``."""
+    modules = ("mckibben.control.core_params", *(c.derive.__module__ for c in R.EXTENSIONS))
     found = public_definitions({m: SOURCES[m] for m in modules})
-    assert found["derive"] == ["mckibben.control.core"]
+    assert found["derive"] == ["mckibben.control.core_params"]

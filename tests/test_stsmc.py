@@ -1,14 +1,15 @@
-"""The super-twisting law (mckibben.control.stsmc): fixed point against float64, and on the plant.
+"""The super-twisting law (mckibben.control.laws.stsmc): fixed point against float64, and on the plant.
 
 The C-against-Python equivalence and the AVR cycle budget come from being registered
-(tests/test_control_registry.py).
+(tests/test_controller_conformance.py).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from mckibben.control import core, stsmc
+from mckibben.control import core
+from mckibben.control.laws import stsmc
 from mckibben.control import registry as R
 from mckibben.control.runs import identify_plant, run_closed_loop, step_reference
 
@@ -43,7 +44,7 @@ def test_fixed_point_command_follows_the_float_law():
 
 def test_steps_to_target_on_the_calibrated_plant_without_overshoot_beyond_the_bar():
     model = identify_plant()[1]
-    params = R.STSMC.resolve("design")(model, core.CoreParams())
+    params = R.get("stsmc").design(model, core.CoreParams())
     ref = step_reference(1100, 100, 0.0, 0.55e6)
     rec = run_closed_loop(core.core_spec(params), ref, 1.1, None)
     m = rec.metrics(0, 0.1)

@@ -26,7 +26,8 @@
 #define MCK_MODE_SMC 1u       /* sliding mode */
 #define MCK_MODE_PID 2u       /* PID */
 #define MCK_MODE_OPEN_LOOP 3u /* the PWM counts given by mck_ctrl_set_open_loop */
-/* Modes 4, 5, ...: the extension laws of core/laws.h (MCK_MODE_<NAME> in their headers). */
+/* Modes 4, 5, ...: the extension laws of core/laws.h (MCK_MODE_<NAME> there, generated from the
+ * table of src/mckibben/control/laws/_table.py; the ids above are checked against it). */
 
 /* Fault flags (TELEMETRY.faults). Bits 1-4 are latched until mck_ctrl_set_mode. */
 #define MCK_FAULT_OVERPRESSURE 0x01u /* p > p_max + margin, cleared when p < p_max */

@@ -12,9 +12,16 @@ command line's text:
 
 Building blocks: :func:`identify_plant` (FOPDT fit and the valves' lift-off, §IV.A),
 :func:`design_pid`, :func:`smc_params`, :func:`controller_params`, :func:`step_metrics` (and :func:`step_metrics_batch` for N runs),
-:func:`run_closed_loop`. Modules: :mod:`~mckibben.control.core` (the controller core shared
-with the firmware), :mod:`~mckibben.control.identify`, :mod:`~mckibben.control.metrics`,
-:mod:`~mckibben.control.hysteresis`, :mod:`~mckibben.control.length`.
+:func:`run_closed_loop`. Modules, each named for what it holds: :mod:`~mckibben.control.laws`
+(the controllers, one file each, and the one table of their mode and gain ids),
+:mod:`~mckibben.control.registry` (the tables built from them), the firmware's core
+(:mod:`~mckibben.control.layout`, :mod:`~mckibben.control.step`,
+:mod:`~mckibben.control.core_params`, :mod:`~mckibben.control.bank`,
+:mod:`~mckibben.control.design_file`), :mod:`~mckibben.control.identify`,
+:mod:`~mckibben.control.loop`, :mod:`~mckibben.control.tuning`, :mod:`~mckibben.control.studies`,
+:mod:`~mckibben.control.plant_sampling`, :mod:`~mckibben.control.experiment_setup`,
+:mod:`~mckibben.control.metrics`, :mod:`~mckibben.control.hysteresis`,
+:mod:`~mckibben.control.length` (``docs/control.md`` has the table).
 """
 
 from mckibben import _lazy
@@ -24,17 +31,17 @@ from mckibben import _lazy
 #: the rig, the sweeps and the command line read) must not wait for them. Every name is of this
 #: package or below it: the experiments are the layer above's (:mod:`mckibben.experiments`).
 _WHERE = {
-    "CONTROLLERS": "mckibben.control.simulation",
+    "CONTROLLERS": "mckibben.control.experiment_setup",
     "CoreParams": "mckibben.control.core",
-    "FirstOrderModel": "mckibben.control.controllers",
-    "LAWS": "mckibben.control.runs",
-    "PIDDesign": "mckibben.control.controllers",
+    "FirstOrderModel": "mckibben.control.first_order",
+    "PIDDesign": "mckibben.control.laws.pid",
+    "SMC_LAWS": "mckibben.control.controllers",
     "SineReference": "mckibben.control.references",
-    "controller_params": "mckibben.control.simulation",
-    "design_pid": "mckibben.control.controllers",
+    "controller_params": "mckibben.control.experiment_setup",
+    "design_pid": "mckibben.control.laws.pid",
     "fit_step_response": "mckibben.fit.step",
-    "identified_model": "mckibben.control.simulation",
-    "identify_plant": "mckibben.control.runs",
+    "identified_model": "mckibben.control.experiment_setup",
+    "identify_plant": "mckibben.control.identify",
     "pid_params": "mckibben.control.controllers",
     "plot_compare": "mckibben.control.plots",
     "plot_fig13": "mckibben.control.plots",
@@ -44,20 +51,20 @@ _WHERE = {
     "plot_robustness": "mckibben.control.plots",
     "plot_step_fit": "mckibben.control.plots",
     "parse_reference": "mckibben.control.references",
-    "pressure_reference": "mckibben.control.simulation",
+    "pressure_reference": "mckibben.control.experiment_setup",
     "read_step_log": "mckibben.data.steplog",
-    "run_closed_loop": "mckibben.control.runs",
+    "run_closed_loop": "mckibben.control.loop",
     "smc_params": "mckibben.control.controllers",
     "step_metrics": "mckibben.control.metrics",
     "step_metrics_batch": "mckibben.control.metrics",
     "tracking_metrics": "mckibben.control.metrics",
     "tracking_metrics_batch": "mckibben.control.metrics",
-    "tuned_controller": "mckibben.control.simulation",
+    "tuned_controller": "mckibben.control.experiment_setup",
 }
 
 
 __all__ = [
-    "CONTROLLERS", "LAWS", "CoreParams", "FirstOrderModel",
+    "CONTROLLERS", "CoreParams", "FirstOrderModel", "SMC_LAWS",
     "PIDDesign", "SineReference", "controller_params", "design_pid",
     "fit_step_response", "identified_model", "identify_plant", "pid_params",
     "plot_compare", "plot_fig13", "plot_hysteresis", "plot_open_loop", "plot_record", "plot_robustness", "plot_step_fit",

@@ -19,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from mckibben._jit import njit
-from mckibben.control.core import IS_SURFACE, N_ISTATE, core_kernel, pack_params
+from mckibben.control.core_params import N_ISTATE, pack_params
+from mckibben.control.layout import IS_SURFACE
+from mckibben.control.step import core_kernel
 from mckibben.errors import InputError
 
 FAULT_NONE, FAULT_STUCK_SENSOR, FAULT_MISSING_SAMPLES, FAULT_FIXED_READING = 0, 1, 2, 3

@@ -41,8 +41,9 @@ from mckibben.control.length import (
     inflating_direction,
 )
 from mckibben.errors import InputError
-from mckibben.control.core import core_spec
-from mckibben.control.runs import run_closed_loop, smc_core_params
+from mckibben.control.core_params import core_spec
+from mckibben.control.controllers import smc_core_params
+from mckibben.control.loop import run_closed_loop
 from mckibben.control.plots import plot_hysteresis
 
 #: Fraction of the sweep's length span left out at each end of the branch fits (saturation).
@@ -227,7 +228,7 @@ def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = 
     Parameters
     ----------
     model : FirstOrderModel
-        Identified pressure model (:func:`~mckibben.control.runs.identify_plant`), the
+        Identified pressure model (:func:`~mckibben.control.identify.identify_plant`), the
         sliding mode's model term. [-]
     period : float, default 4.0
         Period of the length sinusoid, 1 to 60 s. [s]
@@ -239,7 +240,7 @@ def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = 
     cycles : int, default 2
         Cycles of the length sinusoid, at least 2; the first (start-up) is not scored. [-]
     plant : optional
-        Plant parameters (:func:`~mckibben.control.runs.plant_batch`); default the
+        Plant parameters (:func:`~mckibben.control.plant_sampling.plant_batch`); default the
         calibrated plant. [-]
     sweep_period : float, optional
         Period of the identification triangle, 1 to 600 s; default
@@ -248,7 +249,7 @@ def hysteresis_benefit(model, *, period: float = 4.0, amplitude: float | None = 
         Pressure range of the identification sweep. [Pa]
     beta : float, optional
         Switching gain of the pressure loop (our sliding-mode law); default the step design's
-        (:data:`mckibben.control.runs.SMC_TUNING`). [PWM counts]
+        (:data:`mckibben.control.controllers.SMC_TUNING`). [PWM counts]
     ts : float, default 1e-3
         Control period. [s]
     pi : bool, default True

@@ -9,16 +9,43 @@ re-exported here.
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.data.steplog import (BLEED_COLUMN, COMMAND_COLUMN, FRACTION_COLUMN, INLET_COLUMN,  # noqa: F401 (re-exported)
-                                   TRIAL_COLUMN, read_step_log, split_trials)
-from mckibben.errors import InputError
-from mckibben.fit.step import (B_BOUNDS, R2_POOR, RUNS_Z, ZETA_BOUNDS, FillFit, StepFit, fill_response,  # noqa: F401
-                               fit_fill, fit_lift_off, fit_step_response, fopdt_response, pooled_step_parameters,
-                               runs_z, sopdt_response)
+from mckibben.control.core_params import CoreParams, core_spec
+from mckibben.control.step import MODE_OPEN_LOOP
+from mckibben.control.first_order import FirstOrderModel
+from mckibben.control.loop import time_grid, run_closed_loop
+from mckibben.data.steplog import (  # noqa: F401 (re-exported)
+    BLEED_COLUMN,
+    COMMAND_COLUMN,
+    FRACTION_COLUMN,
+    INLET_COLUMN,
+    TRIAL_COLUMN,
+    read_step_log,
+    split_trials,
+)
+from mckibben.errors import InputError, check_real
+from mckibben.fit.step import (  # noqa: F401
+    B_BOUNDS,
+    R2_POOR,
+    RUNS_Z,
+    ZETA_BOUNDS,
+    FillFit,
+    StepFit,
+    fill_response,
+    fit_fill,
+    fit_lift_off,
+    fit_step_response,
+    fopdt_response,
+    pooled_step_parameters,
+    runs_z,
+    sopdt_response,
+)
+from mckibben.limits import check_budget
+from mckibben.plant import CALIBRATION_PWM
 from mckibben.results import Result
 
 # --- logs: every trial, every model, pooled; several logs: the lift-off ---------------------------
@@ -230,3 +257,70 @@ def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: floa
         held = [float(np.median(r.data["command_pwm"][r.data["time_s"] >= f.t_step])) for r, f in zip(out, firsts)]
         lift = fit_lift_off(firsts, held)
     return LogsIdentification(out, lift)
+
+
+# --- the simulated plant: two open-loop steps (§IV.A) ------------------------------------------
+
+
+def identify_plant(plant=None, u1: int | None = None, duration: float = 0.8, du: int = 2):
+    """Identify the plant's first-order model, with the valve's lift-off, from two inlet steps.
+
+    From rest (both valves closed, atmospheric pressure) the inlet valve steps to ``u1`` and, in
+    a second run, to ``u1 + du`` PWM counts, through the core in open-loop mode (its supervisor
+    stays active); a FOPDT model is fitted to each pressure record, as the paper did with one
+    voltage step (§IV.A). The ``u1`` step gives τ and θ. The two final pressures p1, p2 give the
+    affine static map p = G·(u − u0) through both: G = (p2 − p1)/du, u0 = u1 − p1/G — the
+    command below which the valve passes no air. The paper's model through the origin is the
+    secant ``p1/u1`` of the first step (the fit's ``gain``); it overstates the command
+    that holds a pressure by the whole lift-off (``docs/control.md``).
+
+    Parameters
+    ----------
+    plant : optional
+        Plant parameters; default the calibrated default plant. [-]
+    u1 : int, optional
+        Inlet counts after the first step; the default is the plant's calibration step
+        (:data:`mckibben.plant.CALIBRATION_PWM`), whose time constant is the paper's 0.09 s. [PWM counts]
+    duration : float, default 0.8
+        Record length. [s]
+    du : int, default 2
+        Size of the second step above the first. [PWM counts]
+
+    Returns
+    -------
+    tuple
+        ``(StepFit, FirstOrderModel, LoopRecord)``: the fit of the ``u1`` step, the model the
+        controllers use (τ and θ of that fit, G and u0 from both steps) and the records.
+    """
+    if u1 is None:
+        u1 = CALIBRATION_PWM
+    u1, du = _counts("u1", u1, 1, 254), _counts("du", du, 1, 254)
+    if u1 + du > 255:
+        raise InputError(f"identify_plant: u1 + du = {u1} + {du} counts, the second step must stay within 255")
+    duration = check_real(duration, "duration", lo=0.0, lo_open=True, unit="s")
+    check_budget("duration", 2 * duration / 1e-3, force=True)  # before the record's time axis is allocated
+    n, t = time_grid(duration)
+    steps = (u1, u1 + du)
+    spec = core_spec([CoreParams(mode=MODE_OPEN_LOOP, open_loop_inlet=u) for u in steps])
+    rec = run_closed_loop(spec, np.zeros(n), duration, plant)
+    fits = [fit_step_response(t, rec.pressure[i], np.full(n, float(u)), t_step=0.0, input_step=float(u))
+            for i, u in enumerate(steps)]
+    lift = fit_lift_off(fits, steps)
+    fit = fits[0]
+    model = FirstOrderModel(lift["gain_Pa_per_count"], float(fit.tau), float(fit.dead_time), lift["lift_off_counts"])
+    return fit, model, rec
+
+
+def _counts(name: str, value, lo: int, hi: int) -> int:
+    """A whole number of PWM counts in [lo, hi], or a one-line InputError naming ``name``."""
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        v = operator.index(value)
+    except TypeError:
+        raise InputError(f"identify_plant: {name}={value!r} must be a whole number of counts in {lo}..{hi}") from None
+    if not lo <= v <= hi:
+        raise InputError(f"identify_plant: {name}={value!r} must be a whole number of counts in {lo}..{hi}")
+    return v

@@ -30,14 +30,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from mckibben._jit import njit
-from mckibben.control.core import N_ISTATE, core_kernel
+from mckibben.control.core_params import N_ISTATE
+from mckibben.control.step import core_kernel
 from mckibben.errors import InputError
 from mckibben.fit.hysteresis import PIFit, fit_prandtl_ishlinskii
 from mckibben.hardware import ENCODER_RESOLUTION
 from mckibben.models.hysteresis import PrandtlIshlinskii, apply, invert, thresholds_uniform
 from mckibben.datasets import get_muscle
 from mckibben.models.mpam import pressure_for_length, require_reachable
-from mckibben.control.core import pack_params
+from mckibben.control.core_params import pack_params
 
 #: Encoder resolution of the paper's rig (:data:`mckibben.hardware.ENCODER_RESOLUTION`).
 ENCODER_M_PER_COUNT = ENCODER_RESOLUTION

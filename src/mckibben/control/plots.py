@@ -32,7 +32,7 @@ def plot_record(record, labels, ax=None):
     Parameters
     ----------
     record : LoopRecord
-        A closed-loop record (:func:`mckibben.control.runs.run_closed_loop`). [-]
+        A closed-loop record (:func:`mckibben.control.loop.run_closed_loop`). [-]
     labels : sequence of str
         One label per instance to draw. [-]
     ax : matplotlib.axes.Axes or pair of Axes, optional

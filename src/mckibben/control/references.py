@@ -40,7 +40,7 @@ class SineReference:
         Amplitude, at least 0. [Pa]
     frequency : float
         Frequency, above 0 (the 1 kHz controller follows at most 500 Hz:
-        :func:`~mckibben.control.simulation.pressure_reference` checks it). [Hz]
+        :func:`~mckibben.control.experiment_setup.pressure_reference` checks it). [Hz]
     """
 
     mean: float

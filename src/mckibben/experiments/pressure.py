@@ -9,7 +9,7 @@ a unit is refused with the number to pass (:func:`mckibben.units.si`), the comma
 flags before it calls.
 
 The building blocks are :mod:`mckibben.control`'s: the identified model and the documented designs
-(:mod:`mckibben.control.simulation`), the runs on the batch plant simulator
+(:mod:`mckibben.control.experiment_setup`), the runs on the batch plant simulator
 (:mod:`mckibben.control.runs`), the figures (:mod:`mckibben.control.plots`). This layer sits
 above control, tool and rig (DESIGN.md); the results' provenance names the calls here
 (``mckibben.experiments.step_response``).
@@ -28,27 +28,19 @@ import numpy as np
 
 from mckibben.control import registry as R
 from mckibben.control.controllers import FirstOrderModel
-from mckibben.control.core import CoreParams, core_spec
-from mckibben.control.runs import (
-    CONTROLLER_NAMES,
-    FIG13_TARGET_PA,
-    LAWS,
-    GainTuning,
-    LoopRecord,
-    _pct,
-    fig13_runs,
-    plant_batch,
-    robustness_runs,
-    run_closed_loop,
-    sample_plants,
-    step_reference,
-)
-from mckibben.control.runs import step_size_table as _step_size_rows
+from mckibben.control.core_params import CoreParams, core_spec
+from mckibben.control.loop import LoopRecord, run_closed_loop, step_reference
+from mckibben.control.controllers import SMC_LAWS
+from mckibben.control.plant_sampling import plant_batch, sample_plants
+from mckibben.control.studies import (CONTROLLER_NAMES, FIG13_TARGET_PA, comparison_entries, fig13_runs, percentiles,
+                                      robustness_runs)
+from mckibben.control.studies import step_size_table as _step_size_rows
+from mckibben.control.tuning import GainTuning
 from mckibben.control.hysteresis import PERIOD_MAX, PERIOD_MIN, SWEEP_PERIOD_MAX, SWEEP_PERIOD_MIN, hysteresis_benefit
 from mckibben.control.metrics import tracking_metrics
 from mckibben.control.plots import plot_compare, plot_fig13, plot_open_loop, plot_record, plot_robustness
 from mckibben.control.references import SineReference
-from mckibben.control.simulation import (
+from mckibben.control.experiment_setup import (
     TS,
     boundary_layer,
     check_beta,
@@ -85,10 +77,7 @@ def _model_dict(model: FirstOrderModel) -> dict:
 
 
 def _gains_dict(params: CoreParams, controller: str) -> dict:
-    spec = R.get(controller)
-    if spec.describe:
-        return spec.resolve("describe")(params)
-    return {f"{g.param}_{g.unit.replace(' ', '_').replace('/', '_per_')}": getattr(params, g.param) for g in spec.gains}
+    return R.get(controller).describe(params)
 
 
 def _record_frame(rec: LoopRecord, i: int = 0):
@@ -178,14 +167,12 @@ class StepResult(Result):
 
 def _file_controllers(plant, beta=None) -> dict:
     """The controllers of :func:`compare` and :func:`robustness` (:data:`CONTROLLER_NAMES`), tuned on a muscle
-    file's plant: ``pid``, ``smc`` (our law; ``beta`` held when given), ``smc_paper`` (the paper's law) and
-    each extension law of the registry."""
+    file's plant: every controller of the registry and variant of its law
+    (:func:`~mckibben.control.studies.comparison_entries`); ``beta`` held by the first variant when given."""
     m = identify_file_plant(plant)
-    out = {"pid": tuned_controller("pid", m, plant).params, "smc": tuned_controller("smc", m, plant, beta=beta).params,
-           "smc_paper": tuned_controller("smc", m, plant, law="paper").params}
-    for spec in R.EXTENSIONS:
-        out[spec.name] = tuned_controller(spec.name, m, plant).params
-    return out
+    return {name: tuned_controller(controller, m, plant, law=variant or "model",
+                                   beta=beta if name == controller else None).params
+            for name, controller, variant in comparison_entries()}
 
 
 def _refuse_muscle_file(function: str, muscle_file, why: str) -> None:
@@ -272,7 +259,7 @@ def step_response(controller: str = "smc", target=FIG13_TARGET_PA, *, start=0.0,
     controller : {"smc", "pid"}, default "smc"
         The controller (:func:`controller_params`). [-]
     target : float, default 0.55e6
-        Pressure after the step (Fig. 13's, :data:`~mckibben.control.runs.FIG13_TARGET_PA`). [Pa]
+        Pressure after the step (Fig. 13's, :data:`~mckibben.control.studies.FIG13_TARGET_PA`). [Pa]
     start : float, default 0.0
         Pressure held before the step. [Pa]
     load : float, default 0.6
@@ -326,7 +313,7 @@ def step_response(controller: str = "smc", target=FIG13_TARGET_PA, *, start=0.0,
     n = int(round(total / TS))
     ref = step_reference(n, int(round(hold / TS)), args["from_Pa"], args["target_Pa"])
     rec = run_closed_loop(core_spec(params), ref, total, plant)
-    args.update(law=law if R.get(controller).laws else None)
+    args.update(law=law if R.get(controller).variants else None)
     return StepResult(rec, hold, params_model, params, args, tuning)
 
 
@@ -439,7 +426,7 @@ def track_pressure(reference, controller: str = "smc", *, duration=2.0, load=0.6
     rec = run_closed_loop(core_spec(params), ref, float(len(ref)) * TS, plant)
     args = {"controller": controller, "reference": _reference_text(reference),
             "load_N": f_load, "p_max_Pa": pmax, "reference_clamped": clamped,
-            "law": law if R.get(controller).laws else None}
+            "law": law if R.get(controller).variants else None}
     if muscle_file is not None:
         args.update(muscle_file=str(muscle_file), direction=direction)
     return TrackResult(rec, m, params, args, tuning)
@@ -545,7 +532,7 @@ class Fig13Result(Result):
         return plot_fig13(self, ax=ax)
 
 
-def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=None) -> Fig13Result:
+def fig13(betas=(120.0, 150.0), *, laws=SMC_LAWS, eps=None, ki=None, muscle_file=None) -> Fig13Result:
     """The paper's Fig. 13 on the plant: sliding mode, step 0 → 0.55 MPa, each law and β.
 
     [mpam-characterization] §IV.B measured the ``paper`` law at β = 120 (τ ≈ 0.06 s) and 150
@@ -580,8 +567,8 @@ def fig13(betas=(120.0, 150.0), *, laws=LAWS, eps=None, ki=None, muscle_file=Non
             raise ArgumentTypeError(f"{name} = {value!r}: want a non-empty sequence (a tuple or list)")
     betas = tuple(check_beta(b, "betas") for b in betas)
     for law in laws:
-        if law not in LAWS:
-            raise unknown_name("`laws` entry", law, LAWS)
+        if law not in SMC_LAWS:
+            raise unknown_name("`laws` entry", law, SMC_LAWS)
     fit, model, _ = default_identification()
     rows, rec = fig13_runs(model, betas=betas, laws=tuple(laws), eps=e, ki=k)
     return Fig13Result(rows, rec, model, float(fit.stderr["tau_s"]),
@@ -752,7 +739,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
     """Monte Carlo over plant uncertainty: PID and both sliding-mode laws on the same n plants.
 
     ±30 % on valve gain, dead band, volumes and leak, supply 0.6–1.0 MPa, load 0–3 N
-    (:func:`~mckibben.control.runs.sample_plants`); the controllers are designed once on
+    (:func:`~mckibben.control.plant_sampling.sample_plants`); the controllers are designed once on
     the nominal plant's identified model. With a muscle file: the same factors around its plant,
     supply 0.75–1 × its top fitted pressure, load 0–1/2 of what it pulls at rest, step to 0.55/0.8
     of min(supply, 0.8 MPa); the controllers tuned once on the nominal plant (1/4 of that pull)
@@ -814,7 +801,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
         if progress is not None:
             progress(hi, int(n))
 
-    summary = {c: {k: _pct(v) for k, v in per_plant[c].items()} for c in CONTROLLER_NAMES}
+    summary = {c: {k: percentiles(v) for k, v in per_plant[c].items()} for c in CONTROLLER_NAMES}
     where = {} if muscle_file is None else {"muscle_file": str(muscle_file), "direction": direction,
                                             "target_Pa": extra["target"]}
     return RobustnessResult(samples, per_plant, summary, {"n": int(n), "seed": seed, "beta_counts": b, **where})

@@ -50,8 +50,8 @@ from mckibben import hardware as HW
 from mckibben.atomic import atomic_file, check_output_file
 from mckibben.control import registry as R
 from mckibben.control.core import MODE_PID, MODE_SMC, CoreParams, gain_values
-from mckibben.control.simulation import (controller_params, identify_file_plant, muscle_file_plant, plant_load,
-                                         tuned_controller)
+from mckibben.control.experiment_setup import (controller_params, identify_file_plant, muscle_file_plant, plant_load,
+                                               tuned_controller)
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError, check_instance
 from mckibben.models import laws as LW
@@ -104,7 +104,7 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
     controller : {None, "smc", "pid"} or CoreParams, optional
         Close the loop inside the FMU with the firmware's own controller core
         (``firmware/core/controller.c``, the C that runs on the Mega) at the 1 ms control period:
-        ``"smc"``/``"pid"`` with the documented design (:func:`mckibben.control.simulation.controller_params`,
+        ``"smc"``/``"pid"`` with the documented design (:func:`mckibben.control.experiment_setup.controller_params`,
         or tuned on a muscle file's plant as ``control step --muscle-file`` does), or a design's
         :class:`~mckibben.control.core.CoreParams` (``mckibben.control.core.load_design``). The FMU
         then takes a pressure ``reference`` [Pa] and gives the valve commands as outputs. None: the

@@ -222,7 +222,7 @@ class MuscleBank:
         For published sets: ``"calibrated"`` (default) or ``"empirical"`` (:func:`muscle_plant`). [-]
     controller : str, CoreParams, tuple or None, default None
         None: valve commands in (``step(inlet=..., bleed=...)``). A registry name (``"smc"``,
-        ``"pid"``: :func:`mckibben.control.simulation.controller_params`, the documented tuning),
+        ``"pid"``: :func:`mckibben.control.experiment_setup.controller_params`, the documented tuning),
         a :class:`~mckibben.control.core.CoreParams` (one for all muscles) or a kernel spec
         ``(kernel, istate0, iparams, fstate0, fparams)`` with one row per muscle: pressure control
         at ``ts`` on ``step(reference=...)``. [-]
@@ -368,7 +368,7 @@ class MuscleBank:
         if controller is None:
             return None
         if isinstance(controller, str):
-            controller = control.simulation.controller_params(controller)
+            controller = control.experiment_setup.controller_params(controller)
         if isinstance(controller, CoreParams):
             controller = core_spec(controller, n)
         if not (isinstance(controller, tuple) and len(controller) == 5):

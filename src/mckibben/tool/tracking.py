@@ -24,7 +24,7 @@ from mckibben.control.runs import identify_plant
 from mckibben.models.law_statics import LawMuscle
 from mckibben.plant import PlantParams
 from mckibben.control.runs import smc_core_params
-from mckibben.control.simulation import identify_file_plant
+from mckibben.control.experiment_setup import identify_file_plant
 from mckibben.control.core import core_spec
 from mckibben.plant import simulate
 
@@ -216,11 +216,11 @@ class TrackingResult:
 
 
 #: Switching gain of the tracking controllers (law ``model``): the step design's
-#: (:data:`mckibben.control.runs.SMC_TUNING`); with the model term carrying the holding
+#: (:data:`mckibben.control.controllers.SMC_TUNING`); with the model term carrying the holding
 #: command (valve lift-off included) the switching term only covers the model's error.
 TRACKING_BETA = R.SMC.designs["model"]["beta"]
 #: Boundary layer [Pa] and surface integral weight [1/s] of the tracking controllers: narrower
-#: than the step tuning of :data:`mckibben.control.runs.SMC_TUNING` (100 kPa, 5 1/s),
+#: than the step tuning of :data:`mckibben.control.controllers.SMC_TUNING` (100 kPa, 5 1/s),
 #: which trades holding accuracy for a clean step; tracking a moving reference wants the
 #: pressure held to ~1 kPa. Narrower still chatters: β/ε is the loop's gain near the surface
 #: (20 kPa: 2.6 kPa RMS pressure error on a 2 Hz circle, 0.9 mm of tip error; 50 kPa: 0.9 kPa,
@@ -230,7 +230,7 @@ TRACKING_SMC = {"eps": 50e3, "ki": 5.0}
 
 def identify_muscle_plant(plant_params, pwm: int | None = None):
     """The first-order model of one muscle's plant, with the valves' lift-off, from two open-loop
-    inlet steps (§IV.A; :func:`mckibben.control.runs.identify_plant`).
+    inlet steps (§IV.A; :func:`mckibben.control.identify.identify_plant`).
 
     Parameters
     ----------
@@ -279,7 +279,7 @@ def tracking_setup(tool: Tool, ref: TipReference, beta: float = TRACKING_BETA, c
     Each muscle's plant is the tool's muscle (:func:`muscle_plants`) hanging that
     muscle's mean tension along the path; the controllers' model is identified on the plant with
     the mean of the three loads (one open-loop step; a muscle file's plant over
-    :data:`mckibben.control.simulation.FILE_IDENTIFICATION_S`, as ``control step --muscle-file``),
+    :data:`mckibben.control.experiment_setup.FILE_IDENTIFICATION_S`, as ``control step --muscle-file``),
     the same for the three channels, and their supervisor takes it too.
 
     Parameters

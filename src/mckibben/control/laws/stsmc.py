@@ -32,21 +32,27 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mckibben._kernels import kernel, register
+from mckibben.control.first_order import FirstOrderModel
 from mckibben.control.fixed import clamp, mulq16, rdiv
+from mckibben.control.laws._spec import ControllerSpec, GainSpec, Params
+from mckibben.control.laws._table import MODES
 
-if TYPE_CHECKING:  # typing only: the core imports the registry, which imports this module
-    from mckibben.control.controllers import FirstOrderModel
-    from mckibben.control.core import CoreParams
-
-#: SET_MODE id (``MCK_MODE_STSMC``).
-MODE = 4
+#: SET_MODE id (``MCK_MODE_STSMC``), the table's.
+MODE = MODES["stsmc"]
+GAINS = (
+    GainSpec("stsmc_k1", "st_k1", "PWM counts", 1e3, 0, 255_000, 10.0, "MCK_GAIN_STSMC_K1", "gain of the root term"),
+    GainSpec("stsmc_k2", "st_k2", "counts/s", 1.0, 0, 1_000_000, 20.0, "MCK_GAIN_STSMC_K2", "gain of the integral term"),
+    GainSpec("stsmc_phi", "st_phi", "Pa", 1.0, 1, 1_000_000, 50e3, "MCK_GAIN_STSMC_PHI", "error scale of the root"),
+    GainSpec("stsmc_g", "st_g", "Pa/count", 1e3, 0, 100_000_000, 3000.0, "MCK_GAIN_STSMC_G",
+             "G of the feed-forward (0: none)"),
+    GainSpec("stsmc_u0", "st_u0", "PWM counts", 1e3, 0, 255_000, 0.0, "MCK_GAIN_STSMC_U0", "valve lift-off"),
+)
 #: The documented design: k1 [PWM counts], k2 [PWM counts/s], φ [Pa] (chosen by
-#: :func:`mckibben.control.runs.tune_gains` on the calibrated plant, docs/controller.md).
+#: :func:`mckibben.control.tuning.tune_gains` on the calibrated plant, docs/controller.md).
 DESIGN = {"k1": 10.0, "k2": 20.0, "phi": 50e3}
 #: The candidate grid of its tuning.
 GRID = {"k1": (1.0, 2.0, 5.0, 10.0), "k2": (20.0, 100.0, 500.0), "phi": (20e3, 50e3, 100e3)}
@@ -153,7 +159,7 @@ def derive(gains, ts_us) -> dict:
     return {k: np.asarray(v, dtype=np.int64) for k, v in c.items()}
 
 
-def float_command(params: CoreParams, p_ref, e, v):
+def float_command(params: Params, p_ref, e, v):
     """The law in float64, for measuring the fixed-point error.
 
     Parameters
@@ -178,8 +184,8 @@ def float_command(params: CoreParams, p_ref, e, v):
     return u + (params.st_u0 * np.sign(u) if params.st_g > 0 else 0.0)
 
 
-def design(model: FirstOrderModel, base: CoreParams, *, law=None, beta=None, eps=None, ki=None, lam=None,
-           k1: float | None = None, k2: float | None = None, phi: float | None = None) -> CoreParams:
+def design(model: FirstOrderModel, base: Params, *, law=None, beta=None, eps=None, ki=None, lam=None,
+           k1: float | None = None, k2: float | None = None, phi: float | None = None) -> Params:
     """The super-twisting law on an identified model with the documented design (registry ``stsmc``).
 
     The feed-forward takes G and the lift-off u0 of the model; k1, k2 and φ are the design's.
@@ -211,7 +217,7 @@ def design(model: FirstOrderModel, base: CoreParams, *, law=None, beta=None, eps
                    mode=MODE)
 
 
-def candidates(model: FirstOrderModel, base: CoreParams, top: float, grid: dict, *, law=None, beta=None, eps=None,
+def candidates(model: FirstOrderModel, base: Params, top: float, grid: dict, *, law=None, beta=None, eps=None,
                ki=None, lam=None):
     """The tuning candidates (registry ``stsmc``): every k1, k2, φ of the grid.
 
@@ -239,7 +245,7 @@ def candidates(model: FirstOrderModel, base: CoreParams, top: float, grid: dict,
     return cands, params
 
 
-def describe(params: CoreParams) -> dict:
+def describe(params: Params) -> dict:
     """The gains as reported in results.
 
     Parameters
@@ -250,5 +256,14 @@ def describe(params: CoreParams) -> dict:
     return {"k1_counts": params.st_k1, "k2_counts_per_s": params.st_k2, "phi_Pa": params.st_phi,
             "g_Pa_per_count": params.st_g, "lift_off_counts": params.st_u0}
 
+
+CONTROLLER = ControllerSpec(
+    name="stsmc", c_name="STSMC", label="super-\ntwisting",
+    summary="super-twisting (second-order) sliding mode on the model's static inverse",
+    gains=GAINS, law=law, design=design, candidates=candidates, describe=describe,
+    designs={"stsmc": DESIGN}, grid={"stsmc": GRID},
+    state=N_STATE, coefs=COEFS, derive=derive, float_law=float_command,
+    references="Levant 1993; Moreno & Osorio 2012; Seeber & Andritsch 2025 (mckibben.control.laws.stsmc)",
+)
 
 register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)

@@ -1,7 +1,7 @@
 """The building blocks of the closed-loop experiments: the identified model, the documented designs, the plants.
 
 :func:`identified_model` (the calibrated plant identified as the paper did, §IV.A of
-[mpam-characterization], :func:`~mckibben.control.runs.identify_plant`),
+[mpam-characterization], :func:`~mckibben.control.identify.identify_plant`),
 :func:`controller_params` (a controller with the documented tuning, ``docs/control.md``),
 :func:`tuned_controller` (gains tuned on a plant), :func:`muscle_file_plant` (a muscle file's own
 plant), :func:`pressure_reference` (a reference sampled at the control period) and the checks of
@@ -22,9 +22,12 @@ from functools import lru_cache
 import numpy as np
 
 from mckibben.control import registry as R
-from mckibben.control.controllers import FirstOrderModel, with_supervisor_model
-from mckibben.control.core import CoreParams
-from mckibben.control.runs import LAWS, identify_plant, tune_gains
+from mckibben.control.first_order import FirstOrderModel
+from mckibben.control.laws import with_supervisor_model
+from mckibben.control.core_params import CoreParams
+from mckibben.control.controllers import SMC_LAWS
+from mckibben.control.identify import identify_plant
+from mckibben.control.tuning import tune_gains
 from mckibben.control.references import SineReference, refuse_text
 from mckibben.data.io import read_muscle
 from mckibben.data.steplog import read_step_log
@@ -40,7 +43,7 @@ from mckibben.units import si
 __all__ = [
     "CONTROLLERS", "FILE_IDENTIFICATION_S", "TS", "boundary_layer", "check_beta", "check_ki", "check_periods",
     "controller_params", "default_identification", "identified_model", "identify_file_plant", "muscle_file_plant",
-    "pid_gains_dict", "plant_load", "pressure_reference", "rest_pull", "smc_gains_dict", "tuned_controller",
+    "plant_load", "pressure_reference", "rest_pull", "tuned_controller",
 ]
 
 #: Controllers the firmware core runs (:data:`mckibben.control.registry.NAMES`).
@@ -51,7 +54,7 @@ TS = 1e-3
 
 @lru_cache(maxsize=1)
 def default_identification():
-    """:func:`~mckibben.control.runs.identify_plant` on the calibrated plant, once per process.
+    """:func:`~mckibben.control.identify.identify_plant` on the calibrated plant, once per process.
 
     Returns
     -------
@@ -168,8 +171,8 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     """
     if controller not in CONTROLLERS:
         raise unknown_name("controller", controller, CONTROLLERS)
-    if law not in LAWS:
-        raise unknown_name("`law`", law, LAWS)
+    if law not in SMC_LAWS:
+        raise unknown_name("`law`", law, SMC_LAWS)
     b, k = check_beta(beta), check_ki(ki)
     e = boundary_layer(eps)
     lm = si(lam, "time", "lam", allow_zero=False) if lam is not None else None
@@ -177,31 +180,7 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     # the supervisor's valve model (G, lift-off) comes from the identification too
     base = with_supervisor_model(CoreParams(p_max=check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))),
                                  model)
-    return R.get(controller).resolve("design")(model, base, law=law, beta=b, eps=e, ki=k, lam=lm)
-
-
-def smc_gains_dict(params: CoreParams) -> dict:
-    """The sliding mode's gains as reported in results (registry ``smc``: ``describe``).
-
-    Parameters
-    ----------
-    params : CoreParams
-        Core parameters. [-]
-    """
-    return {"law": "paper" if params.g == 0 else "model", "beta_counts": params.beta, "eps_Pa": params.eps,
-            "ki_per_s": params.ki, "tau_s": params.tau, "g_Pa_per_count": params.g, "lift_off_counts": params.u0}
-
-
-def pid_gains_dict(params: CoreParams) -> dict:
-    """The PID's gains as reported in results (registry ``pid``: ``describe``).
-
-    Parameters
-    ----------
-    params : CoreParams
-        Core parameters. [-]
-    """
-    return {"kp_counts_per_Pa": params.kp, "ki_counts_per_Pa_s": params.ki_pid, "kd_counts_s_per_Pa": params.kd,
-            "tf_s": params.tf}
+    return R.get(controller).design(model, base, law=law, beta=b, eps=e, ki=k, lam=lm)
 
 
 def boundary_layer(eps) -> float | None:
@@ -307,7 +286,7 @@ FILE_IDENTIFICATION_S = 2.0
 
 
 def identify_file_plant(plant) -> FirstOrderModel:
-    """The first-order model of a muscle file's plant: :func:`~mckibben.control.runs.identify_plant`
+    """The first-order model of a muscle file's plant: :func:`~mckibben.control.identify.identify_plant`
     over :data:`FILE_IDENTIFICATION_S`.
 
     Parameters
@@ -326,7 +305,7 @@ def identify_file_plant(plant) -> FirstOrderModel:
 
 def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str = "model", beta=None, eps=None,
                      ki=None, lam=None, p_max=P_MAX_DEFAULT, objective: str = "step"):
-    """A controller whose free gains are tuned on a plant (:func:`~mckibben.control.runs.tune_gains`).
+    """A controller whose free gains are tuned on a plant (:func:`~mckibben.control.tuning.tune_gains`).
 
     What a muscle file's plant gets instead of the calibrated rig's gains (``docs/control.md``,
     "Gains for a muscle file's plant"): the model term and the supervisor's valve model come from
@@ -364,8 +343,8 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
 
     if controller not in CONTROLLERS:
         raise unknown_name("controller", controller, CONTROLLERS)
-    if law not in LAWS:
-        raise unknown_name("`law`", law, LAWS)
+    if law not in SMC_LAWS:
+        raise unknown_name("`law`", law, SMC_LAWS)
     b, k, e = check_beta(beta), check_ki(ki), boundary_layer(eps)
     lm = si(lam, "time", "lam", allow_zero=False) if lam is not None else None
     base = with_supervisor_model(CoreParams(p_max=check_p_max(si(p_max, "pressure", "p_max", allow_zero=False))),
