@@ -39,6 +39,48 @@ DIRECTION_OPTION = typer.Option("inflate", "--direction", help="--muscle-file: t
                                                                 "have one).")
 
 
+#: ``--select`` and ``--columns`` of every command that reads a lab's table (the reader's ``select``, ``columns``).
+SELECT_OPTION = typer.Option(None, "--select", metavar="COLUMN=VALUE",
+                             help="Read only the rows whose COLUMN holds VALUE (repeatable): one muscle or "
+                                  "condition of a table holding several, e.g. --select cut_length_cm=10.")
+COLUMNS_OPTION = typer.Option(None, "--columns", metavar="OLD=NEW",
+                              help="Read the file's column OLD as the schema's NEW (repeatable), e.g. "
+                                   "--columns phase=direction.")
+
+
+def parse_pairs(values: list[str] | None, flag: str, example: str) -> dict[str, str] | None:
+    """``["a=1", "b=2"]`` of a repeatable ``NAME=VALUE`` flag as a dict (None if not given).
+
+    Parameters
+    ----------
+    values : list of str or None
+        What the user typed, one item per use of the flag. [-]
+    flag : str
+        The flag, for the message (``--select``). [-]
+    example : str
+        A right value, for the message. [-]
+    """
+    if not values:
+        return None
+    out: dict[str, str] = {}
+    for item in values:
+        key, eq, value = item.partition("=")
+        key, value = key.strip(), value.strip()
+        if not eq or not key or not value:
+            raise InputError(f"{flag}: {item!r} is not NAME=VALUE; give e.g. {flag} {example}")
+        if key in out:
+            raise InputError(f"{flag}: {key} is given twice ({key}={out[key]}, {item}); keep one")
+        out[key] = value
+    return out
+
+
+def print_notes(notes) -> None:
+    """A table reader's notes, one ``note:`` line each on stderr, with the flags that act on them."""
+    for note in notes or ():
+        err_console.print(f"note: {in_flags(note, {'columns': '--columns', 'select': '--select'})}",
+                          markup=False, highlight=False)
+
+
 def check_direction(direction: str) -> str:
     """``--direction``, checked: ``inflate`` or ``deflate`` (else one line, exit 2).
 

@@ -8,7 +8,8 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
+from mckibben.cli._common import (COLUMNS_OPTION, JSON_OPTION, SELECT_OPTION, console, emit_json, err_console,
+                                  parse_pairs, print_notes, print_table)
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
 from mckibben.units import parse_quantity
@@ -37,6 +38,8 @@ def fit_cmd(
                                                                       "(default), lowest or column (pressure_zero_kPa)."),
     rest_length: str = typer.Option(None, "--rest-length", help="with --save and a family law: the rest length of the "
                                                                 "muscle the file describes (default: the muscle file's)."),
+    select: list[str] = SELECT_OPTION,
+    columns: list[str] = COLUMNS_OPTION,
     plot: str = plot_option("the fit: force curves over the data (isometric), else the residuals"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
@@ -47,8 +50,11 @@ def fit_cmd(
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
 
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
-    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero)
+    picked = parse_pairs(select, "--select", "cut_length_cm=10")
+    names = parse_pairs(columns, "--columns", "phase=direction")
+    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names)
     out = res.summary
+    print_notes(out.get("notes"))
     if plot:
         write_plot(res.plot(), plot, dpi, res)
     _sensor_warnings(f"fit {model} on {data}", out.get("tare", {}))
@@ -88,14 +94,19 @@ def compare_cmd(
     rails: str = typer.Option("keep", "--rails", help="isometric: rows at a sensor's rail: keep (default) or exclude."),
     pressure_zero: str = typer.Option("none", "--pressure-zero", help="isometric: the pressure transducer's zero: "
                                                                       "none (default), lowest or column."),
+    select: list[str] = SELECT_OPTION,
+    columns: list[str] = COLUMNS_OPTION,
     plot: str = plot_option("the held-out error of every model"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
     check_outputs(plot, dpi)
-    res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero)
+    res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
+                            parse_pairs(select, "--select", "cut_length_cm=10"),
+                            parse_pairs(columns, "--columns", "phase=direction"))
     out = res.summary
+    print_notes(out.get("notes"))
     if plot:
         write_plot(res.plot(), plot, dpi, res)
     _sensor_warnings(f"compare on {data}", out.get("tare", {}))
