@@ -146,7 +146,7 @@ def test_generated_campaign_is_the_bundled_one():
 
 
 def test_fit_spring_json_has_errors_and_flags(cli, tmp_path):
-    r = cli("fit", str(ISO), "--model", "spring", "--muscle", str(MUSCLE), "--json")
+    r = cli("fit", str(ISO), "--model", "spring", "--muscle-file", str(MUSCLE), "--json")
     assert r.code == 0, r.err
     out = r.json()
     for key in ("parameters", "stderr", "rmse_N", "r2", "flags"):
@@ -163,7 +163,7 @@ def test_fit_flags_go_to_stderr_in_one_line(cli):
 
 
 def test_compare_cli_json(cli):
-    r = cli("compare", str(ISO), "--muscle", str(MUSCLE), "--cv", "leave-one-trial-out", "--json")
+    r = cli("compare", str(ISO), "--muscle-file", str(MUSCLE), "--cv", "leave-one-trial-out", "--json")
     assert r.code == 0
     out = r.json()
     assert out["cv"] == "leave-one-trial-out"
@@ -200,7 +200,7 @@ BAD = [
 def test_bad_isometric_tables_exit_2_with_one_line(cli, tmp_path, name, text, message, command):
     (tmp_path / name).write_text(text)
     args = ["--model", "spring"] if command == "fit" else []
-    r = cli(command, str(tmp_path / name), "--muscle", str(MUSCLE), *args, "--json")
+    r = cli(command, str(tmp_path / name), "--muscle-file", str(MUSCLE), *args, "--json")
     assert r.code == 2 and r.out == ""
     assert r.err.count("\n") == 1 and str(tmp_path / name) in r.err and message in r.err
 
@@ -210,7 +210,7 @@ def test_model_that_needs_a_missing_field_names_it(cli, tmp_path):
     iso.write_text("pressure_MPa,load_N,length_mm\n0.1,0.6,100\n0.2,0.6,99\n0.3,0.6,98\n0.4,0.6,97\n")
     m = tmp_path / "m.toml"
     m.write_text('id = "x"\nnominal_length_mm = 100\nouter_diameter_mm = 12\n')
-    r = cli("fit", str(iso), "--model", "tondu-lopez", "--muscle", str(m))
+    r = cli("fit", str(iso), "--model", "tondu-lopez", "--muscle-file", str(m))
     assert r.code == 2 and r.err.strip() == (f"error: {m}: key braid_angle_<unit> missing; tondu-lopez on isotonic"
                                              " data needs it (e.g. braid_angle_deg = ...)")
 

@@ -81,6 +81,68 @@ def print_notes(notes) -> None:
                           markup=False, highlight=False)
 
 
+def _looks_like_file(value: str) -> bool:
+    """Whether a ``--muscle`` value is a file (a ``.toml`` name or a file that exists), not a set's name."""
+    from pathlib import Path
+
+    return value.strip().lower().endswith(".toml") or Path(value).is_file()
+
+
+def _published_set(ctx: typer.Context, value: str | None) -> str | None:
+    """``--muscle``'s callback: a published set's name; a file gets the hint of ``--muscle-file``."""
+    if value is not None and _looks_like_file(value):
+        takes_file = any("--muscle-file" in p.opts for p in ctx.command.params)
+        hint = (f"give a muscle file with --muscle-file {value}" if takes_file else
+                "this command runs the published sets only (a muscle file runs in predict force, simulate, control, "
+                "tool and export fmu, with --muscle-file)")
+        raise InputError(f"--muscle: {value!r} is a file; --muscle names a published parameter set "
+                         f"(mckibben params list); {hint}")
+    return value
+
+
+def muscle_option(default: str | None, help: str):
+    """``--muscle NAME``, a published parameter set, the same in every command (a file is refused with a hint)."""
+    return typer.Option(default, "--muscle", metavar="NAME", help=help, callback=_published_set)
+
+
+#: ``--muscle-file FILE`` of fit and compare (the Python argument is the library's ``muscle``).
+MUSCLE_FILE_ARG_OPTION = typer.Option(None, "--muscle-file", metavar="FILE",
+                                      help="Muscle file (TOML); default muscle.toml beside DATA, else the rest length "
+                                           "the table gives (one muscle).")
+#: The old spelling of ``--muscle-file`` in fit and compare, kept with a deprecation note.
+OLD_MUSCLE_FILE_OPTION = typer.Option(None, "--muscle", metavar="FILE",
+                                      help="Deprecated spelling of --muscle-file here (--muscle names a published set "
+                                           "in every other command).")
+
+
+def muscle_file_of(muscle_file: str | None, old: str | None, command: str) -> str | None:
+    """The muscle file of a command that took it as ``--muscle`` before ``--muscle-file``.
+
+    ``--muscle FILE`` still works, with one deprecation warning on stderr; a published set's name
+    there, or both flags at once, is refused (one line, exit 2).
+
+    Parameters
+    ----------
+    muscle_file : str or None
+        ``--muscle-file``. [-]
+    old : str or None
+        ``--muscle`` (the old spelling). [-]
+    command : str
+        The command, for the messages (``fit``). [-]
+    """
+    if old is None:
+        return muscle_file
+    if muscle_file is not None:
+        raise InputError(f"--muscle: given with --muscle-file; in {command} --muscle is the old spelling of "
+                         "--muscle-file: keep --muscle-file")
+    if not _looks_like_file(old):
+        raise InputError(f"--muscle: {command} reads a muscle file (TOML), not a published parameter set; give "
+                         f"--muscle-file FILE.toml ({old!r} is not a .toml file)")
+    err_console.print(f"warning: {command} --muscle FILE is deprecated: use --muscle-file {old} (--muscle names a "
+                      "published parameter set in every command)", markup=False, highlight=False)
+    return old
+
+
 def check_direction(direction: str) -> str:
     """``--direction``, checked: ``inflate`` or ``deflate`` (else one line, exit 2).
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, parse_flag
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, muscle_option, parse_flag
 from mckibben.errors import InputError
 from mckibben import control
 from mckibben import export
@@ -16,8 +16,8 @@ app.add_typer(export_app, name="export")
 
 @export_app.command("fmu")
 def fmu_cmd(
-    muscle: str = typer.Option(None, "--muscle", help="Published parameter set (mpam97, mpam117, mpam143; default "
-                                                      "mpam97 unless --muscle-file)."),
+    muscle: str = muscle_option(None, "Published parameter set (mpam97, mpam117, mpam143; default mpam97 unless "
+                                      "--muscle-file)."),
     muscle_file: str = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law "
                                                                 "(mckibben fit … --save)."),
     out: str = typer.Option(..., "--out", help="The FMU to write, e.g. m.fmu."),

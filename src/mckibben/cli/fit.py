@@ -8,8 +8,9 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import (COLUMNS_OPTION, JSON_OPTION, SELECT_OPTION, console, emit_json, err_console,
-                                  parse_pairs, print_notes, print_table)
+from mckibben.cli._common import (COLUMNS_OPTION, JSON_OPTION, MUSCLE_FILE_ARG_OPTION, OLD_MUSCLE_FILE_OPTION,
+                                  SELECT_OPTION, console, emit_json, err_console, muscle_file_of, parse_pairs,
+                                  print_notes, print_table)
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
 from mckibben.units import parse_quantity
@@ -26,7 +27,8 @@ def warn_flags(what: str, flags) -> None:
 def fit_cmd(
     data: Path = typer.Argument(..., help="Experiment table (.csv or .parquet)."),
     model: str = typer.Option(..., "--model", help=f"One of: {', '.join(FIT_MODELS)}."),
-    muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
+    muscle: str = MUSCLE_FILE_ARG_OPTION,
+    old_muscle: str = OLD_MUSCLE_FILE_OPTION,
     kind: str = typer.Option(None, "--kind", help="Experiment kind, if neither the file name nor its columns tell."),
     split_pressure: str = typer.Option(None, "--split-pressure", help="spring: low/high range split (default: median pressure)."),
     tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest (each run's force at its "
@@ -46,7 +48,7 @@ def fit_cmd(
 ) -> None:
     """Fit a static model to one experiment table: parameters, standard errors, 95 % intervals, flags."""
     check_outputs(plot, dpi)
-
+    muscle = muscle_file_of(muscle, old_muscle, "fit")
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
 
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
@@ -87,7 +89,8 @@ def fit_cmd(
 def compare_cmd(
     data: Path = typer.Argument(..., help="An isometric or isotonic table, or a muscle folder holding isotonic.csv "
                                           "(and braid_angle.csv)."),
-    muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
+    muscle: str = MUSCLE_FILE_ARG_OPTION,
+    old_muscle: str = OLD_MUSCLE_FILE_OPTION,
     cv: str = typer.Option(None, "--cv", help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
                                               "family table (muscle and rest_length columns), leave-one-muscle-out."),
     tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest or column (see docs/data.md)."),
@@ -102,6 +105,7 @@ def compare_cmd(
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
     check_outputs(plot, dpi)
+    muscle = muscle_file_of(muscle, old_muscle, "compare")
     res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
                             parse_pairs(select, "--select", "cut_length_cm=10"),
                             parse_pairs(columns, "--columns", "phase=direction"))

@@ -6,7 +6,7 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, muscle_option, print_table
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
 from mckibben.limits import check_load, check_p_max
@@ -25,7 +25,7 @@ from mckibben import data, fit
 predict_app = typer.Typer(help="Predict length, pressure or force from a static model.", no_args_is_help=True)
 app.add_typer(predict_app, name="predict")
 
-MUSCLE_OPTION = typer.Option("mpam97", "--muscle", help="Parameter set (see `mckibben params list`).")
+MUSCLE_OPTION = muscle_option("mpam97", "Published parameter set (see `mckibben params list`).")
 LOAD_OPTION = typer.Option("0.6N", "--load", help="Hanging load, e.g. 0.6N, 60gf, 2.1N.")
 PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Highest pressure allowed.")
 
