@@ -107,3 +107,22 @@ def test_outputs_refused_before_any_work(cli, tmp_path, cmd, option, value, says
     r = cli(*args)
     assert r.code == 2 and says in r.err and r.err.count("\n") == 1, r.err
     assert list(tmp_path.iterdir()) == []  # nothing written
+
+
+def test_simulate_and_control_step_print_labels_with_units_alike(cli):
+    sim = cli("simulate", "open-loop")
+    step = cli("control", "step")
+    assert sim.code == 0 and step.code == 0, sim.err + step.err
+    for out in (sim.out, step.out):
+        assert "time constant (63 %)" in out and "rise time (10–90 %)" in out and " ms" in out
+        assert "_s " not in out and "_Pa" not in out and "_pct" not in out  # no raw JSON keys
+    assert " kPa" in step.out and "counts" in step.out and " MPa" in sim.out and " mm" in sim.out
+
+
+def test_every_error_line_has_the_one_prefix(cli):
+    usage = cli("fit", "x.csv")  # a usage error (Click's)
+    bad = cli("fit", "x.csv", "--model", "spring")  # the library's InputError
+    empty = cli("fit", "x.csv", "--model", "spring", "--plot", "")
+    for r in (usage, bad, empty):
+        assert r.code == 2 and r.err.startswith("error: ") and r.err.count("\n") == 1, r.err
+    assert usage.err == "error: mckibben fit: Missing option '--model'.\n"

@@ -122,31 +122,31 @@ def _empty_value(args: list[str]) -> str | None:
 def _run(args: list[str], debug: bool) -> int:
     empty = _empty_value(args)
     if empty is not None:
-        return _fail(f"error: {empty}: an empty value; give one, or leave the option out for its default", 2)
+        return _fail(f"{empty}: an empty value; give one, or leave the option out for its default", 2)
     try:
         result = app(args=args, prog_name="mckibben", standalone_mode=False)
     except InputError as exc:  # the library names Python arguments: say the flags the user typed
-        return _fail(f"error: {in_flags(str(exc), flag_names(command_of(app, args)))}", 2)
+        return _fail(in_flags(str(exc), flag_names(command_of(app, args))), 2)
     except _NO_ARGS as exc:
         sys.stdout.write(exc.ctx.get_help() + "\n" if exc.ctx is not None else "")
         return 0
     except _USAGE_ERRORS as exc:
-        where = f" ({exc.ctx.command_path})" if exc.ctx is not None else ""
-        return _fail(f"error{where}: {exc.format_message()}", 2)
+        where = f"{exc.ctx.command_path}: " if exc.ctx is not None else ""
+        return _fail(f"{where}{exc.format_message()}", 2)
     except _EXITS as exc:
         return exc.exit_code
     except (_ABORTS + (KeyboardInterrupt,)) as exc:
-        return _fail(f"error: {_signal_name(exc)}", 130 if not isinstance(exc, _Terminated) else 128 + exc.signum)
+        return _fail(_signal_name(exc), 130 if not isinstance(exc, _Terminated) else 128 + exc.signum)
     except BrokenPipeError:
         return 0
     except MemoryError as exc:
         detail = f" ({exc})" if str(exc) else ""
-        return _fail(f"error: not enough memory for the size asked{detail}; ask for a smaller size", 2, debug)
+        return _fail(f"not enough memory for the size asked{detail}; ask for a smaller size", 2, debug)
     except OSError as exc:
         if getattr(exc, "filename", None) is None and exc.errno not in _USER_ERRNOS:
             return _internal(exc, debug)
         what = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-        return _fail(f"error: {what}{exc.strerror or exc}", 2, debug)
+        return _fail(f"{what}{exc.strerror or exc}", 2, debug)
     except RecursionError as exc:
         return _internal(exc, debug)
     except Exception as exc:  # noqa: BLE001 - the boundary: nothing leaves as a bare traceback
@@ -163,10 +163,15 @@ def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
+#: The one prefix of every error line the command line prints (a user's mistake, exit status 2).
+ERROR_PREFIX = "error: "
+
+
 def _fail(message: str, code: int, debug: bool = False) -> int:
+    """Print ``error: MESSAGE`` (:data:`ERROR_PREFIX`, the one place it is written) as one line; return ``code``."""
     if debug:
         traceback.print_exc(file=sys.stderr)
-    sys.stderr.write(_one_line(message) + "\n")
+    sys.stderr.write(_one_line(ERROR_PREFIX + message) + "\n")
     return code
 
 
