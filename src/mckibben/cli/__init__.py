@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import importlib
+import inspect
 import os
 import pkgutil
 import shlex
@@ -74,6 +75,41 @@ def _register_commands() -> None:
 
 
 _register_commands()
+
+#: Words that end with a period inside a sentence: Click's first-sentence rule would cut the
+#: command list's help there ("The paper's Fig."). [-]
+_ABBREVIATIONS = ("Fig.", "Figs.", "eq.", "Eq.", "e.g.", "i.e.", "Ref.", "No.", "vs.", "cf.")
+
+
+def short_help(doc: str | None) -> str | None:
+    """The first sentence of a command's docstring, for the command list, not cut at an abbreviation.
+
+    Parameters
+    ----------
+    doc : str or None
+        The docstring. [-]
+    """
+    if not doc:
+        return None
+    words = inspect.cleandoc(doc).split("\n\n")[0].split()
+    out = []
+    for w in words:
+        out.append(w)
+        if w.endswith(".") and w not in _ABBREVIATIONS and not (len(w) <= 3 and w[:-1].isdigit()):
+            break
+    return " ".join(out).rstrip(".")
+
+
+def _set_short_helps(typer_app) -> None:
+    """Give every command without one a short help by :func:`short_help` (sub-apps too)."""
+    for info in typer_app.registered_commands:
+        if info.short_help is None and info.callback is not None:
+            info.short_help = short_help(info.help or info.callback.__doc__)
+    for group in typer_app.registered_groups:
+        _set_short_helps(group.typer_instance)
+
+
+_set_short_helps(app)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import sys
 from typing import Any
@@ -247,27 +248,47 @@ def print_table(title: str, columns: list[str], rows: list[list[Any]]) -> None:
     """
     cells = [[v if isinstance(v, str) else _fmt(v) for v in row] for row in rows]
     if not console.is_terminal:
-        sys.stdout.write(plain_table(title, columns, cells))
+        columns_env = os.environ.get("COLUMNS", "")
+        sys.stdout.write(plain_table(title, columns, cells, int(columns_env) if columns_env.isdigit() else None))
         sys.stdout.flush()
         return
     table = Table(title=title, title_justify="left")
     for col in columns:
-        table.add_column(col, justify="right" if col[:1] != " " else "left")
+        table.add_column(col, justify="right" if col[:1] != " " else "left", overflow="fold")
     for row in cells:
         table.add_row(*row)
-    console.print(table)
+    console.print(table, soft_wrap=False)  # the table fits the terminal: long cells wrap
 
 
-def plain_table(title: str, columns: list[str], cells: list[list[str]]) -> str:
-    """The table as plain text: a title line, a header, one line per row, columns aligned."""
+def plain_table(title: str, columns: list[str], cells: list[list[str]], width: int | None = None) -> str:
+    """The table as plain text: a title line, a header, one line per row, columns aligned.
+
+    Parameters
+    ----------
+    title, columns, cells
+        As :func:`print_table` (a column whose name starts with a space is left-aligned). [-]
+    width : int, optional
+        Fit the lines in this many characters by wrapping the widest column's cells onto
+        continuation lines (``$COLUMNS`` when piped; default: never wrapped, a line per row). [-]
+    """
+    import textwrap
+
     head = [c.strip() for c in columns]
     widths = [max([len(h)] + [len(r[i]) for r in cells if i < len(r)]) for i, h in enumerate(head)]
     left = [c[:1] == " " for c in columns]
+    if width is not None and sum(widths) + 2 * (len(widths) - 1) > width and widths:
+        wide = max(range(len(widths)), key=widths.__getitem__)
+        widths[wide] = max(len(head[wide]), 12, width - (sum(widths) - widths[wide]) - 2 * (len(widths) - 1))
 
     def line(values):
         return "  ".join(v.ljust(w) if lft else v.rjust(w) for v, w, lft in zip(values, widths, left)).rstrip()
 
-    return "\n".join([title, line(head), *[line(r) for r in cells]]) + "\n"
+    def lines(values):
+        parts = [textwrap.wrap(v, w, break_long_words=True) or [""] if len(v) > w else [v]
+                 for v, w in zip(values, widths)]
+        return [line([p[k] if k < len(p) else "" for p in parts]) for k in range(max(len(p) for p in parts))]
+
+    return "\n".join([title, line(head), *[x for r in cells for x in lines(r)]]) + "\n"
 
 
 def _fmt(value: Any) -> str:
