@@ -89,7 +89,7 @@ def test_every_model_fits_the_synthetic_commercial_campaign():
         r = fit.result
         assert r.r2 > 0.95, model  # all reproduce the force's rise with pressure and fall with length
         assert np.all(np.isfinite(r.values)), model
-        assert fit.metrics["covariance"] == "cluster-robust (12 trials)"
+        assert fit.metrics["covariance"] == "cluster-robust (12 runs)"  # 4 held lengths x 3 trials
         # physical bounds hold whatever the fit did
         if "theta0_rad" in r.names:
             assert 0 < r["theta0_rad"] < np.arccos(1 / np.sqrt(3))
@@ -250,7 +250,7 @@ def test_held_lengths_read_by_an_instrument_group_into_their_set_points():
     d["held_length"] = d["held_length"] + np.random.default_rng(5).normal(0, 2e-5, len(d))
     noisy = Table("isometric", "lvdt.csv", d, t.columns)
     fit = fit_isometric(noisy, read_muscle(MUSCLE), "chou-hannaford")
-    assert fit.metrics["covariance"] == "cluster-robust (12 trials)"
+    assert fit.metrics["covariance"] == "cluster-robust (12 runs)"  # 4 held lengths x 3 trials
     c = compare_isometric(noisy, read_muscle(MUSCLE), models=["surface"])
     assert c.scores[0]["note"] == "" and c.scores[0]["extrapolated_folds"] == 2  # the two end lengths
 
@@ -354,3 +354,15 @@ def test_fit_table_and_compare_table_are_library_calls(tmp_path):
     assert c.metrics["best"] == "spring" and len(c.to_pandas()) == len(ALL_MODELS)
     c.plot().savefig(tmp_path / "c.png")
     assert (tmp_path / "c.png").stat().st_size > 5_000
+
+
+def test_compare_text_shows_the_extrapolated_folds_and_fit_counts_runs(cli):
+    r = cli("compare", str(ISO), "--muscle-file", str(MUSCLE))
+    assert r.code == 0, r.err
+    js = cli("compare", str(ISO), "--muscle-file", str(MUSCLE), "--json").json()
+    assert "extrapolated folds" in r.out
+    for s in js["models"]:  # each model's row says how many of its held-out folds were extrapolated
+        row = next(line for line in r.out.splitlines() if line.startswith(s["model"] + " "))
+        assert f" {s['extrapolated_folds']}/{len(s['folds'])} " in row, row
+    fit = cli("fit", str(ISO), "--model", "spring", "--muscle-file", str(MUSCLE))
+    assert "cluster-robust (12 runs)" in fit.out and "trials)" not in fit.out

@@ -49,6 +49,17 @@ COLUMNS_OPTION = typer.Option(None, "--columns", metavar="OLD=NEW",
                                    "--columns phase=direction.")
 
 
+def choices(values) -> str:
+    """An option's metavar listing its choices, ``[none|lowest|column]``, instead of ``<str>`` in ``--help``.
+
+    Parameters
+    ----------
+    values : iterable of str
+        The option's choices (the library's tuple of them: one list). [-]
+    """
+    return "[" + "|".join(values) + "]"
+
+
 def parse_pairs(values: list[str] | None, flag: str, example: str) -> dict[str, str] | None:
     """``["a=1", "b=2"]`` of a repeatable ``NAME=VALUE`` flag as a dict (None if not given).
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, err_console, parse_flag, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, choices, emit_json, err_console, parse_flag, print_table
 from mckibben.cli._output import (DPI_OPTION, OUT_OPTION, check_outputs, metric_row, plot_option, progress_bar,
                                   write_plot)
 from mckibben.control import registry as R
@@ -73,7 +73,7 @@ def _finish(res, plot, dpi, out, plot_kw=None) -> None:
 
 @control_app.command("step")
 def step_cmd(
-    controller: str = typer.Option("smc", "--controller", help=_CONTROLLER_HELP),
+    controller: str = typer.Option("smc", "--controller", metavar=choices(R.NAMES), help=_CONTROLLER_HELP),
     target: str = typer.Option("0.55MPa", "--target", help="Step target pressure."),
     start: str = typer.Option("0MPa", "--from", help="Pressure held before the step."),
     beta: float = BETA_OPTION,
@@ -243,7 +243,7 @@ def robustness_cmd(
 def track_cmd(
     reference: str = typer.Option(..., "--reference", help="sine:MEAN,AMPLITUDE,FREQ (e.g. sine:0.4MPa,0.2MPa,2Hz) "
                                                            "or a CSV/Parquet file with time_<unit>, pressure_<unit>."),
-    controller: str = typer.Option("smc", "--controller", help=_CONTROLLER_HELP),
+    controller: str = typer.Option("smc", "--controller", metavar=choices(R.NAMES), help=_CONTROLLER_HELP),
     beta: float = BETA_OPTION,
     law: str = LAW_OPTION,
     eps: str = EPS_OPTION,

@@ -21,7 +21,7 @@ def identify_cmd(
                                                "inlet_pwm/bleed_pwm, command_pwm or command (fraction), optional "
                                                "trial. Two or more steps to different commands also give the "
                                                "valve's lift-off."),
-    order: str = typer.Option("1", "--order", help="Model: 1, 2, both, fill (orifice into a volume) or all."),
+    order: str = typer.Option("1", "--order", metavar="[1|2|both|fill|all]", help="Model: 1, 2, both, fill (orifice into a volume) or all."),
     t_step: str = typer.Option(None, "--t-step", help="Time of the step, e.g. 0.1s (default: first command change)."),
     supply: str = typer.Option(None, "--supply", help="Supply pressure, e.g. 620kPa: bounds the final pressure "
                                                       "(and is the fill model's supply)."),
