@@ -205,12 +205,21 @@ def _force_from_muscle_file(path: str, pressure: str, length: str | None, direct
     ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else law.spec.nominal_length
     force, flags = law.force(p, ell, direction)
     names = [flag_names(x) for x in flags]
+    # the uncertainty the file stores: the fit's RMS residual (the scatter of a prediction about the
+    # data) and the parameters' standard errors
+    stored = law.spec.force_model or {}
+    rmse = stored.get("rmse_N")
+    rmse = float(rmse) if isinstance(rmse, (int, float)) and not isinstance(rmse, bool) else None
     if json:
         out = {"model": law.model, "muscle": law.spec.id, "muscle_file": path, "direction": direction,
                "length_m": ell, "pressure_Pa": p.tolist(), "force_N": force.tolist(), "flags": names}
         scalar = len(p) == 1 and "," not in pressure and ":" not in pressure
-        emit_json(_rows_or_scalars(out, scalar) | {"fit_flags": list(law.flags)})
+        emit_json(_rows_or_scalars(out, scalar) | {"fit_flags": list(law.flags), "fit_rmse_N": rmse,
+                                                   "parameters": dict(law.parameters),
+                                                   "parameters_stderr": dict(stored.get("stderr") or {})})
         return
-    rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
-    print_table(f"{law.model} force fitted for {law.spec.id} ({path}), length {ell * 1e3:.2f} mm, {direction}",
+    pm = f" ± {rmse:.3g}" if rmse is not None else ""
+    rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}{pm}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
+    print_table(f"{law.model} force fitted for {law.spec.id} ({path}), length {ell * 1e3:.2f} mm, {direction}"
+                + (f"; ± the fit's RMS residual {rmse:.3g} N" if rmse is not None else ""),
                 ["pressure MPa", "force N", "flags"], rows)
