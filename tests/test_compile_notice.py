@@ -44,6 +44,7 @@ def _run_cells(cells: list[str], cache: Path) -> list[str]:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1200)  # two real kernels, the first compiling on an empty cache
 def test_a_notebooks_first_simulating_cell_says_it_compiles_once_with_progress(tmp_path):
     first, second = _run_cells(["from mckibben import experiments\nr = experiments.open_loop()",
                                 "r2 = experiments.step_response('pid')"], tmp_path / "cache")
