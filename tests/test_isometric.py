@@ -184,6 +184,12 @@ def test_fit_save_then_predict_with_the_muscle_file(cli, tmp_path):
     expect, _ = fit.predict(np.array([0.3e6, 0.7e6]), 0.28)
     np.testing.assert_allclose(out["force_N"], expect, rtol=1e-9)  # the same law, through TOML's repr of floats
     assert out["flags"] == [[], ["pressure_out_of_range"]]  # 0.7 MPa is beyond the 620 kPa tested
+    # the uncertainty the file stores comes through: the fit's RMS residual and the parameters' errors
+    fm = doc["force_model"]
+    assert out["fit_rmse_N"] == fm["rmse_N"] == pytest.approx(fit.result.residual_rms, rel=1e-12)
+    assert out["parameters_stderr"] == fm["stderr"] and list(out["parameters"]) == list(fm["parameters"])
+    text = cli("predict", "force", "--muscle-file", str(saved), "--pressure", "0.3MPa", "--length", "280mm").out
+    assert f"± {fm['rmse_N']:.3g}" in text and "RMS residual" in text
 
 
 BAD = [
