@@ -161,3 +161,50 @@ def test_compare_on_one_muscle_of_a_lab_table(cli, table):
     assert r.code == 0, r.err
     out = r.json()
     assert out["muscle"] == "festo_like (cut_length_cm=25)" and out["best"]
+
+
+def fills(path: Path) -> Path:
+    """A lab's fill log: three experiments in one file (an ``experiment`` column), time constants 50, 100, 150 ms."""
+    lines = ["experiment,time_s,pressure_kPa,command"]
+    for e in (1, 2, 3):
+        for k in range(300):
+            t = k * 0.002
+            p = 0.0 if t < 0.05 else 400.0 * (1.0 - np.exp(-(t - 0.05) / (0.05 * e)))
+            lines.append(f"{e},{t:.3f},{p:.3f},{0.0 if t < 0.05 else 0.6}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_identify_picks_one_experiment_or_reads_them_as_trials(cli, tmp_path):
+    log = fills(tmp_path / "fills.csv")
+    one = cli("identify", str(log), "--select", "experiment=2", "--json")
+    assert one.code == 0, one.err
+    assert one.json()["models"][0]["tau_s"] == pytest.approx(0.1, rel=1e-3)  # experiment 2's time constant
+    trials = cli("identify", str(log), "--columns", "experiment=trial", "--json")
+    assert trials.code == 0 and trials.json()["n_trials"] == 3, trials.err
+    taus = sorted(t["models"][0]["tau_s"] for t in trials.json()["trials"])
+    np.testing.assert_allclose(taus, [0.05, 0.1, 0.15], rtol=1e-3)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--select", "experiment"], "error: --select: 'experiment' is not NAME=VALUE"),
+    (["--select", "experiment=7"], "error: --select: experiment=7: no row of {f} has experiment = 7; its values are 1, 2, 3"),
+    (["--columns", "phase=trial"], "error: --columns: phase=trial: {f} has no column 'phase'"),
+    (["--columns", "experiment=time_s"], "error: --columns: experiment=time_s: {f} already has a column 'time_s'"),
+])
+def test_identify_bad_select_and_columns(cli, tmp_path, args, message):
+    log = fills(tmp_path / "fills.csv")
+    r = cli("identify", str(log), *args)
+    assert r.code == 2 and r.out == "" and r.err.count("\n") == 1 and r.err.startswith(message.format(f=log)), r.err
+
+
+def test_a_step_logs_error_after_a_selection_names_the_files_row(tmp_path):
+    from mckibben.data.steplog import read_step_log
+
+    log = fills(tmp_path / "fills.csv")
+    text = log.read_text().splitlines()
+    text[700] = text[700].replace(text[700].split(",")[2], "abc")  # a row of experiment 3
+    log.write_text("\n".join(text) + "\n")
+    read_step_log(log, select={"experiment": "1"})  # experiment 1 is clean
+    with pytest.raises(InputError, match=f"^{log}:700:pressure_kPa: value 'abc' is not a finite number$"):
+        read_step_log(log, select={"experiment": "3"})
