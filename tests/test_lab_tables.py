@@ -208,3 +208,12 @@ def test_a_step_logs_error_after_a_selection_names_the_files_row(tmp_path):
     read_step_log(log, select={"experiment": "1"})  # experiment 1 is clean
     with pytest.raises(InputError, match=f"^{log}:700:pressure_kPa: value 'abc' is not a finite number$"):
         read_step_log(log, select={"experiment": "3"})
+
+
+def test_the_column_naming_the_muscles_read_as_muscle_fits_them_as_a_family(cli, table, tmp_path):
+    (tmp_path / "festo10.toml").write_text('id = "festo10"\nnominal_length_mm = 283\nouter_diameter_mm = 10\n')
+    r = cli("fit", str(table), "--columns", "phase=direction", "--columns", "cut_length_cm=muscle",
+            "--model", "relative-strain", "--muscle-file", str(tmp_path / "festo10.toml"), "--json")
+    assert r.code == 0, r.err
+    out = r.json()
+    assert out["n_points"] == 6 * 4 * 2 * 32 and out["valid_range"]["rest_length"] == pytest.approx([0.083, 0.383])
