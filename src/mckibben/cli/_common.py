@@ -18,6 +18,8 @@ import math
 import os
 import re
 import sys
+import textwrap
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -95,8 +97,6 @@ def print_notes(notes) -> None:
 
 def _looks_like_file(value: str) -> bool:
     """Whether a ``--muscle`` value is a file (a ``.toml`` name or a file that exists), not a set's name."""
-    from pathlib import Path
-
     return value.strip().lower().endswith(".toml") or Path(value).is_file()
 
 
@@ -282,8 +282,6 @@ def plain_table(title: str, columns: list[str], cells: list[list[str]], width: i
         Fit the lines in this many characters by wrapping the widest column's cells onto
         continuation lines (``$COLUMNS`` when piped; default: never wrapped, a line per row). [-]
     """
-    import textwrap
-
     head = [c.strip() for c in columns]
     widths = [max([len(h)] + [len(r[i]) for r in cells if i < len(r)]) for i, h in enumerate(head)]
     left = [c[:1] == " " for c in columns]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import typer
 
 from mckibben.errors import InputError
@@ -58,7 +60,7 @@ METRIC_LABELS = {"time_constant": "time constant (63 %)", "rise_time": "rise tim
                  "settling_time": "settling time (±2 %)"}
 #: A metric key's unit suffix -> (factor from SI, the unit printed): the text output's units, one place.
 METRIC_UNITS = {"_s": (1e3, "ms"), "_m": (1e3, "mm"), "_N": (1.0, "N"), "_pct": (1.0, "%"),
-                "_counts": (1.0, "counts"), "_rad": (180.0 / 3.141592653589793, "deg")}
+                "_counts": (1.0, "counts"), "_rad": (180.0 / math.pi, "deg")}
 
 
 def metric_row(key: str, value) -> list[str]:
@@ -74,8 +76,6 @@ def metric_row(key: str, value) -> list[str]:
     value : float, str or None
         Its value in SI. [SI]
     """
-    import math
-
     if key.endswith("_Pa"):
         stem = key[:-3]
         scale, unit = ((1e-3, "kPa") if isinstance(value, (int, float)) and abs(value) < 1e5 else (1e-6, "MPa"))
