@@ -422,7 +422,7 @@ VALUE_CASES = [
     (["fit", "{fl}", "--model", "spring", "--split-pressure", "5mm"], "--split-pressure"),
     (["fit", "{iso}", "--model", "quintic"], "quintic"),
     (["fit", "{iso}", "--model", "cubic", "--kind", "nonsense"], "nonsense"),
-    (["fit", "{iso}", "--model", "kinematic", "--muscle", "{tmp}/none.toml"], "none.toml"),
+    (["fit", "{iso}", "--model", "kinematic", "--muscle-file", "{tmp}/none.toml"], "none.toml"),
     (["unknown-command"], "unknown-command"),
     (["rig", "emulate", "--duration", ""], "--duration"),
     (["control", "step", "--eps="], "--eps"),

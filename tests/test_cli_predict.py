@@ -71,8 +71,8 @@ def test_params(cli):
          "error: unknown force model 'hill'. Provide one of: braid-map, chou-hannaford, tondu-lopez, wall-corrected"),
         (["predict", "force", "--pressure", "1MPa", "--braid-angle", "95deg"], "error: --braid-angle: '95deg' must be below 90deg"),
         (["params", "show", "spring-pam-z"], "error: unknown parameter set 'spring-pam-z'. Did you mean spring-pam-c, spring-pam-b, spring-pam-a?"),
-        (["predict", "length", "--pressure", "1MPa", "--bogus"], "error (mckibben predict length): No such option: --bogus"),
-        (["predict", "length"], "error (mckibben predict length): Missing option '--pressure'."),
+        (["predict", "length", "--pressure", "1MPa", "--bogus"], "error: mckibben predict length: No such option: --bogus"),
+        (["predict", "length"], "error: mckibben predict length: Missing option '--pressure'."),
     ],
 )
 def test_bad_input_gives_one_line_and_exit_2(cli, args, message):

@@ -8,7 +8,12 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
+from mckibben.cli._common import (COLUMNS_OPTION, JSON_OPTION, MUSCLE_FILE_ARG_OPTION, OLD_MUSCLE_FILE_OPTION,
+                                  SELECT_OPTION, choices, console, emit_json, err_console, muscle_file_of,
+                                  parse_pairs, print_notes, print_table)
+from mckibben.data.io import PRESSURE_ZEROS, RAIL_POLICIES, TARES
+from mckibben.data.schema import KINDS
+from mckibben.fit.isometric import CV_METHODS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
 from mckibben.units import parse_quantity
@@ -24,31 +29,37 @@ def warn_flags(what: str, flags) -> None:
 @app.command("fit")
 def fit_cmd(
     data: Path = typer.Argument(..., help="Experiment table (.csv or .parquet)."),
-    model: str = typer.Option(..., "--model", help=f"One of: {', '.join(FIT_MODELS)}."),
-    muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
-    kind: str = typer.Option(None, "--kind", help="Experiment kind, if neither the file name nor its columns tell."),
+    model: str = typer.Option(..., "--model", metavar="MODEL", help=f"One of: {', '.join(FIT_MODELS)}."),
+    muscle: str = MUSCLE_FILE_ARG_OPTION,
+    old_muscle: str = OLD_MUSCLE_FILE_OPTION,
+    kind: str = typer.Option(None, "--kind", metavar=choices(KINDS), help="Experiment kind, if neither the file name nor its columns tell."),
     split_pressure: str = typer.Option(None, "--split-pressure", help="spring: low/high range split (default: median pressure)."),
-    tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest (each run's force at its "
+    tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest (each run's force at its "
                                                     "lowest pressure) or column (a tare_N column)."),
     save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law."),
-    rails: str = typer.Option("keep", "--rails", help="isometric: rows at a sensor's rail (a load-cell floor): keep "
+    rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail (a load-cell floor): keep "
                                                       "(default, counted) or exclude."),
-    pressure_zero: str = typer.Option("none", "--pressure-zero", help="isometric: the pressure transducer's zero: none "
+    pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: none "
                                                                       "(default), lowest or column (pressure_zero_kPa)."),
     rest_length: str = typer.Option(None, "--rest-length", help="with --save and a family law: the rest length of the "
                                                                 "muscle the file describes (default: the muscle file's)."),
+    select: list[str] = SELECT_OPTION,
+    columns: list[str] = COLUMNS_OPTION,
     plot: str = plot_option("the fit: force curves over the data (isometric), else the residuals"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit a static model to one experiment table: parameters, standard errors, 95 % intervals, flags."""
     check_outputs(plot, dpi)
-
+    muscle = muscle_file_of(muscle, old_muscle, "fit")
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
 
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
-    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero)
+    picked = parse_pairs(select, "--select", "cut_length_cm=10")
+    names = parse_pairs(columns, "--columns", "phase=direction")
+    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names)
     out = res.summary
+    print_notes(out.get("notes"))
     if plot:
         write_plot(res.plot(), plot, dpi, res)
     _sensor_warnings(f"fit {model} on {data}", out.get("tare", {}))
@@ -81,21 +92,28 @@ def fit_cmd(
 def compare_cmd(
     data: Path = typer.Argument(..., help="An isometric or isotonic table, or a muscle folder holding isotonic.csv "
                                           "(and braid_angle.csv)."),
-    muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
-    cv: str = typer.Option(None, "--cv", help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
+    muscle: str = MUSCLE_FILE_ARG_OPTION,
+    old_muscle: str = OLD_MUSCLE_FILE_OPTION,
+    cv: str = typer.Option(None, "--cv", metavar=choices(CV_METHODS), help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
                                               "family table (muscle and rest_length columns), leave-one-muscle-out."),
-    tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest or column (see docs/data.md)."),
-    rails: str = typer.Option("keep", "--rails", help="isometric: rows at a sensor's rail: keep (default) or exclude."),
-    pressure_zero: str = typer.Option("none", "--pressure-zero", help="isometric: the pressure transducer's zero: "
+    tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest or column (see docs/data.md)."),
+    rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail: keep (default) or exclude."),
+    pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: "
                                                                       "none (default), lowest or column."),
+    select: list[str] = SELECT_OPTION,
+    columns: list[str] = COLUMNS_OPTION,
     plot: str = plot_option("the held-out error of every model"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
     check_outputs(plot, dpi)
-    res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero)
+    muscle = muscle_file_of(muscle, old_muscle, "compare")
+    res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
+                            parse_pairs(select, "--select", "cut_length_cm=10"),
+                            parse_pairs(columns, "--columns", "phase=direction"))
     out = res.summary
+    print_notes(out.get("notes"))
     if plot:
         write_plot(res.plot(), plot, dpi, res)
     _sensor_warnings(f"compare on {data}", out.get("tare", {}))
@@ -108,10 +126,12 @@ def compare_cmd(
         if out["synthetic"]:
             console.print("[bold yellow]SYNTHETIC data[/] (generated, not measured)")
         rows = [[s["model"], str(s["n_parameters"]), _g(s["rmse_N"]), _g(s["r2"], ".4f"), _g(s["cv_rmse_N"]),
-                 _g(s["cv_rmse_pct_of_peak"], ".2f"), ", ".join(s["flags"]) or "none"]
+                 _g(s["cv_rmse_pct_of_peak"], ".2f"), f"{s.get('extrapolated_folds', 0)}/{len(s.get('folds', []))}",
+                 ", ".join(s["flags"]) or "none"]
                 for s in sorted(out["models"], key=lambda s: (s["cv_rmse_N"] is None, s["cv_rmse_N"] or 0))]
         print_table(f"Force(P, L) models on {out['file']}, held out: {out['cv']} (peak {out['peak_force_N']:.4g} N)",
-                    [" model", "params", "RMSE N", "R²", "CV RMSE N", "CV % of peak", " flags"], rows)
+                    [" model", "params", "RMSE N", "R²", "CV RMSE N", "CV % of peak", "extrapolated folds",
+                     " flags"], rows)
         console.print(f"best on held-out error: {out['best']}")
         return
     if json:

@@ -8,7 +8,7 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, muscle_option, print_table
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
 from mckibben.limits import check_load, check_p_max
@@ -25,7 +25,7 @@ from mckibben import data, fit
 predict_app = typer.Typer(help="Predict length, pressure or force from a static model.", no_args_is_help=True)
 app.add_typer(predict_app, name="predict")
 
-MUSCLE_OPTION = typer.Option("mpam97", "--muscle", help="Parameter set (see `mckibben params list`).")
+MUSCLE_OPTION = muscle_option("mpam97", "Published parameter set (see `mckibben params list`).")
 LOAD_OPTION = typer.Option("0.6N", "--load", help="Hanging load, e.g. 0.6N, 60gf, 2.1N.")
 PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Highest pressure allowed.")
 
@@ -196,12 +196,21 @@ def _force_from_muscle_file(path: str, pressure: str, length: str | None, direct
     ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else law.spec.nominal_length
     force, flags = law.force(p, ell, direction)
     names = [flag_names(x) for x in flags]
+    # the uncertainty the file stores: the fit's RMS residual (the scatter of a prediction about the
+    # data) and the parameters' standard errors
+    stored = law.spec.force_model or {}
+    rmse = stored.get("rmse_N")
+    rmse = float(rmse) if isinstance(rmse, (int, float)) and not isinstance(rmse, bool) else None
     if json:
         out = {"model": law.model, "muscle": law.spec.id, "muscle_file": path, "direction": direction,
                "length_m": ell, "pressure_Pa": p.tolist(), "force_N": force.tolist(), "flags": names}
         scalar = len(p) == 1 and "," not in pressure and ":" not in pressure
-        emit_json(_rows_or_scalars(out, scalar) | {"fit_flags": list(law.flags)})
+        emit_json(_rows_or_scalars(out, scalar) | {"fit_flags": list(law.flags), "fit_rmse_N": rmse,
+                                                   "parameters": dict(law.parameters),
+                                                   "parameters_stderr": dict(stored.get("stderr") or {})})
         return
-    rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
-    print_table(f"{law.model} force fitted for {law.spec.id} ({path}), length {ell * 1e3:.2f} mm, {direction}",
+    pm = f" ± {rmse:.3g}" if rmse is not None else ""
+    rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}{pm}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
+    print_table(f"{law.model} force fitted for {law.spec.id} ({path}), length {ell * 1e3:.2f} mm, {direction}"
+                + (f"; ± the fit's RMS residual {rmse:.3g} N" if rmse is not None else ""),
                 ["pressure MPa", "force N", "flags"], rows)

@@ -10,6 +10,7 @@ import typer
 from mckibben.cli import app
 from mckibben import experiments
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, parse_flag, print_table
+from mckibben.cli._output import metric_row
 from mckibben.atomic import check_output_file
 from mckibben.control import registry as R
 from mckibben.errors import InputError
@@ -152,8 +153,8 @@ def step_cmd(
         emit_json(res.to_dict())
         return
     p = res.arguments["target_Pa"]
-    print_table(f"Step to {p / 1e6:g} MPa ({controller})", ["metric", "value"],
-                [[k, f"{v:.4g}"] for k, v in res.metrics.items()])
+    print_table(f"Step to {p / 1e6:g} MPa ({controller})", [" metric", "value"],
+                [metric_row(k, v) for k, v in res.metrics.items()])
 
 
 def _warn_faults(faults: int) -> None:

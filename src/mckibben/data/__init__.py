@@ -23,12 +23,14 @@ _WHERE = {
     "check_muscle": "mckibben.data.io",
     "detect_kind": "mckibben.data.io",
     "find_muscle_file": "mckibben.data.io",
+    "known_columns": "mckibben.data.schema",
+    "muscle_of_table": "mckibben.data.io",
     "read_muscle": "mckibben.data.io",
     "read_table": "mckibben.data.io",
 }
 
 __all__ = ["KINDS", "QUANTITIES", "SCHEMAS", "TARES", "MuscleSpec", "Schema", "Table", "apply_tare", "check_muscle", "detect_kind",
-           "find_muscle_file", "read_muscle", "read_table"]
+           "find_muscle_file", "known_columns", "muscle_of_table", "read_muscle", "read_table"]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
     from mckibben.data.schema import KINDS as KINDS
@@ -42,6 +44,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.data.io import check_muscle as check_muscle
     from mckibben.data.io import detect_kind as detect_kind
     from mckibben.data.io import find_muscle_file as find_muscle_file
+    from mckibben.data.io import muscle_of_table as muscle_of_table
+    from mckibben.data.schema import known_columns as known_columns
     from mckibben.data.io import read_muscle as read_muscle
     from mckibben.data.io import read_table as read_table
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mckibben.data.schema import BARE_COLUMNS, KINDS, PER_MUSCLE, QUANTITIES, SCHEMAS, SENSOR_COLUMNS
+from mckibben.data.schema import BARE_COLUMNS, KINDS, QUANTITIES, SCHEMAS, known_columns
 from mckibben.atomic import as_path, check_input_file
 from mckibben.errors import ArgumentTypeError, check_instance
 from mckibben.errors import InputError
@@ -62,12 +62,21 @@ class Table:
         ``direction`` and ``muscle`` (str). The index is the 1-based data row.
     columns : dict
         Quantity -> the column name in the file (e.g. ``{"pressure": "pressure_psi"}``).
+    extra : pandas.DataFrame or None
+        The columns the schema does not know, kept aside as read (text), on the rows of ``data``.
+    notes : tuple of str
+        One line per thing the reader did that the user should know (columns kept aside).
+    selected : dict
+        The ``select`` the rows were picked with (column -> value; empty: every row).
     """
 
     kind: str
     path: str
     data: pd.DataFrame
     columns: dict = field(default_factory=dict)
+    extra: pd.DataFrame | None = None
+    notes: tuple[str, ...] = ()
+    selected: dict = field(default_factory=dict)
 
     @property
     def is_csv(self) -> bool:
@@ -169,9 +178,45 @@ def _where(path: str, row: int | None, column: str | None, is_csv: bool) -> str:
     return out
 
 
-def _parse_columns(path: str, names: list[str]) -> dict[str, tuple[str, str, str]]:
-    """Map each file column to (quantity, unit, original name); raise on bad names."""
+#: How close (difflib ratio) an unknown column's name must be to a known one of the same quantity
+#: to be suggested: a typo (``presure`` -> ``pressure``, 0.93; ``tral`` -> ``trial``, 0.89), not
+#: another quantity of the same dimension (``cut_length`` -> ``rest_length``, 0.76). [-]
+SUGGEST_CUTOFF = 0.8
+
+
+def _suggestion(name: str, values=None) -> str | None:
+    """The known column an unknown one probably means, or None: only a name of the same quantity.
+
+    A ``quantity_unit`` name with a unit is matched against the quantities of that unit's
+    dimension; a bare name against the bare columns; a column whose every value is a branch of a
+    loop (``inflate``/``deflate``, ``elongation``/``contraction``) means ``direction``, whatever
+    its name (a lab's ``phase``).
+    """
+    quantity, _, unit = name.rpartition("_")
+    if unit in UNITS and quantity:
+        dim = UNITS[unit][0]
+        same = [q for q in QUANTITIES if QUANTITIES[q][0] == dim or (q == "load" and dim == "mass")]
+        close = difflib.get_close_matches(quantity, same, n=1, cutoff=SUGGEST_CUTOFF)
+        return f"{close[0]}_{unit}" if close else None
+    if values is not None:
+        text = set(np.char.lower(np.asarray(values, dtype=str)))
+        text.discard("")
+        if text and any(text <= set(s.directions) for s in SCHEMAS.values() if s.directions):
+            return "direction"
+    bare = list(BARE_COLUMNS) + [q for q in QUANTITIES if QUANTITIES[q][0] == "dimensionless"]
+    close = difflib.get_close_matches(name, bare, n=1, cutoff=SUGGEST_CUTOFF)
+    return close[0] if close else None
+
+
+def _parse_columns(path: str, names: list[str]) -> tuple[dict[str, tuple[str, str, str]], list[str]]:
+    """Map each known file column to (quantity, unit, original name); list the unknown ones.
+
+    Unknown names (not a quantity of the schema) are returned apart, to be kept aside; a known
+    quantity with a bad unit, a quantity given twice, or a header that is one column (another
+    delimiter) raise.
+    """
     out: dict[str, tuple[str, str, str]] = {}
+    unknown: list[str] = []
     for name in names:
         if name in BARE_COLUMNS:
             quantity, unit = name, ""
@@ -184,22 +229,13 @@ def _parse_columns(path: str, names: list[str]) -> dict[str, tuple[str, str, str
         else:
             quantity, _, unit = name.rpartition("_")
             if quantity not in QUANTITIES:
-                known = ", ".join([q if QUANTITIES[q][0] == "dimensionless" else f"{q}_<unit>" for q in QUANTITIES
-                                   if q not in PER_MUSCLE + SENSOR_COLUMNS] + list(BARE_COLUMNS))
-                near = [f"{q}_<unit>" for q in PER_MUSCLE + SENSOR_COLUMNS if q.split("_")[0] in quantity]
-                hint = f" (also: {', '.join(near)})" if near else ""
                 sep = next((c for c in (";", "\t", "|") if c in name), None)
                 if sep is not None:  # one column holding every header: another delimiter
                     raise InputError(f"{path}: the header is one column, {name!r}: the file looks separated by "
                                      f"{'tabs' if sep == chr(9) else repr(sep)}; mckibben reads comma-separated CSV "
                                      "(with a decimal point): save it again with commas")
-                close = difflib.get_close_matches(quantity, [q for q in QUANTITIES if QUANTITIES[q][0] != "dimensionless"],
-                                                  n=1) or difflib.get_close_matches(name, list(BARE_COLUMNS), n=1)
-                mean = ""
-                if close:
-                    mean = f" (did you mean {close[0]}_{unit}?)" if close[0] in QUANTITIES and unit else \
-                        f" (did you mean {close[0]}?)"
-                raise InputError(f"{path}: column {name!r} is unknown{mean}; known columns are {known}{hint}")
+                unknown.append(name)
+                continue
             dim = QUANTITIES[quantity][0]
             ok_units = units_of(dim) + (units_of("mass") if quantity == "load" else [])
             if unit not in UNITS or not unit:
@@ -209,7 +245,86 @@ def _parse_columns(path: str, names: list[str]) -> dict[str, tuple[str, str, str
         if quantity in out:
             raise InputError(f"{path}: columns {out[quantity][2]} and {name} both give {quantity}; keep one")
         out[quantity] = (quantity, unit, name)
-    return out
+    return out, unknown
+
+
+def _unknown_text(name: str, values=None) -> str:
+    """``phase (its values are a loop's branches: map it with `columns` phase=direction)``: a name and its hint."""
+    near = _suggestion(name, values)
+    if near is None:
+        return name
+    if near == "direction" and values is not None and _suggestion(name) != "direction":
+        return f"{name} (its values are a loop's branches: map it with `columns` {name}=direction)"
+    return f"{name} (did you mean {near}?)"
+
+
+def _unknown_note(path: str, frame, unknown: list[str]) -> str:
+    """The one-line note for the columns kept aside, with the known columns (from the schema)."""
+    parts = [_unknown_text(c, frame[c].astype(str).str.strip().to_numpy()) for c in unknown]
+    what = f"column {parts[0]} is" if len(parts) == 1 else f"columns {', '.join(parts)} are"
+    return f"{path}: {what} unknown: kept aside, not read; known columns are {', '.join(known_columns())}"
+
+
+def _rename_columns(path: str, frame, columns) -> dict[str, str]:
+    """Check ``columns`` (file name -> schema name) against a file's header; return it as a dict."""
+    if columns is None:
+        return {}
+    if not isinstance(columns, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in columns.items()):
+        raise ArgumentTypeError(f"columns = {columns!r}: not a mapping of the file's column names to the schema's "
+                                f"({type(columns).__name__}); give e.g. {{'phase': 'direction'}}")
+    header = list(frame.columns)
+    for old, new in columns.items():
+        if old not in header:
+            raise InputError(f"columns: {old}={new}: {path} has no column {old!r}; its columns are {', '.join(header)}")
+        known, unknown = _parse_columns(path, [new])
+        if unknown:
+            near = _suggestion(new)
+            raise InputError(f"columns: {old}={new}: {new!r} is not a column mckibben reads"
+                             + (f" (did you mean {near}?)" if near else "")
+                             + f"; known columns are {', '.join(known_columns())}")
+        if new in header and new not in columns:
+            raise InputError(f"columns: {old}={new}: {path} already has a column {new!r}; keep one")
+    targets = list(columns.values())
+    twice = next((t for t in targets if targets.count(t) > 1), None)
+    if twice is not None:
+        raise InputError(f"columns: two columns are mapped to {twice!r}; keep one")
+    return dict(columns)
+
+
+def _select_rows(path: str, frame, select, renamed: dict[str, str]) -> np.ndarray:
+    """The rows of a raw frame that ``select`` (column -> value) picks; one line when none does."""
+    keep = np.ones(len(frame), dtype=bool)
+    if select is None:
+        return keep
+    if not isinstance(select, dict) or not all(isinstance(k, str) for k in select):
+        raise ArgumentTypeError(f"select = {select!r}: not a mapping of column names to values "
+                                f"({type(select).__name__}); give e.g. {{'cut_length_cm': 10}}")
+    back = {new: old for old, new in renamed.items()}
+    for col, value in select.items():
+        src = back.get(col, col)
+        if src not in frame.columns:
+            raise InputError(f"select: {col}={value}: {path} has no column {col!r}; its columns are "
+                             f"{', '.join(frame.columns)}")
+        raw = frame[src]
+        text = raw.astype(str).str.strip()
+        numbers = _pd().to_numeric(text, errors="coerce").to_numpy(dtype=float)
+        try:
+            target = float(value)
+        except (TypeError, ValueError):
+            target = math.nan
+        if math.isfinite(target) and np.isfinite(numbers).all():
+            hit = np.isclose(numbers, target, rtol=1e-9, atol=0.0)
+        else:
+            hit = (text == str(value).strip()).to_numpy()
+        if not hit.any():
+            values = list(dict.fromkeys(text.tolist()))
+            shown = ", ".join(values[:12]) + (", ..." if len(values) > 12 else "")
+            raise InputError(f"select: {col}={value}: no row of {path} has {col} = {value}; its values are {shown}")
+        keep &= hit
+    if not keep.any():
+        raise InputError(f"select: {', '.join(f'{c}={v}' for c, v in select.items())}: no row of {path} has all of "
+                         "these values together")
+    return keep
 
 
 def detect_kind(quantities) -> str | None:
@@ -257,8 +372,14 @@ def _read_frame(path: Path, name: str) -> tuple[pd.DataFrame, bool]:
     return df.reset_index(drop=True), False
 
 
-def read_table(path, kind: str | None = None) -> Table:
+def read_table(path, kind: str | None = None, select: dict | None = None, columns: dict | None = None) -> Table:
     """Read one experiment table (CSV or Parquet), validate it and convert it to SI.
+
+    Tables as labs keep them: a column the schema does not know (a lab's ``n_samples``,
+    ``cut_length_cm``) is kept aside in :attr:`Table.extra` with a one-line note in
+    :attr:`Table.notes`, not refused; ``columns`` maps a lab's names to the schema's
+    (``{"phase": "direction"}``); ``select`` picks one muscle or condition from a table holding
+    several (``{"cut_length_cm": 10}``). Rows keep their numbers in the file.
 
     Parameters
     ----------
@@ -267,6 +388,13 @@ def read_table(path, kind: str | None = None) -> Table:
         (``isotonic.csv``), else detected from its columns.
     kind : str, optional
         Force the experiment kind (a key of :data:`~mckibben.data.schema.SCHEMAS`).
+    select : dict, optional
+        Column -> value: only the rows holding every value are read (numbers compared as numbers,
+        in the file's unit, else text). A column is named as in the file, or by its new name in
+        ``columns``. [-]
+    columns : dict, optional
+        The file's column name -> a name of the schema (:func:`~mckibben.data.schema.known_columns`,
+        with a unit where it has one: ``{"P_kPa": "pressure_kPa"}``). [-]
 
     Returns
     -------
@@ -276,9 +404,11 @@ def read_table(path, kind: str | None = None) -> Table:
     Raises
     ------
     InputError
-        One line naming the file, row and column and what is wrong: unknown or missing column,
-        unknown unit, text in a numeric cell, a missing value, NaN or infinity, a negative pressure
-        or load, a direction that is not one of the kind's, time not increasing within a trial.
+        One line naming the file, row and column and what is wrong: a missing column, unknown
+        unit, text in a numeric cell, a missing value, NaN or infinity, a negative pressure
+        or load, a direction that is not one of the kind's, time not increasing within a trial,
+        several muscles in one table without a ``select``; or naming ``select``/``columns`` when
+        one of theirs is not in the file or picks no row.
     """
     p = as_path(path, "path")
     if kind is not None and not isinstance(kind, str):
@@ -287,7 +417,15 @@ def read_table(path, kind: str | None = None) -> Table:
     name = str(path)
     df, is_csv = _read_frame(p, name)
     df.columns = [str(c).strip() for c in df.columns]
-    cols = _parse_columns(name, list(df.columns))
+    renamed = _rename_columns(name, df, columns)
+    keep = _select_rows(name, df, select, renamed)
+    df = df.rename(columns=renamed)
+    selected = set() if select is None else {renamed.get(c, c) for c in select}
+    file_rows = np.flatnonzero(keep) + 1  # 1-based rows of the file, kept through a selection
+    df = df[keep]
+    cols, unknown = _parse_columns(name, list(df.columns))
+    aside = [c for c in unknown if c not in selected]
+    notes = (_unknown_note(name, df, aside),) if aside else ()
     if kind is not None and kind not in SCHEMAS:
         raise unknown_name("experiment kind", kind, KINDS)
     if kind is None and p.stem in SCHEMAS:
@@ -303,12 +441,13 @@ def read_table(path, kind: str | None = None) -> Table:
             missing = [q for q in best.required if q not in cols]
             raise InputError(
                 f"{name}: missing column {_example_column(missing[0])}: no experiment kind matches the columns"
-                f" (closest: {best.kind}, which needs {', '.join(best.required)})"
+                f" (closest: {best.kind}, which needs {', '.join(best.required)}){_meant(missing[0], df, aside)}"
             )
     schema = SCHEMAS[kind]
     for q in schema.required:
         if q not in cols:
-            raise InputError(f"{name}: missing column {_example_column(q)}; a {kind} table needs {', '.join(schema.required)}")
+            raise InputError(f"{name}: missing column {_example_column(q)}; a {kind} table needs "
+                             f"{', '.join(schema.required)}{_meant(q, df, aside)}")
     for q, (_, _, col) in cols.items():
         if q not in schema.allowed:
             raise InputError(
@@ -318,7 +457,7 @@ def read_table(path, kind: str | None = None) -> Table:
     if len(df) == 0:
         raise InputError(f"{name}: no data rows")
 
-    rows = np.arange(1, len(df) + 1)
+    rows = file_rows
     errors: list[tuple[int, int, str]] = []  # (row, column position, message)
     out: dict[str, np.ndarray] = {}
     order = list(df.columns)
@@ -328,8 +467,8 @@ def read_table(path, kind: str | None = None) -> Table:
         where = lambda r: _where(name, int(r), col, is_csv)  # noqa: E731
         if q in QUANTITIES:
             values, bad = _numbers(raw)
-            for r, text in bad:
-                errors.append((r, pos, f"{where(r)}: {text}"))
+            for i, text in bad:
+                errors.append((rows[i - 1], pos, f"{where(rows[i - 1])}: {text}"))
             dim, no_negative, _ = QUANTITIES[q]
             if no_negative and q == "pressure" and kind == "isometric" and unit:
                 # an unzeroed transducer reads slightly below zero at zero pressure: within
@@ -349,8 +488,8 @@ def read_table(path, kind: str | None = None) -> Table:
                 out[q] = to_si(values, unit, dim) if unit else values
         elif q == "trial":
             values, bad = _numbers(raw)
-            for r, text in bad:
-                errors.append((r, pos, f"{where(r)}: {text}"))
+            for i, text in bad:
+                errors.append((rows[i - 1], pos, f"{where(rows[i - 1])}: {text}"))
             frac = np.flatnonzero(np.isfinite(values) & (values != np.round(values)))
             if frac.size:
                 r = rows[frac[0]]
@@ -389,10 +528,21 @@ def read_table(path, kind: str | None = None) -> Table:
                     f" (row {prev} has {_g(t[back[0]])}); time must increase within each trial"
                 )
     _check_plausible(data, cols, name, is_csv)
-    table = Table(kind, name, data, {q: c[2] for q, c in cols.items()})
+    extra = _pd().DataFrame({c: df[c].to_numpy() for c in aside}, index=data.index)
+    table = Table(kind, name, data, {q: c[2] for q, c in cols.items()}, extra, notes,
+                  {} if select is None else dict(select))
     if kind == "isometric":
         _check_isometric(table)
     return table
+
+
+def _meant(quantity: str, frame, aside: list[str]) -> str:
+    """``; the unknown column presure_MPa (did you mean pressure_MPa?) may be it`` for a missing quantity, or ''."""
+    for c in aside:
+        near = _suggestion(c, frame[c].astype(str).str.strip().to_numpy())
+        if near is not None and (near == quantity or near.rpartition("_")[0] == quantity):
+            return f"; the unknown column {_unknown_text(c, frame[c].astype(str).str.strip().to_numpy())} may be it"
+    return ""
 
 
 def _check_plausible(data: pd.DataFrame, cols: dict, name: str, is_csv: bool) -> None:
@@ -449,13 +599,35 @@ def set_point_groups(values, decimals=9):
     return labels, centres
 
 
+def _several_muscles(table: Table) -> str:
+    """The message for a table of several rest lengths and no ``muscle`` column: which column names them.
+
+    The column named is the first kept-aside one holding one value per rest length (a lab's
+    ``cut_length_cm``), else the rest-length column itself.
+    """
+    d = table.data
+    rest = d["rest_length"].to_numpy()
+    column = table.columns["rest_length"]
+    per_unit = to_si(1.0, column.rpartition("_")[2], "length")  # the file's unit: select reads it
+    values = [f"{v / per_unit:g}" for v in np.unique(rest)]
+    for c in ([] if table.extra is None else list(table.extra.columns)):
+        pairs = _pd().DataFrame({"c": table.extra[c].astype(str).to_numpy(), "r": rest})
+        if pairs["c"].nunique() == len(values) and len(pairs.drop_duplicates()) == len(values):
+            column, values = c, list(dict.fromkeys(pairs["c"]))
+            break
+    shown = ", ".join(values[:8]) + (", ..." if len(values) > 8 else "")
+    return (f"{table.path}: column {column} holds {len(values)} muscles ({shown}), each with its own rest length; "
+            f"pick one with `select` {column}={values[0]}, or fit them as a family with a muscle column"
+            + (f" (`columns` {column}=muscle)" if column != table.columns["rest_length"] else ""))
+
+
 def _check_isometric(table: Table) -> None:
     """An isometric table spans two held lengths or more and two pressures or more per run."""
     d = table.data
     if "rest_length" in d:  # a family table: one rest length per muscle
-        if "muscle" not in d:
-            raise InputError(f"{table.where(None, 'rest_length')}: a family table (rest_length) needs a muscle column "
-                             "naming each row's muscle")
+        if "muscle" not in d and np.unique(d["rest_length"].to_numpy()).size > 1:
+            raise InputError(_several_muscles(table))
+    if "rest_length" in d and "muscle" in d:
         spread = d.groupby(d["muscle"].astype(str))["rest_length"].agg(lambda x: float(np.ptp(x.to_numpy())))
         bad = spread[spread > 1e-9]
         if len(bad):
@@ -936,6 +1108,10 @@ def check_muscle(table: Table, muscle: MuscleSpec) -> None:
     d = table.data
     if "muscle" in d and "rest_length" not in d:  # a family table holds several muscles of the file's type
         wrong = np.flatnonzero(d["muscle"].to_numpy() != muscle.id)
+        ids = list(dict.fromkeys(d["muscle"].astype(str)))
+        if wrong.size and len(ids) > 1 and muscle.id in ids:
+            raise InputError(f"{table.where(None, 'muscle')}: holds {len(ids)} muscles ({', '.join(ids[:8])}); pick "
+                             f"the one of muscle file {muscle.path or muscle.id} with `select` muscle={muscle.id}")
         if wrong.size:
             r = int(d.index[wrong[0]])
             raise InputError(
@@ -953,6 +1129,36 @@ def check_muscle(table: Table, muscle: MuscleSpec) -> None:
                 f" length {muscle.strand_length * 1e3:g} mm of muscle file {muscle.path or muscle.id}"
                 f" (id {muscle.id!r}); does the muscle file match the data?"
             )
+
+
+def muscle_of_table(table: Table) -> MuscleSpec | None:
+    """The muscle a table itself describes, when no muscle file is given: one rest length, or None.
+
+    A lab's isometric table often gives each muscle's rest length (``rest_length_mm``) and nothing
+    else of it; for one muscle (the table's rows, or those picked with ``select``) that is its
+    nominal length L0, all a law like the spring model needs. A law that needs more (the outer
+    diameter, the braid angle) asks for it by key (:meth:`MuscleSpec.need`).
+
+    Parameters
+    ----------
+    table : Table
+        A validated table. [-]
+
+    Returns
+    -------
+    MuscleSpec or None
+        ``id`` the table's muscle (or its file name and selection), ``nominal_length`` its rest
+        length [m]; None when the table has no rest length or several.
+    """
+    check_instance(table, "table", Table, "a Table (read_table)")
+    d = table.data
+    if "rest_length" not in d or np.unique(d["rest_length"].to_numpy()).size != 1:
+        return None
+    ids = np.unique(d["muscle"].astype(str)) if "muscle" in d else []
+    picked = ", ".join(f"{k}={v}" for k, v in table.selected.items())
+    name = str(ids[0]) if len(ids) == 1 else Path(table.path).stem + (f" ({picked})" if picked else "")
+    return MuscleSpec(id=name, nominal_length=float(d["rest_length"].iloc[0]),
+                      notes=f"from the rest length of {table.path} (no muscle file)")
 
 
 def find_muscle_file(data_path) -> Path | None:

@@ -51,7 +51,7 @@ from mckibben.atomic import atomic_file, check_output_file
 from mckibben.control import registry as R
 from mckibben.control.core import MODE_PID, MODE_SMC, CoreParams, gain_values
 from mckibben.control.experiment_setup import (controller_params, identify_file_plant, muscle_file_plant, plant_load,
-                                               tuned_controller)
+                                               rest_pull, tuned_controller)
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError, check_instance
 from mckibben.models import laws as LW
@@ -111,7 +111,8 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         open plant. [-]
     load : float, optional
         Hanging load, the FMU's ``load_force`` start value; default 0.6 N (as ``mckibben simulate
-        open-loop``). [N]
+        open-loop``), or for a muscle file :data:`FILE_LOAD_FRACTION` of what its muscle pulls at
+        rest at the supply pressure (0.6 N is nothing to a 400 N muscle). [N]
     supply : float, optional
         Supply pressure (gauge), the ``supply_pressure`` start value; default 0.8 MPa, or a muscle
         file's top fitted pressure. [Pa]
@@ -187,6 +188,11 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
     return dest
 
 
+#: A muscle file's FMU hangs this fraction of what its muscle pulls at rest (at the supply
+#: pressure) by default: a load it lifts through a quarter of its range. [-]
+FILE_LOAD_FRACTION = 0.25
+
+
 def _plant(muscle, muscle_file, plant, load, supply, direction) -> PP.PlantParams:
     """The one rig to export, from exactly one of a published set, a muscle file, a PlantParams."""
     given = [k for k, v in (("muscle", muscle), ("muscle_file", muscle_file), ("plant", plant)) if v is not None]
@@ -200,7 +206,9 @@ def _plant(muscle, muscle_file, plant, load, supply, direction) -> PP.PlantParam
             raise InputError("load, supply: give them in the PlantParams (load_force, supply_pressure)")
         return plant
     if muscle_file is not None:
-        return muscle_file_plant(muscle_file, 0.6 if load is None else load, supply, direction)
+        if load is None:  # a load scaled to the muscle at hand
+            load = round(FILE_LOAD_FRACTION * rest_pull(muscle_file_plant(muscle_file, 0.0, supply, direction)), 1)
+        return muscle_file_plant(muscle_file, load, supply, direction)
     if direction != "inflate":
         raise InputError(f"direction: {direction!r} applies to a muscle file's law only")
     f = plant_load(0.6 if load is None else load)

@@ -326,7 +326,7 @@ def _check_condition(matrix: np.ndarray, what: str) -> float:
 
 def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_range: dict,
                func: Callable | None = None, condition: dict | None = None, source: str = "",
-               scale=None, clusters=None, nonnegative=None) -> FitResult:
+               scale=None, clusters=None, nonnegative=None, cluster_unit: str = "trials") -> FitResult:
     """Ordinary least squares y ≈ X·β with standard errors (optionally some β ≥ 0).
 
     Parameters
@@ -357,6 +357,8 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
         Trial label per row: with five or more trials (:data:`MIN_CLUSTERS`) the covariance is cluster-robust
         (:func:`cluster_covariance`) and the intervals use t with (trials − 1) degrees of freedom.
         [-]
+    cluster_unit : str, default "trials"
+        What a cluster is, in the covariance's name (``"runs"``: a held length's run of one trial). [-]
     nonnegative : array_like of bool, optional
         Which coefficients are held ≥ 0 (bounded least squares, :func:`scipy.optimize.lsq_linear`
         on the column-scaled design). A coefficient that ends at 0 is held there for the
@@ -375,7 +377,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
     if nonnegative is not None:
         return _nonnegative_fit(x, y, names, np.asarray(nonnegative, dtype=bool), cond, model=model,
                                 response=response, valid_range=valid_range, func=func, condition=condition,
-                                source=source, scale=scale, clusters=clusters)
+                                source=source, scale=scale, clusters=clusters, cluster_unit=cluster_unit)
     norms = np.linalg.norm(x, axis=0)
     beta_s, *_ = np.linalg.lstsq(x / norms, y, rcond=None)
     beta = beta_s / norms
@@ -389,7 +391,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
     if use_clusters(clusters):
         cov = cluster_covariance(x, resid, clusters)
         t_dof = int(np.unique(clusters).size - 1)
-        method = f"cluster-robust ({t_dof + 1} trials)"
+        method = f"cluster-robust ({t_dof + 1} {cluster_unit})"
     if scale is not None:
         sc = np.asarray(scale, dtype=float)
         beta = beta * sc
@@ -401,7 +403,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
 
 
 def _nonnegative_fit(x, y, names, nonneg, cond, *, model, response, valid_range, func, condition, source, scale,
-                     clusters) -> FitResult:
+                     clusters, cluster_unit: str = "trials") -> FitResult:
     """The bounded branch of :func:`linear_fit`: some coefficients ≥ 0, held at 0 for the covariance."""
     from scipy import optimize  # deferred on purpose: SciPy
     n, p = x.shape
@@ -423,7 +425,7 @@ def _nonnegative_fit(x, y, names, nonneg, cond, *, model, response, valid_range,
         if use_clusters(clusters):
             cf = cluster_covariance(x[:, free], resid, clusters)
             t_dof = int(np.unique(clusters).size - 1)
-            method = f"cluster-robust ({t_dof + 1} trials)"
+            method = f"cluster-robust ({t_dof + 1} {cluster_unit})"
         else:
             s2 = float(resid @ resid) / dof
             xf = xs[:, free]
@@ -710,7 +712,7 @@ def fit_flags(names, values, lo, hi, r2, condition_number, extra=(), *, ref=None
 
 def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str, what: str, valid_range: dict,
                 func: Callable, clusters=None, condition: dict | None = None, source: str = "",
-                physical_flags: Callable | None = None) -> FitResult:
+                physical_flags: Callable | None = None, cluster_unit: str = "trials") -> FitResult:
     """Bounded nonlinear least squares from several starts, with flags and trial-aware intervals.
 
     Every start is run briefly (:func:`scipy.optimize.least_squares`, trust region reflective,
@@ -749,6 +751,8 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
         Data file.
     physical_flags : callable, optional
         ``physical_flags(values) -> list of str``: the model's own non-physical checks.
+    cluster_unit : str, default "trials"
+        What a cluster is, in the covariance's name (``"runs"``: a held length's run of one trial). [-]
 
     Returns
     -------
@@ -810,7 +814,7 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
             if use_clusters(clusters):
                 cf = cluster_covariance(jf, resid, clusters)
                 t_dof = int(labels.size - 1)
-                method = f"cluster-robust ({labels.size} trials)"
+                method = f"cluster-robust ({labels.size} {cluster_unit})"
             else:
                 js = jf / norms
                 cf = sigma**2 * np.linalg.pinv(js.T @ js) / np.outer(norms, norms)

@@ -487,7 +487,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
 
         names = SURFACE_NAMES[: x.shape[1]]
         res = linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
-                         source=source, clusters=clusters)
+                         source=source, clusters=clusters, cluster_unit="runs")
         return _with_monotone_flag(res, d)
     spec = _spec(model, muscle, fmax, p, ell, f, direction, rest)
 
@@ -496,7 +496,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
 
     res = bounded_fit(lambda v: spec.force(v, p, ell, direction, rest), f, spec.starts, spec.names, spec.lo, spec.hi,
                       model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
-                      source=source, physical_flags=spec.physical)
+                      source=source, physical_flags=spec.physical, cluster_unit="runs")
     return _with_monotone_flag(res, d)
 
 

@@ -18,7 +18,7 @@ import numpy as np
 from mckibben.errors import ArgumentTypeError, InputError, check_real, unknown_name
 from mckibben.models import laws
 from mckibben.results import Result
-from mckibben.data import find_muscle_file, read_muscle
+from mckibben.data import find_muscle_file, muscle_of_table, read_muscle
 from mckibben.datasets.campaign import is_synthetic
 from mckibben.data import check_muscle, read_table
 from mckibben.fit import static
@@ -32,10 +32,15 @@ from mckibben.fit.names import FIT_MODELS, NEEDS_MUSCLE  # noqa: F401  (re-expor
 
 
 
-def load_muscle(data: Path, muscle: str | None, required: bool, what: str):
-    """The muscle file given with --muscle, else ``muscle.toml`` beside the data (or None)."""
+def load_muscle(data: Path, muscle: str | None, required: bool, what: str, table=None):
+    """The muscle file given with --muscle, else ``muscle.toml`` beside the data, else the muscle the
+    table itself describes (:func:`mckibben.data.io.muscle_of_table`), or None."""
 
     path = Path(muscle) if muscle else find_muscle_file(data)
+    if path is None and table is not None:
+        spec = muscle_of_table(table)
+        if spec is not None:
+            return spec
     if path is None:
         if required:
             raise InputError(f"{what}: needs a muscle file; give `muscle` FILE.toml or put muscle.toml beside {data}")
@@ -51,14 +56,15 @@ def _synthetic(data: Path, spec) -> bool:
 
 def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None = None,
              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
-             rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> tuple[dict, list]:
+             rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
+             select: dict | None = None, columns: dict | None = None) -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
 
     if model not in FIT_MODELS and model not in laws.ALIASES:  # an old law name is read (deprecated)
         raise unknown_name("model", model, FIT_MODELS)
-    table = read_table(data, kind)
+    table = read_table(data, kind, select, columns)
     isometric = table.kind == "isometric"
-    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}")
+    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}", table)
     if spec is not None:
         check_muscle(table, spec)
     if tare != "none" and not isometric:
@@ -82,7 +88,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
         fit = fit_isometric(table, spec, model, tare, rails, pressure_zero)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
-               "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
+               "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
         out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
         if save is not None:
             out["saved"] = str(save_muscle_file(save, spec, fit, rest_length))
@@ -115,7 +121,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
     else:
         fits = list(static.fit_first_order(table).values())
     out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id if spec else None,
-           "synthetic": _synthetic(data, spec), **extra, "fits": [f.to_dict() for f in fits]}
+           "synthetic": _synthetic(data, spec), **_table_notes(table), **extra, "fits": [f.to_dict() for f in fits]}
     if len(fits) == 1:
         out.update({k: v for k, v in fits[0].to_dict().items() if k not in ("model",)})
     else:
@@ -123,13 +129,19 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
     return out, fits
 
 
-def _isometric_table(data: Path):
+def _table_notes(table) -> dict:
+    """What a result says of how its table was read: ``selected`` rows and ``notes`` (columns kept aside)."""
+    return {**({"selected": dict(table.selected)} if table.selected else {}),
+            **({"notes": list(table.notes)} if table.notes else {})}
+
+
+def _isometric_table(data: Path, select: dict | None = None, columns: dict | None = None):
     """The table if DATA is an isometric table file, else None (a folder or another kind)."""
 
     data = Path(data)
     if data.is_dir():
         return None
-    table = read_table(data)
+    table = read_table(data, None, select, columns)
     return table if table.kind == "isometric" else None
 
 
@@ -137,11 +149,11 @@ def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str
                        pressure_zero: str = "none") -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
 
-    spec = load_muscle(data, muscle, True, "compare")
+    spec = load_muscle(data, muscle, True, "compare", table)
     check_muscle(table, spec)
     res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero)
     return {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
-            "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
+            **_table_notes(table), "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
 
 
 #: Distinct pressures (above 0) an isotonic table needs for `compare`: a cubic in pressure and a
@@ -149,7 +161,8 @@ def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str
 COMPARE_MIN_PRESSURES = 6
 
 
-def _compare_isotonic(data: Path, muscle: str | None = None) -> dict:
+def _compare_isotonic(data: Path, muscle: str | None = None, select: dict | None = None,
+                      columns: dict | None = None) -> dict:
     """Run the comparison; return the JSON-ready result."""
 
     data = Path(data)
@@ -157,7 +170,7 @@ def _compare_isotonic(data: Path, muscle: str | None = None) -> dict:
     iso_path = folder / "isotonic.csv" if data.is_dir() else data
     if data.is_dir() and not iso_path.is_file():
         raise InputError(f"compare: {data} holds no isotonic.csv")
-    table = read_table(iso_path)
+    table = read_table(iso_path, None, select, columns)
     spec = load_muscle(iso_path, muscle, True, "compare")
     check_muscle(table, spec)
     braid = None
@@ -173,7 +186,7 @@ def _compare_isotonic(data: Path, muscle: str | None = None) -> dict:
         raise InputError(f"compare: {iso_path} has {distinct} distinct pressures above 0; comparing the models "
                          f"(cubics in pressure, cross-validated) needs at least {COMPARE_MIN_PRESSURES}")
     res = compare_models(table, spec, braid)
-    return {"file": str(iso_path), "muscle": spec.id, "synthetic": _synthetic(iso_path, spec),
+    return {"file": str(iso_path), "muscle": spec.id, "synthetic": _synthetic(iso_path, spec), **_table_notes(table),
             "quantity": "length under load at a pressure (rows with P > 0); relative errors on contraction",
             "n_points": res["n_points"], "cv_method": res["cv_method"],
             "models": [s.to_dict() for s in res["scores"]]}
@@ -264,7 +277,8 @@ def _data_path(data) -> Path:
 
 def fit_table(data, model: str, muscle: str | None = None, kind: str | None = None,
               split_pressure: float | None = None, tare: str = "none", save: str | None = None,
-              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> TableFit:
+              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
+              select: dict | None = None, columns: dict | None = None) -> TableFit:
     """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
 
     Parameters
@@ -290,12 +304,20 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         (default the muscle file's nominal length). [m]
     save : str, optional
         Isometric tables: write a muscle file with the fitted force law here. [-]
+    select : dict, optional
+        Column -> value: fit only the rows holding these values, e.g. one muscle of a table of
+        several (:func:`mckibben.data.read_table`). [-]
+    columns : dict, optional
+        The file's column names -> the schema's, e.g. ``{"phase": "direction"}``. [-]
 
     Returns
     -------
     TableFit
+        With no muscle file, a table giving one muscle's rest length stands for it
+        (:func:`mckibben.data.io.muscle_of_table`).
     """
-    out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails, pressure_zero)
+    out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails,
+                         pressure_zero, select, columns)
     return TableFit(out, fits)
 
 
@@ -358,7 +380,8 @@ class TableComparison(Result):
 
 
 def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none", rails: str = "keep",
-                  pressure_zero: str = "none") -> TableComparison:
+                  pressure_zero: str = "none", select: dict | None = None,
+                  columns: dict | None = None) -> TableComparison:
     """Fit every applicable model to the same data and score it on held-out data.
 
     An isometric table: every force model, folds by held length (default) or trial
@@ -380,16 +403,20 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         Isometric tables: rows at a sensor's rail. [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         Isometric tables: the pressure transducer's zero. [-]
+    select : dict, optional
+        Column -> value: compare on the rows holding these values (one muscle of several). [-]
+    columns : dict, optional
+        The file's column names -> the schema's, e.g. ``{"phase": "direction"}``. [-]
 
     Returns
     -------
     TableComparison
     """
     data = _data_path(data)
-    iso = _isometric_table(data)
+    iso = _isometric_table(data, select, columns)
     if iso is not None:
         return TableComparison(_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare, rails,
                                                   pressure_zero))
     if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
         raise InputError("cv/`tare`: apply to isometric tables; the isotonic comparison chooses its own folds")
-    return TableComparison(_compare_isotonic(data, muscle))
+    return TableComparison(_compare_isotonic(data, muscle, select, columns))

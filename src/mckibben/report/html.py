@@ -7,6 +7,7 @@ place at the end, so a failure leaves nothing half-written.
 from __future__ import annotations
 
 import html
+import inspect
 import os
 from pathlib import Path
 
@@ -122,6 +123,37 @@ padding:0.6em 1em;font-weight:bold;color:#900}img{max-width:100%;border:1px soli
 .note{color:#555;font-size:0.9em}"""
 
 
+#: The report's closing section: how to run the same on a lab's own tables (docs/data.md, docs/fit.md).
+RUN_ON_YOUR_DATA = (
+    "<h2>Run it on your data</h2>"
+    "<p>This report characterizes the bundled campaign. The same fits run on your own tables, one command each"
+    " (every one takes <code>--json</code>; <code>docs/data.md</code> says what a table holds):</p><pre>"
+    "mckibben fit isometric.csv --model spring --muscle-file my.toml --save mine.toml   # a force law, saved\n"
+    "mckibben compare isometric.csv --muscle-file my.toml                             # every model, held-out error\n"
+    "mckibben fit lab.csv --select cut_length_cm=10 --columns phase=direction --model spring"
+    "   # a lab's table as it is\n"
+    "mckibben fit isotonic.csv --model cubic                                          # Table II's cubics\n"
+    "mckibben simulate open-loop --muscle-file mine.toml --load 100N                  # the fitted muscle on the rig\n"
+    "mckibben control step --muscle-file mine.toml --target 0.4MPa                     # and under control"
+    "</pre><p>A campaign of your own, one sub-folder per muscle, each holding <code>muscle.toml</code> beside its"
+    " tables (isotonic, blocked_force, braid_angle, hysteresis, force_length, isometric), is characterized as a"
+    " whole, as this report was: <code>mckibben reproduce --data FOLDER --out REPORT</code>.</p>")
+
+
+def caption(figure: str) -> str:
+    """A figure's caption: the first paragraph of the docstring of the function that draws it.
+
+    Parameters
+    ----------
+    figure : str
+        The figure's file name, a key of :data:`~mckibben.report.figures.ALL_FIGURES` or
+        :data:`~mckibben.report.figures.ISOMETRIC_FIGURES` (another name is captioned by itself). [-]
+    """
+    func = {**ALL_FIGURES, **ISOMETRIC_FIGURES}.get(figure)
+    doc = inspect.cleandoc(func.__doc__ or "") if func is not None else ""
+    return " ".join(doc.split("\n\n")[0].split()) or figure
+
+
 def render_html(summary: dict, figures: list[str]) -> str:
     """The report page.
 
@@ -208,10 +240,13 @@ def render_html(summary: dict, figures: list[str]) -> str:
                               _g(m["rmse_N"]), _g(m["r2"]), _g(m["cv_rmse_N"]), _g(m["cv_rmse_pct_of_peak"], 1, 3),
                               ", ".join(m["flags"]) or "none"] for m in rows]))
     parts.append("<h2>Figures</h2>")
-    for f in figures:
-        parts.append(f"<p><img src='{html.escape(f)}' alt='{html.escape(f)}'></p>")
+    for k, f in enumerate(figures, 1):
+        text = f"Figure {k}. {caption(f)}"
+        parts.append(f"<figure><img src='{html.escape(f)}' alt='{html.escape(text)}'>"
+                     f"<figcaption>{html.escape(text)}</figcaption></figure>")
     if summary["skipped"]:
         parts.append("<p class='note'>Skipped: " + html.escape("; ".join(summary["skipped"])) + "</p>")
+    parts.append(RUN_ON_YOUR_DATA)
     parts.append(f"<p class='note'>Made by <code>mckibben reproduce</code>. Sources: {html.escape(render(_SOURCES))}.</p>")
     parts.append("<h2>References</h2><ul>" + "".join(f"<li>{_reference_html(r)}</li>" for r in cited(_SOURCES)) + "</ul>")
     parts.append("</body></html>")
