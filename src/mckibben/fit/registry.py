@@ -89,7 +89,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         fit = fit_isometric(table, spec, model, tare, rails, pressure_zero)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
                "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
-        out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
+        _update_keeping_table_notes(out, fit.to_dict())
         if save is not None:
             out["saved"] = str(save_muscle_file(save, spec, fit, rest_length))
         return out, [fit]
@@ -123,10 +123,20 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
     out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id if spec else None,
            "synthetic": _synthetic(data, spec), **_table_notes(table), **extra, "fits": [f.to_dict() for f in fits]}
     if len(fits) == 1:
-        out.update({k: v for k, v in fits[0].to_dict().items() if k not in ("model",)})
+        _update_keeping_table_notes(out, fits[0].to_dict())
     else:
         out["flags"] = sorted({fl for f in fits for fl in f.flags})
     return out, fits
+
+
+def _update_keeping_table_notes(out: dict, fit: dict) -> None:
+    """Lift one fit's fields to the top of ``out``; its ``notes`` (what the fit could not tell, e.g.
+    ``correlated_parameters``) follow the table reader's notes (columns kept aside) instead of
+    replacing them."""
+    notes = list(out.get("notes", [])) + list(fit.get("notes", []))
+    out.update({k: v for k, v in fit.items() if k not in ("model", "notes")})
+    if notes:
+        out["notes"] = notes
 
 
 def _table_notes(table) -> dict:
