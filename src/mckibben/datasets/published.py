@@ -19,12 +19,27 @@ ID 0.5 mm / OD 0.9 mm, nylon strand ~0.1 mm, braid angle ~20°, outer diameter ~
 The spring model of Wickramatunge and Leephakpreeda, “Study on mechanical behaviors of pneumatic artificial muscle”, Int. J. Eng. Sci. 48 (2010) 188–198 (text: 001_9d98bcef9f07dbeb.txt) (Festo muscles PAM-A, -B, -C) is shipped as its
 structure and muscle sizes only: its coefficient tables are unreadable in our copy, and we ship
 no invented numbers; ``mckibben fit`` fits them from data.
+
+The length-effect model of Hunt, Graber-Tilton and Quinn (2017) for Festo DMSP-10 muscles,
+P = c0 + c1·tan(c2·(ε/(c4·F + ε_max) + c3)) + c5·F + c6·S (law ``hunt-quinn``):
+
+==================  ========  ======  ======  ======  ===========  ========  =======  ======  =======
+name                c0        c1      c2      c3      c4           c5        c6       L0      ε_max
+==================  ========  ======  ======  ======  ===========  ========  =======  ======  =======
+festo-dmsp10-189    254.3     192     2.0265  −0.461  −0.331e-3    1.23      15.6     189 mm  0.1667
+                    kPa       kPa                     1/N          kPa/N     kPa
+==================  ========  ======  ======  ======  ===========  ========  =======  ======  =======
+
+The constants are those of the authors' lab code (the paper's text was not available to check them
+against); L0 = 189 mm and the free length 157.5 mm at 620 kPa (ε_max = 0.1667) are its worked
+example's muscle.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from mckibben.models.laws.hunt_quinn import HuntQuinn
 from mckibben.models.mpam import BraidAngleMap, MiniatureGeometry, MiniatureMuscle
 
 MM = 1e-3
@@ -102,4 +117,15 @@ SPRING_MODEL_STRUCTURE = {
     "split_pressure_Pa": 2.5e5,
     "coefficients": "unreadable in our copy: fit them with `mckibben fit --model spring`",
     "citation": f"{PAPER_SPRING}, eq. (1)–(2), Tables 1–2, §5",
+}
+
+#: Hunt, Graber-Tilton and Quinn (2017): published constants of their Festo DMSP-10 model, by name
+#: (law ``hunt-quinn``; see the module's table).
+HUNT_QUINN_SETS: dict[str, HuntQuinn] = {
+    "festo-dmsp10-189": HuntQuinn(
+        c0=254.3, c1=192.0, c2=2.0265, c3=-0.461, c4=-0.331e-3, c5=1.23, c6=15.6,
+        max_strain=(189.0 - 157.5) / 189.0, rest_length=189.0 * MM,
+        citation="Hunt, Graber-Tilton & Quinn (2017), ASME IDETC DETC2017-67458: c0..c6 as in the authors' lab "
+                 "code (BPA pressure model); L0 189 mm, free length 157.5 mm at 620 kPa (its worked example)",
+    ),
 }
