@@ -12,9 +12,42 @@ branch per index, :data:`LAW_INDEX`); :func:`resolve` reads old names (``"empiri
 → ``braid-map``; ``"wall-chou-hannaford"`` → ``wall-corrected``) with a deprecation warning.
 Predict, fit, compare, the plant, the tool, muscle files and the CLI read it.
 
-**Adding a law** is adding its file (and its test): every module of this package not starting
-with ``_`` is imported and its ``LAW`` registered after the five laws the plant was first
-compiled with, in file-name order. The plant reserves :data:`PLANT_SLOTS` branches for them.
+**Adding a law is adding its file** ``laws/<stem>.py`` (and its test), nothing else: every module of
+this package not starting with ``_`` is imported and its ``LAW`` registered after the five laws the
+plant was first compiled with, in file-name order, and every consumer (predict, fit, compare, the
+plant, the tool, muscle files, ``params``, the MuJoCo bridge, the FMU) and the conformance suite
+(``tests/test_law_conformance.py``) read it from :data:`LAWS`. A law file defines:
+
+1. **The kernel**: a module-level function ``<name>(pressure, length, th, o, w) -> force`` [Pa, m ->
+   N], parameter r at ``th[o + r·w]`` (at most :data:`NTH` rows), marked
+   ``@kernel(error_model="numpy", inline="always")`` (:mod:`mckibben._kernels`); the file ends with
+   ``register(__name__)``. Its θ rows are module constants (``XX_A, XX_B = range(2)``).
+2. **The parameters**: a frozen dataclass with a ``citation`` field (and the fitted range, if fitted)
+   whose θ the law reads.
+3. **Its C face**, for the FMU: a file ``laws/<stem>.c`` beside the ``.py`` (same stem), C99,
+   defining exactly one function ``static double mk_law_<stem>(double pressure, double length, const
+   double *th)`` [Pa, m -> N] with θ row r at ``th[r]``; rows by the macros ``MK_<KEY>`` of
+   :attr:`Law.c_rows` (``c_rows={"XX_A": XX_A, ...}``), constants by ``MK_MPA`` (and the other
+   ``MK_*`` of the FMU's ``mk_model.h``), ``<math.h>`` only. The FMU's exporter concatenates every
+   registered law's C face into one generated ``mk_laws.c`` with the dispatch ``mk_law(index, …)`` by
+   :data:`LAW_INDEX`; no hand list. It must equal the kernel to 1e-9 relative (the conformance suite
+   compiles it with the system ``cc`` and checks). A law without a ``.c`` file runs everywhere but
+   the FMU, which refuses it by name.
+4. ``LAW = Law(name, kernel, citation, ...)`` (:class:`~mckibben.models.laws._base.Law`): registry
+   name (lower-case, hyphens; old names in ``aliases``), ``description`` (one line for listings),
+   ``params`` and ``theta_of`` (parameter object -> θ), ``c_rows``, and as the law allows:
+   ``fit_spec`` + ``from_values`` + ``needs`` (fitted to an isometric table; ``family=True`` across
+   rest lengths), ``branches=2`` (inflate/deflate), ``published`` (``published(muscle) -> parameter
+   object``: the law's parameters for a catalogue muscle, from its geometry or a published set;
+   ``predict force --model <name>`` and :func:`mckibben.models.force` use it; None: the law needs a
+   fit or a muscle file).
+
+**The plant dispatches over any number of laws**: it has no slots. Its two law dispatchers
+(``law_force`` over a block's lanes, ``law_value`` at one point) are generated from :data:`LAW_NAMES`
+by :mod:`mckibben.plant.physics`, one branch per index calling each law's kernel as a true global,
+written as a module into the per-user cache folder and imported from there
+(:func:`mckibben._jit.generated_module`), so they compile once per machine like every kernel; a new
+law file changes the package's fingerprint and the generated source, so both recompile once.
 
 The kernels return the law's raw value (negative where the law would push); the plant adds
 what is not the law's (never pushing, the tube's passive stiffness, the braid's end stops).

@@ -13,6 +13,7 @@ import sys
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -92,6 +93,13 @@ class Law:
         1, or 2 for a law with an inflate and a deflate branch (its hysteresis). [-]
     family : bool
         Whether the law is fitted across muscles of one type (rest length is an input). [-]
+    c_rows : dict
+        θ rows the C face reads, ``{"XX_A": row}``: the FMU's ``mk_model.h`` defines ``MK_XX_A``. [-]
+    published : callable, optional
+        ``published(muscle) -> params``: the law's parameters for a catalogue muscle (its geometry
+        or a published set); None when the law needs a fit or a muscle file. [-]
+    extra : dict
+        Law-specific facts other code may read (``optional_names``). [-]
     """
 
     name: str
@@ -108,6 +116,23 @@ class Law:
     branches: int = 1
     family: bool = False
     extra: dict = field(default_factory=dict)
+    c_rows: dict = field(default_factory=dict)
+    published: Callable | None = None
+
+    @property
+    def stem(self) -> str:
+        """The law file's stem (``virtual_work`` for ``laws/virtual_work.py``). [-]"""
+        return self.kernel.__module__.rsplit(".", 1)[-1]
+
+    @property
+    def c_function(self) -> str:
+        """The name of the C face's function, ``mk_law_<stem>``. [-]"""
+        return f"mk_law_{self.stem}"
+
+    def c_source(self) -> str | None:
+        """The law's C face (``laws/<stem>.c`` beside its file), or None when it has none."""
+        path = Path(sys.modules[self.kernel.__module__].__file__ or "").with_suffix(".c")
+        return path.read_text() if path.is_file() else None
 
 
 # --- the NumPy face of any kernel ---------------------------------------------------------------
