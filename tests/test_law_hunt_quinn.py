@@ -6,6 +6,9 @@ tared as a lab would. The published constants are those of :data:`HUNT_QUINN_SET
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -111,3 +114,36 @@ def test_a_fitted_file_drives_the_plant_to_the_law(table, tmp_path):
         want = law.force(r.pressure[:, -1], ell)[0] - fit.result["offset_N"]
         # the plant runs the same kernel: its steady blocked force within 0.1 % of the static law
         np.testing.assert_allclose(r.force[:, -1], want, rtol=1e-3)
+
+
+def test_the_c_face_equals_the_kernel(tmp_path):
+    """The FMU's C face (laws/hunt_quinn.c), compiled by the system cc, against the Python kernel."""
+    cc = shutil.which("cc")
+    if cc is None:
+        pytest.skip("no C compiler")
+    law = laws.LAWS["hunt-quinn"]
+    rows = "\n".join(f"#define MK_{k} {v}" for k, v in law.c_rows.items())
+    main = """
+#include <stdio.h>
+int main(void) {
+    double th[%d], p, ell;
+    for (int r = 0; r < %d; r++) if (scanf("%%lf", &th[r]) != 1) return 2;
+    while (scanf("%%lf %%lf", &p, &ell) == 2) printf("%%.17g\\n", %s(p, ell, th));
+    return 0;
+}
+""" % (laws.NTH, laws.NTH, law.c_function)
+    src = tmp_path / "face.c"
+    src.write_text("#include <math.h>\n" + rows + "\n" + law.c_source() + main)
+    exe = tmp_path / "face"
+    subprocess.run([cc, "-std=c99", "-O2", "-Wall", "-Werror", str(src), "-o", str(exe), "-lm"], check=True)
+    p, eps = np.meshgrid(np.linspace(0.0, 650e3, 27), np.linspace(-0.05, 0.2, 26))
+    for m in (PUB, HuntQuinn(**{**PUB.__dict__, "extending": True}), _law()):
+        th, ell = m.theta(), m.rest_length * (1 - eps)
+        stdin = " ".join(repr(float(x)) for x in th) + "\n" + "\n".join(f"{float(a)!r} {float(b)!r}" for a, b in
+                                                                       zip(p.ravel(), ell.ravel()))
+        out = subprocess.run([str(exe)], input=stdin, capture_output=True, text=True, check=True).stdout
+        c = np.array([float(x) for x in out.split()])
+        py = laws.evaluate("hunt-quinn", p.ravel(), ell.ravel(), th)
+        assert (py > 0).sum() > 300  # most of the grid pulls
+        # the same bisection in both languages: equal to 1e-9 relative (the issue's bar)
+        np.testing.assert_allclose(c, py, rtol=1e-9, atol=1e-9)

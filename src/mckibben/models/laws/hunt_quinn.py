@@ -43,12 +43,14 @@ from mckibben._kernels import kernel, register
 from mckibben.errors import InputError
 from mckibben.models.laws._base import NTH, FitSpec, Law, evaluate_kernel, offset_flag
 
-# θ: c0 [Pa], c1 [Pa], c2 [-], c3 [-], c4 [1/N], c5 [Pa/N], c6·S [Pa], ε_max [-], 1/L0 [1/m]
-HQ_C0, HQ_C1, HQ_C2, HQ_C3, HQ_C4, HQ_C5, HQ_C6S, HQ_EMAX, HQ_IL0 = range(9)
+# θ: c0 [Pa], c1 [Pa], c2 [-], c3 [-], c4 [1/N], c5 [Pa/N], c6·S [Pa], ε_max [-], 1/L0 [1/m], the solve's tolerance [-]
+HQ_C0, HQ_C1, HQ_C2, HQ_C3, HQ_C4, HQ_C5, HQ_C6S, HQ_EMAX, HQ_IL0, HQ_TOL = range(10)
 NAME = "hunt-quinn"
 KPA = 1e3  # Pa per kPa
-#: Bisection steps of the force solve (the bracket halves each step: 2⁻¹²⁰ of it is below round-off). [-]
-SOLVE_STEPS = 120
+#: The force solve stops when its bracket is narrower than this × (1 N + |F|): round-off. Carried in θ
+#: (row ``HQ_TOL``) so that the C face reads the same number. [-]
+SOLVE_TOL = 1e-13
+HALF_PI = 1.5707963267948966  # π/2, as the C face writes it (C99's <math.h> has no M_PI) [rad]
 #: The tangent's argument must stay below π/2 by this much at ε = 0 (c2·|c3|): the model's range. [rad]
 ARG_MARGIN = 1e-3
 
@@ -60,9 +62,9 @@ def _excess(force, pressure, eps, th, o, w):
     if den <= 0.0:
         return math.inf  # a force beyond the model's: the stroke would be gone
     arg = th[o + HQ_C2 * w] * (eps / den + th[o + HQ_C3 * w])
-    if arg >= 0.5 * math.pi:
+    if arg >= HALF_PI:
         return math.inf
-    if arg <= -0.5 * math.pi:
+    if arg <= -HALF_PI:
         return -math.inf
     return (th[o + HQ_C0 * w] + th[o + HQ_C1 * w] * math.tan(arg) + th[o + HQ_C5 * w] * force
             + th[o + HQ_C6S * w] - pressure)
@@ -83,9 +85,10 @@ def _solve(pressure, eps, th, o, w):
         k += 1
     if not (_excess(lo, pressure, eps, th, o, w) <= 0.0 <= _excess(hi, pressure, eps, th, o, w)):
         return math.nan
-    for _ in range(SOLVE_STEPS):
+    tol = th[o + HQ_TOL * w]
+    while True:
         mid = 0.5 * (lo + hi)
-        if mid <= lo or mid >= hi:
+        if mid <= lo or mid >= hi or hi - lo <= tol * (1.0 + abs(mid)):
             break
         if _excess(mid, pressure, eps, th, o, w) < 0.0:
             lo = mid
@@ -174,7 +177,7 @@ class HuntQuinn:
         th[HQ_C0], th[HQ_C1], th[HQ_C2], th[HQ_C3] = self.c0 * KPA, self.c1 * KPA, self.c2, self.c3
         th[HQ_C4], th[HQ_C5] = self.c4, self.c5 * KPA
         th[HQ_C6S] = self.c6 * KPA if self.extending else 0.0
-        th[HQ_EMAX], th[HQ_IL0] = self.max_strain, 1.0 / self.rest_length
+        th[HQ_EMAX], th[HQ_IL0], th[HQ_TOL] = self.max_strain, 1.0 / self.rest_length, SOLVE_TOL
         return th
 
     def force(self, pressure, length):
@@ -271,6 +274,8 @@ LAW = Law(
                 "solved for the force",
     params=HuntQuinn, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
     from_values=from_values, needs=("nominal_length",),
+    c_rows={"HQ_C0": HQ_C0, "HQ_C1": HQ_C1, "HQ_C2": HQ_C2, "HQ_C3": HQ_C3, "HQ_C4": HQ_C4, "HQ_C5": HQ_C5,
+            "HQ_C6S": HQ_C6S, "HQ_EMAX": HQ_EMAX, "HQ_IL0": HQ_IL0, "HQ_TOL": HQ_TOL},
 )
 
 
