@@ -6,8 +6,10 @@ tared as a lab would. The published constants are those of :data:`HUNT_QUINN_SET
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
+import sys
 
 import numpy as np
 import pandas as pd
@@ -147,3 +149,21 @@ int main(void) {
         assert (py > 0).sum() > 300  # most of the grid pulls
         # the same bisection in both languages: equal to 1e-9 relative (the bar)
         np.testing.assert_allclose(c, py, rtol=1e-9, atol=1e-9)
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "mckibben.cli", *args], capture_output=True, text=True, timeout=300)
+
+
+def test_params_lists_and_shows_the_published_set():
+    r = _cli("params", "list", "--json")
+    assert r.returncode == 0, r.stderr
+    rows = {row["name"]: row for row in json.loads(r.stdout)["parameter_sets"]}
+    assert rows["festo-dmsp10-189"]["kind"] == "hunt-quinn law"
+    r = _cli("params", "show", "festo-dmsp10-189", "--json")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert d["kind"] == "hunt-quinn" and d["c0_Pa"] == pytest.approx(254.3e3) and d["c4_per_N"] == -0.331e-3
+    assert d["c5_Pa_per_N"] == pytest.approx(1230.0) and d["max_strain"] == pytest.approx(31.5 / 189)
+    r = _cli("params", "show", "festo-dmsp10")  # a mistyped name: one line, the closest name, exit 2
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "festo-dmsp10-189" in r.stderr

@@ -9,7 +9,7 @@ import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
-from mckibben.datasets import MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES, get_muscle
+from mckibben.datasets import LAW_SETS, MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES, get_muscle
 from mckibben.errors import unknown_name
 from mckibben.models.mpam import MiniatureMuscle
 
@@ -56,6 +56,9 @@ def list_cmd(json: bool = JSON_OPTION) -> None:
     ] + [
         {"name": name, "kind": "spring model (structure and size only)", "citation": SPRING_MODEL_STRUCTURE["citation"].split(",")[0]}
         for name in SPRING_SETS
+    ] + [
+        {"name": name, "kind": f"{law} law", "citation": m.citation.split(":")[0]}
+        for name, (law, m) in LAW_SETS.items()
     ]
     if json:
         emit_json({"parameter_sets": rows})
@@ -75,8 +78,16 @@ def show_cmd(name: str = typer.Argument(..., help="A name from `mckibben params 
         print_table(f"{key} (spring model)", ["field", "value"], [[k, str(v)] for k, v in data.items() if k != "structure"])
         print_table("structure", ["field", "value"], [[k, str(v)] for k, v in SPRING_MODEL_STRUCTURE.items()])
         return
+    if key in LAW_SETS:
+        law, m = LAW_SETS[key]
+        fields = m.to_dict()  # SI, unit-suffixed keys
+        if json:
+            emit_json({"name": key, "kind": law, **fields})
+            return
+        print_table(f"{key} ({law} law)", ["parameter", "value"], [[k, str(v)] for k, v in fields.items()])
+        return
     if key not in MUSCLES:
-        raise unknown_name("parameter set", name, list(MUSCLES) + list(SPRING_SETS))
+        raise unknown_name("parameter set", name, list(MUSCLES) + list(SPRING_SETS) + list(LAW_SETS))
     m = get_muscle(key)
     if json:
         emit_json(muscle_to_dict(m))

@@ -129,3 +129,7 @@ HUNT_QUINN_SETS: dict[str, HuntQuinn] = {
                  "code (BPA pressure model); L0 189 mm, free length 157.5 mm at 620 kPa (its worked example)",
     ),
 }
+
+#: Published parameter sets of registered force laws, by set name: (law name, parameter object).
+#: ``mckibben params list`` and ``params show`` read this.
+LAW_SETS: dict[str, tuple[str, object]] = {name: ("hunt-quinn", m) for name, m in HUNT_QUINN_SETS.items()}

@@ -180,6 +180,12 @@ class HuntQuinn:
         th[HQ_EMAX], th[HQ_IL0], th[HQ_TOL] = self.max_strain, 1.0 / self.rest_length, SOLVE_TOL
         return th
 
+    def to_dict(self) -> dict:
+        """The constants in SI with unit-suffixed keys (``params show --json``). [SI]"""
+        return {"c0_Pa": self.c0 * KPA, "c1_Pa": self.c1 * KPA, "c2": self.c2, "c3": self.c3, "c4_per_N": self.c4,
+                "c5_Pa_per_N": self.c5 * KPA, "c6_Pa": self.c6 * KPA, "max_strain": self.max_strain,
+                "rest_length_m": self.rest_length, "extending": self.extending, "citation": self.citation}
+
     def force(self, pressure, length):
         """Pull at gauge pressures [Pa] and lengths [m]. [N]"""
         return evaluate_kernel(hunt_quinn, NAME, pressure, length, self.theta())
