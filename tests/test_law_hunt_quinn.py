@@ -155,6 +155,7 @@ def _cli(*args):
     return subprocess.run([sys.executable, "-m", "mckibben.cli", *args], capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow  # three CLI processes (a few seconds each on a loaded machine)
 def test_params_lists_and_shows_the_published_set():
     r = _cli("params", "list", "--json")
     assert r.returncode == 0, r.stderr
@@ -167,3 +168,17 @@ def test_params_lists_and_shows_the_published_set():
     assert d["c5_Pa_per_N"] == pytest.approx(1230.0) and d["max_strain"] == pytest.approx(31.5 / 189)
     r = _cli("params", "show", "festo-dmsp10")  # a mistyped name: one line, the closest name, exit 2
     assert r.returncode == 2 and "Traceback" not in r.stderr and "festo-dmsp10-189" in r.stderr
+
+
+@pytest.mark.slow  # three CLI processes, one of them a fit
+def test_the_cli_fits_saves_and_predicts_the_library_number(table, tmp_path):
+    out = tmp_path / "f.toml"
+    r = _cli("fit", str(table[0]), "--muscle", str(table[1]), "--model", "hunt-quinn", "--tare", "lowest",
+             "--save", str(out), "--json")
+    assert r.returncode == 0, r.stderr
+    r = _cli("predict", "force", "--muscle-file", str(out), "--pressure", "0.45MPa", "--length", "280mm", "--json")
+    assert r.returncode == 0, r.stderr
+    law = muscle_force_law(read_muscle(out))
+    assert json.loads(r.stdout)["force_N"] == pytest.approx(float(law.force(0.45e6, 0.28, "inflate")[0]), rel=1e-12)
+    r = _cli("predict", "force", "--muscle-file", str(out), "--pressure", "-3bar", "--length", "280mm")
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "pressure" in r.stderr  # bad input: one line
