@@ -37,7 +37,9 @@ from mckibben.export.fmu import CFLAGS, FIRMWARE_SOURCES  # noqa: E402
 from mckibben.fit.isometric import fit_isometric  # noqa: E402
 from mckibben.fit.muscle_file import save_muscle_file  # noqa: E402
 from mckibben.models.laws.relative_strain import RelativeStrain  # noqa: E402
+from mckibben.models.laws.virtual_work import VirtualWork  # noqa: E402
 from mckibben.plant import PlantParams, simulate  # noqa: E402
+from mckibben.plant.params import FILE_LUMEN_FRACTION  # noqa: E402
 
 STEP, DURATION = 117, 0.5
 
@@ -94,11 +96,12 @@ def test_published_fmu_validates_and_equals_the_numba_plant(tmp_path, fmi):
     _assert_equivalent(_run(fmu), sim)
 
 
-_PLANTS = {  # every law of the registry the C port has, the other chamber model, the other loads
+_PLANTS = {  # every law of the registry with its C face, the other chamber model, the other loads
     "chou-hannaford": lambda: PlantParams.for_muscle(get_muscle("mpam143"), force_model="chou-hannaford"),
     "wall-corrected": lambda: PlantParams.for_muscle(get_muscle("mpam143"), force_model="wall-corrected"),
     "braid-map": lambda: PlantParams.for_muscle(get_muscle("mpam143"), force_model="empirical"),
     "relative-strain": lambda: PlantParams(force_model=RelativeStrain(4.0, 1.0, 10.0, 5.0, 0.005, 0.097)),
+    "virtual-work": lambda: PlantParams(force_model=VirtualWork(5.0, -4.0, 1.0, 0.3, 0.02, 2.0, 0.004, 0.097)),
     "polytropic": lambda: PlantParams(thermal="polytropic"),
     "blocked": lambda: PlantParams().replace(load_kind="blocked"),
     "spring load": lambda: PlantParams().replace(load_kind="spring", spring_stiffness=100.0, load_force=0.3),
@@ -269,3 +272,20 @@ def test_a_built_package_carries_the_firmware_core(tmp_path):
             assert z.read(f"mckibben/export/firmware_core/{name}") == (core / name).read_bytes()
     # and the FMU compiles every law the core's registry includes
     assert {f for f in FIRMWARE_SOURCES if f.startswith("law_")} == {f.name for f in core.glob("law_*.h")}
+
+
+def test_a_wall_corrected_file_whose_wall_sits_at_its_bound_exports(tmp_path, cli):
+    """A 26 mm muscle's wall-corrected fit often puts the wall at its lower bound (a Festo 10 mm
+    sleeve's real table gives 3.4e-19 m): od − 2·wall is then od itself. Such a wall is not a
+    measure of the tube; the plant takes the default lumen, and the file exports."""
+    f = tmp_path / "w.toml"
+    f.write_text('id = "m26"\nnominal_length_mm = 281\nouter_diameter_mm = 26\n\n[force_model]\nmodel = '
+                 '"wall-corrected"\nsource = "iso.csv"\ntare = "none"\nflags = ["wall_m_at_lower_bound"]\n'
+                 'rmse_N = 30.0\nr2 = 0.9\nvalid_pressure_Pa = [8180.0, 624300.0]\nvalid_length_m = [0.2442, 0.281]\n'
+                 '\n[force_model.parameters]\ntheta0_rad = 0.5\nd0_m = 0.0535\nwall_m = 3.4254048518600805e-19\n'
+                 'offset_N = -40.0\n')
+    plant = PlantParams.from_muscle_file(f)
+    assert plant.inner_diameter == pytest.approx(FILE_LUMEN_FRACTION * 0.026, rel=1e-12)
+    r = cli("export", "fmu", "--muscle-file", str(f), "--out", str(tmp_path / "w.fmu"))
+    assert r.code == 0, r.err
+    assert (tmp_path / "w.fmu").is_file()

@@ -169,6 +169,30 @@ def test_compare_cli_json(cli):
     assert out["cv"] == "leave-one-trial-out"
     for s in out["models"]:
         assert {"cv_rmse_N", "cv_rmse_pct_of_peak", "rmse_N", "r2", "flags"} <= set(s)
+        # the maximum error beside the RMS, in-sample and per fold (issue 32)
+        assert {"max_error_N", "max_error_pct_of_peak", "cv_max_error_N", "cv_max_error_pct_of_peak"} <= set(s)
+        assert s["max_error_N"] >= s["rmse_N"] and s["cv_max_error_N"] >= s["cv_rmse_N"]
+        assert s["max_error_pct_of_peak"] == pytest.approx(s["max_error_N"] / out["peak_force_N"] * 100, rel=1e-12)
+        assert s["folds"] and all(f["max_error_N"] >= f["rmse_N"] for f in s["folds"])
+        assert max(f["max_error_N"] for f in s["folds"]) == pytest.approx(s["cv_max_error_N"], rel=1e-12)
+
+
+def test_max_error_is_the_largest_residual_of_the_fit_and_of_each_held_out_fold():
+    table, spec = read_table(ISO), read_muscle(MUSCLE)
+    c = compare_isometric(table, spec, "leave-one-length-out", models=["chou-hannaford", "spring"])
+    d = c.fits["spring"].data
+    f = d["force"].to_numpy()
+    for s in c.scores:
+        full = c.fits[s["model"]]
+        assert s["max_error_N"] == np.max(np.abs(full.result.residuals))
+        assert full.to_dict()["max_error_N"] == s["max_error_N"]  # fit --json's figure is compare's in-sample one
+        for fold in s["folds"]:  # each held-out length refitted without it, its own points predicted
+            test = np.isclose(d["held_length"], float(fold["held_out"].split()[-2]) * 1e-3, atol=5e-5)
+            r = fit_points(d[~test], spec, s["model"])
+            pred = r.predict(pressure=d["pressure"][test], length=d["held_length"][test],
+                             direction=d["direction"][test].to_numpy())[0]
+            assert fold["max_error_N"] == pytest.approx(np.max(np.abs(pred - f[test])), rel=1e-9)
+            assert fold["max_error_pct_of_peak"] == pytest.approx(fold["max_error_N"] / fold["peak_force_N"] * 100)
 
 
 def test_fit_save_then_predict_with_the_muscle_file(cli, tmp_path):

@@ -16,8 +16,9 @@ system C compiler, and its ``modelDescription.xml``:
 
 **One physics, the Python side is the source.** The Numba plant (:mod:`mckibben.plant.physics`,
 :func:`mckibben.plant.params.derive`, the static start of :mod:`mckibben.plant.simulator`, the law
-kernels of :mod:`mckibben.models.laws`) is the source of truth; ``c/mk_plant.c`` is a port of it,
-the same equations and the same classical RK4 with the same substep (the control period over its
+kernels of :mod:`mckibben.models.laws`) is the source of truth; ``c/mk_plant.c`` is a port of it
+and each law's C face (``models/laws/<law>.c``, gathered into a generated ``mk_laws.c``) a port of
+its kernel, the same equations and the same classical RK4 with the same substep (the control period over its
 substeps, 0.1 ms), the law chosen by its registry index. The layout the C reads (parameter columns,
 law indices, θ rows) and this FMU's values are generated from the Python objects at export
 (``mk_model.h``), so the two cannot drift in layout; ``tests/test_export_fmu.py`` holds them
@@ -31,6 +32,7 @@ FMPy's package) before it is renamed into place.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import shutil
 import subprocess
@@ -53,15 +55,10 @@ from mckibben.control.simulation import (controller_params, identify_file_plant,
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError, check_instance
 from mckibben.models import laws as LW
-from mckibben.models.laws import relative_strain as RS
 from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
 from mckibben.units import si
 
-#: The laws the C port implements, by registry name: the macro of each one's index in ``mk_model.h``.
-C_LAWS = {"tondu-lopez": "MK_LAW_TONDU_LOPEZ", "chou-hannaford": "MK_LAW_CHOU_HANNAFORD",
-          "wall-corrected": "MK_LAW_WALL_CORRECTED", "braid-map": "MK_LAW_BRAID_MAP", "spring": "MK_LAW_SPRING",
-          "relative-strain": "MK_LAW_RELATIVE_STRAIN"}
 #: The FMU's model identifier (the binary's and the functions' name).
 MODEL_IDENTIFIER = "mckibben_plant"
 #: The C sources of the plant, package data of :mod:`mckibben.export` (``c/``).
@@ -145,8 +142,10 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
     plant = _plant(muscle, muscle_file, plant, load, supply, direction)
     ctrl = _controller(controller, plant, muscle_file, law, beta)
     prm, law_index, theta, name = plant.prepare(1)
-    if name not in C_LAWS:
-        raise InputError(f"force law {name}: the FMU's C port has no kernel for it (it has {', '.join(C_LAWS)})")
+    if LW.LAWS[name].c_source() is None:
+        have = ", ".join(n for n, lw in LW.LAWS.items() if lw.c_source() is not None)
+        raise InputError(f"force law {name}: it has no C face (models/laws/{LW.LAWS[name].stem}.c), so no FMU "
+                         f"(these laws have one: {have})")
     headers = _fmi_headers(fmi)
     cc = _compiler()
     label = _label(plant, muscle, muscle_file)
@@ -161,7 +160,8 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         pkg = resources.files("mckibben.export") / "c"
         for fname in PLANT_SOURCES + (f"fmi{fmi}_plant.c",):
             (src / fname).write_bytes((pkg / fname).read_bytes())
-        sources: tuple[str, ...] = ("mk_plant.c", "mk_loop.c", f"fmi{fmi}_plant.c")
+        (src / "mk_laws.c").write_text(laws_c())
+        sources: tuple[str, ...] = ("mk_plant.c", "mk_laws.c", "mk_loop.c", f"fmi{fmi}_plant.c")
         if core is not None:
             for fname in FIRMWARE_SOURCES:
                 shutil.copyfile(core / fname, src / fname)
@@ -330,6 +330,57 @@ def _xml(x: float) -> str:
     return repr(x)
 
 
+def law_defines() -> list[str]:
+    """The ``#define`` lines every law's C face reads: ``MK_PI``, ``MK_MPA``, ``MK_NTH`` and each law's θ rows.
+
+    The rows come from each registered law's :attr:`~mckibben.models.laws.Law.c_rows`
+    (``MK_<KEY>``); two laws naming one macro must give it one value.
+
+    Returns
+    -------
+    list of str
+        C preprocessor lines (part of the FMU's ``mk_model.h``). [-]
+    """
+    rows: dict[str, tuple[int, str]] = {}
+    for law in LW.LAWS.values():
+        for key, row in law.c_rows.items():
+            if key in rows and rows[key][0] != int(row):
+                raise RuntimeError(f"law {law.name}: C macro MK_{key} = {int(row)}, but law {rows[key][1]} has "
+                                   f"{rows[key][0]}")
+            rows.setdefault(key, (int(row), law.name))
+    lines = [f"#define MK_PI {_c(math.pi)}", f"#define MK_MPA {_c(LW.MPA)}", f"#define MK_NTH {LW.NTH}"]
+    return lines + [f"#define MK_{k} {v}" for k, (v, _) in rows.items()]
+
+
+def laws_c() -> str:
+    """The FMU's ``mk_laws.c``: every registered law's C face and the dispatch ``mk_law`` by registry index.
+
+    Each law's C face is its file ``models/laws/<stem>.c`` (:meth:`~mckibben.models.laws.Law.c_source`),
+    one function ``mk_law_<stem>(pressure [Pa], length [m], th) -> force [N]``; ``mk_law(law, …)``
+    calls the one of index ``law`` (:data:`~mckibben.models.laws.LAW_INDEX`), NaN for a law with no C
+    face. It includes ``mk_model.h`` (:func:`law_defines`).
+
+    Returns
+    -------
+    str
+        C99 source. [-]
+    """
+    parts = ["/* mk_laws.c: generated by mckibben.export.fmu from the law registry (mckibben.models.laws):",
+             "   every law's C face (models/laws/<law>.c) and the dispatch by registry index. */",
+             "#include <math.h>", "", '#include "mk_model.h"', "",
+             "double mk_law(int law, double pressure, double length, const double *th);", ""]
+    cases = []
+    for name, law in LW.LAWS.items():
+        text = law.c_source()
+        if text is None:
+            continue
+        parts += [f"/* ---- {name}: models/laws/{law.stem}.c ---- */", text.rstrip(), ""]
+        cases.append(f"    case {LW.LAW_INDEX[name]}: return {law.c_function}(pressure, length, th);")
+    parts += ["double mk_law(int law, double pressure, double length, const double *th)", "{", "    switch (law) {",
+              *cases, "    default: return NAN;", "    }", "}"]
+    return "\n".join(parts) + "\n"
+
+
 def _model_header(fields: np.ndarray, theta: np.ndarray, law: int, thermal: str, ctrl: CoreParams | None) -> str:
     """``mk_model.h``: the Python plant's layout and constants, and this FMU's values."""
     lines = ["/* mk_model.h: generated by mckibben.export.fmu from the Python plant (the source of truth):",
@@ -341,18 +392,8 @@ def _model_header(fields: np.ndarray, theta: np.ndarray, law: int, thermal: str,
     d(f"#define MK_NTH {LW.NTH}")
     for col in PP.Col:
         d(f"#define MK_C_{col.name} {int(col)}")
-    for lname, macro in C_LAWS.items():
-        d(f"#define {macro} {LW.LAW_INDEX[lname] if lname in LW.LAW_INDEX else -1}")
-    rows = {"TL_R0": LW.TL_R0, "TL_A": LW.TL_A, "TL_B": LW.TL_B, "TL_K": LW.TL_K, "TL_PTH": LW.TL_PTH,
-            "TL_IL0": LW.TL_IL0, "CH_B": LW.CH_B, "CH_C": LW.CH_C, "CH_D0": LW.CH_D0, "CH_T": LW.CH_T,
-            "BM_LS": LW.BM_LS, "BM_K1": LW.BM_K1, "BM_K2": LW.BM_K2, "BM_N": LW.BM_N, "BM_LOADS": LW.BM_LOADS,
-            "BM_COEF": LW.BM_COEF, "MAP_MAX_LOADS": LW.MAP_MAX_LOADS, "SP_H2": LW.SP_H2, "SP_H1": LW.SP_H1,
-            "SP_H0": LW.SP_H0, "SP_SPLIT": LW.SP_SPLIT, "SP_LOW": LW.SP_LOW, "SP_HIGH": LW.SP_HIGH,
-            "RS_A1": RS.RS_A1, "RS_A2": RS.RS_A2, "RS_C0": RS.RS_C0, "RS_C1": RS.RS_C1, "RS_L0": RS.RS_L0,
-            "RS_LE": RS.RS_LE}
-    for k, v in rows.items():
-        d(f"#define MK_{k} {int(v)}")
-    consts = {"MPA": LW.MPA, "P_ATM": ph.P_ATM, "R_AIR": ph.R_AIR, "T0": ph.T0, "RHO0": ph.RHO0, "G": PP.G,
+    lines += law_defines()
+    consts = {"P_ATM": ph.P_ATM, "R_AIR": ph.R_AIR, "T0": ph.T0, "RHO0": ph.RHO0, "G": PP.G,
               "GAMMA": PP.GAMMA, "LAMINAR": ph.LAMINAR, "P_MAX_LIMIT": HW.P_MAX_LIMIT, "TS": TS}
     for k, x in consts.items():
         d(f"#define MK_{k} {_c(x)}")

@@ -75,7 +75,7 @@ if TYPE_CHECKING:
 __all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "FORCE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
            "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
-           "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "force_law", "parameter_names"]
+           "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "force_law", "max_error", "parameter_names"]
 
 BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
                "wall in [0, 0.25] x outer diameter; k in [0.5, 5]; |offset| <= peak force; spring K >= 0 checked")
@@ -203,9 +203,19 @@ class IsometricFit(Result):
         """
         return self.result.predict(pressure=pressure, length=length, direction=direction)
 
+    @property
+    def max_error(self) -> tuple[float, float]:
+        """In-sample maximum absolute error [N] and it as a percentage of the peak |force| of the data [%].
+
+        The figure the literature reports beside the RMS (e.g. Sárosi 2015; Hunt et al. 2017).
+        """
+        return max_error(self.result.residuals, self.data["force"].to_numpy(dtype=float))
+
     def to_dict(self) -> dict:
-        """JSON-ready: the fit's parameters, errors, flags and tare."""
-        return {**self.result.to_dict(), "tare": self.tare, "bounds": BOUNDS_NOTE}
+        """JSON-ready: the fit's parameters, errors, flags and tare, and its in-sample maximum error."""
+        err, pct = self.max_error
+        return {**self.result.to_dict(), "max_error_N": err, "max_error_pct_of_peak": pct, "tare": self.tare,
+                "bounds": BOUNDS_NOTE}
 
     def _series(self) -> pd.DataFrame:
         """The fitted points with the model's force and the residual (``quantity_unit`` columns)."""
@@ -309,6 +319,29 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
     cols += [c for c in ("rest_length", "muscle") if c in tared.data]  # a family table's muscles
     d = tared.data[cols].copy()
     return d, report
+
+
+def max_error(residuals, force) -> tuple[float, float]:
+    """Largest absolute error [N], and it as a percentage of the peak |force| [%] (NaN residuals skipped).
+
+    Parameters
+    ----------
+    residuals : array_like
+        Model minus measurement (or the reverse), per point. [N]
+    force : array_like
+        The measured forces whose peak |force| is the scale. [N]
+
+    Returns
+    -------
+    (float, float)
+        ``max |residual|`` [N] and ``100 · max |residual| / max |force|`` [%]; NaN when no residual is finite.
+    """
+    r = np.abs(np.asarray(residuals, dtype=float))
+    r = r[np.isfinite(r)]
+    if r.size == 0:
+        return float("nan"), float("nan")
+    peak = float(np.max(np.abs(np.asarray(force, dtype=float)))) or 1.0
+    return float(r.max()), float(r.max()) / peak * 100.0
 
 
 def is_family(d: pd.DataFrame) -> bool:
@@ -538,10 +571,13 @@ class ModelComparison(Result):
     cv : str
         The cross-validation scheme (a key of :data:`CV_METHODS`).
     scores : list of dict
-        Per model: ``model``, ``n_parameters``, ``rmse_N``, ``r2`` (in-sample, all data),
-        ``cv_rmse_N`` (held-out), ``cv_rmse_pct_of_peak`` (held-out RMSE / peak |force| × 100),
-        ``folds`` (per fold: ``held_out``, ``rmse_N``, ``rmse_pct_of_peak`` of the held-out
-        muscle's peak |force|, ``peak_force_N``, ``n_points``, ``extrapolated``: the range flags of
+        Per model: ``model``, ``n_parameters``, ``rmse_N``, ``r2``, ``max_error_N`` and
+        ``max_error_pct_of_peak`` (in-sample, all data: the largest |error| and it / peak |force| ×
+        100, the figure the literature reports), ``cv_rmse_N`` (held-out), ``cv_rmse_pct_of_peak``
+        (held-out RMSE / peak |force| × 100), ``cv_max_error_N`` and ``cv_max_error_pct_of_peak``
+        (the largest held-out |error|), ``folds`` (per fold: ``held_out``, ``rmse_N``,
+        ``rmse_pct_of_peak`` of the held-out muscle's peak |force|, ``max_error_N`` and
+        ``max_error_pct_of_peak`` of the held-out points, ``peak_force_N``, ``n_points``, ``extrapolated``: the range flags of
         its points, e.g. ``rest_length_out_of_range``), ``median_fold_pct_of_peak`` and
         ``worst_fold_pct_of_peak`` over the folds, ``extrapolated_folds`` (folds whose held-out
         points lie outside the training range), ``flags`` (of the fit on all data) and ``note``.
@@ -714,8 +750,10 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         try:
             full = fit_points(d, muscle, model, source=table.path)
         except InputError as exc:
-            scores.append({"model": model, "n_parameters": 0, "rmse_N": None, "r2": None, "cv_rmse_N": None,
-                           "cv_rmse_pct_of_peak": None, "extrapolated_folds": 0, "flags": [], "folds": [],
+            scores.append({"model": model, "n_parameters": 0, "rmse_N": None, "r2": None, "max_error_N": None,
+                           "max_error_pct_of_peak": None, "cv_rmse_N": None, "cv_rmse_pct_of_peak": None,
+                           "cv_max_error_N": None, "cv_max_error_pct_of_peak": None,
+                           "extrapolated_folds": 0, "flags": [], "folds": [],
                            "note": f"not fitted: {exc}"})
             continue
         fits[model] = IsometricFit(model, full, muscle, report, d)
@@ -737,15 +775,19 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
             ok = np.isfinite(value)
             rm = float(np.sqrt(np.mean((value[ok] - f[test][ok]) ** 2))) if ok.any() else float("nan")
             pk = max(muscle_peak[m] for m in set(who[test]))
+            mx = max_error(value - f[test], [pk])
             folds.append({"held_out": fold_names[int(g)], "rmse_N": rm, "rmse_pct_of_peak": rm / pk * 100.0,
-                          "peak_force_N": pk, "n_points": int(test.sum()), "extrapolated": flag_names(int(np.bitwise_or.reduce(fl.ravel())))})
+                          "max_error_N": mx[0], "max_error_pct_of_peak": mx[1], "peak_force_N": pk, "n_points": int(test.sum()), "extrapolated": flag_names(int(np.bitwise_or.reduce(fl.ravel())))})
         ok = np.isfinite(pred)
         cv_rmse = float(np.sqrt(np.mean((pred[ok] - f[ok]) ** 2))) if ok.any() else float("nan")
         if not ok.all():
             notes.append(f"{int((~ok).sum())} points not predicted")
         pct = [x["rmse_pct_of_peak"] for x in folds if np.isfinite(x["rmse_pct_of_peak"])]
+        ins, held = max_error(full.residuals, f), max_error(pred - f, f)
         scores.append({"model": model, "n_parameters": len(full.values), "rmse_N": full.residual_rms,
-                       "r2": full.r2, "cv_rmse_N": cv_rmse, "cv_rmse_pct_of_peak": cv_rmse / peak * 100.0,
+                       "r2": full.r2, "max_error_N": ins[0], "max_error_pct_of_peak": ins[1],
+                       "cv_rmse_N": cv_rmse, "cv_rmse_pct_of_peak": cv_rmse / peak * 100.0,
+                       "cv_max_error_N": held[0], "cv_max_error_pct_of_peak": held[1],
                        "median_fold_pct_of_peak": float(np.median(pct)) if pct else None,
                        "worst_fold_pct_of_peak": float(np.max(pct)) if pct else None,
                        "extrapolated_folds": extrapolated, "flags": list(full.flags), "note": "; ".join(notes),

@@ -370,7 +370,8 @@ class PlantParams:
           ``braid_angle_deg`` or :data:`FILE_BRAID_ANGLE`: it sets the chamber volume's change
           with length and the end stops;
         - lumen: ``tube_inner_diameter_mm``, else the outer diameter less the fitted wall (wall-
-          corrected fit), else :data:`FILE_LUMEN_FRACTION` of the outer diameter;
+          corrected fit, unless the wall sits at a bound of its fit: not identified), else
+          :data:`FILE_LUMEN_FRACTION` of the outer diameter;
         - tubing: :data:`FILE_TUBE_LENGTH` of :data:`FILE_TUBE_BORE` bore;
         - valves and leak: the calibrated rig's sonic conductances scaled by the ratio of the
           chamber volumes at rest, so the fill keeps the calibrated rig's time constant
@@ -420,7 +421,12 @@ class PlantParams:
         od = spec.need("outer_diameter", "the plant's chamber volume")
         # the braid that moves the chamber and sets the end stops: the muscle's (models/muscle.py)
         b = m.strand_length
-        wall = float(getattr(obj, "wall_thickness", 0.0))  # a fitted braid's wall
+        # a fitted braid's wall, when the fit identified it: a wall at a bound of its fit (flagged) is
+        # no measure of the tube (at the lower bound it is a rounding-size number, ~1e-19 m on a 26 mm
+        # Festo muscle, and od − 2·wall is od itself: no lumen wall at all)
+        wall = float(getattr(obj, "wall_thickness", 0.0))
+        if any(f.startswith("wall_m_at_") for f in m.flags):
+            wall = 0.0
         if spec.tube_inner_diameter is not None:
             inner = float(spec.tube_inner_diameter)
         elif wall > 0:

@@ -1,9 +1,9 @@
 /*
  * mk_plant.c: the plant's physics in C99, a line-by-line port of mckibben.plant.physics (the
  * right-hand side, the RK4 step with the end stops and the Dahl friction), of
- * mckibben.plant.params.derive, of the static start (mckibben.plant.simulator.static_equilibrium)
- * and of the force-law kernels of mckibben.models.laws. The Python/Numba plant is the source of
- * truth; tests/test_export_fmu.py holds this port equal to it. Keep the order of the arithmetic
+ * mckibben.plant.params.derive and of the static start (mckibben.plant.simulator.static_equilibrium);
+ * the force laws' C faces are in the generated mk_laws.c (mckibben.export.fmu.laws_c, from each
+ * law's models/laws/<law>.c). The Python/Numba plant is the source of truth; tests/test_export_fmu.py holds this port equal to it. Keep the order of the arithmetic
  * the same as the Python's when editing either side.
  */
 #include <math.h>
@@ -12,93 +12,7 @@
 
 #include "mk_plant.h"
 
-#define MK_PI 3.141592653589793
 #define PR(c) (p->prm[MK_C_##c])
-
-/* ---- force laws (mckibben.models.laws, one kernel each; theta row r at th[r]) ---------------- */
-
-static double law_tondu_lopez(double pressure, double length, const double *th)
-{
-    double r0 = th[MK_TL_R0];
-    double dp = pressure - th[MK_TL_PTH];
-    double q;
-    dp = dp > 0.0 ? dp : 0.0;
-    q = 1.0 - th[MK_TL_K] * (1.0 - length * th[MK_TL_IL0]);
-    return MK_PI * r0 * r0 * dp * (th[MK_TL_A] * q * q - th[MK_TL_B]);
-}
-
-static double law_chou_hannaford(double pressure, double length, const double *th)
-{
-    double c = length / th[MK_CH_B];
-    return th[MK_CH_C] * pressure * (3.0 * c * c - 1.0);
-}
-
-static double law_wall_corrected(double pressure, double length, const double *th)
-{
-    double c0 = length / th[MK_CH_B];
-    double c = c0 < -1.0 ? -1.0 : c0;
-    double s, t;
-    c = c > 1.0 - 1e-12 ? 1.0 - 1e-12 : c;
-    s = sqrt(1.0 - c * c);
-    t = th[MK_CH_T];
-    return (th[MK_CH_C] * pressure * (3.0 * c0 * c0 - 1.0)
-            + MK_PI * pressure * (th[MK_CH_D0] * t * (2.0 * s - 1.0 / s) - t * t));
-}
-
-static double cubic(const double *th, int row, double x)
-{
-    return ((th[row] * x + th[row + 1]) * x + th[row + 2]) * x + th[row + 3];
-}
-
-static double law_braid_map(double pressure, double length, const double *th)
-{
-    double target = (length - th[MK_BM_K2]) / (th[MK_BM_K1] * th[MK_BM_LS]);
-    double x = pressure / MK_MPA;
-    int nseg = (int)th[MK_BM_N] - 1;
-    double out = NAN;
-    double a = cubic(th, MK_BM_COEF, x);
-    int i;
-    for (i = 0; i < MK_MAP_MAX_LOADS - 1; i++) {
-        double b = cubic(th, MK_BM_COEF + 4 * (i + 1), x);
-        double u = (target - a) / (b - a);
-        int inside = (u >= 0.0 && u <= 1.0) || (i == 0 && u < 0.0) || (i == nseg - 1 && u > 1.0);
-        if (i < nseg && inside && isnan(out) && isfinite(u))
-            out = th[MK_BM_LOADS + i] + u * (th[MK_BM_LOADS + i + 1] - th[MK_BM_LOADS + i]);
-        a = b;
-    }
-    return out;
-}
-
-static double law_spring(double pressure, double length, const double *th)
-{
-    double pp = pressure;
-    double s = length - ((th[MK_SP_H2] * pp + th[MK_SP_H1]) * pp + th[MK_SP_H0]);
-    int r = pp <= th[MK_SP_SPLIT] ? MK_SP_LOW : MK_SP_HIGH;
-    double k = th[r] * pp + th[r + 1] * pp * s + th[r + 2] * s + th[r + 3];
-    return s >= 0.0 ? k * s : 0.0;
-}
-
-static double law_relative_strain(double pressure, double length, const double *th)
-{
-    double l0 = th[MK_RS_L0];
-    double eps = (l0 - length) / (l0 - th[MK_RS_LE]);
-    double pp = pressure;
-    double f = (th[MK_RS_A1] + th[MK_RS_A2] * pp) * pp - (th[MK_RS_C0] + th[MK_RS_C1] * pp) * eps;
-    return f > 0.0 ? f : 0.0;
-}
-
-double mk_law(int law, double pressure, double length, const double *th)
-{
-    switch (law) {
-    case MK_LAW_TONDU_LOPEZ: return law_tondu_lopez(pressure, length, th);
-    case MK_LAW_CHOU_HANNAFORD: return law_chou_hannaford(pressure, length, th);
-    case MK_LAW_WALL_CORRECTED: return law_wall_corrected(pressure, length, th);
-    case MK_LAW_BRAID_MAP: return law_braid_map(pressure, length, th);
-    case MK_LAW_SPRING: return law_spring(pressure, length, th);
-    case MK_LAW_RELATIVE_STRAIN: return law_relative_strain(pressure, length, th);
-    default: return NAN;
-    }
-}
 
 /* ---- parameters ---------------------------------------------------------------------------- */
 

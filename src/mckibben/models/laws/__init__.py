@@ -57,12 +57,11 @@ All take SI units (Pa, m, N); the papers' cubics take P in MPa and convert insid
 from __future__ import annotations
 
 import importlib
-import math
 import pkgutil
 import warnings
 
 import numpy as np
-from mckibben._kernels import kernel, register
+from mckibben._kernels import register
 
 from mckibben.errors import InputError, unknown_name
 from mckibben.models.laws import braid_map as _braid_map_file
@@ -78,7 +77,7 @@ from mckibben.models.laws.tondu_lopez import TL_A, TL_B, TL_IL0, TL_K, TL_PTH, T
 from mckibben.models.laws.wall_corrected import wall_corrected
 
 __all__ = [
-    "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "PLANT_SLOTS", "FitSpec", "Law",
+    "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "FitSpec", "Law",
     "evaluate", "fit_laws", "get_law", "law_of", "resolve",
     "tondu_lopez", "chou_hannaford", "wall_corrected", "braid_map", "spring",
     "tondu_lopez_theta", "chou_hannaford_theta", "braid_map_theta", "spring_theta",
@@ -89,8 +88,6 @@ __all__ = [
 
 #: The laws the plant was first compiled with, in their index order (their indices never change).
 _FIRST = (_tondu_lopez_file, _chou_hannaford_file, _wall_corrected_file, _braid_map_file, _spring_file)
-#: Branches the plant keeps for laws added after the first five. [-]
-PLANT_SLOTS = 3
 
 
 def _discover() -> list:
@@ -112,34 +109,6 @@ LAW_NAMES = tuple(LAWS)
 LAW_INDEX = {name: i for i, name in enumerate(LAW_NAMES)}
 #: Old names, still read: old name -> registry name.
 ALIASES: dict[str, str] = {a: law.name for law in LAWS.values() for a in law.aliases}
-if len(LAW_NAMES) > len(_FIRST) + PLANT_SLOTS:
-    raise ImportError(f"mckibben.models.laws: {len(LAW_NAMES)} laws, the plant has branches for "
-                      f"{len(_FIRST) + PLANT_SLOTS}; raise PLANT_SLOTS and add its branches in mckibben.plant.physics")
-
-
-@kernel(error_model="numpy", inline="always")
-def _no_law(pressure, length, th, o, w):
-    """An empty plant slot: no force (NaN, which the plant's checks refuse). [N]
-
-    Parameters
-    ----------
-    pressure : float
-        Gauge pressure. [Pa]
-    length : float
-        Muscle length. [m]
-    th : numpy.ndarray
-        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
-    o : int
-        This instance's column in ``th``. [-]
-    w : int
-        The row stride of ``th`` (the number of instances). [-]
-    """
-    return math.nan
-
-
-_slots = [LAWS[n].kernel for n in LAW_NAMES[len(_FIRST):]] + [_no_law] * PLANT_SLOTS
-#: The kernels of the plant's extra branches (laws added after the first five; empty slots NaN).
-slot_5, slot_6, slot_7 = _slots[:PLANT_SLOTS]
 
 
 def resolve(name: str, what: str = "force law") -> str:

@@ -96,7 +96,9 @@ LAW = Law(
     description="the miniature muscle's braid-angle cubics (eq. 3) and pantograph (eq. 2), solved for the load",
     aliases=("empirical", "mpam"), theta_of=lambda m, direction="elongation": braid_map_theta(m),
     accepts=lambda m: hasattr(m, "braid_map") and hasattr(m, "k1"),
-    needs=("nominal_length", "strand_length"),
+    needs=("nominal_length", "strand_length"), published=lambda muscle: muscle,
+    c_rows={"BM_LS": BM_LS, "BM_K1": BM_K1, "BM_K2": BM_K2, "BM_N": BM_N, "BM_LOADS": BM_LOADS, "BM_COEF": BM_COEF,
+            "MAP_MAX_LOADS": MAP_MAX_LOADS},
 )
 
 

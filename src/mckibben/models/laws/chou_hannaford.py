@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from mckibben._kernels import kernel, register
 
-from mckibben.models.geometry import BraidGeometry, check_geometry
+from mckibben.models.geometry import BraidGeometry, check_geometry, miniature_geometry
 from mckibben.models.laws._base import (NTH, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec, Law, evaluate_kernel,
                                         geometry_params, offset_flag)
 
@@ -189,6 +189,8 @@ LAW = Law(
     fit_spec=lambda muscle, fmax, data=None: braid_spec(muscle, fmax, False, chou_hannaford_force),
     from_values=lambda values, muscle, direction="inflate", valid_range=None: braid_from_values(values, muscle, False),
     needs=("nominal_length", "outer_diameter"),
+    published=lambda muscle: miniature_geometry(muscle.nominal_length, muscle.geometry, wall=False),
+    c_rows={"CH_B": CH_B, "CH_C": CH_C},
 )
 
 

@@ -222,6 +222,7 @@ LAW = Law(
     description="family law: blocked force and its fall with relative strain, an end-fitting length across rest lengths",
     params=RelativeStrain, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
     from_values=from_values, needs=("nominal_length",), family=True, extra={"optional_names": OPTIONAL},
+    c_rows={"RS_A1": RS_A1, "RS_A2": RS_A2, "RS_C0": RS_C0, "RS_C1": RS_C1, "RS_L0": RS_L0, "RS_LE": RS_LE},
 )
 
 

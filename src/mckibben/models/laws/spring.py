@@ -368,6 +368,7 @@ LAW = Law(
     description="F = K(P, Ls)*Ls of 001 (Lu(P) quadratic, K per inflate/deflate)",
     params=SpringModel, theta_of=spring_theta, fit_spec=fit_spec, from_values=from_values,
     needs=("nominal_length",), branches=2,
+    c_rows={"SP_H2": SP_H2, "SP_H1": SP_H1, "SP_H0": SP_H0, "SP_SPLIT": SP_SPLIT, "SP_LOW": SP_LOW, "SP_HIGH": SP_HIGH},
 )
 
 

@@ -262,11 +262,27 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
                       0.0, muscle.nominal_length, citation=f"fitted: {muscle.path or muscle.id}")
 
 
+def published(muscle) -> TonduLopez:
+    """The Tondu–Lopez law of a catalogue muscle, from its construction (k = 1, no threshold).
+
+    r0 is half the braid's mid-line diameter (outer diameter less one strand) and α0 its braid
+    angle at rest (§II of the miniature muscle's paper, as :func:`~mckibben.models.geometry.miniature_geometry`).
+
+    Parameters
+    ----------
+    muscle : MiniatureMuscle
+        A catalogue muscle (``get_muscle("mpam97")``). [-]
+    """
+    g = muscle.geometry
+    return TonduLopez(0.5 * (g.outer_diameter - g.strand_diameter), g.braid_angle, 1.0, 0.0, muscle.nominal_length)
+
+
 LAW = Law(
     "tondu-lopez", tondu_lopez, "Tondu & Lopez (2000) eq. (4), with a pressure threshold",
     description="Tondu-Lopez with its contraction correction k, fitted alpha0 and r0",
     params=TonduLopez, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
-    from_values=from_values, needs=("nominal_length", "outer_diameter"),
+    from_values=from_values, needs=("nominal_length", "outer_diameter"), published=published,
+    c_rows={"TL_R0": TL_R0, "TL_A": TL_A, "TL_B": TL_B, "TL_K": TL_K, "TL_PTH": TL_PTH, "TL_IL0": TL_IL0},
 )
 
 

@@ -286,6 +286,8 @@ LAW = Law(
                 "cost across rest lengths",
     params=VirtualWork, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
     from_values=from_values, needs=("nominal_length",), family=True, extra={"optional_names": OPTIONAL},
+    c_rows={"VW_A0": VW_A0, "VW_A1": VW_A1, "VW_A2": VW_A2, "VW_G0": VW_G0, "VW_E0": VW_E0, "VW_G1": VW_G1,
+            "VW_L0": VW_L0, "VW_LAM": VW_LAM},
 )
 
 
