@@ -125,7 +125,7 @@ HUNT_QUINN_SETS: dict[str, HuntQuinn] = {
     "festo-dmsp10-189": HuntQuinn(
         c0=254.3, c1=192.0, c2=2.0265, c3=-0.461, c4=-0.331e-3, c5=1.23, c6=15.6,
         max_strain=(189.0 - 157.5) / 189.0, rest_length=189.0 * MM,
-        citation="Hunt, Graber-Tilton & Quinn (2017), ASME IDETC DETC2017-67458: c0..c6 as in the authors' lab "
+        citation="Hunt, Graber-Tilton & Quinn (2017), ASME IDETC V05AT08A008: c0..c6 as in the authors' lab "
                  "code (BPA pressure model); L0 189 mm, free length 157.5 mm at 620 kPa (its worked example)",
     ),
 }

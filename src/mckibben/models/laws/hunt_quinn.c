@@ -4,7 +4,7 @@
  * Python kernel's bisection, step for step (the same bracket, the same tolerance from theta row
  * MK_HQ_TOL), so the two agree to round-off; held at its eps = 0 value beyond the rest length; 0
  * where the root is negative (slack).
- * Hunt, Graber-Tilton & Quinn (2017), ASME IDETC DETC2017-67458 (V05AT08A008).
+ * Hunt, Graber-Tilton & Quinn (2017), ASME IDETC, paper V05AT08A008.
  * Theta row r at th[r]: rows MK_HQ_* (Law.c_rows). [Pa, m -> N]
  */
 

@@ -6,8 +6,8 @@ needs to pull a force F at a contraction ε = (L0 − L)/L0,
     P = c0 + c1·tan(c2·(ε/(c4·F + ε_max) + c3)) + c5·F + c6·S,
 
 where ε_max is the muscle's largest contraction (free, at the largest pressure): the length effect
-enters through ε_max, which depends on the muscle's rest length (their Table: 0.149 for a 153 mm
-muscle to 0.175 for a 281 mm one), and the force shortens the stroke (c4 < 0). S is 0 while the
+enters through ε_max, which depends on the muscle's rest length (0.149 for a 153 mm muscle to 0.175
+for a 281 mm one, as the authors' lab code lists their measurements), and the force shortens the stroke (c4 < 0). S is 0 while the
 muscle contracts and 1 while it extends (the hysteresis). Here the model is solved for F at given
 P and L (as the authors' own code does, numerically): the right-hand side rises with F wherever the
 muscle is contracted (ε ≥ 0, c1, c2, c5 > 0, c4 ≤ 0), so the root is unique and bisection finds it
@@ -26,8 +26,8 @@ c3 = −0.461, c4 = −0.331·10⁻³ N⁻¹, c5 = 1.23 kPa/N, c6 = 15.6 kPa
 References
 ----------
 Hunt, A. J., Graber-Tilton, A., Quinn, R. D. (2017), Modeling length effects of braided pneumatic
-actuators, Proc. ASME IDETC/CIE 2017, vol. 5A (41st Mechanisms and Robotics Conference), paper
-DETC2017-67458, V05AT08A008. The equation and the constants as implemented by the authors' lab
+actuators, Proc. ASME IDETC/CIE 2017, paper V05AT08A008 (as the authors' lab code cites it). The
+equation and the constants as implemented by the authors' lab
 (Agile and Adaptive Robotics Lab, Portland State University; MATLAB ``inverse_BPA_model``); the
 paper's equation number could not be checked (no copy of its text was available to us).
 """
@@ -274,7 +274,7 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
 
 LAW = Law(
     NAME, hunt_quinn,
-    "Hunt, Graber-Tilton & Quinn (2017), ASME IDETC DETC2017-67458 (V05AT08A008): P(ε, F) with a "
+    "Hunt, Graber-Tilton & Quinn (2017), ASME IDETC V05AT08A008: P(ε, F) with a "
     "length-dependent maximum strain, solved for F",
     description="Festo length-effect model: pressure from strain relative to a rest-length-dependent stroke, "
                 "solved for the force",
