@@ -68,7 +68,7 @@ def test_params(cli):
         (["predict", "pressure", "--length", "80mm", "--p-max", "3furlongs"],
          "error: --p-max: unknown unit 'furlongs'; use one of Pa, kPa, MPa, bar, mbar, psi"),
         (["predict", "force", "--model", "hill", "--pressure", "1MPa"],
-         "error: unknown force model 'hill'. Provide one of: chou-hannaford, empirical, tondu-lopez, wall-corrected"),
+         "error: unknown force model 'hill'. Provide one of: braid-map, chou-hannaford, tondu-lopez, wall-corrected"),
         (["predict", "force", "--pressure", "1MPa", "--braid-angle", "95deg"], "error: --braid-angle: '95deg' must be below 90deg"),
         (["params", "show", "spring-pam-z"], "error: unknown parameter set 'spring-pam-z'. Did you mean spring-pam-c, spring-pam-b, spring-pam-a?"),
         (["predict", "length", "--pressure", "1MPa", "--bogus"], "error (mckibben predict length): No such option: --bogus"),

@@ -52,3 +52,12 @@ def test_data_md_tables_are_generated_from_the_schema():
 
     text = (Path(__file__).parents[1] / "docs" / "data.md").read_text(encoding="utf-8")
     assert schema_markdown() in text
+
+
+def test_fit_md_law_table_is_generated_from_the_registry():
+    from pathlib import Path
+
+    from mckibben.models.laws import law_table_markdown
+
+    text = (Path(__file__).parents[1] / "docs" / "fit.md").read_text(encoding="utf-8")
+    assert law_table_markdown() in text

@@ -9,7 +9,7 @@ from scipy import stats
 
 from mckibben.data import MuscleSpec, read_muscle, read_table
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC, isometric_campaign
-from mckibben.fit.isometric import ALL_MODELS, FORCE_MODELS, compare_isometric, fit_isometric, fit_points
+from mckibben.fit.isometric import ALL_MODELS, MUSCLE_MODELS, compare_isometric, fit_isometric, fit_points
 from mckibben.models.physical import BraidGeometry, chou_hannaford_force
 
 ISO = BUNDLED_ISOMETRIC / "commercial10" / "isometric.csv"
@@ -84,7 +84,7 @@ def test_every_model_fits_the_synthetic_commercial_campaign():
     t = read_table(ISO)
     m = read_muscle(MUSCLE)
     assert m.braid_angle is None and m.strand_length is None  # a commercial muscle's datasheet
-    for model in FORCE_MODELS:
+    for model in MUSCLE_MODELS:
         fit = fit_isometric(t, m, model)
         r = fit.result
         assert r.r2 > 0.95, model  # all reproduce the force's rise with pressure and fall with length
@@ -117,7 +117,7 @@ def test_compare_picks_the_best_on_held_out_lengths():
     assert np.all(df["cv_rmse_N"] >= df["rmse_N"] * 0.999)
     # no unflagged non-physical model: every ideal-braid fit at a bound or with a large zero is flagged
     for s in c.scores:
-        if s["model"] in FORCE_MODELS and s["model"] not in ("spring", "surface"):
+        if s["model"] in MUSCLE_MODELS and s["model"] not in ("spring", "surface"):
             assert s["flags"], s["model"]
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import typer
 
@@ -15,11 +17,9 @@ from mckibben.models.flags import flag_names
 from mckibben.models.mpam import predict_length, pressure_for_length
 from mckibben.units import parse_quantity, parse_values
 from mckibben.errors import unknown_name
-from mckibben.models.mpam import force_from_length
-from mckibben.models.physical import BraidGeometry
-from mckibben.models.physical import chou_hannaford_force
-from mckibben.models.physical import tondu_lopez_force
-from mckibben.models.physical import wall_corrected_force
+from mckibben.models.geometry import miniature_geometry
+from mckibben.models.static import force as static_force
+from mckibben.models.static import force_laws
 from mckibben import data, fit
 
 predict_app = typer.Typer(help="Predict length, pressure or force from a static model.", no_args_is_help=True)
@@ -105,16 +105,10 @@ def pressure_cmd(
     print_table(f"{m.name} under {f:g} N, p ≤ {pmax / 1e6:g} MPa", ["length mm", "pressure MPa", "contraction %", "flags"], rows)
 
 
-#: The registered laws (:mod:`mckibben.models.laws`) a published muscle's geometry drives, shown by their
-#: command-line names (``braid-map`` as ``empirical``; every registry name and alias is read).
-_PREDICT_LAWS = {"braid-map": "empirical", "chou-hannaford": "chou-hannaford", "wall-corrected": "wall-corrected",
-                 "tondu-lopez": "tondu-lopez"}
-FORCE_MODELS = tuple(_PREDICT_LAWS.values())
-
-
 @predict_app.command("force")
 def force_cmd(
-    model: str = typer.Option("chou-hannaford", "--model", help=f"One of {', '.join(FORCE_MODELS)}."),
+    model: str = typer.Option("chou-hannaford", "--model", help="A registered force law with a published parameter "
+                                                                  f"set: {', '.join(force_laws())} (old names read)."),
     muscle: str = MUSCLE_OPTION,
     pressure: str = typer.Option(..., "--pressure", help="Pressure, list or range: 0.8MPa, 0:0.8MPa:9."),
     length: str = typer.Option(None, "--length", help="Muscle length (default: the rest length, i.e. blocked force)."),
@@ -134,10 +128,12 @@ def force_cmd(
         _force_from_muscle_file(muscle_file, pressure, length, direction, json)
         return
 
-    if model not in FORCE_MODELS and (model not in laws.LAWS and model not in laws.ALIASES
-                                      or laws.resolve(model) not in _PREDICT_LAWS):
-        raise unknown_name("force model", model, FORCE_MODELS)
-    model = _PREDICT_LAWS[laws.resolve(model)] if model not in FORCE_MODELS else model
+    if model not in laws.LAWS and model not in laws.ALIASES:
+        raise unknown_name("force model", model, force_laws())
+    name = laws.resolve(model)
+    if name not in force_laws():
+        raise InputError(f"--model: {name} has no published parameters for a catalogue muscle; fit it (mckibben fit "
+                         f"... --model {name} --save F.toml) and give --muscle-file F.toml")
     m = get_muscle(muscle)
     g = m.geometry
     p = parse_values(pressure, "pressure", "--pressure")
@@ -147,7 +143,7 @@ def force_cmd(
     if not angle < np.pi / 2:
         raise InputError(f"--braid-angle: {braid_angle!r} must be below 90deg")
     t = parse_quantity(wall, "length", "--wall") if wall else g.wall_thickness
-    if model == "wall-corrected" and t >= d / 2:
+    if t >= d / 2:
         if wall:
             raise InputError(f"--wall: {wall!r} must be less than half the diameter ({d / 2 * 1e3:g} mm)")
         raise InputError(f"--diameter: {diameter!r} leaves no room for the default {t * 1e3:g} mm wall "
@@ -156,26 +152,23 @@ def force_cmd(
         raise InputError(f"--k: {k!r} must be a finite correction >= 1 (k = 1 is the ideal Tondu–Lopez muscle; "
                          "real muscles reach zero force sooner, k > 1)")
     ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else l0
-    strand = BraidGeometry.from_initial(l0, d, angle, 0.0).strand_length if model != "empirical" else m.strand_length
-    if ell > strand:
-        raise InputError(f"--length: {ell * 1e3:g} mm is longer than the braid's strand length {strand * 1e3:.4g} mm "
-                         "(eq. 1: a muscle cannot stretch past a straight braid)")
     if d >= l0:
         raise InputError(f"--diameter: {d * 1e3:g} mm is not smaller than the rest length {l0 * 1e3:g} mm "
                          "(a braided muscle is long and thin)")
-    geom = BraidGeometry.from_initial(l0, d, angle, t if model == "wall-corrected" else 0.0)
-    flags = np.zeros(p.shape, dtype=np.uint16)
-    if model == "empirical":
-        r = force_from_length(m, p, ell)
-        force, flags = r.force, r.flags
-    elif model == "chou-hannaford":
-        force = chou_hannaford_force(p, ell, geom)
-    elif model == "wall-corrected":
-        force = wall_corrected_force(p, ell, geom)
-    else:
-        force = tondu_lopez_force(p, 1.0 - ell / l0, d / 2.0, angle, k)
-    force = np.broadcast_to(force, p.shape)
-    names = [flag_names(x) for x in np.broadcast_to(flags, p.shape)]
+    # the muscle as given: its rest length, braid diameter (outer less one strand), angle and wall
+    tube_od = max(g.tube_outer_diameter, 2 * t + 1e-9) if wall else g.tube_outer_diameter
+    m = dataclasses.replace(m, nominal_length=l0, geometry=dataclasses.replace(
+        g, outer_diameter=d + g.strand_diameter, braid_angle=angle, tube_outer_diameter=min(tube_od, d),
+        tube_inner_diameter=min(tube_od, d) - 2 * t))
+    geom = miniature_geometry(l0, m.geometry, wall=True)
+    # the straight braid of the law's own parameters (the map's pantograph), else the muscle's ideal braid
+    strand = getattr(laws.LAWS[name].published(m), "strand_length", geom.strand_length)
+    if ell > strand:
+        raise InputError(f"--length: {ell * 1e3:g} mm is longer than the braid's strand length {strand * 1e3:.4g} mm "
+                         "(eq. 1: a muscle cannot stretch past a straight braid)")
+    r = static_force(p, ell, m, name, **({"k": k} if k != 1.0 else {}))
+    force = np.broadcast_to(r.load, p.shape)
+    names = [flag_names(x) for x in np.broadcast_to(r.flags, p.shape)]
     geometry = {
         "rest_length_m": l0,
         "diameter_m": d,
@@ -185,14 +178,12 @@ def force_cmd(
         "turns": geom.turns,
     }
     if json:
-        out = {"model": model, "muscle": m.name, "length_m": ell, "pressure_Pa": p.tolist(), "force_N": force.tolist(), "flags": names}
-        if model != "empirical":
-            out["geometry"] = geometry
+        out = {"model": name, "muscle": m.name, "length_m": ell, "pressure_Pa": p.tolist(), "force_N": force.tolist(), "flags": names}
         scalar = len(p) == 1 and "," not in pressure and ":" not in pressure
-        emit_json(_rows_or_scalars(out, scalar) | ({"geometry": geometry} if model != "empirical" else {}))
+        emit_json(_rows_or_scalars(out, scalar) | {"geometry": geometry})
         return
     rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
-    print_table(f"{model} force, {m.name}, length {ell * 1e3:.2f} mm", ["pressure MPa", "force N", "flags"], rows)
+    print_table(f"{name} force, {m.name}, length {ell * 1e3:.2f} mm", ["pressure MPa", "force N", "flags"], rows)
 
 
 def _force_from_muscle_file(path: str, pressure: str, length: str | None, direction: str, json: bool) -> None:

@@ -72,7 +72,7 @@ if TYPE_CHECKING:  # annotations only; the modules are imported where used (defe
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "FORCE_MODELS", "IsometricFit",
+__all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "MUSCLE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
            "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
            "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "force_law", "max_error", "parameter_names"]
@@ -84,12 +84,12 @@ BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in 
 SURFACE = "surface"
 #: The models of one muscle and one line each: every law of the registry with a fit spec
 #: (:func:`mckibben.models.laws.fit_laws`) that describes one muscle, and the data-driven surface.
-FORCE_MODELS = {**{n: law.description for n, law in laws.fit_laws(family=False).items()},
+MUSCLE_MODELS = {**{n: law.description for n, law in laws.fit_laws(family=False).items()},
                 SURFACE: "data-driven: cubic in pressure, linear in contraction, a deflate shift"}
 #: The family laws (fitted across muscles of one type; on one muscle too, with ``fit --model``).
 FAMILY_MODELS = {n: law.description for n, law in laws.fit_laws(family=True).items()}
 #: Every model an isometric table is fitted with.
-ALL_MODELS = {**FORCE_MODELS, **FAMILY_MODELS}
+ALL_MODELS = {**MUSCLE_MODELS, **FAMILY_MODELS}
 
 
 def model_name(model: str) -> str:
@@ -712,7 +712,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
     models : sequence of str, optional
-        Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`FORCE_MODELS`). [-]
+        Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`MUSCLE_MODELS`). [-]
     rails : {"keep", "exclude"}, default "keep"
         Rows at a sensor's rail (:func:`isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"

@@ -33,10 +33,10 @@ from mckibben.models.physical import (
     wall_corrected_force,
 )
 from mckibben.models.spring import SpringModel, spring_force, spring_length, stiffness, unstretched_length
-from mckibben.models.static import FORCE_MODELS, LENGTH_MODELS, StaticResult, force, length
+from mckibben.models.static import LENGTH_MODELS, StaticResult, force, force_laws, length
 
 __all__ = [
-    "FORCE_MODELS", "LENGTH_MODELS", "StaticResult", "force", "length",
+    "LENGTH_MODELS", "StaticResult", "force", "force_laws", "length",
     "BraidAngleMap", "BraidGeometry", "Flag", "ForcePrediction", "LengthPrediction", "MiniatureGeometry",
     "MiniatureMuscle", "SpringModel", "braid_cos_theta", "braid_from_length", "chou_hannaford_force", "flag_names",
     "force_from_length", "length_from_braid", "length_under_load", "miniature_geometry", "predict_length",

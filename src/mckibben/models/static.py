@@ -2,7 +2,8 @@
 
 Every length model is ``length_<model>(pressure, load, muscle) -> StaticResult`` and every force
 model ``force_<model>(pressure, length, muscle) -> StaticResult``; :func:`length` and
-:func:`force` pick one by name (:data:`LENGTH_MODELS`, :data:`FORCE_MODELS`). Inputs are arrays
+:func:`force` pick one by name (:data:`LENGTH_MODELS`; for force, any registered law with a published
+parameter set, :func:`force_laws`). Inputs are arrays
 (broadcast together) in SI, or single quantities as text with a unit (``"0.8MPa"``). The result
 carries the inputs, the outputs, the contraction and the flags (:mod:`mckibben.models.flags`)
 of every element, whatever the model.
@@ -19,12 +20,14 @@ with and without the tube wall, on the muscle's construction, §II).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError, check_array, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, check_array, unknown_name
+from mckibben.models import laws
 from mckibben.models.flags import Flag, flag_names, flag_where, outside
 from mckibben.models.mpam import _check_muscle as _check_mpam_muscle
 from mckibben.models.mpam import MAX_POINTS, MAX_SOLVE_POINTS, check_points
@@ -32,10 +35,8 @@ from mckibben.units import quantity
 from mckibben.models.physical import miniature_geometry
 from mckibben.models.mpam import predict_length
 from mckibben.models.physical import length_under_load
-from mckibben.models.mpam import force_from_length
-from mckibben.models.physical import chou_hannaford_force, wall_corrected_force
 
-__all__ = ["FORCE_MODELS", "LENGTH_MODELS", "StaticResult", "force", "force_chou_hannaford", "force_mpam",
+__all__ = ["LENGTH_MODELS", "StaticResult", "force", "force_chou_hannaford", "force_laws", "force_mpam",
            "force_wall_corrected", "length", "length_chou_hannaford", "length_mpam", "length_wall_corrected"]
 
 
@@ -46,7 +47,7 @@ class StaticResult:
     Attributes
     ----------
     model : str
-        The model's name (a key of :data:`LENGTH_MODELS` or :data:`FORCE_MODELS`). [-]
+        The model's name (a key of :data:`LENGTH_MODELS`, or a law's registry name). [-]
     pressure : numpy.ndarray
         Gauge pressure. [Pa]
     load : numpy.ndarray
@@ -209,26 +210,11 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
     “Experimental Characterization and Control of Miniaturized Pneumatic Artificial Muscle” (text: 000_909f662a44080c85.txt), eq. (2) with (3), Tables I and II.
     """
 
-    _check_muscle(muscle)
-    p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
-    r = force_from_length(muscle, p, ell)
-    return StaticResult("mpam", p, np.asarray(r.force, dtype=float), ell, 1.0 - ell / muscle.nominal_length,
-                        np.asarray(r.flags))
+    return dataclasses.replace(force(pressure, length, muscle, "braid-map"), model="mpam")
 
 
 def _force_physical(pressure, length, muscle, wall: bool, name: str) -> StaticResult:
-
-    _check_muscle(muscle)
-    p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
-    law = wall_corrected_force if wall else chou_hannaford_force
-    geom = _geometry(muscle, wall)
-    f = np.asarray(law(p, ell, geom), dtype=float)
-    # the law holds on the braid's own range: from the locking length (no pull left, cos²θ = 1/3)
-    # to the straight braid (l = b); beyond it the formula still returns a number, which is flagged
-    flags = (outside(ell, geom.locking_length, geom.strand_length, Flag.LENGTH_OUT_OF_RANGE)
-             | outside(p, *muscle.braid_map.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
-             | flag_where(~(f >= 0.0), Flag.SLACK))  # it would have to push
-    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags.astype(np.uint16))
+    return force(pressure, length, muscle, name)
 
 
 def force_chou_hannaford(pressure, length, muscle) -> StaticResult:
@@ -272,9 +258,11 @@ def force_wall_corrected(pressure, length, muscle) -> StaticResult:
 #: Length models by name: ``f(pressure, load, muscle) -> StaticResult``.
 LENGTH_MODELS: dict[str, Callable[..., StaticResult]] = {
     "mpam": length_mpam, "chou-hannaford": length_chou_hannaford, "wall-corrected": length_wall_corrected}
-#: Force models by name: ``f(pressure, length, muscle) -> StaticResult``.
-FORCE_MODELS: dict[str, Callable[..., StaticResult]] = {
-    "mpam": force_mpam, "chou-hannaford": force_chou_hannaford, "wall-corrected": force_wall_corrected}
+
+
+def force_laws() -> dict[str, str]:
+    """The registered laws :func:`force` evaluates on a catalogue muscle (those with a published set), with their descriptions."""
+    return {n: law.description for n, law in laws.LAWS.items() if law.published is not None}
 
 
 def length(pressure, load, muscle, model: str = "mpam") -> StaticResult:
@@ -295,8 +283,15 @@ def length(pressure, load, muscle, model: str = "mpam") -> StaticResult:
     return LENGTH_MODELS[model](pressure, load, muscle)
 
 
-def force(pressure, length, muscle, model: str = "mpam") -> StaticResult:
-    """Force at a pressure and length from the named model (:data:`FORCE_MODELS`).
+def force(pressure, length, muscle, model: str = "braid-map", **options) -> StaticResult:
+    """Force at a pressure and length from a registered law's published parameters for a catalogue muscle.
+
+    Any law of :data:`mckibben.models.laws.LAWS` with a published parameter set
+    (:attr:`~mckibben.models.laws.Law.published`, :func:`force_laws`): its parameter object for
+    ``muscle``, evaluated by the law's kernel. Every law is flagged the same way: pressures
+    outside the muscle's characterized range, slack (the law would push), unreachable (no value),
+    and the law's own validity (:attr:`~mckibben.models.laws.Law.static_flags`: the braid's range,
+    the map's characterized loads).
 
     Parameters
     ----------
@@ -306,8 +301,39 @@ def force(pressure, length, muscle, model: str = "mpam") -> StaticResult:
         Muscle length. [m]
     muscle : MiniatureMuscle
         The muscle. [-]
-    model : str, default "mpam"
-        ``mpam``, ``chou-hannaford`` or ``wall-corrected``. [-]
+    model : str, default "braid-map"
+        A law's registry name (old names such as ``mpam`` are read, with a deprecation warning). [-]
+    options : keyword arguments
+        Fields of the law's parameter object to replace (e.g. ``k=1.3`` for Tondu–Lopez's
+        contraction correction). [SI]
+
+    Returns
+    -------
+    StaticResult
+        With ``model`` the law's registry name.
+
+    References
+    ----------
+    Each law's own file (:mod:`mckibben.models.laws`) cites its paper and equation.
     """
-    _model_name(model, "force model", FORCE_MODELS)
-    return FORCE_MODELS[model](pressure, length, muscle)
+    if not isinstance(model, str):
+        raise ArgumentTypeError(f"model = {model!r}: not a model name ({type(model).__name__}); "
+                                f"give one of: {', '.join(force_laws())}")
+    name = laws.resolve(model, "force model")
+    law = laws.LAWS[name]
+    if law.published is None:
+        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data: "
+                         f"mckibben fit ... --model {name} --save FILE.toml); these have: {', '.join(force_laws())}")
+    _check_muscle(muscle)
+    p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
+    params = law.published(muscle)
+    for key, value in options.items():
+        if not hasattr(params, key) or not dataclasses.is_dataclass(params):
+            raise InputError(f"{key}: the {name} law's parameters have no {key!r}")
+        params = dataclasses.replace(params, **{key: value})
+    f = np.asarray(laws.evaluate(name, p, ell, law.theta_of(params, "elongation")), dtype=float)
+    flags = (outside(p, *muscle.braid_map.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
+             | flag_where(f < 0.0, Flag.SLACK) | flag_where(np.isnan(f), Flag.UNREACHABLE))
+    if law.static_flags is not None:
+        flags = flags | law.static_flags(params, p, ell, f)
+    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, np.asarray(flags).astype(np.uint16))

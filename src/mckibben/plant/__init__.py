@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 _WHERE = {
     "CALIBRATION_PWM": "mckibben.plant.calibration",
     "Col": "mckibben.plant.params",
-    "FORCE_MODELS": "mckibben.plant.params",
+    "LAW_NAMES": "mckibben.plant.params",
     "LOADS": "mckibben.plant.params",
     "LinearPlant": "mckibben.plant.linear",
     "Load": "mckibben.plant.params",
@@ -31,7 +31,7 @@ _WHERE = {
 }
 
 __all__ = [
-    "CALIBRATION_PWM", "FORCE_MODELS", "LOADS", "PlantParams", "PlantStepper", "SimResult", "calibrate_force_law",
+    "CALIBRATION_PWM", "LAW_NAMES", "LOADS", "PlantParams", "PlantStepper", "SimResult", "calibrate_force_law",
     "calibration", "open_loop_step", "simulate", "static_length", "Col", "Load", "THERMAL",
     "LinearPlant", "linearize",
 ]
@@ -39,7 +39,7 @@ __all__ = [
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
     from mckibben.plant.calibration import CALIBRATION_PWM as CALIBRATION_PWM
     from mckibben.plant.params import Col as Col
-    from mckibben.plant.params import FORCE_MODELS as FORCE_MODELS
+    from mckibben.plant.params import LAW_NAMES as LAW_NAMES
     from mckibben.plant.params import LOADS as LOADS
     from mckibben.plant.linear import LinearPlant as LinearPlant
     from mckibben.plant.params import Load as Load

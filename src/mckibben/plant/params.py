@@ -41,7 +41,7 @@ K_AIR = 0.0257  #: thermal conductivity of air at 20 °C [W/(m·K)]
 
 #: Force laws, by name: the registry's names and old aliases (:mod:`mckibben.models.laws`, the one
 #: vocabulary), plus ``calibrated``: Tondu–Lopez with the plant's calibrated columns.
-FORCE_MODELS = {"calibrated": "tondu-lopez", **{n: n for n in LW.LAW_NAMES}, **LW.ALIASES}
+LAW_NAMES = {"calibrated": "tondu-lopez", **{n: n for n in LW.LAW_NAMES}, **LW.ALIASES}
 #: Chamber thermodynamics, by name.
 THERMAL = ("energy", "polytropic")
 
@@ -239,7 +239,7 @@ class PlantParams:
     seed : float
         Seed of the instance's noise generator. [-]
     force_model : str or model
-        The force law: a name of :data:`FORCE_MODELS` (``"calibrated"``: Tondu–Lopez with the
+        The force law: a name of :data:`LAW_NAMES` (``"calibrated"``: Tondu–Lopez with the
         threshold from the fields above; ``"empirical"``: the muscle's braid-angle map) or a static
         model object (a published or fitted ``MiniatureMuscle``, ``TonduLopez``, ``BraidGeometry``,
         ``SpringModel``; see :func:`mckibben.models.laws.law_of`).
@@ -310,8 +310,8 @@ class PlantParams:
             d = np.asarray(self.tube_diameter, dtype=float)
             with np.errstate(divide="ignore", invalid="ignore"):
                 object.__setattr__(self, "heat_transfer_coefficient", NUSSELT_TUBE * K_AIR / d)
-        if isinstance(self.force_model, str) and self.force_model not in FORCE_MODELS:
-            raise InputError(f"force_model: {unknown_name('force model', self.force_model, FORCE_MODELS)}")
+        if isinstance(self.force_model, str) and self.force_model not in LAW_NAMES:
+            raise InputError(f"force_model: {unknown_name('force model', self.force_model, LAW_NAMES)}")
         if not isinstance(self.thermal, str) or self.thermal not in THERMAL:
             raise InputError(f"thermal: {unknown_name('thermal model', str(self.thermal), THERMAL)}")
 
@@ -542,7 +542,7 @@ class PlantParams:
             except InputError as exc:
                 raise InputError(f"force_model = {fm!r}: {exc}") from None
             return name, np.repeat(th[:, None], n, axis=1)
-        name = FORCE_MODELS[fm]
+        name = LAW_NAMES[fm]
         if name == "tondu-lopez":
             return name, LW.tondu_lopez_theta(col["r0"], col["alpha0"], col["k_tl"], col["p_threshold"],
                                               col["nominal_length"])

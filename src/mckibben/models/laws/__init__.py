@@ -40,7 +40,12 @@ plant, the tool, muscle files, ``params``, the MuJoCo bridge, the FMU) and the c
    rest lengths), ``branches=2`` (inflate/deflate), ``published`` (``published(muscle) -> parameter
    object``: the law's parameters for a catalogue muscle, from its geometry or a published set;
    ``predict force --model <name>`` and :func:`mckibben.models.force` use it; None: the law needs a
-   fit or a muscle file).
+   fit or a muscle file), ``static_flags`` (``static_flags(params, pressure, length, force) ->
+   Flag mask``: where the law itself does not hold; every law is flagged for the pressure range,
+   slack and NaN without it).
+
+The table of laws in ``docs/fit.md`` is :func:`law_table_markdown` (a test holds the page to it):
+regenerate it when a law comes or goes.
 
 **The plant dispatches over any number of laws**: it has no slots. Its two law dispatchers
 (``law_force`` over a block's lanes, ``law_value`` at one point) are generated from :data:`LAW_NAMES`
@@ -78,7 +83,7 @@ from mckibben.models.laws.wall_corrected import wall_corrected
 
 __all__ = [
     "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "FitSpec", "Law",
-    "evaluate", "fit_laws", "get_law", "law_of", "resolve",
+    "evaluate", "fit_laws", "get_law", "law_of", "law_table_markdown", "resolve",
     "tondu_lopez", "chou_hannaford", "wall_corrected", "braid_map", "spring",
     "tondu_lopez_theta", "chou_hannaford_theta", "braid_map_theta", "spring_theta",
     "TL_R0", "TL_A", "TL_B", "TL_K", "TL_PTH", "TL_IL0", "CH_B", "CH_C", "CH_D0", "CH_T",
@@ -178,6 +183,28 @@ def evaluate(name: str, pressure, length, theta) -> np.ndarray:
     """
     name = resolve(name)
     return evaluate_kernel(LAWS[name].kernel, name, pressure, length, theta)
+
+
+def law_table_markdown() -> str:
+    """The table of registered laws in ``docs/fit.md``, generated from :data:`LAWS`.
+
+    ``tests/test_docs.py`` checks that ``docs/fit.md`` holds exactly this text, so the
+    documentation lists every law the registry has, and nothing else.
+
+    Returns
+    -------
+    str
+        Markdown: one row per law, with its source, what it is, where it is used and its old names.
+    """
+    rows = ["| law | source | what it is | fitted to isometric data | published set | FMU | old names |",
+            "| --- | --- | --- | --- | --- | --- | --- |"]
+    for name, law in LAWS.items():
+        fitted = "no" if law.fit_spec is None else ("yes, a family across rest lengths" if law.family else "yes")
+        rows.append(f"| `{name}` | {law.citation} | {law.description} | {fitted} | "
+                    f"{'yes' if law.published is not None else 'no'} | "
+                    f"{'yes' if law.c_source() is not None else 'no'} | "
+                    f"{', '.join(f'`{a}`' for a in law.aliases) or '-'} |")
+    return "\n".join(rows) + "\n"
 
 
 def law_of(model, law: str | None = None, direction: str = "elongation") -> tuple[str, np.ndarray]:

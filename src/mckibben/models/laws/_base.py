@@ -98,6 +98,10 @@ class Law:
     published : callable, optional
         ``published(muscle) -> params``: the law's parameters for a catalogue muscle (its geometry
         or a published set); None when the law needs a fit or a muscle file. [-]
+    static_flags : callable, optional
+        ``static_flags(params, pressure [Pa], length [m], force [N]) -> Flag mask``: where the law
+        itself is not valid (beyond the pressure range, slack and NaN, which every law is flagged
+        for by :func:`mckibben.models.force`). [-]
     extra : dict
         Law-specific facts other code may read (``optional_names``). [-]
     """
@@ -118,6 +122,7 @@ class Law:
     extra: dict = field(default_factory=dict)
     c_rows: dict = field(default_factory=dict)
     published: Callable | None = None
+    static_flags: Callable | None = None
 
     @property
     def stem(self) -> str:

@@ -20,6 +20,8 @@ import numpy as np
 from mckibben._kernels import kernel, register
 
 from mckibben.errors import InputError
+from mckibben.models.flags import Flag, flag_where, outside
+from mckibben.models.kinematic import braid_from_length
 from mckibben.models.laws._base import MAP_MAX_LOADS, MPA, NTH, Law
 
 # θ: Ls, k1, k2, number of loads, loads[MAP_MAX_LOADS], then per load the cubic's P³, P², P, 1 (P in MPa)
@@ -91,12 +93,32 @@ def braid_map_theta(muscle) -> np.ndarray:
     return th
 
 
+def map_flags(muscle, pressure, length, force) -> np.ndarray:
+    """Where the map does not hold: a load outside its characterized loads, a braid longer than straight.
+
+    Parameters
+    ----------
+    muscle : MiniatureMuscle
+        The muscle (its map, strand length and pantograph). [-]
+    pressure : numpy.ndarray
+        Gauge pressure (unused). [Pa]
+    length : numpy.ndarray
+        Muscle length. [m]
+    force : numpy.ndarray
+        The law's force. [N]
+    """
+    loads = np.asarray(muscle.braid_map.loads, dtype=float)
+    target = braid_from_length(length, muscle.strand_length, muscle.k1, muscle.k2)
+    return (outside(np.nan_to_num(force, nan=loads[0]), loads[0], loads[-1], Flag.LOAD_OUT_OF_RANGE)
+            | flag_where(target > 1, Flag.COS_THETA_ABOVE_ONE))
+
+
 LAW = Law(
     "braid-map", braid_map, "000_909f662a44080c85.txt eq. (2)+(3), solved for the load",
     description="the miniature muscle's braid-angle cubics (eq. 3) and pantograph (eq. 2), solved for the load",
     aliases=("empirical", "mpam"), theta_of=lambda m, direction="elongation": braid_map_theta(m),
     accepts=lambda m: hasattr(m, "braid_map") and hasattr(m, "k1"),
-    needs=("nominal_length", "strand_length"), published=lambda muscle: muscle,
+    needs=("nominal_length", "strand_length"), published=lambda muscle: muscle, static_flags=map_flags,
     c_rows={"BM_LS": BM_LS, "BM_K1": BM_K1, "BM_K2": BM_K2, "BM_N": BM_N, "BM_LOADS": BM_LOADS, "BM_COEF": BM_COEF,
             "MAP_MAX_LOADS": MAP_MAX_LOADS},
 )

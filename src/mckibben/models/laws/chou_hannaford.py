@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 from mckibben._kernels import kernel, register
 
+from mckibben.models.flags import Flag, outside
 from mckibben.models.geometry import BraidGeometry, check_geometry, miniature_geometry
 from mckibben.models.laws._base import (NTH, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec, Law, evaluate_kernel,
                                         geometry_params, offset_flag)
@@ -182,6 +183,25 @@ def _theta(geom: BraidGeometry, direction: str = "elongation") -> np.ndarray:
     return chou_hannaford_theta(geom.strand_length, geom.turns, geom.wall_thickness)
 
 
+def braid_range_flags(geom: BraidGeometry, pressure, length, force) -> np.ndarray:
+    """``length_out_of_range`` off the braid's own range, locking length (cos²θ = 1/3) to straight braid.
+
+    Beyond it the formula still returns a number; the law does not hold there.
+
+    Parameters
+    ----------
+    geom : BraidGeometry
+        The braid. [-]
+    pressure : numpy.ndarray
+        Gauge pressure (unused: the range is the braid's). [Pa]
+    length : numpy.ndarray
+        Muscle length. [m]
+    force : numpy.ndarray
+        The law's force (unused). [N]
+    """
+    return outside(length, geom.locking_length, geom.strand_length, Flag.LENGTH_OUT_OF_RANGE)
+
+
 LAW = Law(
     "chou-hannaford", chou_hannaford, "Chou & Hannaford (1996) eq. (6)",
     description="ideal braid, fitted braid angle at rest and D0 (+ load-cell zero)",
@@ -190,6 +210,7 @@ LAW = Law(
     from_values=lambda values, muscle, direction="inflate", valid_range=None: braid_from_values(values, muscle, False),
     needs=("nominal_length", "outer_diameter"),
     published=lambda muscle: miniature_geometry(muscle.nominal_length, muscle.geometry, wall=False),
+    static_flags=braid_range_flags,
     c_rows={"CH_B": CH_B, "CH_C": CH_C},
 )
 

@@ -75,6 +75,19 @@ def virtual_work(pressure, length, th, o, w):
 
     Chou & Hannaford (1996) effective area, Klute & Hannaford (2000) elastic energy, Hunt,
     Graber-Tilton & Quinn (2017) length effect.
+
+    Parameters
+    ----------
+    pressure : float
+        Gauge pressure. [Pa]
+    length : float
+        Muscle length. [m]
+    th : numpy.ndarray
+        The parameter array (parameter r of this instance at ``th[o + r·w]``; :data:`NTH` rows). [-]
+    o : int
+        This instance's column in ``th``. [-]
+    w : int
+        The row stride of ``th`` (the number of instances). [-]
     """
     l0 = th[o + VW_L0 * w]
     eps = (l0 - length) / l0

@@ -18,8 +18,8 @@ from mckibben._kernels import kernel, register
 
 from mckibben.models.geometry import BraidGeometry, check_geometry, miniature_geometry
 from mckibben.models.laws._base import Law, evaluate_kernel
-from mckibben.models.laws.chou_hannaford import (CH_B, CH_C, CH_D0, CH_T, _theta, braid_from_values, braid_spec,
-                                                 chou_hannaford_theta)
+from mckibben.models.laws.chou_hannaford import (CH_B, CH_C, CH_D0, CH_T, _theta, braid_from_values, braid_range_flags,
+                                                 braid_spec, chou_hannaford_theta)
 
 
 @kernel(error_model="numpy", inline="always")
@@ -86,6 +86,7 @@ LAW = Law(
     from_values=lambda values, muscle, direction="inflate", valid_range=None: braid_from_values(values, muscle, True),
     needs=("nominal_length", "outer_diameter"),
     published=lambda muscle: miniature_geometry(muscle.nominal_length, muscle.geometry, wall=True),
+    static_flags=braid_range_flags,
     c_rows={"CH_B": CH_B, "CH_C": CH_C, "CH_D0": CH_D0, "CH_T": CH_T},
 )
 
