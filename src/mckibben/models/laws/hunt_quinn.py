@@ -7,17 +7,19 @@ needs to pull a force F at a contraction ε = (L0 − L)/L0,
 
 where ε_max is the muscle's largest contraction (free, at the largest pressure): the length effect
 enters through ε_max, which depends on the muscle's rest length (0.149 for a 153 mm muscle to 0.175
-for a 281 mm one, as the authors' lab code lists their measurements), and the force shortens the stroke (c4 < 0). S is 0 while the
-muscle contracts and 1 while it extends (the hysteresis). Here the model is solved for F at given
-P and L (as the authors' own code does, numerically): the right-hand side rises with F wherever the
-muscle is contracted (ε ≥ 0, c1, c2, c5 > 0, c4 ≤ 0), so the root is unique and bisection finds it
-to round-off. At ε = 0 the force is the limit from the contracted side: no more than the pole
-F = ε_max/(−c4), where the stroke vanishes (above ~615 kPa with the published constants, the
-formula at ε = 0 alone would give a little more: the model is discontinuous there). For a muscle stretched beyond its rest length (ε < 0, outside the model's range) the
-force is held at its value at ε = 0 (the model's tangent there is near-vertical at high pressure:
-the force approaches the pole c4·F + ε_max = 0, so a tangent would extrapolate wildly). The law
-pulls only: where the root is negative (below the pressure that holds the free muscle at that
-contraction) the muscle is slack and the law gives 0, as a load cell on a slack muscle reads.
+for a 281 mm one, as the authors' lab code lists their measurements), and the force shortens the
+stroke (c4 < 0). S is 0 while the muscle contracts and 1 while it extends (the hysteresis).
+
+Here the model is solved for F at given P and L (as the authors' own code does, numerically): the
+right-hand side rises with F wherever the muscle is contracted (ε ≥ 0, c1, c2, c5 > 0, c4 ≤ 0), so
+the root is unique and bisection finds it to round-off. At ε = 0 the force is the limit from the
+contracted side: no more than the pole F = ε_max/(−c4), where the stroke vanishes (above ~615 kPa
+with the published constants the formula at ε = 0 alone would give a little more: the model is
+discontinuous there). For a muscle stretched beyond its rest length (ε < 0, outside the model's
+range) the force is held at its value at ε = 0 (the model's tangent there is near-vertical at high
+pressure, so a tangent would extrapolate wildly). The law pulls only: where the root is negative
+(below the pressure that holds the free muscle at that contraction) the muscle is slack and the law
+gives 0, as a load cell on a slack muscle reads.
 
 Published constants (Festo DMSP-10, 0–620 kPa): c0 = 254.3 kPa, c1 = 192 kPa, c2 = 2.0265,
 c3 = −0.461, c4 = −0.331·10⁻³ N⁻¹, c5 = 1.23 kPa/N, c6 = 15.6 kPa
@@ -27,9 +29,9 @@ References
 ----------
 Hunt, A. J., Graber-Tilton, A., Quinn, R. D. (2017), Modeling length effects of braided pneumatic
 actuators, Proc. ASME IDETC/CIE 2017, paper V05AT08A008 (as the authors' lab code cites it). The
-equation and the constants as implemented by the authors' lab
-(Agile and Adaptive Robotics Lab, Portland State University; MATLAB ``inverse_BPA_model``); the
-paper's equation number could not be checked (no copy of its text was available to us).
+equation and the constants as implemented by the authors' lab (Agile and Adaptive Robotics Lab,
+Portland State University; MATLAB ``inverse_BPA_model``); the paper's equation number could not be
+checked (no copy of its text was available to us).
 """
 
 from __future__ import annotations
