@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from mckibben.datasets.campaign import BUNDLED
+from mckibben.models.laws import fit_laws
 
 MUSCLE = 'id = "mpam117"\nnominal_length_mm = 117\nouter_diameter_mm = 1.2\nstrand_length_mm = 145\nbraid_angle_deg = 20\n'
 
@@ -85,8 +86,9 @@ def test_compare_on_a_bundled_muscle(cli):
     assert r.code == 0, r.err
     out = r.json()
     models = {m["model"]: m for m in out["models"]}
+    # the fixed models and every registered law with a fit spec (the others through their force)
     assert set(models) == {"paper (eq. 2+3)", "cubic per load", "surface", "spring", "chou-hannaford", "tondu-lopez",
-                           "gaussian process"}
+                           "gaussian process", *fit_laws()}
     assert out["cv_method"] == "leave one load out" and out["synthetic"] is True
     # the data are generated from the paper's model with 0.3 mm trial scatter and 0.17 mm encoder
     # counts: the models that contain it fit to about that noise; the physical baselines do not

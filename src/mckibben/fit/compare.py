@@ -16,6 +16,9 @@ stiffness at zero pressure, so zero-pressure rows are left out for all models al
 - ``surface``: one cubic-in-P, linear-in-load surface (:func:`~mckibben.fit.static.fit_surface`).
 - ``spring``: the spring model of 001 with the load as the force, solved for the length.
 - ``chou-hannaford``, ``tondu-lopez``: physical models with fitted corrections.
+- every other registered law with a fit spec (:func:`mckibben.models.laws.fit_laws`:
+  ``wall-corrected``, the family laws, any law added), fitted through its force
+  (:func:`~mckibben.fit.isometric.fit_isotonic_law`) and solved for the length by bisection.
 - ``gaussian process``: a data-driven regressor (scikit-learn, RBF + white noise kernel on scaled
   inputs, fitted to the trial means), as 001 suggests a universal approximator. Its kernel's
   hyperparameters (4 numbers) are optimized once on all the data and kept in the cross-validation
@@ -52,6 +55,8 @@ from mckibben.fit.static import (
     fit_tondu_lopez,
     fitted_muscle,
 )
+from mckibben.fit.isometric import fit_isotonic_law, law_length
+from mckibben.models import laws
 from mckibben.models.mpam import BraidAngleMap, predict_length
 from mckibben.models.spring import spring_length
 
@@ -94,6 +99,17 @@ def _physical(fitter, muscle):
     def make(train: Table):
         res = fitter(train, muscle)
         return (lambda p, f: res.predict(pressure=p, load=f)[0]), len(res.values)
+
+    return make
+
+
+def _by_force(name, muscle, lo, hi):
+    # the bracket: a fifth of the measured range beyond each end (the law must cross the load there)
+    pad = 0.2 * (hi - lo) + 1e-3 * hi
+
+    def make(train: Table):
+        res = fit_isotonic_law(train, muscle, name)
+        return (lambda p, f: law_length(res, p, f, lo - pad, hi + pad)), len(res.values)
 
     return make
 
@@ -197,6 +213,9 @@ def compare_models(table: Table, muscle: MuscleSpec, braid: Table | None = None)
         "tondu-lopez": _physical(fit_tondu_lopez, muscle),
         "gaussian process": _gaussian_process,
     }
+    # every other registered law with a fit spec, fitted through its force (fit_isotonic_law)
+    for name in laws.fit_laws():
+        makers.setdefault(name, _by_force(name, muscle, float(np.min(ell)), float(np.max(ell))))
     scores = []
     if braid is not None:
         kin = fit_kinematic(braid, muscle)

@@ -75,7 +75,7 @@ if TYPE_CHECKING:
 __all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "MUSCLE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
            "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
-           "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "force_law", "max_error", "parameter_names"]
+           "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length", "max_error", "parameter_names"]
 
 BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
                "wall in [0, 0.25] x outer diameter; k in [0.5, 5]; |offset| <= peak force; spring K >= 0 checked")
@@ -319,6 +319,78 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
     cols += [c for c in ("rest_length", "muscle") if c in tared.data]  # a family table's muscles
     d = tared.data[cols].copy()
     return d, report
+
+
+def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
+    """A registered law fitted to an isotonic table through its force: each point (P, load, L) is F(P, L) = load.
+
+    The law's own fit spec (:attr:`mckibben.models.laws.Law.fit_spec`), as on an isometric table: a
+    muscle hanging a load at rest is a muscle held at that length pulling that load (friction
+    aside). The residuals are in force [N]; :func:`law_length` solves the fitted law for the length.
+    The spec's load-cell zero is fitted too (it absorbs a bias in the loads' calibration).
+
+    Parameters
+    ----------
+    table : Table
+        An ``isotonic`` or ``hysteresis`` table (pressure, load, length). [-]
+    muscle : MuscleSpec
+        The muscle file (its nominal length and what the law's fit needs). [-]
+    model : str
+        A law of :func:`mckibben.models.laws.fit_laws` (or an old name). [-]
+
+    Returns
+    -------
+    FitResult
+    """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    model = model_name(model)
+    if model not in laws.LAWS:
+        raise InputError(f"fit {model}: not a registered force law")
+    if table.kind not in ("isotonic", "hysteresis"):
+        raise InputError(f"fit {model}: needs an isotonic or hysteresis table; {table.path} is a {table.kind} table")
+    d = table.data
+    pts = pd.DataFrame({"held_length": d["length"].to_numpy(dtype=float), "pressure": d["pressure"].to_numpy(dtype=float),
+                        "force": d["load"].to_numpy(dtype=float), "direction": "inflate",
+                        "trial": d["trial"].to_numpy() if "trial" in d else np.ones(len(d))})
+    return fit_points(pts, muscle, model, source=str(table.path))
+
+
+def law_length(res: FitResult, pressure, load, lo: float, hi: float) -> np.ndarray:
+    """Length at which a fitted law pulls a load, by bisection on [lo, hi]; NaN where it does not cross. [m]
+
+    Parameters
+    ----------
+    res : FitResult
+        A force law's fit (:func:`fit_isotonic_law`, :func:`fit_points`). [-]
+    pressure : array_like
+        Gauge pressure. [Pa]
+    load : array_like
+        The load to pull. [N]
+    lo, hi : float
+        The lengths bracketing the answer (the law's force rises with length between them). [m]
+
+    Returns
+    -------
+    numpy.ndarray
+        Length, broadcast over ``pressure`` and ``load``. [m]
+    """
+    p, f = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    a, b = np.full(p.shape, float(lo)), np.full(p.shape, float(hi))
+
+    def g(ell):
+        with np.errstate(all="ignore"):
+            return np.asarray(res.func(res.values, p, ell, "inflate"), dtype=float) - f
+
+    ga, gb = g(a), g(b)
+    ok = (np.sign(ga) != np.sign(gb)) & np.isfinite(ga) & np.isfinite(gb)
+    for _ in range(60):  # 2^-60 of the bracket
+        m = 0.5 * (a + b)
+        gm = g(m)
+        left = np.sign(gm) == np.sign(ga)
+        a, ga = np.where(left, m, a), np.where(left, gm, ga)
+        b = np.where(left, b, m)
+    return np.where(ok, 0.5 * (a + b), np.nan)
 
 
 def max_error(residuals, force) -> tuple[float, float]:

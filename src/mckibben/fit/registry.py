@@ -22,7 +22,7 @@ from mckibben.data import find_muscle_file, read_muscle
 from mckibben.datasets.campaign import is_synthetic
 from mckibben.data import check_muscle, read_table
 from mckibben.fit import static
-from mckibben.fit.isometric import ALL_MODELS, fit_isometric
+from mckibben.fit.isometric import ALL_MODELS, fit_isometric, fit_isotonic_law
 from mckibben.fit.muscle_file import save_muscle_file
 from mckibben.fit.isometric import compare_isometric
 from mckibben.fit.compare import compare_models
@@ -54,7 +54,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
 
-    if model not in FIT_MODELS:
+    if model not in FIT_MODELS and model not in laws.ALIASES:  # an old law name is read (deprecated)
         raise unknown_name("model", model, FIT_MODELS)
     table = read_table(data, kind)
     isometric = table.kind == "isometric"
@@ -110,8 +110,8 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         fits = [static.fit_chou_hannaford(table, spec)]
     elif model == "tondu-lopez":
         fits = [static.fit_tondu_lopez(table, spec)]
-    elif model == "wall-chou-hannaford":
-        raise InputError(f"fit wall-chou-hannaford: needs an isometric table; {data} is a {table.kind} table")
+    elif model in laws.fit_laws() or model in laws.ALIASES:  # any other registered law: through its force
+        fits = [fit_isotonic_law(table, spec, model)]
     else:
         fits = list(static.fit_first_order(table).values())
     out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id if spec else None,

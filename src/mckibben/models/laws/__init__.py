@@ -44,8 +44,10 @@ plant, the tool, muscle files, ``params``, the MuJoCo bridge, the FMU) and the c
    Flag mask``: where the law itself does not hold; every law is flagged for the pressure range,
    slack and NaN without it).
 
-The table of laws in ``docs/fit.md`` is :func:`law_table_markdown` (a test holds the page to it):
-regenerate it when a law comes or goes.
+The conformance suite checks a law on its fit to the bundled commercial table when it has a fit
+spec, else on ``published(get_muscle("mpam143"))``; a law with neither fails it (nothing could use
+it). The table of laws in ``docs/fit.md`` is :func:`law_table_markdown` (a test holds the page to
+it): regenerate it when a law comes or goes.
 
 **The plant dispatches over any number of laws**: it has no slots. Its two law dispatchers
 (``law_force`` over a block's lanes, ``law_value`` at one point) are generated from :data:`LAW_NAMES`
