@@ -96,7 +96,7 @@ def table(tmp_path_factory):
 def test_a_fit_recovers_the_constants(table):
     fit = fit_isometric(read_table(table[0]), read_muscle(table[1]), "hunt-quinn", tare="lowest")
     r = fit.result
-    assert r.names == ("c0_kPa", "c1_kPa", "c3", "c4_per_N", "c5_kPa_per_N", "max_strain", "offset_N")
+    assert r.names == ("c0_kPa", "c1_kPa", "c3", "c4_per_N", "c5_kPa_per_N", "max_strain")
     # 128 points of 0.5 N noise on forces up to ~490 N: every constant within 4 standard errors of
     # the truth, and the stroke within 2 %
     for name, want in TRUE.items():
@@ -113,7 +113,7 @@ def test_a_fitted_file_drives_the_plant_to_the_law(table, tmp_path):
     for ell in (0.30, 0.30 * 0.96):
         r = simulate(plant.replace(supply_pressure=p, load_kind="blocked", leak_conductance=0.0),
                      0.5, inlet=255, initial_pressure=p, initial_length=ell)
-        want = law.force(r.pressure[:, -1], ell)[0] - fit.result["offset_N"]
+        want = law.force(r.pressure[:, -1], ell)[0]
         # the plant runs the same kernel: its steady blocked force within 0.1 % of the static law
         np.testing.assert_allclose(r.force[:, -1], want, rtol=1e-3)
 

@@ -43,7 +43,7 @@ import numpy as np
 from mckibben._kernels import kernel, register
 
 from mckibben.errors import InputError
-from mckibben.models.laws._base import NTH, FitSpec, Law, evaluate_kernel, offset_flag
+from mckibben.models.laws._base import NTH, FitSpec, Law, evaluate_kernel
 
 # θ: c0 [Pa], c1 [Pa], c2 [-], c3 [-], c4 [1/N], c5 [Pa/N], c6·S [Pa], ε_max [-], 1/L0 [1/m], the solve's tolerance [-]
 HQ_C0, HQ_C1, HQ_C2, HQ_C3, HQ_C4, HQ_C5, HQ_C6S, HQ_EMAX, HQ_IL0, HQ_TOL = range(10)
@@ -207,8 +207,11 @@ class HuntQuinn:
 
 
 #: Fitted parameter names, in order (c2 is held at the published value: with ε_max free, c2 only
-#: rescales c4 and ε_max, so fitting both would leave one direction unidentified).
-NAMES = ("c0_kPa", "c1_kPa", "c3", "c4_per_N", "c5_kPa_per_N", "max_strain", "offset_N")
+#: rescales c4 and ε_max, so fitting both would leave one direction unidentified). No load-cell zero:
+#: the model absorbs a constant force offset Δ exactly (F → F − Δ is c0 → c0 + c5·Δ,
+#: ε_max → ε_max + c4·Δ), so a separate zero would be unidentified but for the slack rows, and an
+#: isotonic fit would trade it against the smallest load.
+NAMES = ("c0_kPa", "c1_kPa", "c3", "c4_per_N", "c5_kPa_per_N", "max_strain")
 #: Published c2, held in fits (see :data:`NAMES`). [-]
 C2_HELD = 2.0265
 #: Bounds of ε_max in a fit. [-]
@@ -221,12 +224,12 @@ def _law_of(d, rest_length) -> HuntQuinn:
 
 
 def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
-    """Fit spec: c0, c1, c3, c4, c5, ε_max (c2 held at the published 2.0265, c6 = 0) and the load cell's zero.
+    """Fit spec: c0, c1, c3, c4, c5 and ε_max (c2 held at the published 2.0265, c6 = 0; no load-cell zero, see :data:`NAMES`).
 
     Bounds: c1, c5 > 0 (pressure rises with contraction and with force), |c2·c3| < π/2 (the
     tangent's range at rest length), −1/F_max ≤ c4 ≤ 0 (force shortens the stroke), ε_max in
-    :data:`MAX_STRAIN_BOUNDS`, the zero within ± the peak force. Starts: the published constants,
-    with ε_max at 0.15 and 0.3 (the stroke of a Festo muscle and twice it).
+    :data:`MAX_STRAIN_BOUNDS`. Starts: the published constants, with ε_max at 0.15 and 0.3 (the
+    stroke of a Festo muscle and twice it).
 
     Parameters
     ----------
@@ -239,25 +242,21 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     """
     l0 = muscle.nominal_length
     c3_lim = (0.5 * math.pi - ARG_MARGIN) / C2_HELD
-    lo = np.array([-np.inf, 1e-3, -c3_lim, -1.0 / fmax, 1e-6, MAX_STRAIN_BOUNDS[0], -fmax])
-    hi = np.array([np.inf, np.inf, c3_lim, 0.0, np.inf, MAX_STRAIN_BOUNDS[1], fmax])
+    lo = np.array([-np.inf, 1e-3, -c3_lim, -1.0 / fmax, 1e-6, MAX_STRAIN_BOUNDS[0]])
+    hi = np.array([np.inf, np.inf, c3_lim, 0.0, np.inf, MAX_STRAIN_BOUNDS[1]])
 
     def force(v, pressure, length, direction=None, rest_length=None):
         d = dict(zip(NAMES, v))
         law = _law_of(d, l0 if rest_length is None else float(np.asarray(rest_length).flat[0]))
-        return law.force(pressure, length) + d["offset_N"]
+        return law.force(pressure, length)
 
     pub = (254.3, 192.0, -0.461, max(-0.331e-3, -0.9 / fmax), 1.23)
-    starts = [np.clip(np.array(pub + (e, 0.0)), lo, hi) for e in (0.15, 0.3)]
-
-    def physical(v):
-        return offset_flag(dict(zip(NAMES, v))["offset_N"], fmax)
-
-    return FitSpec(NAMES, lo, hi, starts, force, physical)
+    starts = [np.clip(np.array(pub + (e,)), lo, hi) for e in (0.15, 0.3)]
+    return FitSpec(NAMES, lo, hi, starts, force)
 
 
 def from_values(values: dict, muscle, direction: str = "inflate", valid_range: dict | None = None) -> HuntQuinn:
-    """The fitted values (by name, the paper's units) as the law of the muscle (the load cell's zero dropped).
+    """The fitted values (by name, the paper's units) as the law of the muscle.
 
     Parameters
     ----------
@@ -270,7 +269,7 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
     valid_range : dict, optional
         Unused. [-]
     """
-    d = {k: float(values[k]) for k in NAMES if k != "offset_N"}
+    d = {k: float(values[k]) for k in NAMES}
     return _law_of(d | {"citation": f"fitted: {muscle.path or muscle.id}"}, float(muscle.nominal_length))
 
 
