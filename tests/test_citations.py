@@ -18,6 +18,7 @@ import pytest
 import typer
 
 from mckibben.cli import app
+from mckibben import datasets
 from mckibben.datasets import MUSCLES, parameter_sets
 from mckibben.datasets.references import KEY_PATTERN, REFERENCES, cited, reference, render
 from mckibben.errors import InputError
@@ -62,7 +63,8 @@ def _check_params(run) -> None:
     assert "[mpam-characterization]" in out
 
     sets = json.loads(run("params", "list", "--json")[0])["parameter_sets"]
-    assert [s["name"] for s in sets] == [s["name"] for s in parameter_sets()] and len(sets) == 6
+    assert [s["name"] for s in sets] == [s["name"] for s in parameter_sets()]
+    assert len(sets) == len(datasets.MUSCLES) + len(datasets.SPRING_MUSCLE_SIZES) + len(datasets.LAW_SETS)
     for s in sets:
         record = REFERENCES[s["citation"]["key"]]
         assert s["citation"] == json.loads(json.dumps(record.to_dict())), s["name"]

@@ -109,6 +109,14 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
         authors=("Seeber", "Andritsch"), venue="Automatica, vol. 173, 112027", year=2025,
         doi="10.1016/j.automatica.2024.112027",
     ),
+    Reference(
+        key="hunt2017",
+        title="Modeling length effects of braided pneumatic actuators",
+        authors=("Hunt", "Graber-Tilton", "Quinn"),
+        venue="ASME 2017 International Design Engineering Technical Conferences and Computers and Information in "
+              "Engineering Conference (IDETC/CIE), paper V05AT08A008", year=2017, doi=None,
+        unestablished="DOI: we had no copy of the paper; the reference is as the authors' lab code gives it",
+    ),
 )}
 
 #: A citation key in brackets, as docstrings and citation fields write it: words joined by hyphens
