@@ -1,0 +1,381 @@
+"""The firmware image as the device: ``firmware/src/main.c`` in simavr, in the loop with the C plant.
+
+:class:`AvrDevice` runs the processor-in-the-loop harness (``firmware/pil/pil.c``, linked against
+libsimavr): it loads the very ELF that ``make -C firmware`` builds and ``make upload`` flashes,
+clocks it at 16 MHz, feeds ADC0..2 from each channel's pressure through the sensor model, turns
+the six PWM compare outputs into valve commands, feeds the encoder pins from channel 0's length
+and bridges USART0 to a pseudo-terminal, with the Mega's reset on open, the bootloader's delay
+and HELLO. The plant is ``export/c/mk_plant.c``, the C port of :mod:`mckibben.plant.physics` the
+FMU compiles (its layout from :func:`mckibben.plant.c_layout.plant_header`).
+
+Both binaries are built on first use with the system tools and cached per user
+(:func:`mckibben._jit.cache_dir`, ``pil/``), keyed by a hash of their sources: the image with
+``make`` and avr-gcc (Debian: ``gcc-avr avr-libc make``), the harness with ``cc`` and libsimavr
+(Debian: ``libsimavr-dev libelf-dev``). A missing tool is one :class:`~mckibben.errors.InputError`
+line naming the package to install.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from mckibben import _jit
+from mckibben import hardware as HW
+from mckibben.errors import InputError
+from mckibben.plant import c_layout as CL
+from mckibben.plant import params as PP
+
+#: The Debian packages that install each tool the engine needs.
+PACKAGES = {"avr-gcc": "gcc-avr avr-libc", "make": "make", "cc": "gcc", "libsimavr": "libsimavr-dev libelf-dev",
+            "avrdude": "avrdude", "simavr": "simavr"}
+#: The plant's C sources (package data of mckibben.export, ``c/``) the harness compiles.
+PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
+#: Where libsimavr's headers are looked for (``$SIMAVR_INCLUDE`` first).
+SIMAVR_INCLUDES = ("/usr/include/simavr", "/usr/local/include/simavr", "/opt/homebrew/include/simavr")
+
+
+def firmware_dir() -> Path:
+    """The firmware's sources: the copy a built package carries (``mckibben/firmware``, made by
+    ``setup.py``), else ``firmware/`` of the source tree this runs from."""
+    here = Path(__file__).resolve()
+    for fw in (here.parents[2] / "firmware", here.parents[4] / "firmware"):
+        if (fw / "Makefile").is_file() and (fw / "src" / "main.c").is_file():
+            return fw
+    raise InputError("firmware: its sources are not in this installation (a package built without firmware/)")
+
+
+def missing(tool: str) -> InputError:
+    """The one-line refusal for a missing tool, naming the Debian package that installs it."""
+    return InputError(f"{tool} not found: install it (Debian/Ubuntu: sudo apt-get install {PACKAGES[tool]})")
+
+
+def _hash(paths, *extra: str) -> str:
+    h = hashlib.sha256()
+    for p in sorted(paths, key=lambda q: q.as_posix()):
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    for e in extra:
+        h.update(e.encode())
+    return h.hexdigest()[:16]
+
+
+def _cache(kind: str) -> Path:
+    base = _jit.cache_dir()
+    if base is None:  # no writable cache: this process builds in a temporary folder
+        base = Path(tempfile.gettempdir()) / f"mckibben-{os.getuid()}"
+    return base / "pil" / kind
+
+
+def _firmware_files(fw: Path) -> list[Path]:
+    return [fw / "Makefile", *sorted((fw / "src").glob("*.[ch]")), *sorted((fw / "core").glob("*.[ch]"))]
+
+
+def build_image(n_channels: int = HW.N_CHANNELS, out: str | os.PathLike | None = None) -> Path:
+    """The firmware image for the ATmega2560 (``make -C firmware``), built once per source and channel count.
+
+    Parameters
+    ----------
+    n_channels : int, default 3
+        Pressure channels, ``MCK_N_CHANNELS``, 1..3. [-]
+    out : path, optional
+        Folder to build into (``mckibben.elf`` and ``mckibben.hex``); default the per-user cache. [-]
+
+    Returns
+    -------
+    pathlib.Path
+        The ELF image.
+
+    Raises
+    ------
+    InputError
+        ``n_channels`` out of range, ``out`` not a folder that can be made, avr-gcc or make
+        missing (named with the package that installs it), or the build failed.
+    """
+    if not 1 <= int(n_channels) <= 3 or isinstance(n_channels, bool):
+        raise InputError(f"n_channels: {n_channels!r} must be 1, 2 or 3")
+    fw = firmware_dir()
+    for tool in ("make", "avr-gcc"):
+        if shutil.which(tool) is None:
+            raise missing(tool)
+    if out is None:
+        build = _cache("image") / f"{_hash(_firmware_files(fw))}-{int(n_channels)}"
+    else:
+        build = Path(out).resolve()
+        if build.exists() and not build.is_dir():
+            raise InputError(f"out: {str(out)!r} is not a folder")
+    elf = build / "mckibben.elf"
+    if out is None and elf.is_file():
+        return elf
+    try:
+        build.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"out: cannot make {str(build)!r} ({exc.strerror})") from None
+    with tempfile.TemporaryDirectory(prefix="mckibben-fw-", dir=build) as tmp:
+        cmd = ["make", "-s", "-C", str(fw), f"BUILD={tmp}", f"N_CHANNELS={int(n_channels)}", f"{tmp}/mckibben.hex"]
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise InputError(f"firmware: the build failed ({' '.join(cmd)}): {done.stderr.strip().splitlines()[-1:]}")
+        for name in ("mckibben.elf", "mckibben.hex"):
+            os.replace(Path(tmp) / name, build / name)  # whole files or nothing
+    return elf
+
+
+def _simavr_include() -> Path:
+    for d in ([os.environ["SIMAVR_INCLUDE"]] if os.environ.get("SIMAVR_INCLUDE") else []) + list(SIMAVR_INCLUDES):
+        if (Path(d) / "sim_avr.h").is_file():
+            return Path(d)
+    raise missing("libsimavr")
+
+
+def build_harness(plant: PP.PlantParams | None = None) -> Path:
+    """The processor-in-the-loop harness (``firmware/pil/pil.c`` + ``export/c/mk_plant.c``), built once per source.
+
+    Parameters
+    ----------
+    plant : PlantParams, optional
+        A rig whose layout and thermal model the binary is built for (values are read at run
+        time); default the calibrated rig. [-]
+
+    Raises
+    ------
+    InputError
+        No C compiler or no libsimavr (named with the package that installs it); a build failure.
+    """
+    plant = PP.PlantParams() if plant is None else plant
+    cc = shutil.which(os.environ.get("CC", "cc"))
+    if cc is None:
+        raise missing("cc")
+    include = _simavr_include()
+    prm, law, theta, _ = plant.prepare(1)
+    header = "\n".join(CL.plant_header(prm[0], theta[:, 0], law, plant.thermal)) + "\n\n#endif\n"
+    fw = firmware_dir()
+    pkg = resources.files("mckibben.export") / "c"
+    sources = {"pil.c": (fw / "pil" / "pil.c").read_bytes(),
+               **{f: (pkg / f).read_bytes() for f in PLANT_SOURCES}, "mk_model.h": header.encode()}
+    h = hashlib.sha256(b"".join(k.encode() + v for k, v in sorted(sources.items())) + str(include).encode())
+    binary = _cache("harness") / h.hexdigest()[:16] / "pil"
+    if binary.is_file():
+        return binary
+    binary.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="mckibben-pil-", dir=binary.parent) as tmp:
+        for name, data in sources.items():
+            (Path(tmp) / name).write_bytes(data)
+        cmd = [cc, "-std=gnu99", "-O2", "-Wall", "-Wextra", f"-I{tmp}", f"-I{include.parent}", "-o", f"{tmp}/pil",
+               f"{tmp}/pil.c", f"{tmp}/mk_plant.c", "-lsimavr", "-lelf", "-lutil", "-lm"]
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        if done.returncode != 0:
+            if "-lsimavr" in done.stderr or "-lelf" in done.stderr:
+                raise missing("libsimavr")
+            raise RuntimeError(f"building the PIL harness failed ({' '.join(cmd)}):\n{done.stderr}")
+        os.replace(Path(tmp) / "pil", binary)
+    return binary
+
+
+def available() -> str | None:
+    """None when the avr engine can run here, else the reason (one line naming what to install)."""
+    try:
+        for tool in ("make", "avr-gcc"):
+            if shutil.which(tool) is None:
+                raise missing(tool)
+        _simavr_include()
+        if shutil.which(os.environ.get("CC", "cc")) is None:
+            raise missing("cc")
+    except InputError as exc:
+        return str(exc)
+    return None
+
+
+def write_params(plants, path: Path) -> None:
+    """The channels' plants as the harness reads them: the packed fields and the law, as the FMU packs them.
+
+    Parameters
+    ----------
+    plants : sequence of PlantParams
+        One rig per channel (scalar fields). [-]
+    path : pathlib.Path
+        The text file to write. [-]
+    """
+    nf = len(PP.field_names())
+    lines = []
+    for i, p in enumerate(plants):
+        prm, law, theta, name = p.prepare(1)
+        if name not in CL.C_LAWS:
+            raise InputError(f"plant: channel {i}'s force law {name} has no kernel in the C plant "
+                             f"(it has {', '.join(CL.C_LAWS)})")
+        if p.pressure_noise != 0:
+            raise InputError(f"plant: channel {i} has pressure_noise; the avr engine's sensors are noiseless")
+        lines.append(" ".join([str(int(law)), *(CL.c_double(v) for v in prm[0, :nf]),
+                               *(CL.c_double(v) for v in np.asarray(theta)[:, 0])]))
+    text = f"{len(plants)} {nf} {len(np.asarray(theta)[:, 0])}\n" + "\n".join(lines) + "\n"
+    path.write_text(text)
+
+
+class AvrDevice:
+    """The firmware image in simavr against the C plant, behind a pseudo-terminal (a child process).
+
+    Parameters
+    ----------
+    plants : sequence of PlantParams
+        One rig per channel (:func:`mckibben.rig.engines.with_supply`). [-]
+    n_channels : int, default 3
+        Channels: the image is built with ``MCK_N_CHANNELS = n_channels``. [-]
+    boot_time : float, default 0.3
+        Bootloader time after each reset (a Mega: 1-2 s). [s]
+    unthrottled : bool, default False
+        Run the simulation as fast as it goes instead of following wall time. [-]
+    elf : path, optional
+        An image to run instead of building one. [-]
+
+    Attributes
+    ----------
+    port : str
+        The pseudo-terminal to open. [-]
+    resets, wdt_resets : int
+        Resets by a host opening the port, and by the watchdog (or a stopped image). [-]
+    host_present : bool
+        A process has the port open. [-]
+    device_time : float
+        Simulated time since the harness started. [s]
+    stats : dict
+        The harness's last counters line. [-]
+    """
+
+    def __init__(self, plants, n_channels: int = 3, boot_time: float = 0.3, unthrottled: bool = False,
+                 elf: str | os.PathLike | None = None):
+        if not 0 <= float(boot_time) <= 10:
+            raise InputError(f"boot_time: {boot_time!r} must be within 0..10 s")
+        self.n = int(n_channels)
+        self.elf = Path(elf) if elf is not None else build_image(self.n)
+        self.harness = build_harness(plants[0])
+        self._dir = tempfile.TemporaryDirectory(prefix="mckibben-avr-")
+        params = Path(self._dir.name) / "plants.txt"
+        write_params(plants, params)
+        self.boot_time, self.unthrottled = float(boot_time), bool(unthrottled)
+        cmd = [str(self.harness), str(self.elf), str(params), "--boot-time", repr(self.boot_time)]
+        if unthrottled:
+            cmd.append("--unthrottled")
+        self._cmd = cmd
+        self._proc: subprocess.Popen | None = None
+        self.stats: dict = {}
+        self._lock = threading.Lock()
+        self._reader: threading.Thread | None = None
+        self._launch()
+
+    def _launch(self) -> None:
+        self._proc = subprocess.Popen(self._cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                      start_new_session=True)
+        info = None
+        while info is None:  # simavr's ELF loader prints its own lines first
+            line = self._proc.stdout.readline()
+            if not line:
+                err = self._proc.stderr.read().strip()
+                self._proc.wait()
+                raise InputError(err.removeprefix("error: ") or "the PIL harness exited at start")
+            if line.startswith('{"port"'):
+                info = json.loads(line)
+        self.port: str = info["port"]
+        self._reader = threading.Thread(target=self._read, name="mckibben-avr-stats", daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self._proc is not None and self._proc.stdout is not None
+        for line in self._proc.stdout:
+            try:
+                s = json.loads(line)
+            except ValueError:
+                continue
+            with self._lock:
+                self.stats = s
+
+    def _stat(self, key: str, default=0):
+        with self._lock:
+            return self.stats.get(key, default)
+
+    @property
+    def resets(self) -> int:
+        return int(self._stat("resets"))
+
+    @property
+    def wdt_resets(self) -> int:
+        return int(self._stat("wdt_resets"))
+
+    @property
+    def host_present(self) -> bool:
+        return bool(self._stat("host"))
+
+    @property
+    def device_time(self) -> float:
+        return float(self._stat("t_sim", 0.0))
+
+    @property
+    def steps(self) -> int:
+        """Control periods simulated since the harness started. [-]"""
+        return int(self.device_time / HW.CONTROL_PERIOD)
+
+    def pressures(self) -> list[float]:
+        """The channels' true gauge pressures at the last counters line. [Pa]"""
+        return list(self._stat("pressure_pa", []))
+
+    def start(self) -> "AvrDevice":
+        """The harness runs from construction: nothing to start (as ``Emulator.start``)."""
+        return self
+
+    def run(self, duration: float | None = None) -> None:
+        """Wait in the calling thread until the harness ends, or for ``duration`` seconds, then stop it.
+
+        Parameters
+        ----------
+        duration : float, optional
+            Wall-clock time to run. [s]
+        """
+        assert self._proc is not None
+        try:
+            self._proc.wait(timeout=duration)
+        except subprocess.TimeoutExpired:
+            pass
+        finally:
+            self.stop()
+
+    def stop(self) -> None:
+        """Stop the harness (SIGTERM; it closes the pty) and remove its files."""
+        p = self._proc
+        if p is not None and p.poll() is None:
+            p.send_signal(signal.SIGTERM)
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        if self._reader is not None:
+            self._reader.join(timeout=5)
+        for f in (p.stdout, p.stderr) if p is not None else ():
+            if f is not None:
+                f.close()
+        self._dir.cleanup()
+
+    def wait_until(self, cond, timeout: float = 30.0) -> bool:
+        """Poll ``cond()`` until true or ``timeout`` seconds. [s]"""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if cond():
+                return True
+            time.sleep(0.02)
+        return bool(cond())
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stop()
