@@ -347,9 +347,11 @@ static void handle(const mck_rx_t *rx)
 /* --- setup ---------------------------------------------------------------------------------- */
 static void hw_init(void)
 {
-    /* USART0: 1,000,000 baud = 16 MHz / (8 (UBRR + 1)) with U2X, UBRR = 1 (0 % error) */
-    UBRR0 = UBRR_VALUE;
+    /* USART0: 1,000,000 baud = 16 MHz / (8 (UBRR + 1)) with U2X, UBRR = 1 (0 % error). U2X first:
+     * the Mega does not care about the order, but simavr latches the line rate when UBRR0 is
+     * written, so UBRR0 before U2X0 ran the processor-in-the-loop bench at half the rate. */
     UCSR0A = (uint8_t)(1 << U2X0);
+    UBRR0 = UBRR_VALUE;
     UCSR0C = (uint8_t)(1 << UCSZ01 | 1 << UCSZ00);
     UCSR0B = (uint8_t)(1 << RXEN0 | 1 << TXEN0 | 1 << RXCIE0);
 
