@@ -79,3 +79,31 @@ def refusals_in_subprocess(setup: str, cases: dict, memory_limit: int | None = N
                          timeout=timeout, env={**os.environ, "MCKIBBEN_NO_COMPILE_NOTICE": "1"})
     assert run.returncode == 0, run.stderr
     return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def _avr_engine_missing() -> str | None:
+    from mckibben.rig.engines import avr
+
+    return avr.available()
+
+
+#: The device engines every device test runs against: the Python emulator and the firmware image in
+#: simavr (skipped only where libsimavr, avr-gcc or make is missing).
+DEVICE_ENGINES = [
+    pytest.param("python", id="python"),
+    pytest.param("avr", id="avr", marks=pytest.mark.skipif(_avr_engine_missing() is not None,
+                                                           reason=str(_avr_engine_missing()))),
+]
+
+
+@pytest.fixture(params=DEVICE_ENGINES)
+def engine(request) -> str:
+    """The device engine of a device test: ``python`` or ``avr``."""
+    return request.param
+
+
+def start_device(engine: str, **kw):
+    """A device of ``engine`` behind a pty, running (a context manager): :func:`mckibben.rig.engines.start_device`."""
+    from mckibben.rig.engines import start_device as start
+
+    return start(engine, **kw)

@@ -281,12 +281,12 @@ static double now_s(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
-static void report(double t_sim, double wall, int present, long long sim_ms_lost)
+static void report(double t_sim, double t_dev, double wall, int present, long long sim_ms_lost)
 {
-    printf("{\"t_sim\": %.4f, \"wall\": %.4f, \"resets\": %lld, \"wdt_resets\": %lld, \"host\": %d, "
+    printf("{\"t_sim\": %.4f, \"t_dev\": %.4f, \"wall\": %.4f, \"resets\": %lld, \"wdt_resets\": %lld, \"host\": %d, "
            "\"rx_bytes\": %lld, \"tx_bytes\": %lld, \"dropped_packets\": %lld, \"dropped_bytes\": %lld, "
            "\"late_ms\": %lld, \"pressure_pa\": [",
-           t_sim, wall, resets, wdt_resets, present, rx_bytes, tx_bytes, dropped_packets, dropped_bytes,
+           t_sim, t_dev > 0.0 ? t_dev : 0.0, wall, resets, wdt_resets, present, rx_bytes, tx_bytes, dropped_packets, dropped_bytes,
            sim_ms_lost);
     for (int i = 0; i < n_ch; i++)
         printf("%s%.1f", i ? ", " : "", plant[i].s[MK_S_P] - MK_P_ATM);
@@ -400,10 +400,14 @@ int main(int argc, char **argv)
                        until its watchdog: reset it as the watchdog would */
                     wdt_resets++;
                     mcu_reset();
+                    booting_until = t_sim;
                     break;
                 }
             }
-            if (!(mcusr_before & 0x08) && (reg8(A_MCUSR) & 0x08)) wdt_resets++; /* WDRF: watchdog reset */
+            if (!(mcusr_before & 0x08) && (reg8(A_MCUSR) & 0x08)) { /* WDRF: a watchdog reset */
+                wdt_resets++;
+                booting_until = t_sim;
+            }
         }
         t_sim += CHUNK_S;
         chunk++;
@@ -451,13 +455,13 @@ int main(int argc, char **argv)
                 }
             }
             if (wall >= next_report) {
-                report(t_sim, wall, present, late_ms);
+                report(t_sim, t_sim - booting_until, wall, present, late_ms);
                 next_report = wall + 0.2;
             }
             if (duration >= 0 && (unthrottled ? t_sim : wall) >= duration) break;
         }
     }
-    report(t_sim, now_s() - t0, present, late_ms);
+    report(t_sim, t_sim - booting_until, now_s() - t0, present, late_ms);
     close(master);
     return 0;
 }

@@ -247,7 +247,9 @@ class AvrDevice:
     host_present : bool
         A process has the port open. [-]
     device_time : float
-        Simulated time since the harness started. [s]
+        The firmware's clock: simulated time since it last started after a reset. [s]
+    steps, dropped : int
+        Control periods simulated; packets dropped whole because the host did not read. [-]
     stats : dict
         The harness's last counters line. [-]
     """
@@ -317,12 +319,18 @@ class AvrDevice:
 
     @property
     def device_time(self) -> float:
-        return float(self._stat("t_sim", 0.0))
+        """The firmware's clock: simulated time since it last started after a reset. [s]"""
+        return float(self._stat("t_dev", 0.0))
 
     @property
     def steps(self) -> int:
         """Control periods simulated since the harness started. [-]"""
-        return int(self.device_time / HW.CONTROL_PERIOD)
+        return int(float(self._stat("t_sim", 0.0)) / HW.CONTROL_PERIOD)
+
+    @property
+    def dropped(self) -> int:
+        """Packets dropped whole because the host did not read (the USB bridge's 4 KB buffer was full). [-]"""
+        return int(self._stat("dropped_packets"))
 
     def pressures(self) -> list[float]:
         """The channels' true gauge pressures at the last counters line. [Pa]"""
