@@ -253,7 +253,7 @@ def test_emulate_removes_its_link_on_signals(tmp_path, kind, engine):
         (["rig", "emulate", "--link", "/no/such/dir/tty"], "error: --link: cannot create '/no/such/dir/tty'"),
         (["rig", "emulate", "--channels", "4"], "error: --channels: 4 must be 1, 2 or 3"),
         (["rig", "emulate", "--engine", "qemu"], "error: --engine: 'qemu' must be one of python, avr"),
-        (["rig", "emulate", "--supply", "2MPa"], "error: --supply: 2e+06 Pa must be above 0 and at most 1 MPa"),
+        (["rig", "emulate", "--supply", "2MPa"], "error: --supply: '2MPa' must be above 0 and at most 1 MPa"),
         (["rig", "emulate", "--engine", "avr", "--supply", "fast"], "error: --supply: cannot read 'fast' as a pressure"),
         (["rig", "gains", "--port", "{pty}", "--from", "{tmp}/none.json"], "error: --from: '{tmp}/none.json' does not exist"),
         (["rig", "gains", "--port", "{pty}", "--from", "{tmp}/bad.json"], "error: --from: '{tmp}/bad.json' is not JSON"),

@@ -85,6 +85,7 @@ static uint8_t in_buf[IN_CAP];
 static size_t in_head, in_len;
 static int xoff;
 static long long dropped_packets, dropped_bytes, rx_bytes, tx_bytes, resets, wdt_resets;
+static avr_cycle_count_t last_tx_cycle, min_tx_gap = (avr_cycle_count_t)-1; /* the line rate, as simavr runs it */
 static int enc_pos, enc_zero;
 static volatile sig_atomic_t stop_flag;
 
@@ -101,6 +102,8 @@ static void uart_out_hook(struct avr_irq_t *irq, uint32_t value, void *param)
     (void)irq;
     (void)param;
     tx_bytes++;
+    if (avr->cycle > last_tx_cycle && avr->cycle - last_tx_cycle < min_tx_gap) min_tx_gap = avr->cycle - last_tx_cycle;
+    last_tx_cycle = avr->cycle;
     if (out_dropping) { /* drop the rest of a packet that did not fit */
         dropped_bytes++;
         if (b == 0) out_dropping = 0;
@@ -285,9 +288,9 @@ static void report(double t_sim, double t_dev, double wall, int present, long lo
 {
     printf("{\"t_sim\": %.4f, \"t_dev\": %.4f, \"wall\": %.4f, \"resets\": %lld, \"wdt_resets\": %lld, \"host\": %d, "
            "\"rx_bytes\": %lld, \"tx_bytes\": %lld, \"dropped_packets\": %lld, \"dropped_bytes\": %lld, "
-           "\"late_ms\": %lld, \"pressure_pa\": [",
+           "\"late_ms\": %lld, \"min_byte_cycles\": %lld, \"pressure_pa\": [",
            t_sim, t_dev > 0.0 ? t_dev : 0.0, wall, resets, wdt_resets, present, rx_bytes, tx_bytes, dropped_packets, dropped_bytes,
-           sim_ms_lost);
+           sim_ms_lost, min_tx_gap == (avr_cycle_count_t)-1 ? -1LL : (long long)min_tx_gap);
     for (int i = 0; i < n_ch; i++)
         printf("%s%.1f", i ? ", " : "", plant[i].s[MK_S_P] - MK_P_ATM);
     printf("]}\n");

@@ -44,7 +44,7 @@ def with_supply(plants, n_channels: int, supply: float | None):
         return listed
     s = float(supply)
     if not 0 < s <= HW.P_MAX_LIMIT:
-        raise InputError(f"supply: {s:g} Pa must be above 0 and at most {HW.P_MAX_LIMIT / 1e6:g} MPa (gauge)")
+        raise InputError(f"supply: {supply!r} must be above 0 and at most {HW.P_MAX_LIMIT / 1e6:g} MPa (gauge)")
     return [p.replace(supply_pressure=s) for p in listed]
 
 

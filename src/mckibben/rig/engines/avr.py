@@ -9,7 +9,7 @@ and HELLO. The plant is ``export/c/mk_plant.c``, the C port of :mod:`mckibben.pl
 FMU compiles (its layout from :func:`mckibben.plant.c_layout.plant_header`).
 
 Both binaries are built on first use with the system tools and cached per user
-(:func:`mckibben._jit.cache_dir`, ``pil/``), keyed by a hash of their sources: the image with
+(:func:`mckibben.rig.firmware.cache_folder`), keyed by a hash of their sources: the image with
 ``make`` and avr-gcc (Debian: ``gcc-avr avr-libc make``), the harness with ``cc`` and libsimavr
 (Debian: ``libsimavr-dev libelf-dev``). A missing tool is one :class:`~mckibben.errors.InputError`
 line naming the package to install.
@@ -31,112 +31,40 @@ from pathlib import Path
 
 import numpy as np
 
-from mckibben import _jit
 from mckibben import hardware as HW
 from mckibben.errors import InputError
 from mckibben.plant import c_layout as CL
 from mckibben.plant import params as PP
+from mckibben.rig import firmware as FW
 
-#: The Debian packages that install each tool the engine needs.
-PACKAGES = {"avr-gcc": "gcc-avr avr-libc", "make": "make", "cc": "gcc", "libsimavr": "libsimavr-dev libelf-dev",
-            "avrdude": "avrdude", "simavr": "simavr"}
 #: The plant's C sources (package data of mckibben.export, ``c/``) the harness compiles.
 PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
 #: Where libsimavr's headers are looked for (``$SIMAVR_INCLUDE`` first).
 SIMAVR_INCLUDES = ("/usr/include/simavr", "/usr/local/include/simavr", "/opt/homebrew/include/simavr")
 
 
-def firmware_dir() -> Path:
-    """The firmware's sources: the copy a built package carries (``mckibben/firmware``, made by
-    ``setup.py``), else ``firmware/`` of the source tree this runs from."""
-    here = Path(__file__).resolve()
-    for fw in (here.parents[2] / "firmware", here.parents[4] / "firmware"):
-        if (fw / "Makefile").is_file() and (fw / "src" / "main.c").is_file():
-            return fw
-    raise InputError("firmware: its sources are not in this installation (a package built without firmware/)")
-
-
-def missing(tool: str) -> InputError:
-    """The one-line refusal for a missing tool, naming the Debian package that installs it."""
-    return InputError(f"{tool} not found: install it (Debian/Ubuntu: sudo apt-get install {PACKAGES[tool]})")
-
-
-def _hash(paths, *extra: str) -> str:
-    h = hashlib.sha256()
-    for p in sorted(paths, key=lambda q: q.as_posix()):
-        h.update(p.name.encode())
-        h.update(p.read_bytes())
-    for e in extra:
-        h.update(e.encode())
-    return h.hexdigest()[:16]
-
-
-def _cache(kind: str) -> Path:
-    base = _jit.cache_dir()
-    if base is None:  # no writable cache: this process builds in a temporary folder
-        base = Path(tempfile.gettempdir()) / f"mckibben-{os.getuid()}"
-    return base / "pil" / kind
-
-
-def _firmware_files(fw: Path) -> list[Path]:
-    return [fw / "Makefile", *sorted((fw / "src").glob("*.[ch]")), *sorted((fw / "core").glob("*.[ch]"))]
-
-
-def build_image(n_channels: int = HW.N_CHANNELS, out: str | os.PathLike | None = None) -> Path:
-    """The firmware image for the ATmega2560 (``make -C firmware``), built once per source and channel count.
+def build_image(n_channels: int = HW.N_CHANNELS) -> Path:
+    """The firmware image (:func:`mckibben.rig.firmware.build`), built once per source and channel count
+    into the per-user cache.
 
     Parameters
     ----------
     n_channels : int, default 3
         Pressure channels, ``MCK_N_CHANNELS``, 1..3. [-]
-    out : path, optional
-        Folder to build into (``mckibben.elf`` and ``mckibben.hex``); default the per-user cache. [-]
 
     Returns
     -------
     pathlib.Path
         The ELF image.
-
-    Raises
-    ------
-    InputError
-        ``n_channels`` out of range, ``out`` not a folder that can be made, avr-gcc or make
-        missing (named with the package that installs it), or the build failed.
     """
-    if not 1 <= int(n_channels) <= 3 or isinstance(n_channels, bool):
-        raise InputError(f"n_channels: {n_channels!r} must be 1, 2 or 3")
-    fw = firmware_dir()
-    for tool in ("make", "avr-gcc"):
-        if shutil.which(tool) is None:
-            raise missing(tool)
-    if out is None:
-        build = _cache("image") / f"{_hash(_firmware_files(fw))}-{int(n_channels)}"
-    else:
-        build = Path(out).resolve()
-        if build.exists() and not build.is_dir():
-            raise InputError(f"out: {str(out)!r} is not a folder")
-    elf = build / "mckibben.elf"
-    if out is None and elf.is_file():
-        return elf
-    try:
-        build.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"out: cannot make {str(build)!r} ({exc.strerror})") from None
-    with tempfile.TemporaryDirectory(prefix="mckibben-fw-", dir=build) as tmp:
-        cmd = ["make", "-s", "-C", str(fw), f"BUILD={tmp}", f"N_CHANNELS={int(n_channels)}", f"{tmp}/mckibben.hex"]
-        done = subprocess.run(cmd, capture_output=True, text=True)
-        if done.returncode != 0:
-            raise InputError(f"firmware: the build failed ({' '.join(cmd)}): {done.stderr.strip().splitlines()[-1:]}")
-        for name in ("mckibben.elf", "mckibben.hex"):
-            os.replace(Path(tmp) / name, build / name)  # whole files or nothing
-    return elf
+    return FW.cached_build(n_channels).elf
 
 
-def _simavr_include() -> Path:
+def simavr_include() -> Path:
     for d in ([os.environ["SIMAVR_INCLUDE"]] if os.environ.get("SIMAVR_INCLUDE") else []) + list(SIMAVR_INCLUDES):
         if (Path(d) / "sim_avr.h").is_file():
             return Path(d)
-    raise missing("libsimavr")
+    raise FW.missing("libsimavr")
 
 
 def build_harness(plant: PP.PlantParams | None = None) -> Path:
@@ -156,16 +84,16 @@ def build_harness(plant: PP.PlantParams | None = None) -> Path:
     plant = PP.PlantParams() if plant is None else plant
     cc = shutil.which(os.environ.get("CC", "cc"))
     if cc is None:
-        raise missing("cc")
-    include = _simavr_include()
+        raise FW.missing("cc")
+    include = simavr_include()
     prm, law, theta, _ = plant.prepare(1)
     header = "\n".join(CL.plant_header(prm[0], theta[:, 0], law, plant.thermal)) + "\n\n#endif\n"
-    fw = firmware_dir()
+    fw = FW.firmware_dir()
     pkg = resources.files("mckibben.export") / "c"
     sources = {"pil.c": (fw / "pil" / "pil.c").read_bytes(),
                **{f: (pkg / f).read_bytes() for f in PLANT_SOURCES}, "mk_model.h": header.encode()}
     h = hashlib.sha256(b"".join(k.encode() + v for k, v in sorted(sources.items())) + str(include).encode())
-    binary = _cache("harness") / h.hexdigest()[:16] / "pil"
+    binary = FW.cache_folder("harness") / h.hexdigest()[:16] / "pil"
     if binary.is_file():
         return binary
     binary.parent.mkdir(parents=True, exist_ok=True)
@@ -177,21 +105,27 @@ def build_harness(plant: PP.PlantParams | None = None) -> Path:
         done = subprocess.run(cmd, capture_output=True, text=True)
         if done.returncode != 0:
             if "-lsimavr" in done.stderr or "-lelf" in done.stderr:
-                raise missing("libsimavr")
+                raise FW.missing("libsimavr")
             raise RuntimeError(f"building the PIL harness failed ({' '.join(cmd)}):\n{done.stderr}")
         os.replace(Path(tmp) / "pil", binary)
     return binary
 
 
+def require() -> None:
+    """Raise the one-line :class:`~mckibben.errors.InputError` naming the first tool the engine lacks
+    (avr-gcc, make, libsimavr, a C compiler) and its Debian package; return when all are here."""
+    for tool in ("avr-gcc", "make"):
+        if shutil.which(tool) is None:
+            raise FW.missing(tool)
+    simavr_include()
+    if shutil.which(os.environ.get("CC", "cc")) is None:
+        raise FW.missing("cc")
+
+
 def available() -> str | None:
     """None when the avr engine can run here, else the reason (one line naming what to install)."""
     try:
-        for tool in ("make", "avr-gcc"):
-            if shutil.which(tool) is None:
-                raise missing(tool)
-        _simavr_include()
-        if shutil.which(os.environ.get("CC", "cc")) is None:
-            raise missing("cc")
+        require()
     except InputError as exc:
         return str(exc)
     return None
@@ -259,6 +193,7 @@ class AvrDevice:
         if not 0 <= float(boot_time) <= 10:
             raise InputError(f"boot_time: {boot_time!r} must be within 0..10 s")
         self.n = int(n_channels)
+        require()
         self.elf = Path(elf) if elf is not None else build_image(self.n)
         self.harness = build_harness(plants[0])
         self._dir = tempfile.TemporaryDirectory(prefix="mckibben-avr-")
