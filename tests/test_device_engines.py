@@ -92,3 +92,31 @@ def test_the_image_and_the_python_engine_step_alike():
     end_py = py.to_pandas()["pressure_Pa"].iloc[-100:].mean()
     end_avr = avr.to_pandas()["pressure_Pa"].iloc[-100:].mean()
     assert abs(end_avr - end_py) <= 10e3
+
+
+@pytest.mark.skipif(_avr_engine_missing() is not None, reason="needs the avr engine")
+def test_a_stalled_tick_resets_the_image_by_its_watchdog_and_the_host_sees_hello():
+    """Only the image has a watchdog: the control tick stalls while the valve is open, the MCU resets
+    (60 ms later), the valve pins go back to inputs (the valve shuts), HELLO follows on the open link."""
+    from mckibben.rig.engines.avr import AvrDevice
+    from mckibben.plant import PlantParams
+
+    with AvrDevice([PlantParams()] * 3, boot_time=0.3, stall_at=1.5) as em:
+        link, hello, parser = connect(em.port)
+        link.write(P.set_mode(1, P.MODES["open-loop"], channel=0))
+        link.write(P.set_open_loop(2, 120, 0, channel=0))
+        link.write(P.stream(3, True, 10))
+        frames = _read_for(link, parser, 2.5)
+        link.close()
+        assert em.wdt_resets == 1 and 1.55 <= em.wdt_reset_at <= 1.6  # the 60 ms watchdog (+ its clock)
+        valves = _valves(em)
+    kinds = [type(f).__name__ for f in frames]
+    tel = [f for f in frames if isinstance(f, P.Telemetry)]
+    assert max(f.channels[0].inlet_pwm for f in tel) == 120  # the valve was open when the tick stalled
+    i = kinds.index("Hello")  # the host notices: a HELLO after the stream
+    assert kinds[:i].count("Telemetry") >= 50 and "Telemetry" not in kinds[i:]  # streaming is off after the reset
+    assert valves == [[0, 0]] * 3  # after the reset every valve pin is an input: every valve shut
+
+
+def _valves(em):
+    return em._stat("valves")

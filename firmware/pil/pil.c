@@ -24,7 +24,9 @@
  * bridge's); beyond it whole packets are dropped, so the host sees a gap in the sequence numbers.
  * Simulated time follows wall time (--unthrottled: as fast as it goes).
  *
- * usage: pil ELF PARAMS [--boot-time S] [--duration S] [--unthrottled] [--avcc MV]
+ * usage: pil ELF PARAMS [--boot-time S] [--duration S] [--unthrottled] [--avcc MV] [--stall-at S]
+ * --stall-at S: at simulated time S, mask Timer1's interrupts (a control tick that stalls), to
+ * show the watchdog path: the MCU resets, the valve pins go back to inputs, HELLO follows.
  * stdout: one JSON line {"port": ...} when ready, then one JSON line of counters every 0.2 s wall
  * and at the end. Exit 0; 2 with one line on stderr for bad input (a missing ELF, a bad PARAMS).
  */
@@ -63,6 +65,7 @@
 /* ATmega2560 data addresses (avr-libc iomxx0_1.h) */
 #define A_PINE 0x2C
 #define A_MCUSR 0x54
+#define A_TIMSK1 0x6F
 #define A_TCCR4A 0xA0
 #define A_OCR4A 0xA8
 #define A_OCR4B 0xAA
@@ -84,6 +87,8 @@ static int out_dropping;
 static uint8_t in_buf[IN_CAP];
 static size_t in_head, in_len;
 static int xoff;
+static int valves_now[MAX_CH][2]; /* the valve commands last read from the PWM outputs [counts] */
+static double wdt_reset_at = -1.0; /* simulated time of the last watchdog reset [s] */
 static long long dropped_packets, dropped_bytes, rx_bytes, tx_bytes, resets, wdt_resets;
 static avr_cycle_count_t last_tx_cycle, min_tx_gap = (avr_cycle_count_t)-1; /* the line rate, as simavr runs it */
 static int enc_pos, enc_zero;
@@ -288,11 +293,14 @@ static void report(double t_sim, double t_dev, double wall, int present, long lo
 {
     printf("{\"t_sim\": %.4f, \"t_dev\": %.4f, \"wall\": %.4f, \"resets\": %lld, \"wdt_resets\": %lld, \"host\": %d, "
            "\"rx_bytes\": %lld, \"tx_bytes\": %lld, \"dropped_packets\": %lld, \"dropped_bytes\": %lld, "
-           "\"late_ms\": %lld, \"min_byte_cycles\": %lld, \"pressure_pa\": [",
+           "\"late_ms\": %lld, \"min_byte_cycles\": %lld, \"wdt_reset_at\": %.4f, \"pressure_pa\": [",
            t_sim, t_dev > 0.0 ? t_dev : 0.0, wall, resets, wdt_resets, present, rx_bytes, tx_bytes, dropped_packets, dropped_bytes,
-           sim_ms_lost, min_tx_gap == (avr_cycle_count_t)-1 ? -1LL : (long long)min_tx_gap);
+           sim_ms_lost, min_tx_gap == (avr_cycle_count_t)-1 ? -1LL : (long long)min_tx_gap, wdt_reset_at);
     for (int i = 0; i < n_ch; i++)
         printf("%s%.1f", i ? ", " : "", plant[i].s[MK_S_P] - MK_P_ATM);
+    printf("], \"valves\": [");
+    for (int i = 0; i < n_ch; i++)
+        printf("%s[%d, %d]", i ? ", " : "", valves_now[i][0], valves_now[i][1]);
     printf("]}\n");
     fflush(stdout);
 }
@@ -306,7 +314,7 @@ static void usage_error(const char *what)
 int main(int argc, char **argv)
 {
     const char *elf = NULL, *params = NULL;
-    double boot_time = 0.3, duration = -1.0, t_sim = 0.0, booting_until, t0, next_report, wall;
+    double boot_time = 0.3, duration = -1.0, stall_at = -1.0, t_sim = 0.0, booting_until, t0, next_report, wall;
     int unthrottled = 0, master, slave, present, i, chunk = 0;
     uint32_t avcc = 5000;
     long long late_ms = 0;
@@ -318,6 +326,7 @@ int main(int argc, char **argv)
         if (!strcmp(argv[i], "--boot-time") && i + 1 < argc) boot_time = atof(argv[++i]);
         else if (!strcmp(argv[i], "--duration") && i + 1 < argc) duration = atof(argv[++i]);
         else if (!strcmp(argv[i], "--avcc") && i + 1 < argc) avcc = (uint32_t)atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--stall-at") && i + 1 < argc) stall_at = atof(argv[++i]);
         else if (!strcmp(argv[i], "--unthrottled")) unthrottled = 1;
         else if (argv[i][0] == '-') {
             snprintf(msg, sizeof msg, "pil: unknown option %s", argv[i]);
@@ -388,10 +397,16 @@ int main(int argc, char **argv)
         uint8_t mcusr_before;
         read_valves(booting, inlet, bleed);
         for (i = 0; i < n_ch; i++) {
+            valves_now[i][0] = inlet[i];
+            valves_now[i][1] = bleed[i];
             mk_set_commands(&plant[i], inlet[i], bleed[i]);
             mk_advance(&plant[i], CHUNK_S);
         }
         sense();
+        if (stall_at >= 0.0 && t_sim >= stall_at) { /* the control tick stalls, once */
+            avr->data[A_TIMSK1] = 0;
+            stall_at = -1.0;
+        }
         if (!booting) {
             avr_cycle_count_t end = avr->cycle + CHUNK_CYCLES;
             encoder_edge();
@@ -409,6 +424,7 @@ int main(int argc, char **argv)
             }
             if (!(mcusr_before & 0x08) && (reg8(A_MCUSR) & 0x08)) { /* WDRF: a watchdog reset */
                 wdt_resets++;
+                wdt_reset_at = t_sim;
                 booting_until = t_sim;
             }
         }

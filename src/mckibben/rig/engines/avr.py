@@ -26,7 +26,6 @@ import subprocess
 import tempfile
 import threading
 import time
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +38,8 @@ from mckibben.rig import firmware as FW
 
 #: The plant's C sources (package data of mckibben.export, ``c/``) the harness compiles.
 PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
+#: The folder of the C plant's sources: package data beside mckibben.export (``export/c``), read as files.
+PLANT_C = Path(__file__).resolve().parents[2] / "export" / "c"
 #: Where libsimavr's headers are looked for (``$SIMAVR_INCLUDE`` first).
 SIMAVR_INCLUDES = ("/usr/include/simavr", "/usr/local/include/simavr", "/opt/homebrew/include/simavr")
 
@@ -89,7 +90,7 @@ def build_harness(plant: PP.PlantParams | None = None) -> Path:
     prm, law, theta, _ = plant.prepare(1)
     header = "\n".join(CL.plant_header(prm[0], theta[:, 0], law, plant.thermal)) + "\n\n#endif\n"
     fw = FW.firmware_dir()
-    pkg = resources.files("mckibben.export") / "c"
+    pkg = PLANT_C  # data files (C sources), not a Python import of the export layer
     sources = {"pil.c": (fw / "pil" / "pil.c").read_bytes(),
                **{f: (pkg / f).read_bytes() for f in PLANT_SOURCES}, "mk_model.h": header.encode()}
     h = hashlib.sha256(b"".join(k.encode() + v for k, v in sorted(sources.items())) + str(include).encode())
@@ -171,6 +172,9 @@ class AvrDevice:
         Run the simulation as fast as it goes instead of following wall time. [-]
     elf : path, optional
         An image to run instead of building one. [-]
+    stall_at : float, optional
+        Simulated time at which the control tick stalls (Timer1's interrupts masked), to show the
+        watchdog path. [s]
 
     Attributes
     ----------
@@ -189,7 +193,7 @@ class AvrDevice:
     """
 
     def __init__(self, plants, n_channels: int = 3, boot_time: float = 0.3, unthrottled: bool = False,
-                 elf: str | os.PathLike | None = None):
+                 elf: str | os.PathLike | None = None, stall_at: float | None = None):
         if not 0 <= float(boot_time) <= 10:
             raise InputError(f"boot_time: {boot_time!r} must be within 0..10 s")
         self.n = int(n_channels)
@@ -203,6 +207,8 @@ class AvrDevice:
         cmd = [str(self.harness), str(self.elf), str(params), "--boot-time", repr(self.boot_time)]
         if unthrottled:
             cmd.append("--unthrottled")
+        if stall_at is not None:
+            cmd += ["--stall-at", repr(float(stall_at))]
         self._cmd = cmd
         self._proc: subprocess.Popen | None = None
         self.stats: dict = {}
@@ -247,6 +253,12 @@ class AvrDevice:
     @property
     def wdt_resets(self) -> int:
         return int(self._stat("wdt_resets"))
+
+    @property
+    def wdt_reset_at(self) -> float | None:
+        """Simulated time of the last watchdog reset, None before any. [s]"""
+        t = float(self._stat("wdt_reset_at", -1.0))
+        return None if t < 0 else t
 
     @property
     def host_present(self) -> bool:
