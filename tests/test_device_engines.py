@@ -10,6 +10,8 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from mckibben import hardware as HW
 from mckibben.control.core import CoreParams
@@ -120,3 +122,42 @@ def test_a_stalled_tick_resets_the_image_by_its_watchdog_and_the_host_sees_hello
 
 def _valves(em):
     return em._stat("valves")
+
+
+def _fuzz_device():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "fuzz" / "fuzz_device.py"
+    spec = importlib.util.spec_from_file_location("fuzz_device", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module")
+def hostile_session():
+    """One image on a 1 MPa supply asked for 2 MPa on every channel, streaming: the fuzz's session."""
+    from mckibben.plant import PlantParams
+    from mckibben.rig.engines.avr import AvrDevice
+
+    with AvrDevice([PlantParams(supply_pressure=1.0e6)] * 3) as dev:
+        link, _, parser = connect(dev.port, timeout=0)
+        link.write(P.set_mode(1, P.MODES["smc"]) + P.set_points(2, [2e6, 2e6, 2e6]) + P.stream(3, True, 5))
+        yield dev, link, parser
+        link.close()
+
+
+@pytest.mark.skipif(_avr_engine_missing() is not None, reason="needs the avr engine")
+@pytest.mark.slow  # ~10 s: 25 bursts on one image
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1))
+def test_hostile_bytes_never_hang_reset_or_pass_the_maximum_on_the_image(hostile_session, seed):
+    """A bounded property test (fuzz/fuzz_device.py runs it longer): after any burst of hostile
+    bytes the image has not reset, answers a valid GET_GAIN, and never references above p_max."""
+    import random
+
+    fz = _fuzz_device()
+    dev, link, parser = hostile_session
+    burst = fz.hostile(random.Random(seed))
+    assert fz.check_burst(dev, link, parser, burst, seed % 60000 + 10) == []
