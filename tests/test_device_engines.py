@@ -161,3 +161,37 @@ def test_hostile_bytes_never_hang_reset_or_pass_the_maximum_on_the_image(hostile
     dev, link, parser = hostile_session
     burst = fz.hostile(random.Random(seed))
     assert fz.check_burst(dev, link, parser, burst, seed % 60000 + 10) == []
+
+
+def test_a_stuck_sensor_is_caught_and_vented_on_both_engines(engine):
+    """Supervisor 3 over the link: channel 0's reading is stuck at 100 counts (~98 kPa); channel 1
+    shows the shared supply check 0.6 MPa; then a 0.5 MPa step on channel 0 opens its inlet under a
+    reading that never moves: the core flags the stuck sensor and vents, on both engines."""
+    from mckibben.control import runs as E
+    from mckibben.control.controllers import with_supervisor_model
+    from mckibben.control.core import FAULT_STUCK, CoreParams, gain_values
+
+    # the rule needs the identified valve model (rig gains sends it); sent in this session, as a
+    # reopen would reset the device to its defaults
+    design = with_supervisor_model(CoreParams(mode=P.MODES["smc"]), E.identify_plant()[1])
+    with start_device(engine, hold_adc=100) as em:
+        link, _, parser = connect(em.port, timeout=0)
+        for ch in (0, 1, 2):  # one at a time, each ACKed, as rig gains sends them: a SET_GAIN costs the
+            for gid, value in enumerate(gain_values(design)):  # image ~1 ms; a burst overflows its ring
+                seq = 100 + 30 * ch + gid
+                link.write(P.set_gain(seq, gid, int(value), channel=ch))
+                end = time.monotonic() + 2
+                while time.monotonic() < end and not any(isinstance(f, P.Ack) and f.cmd_seq == seq
+                                                         for f in parser.feed(link.read(4096))):
+                    pass
+        link.write(P.set_mode(1, P.MODES["smc"]) + P.set_points(2, [0, 0.6e6, 0]) + P.stream(3, True, 1))
+        _read_for(link, parser, 0.6)
+        link.write(P.set_point(4, 0.5e6, channel=0))
+        frames = _read_for(link, parser, 1.0)
+        link.close()
+    ch0 = [f.channels[0] for f in frames if isinstance(f, P.Telemetry)]
+    assert len(ch0) > 500 and all(c.pressure_adc == 100 for c in ch0)
+    first = next(i for i, c in enumerate(ch0) if c.faults & FAULT_STUCK)  # caught ...
+    assert any(c.inlet_pwm > 0 for c in ch0[:first])  # ... after the inlet opened under it
+    assert first <= design.n_stuck + 30 + 50  # n_stuck + REACT (tests/test_stuck_rule.py) + the link
+    assert all(c.inlet_pwm == 0 and c.bleed_pwm == 255 for c in ch0[first + 1:])  # vented

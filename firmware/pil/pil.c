@@ -27,6 +27,7 @@
  * usage: pil ELF PARAMS [--boot-time S] [--duration S] [--unthrottled] [--avcc MV] [--stall-at S]
  * --stall-at S: at simulated time S, mask Timer1's interrupts (a control tick that stalls), to
  * show the watchdog path: the MCU resets, the valve pins go back to inputs, HELLO follows.
+ * --hold-adc C: channel 0's ADC reads count C whatever the pressure (a stuck sensor).
  * stdout: one JSON line {"port": ...} when ready, then one JSON line of counters every 0.2 s wall
  * and at the end. Exit 0; 2 with one line on stderr for bad input (a missing ELF, a bad PARAMS).
  */
@@ -80,6 +81,7 @@
 static avr_t *avr;
 static mk_plant plant[MAX_CH];
 static int n_ch;
+static int hold_adc = -1; /* channel 0's stuck reading [count], -1: none */
 static avr_irq_t *uart_in, *adc_in[MAX_CH], *enc_a, *enc_b;
 static uint8_t out_buf[OUT_CAP];
 static size_t out_len;
@@ -201,6 +203,7 @@ static void sense(void)
     for (i = 0; i < n_ch; i++) {
         double p = plant[i].s[MK_S_P] - MK_P_ATM;
         int c = adc_count(p, plant[i].prm[MK_C_pa_per_count], plant[i].prm[MK_C_adc_zero]);
+        if (i == 0 && hold_adc >= 0) c = hold_adc;
         /* simavr: count = mV * 1023 / AVcc (integer): the smallest mV that gives count c */
         uint32_t mv = (uint32_t)(((uint64_t)c * avr->avcc + 1022u) / 1023u);
         avr_raise_irq(adc_in[i], mv);
@@ -327,6 +330,7 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--duration") && i + 1 < argc) duration = atof(argv[++i]);
         else if (!strcmp(argv[i], "--avcc") && i + 1 < argc) avcc = (uint32_t)atoi(argv[++i]);
         else if (!strcmp(argv[i], "--stall-at") && i + 1 < argc) stall_at = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--hold-adc") && i + 1 < argc) hold_adc = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--unthrottled")) unthrottled = 1;
         else if (argv[i][0] == '-') {
             snprintf(msg, sizeof msg, "pil: unknown option %s", argv[i]);

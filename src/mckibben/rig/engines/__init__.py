@@ -49,7 +49,7 @@ def with_supply(plants, n_channels: int, supply: float | None):
 
 
 def start_device(engine: str = "python", *, plant=None, n_channels: int = 3, boot_time: float = 0.3,
-                 supply: float | None = None, unthrottled: bool = False):
+                 supply: float | None = None, unthrottled: bool = False, hold_adc: int | None = None):
     """A device engine behind a pseudo-terminal, not yet running (``run()`` or ``start()`` it).
 
     Parameters
@@ -67,6 +67,8 @@ def start_device(engine: str = "python", *, plant=None, n_channels: int = 3, boo
         the safe maximum is how a bench proves the supervisor. [Pa]
     unthrottled : bool, default False
         avr engine only: run as fast as the host allows instead of following wall time. [-]
+    hold_adc : int, optional
+        Channel 0's ADC reads this count whatever the pressure (a stuck sensor), 0..1023. [count]
 
     Raises
     ------
@@ -79,8 +81,11 @@ def start_device(engine: str = "python", *, plant=None, n_channels: int = 3, boo
     if not 1 <= int(n_channels) <= 3:
         raise InputError(f"n_channels: {n_channels!r} must be 1, 2 or 3")
     plants = with_supply(plant, int(n_channels), supply)
+    if hold_adc is not None and not 0 <= int(hold_adc) <= HW.ADC_MAX:
+        raise InputError(f"hold_adc: {hold_adc!r} must be a count in 0..{HW.ADC_MAX}")
     if engine == "python":
         if unthrottled:
             raise InputError("unthrottled: the python engine follows wall time only")
-        return Emulator(plant=plants, n_channels=n_channels, boot_time=boot_time)
-    return AvrDevice(plants, n_channels=int(n_channels), boot_time=boot_time, unthrottled=unthrottled)
+        return Emulator(plant=plants, n_channels=n_channels, boot_time=boot_time, hold_adc=hold_adc)
+    return AvrDevice(plants, n_channels=int(n_channels), boot_time=boot_time, unthrottled=unthrottled,
+                     hold_adc=hold_adc)

@@ -172,6 +172,8 @@ class AvrDevice:
         Run the simulation as fast as it goes instead of following wall time. [-]
     elf : path, optional
         An image to run instead of building one. [-]
+    hold_adc : int, optional
+        Channel 0's ADC reads this count whatever the pressure: a stuck sensor. [count]
     stall_at : float, optional
         Simulated time at which the control tick stalls (Timer1's interrupts masked), to show the
         watchdog path. [s]
@@ -193,7 +195,7 @@ class AvrDevice:
     """
 
     def __init__(self, plants, n_channels: int = 3, boot_time: float = 0.3, unthrottled: bool = False,
-                 elf: str | os.PathLike | None = None, stall_at: float | None = None):
+                 elf: str | os.PathLike | None = None, stall_at: float | None = None, hold_adc: int | None = None):
         if not 0 <= float(boot_time) <= 10:
             raise InputError(f"boot_time: {boot_time!r} must be within 0..10 s")
         self.n = int(n_channels)
@@ -207,6 +209,8 @@ class AvrDevice:
         cmd = [str(self.harness), str(self.elf), str(params), "--boot-time", repr(self.boot_time)]
         if unthrottled:
             cmd.append("--unthrottled")
+        if hold_adc is not None:
+            cmd += ["--hold-adc", str(int(hold_adc))]
         if stall_at is not None:
             cmd += ["--stall-at", repr(float(stall_at))]
         self._cmd = cmd
