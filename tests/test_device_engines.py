@@ -195,3 +195,22 @@ def test_a_stuck_sensor_is_caught_and_vented_on_both_engines(engine):
     assert any(c.inlet_pwm > 0 for c in ch0[:first])  # ... after the inlet opened under it
     assert first <= design.n_stuck + 30 + 50  # n_stuck + REACT (tests/test_stuck_rule.py) + the link
     assert all(c.inlet_pwm == 0 and c.bleed_pwm == 255 for c in ch0[first + 1:])  # vented
+
+
+def test_vent_command_opens_every_bleed_and_the_pressure_falls(engine):
+    """The supervisor's vent on command, over the link: after VENT (all channels) every inlet is shut,
+    every bleed open, the vent flag is raised, and channel 0's pressure falls from its 0.4 MPa."""
+    from mckibben.control.core import FAULT_VENT
+
+    with start_device(engine) as em:
+        link, _, parser = connect(em.port, timeout=0)
+        link.write(P.set_mode(1, P.MODES["smc"]) + P.set_points(2, [0.4e6, 0.4e6, 0.4e6]) + P.stream(3, True, 1))
+        before = [f for f in _read_for(link, parser, 0.5) if isinstance(f, P.Telemetry)]
+        link.write(P.vent(4))
+        after = [f for f in _read_for(link, parser, 0.5) if isinstance(f, P.Telemetry)]
+        link.close()
+    assert before[-1].channels[0].pressure_adc * HW.PA_PER_COUNT > 0.35e6
+    tail = after[100:]  # 0.1 s after the command
+    assert tail and all(c.inlet_pwm == 0 and c.bleed_pwm == 255 and c.faults & FAULT_VENT
+                        for f in tail for c in f.channels)
+    assert tail[-1].channels[0].pressure_adc * HW.PA_PER_COUNT < 0.1e6
