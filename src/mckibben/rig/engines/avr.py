@@ -274,6 +274,12 @@ class AvrDevice:
         return float(self._stat("t_dev", 0.0))
 
     @property
+    def late(self) -> float:
+        """Wall time the simulation fell behind and did not make up (a host starved of CPU): the
+        device's clock slipped by this much rather than race to catch up. [s]"""
+        return float(self._stat("late_ms", 0)) / 1e3
+
+    @property
     def steps(self) -> int:
         """Control periods simulated since the harness started. [-]"""
         return int(float(self._stat("t_sim", 0.0)) / HW.CONTROL_PERIOD)
