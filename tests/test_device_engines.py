@@ -95,7 +95,12 @@ def test_record_three_channels_delivers_every_period_into_the_parquet_file(tmp_p
 
 def _step(engine):
     with start_device(engine) as em:
-        return Device(em.port).step(0.5e6, duration=1.0)
+        res = Device(em.port).step(0.5e6, duration=1.0)
+        time.sleep(0.3)
+        assert em.resets == 1, f"{engine}: {em.resets} resets by an open during one step"
+    t = res.to_pandas()["time_s"].to_numpy()
+    assert np.all(np.diff(t) > 0), f"{engine}: telemetry time not increasing at {np.flatnonzero(np.diff(t) <= 0)[:5]}"
+    return res
 
 
 @pytest.mark.skipif(_avr_engine_missing() is not None, reason="needs the avr engine")

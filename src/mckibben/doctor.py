@@ -23,7 +23,7 @@ import numpy as np
 from mckibben import __version__, _kernels, control, experiments, models, plant, tool
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
-from mckibben.rig.engines import avr as avr_engine
+from mckibben.rig import firmware as FW
 
 #: The optional tools: name -> (what it is for, how to install it on Debian/Ubuntu).
 TOOLS = {
@@ -264,7 +264,7 @@ def _tool(name: str) -> str | None:
     """Where a tool is: an executable on the PATH, or libsimavr's headers (it is a library)."""
     if name == "libsimavr":
         try:
-            return str(avr_engine.simavr_include())
+            return str(FW.simavr_include())
         except InputError:
             return None
     return shutil.which(name)

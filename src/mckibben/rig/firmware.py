@@ -20,13 +20,25 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from mckibben import _jit
+from mckibben import _kernels
 from mckibben import hardware as HW
 from mckibben.errors import InputError
 
 #: The Debian packages that install each tool the firmware needs.
 PACKAGES = {"avr-gcc": "gcc-avr avr-libc", "make": "make", "cc": "gcc", "libsimavr": "libsimavr-dev libelf-dev",
             "avrdude": "avrdude", "simavr": "simavr"}
+
+
+#: Where libsimavr's headers are looked for (``$SIMAVR_INCLUDE`` first).
+SIMAVR_INCLUDES = ("/usr/include/simavr", "/usr/local/include/simavr", "/opt/homebrew/include/simavr")
+
+
+def simavr_include() -> Path:
+    """The folder of libsimavr's headers (``sim_avr.h``); refused naming its package when missing."""
+    for d in ([os.environ["SIMAVR_INCLUDE"]] if os.environ.get("SIMAVR_INCLUDE") else []) + list(SIMAVR_INCLUDES):
+        if (Path(d) / "sim_avr.h").is_file():
+            return Path(d)
+    raise missing("libsimavr")
 
 
 def missing(tool: str) -> InputError:
@@ -119,7 +131,7 @@ def build(n_channels: int = HW.N_CHANNELS, out: str | os.PathLike = "firmware-bu
 def cache_folder(kind: str) -> Path:
     """A folder of the per-user cache for built firmware parts (:func:`mckibben._jit.cache_dir`,
     ``pil/KIND``); a temporary folder of this user when there is no writable cache. [-]"""
-    base = _jit.cache_dir()
+    base = _kernels.jit().cache_dir()  # loads Numba's cache machinery: only when something is built
     if base is None:
         base = Path(tempfile.gettempdir()) / f"mckibben-{os.getuid()}"
     return base / "pil" / kind

@@ -40,9 +40,6 @@ from mckibben.rig import firmware as FW
 PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
 #: The folder of the C plant's sources: package data beside mckibben.export (``export/c``), read as files.
 PLANT_C = Path(__file__).resolve().parents[2] / "export" / "c"
-#: Where libsimavr's headers are looked for (``$SIMAVR_INCLUDE`` first).
-SIMAVR_INCLUDES = ("/usr/include/simavr", "/usr/local/include/simavr", "/opt/homebrew/include/simavr")
-
 
 def build_image(n_channels: int = HW.N_CHANNELS) -> Path:
     """The firmware image (:func:`mckibben.rig.firmware.build`), built once per source and channel count
@@ -61,11 +58,7 @@ def build_image(n_channels: int = HW.N_CHANNELS) -> Path:
     return FW.cached_build(n_channels).elf
 
 
-def simavr_include() -> Path:
-    for d in ([os.environ["SIMAVR_INCLUDE"]] if os.environ.get("SIMAVR_INCLUDE") else []) + list(SIMAVR_INCLUDES):
-        if (Path(d) / "sim_avr.h").is_file():
-            return Path(d)
-    raise FW.missing("libsimavr")
+simavr_include = FW.simavr_include
 
 
 def build_harness(plant: PP.PlantParams | None = None) -> Path:
