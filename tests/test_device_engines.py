@@ -224,12 +224,20 @@ def test_vent_command_opens_every_bleed_and_the_pressure_falls(engine):
     with start_device(engine) as em:
         link, _, parser = connect(em.port, timeout=0)
         link.write(P.set_mode(1, P.MODES["smc"]) + P.set_points(2, [0.4e6, 0.4e6, 0.4e6]) + P.stream(3, True, 1))
-        before = [f for f in _read_for(link, parser, 0.5) if isinstance(f, P.Telemetry)]
-        link.write(P.vent(4))
-        after = [f for f in _read_for(link, parser, 0.5) if isinstance(f, P.Telemetry)]
+        before = _telemetry(link, parser, 500)  # counted in device periods, not wall time: a loaded
+        link.write(P.vent(4))                   # host must not cut them short
+        after = _telemetry(link, parser, 500)
         link.close()
     assert before[-1].channels[0].pressure_adc * HW.PA_PER_COUNT > 0.35e6
     tail = after[100:]  # 0.1 s after the command
     assert tail and all(c.inlet_pwm == 0 and c.bleed_pwm == 255 and c.faults & FAULT_VENT
                         for f in tail for c in f.channels)
     assert tail[-1].channels[0].pressure_adc * HW.PA_PER_COUNT < 0.1e6
+
+
+def _telemetry(link, parser, n, timeout=20.0):
+    """The next ``n`` telemetry frames (bounded by ``timeout`` seconds of wall time). [-]"""
+    out, end = [], time.monotonic() + timeout
+    while len(out) < n and time.monotonic() < end:
+        out += [f for f in parser.feed(link.read(65536)) if isinstance(f, P.Telemetry)]
+    return out
