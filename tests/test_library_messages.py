@@ -19,6 +19,11 @@ FLAG = re.compile(r"(?:^|[\s(`'\"/])--[a-z][a-z-]*")
 KNOWN = {
     # another program's command line, quoted in a hint
     ("doctor.py", "; start one with: dask scheduler --port "): "the Dask scheduler's own flag",
+    # the processor-in-the-loop harness's own command line (firmware/pil/pil.c), which the engine runs
+    ("rig/engines/avr.py", "--boot-time"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--unthrottled"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--stall-at"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--hold-adc"): "the PIL harness's own flag",
     # provenance notes of the generated data: the command that generated them
     ("datasets/campaign.py", "mckibben datasets generate --seed"): "provenance of generated data",
     ("datasets/isometric.py", "mckibben fit isometric.csv --model spring --json"): "the generated data's README",

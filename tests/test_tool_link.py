@@ -1,6 +1,7 @@
 """Steering the three-muscle tool through the link: `tool track --port` against `rig emulate`.
 
-Both are real processes on a real pty; the emulator runs the tool's three muscles. The tip error
+Both are real processes on a real pty; the device (either engine: the Python emulator, or the
+firmware image in simavr) runs the tool's three muscles. The tip error
 through the link depends on how evenly the host's references reach the device (a loaded host
 sends late): the assertions bound it loosely and check that the circle was followed; the
 measured ratio to the simulation is recorded in benchmarks/RESULTS.md.
@@ -14,14 +15,17 @@ import time
 
 import pytest
 
+from conftest import _avr_engine_missing
+
 PATH = "circle:radius=10mm,period=1s"
 
 
 @pytest.fixture
-def tool_emulator(tmp_path):
+def tool_emulator(tmp_path, engine):
     link = tmp_path / "tty"
-    p = subprocess.Popen([sys.executable, "-m", "mckibben.cli", "rig", "emulate", "--tool-path", PATH, "--link",
-                          str(link), "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen([sys.executable, "-m", "mckibben.cli", "rig", "emulate", "--engine", engine, "--tool-path",
+                          PATH, "--link", str(link), "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True)
     end = time.monotonic() + 120
     while time.monotonic() < end and not link.is_symlink():
         time.sleep(0.05)
@@ -32,7 +36,20 @@ def tool_emulator(tmp_path):
     assert not link.exists()
 
 
+#: The image cannot keep up with tool track's traffic (docs/firmware.md, "Measured in the loop"): a
+#: SET_POINTS every 1 ms, each ACKed, beside three-channel telemetry at 1 kHz saturates its main loop
+#: (about 55 % of the frames and 85 % of the ACKs arrive; the Python emulator, with no CPU to run
+#: out of, delivers all). Strict: the day the firmware keeps up, this says so.
+AVR_TOO_SLOW = pytest.mark.xfail(strict=True, reason="the image's main loop saturates under 1 kHz SET_POINTS "
+                                                     "plus 1 kHz three-channel telemetry (issue 31 finding)")
+
+
 @pytest.mark.slow  # ~40 s: two processes, the identification and the simulation of the same path
+@pytest.mark.parametrize("engine", [
+    "python",
+    pytest.param("avr", marks=[pytest.mark.skipif(_avr_engine_missing() is not None, reason="no avr engine"),
+                               AVR_TOO_SLOW]),
+])
 def test_tool_track_through_the_link_follows_the_circle(cli, tool_emulator):
     r = cli("tool", "track", "--port", tool_emulator, "--path", PATH, "--json")
     assert r.code == 0, r.err

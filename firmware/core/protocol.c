@@ -6,12 +6,15 @@
 
 uint16_t mck_crc16(const uint8_t *data, size_t len)
 {
+    /* byte-wise, no table: the bit loop's eight shifts folded into one (x: the byte's top nibble
+     * reduced); the same CRC, about 6x fewer AVR cycles. Measured in the processor-in-the-loop
+     * bench: with the bit loop, three-channel telemetry at 1 kHz kept the main loop late for
+     * about 7 % of the periods. */
     uint16_t crc = 0xFFFFu;
     for (size_t i = 0; i < len; i++) {
-        crc ^= (uint16_t)((uint16_t)data[i] << 8);
-        for (uint8_t b = 0; b < 8u; b++) {
-            crc = (crc & 0x8000u) ? (uint16_t)((crc << 1) ^ 0x1021u) : (uint16_t)(crc << 1);
-        }
+        uint8_t x = (uint8_t)((crc >> 8) ^ data[i]);
+        x ^= (uint8_t)(x >> 4);
+        crc = (uint16_t)((crc << 8) ^ ((uint16_t)x << 12) ^ ((uint16_t)x << 5) ^ x);
     }
     return crc;
 }

@@ -202,6 +202,7 @@ ISR(TIMER1_COMPA_vect)
 static uint16_t tx_seq;
 static uint8_t stream_on;
 static uint8_t decimation = 1;
+static uint16_t last_tick; /* the tick of the last telemetry frame (or of the STREAM command) */
 static mck_ctrl_t shadow; /* gain changes are computed here, off the interrupt */
 
 static int32_t get_i32(const uint8_t *b)
@@ -326,6 +327,7 @@ static void handle(const mck_rx_t *rx)
         } else {
             stream_on = b[0] != 0u;
             decimation = b[1];
+            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { last_tick = tick; } /* frames count from now */
         }
         break;
     case MCK_SET_OPEN_LOOP:
@@ -347,9 +349,11 @@ static void handle(const mck_rx_t *rx)
 /* --- setup ---------------------------------------------------------------------------------- */
 static void hw_init(void)
 {
-    /* USART0: 1,000,000 baud = 16 MHz / (8 (UBRR + 1)) with U2X, UBRR = 1 (0 % error) */
-    UBRR0 = UBRR_VALUE;
+    /* USART0: 1,000,000 baud = 16 MHz / (8 (UBRR + 1)) with U2X, UBRR = 1 (0 % error). U2X first:
+     * the Mega does not care about the order, but simavr latches the line rate when UBRR0 is
+     * written, so UBRR0 before U2X0 ran the processor-in-the-loop bench at half the rate. */
     UCSR0A = (uint8_t)(1 << U2X0);
+    UBRR0 = UBRR_VALUE;
     UCSR0C = (uint8_t)(1 << UCSZ01 | 1 << UCSZ00);
     UCSR0B = (uint8_t)(1 << RXEN0 | 1 << TXEN0 | 1 << RXCIE0);
 
@@ -387,7 +391,6 @@ static void hw_init(void)
 int main(void)
 {
     static mck_rx_t rx;
-    uint16_t last_tick = 0;
     uint8_t i;
 
     for (i = 0; i < MCK_N_CHANNELS; i++) mck_ctrl_init(&mck_bank[i], TS_US); /* off, valves shut */
@@ -414,6 +417,9 @@ int main(void)
             uint8_t pkt[MCK_MAX_PACKET];
             size_t n;
             ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { memcpy(&t, (const void *)&latest, sizeof t); }
+            /* a frame per decimation period: the periods this loop came too late for (a command's
+             * handling) spend their frames' seqs, as a full queue does, so the host sees the gap */
+            tx_seq = (uint16_t)(tx_seq + (uint16_t)(now - last_tick) / decimation - 1u);
             last_tick = now;
             /* seq advances even when the queue is full, so the host sees the gap */
             n = mck_encode_telemetry(&t, tx_seq++, pkt, sizeof pkt);

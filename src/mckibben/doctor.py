@@ -25,12 +25,15 @@ from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
 from mckibben.models.laws import LAWS
 from mckibben.models.laws._base import NTH, evaluate_points
+from mckibben.rig import firmware as FW
 
 #: The optional tools: name -> (what it is for, how to install it on Debian/Ubuntu).
 TOOLS = {
-    "avr-gcc": ("builds the firmware (make -C firmware)", "apt-get install gcc-avr avr-libc"),
+    "avr-gcc": ("builds the firmware (mckibben firmware build)", "apt-get install gcc-avr avr-libc"),
     "simavr": ("counts the firmware's cycles (make -C firmware cycles)", "apt-get install simavr"),
-    "avrdude": ("flashes the Arduino Mega (make -C firmware upload)", "apt-get install avrdude"),
+    "libsimavr": ("runs the firmware image as the device (the avr engine of mckibben rig emulate)",
+                  "apt-get install libsimavr-dev libelf-dev"),
+    "avrdude": ("flashes the Arduino Mega (mckibben firmware flash)", "apt-get install avrdude"),
     "arduino-cli": ("an alternative way to build and flash the firmware", "see arduino.github.io/arduino-cli"),
 }
 #: The optional Python packages (the extras of pyproject.toml): name -> (what for, how to install).
@@ -275,6 +278,16 @@ def _probe_scheduler(address: str, timeout: float = 3.0) -> dict:
                 "detail": f"{exc.strerror or exc}; start one with: dask scheduler --port {port}"}
 
 
+def _tool(name: str) -> str | None:
+    """Where a tool is: an executable on the PATH, or libsimavr's headers (it is a library)."""
+    if name == "libsimavr":
+        try:
+            return str(FW.simavr_include())
+        except InputError:
+            return None
+    return shutil.which(name)
+
+
 def check(scheduler: str | None = None) -> Report:
     """Report the kernel cache, the compiler, the cores used and the optional tools.
 
@@ -293,7 +306,7 @@ def check(scheduler: str | None = None) -> Report:
     _jit = _kernels.jit()  # loads Numba
     numba = _jit.numba
     where = _jit.cache_dir()
-    tools = {name: {"found": shutil.which(name), "for": what, "install": how} for name, (what, how) in TOOLS.items()}
+    tools = {name: {"found": _tool(name), "for": what, "install": how} for name, (what, how) in TOOLS.items()}
     packages = {}
     for name, (what, how) in PACKAGES.items():  # found, not imported: MuJoCo alone takes a second to load
         spec = importlib.util.find_spec(name)

@@ -201,14 +201,21 @@ def emulate_cmd(
     tool_path: str = typer.Option(None, "--tool-path", help="Emulate the default tool's three muscles, each hanging "
                                                            "its mean tension on this tip path (as tool track "
                                                            "--port steers it), e.g. circle:radius=10mm,period=1s."),
+    engine: str = typer.Option("python", "--engine", help="python: the firmware core's Python mirror; avr: the "
+                                                           "firmware image itself in simavr (libsimavr)."),
+    supply: str = typer.Option(None, "--supply", help="Supply pressure of every channel (default 0.8MPa; up to "
+                                                      "1MPa, above the safe maximum, to prove the supervisor)."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """A virtual device on a pseudo-terminal: the firmware core on N plants, in real time; it resets when opened."""
-
+    """A virtual device on a pseudo-terminal (the firmware core, or its image in simavr) on N plants, in real time;
+    it resets when opened."""
 
     d = _duration(duration) if duration else None
     if not 1 <= channels <= 3:
         raise InputError(f"--channels: {channels} must be 1, 2 or 3")
+    if engine not in rig.engines.ENGINES:
+        raise InputError(f"--engine: {engine!r} must be one of {', '.join(rig.engines.ENGINES)}")
+    sup = parse_flag(supply, "pressure", "supply", allow_zero=False) if supply is not None else None
     boot = parse_quantity(boot_time, "time", "--boot-time")
     if boot > 10:
         raise InputError(f"--boot-time: {boot_time!r} is longer than 10 s")
@@ -219,7 +226,7 @@ def emulate_cmd(
         tool = T.build_tool(*(o.default for o in (T.MUSCLE_OPTION, T.PITCH_OPTION, T.DISCS_OPTION, T.PRELOAD_OPTION,
                                                   T.KB_OPTION, T.KA_OPTION, T.PMAX_OPTION)))  # tool track's defaults
         plants = experiments.link.tool_plants(tool, tool_path)
-    em = rig.Emulator(plant=plants, n_channels=channels, boot_time=boot)
+    em = rig.engines.start_device(engine, plant=plants, n_channels=channels, boot_time=boot, supply=sup)
     made = False
     try:  # from here on, a Ctrl-C or a SIGTERM at any point stops the device and removes its link
         if link:
@@ -231,9 +238,9 @@ def emulate_cmd(
             except OSError as exc:
                 raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
         if json:
-            emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels})
+            emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels, "engine": engine})
         else:
-            err_console.print(f"emulated device on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
+            err_console.print(f"emulated device ({engine} engine) on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
         em.run(d)
     except KeyboardInterrupt:
         pass

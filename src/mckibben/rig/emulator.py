@@ -60,10 +60,13 @@ class Emulator:
         Insert a burst of garbage after every k-th telemetry frame (0: never). [-]
     cut_every : int, default 0
         Send only the first half of every k-th telemetry frame (0: never); that frame is lost. [-]
+    hold_adc : int, optional
+        Channel 0's ADC reads this count whatever the pressure: a stuck sensor. [count]
     """
 
     def __init__(self, plant=None, controller=None, n_channels: int = 3, ts: float = 1e-3, wake: float = 0.002,
-                 baud: int = 1_000_000, boot_time: float = 0.3, garbage_every: int = 0, cut_every: int = 0):
+                 baud: int = 1_000_000, boot_time: float = 0.3, garbage_every: int = 0, cut_every: int = 0,
+                 hold_adc: int | None = None):
 
         if not 1 <= int(n_channels) <= P.MAX_CHANNELS:
             raise InputError(f"Emulator: n_channels {n_channels!r} must be 1..{P.MAX_CHANNELS}")
@@ -75,6 +78,7 @@ class Emulator:
         self._controller = controller or CoreParams(mode=0)
         self.ts, self.wake, self.baud, self.boot_time = ts, wake, int(baud), float(boot_time)
         self.garbage_every, self.cut_every = garbage_every, cut_every
+        self.hold_adc = None if hold_adc is None else int(hold_adc)
         self.master, slave = os.openpty()
         tty.setraw(slave)
         tty.setraw(self.master)
@@ -177,6 +181,8 @@ class Emulator:
         """Run one control period of every channel; queue the telemetry frame it streams."""
         sensed = [pl.sense() for pl in self.plants]
         adcs = [a for a, _ in sensed]
+        if self.hold_adc is not None:
+            adcs[0] = self.hold_adc
         out = self.bank.step(adcs, [True] * self.n, self.p_ref)
         for pl, (inlet, bleed, _) in zip(self.plants, out, strict=True):
             pl.advance(inlet, bleed)

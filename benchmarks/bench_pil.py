@@ -1,0 +1,167 @@
+"""Processor in the loop: what only the real firmware image can show, measured (issue 31).
+
+The image ``make -C firmware`` builds runs in simavr (``mckibben.rig.engines.avr``) against the C
+plant, behind a pty; this script is the host, as ``rig record``/``rig step`` are:
+
+1. frames per second and sequence gaps with three channels streaming, at decimation 1, 2 and 5
+   (``--seconds`` each, the harness throttled to wall time);
+2. SET_POINT -> ACK round trip (wall clock, host to host) while streaming at decimation 1, one
+   command every 10 ms, and the same with a SET_POINTS every 1 ms (tool track's traffic): frames
+   and ACKs delivered;
+3. the simulation's real-time factor unthrottled, under streaming at decimation 1 plus a command
+   every 1 ms (simulated seconds per wall second; below 1 the bench could not keep wall time);
+4. the watchdog path: the control tick stalls (Timer1 masked) with channel 0's inlet open; when
+   the MCU resets, whether the valves shut and HELLO reaches the host.
+
+Usage: ``python benchmarks/bench_pil.py [--seconds 5]``; prints a Markdown table per part.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+
+from mckibben.plant import PlantParams
+from mckibben.rig import protocol as P
+from mckibben.rig.device import connect
+from mckibben.rig.engines.avr import AvrDevice
+
+PLANTS = [PlantParams()] * 3
+
+
+def _read(link, parser, seconds, on_tick=None, every=None):
+    frames, t0 = [], time.monotonic()
+    nxt = t0
+    while time.monotonic() - t0 < seconds:
+        if on_tick is not None and time.monotonic() >= nxt:
+            on_tick()
+            nxt += every
+        frames += parser.feed(link.read(65536))
+    return frames
+
+
+def streaming(seconds: float) -> None:
+    print("| decimation | telemetry frames/s | expected /s | sequence gaps | gaps % | corrupt |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for dec in (1, 2, 5):
+        with AvrDevice(PLANTS, boot_time=0.3) as dev:
+            link, _, parser = connect(dev.port, timeout=0)
+            link.write(P.stream(1, True, dec))
+            _read(link, parser, 0.5)
+            c0 = parser.counters()
+            frames = _read(link, parser, seconds)
+            c = parser.counters()
+            link.close()
+        tel = sum(isinstance(f, P.Telemetry) for f in frames)
+        gaps = c["missing"] - c0["missing"]
+        print(f"| {dec} | {tel / seconds:.0f} | {1000 / dec:.0f} | {gaps} | {100 * gaps / max(tel + gaps, 1):.2f} | "
+              f"{c['corrupt']} |")
+
+
+def round_trip(seconds: float) -> None:
+    print("| traffic | commands sent | ACKs back | round trip median / p95 / max [ms] | telemetry frames/s | gaps % |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for label, every, many in (("SET_POINT every 10 ms", 0.010, False), ("SET_POINTS every 1 ms", 0.001, True)):
+        with AvrDevice(PLANTS, boot_time=0.3) as dev:
+            link, _, parser = connect(dev.port, timeout=0)
+            link.write(P.set_mode(1, P.MODES["smc"]))
+            link.write(P.stream(2, True, 1))
+            _read(link, parser, 0.5)
+            sent: dict[int, float] = {}
+            seq = [3]
+
+            def send():
+                s = seq[0] & 0xFFFF
+                pkt = P.set_points(s, [3e5, 3e5, 3e5]) if many else P.set_point(s, 3e5)
+                sent[s] = time.monotonic()
+                link.write(pkt)
+                seq[0] += 1
+
+            rtt, tel, missing0 = [], 0, parser.missing
+            t0 = time.monotonic()
+            nxt = t0
+            while time.monotonic() - t0 < seconds:
+                if time.monotonic() >= nxt:
+                    send()
+                    nxt += every
+                for f in parser.feed(link.read(65536)):
+                    if isinstance(f, P.Ack) and f.cmd_seq in sent:
+                        rtt.append(time.monotonic() - sent.pop(f.cmd_seq))
+                    elif isinstance(f, P.Telemetry):
+                        tel += 1
+            gaps = parser.missing - missing0
+            link.close()
+        q = sorted(rtt)
+        stat = (f"{1e3 * statistics.median(q):.2f} / {1e3 * q[int(0.95 * (len(q) - 1))]:.2f} / {1e3 * q[-1]:.2f}"
+                if q else "-")
+        print(f"| {label} | {seq[0] - 3} | {len(rtt)} | {stat} | {tel / seconds:.0f} | "
+              f"{100 * gaps / max(tel + gaps, 1):.1f} |")
+
+
+def real_time_factor(seconds: float) -> None:
+    print("| load | simulated s | wall s | real-time factor |")
+    print("| --- | --- | --- | --- |")
+    for label, cmd in (("idle, no host", False), ("streaming at decimation 1 + SET_POINTS every 1 ms", True)):
+        with AvrDevice(PLANTS, boot_time=0.3, unthrottled=True) as dev:
+            if cmd:
+                link, _, parser = connect(dev.port, timeout=0)
+                link.write(P.stream(1, True, 1))
+                s = [2]
+
+                def send():
+                    link.write(P.set_points(s[0] & 0xFFFF, [3e5] * 3))
+                    s[0] += 1
+
+                a = (dev._stat("t_sim", 0.0), dev._stat("wall", 0.0))
+                _read(link, parser, seconds, send, 0.001)
+                time.sleep(0.3)
+                b = (dev._stat("t_sim", 0.0), dev._stat("wall", 0.0))
+                link.close()
+            else:
+                time.sleep(0.5)
+                a = (dev._stat("t_sim", 0.0), dev._stat("wall", 0.0))
+                time.sleep(seconds)
+                b = (dev._stat("t_sim", 0.0), dev._stat("wall", 0.0))
+        sim, wall = b[0] - a[0], b[1] - a[1]
+        print(f"| {label} | {sim:.2f} | {wall:.2f} | {sim / wall:.2f} |")
+
+
+def watchdog() -> None:
+    stall = 1.5
+    with AvrDevice(PLANTS, boot_time=0.3, stall_at=stall) as dev:
+        link, _, parser = connect(dev.port, timeout=0)
+        link.write(P.set_mode(1, P.MODES["open-loop"], channel=0))
+        link.write(P.set_open_loop(2, 120, 0, channel=0))
+        link.write(P.stream(3, True, 10))
+        frames = _read(link, parser, 2.5)
+        time.sleep(0.3)
+        valves, reset_at = dev._stat("valves"), dev.wdt_reset_at
+        link.close()
+    kinds = [type(f).__name__ for f in frames]
+    hello = kinds.index("Hello") if "Hello" in kinds else None
+    print("| stall at (simulated) [s] | watchdog reset at [s] | stall -> reset [ms] | valves after | HELLO to host |")
+    print("| --- | --- | --- | --- | --- |")
+    print(f"| {stall:.3f} | {reset_at:.4f} | {1e3 * (reset_at - stall):.1f} | {valves} | "
+          f"{'yes, after ' + str(kinds[:hello].count('Telemetry')) + ' frames' if hello is not None else 'no'} |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=5.0)
+    a = ap.parse_args()
+    print(f"load average at start: {os.getloadavg()[0]:.2f}\n")
+    print("### Streaming, three channels at 1 kHz\n")
+    streaming(a.seconds)
+    print("\n### Command round trip under streaming at decimation 1\n")
+    round_trip(a.seconds)
+    print("\n### Real-time factor, unthrottled\n")
+    real_time_factor(a.seconds)
+    print("\n### Watchdog path\n")
+    watchdog()
+    print(f"\nload average at end: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

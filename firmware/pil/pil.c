@@ -1,0 +1,493 @@
+/* pil.c: processor in the loop. The firmware image that `make -C firmware` builds (and `make upload`
+ * flashes) runs in simavr at 16 MHz against the project's plant physics, one plant per channel, and
+ * talks to the host over a pseudo-terminal as a Mega does over /dev/ttyACM0.
+ *
+ * The plant is export/c/mk_plant.c (the C port the FMU compiles; mckibben.plant.physics is its
+ * source of truth): this file links it, it does not copy it. Each channel's parameters (the packed
+ * fields of mckibben.plant.params, the force law's index and theta, as the FMU packs them) are read
+ * from a text file written by mckibben.rig.engines.avr.
+ *
+ * Every 0.1 ms of simulated time (1,600 CPU cycles, one RK4 substep of the plant):
+ *   - the valve commands are read from the firmware's PWM compare outputs: a channel's inlet/bleed
+ *     count is its OCRnx while the output pin is an output and its compare output is connected
+ *     (COMnx1), else 0 (a pin left an input after a reset: the LM358 driver sees nothing, valve shut);
+ *   - each plant advances 0.1 ms with those commands (mk_set_commands, mk_advance);
+ *   - ADC0..2 get each channel's pressure through the sensor model (0-5 V = 0-1 MPa: the count of
+ *     mckibben.hardware.adc_count with the plant's pa_per_count and adc_zero, as the millivolts that
+ *     simavr's 10-bit conversion, count = mV * 1023 / AVcc, turns into that count);
+ *   - the encoder pins D2/D3 (PE4/PE5) take one quadrature edge toward channel 0's length in counts
+ *     (mckibben.hardware.encoder_count), so the firmware's INT4/INT5 decoding sees every edge;
+ *   - the CPU runs 1,600 cycles.
+ * USART0 is bridged to the pty's master. A process opening the port after nobody had it open resets
+ * the MCU (DTR); for --boot-time the bootloader holds (valves off, input swallowed), then the
+ * firmware runs and sends its HELLO. Bytes the host does not read pile up in a 4 KB buffer (the USB
+ * bridge's); beyond it whole packets are dropped, so the host sees a gap in the sequence numbers.
+ * Simulated time follows wall time (--unthrottled: as fast as it goes).
+ *
+ * usage: pil ELF PARAMS [--boot-time S] [--duration S] [--unthrottled] [--avcc MV] [--stall-at S]
+ * --stall-at S: at simulated time S, mask Timer1's interrupts (a control tick that stalls), to
+ * show the watchdog path: the MCU resets, the valve pins go back to inputs, HELLO follows.
+ * --hold-adc C: channel 0's ADC reads count C whatever the pressure (a stuck sensor).
+ * stdout: one JSON line {"port": ...} when ready, then one JSON line of counters every 0.2 s wall
+ * and at the end. Exit 0; 2 with one line on stderr for bad input (a missing ELF, a bad PARAMS).
+ */
+#define _XOPEN_SOURCE 700
+#define _DEFAULT_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <poll.h>
+#include <pty.h>
+#include <signal.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <simavr/avr_adc.h>
+#include <simavr/avr_ioport.h>
+#include <simavr/avr_uart.h>
+#include <simavr/sim_avr.h>
+#include <simavr/sim_elf.h>
+#include <simavr/sim_irq.h>
+
+#include "mk_plant.h"
+
+#define F_CPU 16000000u
+#define CHUNK_S 1e-4                        /* one RK4 substep of the plant */
+#define CHUNK_CYCLES (F_CPU / 10000u)       /* 1,600 */
+#define MAX_CH 3
+#define OUT_CAP 4096                        /* the USB bridge's buffer [bytes] */
+#define IN_CAP 65536
+
+/* ATmega2560 data addresses (avr-libc iomxx0_1.h) */
+#define A_PINE 0x2C
+#define A_MCUSR 0x54
+#define A_TIMSK1 0x6F
+#define A_TCCR4A 0xA0
+#define A_OCR4A 0xA8
+#define A_OCR4B 0xAA
+#define A_OCR4C 0xAC
+#define A_DDRH 0x101
+#define A_DDRL 0x10A
+#define A_TCCR5A 0x120
+#define A_OCR5A 0x128
+#define A_OCR5B 0x12A
+#define A_OCR5C 0x12C
+
+static avr_t *avr;
+static mk_plant plant[MAX_CH];
+static int n_ch;
+static int hold_adc = -1; /* channel 0's stuck reading [count], -1: none */
+static avr_irq_t *uart_in, *adc_in[MAX_CH], *enc_a, *enc_b;
+static uint8_t out_buf[OUT_CAP];
+static size_t out_len;
+static int out_dropping;
+static uint8_t in_buf[IN_CAP];
+static size_t in_head, in_len;
+static int xoff;
+static int valves_now[MAX_CH][2]; /* the valve commands last read from the PWM outputs [counts] */
+static double wdt_reset_at = -1.0; /* simulated time of the last watchdog reset [s] */
+static long long dropped_packets, dropped_bytes, rx_bytes, tx_bytes, resets, wdt_resets;
+static avr_cycle_count_t last_tx_cycle, min_tx_gap = (avr_cycle_count_t)-1; /* the line rate, as simavr runs it */
+static int enc_pos, enc_zero;
+static volatile sig_atomic_t stop_flag;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    stop_flag = 1;
+}
+
+/* --- USART0 <-> pty ------------------------------------------------------------------------ */
+static void uart_out_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    uint8_t b = (uint8_t)value;
+    (void)irq;
+    (void)param;
+    tx_bytes++;
+    if (avr->cycle > last_tx_cycle && avr->cycle - last_tx_cycle < min_tx_gap) min_tx_gap = avr->cycle - last_tx_cycle;
+    last_tx_cycle = avr->cycle;
+    if (out_dropping) { /* drop the rest of a packet that did not fit */
+        dropped_bytes++;
+        if (b == 0) out_dropping = 0;
+        return;
+    }
+    if (out_len >= OUT_CAP) {
+        size_t keep = out_len; /* cut the packet in progress back to its last delimiter */
+        while (keep > 0 && out_buf[keep - 1] != 0) keep--;
+        dropped_bytes += (long long)(out_len - keep) + 1;
+        out_len = keep;
+        dropped_packets++;
+        out_dropping = b != 0;
+        return;
+    }
+    out_buf[out_len++] = b;
+}
+
+static void feed_uart(void)
+{
+    while (!xoff && in_len > 0) {
+        uint8_t b = in_buf[in_head];
+        in_head = (in_head + 1) % IN_CAP;
+        in_len--;
+        rx_bytes++;
+        avr_raise_irq(uart_in, b);
+    }
+}
+
+static void uart_xon_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    (void)value;
+    (void)param;
+    xoff = 0;
+    feed_uart();
+}
+
+static void uart_xoff_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    (void)value;
+    (void)param;
+    xoff = 1;
+}
+
+/* --- the MCU ---------------------------------------------------------------------------------- */
+static uint8_t reg8(uint16_t a) { return avr->data[a]; }
+static int ocr(uint16_t a)
+{
+    int v = avr->data[a] | avr->data[a + 1] << 8;
+    return v > 255 ? 255 : v;
+}
+
+/* The count a valve's driver sees: OCRnx while the pin drives and the compare output is on. */
+static int valve(uint16_t ddr, int pin, uint16_t tccr, int com1_bit, uint16_t ocr_addr)
+{
+    if (!((reg8(ddr) >> pin) & 1) || !((reg8(tccr) >> com1_bit) & 1)) return 0;
+    return ocr(ocr_addr);
+}
+
+static void read_valves(int booting, int inlet[], int bleed[])
+{
+    int i;
+    for (i = 0; i < MAX_CH; i++) inlet[i] = bleed[i] = 0;
+    if (booting) return;
+    inlet[0] = valve(A_DDRH, 3, A_TCCR4A, 7, A_OCR4A); /* D6 OC4A */
+    bleed[0] = valve(A_DDRH, 4, A_TCCR4A, 5, A_OCR4B); /* D7 OC4B */
+    inlet[1] = valve(A_DDRH, 5, A_TCCR4A, 3, A_OCR4C); /* D8 OC4C */
+    bleed[1] = valve(A_DDRL, 3, A_TCCR5A, 7, A_OCR5A); /* D46 OC5A */
+    inlet[2] = valve(A_DDRL, 4, A_TCCR5A, 5, A_OCR5B); /* D45 OC5B */
+    bleed[2] = valve(A_DDRL, 5, A_TCCR5A, 3, A_OCR5C); /* D44 OC5C */
+}
+
+/* mckibben.hardware.adc_count (the sensor model), with the plant's scale and zero. */
+static int adc_count(double pressure, double pa_per_count, double adc_zero)
+{
+    double x = floor(pressure / pa_per_count + adc_zero + 0.5);
+    return x < 0.0 ? 0 : (x > MK_ADC_MAX ? MK_ADC_MAX : (int)x);
+}
+
+/* mckibben.hardware.encoder_count: shortening from the rest length, in counts. */
+static int encoder_count(double length, double nominal_length, double resolution)
+{
+    return (int)floor((nominal_length - length) / resolution + 0.5);
+}
+
+static void sense(void)
+{
+    int i;
+    for (i = 0; i < n_ch; i++) {
+        double p = plant[i].s[MK_S_P] - MK_P_ATM;
+        int c = adc_count(p, plant[i].prm[MK_C_pa_per_count], plant[i].prm[MK_C_adc_zero]);
+        if (i == 0 && hold_adc >= 0) c = hold_adc;
+        /* simavr: count = mV * 1023 / AVcc (integer): the smallest mV that gives count c */
+        uint32_t mv = (uint32_t)(((uint64_t)c * avr->avcc + 1022u) / 1023u);
+        avr_raise_irq(adc_in[i], mv);
+    }
+}
+
+/* gray code sequence the firmware's quad_step counts +1 along: A = bit 0, B = bit 1 */
+static const int GRAY[4] = {0, 2, 3, 1};
+
+static void encoder_edge(void)
+{
+    int target = encoder_count(plant[0].s[MK_S_LEN], plant[0].prm[MK_C_nominal_length],
+                               plant[0].prm[MK_C_encoder_resolution]) - enc_zero;
+    int code;
+    if (target == enc_pos) return;
+    enc_pos += target > enc_pos ? 1 : -1;
+    code = GRAY[((enc_pos % 4) + 4) % 4];
+    avr_raise_irq(enc_a, (uint32_t)(code & 1));
+    avr_raise_irq(enc_b, (uint32_t)((code >> 1) & 1));
+}
+
+static void mcu_reset(void)
+{
+    avr_reset(avr);
+    xoff = 0;
+    /* the encoder counts from where the muscle is at reset (an incremental encoder) */
+    enc_zero = encoder_count(plant[0].s[MK_S_LEN], plant[0].prm[MK_C_nominal_length],
+                             plant[0].prm[MK_C_encoder_resolution]);
+    enc_pos = 0;
+    avr_raise_irq(enc_a, 0);
+    avr_raise_irq(enc_b, 0);
+}
+
+/* --- parameters --------------------------------------------------------------------------------- */
+static int read_params(const char *path, char *msg, size_t size)
+{
+    FILE *f = fopen(path, "r");
+    int i, j, nf, nth;
+    if (!f) {
+        snprintf(msg, size, "PARAMS: cannot open %s (%s)", path, strerror(errno));
+        return 1;
+    }
+    if (fscanf(f, "%d %d %d", &n_ch, &nf, &nth) != 3 || n_ch < 1 || n_ch > MAX_CH || nf != MK_NF
+        || nth != MK_NTH) {
+        snprintf(msg, size, "PARAMS: %s: header 'channels %d fields %d theta %d' expected", path, MAX_CH, MK_NF,
+                 MK_NTH);
+        fclose(f);
+        return 1;
+    }
+    for (i = 0; i < n_ch; i++) {
+        mk_defaults(&plant[i]);
+        if (fscanf(f, "%d", &plant[i].law) != 1) goto bad;
+        for (j = 0; j < MK_NF; j++)
+            if (fscanf(f, "%lf", &plant[i].prm[j]) != 1) goto bad;
+        for (j = 0; j < MK_NTH; j++)
+            if (fscanf(f, "%lf", &plant[i].th[j]) != 1) goto bad;
+        mk_derive(&plant[i]);
+        if (mk_check(&plant[i], msg, (int)size)) {
+            fclose(f);
+            return 1;
+        }
+        mk_set_commands(&plant[i], 0, 0);
+        mk_initial_state(&plant[i]);
+    }
+    fclose(f);
+    return 0;
+bad:
+    snprintf(msg, size, "PARAMS: %s: channel %d: expected the law, %d fields and %d theta values", path, i, MK_NF,
+             MK_NTH);
+    fclose(f);
+    return 1;
+}
+
+/* --- the pty -------------------------------------------------------------------------------- */
+static int host_present(int master)
+{
+    struct pollfd p = {master, POLLIN, 0};
+    if (poll(&p, 1, 0) < 0) return 0;
+    return !(p.revents & POLLHUP);
+}
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static void report(double t_sim, double t_dev, double wall, int present, long long sim_ms_lost)
+{
+    printf("{\"t_sim\": %.4f, \"t_dev\": %.4f, \"wall\": %.4f, \"resets\": %lld, \"wdt_resets\": %lld, \"host\": %d, "
+           "\"rx_bytes\": %lld, \"tx_bytes\": %lld, \"dropped_packets\": %lld, \"dropped_bytes\": %lld, "
+           "\"late_ms\": %lld, \"min_byte_cycles\": %lld, \"wdt_reset_at\": %.4f, \"pressure_pa\": [",
+           t_sim, t_dev > 0.0 ? t_dev : 0.0, wall, resets, wdt_resets, present, rx_bytes, tx_bytes, dropped_packets, dropped_bytes,
+           sim_ms_lost, min_tx_gap == (avr_cycle_count_t)-1 ? -1LL : (long long)min_tx_gap, wdt_reset_at);
+    for (int i = 0; i < n_ch; i++)
+        printf("%s%.1f", i ? ", " : "", plant[i].s[MK_S_P] - MK_P_ATM);
+    printf("], \"valves\": [");
+    for (int i = 0; i < n_ch; i++)
+        printf("%s[%d, %d]", i ? ", " : "", valves_now[i][0], valves_now[i][1]);
+    printf("]}\n");
+    fflush(stdout);
+}
+
+static void usage_error(const char *what)
+{
+    fprintf(stderr, "error: %s\n", what);
+    exit(2);
+}
+
+int main(int argc, char **argv)
+{
+    const char *elf = NULL, *params = NULL;
+    double boot_time = 0.3, duration = -1.0, stall_at = -1.0, t_sim = 0.0, booting_until, t0, next_report, wall;
+    int unthrottled = 0, master, slave, present, i, chunk = 0;
+    uint32_t avcc = 5000;
+    long long late_ms = 0;
+    char msg[512], name[128];
+    elf_firmware_t fw;
+    struct termios tio;
+
+    for (i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--boot-time") && i + 1 < argc) boot_time = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--duration") && i + 1 < argc) duration = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--avcc") && i + 1 < argc) avcc = (uint32_t)atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--stall-at") && i + 1 < argc) stall_at = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--hold-adc") && i + 1 < argc) hold_adc = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--unthrottled")) unthrottled = 1;
+        else if (argv[i][0] == '-') {
+            snprintf(msg, sizeof msg, "pil: unknown option %s", argv[i]);
+            usage_error(msg);
+        } else if (!elf) elf = argv[i];
+        else if (!params) params = argv[i];
+        else usage_error("pil: usage: pil ELF PARAMS [--boot-time S] [--duration S] [--unthrottled]");
+    }
+    if (!elf || !params) usage_error("pil: usage: pil ELF PARAMS [--boot-time S] [--duration S] [--unthrottled]");
+    if (read_params(params, msg, sizeof msg)) usage_error(msg);
+    if (access(elf, R_OK) != 0) {
+        snprintf(msg, sizeof msg, "ELF: cannot read %s (%s)", elf, strerror(errno));
+        usage_error(msg);
+    }
+    memset(&fw, 0, sizeof fw);
+    if (elf_read_firmware(elf, &fw) != 0) {
+        snprintf(msg, sizeof msg, "ELF: %s is not an AVR image simavr can load", elf);
+        usage_error(msg);
+    }
+    avr = avr_make_mcu_by_name("atmega2560");
+    if (!avr) usage_error("simavr has no atmega2560 core");
+    avr_init(avr);
+    avr->log = 0;
+    avr_load_firmware(avr, &fw);
+    avr->frequency = F_CPU;
+    avr->avcc = avr->vcc = avr->aref = avcc;
+
+    uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), uart_out_hook, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), uart_xon_hook, NULL);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), uart_xoff_hook, NULL);
+    for (i = 0; i < n_ch; i++) adc_in[i] = avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + i);
+    enc_a = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('E'), 4);
+    enc_b = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('E'), 5);
+    {
+        /* the UART model's "sleep while the firmware polls": off, the harness keeps the time */
+        uint32_t f = 0;
+        avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &f);
+        f &= ~(uint32_t)AVR_UART_FLAG_POLL_SLEEP;
+        avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &f);
+    }
+
+    if (openpty(&master, &slave, name, NULL, NULL) != 0) {
+        snprintf(msg, sizeof msg, "pil: cannot open a pseudo-terminal (%s)", strerror(errno));
+        usage_error(msg);
+    }
+    tcgetattr(slave, &tio);
+    cfmakeraw(&tio);
+    tcsetattr(slave, TCSANOW, &tio);
+    tcgetattr(master, &tio);
+    cfmakeraw(&tio);
+    tcsetattr(master, TCSANOW, &tio);
+    close(slave); /* the port is closed until a host opens it */
+    fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK);
+    signal(SIGTERM, on_signal);
+    signal(SIGINT, on_signal);
+    signal(SIGPIPE, SIG_IGN);
+    printf("{\"port\": \"%s\", \"channels\": %d, \"fields\": %d}\n", name, n_ch, MK_NF);
+    fflush(stdout);
+
+    mcu_reset();
+    present = host_present(master);
+    t0 = now_s();
+    booting_until = boot_time; /* power-on: the bootloader first */
+    next_report = 0.2;
+    while (!stop_flag) {
+        int inlet[MAX_CH], bleed[MAX_CH], booting = t_sim < booting_until;
+        uint8_t mcusr_before;
+        read_valves(booting, inlet, bleed);
+        for (i = 0; i < n_ch; i++) {
+            valves_now[i][0] = inlet[i];
+            valves_now[i][1] = bleed[i];
+            mk_set_commands(&plant[i], inlet[i], bleed[i]);
+            mk_advance(&plant[i], CHUNK_S);
+        }
+        sense();
+        if (stall_at >= 0.0 && t_sim >= stall_at) { /* the control tick stalls, once */
+            avr->data[A_TIMSK1] = 0;
+            stall_at = -1.0;
+        }
+        if (!booting) {
+            avr_cycle_count_t end = avr->cycle + CHUNK_CYCLES;
+            encoder_edge();
+            mcusr_before = reg8(A_MCUSR);
+            while (avr->cycle < end) {
+                int st = avr_run(avr);
+                if (st == cpu_Done || st == cpu_Crashed) {
+                    /* the image stopped (sleep with interrupts off, or a crash): a Mega would hang
+                       until its watchdog: reset it as the watchdog would */
+                    wdt_resets++;
+                    mcu_reset();
+                    booting_until = t_sim;
+                    break;
+                }
+            }
+            if (!(mcusr_before & 0x08) && (reg8(A_MCUSR) & 0x08)) { /* WDRF: a watchdog reset */
+                wdt_resets++;
+                wdt_reset_at = t_sim;
+                booting_until = t_sim;
+            }
+        }
+        t_sim += CHUNK_S;
+        chunk++;
+        if (chunk % 10 == 0) { /* every simulated millisecond: the link and the clock */
+            int was = present;
+            ssize_t n;
+            present = host_present(master);
+            if (present && !was) { /* DTR: the host opened the port */
+                resets++;
+                mcu_reset();
+                booting_until = t_sim + boot_time;
+                out_len = 0;
+                out_dropping = 0;
+                in_len = 0;
+            }
+            if (present) {
+                uint8_t tmp[4096];
+                while ((n = read(master, tmp, sizeof tmp)) > 0) {
+                    if (t_sim < booting_until) continue; /* the bootloader swallows it */
+                    for (ssize_t k = 0; k < n && in_len < IN_CAP; k++) {
+                        in_buf[(in_head + in_len) % IN_CAP] = tmp[k];
+                        in_len++;
+                    }
+                }
+                feed_uart();
+                if (out_len) {
+                    n = write(master, out_buf, out_len);
+                    if (n > 0) {
+                        memmove(out_buf, out_buf + n, out_len - (size_t)n);
+                        out_len -= (size_t)n;
+                    }
+                }
+            } else {
+                out_len = 0; /* the UART shifts out to nobody */
+                in_len = 0;
+            }
+            wall = now_s() - t0;
+            if (!unthrottled) {
+                double ahead = t_sim - wall;
+                if (ahead > 0.002) {
+                    struct timespec ts = {0, (long)(ahead * 1e9)};
+                    nanosleep(&ts, NULL);
+                } else if (ahead < -0.02) {
+                    /* starved of CPU: the simulation does not race to catch up (a device never
+                       runs fast, and a burst would overflow the host's buffers); its clock slips */
+                    late_ms += (long long)(-ahead * 1e3);
+                    t0 -= ahead; /* ahead < 0: wall time restarts from the simulated */
+                }
+            }
+            if (wall >= next_report) {
+                report(t_sim, t_sim - booting_until, wall, present, late_ms);
+                next_report = wall + 0.2;
+            }
+            if (duration >= 0 && (unthrottled ? t_sim : wall) >= duration) break;
+        }
+    }
+    report(t_sim, t_sim - booting_until, now_s() - t0, present, late_ms);
+    close(master);
+    return 0;
+}
