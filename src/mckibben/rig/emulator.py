@@ -231,7 +231,9 @@ class Emulator:
             Wall-clock time to run. [s]
         """
         t0 = time.monotonic()
-        present = self._host_present()
+        # the port was closed when the pty was made: a host that opened it before this thread ran
+        # opened it after nobody had it open, and resets the board like any other open
+        present = self.host_present
         credit = 0.0
         while not self._stop.is_set():
             now_abs = time.monotonic()
