@@ -13,6 +13,19 @@ Geometry: a braid of strand length ``b`` wound ``n`` turns around the muscle. At
 (from the axis) the muscle is ``l = b·cos θ`` long and ``D = b·sin θ/(n·π)`` across, so
 ``D0 = b/(n·π)`` is the diameter at θ = 90°.
 
+Examples
+--------
+A braid of 100 mm strands wound three turns, at 0.5 MPa, holding 1 N (Chou–Hannaford, closed
+form), and the same muscle unpressurized (slack: flagged):
+
+>>> from mckibben.models.geometry import BraidGeometry
+>>> g = BraidGeometry(strand_length=0.1, turns=3.0)
+>>> length, flags = length_under_load(0.5e6, 1.0, g)
+>>> round(float(length) * 1e3, 2), int(flags)
+(58.38, 0)
+>>> int(length_under_load(0.0, 1.0, g)[1]) != 0
+True
+
 References
 ----------
 Chou, C.-P., Hannaford, B. (1996), Measurement and modeling of McKibben pneumatic artificial
