@@ -40,6 +40,7 @@ from mckibben.export.fmu import law_defines, laws_c
 from mckibben.fit.compare import compare_models
 from mckibben.fit.isometric import fit_isometric, fit_isotonic_law, fit_points, law_length
 from mckibben.fit.muscle_file import muscle_force_law, save_muscle_file
+from mckibben import models
 from mckibben.models import laws
 from mckibben.models.muscle import Muscle
 from mckibben.plant import PlantParams, simulate
@@ -221,6 +222,28 @@ def test_the_command_line_gives_the_library_number(case, cli, name):
         want = float(laws.evaluate(name, 0.4e6, ell, theta))
     assert r.code == 0, r.err
     assert r.json()["force_N"] == pytest.approx(want, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_command_line_gives_the_library_length_and_pressure(case, cli, name):
+    kind, params, theta, m, path, fit = case(name)
+    l0 = float(m.nominal_length)
+    load = round(0.5 * float(laws.evaluate(name, 0.4e6, l0, theta)), 6)  # half the blocked force: reached
+    which = ("--muscle-file", str(path)) if kind == "fitted" else ("--model", name, "--muscle", CATALOGUE)
+    r = cli("predict", "length", *which, "--pressure", "0.4MPa", "--load", f"{load!r}N", "--json")
+    assert r.code == 0, r.err
+    want = models.length(0.4e6, load, m, None if kind == "fitted" else name)
+    out = r.json()
+    assert out["model"] == name and out["length_m"] == pytest.approx(float(want.length), rel=1e-12)
+    ell = out["length_m"]
+    if not out["flags"]:
+        # solved with the law's own force: it pulls the load there (the root to ~4 ulp of the length)
+        assert float(laws.evaluate(name, 0.4e6, ell, theta)) == pytest.approx(load, rel=1e-8)
+    back = cli("predict", "pressure", *which, "--length", f"{ell * 1e3!r}mm", "--load", f"{load!r}N", "--json")
+    assert back.code == 0, back.err
+    want = models.pressure(ell, load, m, None if kind == "fitted" else name)
+    assert back.json()["pressure_Pa"] == pytest.approx(float(want.pressure), rel=1e-12)
+    assert float(want.pressure) == pytest.approx(0.4e6, rel=1e-7)  # the two inverses agree
 
 
 #: Laws whose fit to the commercial table the plant refuses, with the reason (strict: an xfail

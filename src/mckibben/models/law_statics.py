@@ -23,6 +23,11 @@ twice.
 
 Both flag lengths and pressures outside the range the law was fitted on (``length_out_of_range``,
 ``pressure_out_of_range``): the law is not known there.
+
+:func:`rising_root` is the one length solver: :meth:`LawMuscle.length_for_pressure`, the statics of
+every registered law on a catalogue muscle (:func:`mckibben.models.length`), the braid laws'
+:func:`mckibben.models.physical.length_under_load` and the isotonic fits' lengths
+(:func:`mckibben.fit.isometric.law_length`) all call it with the law's own force.
 """
 
 from __future__ import annotations
@@ -52,6 +57,65 @@ def _root(func, lo, hi, args) -> np.ndarray:
     if np.size(args[0]) == 0:
         return np.empty(0)
     return np.asarray(find_root(func, (lo, hi), args=args).x, dtype=float)
+
+
+#: Lengths at which :func:`rising_root` first looks for the law's pull to pass the load: a law
+#: whose pull rises, peaks and falls inside the bracket (the tube wall's −1/sin θ near the straight
+#: braid) is solved on its rising branch where its pull passes the load at one of them (a load
+#: within a 1/127 of the bracket's width of the peak may be missed: then it is reported as never
+#: reached). [-]
+SCAN_POINTS = 128
+#: Elements evaluated in one call of the law while scanning (lengths × points). [-]
+SCAN_BLOCK = 1 << 21
+
+
+def rising_root(force, pressure, load, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+    """The shortest length in ``[lo, hi]`` at which a law pulls a load: its force solved for the length.
+
+    The law's pull ``force(P, l)`` is scanned at :data:`SCAN_POINTS` lengths from ``lo`` to ``hi``;
+    the first interval where it passes the load brackets the root, refined by Chandrupatla's method
+    (:func:`scipy.optimize.elementwise.find_root`, all elements at once). The first crossing is the
+    stable equilibrium of a hanging load (the pull rises with length there), also for a law whose
+    pull falls again before ``hi`` (the wall-corrected braid).
+
+    Parameters
+    ----------
+    force : callable
+        ``force(pressure, length) -> pull`` element-wise, NumPy arrays [Pa, m -> N] (a law's NumPy
+        face, :func:`mckibben.models.laws.evaluate`).
+    pressure : array_like
+        Gauge pressure. [Pa]
+    load : array_like
+        The load to pull. [N]
+    lo, hi : float
+        The bracket: shortest and longest length. [m]
+
+    Returns
+    -------
+    length : numpy.ndarray
+        The root, broadcast over ``pressure`` and ``load``; ``lo`` where the law pulls more than the
+        load already at ``lo``, ``hi`` where it never reaches it. [m]
+    state : numpy.ndarray
+        0 where a root was found, -1 where the law pulls more at ``lo``, +1 where it never reaches the
+        load (NaN pulls count as not reaching). [-]
+    """
+    p, w = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    grid = np.linspace(float(lo), float(hi), SCAN_POINTS)
+    first = np.full(p.shape, -1, dtype=np.intp)  # index of the first scanned length pulling more than the load
+    rows = max(1, SCAN_BLOCK // max(p.size, 1))  # scanned lengths per call of the law
+    for k0 in range(0, SCAN_POINTS, rows):
+        ell = grid[k0:k0 + rows].reshape((-1,) + (1,) * p.ndim)
+        with np.errstate(all="ignore"):
+            above = np.asarray(force(p[None], ell), dtype=float) - w[None] > 0
+        hit = above.any(axis=0)
+        first = np.where((first < 0) & hit, k0 + np.argmax(above, axis=0), first)
+    state = np.where(first < 0, 1, np.where(first == 0, -1, 0))
+    length = np.where(state < 0, float(lo), float(hi))
+    inside = state == 0
+    k = first[inside]
+    length[inside] = _root(lambda ell, pp, ww: np.asarray(force(pp, ell), dtype=float) - ww, grid[k - 1], grid[k],
+                           (p[inside], w[inside]))
+    return length, state
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,14 +214,9 @@ class LawMuscle:
         """
         p, w = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
         lo, hi = self.length_stops
-        taut = np.maximum(w, TAUT_FORCE)
-        g_lo = self.force(p, lo) - taut
-        g_hi = self.force(p, hi) - taut
-        length = np.where(g_lo >= 0, lo, hi)
-        inside = (g_lo < 0) & (g_hi > 0)
-        length[inside] = _root(lambda ell, pp, ww: self.force(pp, ell) - ww, lo, hi, (p[inside], taut[inside]))
-        flags = (self._range_flags(p, length) | flag_where(~inside & (g_lo >= 0), Flag.NEGATIVE_LENGTH)
-                 | flag_where(~inside & (g_lo < 0), Flag.COS_THETA_ABOVE_ONE))
+        length, state = rising_root(self.force, p, np.maximum(w, TAUT_FORCE), lo, hi)
+        flags = (self._range_flags(p, length) | flag_where(state < 0, Flag.NEGATIVE_LENGTH)
+                 | flag_where(state > 0, Flag.COS_THETA_ABOVE_ONE))
         return self._prediction(p, w, length, flags)
 
     def pressure_for_length(self, length, load, p_max: float) -> LengthPrediction:
