@@ -246,6 +246,25 @@ def test_the_command_line_gives_the_library_length_and_pressure(case, cli, name)
     assert float(want.pressure) == pytest.approx(0.4e6, rel=1e-7)  # the two inverses agree
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_the_plant_runs_the_law_by_name_on_its_own_fields(name):
+    law = laws.LAWS[name]
+    base = PlantParams.for_muscle(get_muscle(CATALOGUE), force_model=name)
+    if law.plant_theta is None:  # its θ is not in the plant's fields: it needs the parameter object
+        with pytest.raises(InputError, match=f"force_model='{name}' needs its model object"):
+            base.law(1)
+        return
+    # a sweep over the plant's fields: each instance's θ is the law's of that instance alone
+    sweep = base.replace(r0=np.array([0.9, 1.1]) * base.r0, strand_length=np.array([1.0, 1.02]) * base.strand_length)
+    got, th = sweep.law()
+    assert got == name and th.shape == (laws.NTH, 2)
+    for i in range(2):
+        one = base.replace(r0=sweep.r0[i], strand_length=sweep.strand_length[i]).law(1)[1][:, 0]
+        np.testing.assert_array_equal(th[:, i], one)
+    f = laws.evaluate(name, 0.4e6, float(base.nominal_length), th)
+    assert np.all(np.isfinite(f)) and np.all(f > 0)  # it pulls at rest under pressure
+
+
 #: Laws whose fit to the commercial table the plant refuses, with the reason (strict: an xfail
 #: that passes fails, so this list cannot go stale).
 _NO_PLANT = {"wall-corrected": "the wall term's −1/sin θ makes any wall's force fall near the straight braid, "

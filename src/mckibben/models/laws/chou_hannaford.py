@@ -212,6 +212,7 @@ LAW = Law(
     published=lambda muscle: miniature_geometry(muscle.nominal_length, muscle.geometry, wall=False),
     static_flags=braid_range_flags,
     c_rows={"CH_B": CH_B, "CH_C": CH_C},
+    plant_theta=lambda col, muscle: chou_hannaford_theta(col["strand_length"], col["ch_turns"], 0.0),
 )
 
 
