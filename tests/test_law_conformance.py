@@ -41,7 +41,7 @@ from mckibben.fit.compare import compare_models
 from mckibben.fit.isometric import fit_isometric, fit_isotonic_law, fit_points, law_length
 from mckibben.fit.muscle_file import muscle_force_law, save_muscle_file
 from mckibben import models
-from mckibben.models import laws
+from mckibben.models import law_statics, laws
 from mckibben.models.muscle import Muscle
 from mckibben.plant import PlantParams, simulate
 
@@ -244,6 +244,23 @@ def test_the_command_line_gives_the_library_length_and_pressure(case, cli, name)
     want = models.pressure(ell, load, m, None if kind == "fitted" else name)
     assert back.json()["pressure_Pa"] == pytest.approx(float(want.pressure), rel=1e-12)
     assert float(want.pressure) == pytest.approx(0.4e6, rel=1e-7)  # the two inverses agree
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_closed_form_length_equals_the_solved_one(case, name):
+    law = laws.LAWS[name]
+    if law.length_of is None:
+        pytest.skip(f"{name} has no closed-form length (Law.length_of): solved by the scan alone")
+    kind, params, theta, m, path, fit = case(name)
+    l0 = float(m.nominal_length)
+    p = np.linspace(0.1e6, 0.8e6, 8)
+    load = 0.5 * laws.evaluate(name, p, l0, theta)
+    force = lambda pp, ell: laws.evaluate(name, pp, ell, theta)  # noqa: E731
+    exact = law_statics.rising_root(force, p, load, 0.5 * l0, 1.5 * l0, lambda pp, ww: law.length_of(theta, pp, ww))
+    scanned = law_statics.rising_root(force, p, load, 0.5 * l0, 1.5 * l0)
+    np.testing.assert_array_equal(exact[1], scanned[1])
+    # Chandrupatla's root to its default tolerance against the closed form
+    np.testing.assert_allclose(exact[0], scanned[0], rtol=1e-12)
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -88,7 +88,9 @@ def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-ha
         raise InputError(f"model = {model!r}: its parameters are not a braid's geometry; use {' or '.join(braid)}")
     theta = law.theta_of(geom, "elongation")
     # from cos θ = 0: the wall-corrected law still pulls at the locking angle (cos²θ = 1/3)
-    length, state = rising_root(lambda pp, ell: laws.evaluate(name, pp, ell, theta), p, f, 0.0, geom.strand_length)
+    exact = None if law.length_of is None else (lambda pp, ff: law.length_of(theta, pp, ff))
+    length, state = rising_root(lambda pp, ell: laws.evaluate(name, pp, ell, theta), p, f, 0.0, geom.strand_length,
+                                exact)
     slack = ~(p > 0)
     capped = (state > 0) | slack
     length = np.where(capped, geom.strand_length, length)

@@ -47,7 +47,8 @@ plant, the tool, muscle files, ``params``, the MuJoCo bridge, the FMU) and the c
    over those fields work; None: the plant needs the law's parameter object). A law's statics
    (length under a load, pressure for a length: ``predict length|pressure --model``,
    :func:`mckibben.models.length`) are its force solved by
-   :func:`mckibben.models.law_statics.rising_root`; nothing to add for them.
+   :func:`mckibben.models.law_statics.rising_root`; nothing to add for them (a law with a closed-form
+   inverse may give it as ``length_of(theta, pressure, load) -> length``, used instead of the scan).
 
 The conformance suite checks a law on its fit to the bundled commercial table when it has a fit
 spec, else on ``published(get_muscle("mpam143"))``; a law with neither fails it (nothing could use

@@ -108,6 +108,11 @@ class Law:
         ``strand_length``; ``muscle()``: the plant's catalogue muscle, for a law read from a
         published set), so ``PlantParams(force_model="<name>")`` and sweeps over those fields run the
         law without a parameter object. None: the plant needs the law's parameter object. [SI]
+    length_of : callable, optional
+        ``length_of(theta (NTH,), pressure [Pa], load [N]) -> length [m]``: the law's own closed-form
+        inverse (its force solved for the length on its rising branch; NaN where it never pulls the
+        load), which :func:`mckibben.models.law_statics.rising_root` uses instead of scanning and
+        root finding. Optional: every law is solved without it. [m]
     extra : dict
         Law-specific facts other code may read (``optional_names``). [-]
     """
@@ -130,6 +135,7 @@ class Law:
     published: Callable | None = None
     static_flags: Callable | None = None
     plant_theta: Callable | None = None
+    length_of: Callable | None = None
 
     @property
     def stem(self) -> str:
