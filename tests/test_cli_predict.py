@@ -29,6 +29,24 @@ def test_inverse_from_the_cli(cli):
     assert out["pressure_Pa"][0] is None and out["flags"][0] == ["unreachable"]
 
 
+def test_length_and_pressure_from_any_law_with_a_published_set(cli):
+    # the default is the braid map (eq. 2 + 3); --model solves another law for the length
+    base = cli("predict", "length", "--pressure", "0.8MPa", "--json").json()
+    out = cli("predict", "length", "--model", "braid-map", "--pressure", "0.8MPa", "--json").json()
+    assert out == base and out["model"] == "braid-map"
+    out = cli("predict", "length", "--model", "chou-hannaford", "--pressure", "0.8MPa", "--json").json()
+    assert out["model"] == "chou-hannaford" and out["flags"] == []
+    force = cli("predict", "force", "--model", "chou-hannaford", "--pressure", "0.8MPa",
+                "--length", f"{out['length_m'] * 1e3!r}mm", "--json").json()
+    assert force["force_N"] == pytest.approx(0.6, rel=1e-9)  # the law pulls the load at the length it gives
+    back = cli("predict", "pressure", "--model", "chou-hannaford", "--length", f"{out['length_m'] * 1e3!r}mm",
+               "--json").json()
+    assert back["pressure_Pa"] == pytest.approx(0.8e6, rel=1e-9)
+    r = cli("predict", "length", "--model", "mpam", "--pressure", "0.8MPa", "--json")
+    assert r.code == 0 and r.json()["length_m"] == base["length_m"]
+    assert "'mpam' is deprecated; use 'braid-map'" in r.err  # the old name, read with a deprecation note
+
+
 def test_force_from_the_cli(cli):
     out = cli("predict", "force", "--model", "chou-hannaford", "--pressure", "0.8MPa", "--json").json()
     assert out["force_N"] == pytest.approx(10.72, abs=0.01)
@@ -71,6 +89,13 @@ def test_params(cli):
          "error: unknown force model 'hill'. Provide one of: braid-map, chou-hannaford, tondu-lopez, wall-corrected"),
         (["predict", "force", "--pressure", "1MPa", "--braid-angle", "95deg"], "error: --braid-angle: '95deg' must be below 90deg"),
         (["params", "show", "spring-pam-z"], "error: unknown parameter set 'spring-pam-z'. Did you mean spring-pam-c, spring-pam-b, spring-pam-a?"),
+        (["predict", "length", "--pressure", "1MPa", "--model", "hill"],
+         "error: unknown --model 'hill'. Provide one of: braid-map, chou-hannaford, tondu-lopez, wall-corrected"),
+        (["predict", "pressure", "--length", "80mm", "--model", "virtual-work"],
+         "error: --model: virtual-work has no published parameters for a catalogue muscle; fit it"),
+        (["predict", "length", "--pressure", "1MPa", "--model", "spring", "--muscle-file", "F.toml"],
+         "error: --model: 'spring' with --muscle-file: the file carries its own fitted law; give one of them"),
+        (["predict", "pressure", "--length", "80mm", "--muscle-file", "no-such-file.toml"], "error: "),
         (["predict", "length", "--pressure", "1MPa", "--bogus"], "error: mckibben predict length: No such option: --bogus"),
         (["predict", "length"], "error: mckibben predict length: Missing option '--pressure'."),
     ],

@@ -40,7 +40,8 @@ from mckibben.export.fmu import law_defines, laws_c
 from mckibben.fit.compare import compare_models
 from mckibben.fit.isometric import fit_isometric, fit_isotonic_law, fit_points, law_length
 from mckibben.fit.muscle_file import muscle_force_law, save_muscle_file
-from mckibben.models import laws
+from mckibben import models
+from mckibben.models import law_statics, laws
 from mckibben.models.muscle import Muscle
 from mckibben.plant import PlantParams, simulate
 
@@ -221,6 +222,64 @@ def test_the_command_line_gives_the_library_number(case, cli, name):
         want = float(laws.evaluate(name, 0.4e6, ell, theta))
     assert r.code == 0, r.err
     assert r.json()["force_N"] == pytest.approx(want, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_command_line_gives_the_library_length_and_pressure(case, cli, name):
+    kind, params, theta, m, path, fit = case(name)
+    l0 = float(m.nominal_length)
+    load = round(0.5 * float(laws.evaluate(name, 0.4e6, l0, theta)), 6)  # half the blocked force: reached
+    which = ("--muscle-file", str(path)) if kind == "fitted" else ("--model", name, "--muscle", CATALOGUE)
+    r = cli("predict", "length", *which, "--pressure", "0.4MPa", "--load", f"{load!r}N", "--json")
+    assert r.code == 0, r.err
+    want = models.length(0.4e6, load, m, None if kind == "fitted" else name)
+    out = r.json()
+    assert out["model"] == name and out["length_m"] == pytest.approx(float(want.length), rel=1e-12)
+    ell = out["length_m"]
+    if not out["flags"]:
+        # solved with the law's own force: it pulls the load there (the root to ~4 ulp of the length)
+        assert float(laws.evaluate(name, 0.4e6, ell, theta)) == pytest.approx(load, rel=1e-8)
+    back = cli("predict", "pressure", *which, "--length", f"{ell * 1e3!r}mm", "--load", f"{load!r}N", "--json")
+    assert back.code == 0, back.err
+    want = models.pressure(ell, load, m, None if kind == "fitted" else name)
+    assert back.json()["pressure_Pa"] == pytest.approx(float(want.pressure), rel=1e-12)
+    assert float(want.pressure) == pytest.approx(0.4e6, rel=1e-7)  # the two inverses agree
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_closed_form_length_equals_the_solved_one(case, name):
+    law = laws.LAWS[name]
+    if law.length_of is None:
+        pytest.skip(f"{name} has no closed-form length (Law.length_of): solved by the scan alone")
+    kind, params, theta, m, path, fit = case(name)
+    l0 = float(m.nominal_length)
+    p = np.linspace(0.1e6, 0.8e6, 8)
+    load = 0.5 * laws.evaluate(name, p, l0, theta)
+    force = lambda pp, ell: laws.evaluate(name, pp, ell, theta)  # noqa: E731
+    exact = law_statics.rising_root(force, p, load, 0.5 * l0, 1.5 * l0, lambda pp, ww: law.length_of(theta, pp, ww))
+    scanned = law_statics.rising_root(force, p, load, 0.5 * l0, 1.5 * l0)
+    np.testing.assert_array_equal(exact[1], scanned[1])
+    # Chandrupatla's root to its default tolerance against the closed form
+    np.testing.assert_allclose(exact[0], scanned[0], rtol=1e-12)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_plant_runs_the_law_by_name_on_its_own_fields(name):
+    law = laws.LAWS[name]
+    base = PlantParams.for_muscle(get_muscle(CATALOGUE), force_model=name)
+    if law.plant_theta is None:  # its θ is not in the plant's fields: it needs the parameter object
+        with pytest.raises(InputError, match=f"force_model='{name}' needs its model object"):
+            base.law(1)
+        return
+    # a sweep over the plant's fields: each instance's θ is the law's of that instance alone
+    sweep = base.replace(r0=np.array([0.9, 1.1]) * base.r0, strand_length=np.array([1.0, 1.02]) * base.strand_length)
+    got, th = sweep.law()
+    assert got == name and th.shape == (laws.NTH, 2)
+    for i in range(2):
+        one = base.replace(r0=sweep.r0[i], strand_length=sweep.strand_length[i]).law(1)[1][:, 0]
+        np.testing.assert_array_equal(th[:, i], one)
+    f = laws.evaluate(name, 0.4e6, float(base.nominal_length), th)
+    assert np.all(np.isfinite(f)) and np.all(f > 0)  # it pulls at rest under pressure
 
 
 #: Laws whose fit to the commercial table the plant refuses, with the reason (strict: an xfail

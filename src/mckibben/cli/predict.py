@@ -14,12 +14,14 @@ from mckibben.errors import InputError
 from mckibben.limits import check_load, check_p_max
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
-from mckibben.models.mpam import predict_length, pressure_for_length
 from mckibben.units import parse_quantity, parse_values
 from mckibben.errors import unknown_name
 from mckibben.models.geometry import miniature_geometry
+from mckibben.models.muscle import Muscle
 from mckibben.models.static import force as static_force
 from mckibben.models.static import force_laws
+from mckibben.models.static import length as static_length
+from mckibben.models.static import pressure as static_pressure
 from mckibben import data, fit
 
 predict_app = typer.Typer(help="Predict length, pressure or force from a static model.", no_args_is_help=True)
@@ -28,6 +30,11 @@ app.add_typer(predict_app, name="predict")
 MUSCLE_OPTION = muscle_option("mpam97", "Published parameter set (see `mckibben params list`).")
 LOAD_OPTION = typer.Option("0.6N", "--load", help="Hanging load, e.g. 0.6N, 60gf, 2.1N.")
 PMAX_OPTION = typer.Option("0.8MPa", "--p-max", help="Highest pressure allowed.")
+LENGTH_MODEL_OPTION = typer.Option(None, "--model", help="A registered force law with a published parameter set, "
+                                   f"solved for the length: {', '.join(force_laws())} (default: braid-map, eq. 2 + 3; "
+                                   "old names read).")
+STATICS_FILE_OPTION = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law (mckibben fit "
+                                   "ISO.csv --save FILE.toml), solved for the length; replaces --model and --muscle.")
 
 
 def _rows_or_scalars(records: dict, scalar: bool) -> dict:
@@ -36,21 +43,46 @@ def _rows_or_scalars(records: dict, scalar: bool) -> dict:
     return records
 
 
+def _law(model: str | None) -> str | None:
+    """``--model``: a registered law with a published parameter set (old names read, with a deprecation note)."""
+    if model is None:
+        return None
+    if model not in laws.LAWS and model not in laws.ALIASES:
+        raise unknown_name("--model", model, force_laws())
+    name = laws.resolve(model)
+    if name not in force_laws():
+        raise InputError(f"--model: {name} has no published parameters for a catalogue muscle; fit it (mckibben fit "
+                         f"... --model {name} --save F.toml) and give --muscle-file F.toml")
+    return name
+
+
+def _statics_muscle(muscle: str, muscle_file: str | None, model: str | None, load: str):
+    """The muscle (a catalogue set, or a muscle file's fitted law), the law name, and the load [N] checked against it."""
+    if muscle_file is None:
+        m = get_muscle(muscle)
+        return m, _law(model), check_load(parse_quantity(load, "force", "--load"), m)
+    if model is not None:
+        raise InputError(f"--model: {model!r} with --muscle-file: the file carries its own fitted law; give one of them")
+    return Muscle.from_spec(data.read_muscle(muscle_file)), None, parse_quantity(load, "force", "--load")
+
+
 @predict_app.command("length")
 def length_cmd(
     muscle: str = MUSCLE_OPTION,
     pressure: str = typer.Option(..., "--pressure", help="Pressure, list or range: 0.8MPa, 0.2,0.4MPa, 0:0.8MPa:9."),
     load: str = LOAD_OPTION,
+    model: str = LENGTH_MODEL_OPTION,
+    muscle_file: str = STATICS_FILE_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
-    """Length and contraction at a pressure under a hanging load (eq. 2 + 3)."""
-    m = get_muscle(muscle)
+    """Length and contraction at a pressure under a hanging load (eq. 2 + 3, or a registered law solved for the length)."""
+    m, name, f = _statics_muscle(muscle, muscle_file, model, load)
     p = parse_values(pressure, "pressure", "--pressure")
-    f = check_load(parse_quantity(load, "force", "--load"), m)
-    r = predict_length(m, p, f)
+    r = static_length(p, f, m, name)
     flags = [flag_names(x) for x in r.flags]
     if json:
         out = {
+            "model": r.model,
             "muscle": m.name,
             "load_N": f,
             "pressure_Pa": r.pressure.tolist(),
@@ -66,7 +98,7 @@ def length_cmd(
         [f"{pp / 1e6:.4g}", f"{ll * 1e3:.2f}", f"{cc * 100:.1f}", f"{ct:.4f}", ", ".join(fl) or "ok"]
         for pp, ll, cc, ct, fl in zip(r.pressure, r.length, r.contraction, r.cos_theta, flags)
     ]
-    print_table(f"{m.name} under {f:g} N", ["pressure MPa", "length mm", "contraction %", "cos θ", "flags"], rows)
+    print_table(f"{m.name} under {f:g} N ({r.model})", ["pressure MPa", "length mm", "contraction %", "cos θ", "flags"], rows)
 
 
 @predict_app.command("pressure")
@@ -75,17 +107,19 @@ def pressure_cmd(
     length: str = typer.Option(..., "--length", help="Target length, list or range: 85mm, 80,85,90mm."),
     load: str = LOAD_OPTION,
     p_max: str = PMAX_OPTION,
+    model: str = LENGTH_MODEL_OPTION,
+    muscle_file: str = STATICS_FILE_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
-    """The pressure that holds a target length under a load (the inverse of eq. 2 + 3)."""
-    m = get_muscle(muscle)
+    """The pressure that holds a target length under a load (the inverse of eq. 2 + 3, or of a registered law)."""
+    m, name, f = _statics_muscle(muscle, muscle_file, model, load)
     lengths = parse_values(length, "length", "--length", allow_zero=False)
-    f = check_load(parse_quantity(load, "force", "--load"), m)
     pmax = check_p_max(parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    r = pressure_for_length(m, lengths, f, pmax)
+    r = static_pressure(lengths, f, m, name, pmax)
     flags = [flag_names(x) for x in r.flags]
     if json:
         out = {
+            "model": r.model,
             "muscle": m.name,
             "load_N": f,
             "p_max_Pa": pmax,
@@ -102,7 +136,7 @@ def pressure_cmd(
         [f"{ll * 1e3:.2f}", "unreachable" if not np.isfinite(pp) else f"{pp / 1e6:.4f}", f"{cc * 100:.1f}", ", ".join(fl) or "ok"]
         for ll, pp, cc, fl in zip(r.length, r.pressure, r.contraction, flags)
     ]
-    print_table(f"{m.name} under {f:g} N, p ≤ {pmax / 1e6:g} MPa", ["length mm", "pressure MPa", "contraction %", "flags"], rows)
+    print_table(f"{m.name} under {f:g} N, p ≤ {pmax / 1e6:g} MPa ({r.model})", ["length mm", "pressure MPa", "contraction %", "flags"], rows)
 
 
 @predict_app.command("force")

@@ -58,6 +58,7 @@ from mckibben.errors import InputError, check_instance, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range, heldout_flags, linear_fit
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
+from mckibben.models.law_statics import rising_root
 from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
 from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
@@ -357,7 +358,7 @@ def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
 
 
 def law_length(res: FitResult, pressure, load, lo: float, hi: float) -> np.ndarray:
-    """Length at which a fitted law pulls a load, by bisection on [lo, hi]; NaN where it does not cross. [m]
+    """Length at which a fitted law pulls a load (:func:`mckibben.models.law_statics.rising_root`); NaN where it does not cross. [m]
 
     Parameters
     ----------
@@ -373,24 +374,11 @@ def law_length(res: FitResult, pressure, load, lo: float, hi: float) -> np.ndarr
     Returns
     -------
     numpy.ndarray
-        Length, broadcast over ``pressure`` and ``load``. [m]
+        Length, broadcast over ``pressure`` and ``load``: the shortest in ``[lo, hi]`` where the law
+        passes the load, NaN where it pulls more at ``lo`` or never reaches it. [m]
     """
-    p, f = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
-    a, b = np.full(p.shape, float(lo)), np.full(p.shape, float(hi))
-
-    def g(ell):
-        with np.errstate(all="ignore"):
-            return np.asarray(res.func(res.values, p, ell, "inflate"), dtype=float) - f
-
-    ga, gb = g(a), g(b)
-    ok = (np.sign(ga) != np.sign(gb)) & np.isfinite(ga) & np.isfinite(gb)
-    for _ in range(60):  # 2^-60 of the bracket
-        m = 0.5 * (a + b)
-        gm = g(m)
-        left = np.sign(gm) == np.sign(ga)
-        a, ga = np.where(left, m, a), np.where(left, gm, ga)
-        b = np.where(left, b, m)
-    return np.where(ok, 0.5 * (a + b), np.nan)
+    length, state = rising_root(lambda p, ell: res.func(res.values, p, ell, "inflate"), pressure, load, lo, hi)
+    return np.where(state == 0, length, np.nan)
 
 
 def max_error(residuals, force) -> tuple[float, float]:

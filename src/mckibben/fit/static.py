@@ -19,6 +19,20 @@ fit_first_order           step_response      p = p0 + (p∞ − p0)(1 − e^{−
 
 Pressure inside the cubics and the surface is in MPa, as the paper prints them (parameter names
 say so: ``c3_per_MPa3``); everything else is SI.
+
+**Why three laws keep an isotonic fit of their own.** Every registered law with a fit spec is fitted
+to an isotonic table through its force (:func:`mckibben.fit.isometric.fit_isotonic_law`: each
+point is F(P, L) = load, residuals in newtons, with the load cell's zero). ``fit_spring``,
+``fit_chou_hannaford`` and ``fit_tondu_lopez`` are different estimators, not copies of those laws:
+their residuals are in *length* (what an isotonic rig measures: the error is in the length, the
+load is a known hanging mass, so there is no load-cell zero to fit), the braid laws solve the law
+for the length (:func:`mckibben.models.physical.length_under_load`, the law's own kernel through
+the one solver :func:`mckibben.models.law_statics.rising_root`; Tondu–Lopez its closed-form
+contraction), and the spring model fits its unstretched length Lu(P) and stiffness per pressure
+range ([wickramatunge2010], eq. 1–2), a structure the isometric fit spec does not have. The laws'
+formulas are not written here: each fit calls the law's own functions. The names under which
+``fit`` and ``compare`` offer them are still listed in :mod:`mckibben.fit.registry`,
+:mod:`mckibben.fit.compare` and :mod:`mckibben.fit.names` (the remaining hand lists of issue 32).
 """
 
 from __future__ import annotations

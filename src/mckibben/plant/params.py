@@ -534,8 +534,6 @@ class PlantParams:
         """
         n = self.size() if n is None else int(n)
         fm = self.force_model
-        col = {f: np.broadcast_to(np.asarray(getattr(self, f), dtype=float), (n,)) for f in
-               ("r0", "alpha0", "k_tl", "p_threshold", "nominal_length", "strand_length", "ch_turns", "wall_thickness")}
         if not isinstance(fm, str):
             try:
                 name, th = LW.law_of(fm)
@@ -543,20 +541,20 @@ class PlantParams:
                 raise InputError(f"force_model = {fm!r}: {exc}") from None
             return name, np.repeat(th[:, None], n, axis=1)
         name = LAW_NAMES[fm]
-        if name == "tondu-lopez":
-            return name, LW.tondu_lopez_theta(col["r0"], col["alpha0"], col["k_tl"], col["p_threshold"],
-                                              col["nominal_length"])
-        if name in ("chou-hannaford", "wall-corrected"):
-            t = col["wall_thickness"] if name == "wall-corrected" else 0.0
-            return name, LW.chou_hannaford_theta(col["strand_length"], col["ch_turns"], t)
-        if name == "braid-map":
-            muscle = self.muscle
-            if muscle is None:
-                if not self.muscle_name:
-                    raise InputError("force_model='empirical' needs a muscle (PlantParams.for_muscle or muscle=...)")
-                muscle = get_muscle(self.muscle_name)
-            return name, np.repeat(LW.braid_map_theta(muscle)[:, None], n, axis=1)
-        raise InputError(f"force_model={fm!r} needs its model object (e.g. force_model=SpringModel(...))")
+        law = LW.LAWS[name]
+        if law.plant_theta is None:  # the law's θ is not in the plant's columns: it needs its parameter object
+            what = law.params.__name__ if law.params is not None else "its parameter object"
+            raise InputError(f"force_model={fm!r} needs its model object (e.g. force_model={what}(...))")
+        col = {f: np.broadcast_to(np.asarray(getattr(self, f), dtype=float), (n,)) for f in _FIELDS}
+
+        def muscle():
+            if self.muscle is not None:
+                return self.muscle
+            if not self.muscle_name:
+                raise InputError(f"force_model={fm!r} needs a muscle (PlantParams.for_muscle or muscle=...)")
+            return get_muscle(self.muscle_name)
+
+        return name, np.asarray(law.plant_theta(col, muscle), dtype=float)
 
     def prepare(self, n: int | None = None):
         """Everything the integrator needs, checked: ``(prm (N, NP), law index, θ (NTH, N), law name)``.

@@ -42,7 +42,13 @@ plant, the tool, muscle files, ``params``, the MuJoCo bridge, the FMU) and the c
    ``predict force --model <name>`` and :func:`mckibben.models.force` use it; None: the law needs a
    fit or a muscle file), ``static_flags`` (``static_flags(params, pressure, length, force) ->
    Flag mask``: where the law itself does not hold; every law is flagged for the pressure range,
-   slack and NaN without it).
+   slack and NaN without it), ``plant_theta`` (``plant_theta(columns, muscle) -> θ (NTH, N)``: the
+   law's θ from a plant's own fields, so ``PlantParams(force_model="<name>")`` runs it and sweeps
+   over those fields work; None: the plant needs the law's parameter object). A law's statics
+   (length under a load, pressure for a length: ``predict length|pressure --model``,
+   :func:`mckibben.models.length`) are its force solved by
+   :func:`mckibben.models.law_statics.rising_root`; nothing to add for them (a law with a closed-form
+   inverse may give it as ``length_of(theta, pressure, load) -> length``, used instead of the scan).
 
 The conformance suite checks a law on its fit to the bundled commercial table when it has a fit
 spec, else on ``published(get_muscle("mpam143"))``; a law with neither fails it (nothing could use

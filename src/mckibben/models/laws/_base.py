@@ -102,6 +102,17 @@ class Law:
         ``static_flags(params, pressure [Pa], length [m], force [N]) -> Flag mask``: where the law
         itself is not valid (beyond the pressure range, slack and NaN, which every law is flagged
         for by :func:`mckibben.models.force`). [-]
+    plant_theta : callable, optional
+        ``plant_theta(columns, muscle) -> θ (NTH, N)``: the law's θ from a plant's own parameter
+        columns (``columns``: field name -> array of the N instances, SI, e.g. ``r0``,
+        ``strand_length``; ``muscle()``: the plant's catalogue muscle, for a law read from a
+        published set), so ``PlantParams(force_model="<name>")`` and sweeps over those fields run the
+        law without a parameter object. None: the plant needs the law's parameter object. [SI]
+    length_of : callable, optional
+        ``length_of(theta (NTH,), pressure [Pa], load [N]) -> length [m]``: the law's own closed-form
+        inverse (its force solved for the length on its rising branch; NaN where it never pulls the
+        load), which :func:`mckibben.models.law_statics.rising_root` uses instead of scanning and
+        root finding. Optional: every law is solved without it. [m]
     extra : dict
         Law-specific facts other code may read (``optional_names``). [-]
     """
@@ -123,6 +134,8 @@ class Law:
     c_rows: dict = field(default_factory=dict)
     published: Callable | None = None
     static_flags: Callable | None = None
+    plant_theta: Callable | None = None
+    length_of: Callable | None = None
 
     @property
     def stem(self) -> str:

@@ -70,6 +70,35 @@ def chou_hannaford_theta(strand_length, turns, wall_thickness=0.0) -> np.ndarray
     return th
 
 
+def chou_hannaford_length(theta, pressure, load) -> np.ndarray:
+    """The length at which the ideal braid pulls a load: eq. (6) solved for cos θ = l/b.
+
+    cos θ = √((F/(π·D0²·P/4) + 1)/3), at least 1/√3 (the locking angle, where the pull is zero).
+
+    Parameters
+    ----------
+    theta : numpy.ndarray
+        The law's θ, shape ``(NTH,)`` (:func:`chou_hannaford_theta`). [SI]
+    pressure : array_like
+        Gauge pressure. [Pa]
+    load : array_like
+        The load to pull. [N]
+
+    Returns
+    -------
+    numpy.ndarray
+        Length; NaN where P ≤ 0 (no pull). [m]
+
+    References
+    ----------
+    Chou & Hannaford (1996), eq. (6).
+    """
+    p, f = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.sqrt((f / (theta[CH_C] * p) + 1.0) / 3.0)
+    return np.where(p > 0, c * theta[CH_B], np.nan)
+
+
 def chou_hannaford_force(pressure, length, geom: BraidGeometry):
     """Pulling force of the ideal thin-walled muscle.
 
@@ -212,6 +241,8 @@ LAW = Law(
     published=lambda muscle: miniature_geometry(muscle.nominal_length, muscle.geometry, wall=False),
     static_flags=braid_range_flags,
     c_rows={"CH_B": CH_B, "CH_C": CH_C},
+    plant_theta=lambda col, muscle: chou_hannaford_theta(col["strand_length"], col["ch_turns"], 0.0),
+    length_of=chou_hannaford_length,
 )
 
 

@@ -281,6 +281,9 @@ LAW = Law(
     params=TonduLopez, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
     from_values=from_values, needs=("nominal_length", "outer_diameter"), published=published,
     c_rows={"TL_R0": TL_R0, "TL_A": TL_A, "TL_B": TL_B, "TL_K": TL_K, "TL_PTH": TL_PTH, "TL_IL0": TL_IL0},
+    # the plant's calibrated columns: radius and braid angle at rest, k, threshold pressure
+    plant_theta=lambda col, muscle: tondu_lopez_theta(col["r0"], col["alpha0"], col["k_tl"], col["p_threshold"],
+                                                      col["nominal_length"]),
 )
 
 

@@ -88,6 +88,7 @@ LAW = Law(
     published=lambda muscle: miniature_geometry(muscle.nominal_length, muscle.geometry, wall=True),
     static_flags=braid_range_flags,
     c_rows={"CH_B": CH_B, "CH_C": CH_C, "CH_D0": CH_D0, "CH_T": CH_T},
+    plant_theta=lambda col, muscle: chou_hannaford_theta(col["strand_length"], col["ch_turns"], col["wall_thickness"]),
 )
 
 
