@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import json
+import os
 import re
 import subprocess
 import sys
@@ -34,8 +35,9 @@ def _clean(text: str, where: str) -> None:
 
 def _mckibben(*args: str, cwd: Path) -> tuple[str, str]:
     """``mckibben ARGS`` as a user runs it, a separate process: (stdout, stderr)."""
+    env = {**os.environ, "COLUMNS": "250"}  # a wide terminal: the tables wrap their cells to $COLUMNS
     r = subprocess.run([sys.executable, "-m", "mckibben.cli", *args], capture_output=True, text=True, timeout=600,
-                       cwd=cwd)
+                       cwd=cwd, env=env)
     assert r.returncode == 0, (args, r.stderr[-2000:])
     return r.stdout, r.stderr
 

@@ -221,7 +221,7 @@ def test_fit_muscle_flags_bad_input(cli, tmp_path, args, message):
 
 @pytest.mark.parametrize("command, hint", [
     (["predict", "force", "--pressure", "0.3MPa"], "give a muscle file with --muscle-file mine.toml"),
-    (["predict", "length", "--pressure", "0.3MPa"], "this command runs the published sets only"),
+    (["predict", "length", "--pressure", "0.3MPa"], "give a muscle file with --muscle-file mine.toml"),
     (["export", "fmu", "--out", "x.fmu"], "give a muscle file with --muscle-file mine.toml"),
     (["tool", "fk", "--lengths", "117mm,112mm,115mm"], "give a muscle file with --muscle-file mine.toml"),
 ])

@@ -105,8 +105,8 @@ def _published_set(ctx: typer.Context, value: str | None) -> str | None:
     if value is not None and _looks_like_file(value):
         takes_file = any("--muscle-file" in p.opts for p in ctx.command.params)
         hint = (f"give a muscle file with --muscle-file {value}" if takes_file else
-                "this command runs the published sets only (a muscle file runs in predict force, simulate, control, "
-                "tool and export fmu, with --muscle-file)")
+                "this command runs the published sets only (a command that runs a muscle file lists --muscle-file "
+                "in its --help)")
         raise InputError(f"--muscle: {value!r} is a file; --muscle names a published parameter set "
                          f"(mckibben params list); {hint}")
     return value

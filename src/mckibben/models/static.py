@@ -266,8 +266,8 @@ def _statics(muscle, model: str | None):
     name = laws.resolve("braid-map" if model is None else model, "model")
     law = laws.LAWS[name]
     if law.published is None:
-        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data: "
-                         f"mckibben fit ... --model {name} --save FILE.toml); these have: {', '.join(force_laws())}")
+        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data "
+                         f"with mckibben.fit and use the fitted muscle); these have: {', '.join(force_laws())}")
     _check_muscle(muscle)
     params = law.published(muscle)
     if hasattr(params, "length_for_pressure") and hasattr(params, "pressure_for_length"):
@@ -400,8 +400,8 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
     name = laws.resolve(model, "force model")
     law = laws.LAWS[name]
     if law.published is None:
-        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data: "
-                         f"mckibben fit ... --model {name} --save FILE.toml); these have: {', '.join(force_laws())}")
+        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data "
+                         f"with mckibben.fit and use the fitted muscle); these have: {', '.join(force_laws())}")
     _check_muscle(muscle)
     p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
     params = law.published(muscle)
