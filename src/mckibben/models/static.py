@@ -352,7 +352,10 @@ def pressure(length, load, muscle, model: str | None = None, p_max: float = 0.8e
         With ``model`` the law's registry name; ``pressure`` NaN where unreachable.
     """
     name, statics, params = _statics(muscle, model)
-    pmax = float(_si(p_max, "pressure", "p_max"))
+    pmax_arr = np.asarray(_si(p_max, "pressure", "p_max"))
+    if pmax_arr.size != 1:
+        raise InputError(f"p_max = {p_max!r}: one pressure, not {pmax_arr.size} values")
+    pmax = float(pmax_arr.reshape(()))
     if not pmax > 0:
         raise InputError(f"p_max = {p_max!r}: must be above 0 Pa")
     ell, f = _pair(MAX_SOLVE_POINTS, length=length, load=load)
