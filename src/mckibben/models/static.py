@@ -263,13 +263,7 @@ def _statics(muscle, model: str | None):
             raise InputError(f"model: {model!r} is not the {muscle.law} law of muscle {muscle.name!r}; "
                              "leave it out to use the muscle's own law")
         return muscle.law, muscle, None
-    name = laws.resolve("braid-map" if model is None else model, "model")
-    law = laws.LAWS[name]
-    if law.published is None:
-        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data "
-                         f"with mckibben.fit and use the fitted muscle); these have: {', '.join(force_laws())}")
-    _check_muscle(muscle)
-    params = law.published(muscle)
+    name, law, params = _published("braid-map" if model is None else model, muscle, "model")
     if hasattr(params, "length_for_pressure") and hasattr(params, "pressure_for_length"):
         return name, params, params
     b = getattr(params, "strand_length", None) or miniature_geometry(muscle.nominal_length, muscle.geometry).strand_length
@@ -277,6 +271,18 @@ def _statics(muscle, model: str | None):
                    tuple(muscle.braid_map.pressure_range), (b / np.sqrt(3.0), b), muscle.geometry.outer_diameter,
                    citation=law.citation)
     return name, lm, params
+
+
+def _published(model: str, muscle, what: str):
+    """``(name, law, params)``: the registered law ``model`` (``what`` names it in errors) with its
+    published parameters for the catalogue ``muscle``; refused where the law has none."""
+    name = laws.resolve(model, what)
+    law = laws.LAWS[name]
+    if law.published is None:
+        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data "
+                         f"with mckibben.fit and use the fitted muscle); these have: {', '.join(force_laws())}")
+    _check_muscle(muscle)
+    return name, law, law.published(muscle)
 
 
 def _law_flags(name: str, params, p, ell, load, flags) -> np.ndarray:
@@ -400,14 +406,8 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
     if not isinstance(model, str):
         raise ArgumentTypeError(f"model = {model!r}: not a model name ({type(model).__name__}); "
                                 f"give one of: {', '.join(force_laws())}")
-    name = laws.resolve(model, "force model")
-    law = laws.LAWS[name]
-    if law.published is None:
-        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data "
-                         f"with mckibben.fit and use the fitted muscle); these have: {', '.join(force_laws())}")
-    _check_muscle(muscle)
+    name, law, params = _published(model, muscle, "force model")
     p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
-    params = law.published(muscle)
     for key, value in options.items():
         if not hasattr(params, key) or not dataclasses.is_dataclass(params):
             raise InputError(f"{key}: the {name} law's parameters have no {key!r}")
@@ -415,6 +415,5 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
     f = np.asarray(laws.evaluate(name, p, ell, law.theta_of(params, "elongation")), dtype=float)
     flags = (outside(p, *muscle.braid_map.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
              | flag_where(f < 0.0, Flag.SLACK) | flag_where(np.isnan(f), Flag.UNREACHABLE))
-    if law.static_flags is not None:
-        flags = flags | law.static_flags(params, p, ell, f)
-    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, np.asarray(flags).astype(np.uint16))
+    flags = _law_flags(name, params, p, ell, f, flags)
+    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)
