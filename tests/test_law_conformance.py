@@ -36,7 +36,7 @@ from mckibben.datasets import get_muscle
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
 from mckibben.errors import InputError
 from mckibben.export import export_fmu
-from mckibben.export.fmu import law_defines, laws_c
+from mckibben.plant.c_layout import law_defines, laws_c
 from mckibben.fit.compare import compare_models
 from mckibben.fit.isometric import fit_isometric, fit_isotonic_law, fit_points, law_length
 from mckibben.fit.muscle_file import muscle_force_law, save_muscle_file

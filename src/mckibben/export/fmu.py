@@ -79,8 +79,6 @@ THETA_VR = 100
 CFLAGS = ("-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra")
 #: Control period and RK4 substeps of the FMU's integrator: :func:`mckibben.plant.simulate`'s defaults.
 TS, SUBSTEPS = CL.TS, CL.SUBSTEPS
-#: The generated C of the laws and the header's law rows (one source: :mod:`mckibben.plant.c_layout`).
-laws_c, law_defines = CL.laws_c, CL.law_defines
 
 _UNITS = {"Pa": 'kg="1" m="-1" s="-2"', "m": 'm="1"', "N": 'kg="1" m="1" s="-2"'}
 
@@ -144,10 +142,10 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
     plant = _plant(muscle, muscle_file, plant, load, supply, direction)
     ctrl = _controller(controller, plant, muscle_file, law, beta)
     prm, law_index, theta, name = plant.prepare(1)
-    if LW.LAWS[name].c_source() is None:
-        have = ", ".join(n for n, lw in LW.LAWS.items() if lw.c_source() is not None)
+    have = CL.c_laws()
+    if name not in have:
         raise InputError(f"force law {name}: it has no C face (models/laws/{LW.LAWS[name].stem}.c), so no FMU "
-                         f"(these laws have one: {have})")
+                         f"(these laws have one: {', '.join(have)})")
     headers = _fmi_headers(fmi)
     cc = _compiler()
     label = _label(plant, muscle, muscle_file)
@@ -162,7 +160,7 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         pkg = resources.files("mckibben.export") / "c"
         for fname in PLANT_SOURCES + (f"fmi{fmi}_plant.c",):
             (src / fname).write_bytes((pkg / fname).read_bytes())
-        (src / "mk_laws.c").write_text(laws_c())
+        (src / "mk_laws.c").write_text(CL.laws_c())
         sources: tuple[str, ...] = ("mk_plant.c", "mk_laws.c", "mk_loop.c", f"fmi{fmi}_plant.c")
         if core is not None:
             for fname in FIRMWARE_SOURCES:
@@ -318,8 +316,6 @@ def _validate(path: Path) -> None:
     if problems:
         raise RuntimeError("the written FMU does not validate: " + "; ".join(problems))
 
-
-_c = CL.c_double
 
 
 def _xml(x: float) -> str:

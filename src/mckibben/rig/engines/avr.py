@@ -138,12 +138,13 @@ def write_params(plants, path: Path) -> None:
         The text file to write. [-]
     """
     nf = len(PP.field_names())
+    have = CL.c_laws()
     lines = []
     for i, p in enumerate(plants):
         prm, law, theta, name = p.prepare(1)
-        if name not in CL.c_laws():
+        if name not in have:
             raise InputError(f"plant: channel {i}'s force law {name} has no C face (models/laws/<law>.c), so "
-                             f"the C plant cannot run it (those that have one: {', '.join(CL.c_laws())})")
+                             f"the C plant cannot run it (those that have one: {', '.join(have)})")
         if p.pressure_noise != 0:
             raise InputError(f"plant: channel {i} has pressure_noise; the avr engine's sensors are noiseless")
         lines.append(" ".join([str(int(law)), *(CL.c_double(v) for v in prm[0, :nf]),
