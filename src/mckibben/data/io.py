@@ -25,7 +25,7 @@ from mckibben.errors import ArgumentTypeError, check_instance
 from mckibben.errors import InputError
 from mckibben.units import G_N, UNITS, to_si, units_of
 from mckibben.errors import unknown_name
-from mckibben.limits import PLAUSIBLE_MAX, first_implausible
+from mckibben.limits import PLAUSIBLE_MAX, PLAUSIBLE_MIN_LENGTH, first_implausible
 from mckibben.units import SI_UNIT
 from mckibben.results import check_ax, shown_once
 
@@ -557,6 +557,14 @@ def _check_plausible(data: pd.DataFrame, cols: dict, name: str, is_csv: bool) ->
             r = int(data.index[i])
             raise InputError(f"{_where(name, r, col, is_csv)}: {_g(data[q].iloc[i])} {SI_UNIT[dim]} is not a plausible "
                              f"{QUANTITIES[q][2].split(' (')[0]} (more than {PLAUSIBLE_MAX[dim]:g} {SI_UNIT[dim]})")
+        if dim == "length":
+            v = data[q].to_numpy(dtype=float)
+            short = np.flatnonzero(np.isfinite(v) & (v < PLAUSIBLE_MIN_LENGTH))
+            if short.size:
+                r = int(data.index[short[0]])
+                raise InputError(f"{_where(name, r, col, is_csv)}: {_g(v[short[0]] * 1e3)} mm is not a plausible "
+                                 f"{QUANTITIES[q][2].split(' (')[0]} (below {PLAUSIBLE_MIN_LENGTH * 1e3:g} mm); "
+                                 f"the column {col} holds metres? (97 mm is 97 in a _mm column, 0.097 in a _m one)")
 
 
 #: Measured (continuous) set points: values are split into groups where the gap between sorted
@@ -992,6 +1000,9 @@ def read_muscle(path) -> MuscleSpec:
         if quantity in values:
             raise InputError(f"{name}: keys give {quantity} twice; keep one")
         values[quantity] = float(to_si(float(raw), unit, dim))
+        if quantity in ("nominal_length", "strand_length") and values[quantity] < PLAUSIBLE_MIN_LENGTH:
+            raise InputError(f"{name}: key {key}: {raw!r} is not a plausible length for a braided muscle (at least "
+                             f"{PLAUSIBLE_MIN_LENGTH / to_si(1.0, unit, dim):g} {unit})")
         top = MUSCLE_MAX_SIZE.get(quantity)
         if top is not None and not values[quantity] <= top:
             raise InputError(f"{name}: key {key}: {raw!r} is not a plausible size for a braided muscle "

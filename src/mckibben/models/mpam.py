@@ -172,6 +172,16 @@ class MiniatureMuscle:
         """Outer diameter of the braided muscle (its construction's). [m]"""
         return self.geometry.outer_diameter
 
+    @property
+    def length_stops(self) -> tuple[float, float]:
+        """The braid's end stops through eq. (2): locking angle (cos θ = 1/√3) and straight braid (cos θ = 1). [m]
+
+        ``k1·Ls/√3 + k2`` and ``k1·Ls + k2`` ([mpam-characterization], eq. (2)); no length outside
+        them is a length this muscle can take (the plant's end stops are the same).
+        """
+        k1ls = self.k1 * self.strand_length
+        return k1ls / float(np.sqrt(3.0)) + self.k2, k1ls + self.k2
+
     def length_for_pressure(self, pressure, load) -> "LengthPrediction":
         """Length at a pressure under a hanging load: :func:`predict_length` (the muscle statics' interface).
 
@@ -220,12 +230,18 @@ MAX_POINTS = 10**7
 MAX_SOLVE_POINTS = 10**6
 
 
+#: Arguments of the static models that are physically positive: a length of zero or below is
+#: refused rather than flagged (no muscle has one; flags are for values a muscle could take). [-]
+POSITIVE_ARGUMENTS = ("length",)
+
+
 def check_points(limit: int = MAX_POINTS, **arrays) -> list[np.ndarray]:
     """The named arguments as finite float arrays, broadcast together, refused past ``limit`` elements.
 
     Each argument is checked by :func:`~mckibben.errors.check_array` (None, bool, text, NaN and
     infinity refused, naming it), then their shapes must broadcast and the broadcast size must be
-    at most ``limit``: both checked before anything of that size is allocated.
+    at most ``limit``: both checked before anything of that size is allocated. A length
+    (:data:`POSITIVE_ARGUMENTS`) must be above zero.
 
     Parameters
     ----------
@@ -244,6 +260,10 @@ def check_points(limit: int = MAX_POINTS, **arrays) -> list[np.ndarray]:
     empty = [n for n, a in checked.items() if a.size == 0]
     if empty:
         raise InputError(f"{empty[0]}: an empty array; give at least one value")
+    for name in POSITIVE_ARGUMENTS:
+        if name in checked and checked[name].min() <= 0:
+            raise InputError(f"{name}: {checked[name].min():g} m is not a muscle's length; a length is > 0 "
+                             "(in metres: 97 mm is 0.097)")
     try:
         shape = np.broadcast_shapes(*(a.shape for a in checked.values()))
     except ValueError:

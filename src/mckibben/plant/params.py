@@ -38,6 +38,12 @@ GAMMA = 1.4  #: ratio of specific heats of air [-]
 #: (Incropera & DeWitt, Fundamentals of Heat and Mass Transfer, §8.4.1): h = Nu·k/d.
 NUSSELT_TUBE = 3.66
 K_AIR = 0.0257  #: thermal conductivity of air at 20 °C [W/(m·K)]
+#: Temperatures of the air the plant accepts: from a cold store to a hot workshop, well inside the
+#: range where air is an ideal gas with constant γ (what the chamber model assumes). [K]
+TEMPERATURE_RANGE = (200.0, 400.0)
+#: Lightest moving mass the plant accepts: a milligram. The mechanics' time constant falls as √m,
+#: and far below this it is shorter than any integrator step a 1 ms control period allows. [kg]
+MIN_MOVING_MASS = 1e-6
 
 #: Force laws, by name: the registry's names and old aliases (:mod:`mckibben.models.laws`, the one
 #: vocabulary), plus ``calibrated``: Tondu–Lopez with the plant's calibrated columns.
@@ -483,6 +489,9 @@ class PlantParams:
 
     def size(self) -> int:
         """N, the number of instances the array-valued fields describe (1 if all scalars)."""
+        empty = [f for f in _FIELDS if np.size(getattr(self, f)) == 0]
+        if empty:
+            raise InputError(f"plant parameter {empty[0]}: an empty array; give a number, or one value per instance")
         sizes = {np.size(getattr(self, f)) for f in _FIELDS} - {1}
         if len(sizes) > 1:
             raise InputError(f"plant parameters: arrays of different lengths {sorted(sizes)}")
@@ -659,7 +668,12 @@ def validate(p: np.ndarray, law_fields: bool = True) -> None:
     check(col["driver_gain"] > 0, "driver_gain", "must be > 0")
     check(col["dead_volume"] > 0, "dead_volume", "a volume must be > 0")
     check((col["polytropic_n"] >= 1) & (col["polytropic_n"] <= 1.4), "polytropic_n", "must be in [1, 1.4]")
-    check(col["temperature"] > 0, "temperature", "must be > 0 K")
+    check((col["temperature"] >= TEMPERATURE_RANGE[0]) & (col["temperature"] <= TEMPERATURE_RANGE[1]), "temperature",
+          f"the air's temperature must be in [{TEMPERATURE_RANGE[0]:g}, {TEMPERATURE_RANGE[1]:g}] K, where the "
+          f"chamber's ideal-gas model holds (a value in °C or a unit slip?)")
+    check(col["moving_mass"] >= MIN_MOVING_MASS, "moving_mass",
+          f"must be at least {MIN_MOVING_MASS:g} kg (a milligram): a lighter mass makes the mechanics stiffer than "
+          f"the integrator's step (a unit slip?)")
     for name in ("nominal_length", "strand_length", "outer_diameter", "inner_diameter", "k1", "moving_mass",
                  "pa_per_count", "encoder_resolution", "friction_stiffness", "tube_diameter"):
         check(col[name] > 0, name, "must be > 0")

@@ -340,6 +340,13 @@ def load_sweep(path: str | Path) -> Sweep:
         if m not in METRICS:
             raise unknown_name(f"metric in {path}", m, METRICS)
 
+    if not doc:
+        raise InputError(f"{path}: the sweep file is empty; it names the parameters to vary (a grid or a "
+                         f"distribution) in [plant] or [controller] (`mckibben examples copy sweep.toml` has one)")
+    if samples == 1 and all(kind_ == "const" for kind_, _ in params.values()):
+        raise InputError(f"{path}: nothing varies (one sample, every parameter fixed); give a [plant] or "
+                         f"[controller] parameter a grid or a distribution ({', '.join(DISTRIBUTIONS)}), or "
+                         f"[sweep] samples > 1")
     grid_names = tuple(k for k, (kind_, _) in params.items() if kind_ == "grid")
     grids = [params[k][1] for k in grid_names]
     points = list(itertools.product(*grids)) if grids else [()]
