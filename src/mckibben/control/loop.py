@@ -17,10 +17,11 @@ from mckibben.control.metrics import step_metrics
 from mckibben.control.plant_sampling import to_plant_params
 from mckibben.limits import check_budget
 from mckibben.plant import simulate
+from mckibben.results import TimeResponse
 
 
 @dataclass(frozen=True)
-class LoopRecord:
+class LoopRecord(TimeResponse):
     """Sampled closed-loop record, one row per instance, one column per control period.
 
     Parameters
@@ -49,6 +50,8 @@ class LoopRecord:
     faults: np.ndarray
     length: np.ndarray
     fstate: np.ndarray | None = None
+
+    SIGNALS = ("reference", "pressure", "inlet", "bleed", "command", "length", "faults")
 
     @cached_property
     def command(self) -> np.ndarray:

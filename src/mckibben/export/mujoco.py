@@ -60,7 +60,7 @@ from mckibben.models.mpam import MiniatureMuscle, predict_length
 from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import static_equilibrium
-from mckibben.results import Result
+from mckibben.results import Result, TimeResponse
 from mckibben.units import si
 
 __all__ = ["MuscleBank", "HangingMassResult", "MuscleRunResult", "hanging_mass", "hanging_mass_mjcf", "load_model",
@@ -542,7 +542,7 @@ def hanging_mass_mjcf(plant: PP.PlantParams, load: float, timestep: float = 1e-4
 
 
 @dataclass(frozen=True, eq=False)
-class HangingMassResult(Result):
+class HangingMassResult(Result, TimeResponse):
     """A mass hanging from one muscle in MuJoCo, its pressure held by a controller: the static length.
 
     Attributes
@@ -576,6 +576,8 @@ class HangingMassResult(Result):
     plant_length: float
     arguments: dict = field(default_factory=dict)
     call = "mckibben.export.mujoco.hanging_mass"
+    TIME = "time"
+    SIGNALS = ("pressure", "length", "tension")
 
     @property
     def metrics(self) -> dict:
@@ -590,10 +592,7 @@ class HangingMassResult(Result):
                 "tension_N": float(np.mean(self.tension[tail]))}
 
     def _series(self):
-        import pandas as pd
-
-        return pd.DataFrame({"time_s": self.time, "pressure_Pa": self.pressure, "length_m": self.length,
-                             "tension_N": self.tension})
+        return self.frame()
 
     def plot(self, ax=None):
         """Length against the predicted static length, and pressure, over time.
@@ -695,7 +694,7 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
 
 
 @dataclass(frozen=True, eq=False)
-class MuscleRunResult(Result):
+class MuscleRunResult(Result, TimeResponse):
     """A MuJoCo model run with muscles on some of its tendons (:func:`run_model`).
 
     Attributes
@@ -723,6 +722,10 @@ class MuscleRunResult(Result):
     faults: np.ndarray
     arguments: dict = field(default_factory=dict)
     call = "mckibben.export.mujoco.run_model"
+    TIME = "time"
+    SIGNALS = ("pressure", "length", "tension")
+    CHANNELS = True
+    CHANNEL_COLUMN = "{label}_{quantity}_{unit}"
 
     @property
     def metrics(self) -> dict:
@@ -731,15 +734,11 @@ class MuscleRunResult(Result):
                 "final_length_m": self.length[-1].tolist(), "final_tension_N": self.tension[-1].tolist(),
                 "end_stop": self.end_stop.tolist(), "controller_faults": self.faults.tolist()}
 
-    def _series(self):
-        import pandas as pd
+    def _channel_labels(self, name: str, k: int) -> tuple[str, ...]:
+        return tuple(self.tendons)
 
-        data = {"time_s": self.time}
-        for i, name in enumerate(self.tendons):
-            data[f"{name}_pressure_Pa"] = self.pressure[:, i]
-            data[f"{name}_length_m"] = self.length[:, i]
-            data[f"{name}_tension_N"] = self.tension[:, i]
-        return pd.DataFrame(data)
+    def _series(self):
+        return self.frame()
 
     def plot(self, ax=None):
         """Each muscle's pressure and length over time.

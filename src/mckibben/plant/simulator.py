@@ -37,6 +37,7 @@ from mckibben import hardware as HW
 from mckibben._jit import njit
 from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_instance, check_int, check_real
 from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
+from mckibben.results import TimeResponse
 from mckibben.models import laws as LW
 from mckibben.models.laws._base import evaluate_points
 from mckibben.plant import _runner
@@ -62,7 +63,7 @@ NP, NTH, NS, W = PP.NP, LW.NTH, ph.NS, ph.W
 
 
 @dataclass(frozen=True, repr=False, eq=False)
-class SimResult:
+class SimResult(TimeResponse):
     """Sampled result of a batch simulation (row i is instance i, column k control period k).
 
     Attributes
@@ -117,6 +118,8 @@ class SimResult:
     temperature: np.ndarray | None = None
     recorded: tuple = SERIES
 
+    SIGNALS = ("pressure", "pressure_measured", "length", "force", "inlet", "bleed", "faults", "reference")
+
     def __getattribute__(self, name):
         if name in _SERIES_SET and name not in object.__getattribute__(self, "recorded"):
             raise AttributeError(f"SimResult.{name}: not recorded (this run was simulated with record="
@@ -137,14 +140,7 @@ class SimResult:
 
     def to_pandas(self, i: int = 0):
         """Instance ``i`` as a DataFrame with unit-suffixed columns."""
-        import pandas as pd
-
-        cols = (("pressure_Pa", "pressure"), ("pressure_measured_Pa", "pressure_measured"), ("length_m", "length"),
-                ("force_N", "force"), ("inlet_pwm", "inlet"), ("bleed_pwm", "bleed"), ("faults", "faults"))
-        data = {"time_s": self.t}
-        data.update({col: getattr(self, name)[i] for col, name in cols if name in self.recorded})
-        data["reference_Pa"] = self.reference[i]
-        return pd.DataFrame(data)
+        return self.frame(i)
 
 
 def _runner_of(kernel):

@@ -16,7 +16,7 @@ from mckibben.control import registry as R
 from mckibben.errors import ArgumentTypeError, InputError
 from mckibben.hardware import BAUD as _HW_BAUD
 from mckibben.hardware import P_MAX_DEFAULT, pressure_from_adc
-from mckibben.results import Result
+from mckibben.results import Result, TimeResponse
 from mckibben.rig import protocol as P
 from mckibben.control.core import GAINS, gain_values
 from mckibben.control.metrics import step_metrics
@@ -186,7 +186,7 @@ class GainsResult(Result):
 
 
 @dataclass(frozen=True, repr=False)
-class RigStepResult(Result):
+class RigStepResult(Result, TimeResponse):
     """A pressure step measured on the device.
 
     Attributes
@@ -215,6 +215,8 @@ class RigStepResult(Result):
     arguments: dict = field(default_factory=dict)
     counters: dict = field(default_factory=dict)
     call = "mckibben.rig.Device.step"
+    TIME = "time"
+    SIGNALS = ("reference", "pressure", "command")
 
     @property
     def metrics(self) -> dict:
@@ -229,10 +231,7 @@ class RigStepResult(Result):
                             **self.metrics, **self.counters})
 
     def _series(self):
-        import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-        return pd.DataFrame({"time_s": self.time, "reference_Pa": self.reference, "pressure_Pa": self.pressure,
-                             "command_pwm": self.command})
+        return self.frame()
 
     def plot(self, ax=None):
         """Pressure and set-point against time; return the Figure.
