@@ -86,7 +86,7 @@ def test_tool_tracking_is_a_time_response_with_channels():
 
 
 def test_device_and_mujoco_results_share_the_type():
-    from mckibben.export.mujoco import HangingMassResult, MuscleRunResult
+    from mckibben.experiments.mujoco import HangingMassResult, MuscleRunResult
     from mckibben.rig.device import RigStepResult
 
     t = np.linspace(0.0, 0.1, 101)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from mckibben import export
+from mckibben import experiments
 from mckibben.cli import app
 from mckibben.results import check_table_path
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, muscle_option, parse_flag
@@ -37,7 +37,7 @@ def hang_cmd(
 ) -> None:
     """A mass hanging from one muscle in MuJoCo: its static length against predict length."""
 
-    res = export.mujoco.hanging_mass(muscle, parse_flag(pressure, "pressure", "pressure", allow_zero=False),
+    res = experiments.mujoco.hanging_mass(muscle, parse_flag(pressure, "pressure", "pressure", allow_zero=False),
                                      parse_flag(load, "force", "load", allow_zero=False), force_model=force_model,
                                      duration=parse_flag(duration, "time", "duration", allow_zero=False),
                                      friction=not no_friction)
@@ -87,7 +87,7 @@ def run_cmd(
     elif muscle.strip().lower().endswith(".toml"):
         err_console.print(f"warning: mujoco run --muscle FILE is deprecated: use --muscle-file {muscle} (--muscle "
                           "names a published parameter set in every command)", markup=False, highlight=False)
-    res = export.mujoco.run_model(
+    res = experiments.mujoco.run_model(
         model, tendon, muscle, reference=None if reference is None else parse_values(reference, "pressure", "reference"),
         inlet=None if inlet is None else _counts(inlet, "inlet"), bleed=_counts(bleed, "bleed"), controller=controller,
         duration=parse_flag(duration, "time", "duration", allow_zero=False),
