@@ -239,10 +239,9 @@ def test_model_that_needs_a_missing_field_names_it(cli, tmp_path):
     iso = tmp_path / "isotonic.csv"
     iso.write_text("pressure_MPa,load_N,length_mm\n0.1,0.6,100\n0.2,0.6,99\n0.3,0.6,98\n0.4,0.6,97\n")
     m = tmp_path / "m.toml"
-    m.write_text('id = "x"\nnominal_length_mm = 100\nouter_diameter_mm = 12\n')
+    m.write_text('id = "x"\nnominal_length_mm = 100\n')  # the law's fit spec needs the outer diameter
     r = cli("fit", str(iso), "--model", "tondu-lopez", "--muscle-file", str(m))
-    assert r.code == 2 and r.err.strip() == (f"error: {m}: key braid_angle_<unit> missing; tondu-lopez on isotonic"
-                                             " data needs it (e.g. braid_angle_deg = ...)")
+    assert r.code == 2 and r.err.strip() == f"error: {m}: key outer_diameter_<unit> missing (e.g. outer_diameter_mm = ...)"
 
 
 def test_stats_binomial_claim_in_the_coverage_test():

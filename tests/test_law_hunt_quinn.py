@@ -182,3 +182,23 @@ def test_the_cli_fits_saves_and_predicts_the_library_number(table, tmp_path):
     assert json.loads(r.stdout)["force_N"] == pytest.approx(float(law.force(0.45e6, 0.28, "inflate")[0]), rel=1e-12)
     r = _cli("predict", "force", "--muscle-file", str(out), "--pressure", "-3bar", "--length", "280mm")
     assert r.returncode == 2 and "Traceback" not in r.stderr and "pressure" in r.stderr  # bad input: one line
+
+
+def test_the_published_set_is_a_muscle_of_the_library():
+    # datasets.law_set_muscle: the set as a muscle whose force, length and pressure are its law's
+    from mckibben import models
+    from mckibben.datasets import law_set_muscle
+
+    m = law_set_muscle("Festo-DMSP10-189")
+    assert (m.name, m.law, m.nominal_length, m.pressure_range) == ("festo-dmsp10-189", "hunt-quinn", 0.189, (0.0, 620e3))
+    r = models.force([0.3e6, 0.65e6], 0.18, m)
+    np.testing.assert_array_equal(r.load, PUB.force([0.3e6, 0.65e6], 0.18))  # the same kernel, the same bits
+    assert [models.flag_names(f) for f in r.flags] == [[], ["pressure_out_of_range"]]
+    ell = models.length(0.4e6, 80.0, m)
+    assert float(PUB.pressure(80.0, ell.length)) == pytest.approx(0.4e6, rel=1e-9)  # the published P(ε, F)
+    with pytest.raises(InputError, match="model: 'chou-hannaford' is not the hunt-quinn law of muscle"):
+        models.force(0.3e6, 0.18, m, model="chou-hannaford")
+    with pytest.raises(InputError, match="k: muscle 'festo-dmsp10-189' carries its own hunt-quinn parameters"):
+        models.force(0.3e6, 0.18, m, k=1.2)
+    with pytest.raises(InputError, match="unknown parameter set 'festo-dmsp10-190'"):
+        law_set_muscle("festo-dmsp10-190")

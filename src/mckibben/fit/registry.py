@@ -112,11 +112,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         fits = [sf.result]
         extra = {"split_pressure_Pa": sf.model.split_pressure, "blocks": [list(b) for b in sf.blocks],
                  "terms_P_Ls_exponents": [list(t) for t in sf.model.terms]}
-    elif model == "chou-hannaford":
-        fits = [static.fit_chou_hannaford(table, spec)]
-    elif model == "tondu-lopez":
-        fits = [static.fit_tondu_lopez(table, spec)]
-    elif model in laws.fit_laws() or model in laws.ALIASES:  # any other registered law: through its force
+    elif model in laws.fit_laws() or model in laws.ALIASES:  # every registered law: through its force
         fits = [fit_isotonic_law(table, spec, model)]
     else:
         fits = list(static.fit_first_order(table).values())

@@ -37,6 +37,8 @@ formulas are not written here: each fit calls the law's own functions. The names
 
 from __future__ import annotations
 
+import warnings
+
 from typing import TYPE_CHECKING
 
 from dataclasses import dataclass
@@ -553,6 +555,11 @@ def _clusters(d: pd.DataFrame):
 def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     """Chou–Hannaford length under a hanging load with a fitted effective strand length and D0.
 
+    .. deprecated::
+        ``fit chou-hannaford`` and ``compare`` fit every registered law to an isotonic table through its
+        force, F(P, L) = load (:func:`mckibben.fit.isometric.fit_isotonic_law`, the law's own fit
+        spec); this length-residual fit of the old parameters is kept for scripts that call it.
+
     l = b·sqrt((4F/(π·D0²·P) + 1)/3); b and D0 are fitted within physical bounds: b in
     [L0, L0/cos 54.7°] (a strand at least as long as the muscle, a braid angle at rest below
     54.7°), D0 within :data:`~mckibben.fit.isometric.D0_FACTOR` × the outer diameter. The fit starts
@@ -576,6 +583,8 @@ def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Chou & Hannaford (1996); :func:`mckibben.models.physical.length_under_load`.
     """
+    warnings.warn("fit_chou_hannaford is deprecated: fit every law through its force, "
+                  "mckibben.fit.isometric.fit_isotonic_law(table, muscle, 'chou-hannaford')", DeprecationWarning, stacklevel=2)
 
     _need(table, ("isotonic", "hysteresis"), "chou-hannaford")
     d = table.data[_positive(table.data)]
@@ -600,6 +609,11 @@ def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
 def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     """Tondu–Lopez length under a hanging load with fitted contraction correction k and radius r0.
 
+    .. deprecated::
+        ``fit tondu-lopez`` and ``compare`` fit every registered law to an isotonic table through its
+        force, F(P, L) = load (:func:`mckibben.fit.isometric.fit_isotonic_law`, the law's own fit
+        spec); this length-residual fit of the old parameters is kept for scripts that call it.
+
     l = L0·(1 − ε), ε from F = π·r0²·P·[a(1 − kε)² − b] (α0 from the muscle file). k within
     :data:`~mckibben.fit.isometric.K_BOUNDS`, r0 within :data:`~mckibben.fit.isometric.R0_FACTOR` ×
     the outer diameter; flagged as :func:`fit_chou_hannaford`. Rows at zero pressure are left out.
@@ -620,6 +634,8 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Tondu & Lopez (2000); :func:`mckibben.models.physical.tondu_lopez_contraction`.
     """
+    warnings.warn("fit_tondu_lopez is deprecated: fit every law through its force, "
+                  "mckibben.fit.isometric.fit_isotonic_law(table, muscle, 'tondu-lopez')", DeprecationWarning, stacklevel=2)
 
     _need(table, ("isotonic", "hysteresis"), "tondu-lopez")
     d = table.data[_positive(table.data)]

@@ -370,7 +370,7 @@ def pressure(length, load, muscle, model: str | None = None, p_max: float = 0.8e
     return StaticResult(name, r.pressure, f, r.length, r.contraction, flags, r.cos_theta)
 
 
-def force(pressure, length, muscle, model: str = "braid-map", **options) -> StaticResult:
+def force(pressure, length, muscle, model: str | None = None, **options) -> StaticResult:
     """Force at a pressure and length from a registered law's published parameters for a catalogue muscle.
 
     Any law of :data:`mckibben.models.laws.LAWS` with a published parameter set
@@ -386,13 +386,16 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
         Gauge pressure. [Pa]
     length : array_like or str
         Muscle length. [m]
-    muscle : MiniatureMuscle
-        The muscle. [-]
-    model : str, default "braid-map"
-        A law's registry name (old names such as ``mpam`` are read, with a deprecation warning). [-]
+    muscle : MiniatureMuscle or LawMuscle
+        A catalogue muscle, or a muscle with a law of its own
+        (:class:`~mckibben.models.law_statics.LawMuscle`: a muscle file's, or a law's published set,
+        :func:`mckibben.datasets.law_set_muscle`). [-]
+    model : str, optional
+        A law's registry name (old names such as ``mpam`` are read, with a deprecation warning);
+        default ``braid-map`` for a catalogue muscle, the muscle's own law for a LawMuscle. [-]
     options : keyword arguments
         Fields of the law's parameter object to replace (e.g. ``k=1.3`` for Tondu–Lopez's
-        contraction correction). [SI]
+        contraction correction); a catalogue muscle only. [SI]
 
     Returns
     -------
@@ -403,10 +406,12 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
     ----------
     Each law's own file (:mod:`mckibben.models.laws`) cites its paper and equation.
     """
-    if not isinstance(model, str):
+    if model is not None and not isinstance(model, str):
         raise ArgumentTypeError(f"model = {model!r}: not a model name ({type(model).__name__}); "
                                 f"give one of: {', '.join(force_laws())}")
-    name, law, params = _published(model, muscle, "force model")
+    if isinstance(muscle, LawMuscle):
+        return _own_force(pressure, length, muscle, model, options)
+    name, law, params = _published("braid-map" if model is None else model, muscle, "force model")
     p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
     for key, value in options.items():
         if not hasattr(params, key) or not dataclasses.is_dataclass(params):
@@ -417,3 +422,20 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
              | flag_where(f < 0.0, Flag.SLACK) | flag_where(np.isnan(f), Flag.UNREACHABLE))
     flags = _law_flags(name, params, p, ell, f, flags)
     return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)
+
+
+def _own_force(pressure, length, muscle: LawMuscle, model: str | None, options: dict) -> StaticResult:
+    """:func:`force` of a muscle with its own law (a muscle file's or a published set's)."""
+    if model is not None and laws.resolve(model, "model") != muscle.law:
+        raise InputError(f"model: {model!r} is not the {muscle.law} law of muscle {muscle.name!r}; "
+                         "leave it out to use the muscle's own law")
+    if options:
+        raise InputError(f"{next(iter(options))}: muscle {muscle.name!r} carries its own {muscle.law} parameters; "
+                         "options replace a catalogue muscle's")
+    p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
+    f = np.asarray(muscle.force(p, ell), dtype=float)
+    flags = (outside(p, *muscle.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
+             | outside(ell, *muscle.length_range, Flag.LENGTH_OUT_OF_RANGE)
+             | flag_where(f < 0.0, Flag.SLACK) | flag_where(np.isnan(f), Flag.UNREACHABLE))
+    flags = _law_flags(muscle.law, getattr(muscle, "params", None), p, ell, f, flags)
+    return StaticResult(muscle.law, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)

@@ -373,8 +373,10 @@ class PlantParams:
 
         - braid: an ideal braid (eq. 2 with k1 = 1, k2 = 0) of strand length ``strand_length_mm``,
           else L0/cos θ0 with the fitted θ0 (Chou–Hannaford, Tondu–Lopez), the file's
-          ``braid_angle_deg`` or :data:`FILE_BRAID_ANGLE`: it sets the chamber volume's change
-          with length and the end stops;
+          ``braid_angle_deg`` or :data:`FILE_BRAID_ANGLE`, shortened to where the law's pull peaks
+          when it peaks beyond the rest length (:attr:`mckibben.models.laws.Law.peak_length`, the
+          wall-corrected braid; :class:`~mckibben.models.muscle.Muscle`): it sets the chamber
+          volume's change with length and the end stops;
         - lumen: ``tube_inner_diameter_mm``, else the outer diameter less the fitted wall (wall-
           corrected fit, unless the wall sits at a bound of its fit: not identified), else
           :data:`FILE_LUMEN_FRACTION` of the outer diameter;

@@ -48,7 +48,9 @@ plant, the tool, muscle files, ``params``, the MuJoCo bridge, the FMU) and the c
    (length under a load, pressure for a length: ``predict length|pressure --model``,
    :func:`mckibben.models.length`) are its force solved by
    :func:`mckibben.models.law_statics.rising_root`; nothing to add for them (a law with a closed-form
-   inverse may give it as ``length_of(theta, pressure, load) -> length``, used instead of the scan).
+   inverse may give it as ``length_of(theta, pressure, load) -> length``, used instead of the scan;
+   a law whose pull peaks and then falls as the muscle stretches gives ``peak_length(theta) ->
+   length``, where a muscle file's braid ends).
 
 The conformance suite checks a law on its fit to the bundled commercial table when it has a fit
 spec, else on ``published(get_muscle("mpam143"))``; a law with neither fails it (nothing could use

@@ -113,6 +113,11 @@ class Law:
         inverse (its force solved for the length on its rising branch; NaN where it never pulls the
         load), which :func:`mckibben.models.law_statics.rising_root` uses instead of scanning and
         root finding. Optional: every law is solved without it. [m]
+    peak_length : callable, optional
+        ``peak_length(theta (NTH,)) -> length [m]``: where the law's pull peaks as the muscle is
+        stretched, the same at every pressure, beyond which it falls (the wall-corrected braid); a
+        muscle file's braid ends there (:class:`~mckibben.models.muscle.Muscle`), so its plant and
+        FMU never run the falling branch. None: the law does not fall before the straight braid. [m]
     extra : dict
         Law-specific facts other code may read (``optional_names``). [-]
     """
@@ -136,6 +141,7 @@ class Law:
     static_flags: Callable | None = None
     plant_theta: Callable | None = None
     length_of: Callable | None = None
+    peak_length: Callable | None = None
 
     @property
     def stem(self) -> str:

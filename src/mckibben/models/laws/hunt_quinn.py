@@ -152,6 +152,8 @@ class HuntQuinn:
         S = 1 (the muscle extends) instead of S = 0 (it contracts). [-]
     citation : str
         Where the numbers come from.
+    pressure_range : tuple of float, default (0, inf)
+        Gauge pressures the constants were identified on (0–620 kPa for the published DMSP-10 set). [Pa]
     """
 
     c0: float
@@ -165,6 +167,7 @@ class HuntQuinn:
     rest_length: float
     extending: bool = False
     citation: str = "Hunt, Graber-Tilton & Quinn (2017), ASME IDETC V05AT08A008"
+    pressure_range: tuple = (0.0, math.inf)
 
     def __post_init__(self):
         if not (self.rest_length > 0 and self.max_strain > 0 and self.c1 > 0 and self.c2 > 0 and self.c5 > 0
