@@ -36,7 +36,7 @@ from mckibben.errors import InputError, check_instance, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range
 from mckibben.fit.isometric import BOUNDS_NOTE, SURFACE, _runs, fit_points, isometric_points, model_name
 from mckibben.models import laws
-from mckibben.models.hysteresis.direction import STRUCTURES, branch_state, direction_aware_force, play_pressure
+from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, STRUCTURES, branch_state, direction_aware_force, play_pressure
 from mckibben.results import Result, to_jsonable
 
 if TYPE_CHECKING:
@@ -45,9 +45,6 @@ if TYPE_CHECKING:
 __all__ = ["DEFAULT_STRUCTURE", "GAP_STEP_PA", "THRESHOLD_MAX_FRACTION", "FRICTION_MAX", "DirectionAwareFit",
            "HeldoutGap", "fit_direction_aware", "gap_scores", "heldout_gap", "loop_gap", "run_order"]
 
-#: The structure ``mckibben fit --direction-aware`` fits, chosen on held-out evidence
-#: (docs/hysteresis.md, ``benchmarks/bench_hysteresis_gap.py``). [-]
-DEFAULT_STRUCTURE = "play"
 #: The play's threshold is bounded by this fraction of the largest pressure of the data. [-]
 THRESHOLD_MAX_FRACTION = 0.25
 #: The smallest play threshold, as a fraction of the largest pressure (a play of 0 is no play). [-]

@@ -35,13 +35,16 @@ import numpy as np
 from mckibben.errors import InputError, unknown_name
 from mckibben.models.hysteresis.prandtl_ishlinskii import play_matrix
 
-__all__ = ["DIRECTIONS", "STRUCTURES", "branch_state", "direction_aware_force", "play_pressure"]
+__all__ = ["DEFAULT_STRUCTURE", "DIRECTIONS", "STRUCTURES", "branch_state", "direction_aware_force", "play_pressure"]
 
 #: The direction-aware structures: name -> its extra parameters (names with units), one line.
 STRUCTURES = {
     "play": (("play_threshold_Pa",), "law(z, L), z = play of threshold r on the pressure (Hammerstein)"),
     "friction": (("play_threshold_Pa", "friction_coefficient"), "law(P, L) + c·P·(z − P)/r (Tondu–Lopez friction)"),
 }
+#: The structure ``mckibben fit --direction-aware`` fits, chosen on held-out evidence
+#: (docs/hysteresis.md, ``benchmarks/bench_hysteresis_gap.py``). [-]
+DEFAULT_STRUCTURE = "play"
 #: The branch names of an isometric table and the sign of the pressure's change on each. [-]
 DIRECTIONS = {"inflate": -1.0, "deflate": 1.0}
 
