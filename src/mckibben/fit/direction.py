@@ -4,7 +4,7 @@
 (:mod:`mckibben.models.hysteresis.direction`: the law fed through a play operator on the pressure,
 or the law plus a friction term proportional to pressure) jointly: the law's parameters (its own
 fit spec, read, never copied) and the operator's (the play's threshold r, and the friction
-coefficient c), one operator shared by every held length and muscle of the table.
+area A_f), one operator shared by every held length and muscle of the table.
 
 **The pressure history.** An isometric table holds binned points, not a time series: each run
 (one held length of one trial, of one muscle) is rebuilt in the order the protocol applied it,
@@ -49,8 +49,9 @@ __all__ = ["DEFAULT_STRUCTURE", "GAP_STEP_PA", "THRESHOLD_MAX_FRACTION", "FRICTI
 THRESHOLD_MAX_FRACTION = 0.25
 #: The smallest play threshold, as a fraction of the largest pressure (a play of 0 is no play). [-]
 THRESHOLD_MIN_FRACTION = 1e-3
-#: The friction coefficient's upper bound: c·P at most this share of P·(unit area). [-]
-FRICTION_MAX = 1.0
+#: The friction area's upper bound, as a share of the data's peak force over peak pressure
+#: (A_f·P at most this share of the largest force at the largest pressure). [-]
+FRICTION_MAX = 0.5
 #: The default grid step of the gap (:func:`loop_gap`). [Pa]
 GAP_STEP_PA = 10e3
 
@@ -175,7 +176,7 @@ class DirectionAwareFit(Result):
         ``"play"`` or ``"friction"`` (:data:`~mckibben.models.hysteresis.direction.STRUCTURES`). [-]
     result : FitResult
         The law's parameters followed by the operator's (``play_threshold_Pa``, and
-        ``friction_coefficient``), standard errors, flags; ``result.predict(pressure=, length=,
+        ``friction_area_m2``), standard errors, flags; ``result.predict(pressure=, length=,
         direction=)`` evaluates a branch far from a reversal (:meth:`predict_branch`).
     muscle : MuscleSpec
         The muscle file the fit used.
@@ -200,7 +201,7 @@ class DirectionAwareFit(Result):
     law_force: Callable = field(repr=False)
 
     call = "mckibben.fit.direction.fit_direction_aware"
-    _repr_keys = ("rmse_N", "play_threshold_Pa", "friction_coefficient", "flags")
+    _repr_keys = ("rmse_N", "play_threshold_Pa", "friction_area_m2", "flags")
 
     @property
     def arguments(self) -> dict:
@@ -214,7 +215,7 @@ class DirectionAwareFit(Result):
 
     @property
     def operator(self) -> dict:
-        """The operator's fitted values: ``play_threshold_Pa`` [Pa] (and ``friction_coefficient`` [-])."""
+        """The operator's fitted values: ``play_threshold_Pa`` [Pa] (and ``friction_area_m2`` [m²])."""
         return {n: self.result[n] for n in STRUCTURES[self.structure][0]}
 
     @property
@@ -396,9 +397,10 @@ def _fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, structure: str,
     if not pmax > 0:
         raise InputError(f"{what}: no pressure above zero")
     op_names = STRUCTURES[structure][0]
+    area = fmax / pmax  # [m²]: the scale of the friction area
     lo = np.r_[spec.lo, THRESHOLD_MIN_FRACTION * pmax, [0.0] * (len(op_names) - 1)]
-    hi = np.r_[spec.hi, THRESHOLD_MAX_FRACTION * pmax, [FRICTION_MAX] * (len(op_names) - 1)]
-    starts = [np.r_[s, r0 * pmax, [0.02] * (len(op_names) - 1)] for s in spec.starts for r0 in (0.01, 0.04)]
+    hi = np.r_[spec.hi, THRESHOLD_MAX_FRACTION * pmax, [FRICTION_MAX * area] * (len(op_names) - 1)]
+    starts = [np.r_[s, r0 * pmax, [0.02 * area] * (len(op_names) - 1)] for s in spec.starts for r0 in (0.01, 0.04)]
 
     def model_fn(v):
         z = _play_runs(p, runs, float(v[nth]))

@@ -10,14 +10,14 @@ order of the pressures counts), in one of two structures (:data:`STRUCTURES`):
   supplied one by r while inflating and leads it by r while deflating, so the loop is
   2r·∂F/∂P wide: wide where the muscle is stiff in pressure, closed where it is slack.
 - ``"friction"`` (Tondu & Lopez 2000, their dry-friction term, proportional to
-  pressure, with the sign of the pressure's change): F = law(θ, P, L) + c·P·(z − P)/r. The
-  factor (z − P)/r runs from −1 (inflating) to +1 (deflating) across a reversal, over 2r of
-  pressure, instead of jumping: the loop is 2c·P wide.
+  pressure, with the sign of the pressure's change): F = law(θ, P, L) + A_f·P·(z − P)/r, A_f a
+  friction area [m²]. The factor (z − P)/r runs from −1 (inflating) to +1 (deflating) across a
+  reversal, over 2r of pressure, instead of jumping: the loop is 2·A_f·P wide.
 
 Both are a plain function of the state (the play's output z, one number per muscle): the state
 after a sequence is its last z, and :func:`branch_state` gives the state far along a branch
 (z = P − r inflating, P + r deflating), the steady value a ``direction`` alone implies. The
-operator's parameters (r, and c) are shared by every length and muscle the law is fitted on
+operator's parameters (r, and A_f) are shared by every length and muscle the law is fitted on
 (:func:`mckibben.fit.direction.fit_direction_aware`); the law's own parameters are its fit
 spec's, read, never copied.
 
@@ -40,7 +40,7 @@ __all__ = ["DEFAULT_STRUCTURE", "DIRECTIONS", "STRUCTURES", "branch_state", "dir
 #: The direction-aware structures: name -> its extra parameters (names with units), one line.
 STRUCTURES = {
     "play": (("play_threshold_Pa",), "law(z, L), z = play of threshold r on the pressure (Hammerstein)"),
-    "friction": (("play_threshold_Pa", "friction_coefficient"), "law(P, L) + c·P·(z − P)/r (Tondu–Lopez friction)"),
+    "friction": (("play_threshold_Pa", "friction_area_m2"), "law(P, L) + A_f·P·(z − P)/r (Tondu–Lopez friction)"),
 }
 #: The structure ``mckibben fit --direction-aware`` fits, chosen on held-out evidence
 #: (docs/hysteresis.md, ``benchmarks/bench_hysteresis_gap.py``). [-]
@@ -133,7 +133,7 @@ def direction_aware_force(law_force, structure: str, values, pressure, length, z
         See :data:`STRUCTURES`. [-]
     values : array_like
         The law's parameters followed by the structure's (:data:`STRUCTURES`): the play's
-        threshold r [Pa], and for ``"friction"`` the coefficient c [-]. [SI]
+        threshold r [Pa], and for ``"friction"`` the friction area A_f [m²]. [SI]
     pressure : array_like
         Gauge pressure supplied. [Pa]
     length : array_like
