@@ -107,6 +107,8 @@ def compare_cmd(
                                                                       "none (default), lowest or column."),
     select: list[str] = SELECT_OPTION,
     columns: list[str] = COLUMNS_OPTION,
+    direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: also score each law beside its "
+                                         "direction-aware form, each trial held out, by the up/down gap."),
     plot: str = plot_option("the held-out error of every model"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
@@ -116,7 +118,8 @@ def compare_cmd(
     muscle = muscle_file_of(muscle, old_muscle, "compare")
     res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
                             parse_pairs(select, "--select", "cut_length_cm=10"),
-                            parse_pairs(columns, "--columns", "phase=direction"))
+                            parse_pairs(columns, "--columns", "phase=direction"),
+                            DEFAULT_STRUCTURE if direction_aware else None)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
@@ -138,6 +141,14 @@ def compare_cmd(
                     [" model", "params", "RMSE N", "R²", "CV RMSE N", "CV % of peak", "extrapolated folds",
                      " flags"], rows)
         console.print(f"best on held-out error: {out['best']}")
+        if "direction_aware" in out:
+            rows = [[s["model"], _g(s.get("measured_gap_rms_N")),
+                     f"{_g(s.get('plain_gap_error_rms_N'))} / {_g(s.get('plain_gap_error_max_N'))}",
+                     f"{_g(s.get('direction_aware_gap_error_rms_N'))} / {_g(s.get('direction_aware_gap_error_max_N'))}",
+                     s["note"][:60] or ", ".join(s.get("flags", [])) or "none"] for s in out["direction_aware"]]
+            print_table(f"Up/down gap, each trial held out ({DEFAULT_STRUCTURE} structure)",
+                        [" law", "measured gap RMS N", "plain error RMS / max N", "direction-aware error RMS / max N",
+                         " flags or note"], rows)
         return
     if json:
         emit_json(out)

@@ -34,7 +34,7 @@ import numpy as np
 from mckibben.data.io import MuscleSpec, Table
 from mckibben.errors import InputError, check_instance, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range
-from mckibben.fit.isometric import BOUNDS_NOTE, SURFACE, _runs, fit_points, isometric_points, model_name
+from mckibben.fit.isometric import BOUNDS_NOTE, SURFACE, _runs, fit_points, is_family, isometric_points, model_name
 from mckibben.models import laws
 from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, STRUCTURES, branch_state, direction_aware_force, play_pressure
 from mckibben.results import Result, to_jsonable
@@ -43,7 +43,8 @@ if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["DEFAULT_STRUCTURE", "GAP_STEP_PA", "THRESHOLD_MAX_FRACTION", "FRICTION_MAX", "DirectionAwareFit",
-           "HeldoutGap", "fit_direction_aware", "gap_scores", "heldout_gap", "loop_gap", "run_order"]
+           "HeldoutGap", "compare_direction_aware", "fit_direction_aware", "gap_scores", "heldout_gap", "loop_gap",
+           "run_order"]
 
 #: The play's threshold is bounded by this fraction of the largest pressure of the data. [-]
 THRESHOLD_MAX_FRACTION = 0.25
@@ -388,6 +389,9 @@ def _fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, structure: str,
     dirn = d["direction"].to_numpy()
     rest = _rest(d, muscle)
     what = f"fit {model} (direction-aware, {structure}) on {source}"
+    if is_family(d) and not laws.LAWS[model].family:
+        raise InputError(f"{what}: the table holds {d['muscle'].astype(str).nunique()} muscles; {model} is fitted on "
+                         f"one muscle (a family law: {', '.join(laws.fit_laws(family=True))})")
     if not np.any(dirn[fitted] == "inflate") or not np.any(dirn[fitted] == "deflate"):
         raise InputError(f"{what}: needs both inflate and deflate rows (the direction column); a loop has two branches")
     fmax = float(np.max(np.abs(f[fitted]))) or 1.0
@@ -653,3 +657,49 @@ def _fit_frame(res: FitResult, d: pd.DataFrame, law_force, structure: str):
     d["force_model"] = direction_aware_force(law_force, structure, res.values, p, d["held_length"].to_numpy(dtype=float),
                                              z, direction=d["direction"].to_numpy(), rest_length=rest)
     return d, runs
+
+
+def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, structure: str = DEFAULT_STRUCTURE,
+                            tare: str = "none", rails: str = "exclude", pressure_zero: str = "none",
+                            grid=None) -> list[dict]:
+    """Each law beside its direction-aware form, on held-out trials: what ``compare --direction-aware`` adds.
+
+    Parameters
+    ----------
+    table : Table
+        An ``isometric`` table with inflate and deflate rows and two trials or more.
+    muscle : MuscleSpec
+        The muscle file.
+    models : sequence of str, optional
+        Laws to score; default every law with a fit spec that applies (the family laws on a family
+        table). [-]
+    structure : {"play", "friction"}, default :data:`DEFAULT_STRUCTURE`
+        The direction-aware structure. [-]
+    tare, rails, pressure_zero : str
+        As :func:`fit_direction_aware`. [-]
+    grid : array_like, optional
+        The gap's pressures (:func:`loop_gap`). [Pa]
+
+    Returns
+    -------
+    list of dict
+        Per law: ``model``, ``structure``, ``cv`` (``"leave-one-trial-out"``), the pooled
+        :attr:`HeldoutGap.metrics` (measured gap RMS/max; plain and direction-aware gap error RMS/max;
+        held-out force RMSE of both), the operator's values per fold (``play_threshold_Pa``), and
+        ``note`` (why a law could not be scored).
+    """
+    if models is None:
+        d, _ = isometric_points(table, tare, "keep", pressure_zero)
+        models = list(laws.fit_laws(family=True) if is_family(d) else laws.fit_laws())
+    out = []
+    for model in models:
+        row: dict = {"model": model, "structure": structure, "cv": "leave-one-trial-out"}
+        try:
+            h = heldout_gap(table, muscle, model, structure, tare=tare, rails=rails, pressure_zero=pressure_zero,
+                            grid=grid)
+        except InputError as exc:
+            out.append({**row, "note": f"not fitted: {exc}"})
+            continue
+        out.append({**row, **h.metrics, "play_threshold_Pa": [f.result["play_threshold_Pa"] for f in h.fits],
+                    "flags": sorted({fl for f in h.fits for fl in f.result.flags}), "note": ""})
+    return out

@@ -28,7 +28,7 @@ from mckibben.fit.isometric import compare_isometric
 from mckibben.fit.compare import compare_models
 from mckibben.results import to_jsonable
 from mckibben.fit.isometric import IsometricFit
-from mckibben.fit.direction import DirectionAwareFit, fit_direction_aware
+from mckibben.fit.direction import DirectionAwareFit, compare_direction_aware, fit_direction_aware
 from mckibben.fit.names import FIT_MODELS, NEEDS_MUSCLE  # noqa: F401  (re-exported)
 
 
@@ -169,14 +169,18 @@ def _isometric_table(data: Path, select: dict | None = None, columns: dict | Non
 
 
 def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
-                       pressure_zero: str = "none") -> dict:
+                       pressure_zero: str = "none", direction_aware: str | None = None) -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
 
     spec = load_muscle(data, muscle, True, "compare", table)
     check_muscle(table, spec)
     res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero)
-    return {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
-            **_table_notes(table), "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
+    out = {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
+           **_table_notes(table), "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
+    if direction_aware is not None:  # each law beside its direction-aware form (mckibben.fit.direction)
+        out["direction_aware"] = compare_direction_aware(table, spec, structure=direction_aware, tare=tare,
+                                                         rails=rails, pressure_zero=pressure_zero)
+    return out
 
 
 #: Distinct pressures (above 0) an isotonic table needs for `compare`: a cubic in pressure and a
@@ -408,7 +412,7 @@ class TableComparison(Result):
 
 def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none", rails: str = "keep",
                   pressure_zero: str = "none", select: dict | None = None,
-                  columns: dict | None = None) -> TableComparison:
+                  columns: dict | None = None, direction_aware: str | None = None) -> TableComparison:
     """Fit every applicable model to the same data and score it on held-out data.
 
     An isometric table: every force model, folds by held length (default) or trial
@@ -434,6 +438,10 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         Column -> value: compare on the rows holding these values (one muscle of several). [-]
     columns : dict, optional
         The file's column names -> the schema's, e.g. ``{"phase": "direction"}``. [-]
+    direction_aware : {"play", "friction"}, optional
+        Isometric tables: also score each law beside its direction-aware form of this structure,
+        each trial held out in turn, by the up/down gap (RMS and max of the gap error; key
+        ``direction_aware``, :func:`mckibben.fit.direction.compare_direction_aware`). [-]
 
     Returns
     -------
@@ -443,7 +451,9 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
     iso = _isometric_table(data, select, columns)
     if iso is not None:
         return TableComparison(_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare, rails,
-                                                  pressure_zero))
+                                                  pressure_zero, direction_aware))
+    if direction_aware is not None:
+        raise InputError("direction_aware: scores laws on the inflate and deflate rows of an isometric table")
     if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
         raise InputError("cv/`tare`: apply to isometric tables; the isotonic comparison chooses its own folds")
     return TableComparison(_compare_isotonic(data, muscle, select, columns))
