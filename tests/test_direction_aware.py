@@ -161,6 +161,18 @@ def test_predict_along_a_history_and_on_branches(tmp_path, truth):
     # continuing from the state: a second inflation starts on the deflate side
     f2, _ = fit.predict([0.1e6, 0.15e6], ell, state=state)
     assert f2[0] == pytest.approx(f[-1])
+    # compensation: the pressure for a force on each branch is the forward form's inverse, and
+    # inflating needs more pressure than deflating (by 2r on a play form)
+    pw = np.array([0.4e6, 0.5e6])  # where the muscle pulls (not slack): the force rises with pressure
+    target, _ = fit.predict_branch(pw, ell, "inflate")
+    assert np.all(np.diff(fit.predict_branch(np.linspace(0.35e6, 0.55e6, 9), ell)[0]) > 0)
+    p_up = fit.pressure(target, ell, "inflate")
+    np.testing.assert_allclose(p_up, pw, rtol=1e-6)
+    p_dn = fit.pressure(target, ell, "deflate")
+    np.testing.assert_allclose(p_up - p_dn, 2 * fit.result["play_threshold_Pa"], rtol=1e-5)
+    assert np.isnan(fit.pressure(1e6, ell))  # beyond the fitted range's pull
+    with pytest.raises(InputError, match="direction"):
+        fit.pressure(10.0, ell, "up")
     fig = fit.plot()
     assert fig.axes[0].get_xlabel() == "pressure [kPa]"
     df = fit.to_pandas()
@@ -234,6 +246,18 @@ def test_cli_bad_input(tmp_path, truth, args, words):
     assert not (tmp_path / "out.toml").exists()
 
 
+def test_compare_scores_each_law_beside_its_direction_aware_form(tmp_path, truth):
+    from mckibben.fit.direction import compare_direction_aware
+
+    muscle, theta = truth
+    path = _campaign(tmp_path, muscle, theta, "play", [R_TRUE], trials=(1, 2))
+    rows = compare_direction_aware(read_table(path), muscle, models=[LAW, "surface"])
+    row = {r["model"]: r for r in rows}
+    assert row[LAW]["cv"] == "leave-one-trial-out" and len(row[LAW]["play_threshold_Pa"]) == 2
+    assert row[LAW]["direction_aware_gap_error_rms_N"] < 0.5 * row[LAW]["plain_gap_error_rms_N"]
+    assert row["surface"]["note"].startswith("not fitted")
+
+
 def test_cli_direction_aware_refuses_an_isotonic_table(tmp_path):
     folder = BUNDLED_ISOMETRIC.parent / "campaign" / "mpam97"
     run = _mckibben("fit", str(folder / "isotonic.csv"), "--model", "chou-hannaford", "--direction-aware",
@@ -241,3 +265,8 @@ def test_cli_direction_aware_refuses_an_isotonic_table(tmp_path):
     assert run.returncode == 2, run.stderr
     lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
     assert len(lines) == 1 and "--direction-aware" in lines[0] and "isotonic" in lines[0]
+    run = _mckibben("compare", str(folder / "isotonic.csv"), "--direction-aware",
+                    "--muscle-file", str(folder / "muscle.toml"), cwd=tmp_path)
+    assert run.returncode == 2, run.stderr
+    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1 and "--direction-aware" in lines[0] and "isometric" in lines[0]

@@ -36,7 +36,8 @@ from mckibben.errors import InputError, check_instance, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range
 from mckibben.fit.isometric import BOUNDS_NOTE, SURFACE, _runs, fit_points, is_family, isometric_points, model_name
 from mckibben.models import laws
-from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, STRUCTURES, branch_state, direction_aware_force, play_pressure
+from mckibben.models.law_statics import rising_root
+from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, DIRECTIONS, STRUCTURES, branch_state, direction_aware_force, play_pressure
 from mckibben.results import Result, to_jsonable
 
 if TYPE_CHECKING:
@@ -279,6 +280,41 @@ class DirectionAwareFit(Result):
         """
         extra = {} if rest_length is None else {"rest_length": rest_length}
         return self.result.predict(pressure=pressure, length=length, direction=direction, **extra)
+
+    def pressure(self, force, length, direction="inflate", rest_length=None) -> np.ndarray:
+        """The pressure that pulls a force on a branch: the direction-aware form's inverse, for compensation.
+
+        Inflating, a muscle needs more pressure for the same force than deflating (by 2r on a
+        ``"play"`` form): a feed-forward picks the branch by the direction the pressure moves.
+        Solved by :func:`mckibben.models.law_statics.rising_root` in pressure over the fitted range.
+
+        Parameters
+        ----------
+        force : array_like
+            The force wanted. [N]
+        length : array_like
+            Held length (broadcast). [m]
+        direction : {"inflate", "deflate"}, default "inflate"
+            The branch. [-]
+        rest_length : float, optional
+            A family law's rest length. [m]
+
+        Returns
+        -------
+        numpy.ndarray
+            Gauge pressure; NaN where the fitted range does not reach the force. [Pa]
+        """
+        if direction not in DIRECTIONS:
+            raise InputError(f"direction: {direction!r} is not one of {', '.join(DIRECTIONS)}")
+        lo, hi = self.result.valid_range["pressure"]
+        extra = {} if rest_length is None else {"rest_length": rest_length}
+
+        def pull(ell, p):  # rising_root scans its second argument: here the pressure
+            return self.result.func(self.result.values, pressure=p, length=ell, direction=direction, **extra)
+
+        ell, f = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(force, dtype=float))
+        p, state = rising_root(pull, ell, f, lo, hi)
+        return np.where(state == 0, p, np.nan)
 
     def to_dict(self) -> dict:
         """JSON-ready: the fit's parameters, errors, flags, structure and tare."""
