@@ -141,8 +141,8 @@ def direction_aware_force(law_force, structure: str, values, pressure, length, z
     z : array_like
         The play's output at each point (:func:`play_pressure` over a sequence, or
         :func:`branch_state` for a direction). [Pa]
-    **law_inputs
-        Passed to ``law_force`` (``direction``, ``rest_length``).
+    law_inputs : dict
+        Keyword arguments passed to ``law_force`` (``direction``, ``rest_length``). [-]
 
     Returns
     -------
