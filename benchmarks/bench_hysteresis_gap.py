@@ -21,7 +21,8 @@ rows). The bar: the best direction-aware model's gap error RMS at most half the 
 on the held-out trial.
 Reads ``../shared/data/real/festo10_isometric.csv`` (not bundled); skips when it is absent.
 
-Run: python benchmarks/bench_hysteresis_gap.py [--laws a,b] [--structures play,friction] [--pi-only]
+Run: python benchmarks/bench_hysteresis_gap.py [--laws=a,b] [--structures=play,friction] [--pi-only | --da-only]
+     [--replay-only | --family]
 """
 
 from __future__ import annotations
@@ -93,6 +94,21 @@ def direction_aware(law_names, structures) -> dict:
     return out
 
 
+def family(law: str = "virtual-work", structure: str = "play") -> None:
+    """One operator across the six muscles: a family law's direction-aware form on the family table."""
+    table = read_table(SOURCE, "isometric", None, {"phase": "direction", "cut_length_cm": "muscle"})
+    rest = pd.read_csv(SOURCE)["rest_length_mm"]
+    muscle = MuscleSpec(id="festo10", nominal_length=float(rest.median()) / 1e3, outer_diameter=OUTER_DIAMETER_MM / 1e3)
+    h = heldout_gap(table, muscle, law, structure, grid=GRID_KPA * 1e3)
+    thr = ", ".join(f"{f.operator['play_threshold_Pa'] / 1e3:.1f}" for f in h.fits)
+    print(f"\nfamily ({law}, {structure}; one operator for six muscles; thresholds {thr} kPa per fold):")
+    for t in sorted({r["trial"] for r in h.rows}):
+        sel = [r for r in h.rows if r["trial"] == t]
+        m, pe, pm = _pooled(sel, "plain_N")
+        _, de, dm = _pooled(sel, "direction_aware_N")
+        print(f"| {law} (family) | {structure} | {t} | {m:.2f} | {pe:.2f} / {pm:.2f} | {de:.2f} / {dm:.2f} | {de / m:.2f} |")
+
+
 def replay() -> dict:
     """The other trials' own measured gap as the prediction of the held-out trial's (per pair).
 
@@ -142,6 +158,9 @@ def main(argv: list[str]) -> int:
     for t, (m, e, mx) in replay().items():
         print(f"| {t} | {m:.2f} | {e:.2f} / {mx:.2f} | {e / m:.2f} |")
     if "--replay-only" in argv:
+        return 0
+    if "--family" in argv:
+        family()
         return 0
     res = direction_aware(law_names, structures)
     print("\ndirection-aware laws, per muscle (law and operator fitted on two trials, the third held out):")
