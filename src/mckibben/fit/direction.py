@@ -254,7 +254,13 @@ class DirectionAwareFit(Result):
         z, zf = play_pressure(p, self.result["play_threshold_Pa"], state)
         ell = np.broadcast_to(np.asarray(length, dtype=float), p.shape)
         rest = None if rest_length is None else np.broadcast_to(np.asarray(rest_length, dtype=float), p.shape)
-        dirn = np.where(np.diff(np.concatenate([[p[0]], p])) < 0, "deflate", "inflate")
+        # the direction the pressure last moved, for a law with a branch per direction (a repeated value
+        # keeps it); the first sample deflates only when it drags the play down from the given state
+        r = self.result["play_threshold_Pa"]
+        before = np.inf if state is not None and p[0] < state - r else p[0]
+        step = np.sign(np.diff(np.concatenate([[before], p])))
+        idx = np.maximum.accumulate(np.where(step != 0, np.arange(p.size), 0))
+        dirn = np.where(step[idx] < 0, "deflate", "inflate")
         return self._force(self.result.values, p, ell, z, dirn, rest), zf
 
     def predict_branch(self, pressure, length, direction="inflate", rest_length=None):
