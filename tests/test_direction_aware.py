@@ -270,3 +270,41 @@ def test_cli_direction_aware_refuses_an_isotonic_table(tmp_path):
     assert run.returncode == 2, run.stderr
     lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
     assert len(lines) == 1 and "--direction-aware" in lines[0] and "isometric" in lines[0]
+
+
+def test_one_operator_across_the_muscles_of_a_family(tmp_path):
+    """A family law's form on two muscles of one type: one play threshold for both, recovered."""
+    from mckibben.fit.isometric import fit_points, isometric_points
+
+    muscle = read_muscle(COMMERCIAL / "muscle.toml")
+    d = pd.read_csv(COMMERCIAL / "isometric.csv")
+    rest_long = float(d["held_length_mm"].max())
+    fam = pd.concat([d.assign(muscle="long", rest_length_mm=rest_long),
+                     d.assign(muscle="short", held_length_mm=d["held_length_mm"] * 0.8, rest_length_mm=rest_long * 0.8)])
+    fam.to_csv(tmp_path / "fam0.csv", index=False)
+    pts, _ = isometric_points(read_table(tmp_path / "fam0.csv"))
+    theta = fit_points(pts, muscle, LAW).values  # the family law's truth: its fit to the two muscles
+    rng = np.random.default_rng(1)
+    up = np.linspace(20e3, 620e3, 21)
+    seq = np.concatenate([up, up[::-1][1:]])
+    dirn = np.array(["inflate"] * up.size + ["deflate"] * (up.size - 1))
+    rows = []
+    for name, rest in (("long", rest_long / 1e3), ("short", 0.8 * rest_long / 1e3)):
+        for t in (1, 2, 3):
+            for ell in rest * np.array([1.0, 0.95, 0.9, 0.85]):
+                n = seq.size
+                data = {"pressure": seq, "held_length": np.full(n, ell), "force": np.zeros(n), "direction": dirn,
+                        "rest_length": np.full(n, rest)}
+                spec = laws.LAWS[LAW].fit_spec(muscle, 1.0, data)
+                z, _ = play_pressure(seq, R_TRUE)
+                f = direction_aware_force(spec.force, "play", np.r_[theta, R_TRUE], seq, data["held_length"], z,
+                                          direction=dirn, rest_length=data["rest_length"]) + rng.normal(0, NOISE_N, n)
+                rows.append(pd.DataFrame({"held_length_mm": ell * 1e3, "pressure_kPa": seq / 1e3, "force_N": f,
+                                          "direction": dirn, "trial": t, "muscle": name, "rest_length_mm": rest * 1e3}))
+    pd.concat(rows).to_csv(tmp_path / "fam.csv", index=False)
+    table = read_table(tmp_path / "fam.csv")
+    fit = fit_direction_aware(table, muscle, LAW, "play")
+    assert _within(fit.result, "play_threshold_Pa", R_TRUE)
+    assert fit.result.residual_rms == pytest.approx(NOISE_N, rel=0.2)
+    with pytest.raises(InputError, match="fitted on one muscle"):
+        fit_direction_aware(table, muscle, "hunt-quinn", "play")
