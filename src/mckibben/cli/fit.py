@@ -16,6 +16,7 @@ from mckibben.data.schema import KINDS
 from mckibben.fit.isometric import CV_METHODS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
+from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE
 from mckibben.units import parse_quantity
 from mckibben import fit
 
@@ -45,7 +46,10 @@ def fit_cmd(
                                                                 "muscle the file describes (default: the muscle file's)."),
     select: list[str] = SELECT_OPTION,
     columns: list[str] = COLUMNS_OPTION,
-    plot: str = plot_option("the fit: force curves over the data (isometric), else the residuals"),
+    direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: fit the law's direction-aware "
+                                         f"form ({DEFAULT_STRUCTURE}: hysteresis inside the law), law and operator jointly."),
+    plot: str = plot_option("the fit: force curves over the data (isometric; measured and modelled loops with "
+                            "--direction-aware), else the residuals"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
@@ -57,7 +61,8 @@ def fit_cmd(
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
     picked = parse_pairs(select, "--select", "cut_length_cm=10")
     names = parse_pairs(columns, "--columns", "phase=direction")
-    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names)
+    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names,
+                        DEFAULT_STRUCTURE if direction_aware else None)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
@@ -102,6 +107,8 @@ def compare_cmd(
                                                                       "none (default), lowest or column."),
     select: list[str] = SELECT_OPTION,
     columns: list[str] = COLUMNS_OPTION,
+    direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: also score each law beside its "
+                                         "direction-aware form, each trial held out, by the up/down gap."),
     plot: str = plot_option("the held-out error of every model"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
@@ -111,7 +118,8 @@ def compare_cmd(
     muscle = muscle_file_of(muscle, old_muscle, "compare")
     res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
                             parse_pairs(select, "--select", "cut_length_cm=10"),
-                            parse_pairs(columns, "--columns", "phase=direction"))
+                            parse_pairs(columns, "--columns", "phase=direction"),
+                            DEFAULT_STRUCTURE if direction_aware else None)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
@@ -133,6 +141,14 @@ def compare_cmd(
                     [" model", "params", "RMSE N", "R²", "CV RMSE N", "CV % of peak", "extrapolated folds",
                      " flags"], rows)
         console.print(f"best on held-out error: {out['best']}")
+        if "direction_aware" in out:
+            rows = [[s["model"], _g(s.get("measured_gap_rms_N")),
+                     f"{_g(s.get('plain_gap_error_rms_N'))} / {_g(s.get('plain_gap_error_max_N'))}",
+                     f"{_g(s.get('direction_aware_gap_error_rms_N'))} / {_g(s.get('direction_aware_gap_error_max_N'))}",
+                     s["note"][:60] or ", ".join(s.get("flags", [])) or "none"] for s in out["direction_aware"]]
+            print_table(f"Up/down gap, each trial held out ({DEFAULT_STRUCTURE} structure)",
+                        [" law", "measured gap RMS N", "plain error RMS / max N", "direction-aware error RMS / max N",
+                         " flags or note"], rows)
         return
     if json:
         emit_json(out)

@@ -28,6 +28,7 @@ from mckibben.fit.isometric import compare_isometric
 from mckibben.fit.compare import compare_models
 from mckibben.results import to_jsonable
 from mckibben.fit.isometric import IsometricFit
+from mckibben.fit.direction import DirectionAwareFit, compare_direction_aware, fit_direction_aware
 from mckibben.fit.names import FIT_MODELS, NEEDS_MUSCLE  # noqa: F401  (re-exported)
 
 
@@ -57,7 +58,8 @@ def _synthetic(data: Path, spec) -> bool:
 def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None = None,
              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
-             select: dict | None = None, columns: dict | None = None) -> tuple[dict, list]:
+             select: dict | None = None, columns: dict | None = None,
+             direction_aware: str | None = None) -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
 
     if model not in FIT_MODELS and model not in laws.ALIASES:  # an old law name is read (deprecated)
@@ -83,6 +85,17 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
     if rest_length is not None:
         check_real(rest_length, "rest_length", lo=0.0, lo_open=True, unit="m")
     extra: dict = {}
+    if direction_aware is not None:  # a law with hysteresis inside it (mckibben.fit.direction)
+        if not isometric:
+            raise InputError(f"direction_aware: fits a law to inflate and deflate rows of an isometric table; {data} is "
+                             f"a {table.kind} table")
+        if save is not None:
+            raise InputError("save: a muscle file holds a static law; fit without direction_aware to save one")
+        fit = fit_direction_aware(table, spec, model, direction_aware, tare, rails, pressure_zero)
+        out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
+               "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
+        _update_keeping_table_notes(out, fit.to_dict())
+        return out, [fit]
     if isometric:
         if model not in ALL_MODELS and model not in laws.ALIASES:
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
@@ -152,14 +165,18 @@ def _isometric_table(data: Path, select: dict | None = None, columns: dict | Non
 
 
 def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
-                       pressure_zero: str = "none") -> dict:
+                       pressure_zero: str = "none", direction_aware: str | None = None) -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
 
     spec = load_muscle(data, muscle, True, "compare", table)
     check_muscle(table, spec)
     res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero)
-    return {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
-            **_table_notes(table), "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
+    out = {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
+           **_table_notes(table), "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
+    if direction_aware is not None:  # each law beside its direction-aware form (mckibben.fit.direction)
+        out["direction_aware"] = compare_direction_aware(table, spec, structure=direction_aware, tare=tare,
+                                                         rails=rails, pressure_zero=pressure_zero)
+    return out
 
 
 #: Distinct pressures (above 0) an isotonic table needs for `compare`: a cubic in pressure and a
@@ -261,7 +278,7 @@ class TableFit(Result):
         import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
 
-        if self.fits and isinstance(self.fits[0], IsometricFit):
+        if self.fits and isinstance(self.fits[0], (IsometricFit, DirectionAwareFit)):
             return self.fits[0].plot(ax)
         if ax is None:
             _, ax = plt.subplots(figsize=(6, 3.5))
@@ -284,7 +301,8 @@ def _data_path(data) -> Path:
 def fit_table(data, model: str, muscle: str | None = None, kind: str | None = None,
               split_pressure: float | None = None, tare: str = "none", save: str | None = None,
               rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
-              select: dict | None = None, columns: dict | None = None) -> TableFit:
+              select: dict | None = None, columns: dict | None = None,
+              direction_aware: str | None = None) -> TableFit:
     """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
 
     Parameters
@@ -315,6 +333,9 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         several (:func:`mckibben.data.read_table`). [-]
     columns : dict, optional
         The file's column names -> the schema's, e.g. ``{"phase": "direction"}``. [-]
+    direction_aware : {"play", "friction"}, optional
+        Isometric tables: fit the law's direction-aware form of this structure
+        (:func:`mckibben.fit.direction.fit_direction_aware`); None: the plain law. [-]
 
     Returns
     -------
@@ -323,7 +344,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         (:func:`mckibben.data.io.muscle_of_table`).
     """
     out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails,
-                         pressure_zero, select, columns)
+                         pressure_zero, select, columns, direction_aware)
     return TableFit(out, fits)
 
 
@@ -387,7 +408,7 @@ class TableComparison(Result):
 
 def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none", rails: str = "keep",
                   pressure_zero: str = "none", select: dict | None = None,
-                  columns: dict | None = None) -> TableComparison:
+                  columns: dict | None = None, direction_aware: str | None = None) -> TableComparison:
     """Fit every applicable model to the same data and score it on held-out data.
 
     An isometric table: every force model, folds by held length (default) or trial
@@ -413,6 +434,10 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         Column -> value: compare on the rows holding these values (one muscle of several). [-]
     columns : dict, optional
         The file's column names -> the schema's, e.g. ``{"phase": "direction"}``. [-]
+    direction_aware : {"play", "friction"}, optional
+        Isometric tables: also score each law beside its direction-aware form of this structure,
+        each trial held out in turn, by the up/down gap (RMS and max of the gap error; key
+        ``direction_aware``, :func:`mckibben.fit.direction.compare_direction_aware`). [-]
 
     Returns
     -------
@@ -422,7 +447,9 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
     iso = _isometric_table(data, select, columns)
     if iso is not None:
         return TableComparison(_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare, rails,
-                                                  pressure_zero))
+                                                  pressure_zero, direction_aware))
+    if direction_aware is not None:
+        raise InputError("direction_aware: scores laws on the inflate and deflate rows of an isometric table")
     if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
         raise InputError("cv/`tare`: apply to isometric tables; the isotonic comparison chooses its own folds")
     return TableComparison(_compare_isotonic(data, muscle, select, columns))
