@@ -335,6 +335,12 @@ static void report(double t_sim, double t_dev, double wall, int present, long lo
            sim_ms_lost, min_tx_gap == (avr_cycle_count_t)-1 ? -1LL : (long long)min_tx_gap, wdt_reset_at);
     for (int i = 0; i < n_ch; i++)
         printf("%s%.1f", i ? ", " : "", plant[i].s[MK_S_P] - MK_P_ATM);
+    printf("], \"tension_n\": [");
+    for (int i = 0; i < n_ch; i++) {
+        double pg, len, force;
+        mk_outputs(&plant[i], &pg, &len, &force);
+        printf("%s%.6f", i ? ", " : "", force);
+    }
     printf("], \"valves\": [");
     for (int i = 0; i < n_ch; i++)
         printf("%s[%d, %d]", i ? ", " : "", valves_now[i][0], valves_now[i][1]);

@@ -445,7 +445,13 @@ int main(void)
             mck_telemetry_t t;
             uint8_t pkt[MCK_MAX_PACKET];
             size_t n;
-            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { memcpy(&t, (const void *)&latest, sizeof t); }
+            /* the tick read with the copy: a tick between the test above and the copy would
+             * otherwise send its frame under the previous tick's seq, and again at the next */
+            ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
+            {
+                memcpy(&t, (const void *)&latest, sizeof t);
+                now = tick;
+            }
             /* a frame per decimation period: the periods this loop came too late for (a command's
              * handling) spend their frames' seqs, as a full queue does, so the host sees the gap */
             tx_seq = (uint16_t)(tx_seq + (uint16_t)(now - last_tick) / decimation - 1u);

@@ -198,18 +198,20 @@ class LoadCell:
     noise: float = 0.0
 
     def __post_init__(self):
-        for name in ("full_scale", "offset", "noise"):
+        # errors lead with the names the engines and ``rig emulate`` take these as
+        for name, arg in (("full_scale", "load_cell"), ("offset", "load_cell_offset"), ("noise", "load_cell_noise")):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not math.isfinite(v):
-                raise InputError(f"load cell {name}: {v!r} is not a finite force in N")
+                raise InputError(f"{arg}: {v!r} is not a finite force (the load cell's {name.replace('_', ' ')}) [N]")
         if not 0 < self.full_scale <= LOAD_CELL_FULL_SCALE_MAX or round(self.full_scale * 1e3) < 1:
-            raise InputError(f"load cell full_scale: {self.full_scale!r} N must be above 0 and at most "
+            raise InputError(f"load_cell: {self.full_scale!r} is not a full scale above 0 and at most "
                              f"{LOAD_CELL_FULL_SCALE_MAX:g} N")
         if abs(self.offset) > self.full_scale:
-            raise InputError(f"load cell offset: {self.offset!r} N must be within ±{self.full_scale:g} N (the full scale)")
+            raise InputError(f"load_cell_offset: {self.offset!r} is outside ±{self.full_scale:g} N (the load cell's "
+                             "full scale)")
         if not 0 <= self.noise <= self.full_scale / 10:
-            raise InputError(f"load cell noise: {self.noise!r} N must be in 0..{self.full_scale / 10:g} N "
-                             "(a tenth of the full scale)")
+            raise InputError(f"load_cell_noise: {self.noise!r} must be 0..{self.full_scale / 10:g} N (a tenth of the "
+                             "load cell's full scale)")
 
     @property
     def resolution(self) -> float:

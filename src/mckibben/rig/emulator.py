@@ -197,6 +197,11 @@ class Emulator:
         ph.outputs(1, stepper.bk, stepper.law)
         return float(stepper.bk[ph.Y_FORCE])
 
+    def tensions(self) -> list[float]:
+        """The channels' true muscle tensions now: what a load cell on the muscle carries. [N]"""
+        with self._lock:
+            return [self._tension(pl) for pl in self.plants]
+
     def force_count(self) -> int | None:
         """The load cell's count of channel 0's tension now, with a fresh noise sample; None without one. [count]"""
         cell = self.load_cell

@@ -304,6 +304,11 @@ class AvrDevice:
         """The channels' true gauge pressures at the last counters line. [Pa]"""
         return list(self._stat("pressure_pa", []))
 
+    def tensions(self) -> list[float]:
+        """The channels' true muscle tensions (the C plant's ``mk_outputs`` force) at the last counters
+        line: what a load cell on the muscle carries. [N]"""
+        return list(self._stat("tension_n", []))
+
     def start(self) -> "AvrDevice":
         """The harness runs from construction: nothing to start (as ``Emulator.start``)."""
         return self
