@@ -121,7 +121,7 @@ class _ChannelC(ctypes.Structure):
 
 class _TelemetryC(ctypes.Structure):
     _fields_ = [("t_us", ctypes.c_uint32), ("encoder", ctypes.c_int32), ("n", ctypes.c_uint8),
-                ("ch", _ChannelC * 3), ("has_force", ctypes.c_uint8), ("force_adc", ctypes.c_uint16)]
+                ("ch", _ChannelC * 3), ("force_adc", ctypes.c_uint16)]
 
 
 def test_the_firmware_encoder_writes_the_force_as_the_host_reads_it(tmp_path):
@@ -129,12 +129,14 @@ def test_the_firmware_encoder_writes_the_force_as_the_host_reads_it(tmp_path):
     subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-O2", "-fPIC", "-shared", "-o", str(so),
                     str(ROOT / "firmware" / "core" / "protocol.c")], check=True)
     lib = ctypes.CDLL(str(so))
-    lib.mck_encode_telemetry.restype = ctypes.c_size_t
+    lib.mck_encode_telemetry.restype = lib.mck_encode_telemetry_force.restype = ctypes.c_size_t
     chans = (_ChannelC * 3)(*[_ChannelC(100 + i, 10, 0, 1, 0, 400_000, -5) for i in range(3)])
     buf = (ctypes.c_uint8 * 80)()
-    for has, count in ((1, 777), (0, 0)):
-        n = lib.mck_encode_telemetry(ctypes.byref(_TelemetryC(1234, -7, 3, chans, has, count)), 9, buf, 80)
-        assert bytes(buf[:n]) == P.encode_telemetry(_frame(9, count if has else None))
+    t = ctypes.byref(_TelemetryC(1234, -7, 3, chans, 777))
+    n = lib.mck_encode_telemetry_force(t, 9, buf, 80)
+    assert bytes(buf[:n]) == P.encode_telemetry(_frame(9, 777))
+    n = lib.mck_encode_telemetry(t, 9, buf, 80)  # the image without a load cell
+    assert bytes(buf[:n]) == P.encode_telemetry(_frame(9))
 
 
 # ---- both engines ------------------------------------------------------------------------------

@@ -142,7 +142,7 @@ class ChannelC(ctypes.Structure):
 
 class TelemetryC(ctypes.Structure):
     _fields_ = [("t_us", ctypes.c_uint32), ("encoder", ctypes.c_int32), ("n", ctypes.c_uint8),
-                ("ch", ChannelC * 3), ("has_force", ctypes.c_uint8), ("force_adc", ctypes.c_uint16)]
+                ("ch", ChannelC * 3), ("force_adc", ctypes.c_uint16)]
 
 
 @pytest.fixture(scope="module")

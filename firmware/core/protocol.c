@@ -95,9 +95,9 @@ static void put_u32(uint8_t *p, uint32_t v)
     p[3] = (uint8_t)(v >> 24);
 }
 
-size_t mck_encode_telemetry(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap)
+/* The TELEMETRY body of t's head and channels into b; returns its length (9 + 14 n), 0 for a bad n. */
+static size_t telemetry_body(const mck_telemetry_t *t, uint8_t *b)
 {
-    uint8_t b[9u + 14u * MCK_MAX_CHANNELS_WIRE + 2u]; /* docs/protocol.md, TELEMETRY body */
     uint8_t i, n = t->n;
     if (n < 1u || n > MCK_MAX_CHANNELS_WIRE) return 0;
     put_u32(b, t->t_us);
@@ -114,11 +114,23 @@ size_t mck_encode_telemetry(const mck_telemetry_t *t, uint16_t seq, uint8_t *out
         put_u32(c + 6, (uint32_t)ch->reference_pa);
         put_u32(c + 10, (uint32_t)ch->surface_pa);
     }
-    if (t->has_force) {
-        put_u16(b + 9u + 14u * n, t->force_adc);
-        return mck_encode_frame(MCK_TELEMETRY, seq, b, 9u + 14u * n + 2u, out, cap);
-    }
-    return mck_encode_frame(MCK_TELEMETRY, seq, b, 9u + 14u * n, out, cap);
+    return 9u + 14u * n;
+}
+
+size_t mck_encode_telemetry(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap)
+{
+    uint8_t b[9u + 14u * MCK_MAX_CHANNELS_WIRE]; /* docs/protocol.md, TELEMETRY body */
+    size_t len = telemetry_body(t, b);
+    return len ? mck_encode_frame(MCK_TELEMETRY, seq, b, len, out, cap) : 0;
+}
+
+size_t mck_encode_telemetry_force(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap)
+{
+    uint8_t b[9u + 14u * MCK_MAX_CHANNELS_WIRE + 2u]; /* and the load cell's count */
+    size_t len = telemetry_body(t, b);
+    if (!len) return 0;
+    put_u16(b + len, t->force_adc);
+    return mck_encode_frame(MCK_TELEMETRY, seq, b, len + 2u, out, cap);
 }
 
 size_t mck_encode_ack(uint16_t seq, uint16_t cmd_seq, uint8_t cmd_type, uint8_t status, int32_t value,

@@ -44,8 +44,7 @@ typedef struct {
     int32_t encoder;
     uint8_t n;          /* channels 1..MCK_MAX_CHANNELS_WIRE */
     mck_channel_telemetry_t ch[MCK_MAX_CHANNELS_WIRE];
-    uint8_t has_force;  /* a load cell is fitted: force_adc follows the channels (version 3) */
-    uint16_t force_adc; /* the load cell's ADC count */
+    uint16_t force_adc; /* the load cell's ADC count (sent by mck_encode_telemetry_force) */
 } mck_telemetry_t;
 
 /* CRC-16/CCITT-FALSE over len bytes. */
@@ -56,9 +55,12 @@ uint16_t mck_crc16(const uint8_t *data, size_t len);
 size_t mck_encode_frame(uint8_t type, uint16_t seq, const uint8_t *body, size_t body_len,
                         uint8_t *out, size_t cap);
 
-/* Encode a telemetry frame: body 9 + 14 n bytes (n = 3: 51; 59 bytes on the wire), and 2 more
- * (the load cell's count) when t->has_force. */
+/* Encode a telemetry frame: body 9 + 14 n bytes (n = 3: 51; 59 bytes on the wire). */
 size_t mck_encode_telemetry(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap);
+
+/* The same with the load cell's count t->force_adc after the channels (2 more bytes; version 3,
+ * a device with a load cell). */
+size_t mck_encode_telemetry_force(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap);
 
 /* Encode an acknowledgement for the command (cmd_seq, cmd_type) with a status code and a value
  * (GET_GAIN: the gain; otherwise 0). */

@@ -422,7 +422,6 @@ int main(void)
 
     for (i = 0; i < MCK_N_CHANNELS; i++) mck_ctrl_init(&mck_bank[i], TS_US); /* off, valves shut */
     latest.n = MCK_N_CHANNELS;
-    latest.has_force = MCK_LOAD_CELL_MN > 0;
     mck_rx_init(&rx);
     hw_init();
     wdt_enable(WDTO_60MS);
@@ -457,7 +456,11 @@ int main(void)
             tx_seq = (uint16_t)(tx_seq + (uint16_t)(now - last_tick) / decimation - 1u);
             last_tick = now;
             /* seq advances even when the queue is full, so the host sees the gap */
+#if MCK_LOAD_CELL_MN > 0
+            n = mck_encode_telemetry_force(&t, tx_seq++, pkt, sizeof pkt);
+#else
             n = mck_encode_telemetry(&t, tx_seq++, pkt, sizeof pkt);
+#endif
             if (n) (void)uart_send(pkt, n);
         }
     }
