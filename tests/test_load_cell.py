@@ -72,6 +72,19 @@ def test_the_firmware_build_takes_the_full_scale_in_mn_and_refuses_a_bad_one():
             FW.load_cell_mn(bad)
 
 
+def test_firmware_build_load_cell_makes_an_image_that_reads_a3(cli, tmp_path):
+    r = cli("firmware", "build", "--load-cell", "5N", "--out", str(tmp_path / "img"), "--json")
+    assert r.code == 0, r.err
+    out = r.json()
+    assert out["load_cell_N"] == 5.0
+    syms = subprocess.run(["avr-nm", out["elf"]], capture_output=True, text=True, check=True).stdout
+    assert " force_val" in syms  # the ADC3 count the tick streams: only in an image with a load cell
+    for bad in ("-1N", "0N", "2e4N", "5Pa"):
+        r = cli("firmware", "build", "--load-cell", bad, "--out", str(tmp_path / "bad"))
+        assert r.code == 2 and r.err.startswith("error: --load-cell:") and len(r.err.strip().splitlines()) == 1, r.err
+    assert not (tmp_path / "bad").exists()  # nothing half-written
+
+
 # ---- protocol version 3, and the old versions ------------------------------------------------
 
 

@@ -86,7 +86,7 @@ def load_cell_mn(load_cell, name: str = "load_cell") -> int:
     except (TypeError, ValueError):
         raise InputError(f"{name}: {load_cell!r} is not a force") from None
     if not 0 < f <= HW.LOAD_CELL_FULL_SCALE_MAX or int(round(f * 1e3)) < 1:
-        raise InputError(f"{name}: {load_cell!r} N must be a full scale above 0 and at most "
+        raise InputError(f"{name}: {load_cell!r} is not a full scale above 0 and at most "
                          f"{HW.LOAD_CELL_FULL_SCALE_MAX:g} N")
     return int(round(f * 1e3))
 
@@ -192,7 +192,7 @@ class Flash:
 
     def to_dict(self) -> dict:
         return {"command": shlex.join(self.command), "port": self.port, "dry_run": self.dry_run,
-                "hex": str(self.image.hex), "channels": self.image.n_channels}
+                "hex": str(self.image.hex), "channels": self.image.n_channels, "load_cell_N": self.image.load_cell}
 
 
 def flash(port: str, n_channels: int = HW.N_CHANNELS, dry_run: bool = False, load_cell: float | None = None) -> Flash:
