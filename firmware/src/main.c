@@ -19,9 +19,10 @@
  * measured in simavr: make cycles) and writes the six PWM compare registers. The main loop
  * handles commands and streams telemetry; it never blocks the control interrupt for longer than
  * one channel's struct copy. With a load cell, the tick starts ADC3's conversion once it has
- * run (done 104 us later, long before compare B); the next tick streams that count. The watchdog (60 ms) is fed by the control interrupt only: if
- * control stops, the MCU resets and the valve pins return to inputs (valves off). After every
- * reset the firmware sends a HELLO frame before anything else. */
+ * run (done 104 us later, long before compare B); the next tick streams that count. The
+ * watchdog (60 ms) is fed by the control interrupt only: if control stops, the MCU resets and
+ * the valve pins return to inputs (valves off). After every reset the firmware sends a HELLO
+ * frame before anything else. */
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <avr/wdt.h>
@@ -202,9 +203,11 @@ ISR(TIMER1_COMPA_vect)
     wdt_reset();
 #if MCK_LOAD_CELL_MN > 0
     latest.force_adc = force_val; /* converted after the last tick */
-    adc_next = ADC_FORCE_SLOT;
-    ADMUX = (uint8_t)((1 << REFS0) | MCK_LOAD_CELL_ADC);
-    ADCSRA |= (uint8_t)(1 << ADSC);
+    if (!(ADCSRA & (1 << ADSC))) { /* a pressure conversion still running (a missing sample) keeps the ADC */
+        adc_next = ADC_FORCE_SLOT;
+        ADMUX = (uint8_t)((1 << REFS0) | MCK_LOAD_CELL_ADC);
+        ADCSRA |= (uint8_t)(1 << ADSC);
+    }
 #endif
 
     t_us += TS_US;
