@@ -13,7 +13,9 @@ plant, behind a pty; this script is the host, as ``rig record``/``rig step`` are
 4. the watchdog path: the control tick stalls (Timer1 masked) with channel 0's inlet open; when
    the MCU resets, whether the valves shut and HELLO reaches the host.
 
-Usage: ``python benchmarks/bench_pil.py [--seconds 5]``; prints a Markdown table per part.
+Usage: ``python benchmarks/bench_pil.py [--seconds 5] [--load-cell 5]``; prints a Markdown table per
+part. ``--load-cell FS`` runs every part on the image built with a load cell of full scale FS [N]
+(``LOAD_CELL_MN``: ADC3 converted after every tick, its count in every telemetry frame).
 """
 
 from __future__ import annotations
@@ -23,12 +25,15 @@ import os
 import statistics
 import time
 
+from mckibben import hardware as HW
 from mckibben.plant import PlantParams
 from mckibben.rig import protocol as P
 from mckibben.rig.device import connect
 from mckibben.rig.engines.avr import AvrDevice
 
 PLANTS = [PlantParams()] * 3
+#: Set by ``--load-cell``: the cell every device of the run carries (None: the image without one).
+CELL: dict = {"load_cell": None}
 
 
 def _read(link, parser, seconds, on_tick=None, every=None):
@@ -46,7 +51,7 @@ def streaming(seconds: float) -> None:
     print("| decimation | telemetry frames/s | expected /s | sequence gaps | gaps % | corrupt |")
     print("| --- | --- | --- | --- | --- | --- |")
     for dec in (1, 2, 5):
-        with AvrDevice(PLANTS, boot_time=0.3) as dev:
+        with AvrDevice(PLANTS, **CELL, boot_time=0.3) as dev:
             link, _, parser = connect(dev.port, timeout=0)
             link.write(P.stream(1, True, dec))
             _read(link, parser, 0.5)
@@ -64,7 +69,7 @@ def round_trip(seconds: float) -> None:
     print("| traffic | commands sent | ACKs back | round trip median / p95 / max [ms] | telemetry frames/s | gaps % |")
     print("| --- | --- | --- | --- | --- | --- |")
     for label, every, many in (("SET_POINT every 10 ms", 0.010, False), ("SET_POINTS every 1 ms", 0.001, True)):
-        with AvrDevice(PLANTS, boot_time=0.3) as dev:
+        with AvrDevice(PLANTS, **CELL, boot_time=0.3) as dev:
             link, _, parser = connect(dev.port, timeout=0)
             link.write(P.set_mode(1, P.MODES["smc"]))
             link.write(P.stream(2, True, 1))
@@ -104,7 +109,7 @@ def real_time_factor(seconds: float) -> None:
     print("| load | simulated s | wall s | real-time factor |")
     print("| --- | --- | --- | --- |")
     for label, cmd in (("idle, no host", False), ("streaming at decimation 1 + SET_POINTS every 1 ms", True)):
-        with AvrDevice(PLANTS, boot_time=0.3, unthrottled=True) as dev:
+        with AvrDevice(PLANTS, **CELL, boot_time=0.3, unthrottled=True) as dev:
             if cmd:
                 link, _, parser = connect(dev.port, timeout=0)
                 link.write(P.stream(1, True, 1))
@@ -130,7 +135,7 @@ def real_time_factor(seconds: float) -> None:
 
 def watchdog() -> None:
     stall = 1.5
-    with AvrDevice(PLANTS, boot_time=0.3, stall_at=stall) as dev:
+    with AvrDevice(PLANTS, **CELL, boot_time=0.3, stall_at=stall) as dev:
         link, _, parser = connect(dev.port, timeout=0)
         link.write(P.set_mode(1, P.MODES["open-loop"], channel=0))
         link.write(P.set_open_loop(2, 120, 0, channel=0))
@@ -150,7 +155,11 @@ def watchdog() -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=5.0)
+    ap.add_argument("--load-cell", type=float, default=None, help="full scale of a load cell on A3 [N]")
     a = ap.parse_args()
+    if a.load_cell is not None:
+        CELL["load_cell"] = HW.LoadCell(a.load_cell, noise=0.01 * a.load_cell / 5)
+        print(f"load cell: {a.load_cell:g} N full scale on A3\n")
     print(f"load average at start: {os.getloadavg()[0]:.2f}\n")
     print("### Streaming, three channels at 1 kHz\n")
     streaming(a.seconds)

@@ -62,7 +62,7 @@ def test_ten_seconds_at_1khz_three_channels_with_no_missing_frame(tmp_path, engi
     assert np.allclose(np.diff(t), 1e-3 * np.diff(seq))  # every control period, 1 ms apart
     assert {"ch1_pressure_Pa", "ch2_faults"} <= set(df.columns)
     data, meta = read_recording(tmp_path / "run.parquet")
-    assert meta["protocol_version"] == 2 and meta["n_channels"] == 3
+    assert meta["protocol_version"] == P.VERSION and meta["n_channels"] == 3
     assert not (tmp_path / "run.parquet.journal").exists()
 
 

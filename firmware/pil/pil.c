@@ -15,6 +15,9 @@
  *   - ADC0..2 get each channel's pressure through the sensor model (0-5 V = 0-1 MPa: the count of
  *     mckibben.hardware.adc_count with the plant's pa_per_count and adc_zero, as the millivolts that
  *     simavr's 10-bit conversion, count = mV * 1023 / AVcc, turns into that count);
+ *   - with --load-cell FS, ADC3 gets channel 0's muscle tension (mk_outputs' force) through the load
+ *     cell model (mckibben.hardware.LoadCell: force + offset + a Gaussian noise sample, the sensor
+ *     model's count with FS/1023 N per count and zero 0, clipped: the rail at 0 below zero force);
  *   - the encoder pins D2/D3 (PE4/PE5) take one quadrature edge toward channel 0's length in counts
  *     (mckibben.hardware.encoder_count), so the firmware's INT4/INT5 decoding sees every edge;
  *   - the CPU runs 1,600 cycles.
@@ -28,6 +31,8 @@
  * --stall-at S: at simulated time S, mask Timer1's interrupts (a control tick that stalls), to
  * show the watchdog path: the MCU resets, the valve pins go back to inputs, HELLO follows.
  * --hold-adc C: channel 0's ADC reads count C whatever the pressure (a stuck sensor).
+ * --load-cell FS [--load-cell-offset N] [--load-cell-noise N] [--load-cell-seed S]: a load cell of
+ * full scale FS [N] on ADC3, its zero offset and noise standard deviation [N], the noise's seed.
  * stdout: one JSON line {"port": ...} when ready, then one JSON line of counters every 0.2 s wall
  * and at the end. Exit 0; 2 with one line on stderr for bad input (a missing ELF, a bad PARAMS).
  */
@@ -82,7 +87,9 @@ static avr_t *avr;
 static mk_plant plant[MAX_CH];
 static int n_ch;
 static int hold_adc = -1; /* channel 0's stuck reading [count], -1: none */
-static avr_irq_t *uart_in, *adc_in[MAX_CH], *enc_a, *enc_b;
+static avr_irq_t *uart_in, *adc_in[MAX_CH], *enc_a, *enc_b, *adc_force;
+static double lc_full_scale = 0.0, lc_offset = 0.0, lc_noise = 0.0; /* the load cell [N]; 0: none */
+static uint64_t lc_rng = 0x9E3779B97F4A7C15ull;
 static uint8_t out_buf[OUT_CAP];
 static size_t out_len;
 static int out_dropping;
@@ -197,9 +204,36 @@ static int encoder_count(double length, double nominal_length, double resolution
     return (int)floor((nominal_length - length) / resolution + 0.5);
 }
 
+/* a standard normal draw: xorshift64* into Box-Muller */
+static double uniform01(void)
+{
+    lc_rng ^= lc_rng >> 12;
+    lc_rng ^= lc_rng << 25;
+    lc_rng ^= lc_rng >> 27;
+    return ((double)((lc_rng * 0x2545F4914F6CDD1Dull) >> 11) + 0.5) / 9007199254740992.0;
+}
+
+static double gauss(void)
+{
+    double u = uniform01(), v = uniform01();
+    return sqrt(-2.0 * log(u)) * cos(6.283185307179586 * v);
+}
+
+/* the load cell's count of channel 0's tension (mckibben.hardware.load_cell_count) */
+static int load_cell_count(void)
+{
+    double pg, len, force;
+    mk_outputs(&plant[0], &pg, &len, &force);
+    return adc_count(force + lc_offset + (lc_noise > 0.0 ? lc_noise * gauss() : 0.0), lc_full_scale / MK_ADC_MAX, 0.0);
+}
+
 static void sense(void)
 {
     int i;
+    if (lc_full_scale > 0.0) {
+        int c = load_cell_count();
+        avr_raise_irq(adc_force, (uint32_t)(((uint64_t)c * avr->avcc + 1022u) / 1023u));
+    }
     for (i = 0; i < n_ch; i++) {
         double p = plant[i].s[MK_S_P] - MK_P_ATM;
         int c = adc_count(p, plant[i].prm[MK_C_pa_per_count], plant[i].prm[MK_C_adc_zero]);
@@ -301,6 +335,12 @@ static void report(double t_sim, double t_dev, double wall, int present, long lo
            sim_ms_lost, min_tx_gap == (avr_cycle_count_t)-1 ? -1LL : (long long)min_tx_gap, wdt_reset_at);
     for (int i = 0; i < n_ch; i++)
         printf("%s%.1f", i ? ", " : "", plant[i].s[MK_S_P] - MK_P_ATM);
+    printf("], \"tension_n\": [");
+    for (int i = 0; i < n_ch; i++) {
+        double pg, len, force;
+        mk_outputs(&plant[i], &pg, &len, &force);
+        printf("%s%.6f", i ? ", " : "", force);
+    }
     printf("], \"valves\": [");
     for (int i = 0; i < n_ch; i++)
         printf("%s[%d, %d]", i ? ", " : "", valves_now[i][0], valves_now[i][1]);
@@ -331,6 +371,10 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--avcc") && i + 1 < argc) avcc = (uint32_t)atoi(argv[++i]);
         else if (!strcmp(argv[i], "--stall-at") && i + 1 < argc) stall_at = atof(argv[++i]);
         else if (!strcmp(argv[i], "--hold-adc") && i + 1 < argc) hold_adc = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--load-cell") && i + 1 < argc) lc_full_scale = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--load-cell-offset") && i + 1 < argc) lc_offset = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--load-cell-noise") && i + 1 < argc) lc_noise = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--load-cell-seed") && i + 1 < argc) lc_rng ^= strtoull(argv[++i], NULL, 10);
         else if (!strcmp(argv[i], "--unthrottled")) unthrottled = 1;
         else if (argv[i][0] == '-') {
             snprintf(msg, sizeof msg, "pil: unknown option %s", argv[i]);
@@ -341,6 +385,9 @@ int main(int argc, char **argv)
     }
     if (!elf || !params) usage_error("pil: usage: pil ELF PARAMS [--boot-time S] [--duration S] [--unthrottled]");
     if (read_params(params, msg, sizeof msg)) usage_error(msg);
+    if (lc_full_scale < 0.0 || lc_noise < 0.0 || (lc_full_scale == 0.0 && (lc_offset != 0.0 || lc_noise != 0.0)))
+        usage_error("pil: --load-cell needs a full scale above 0 N, and a noise of 0 N or more");
+    if (lc_rng == 0) lc_rng = 1;
     if (access(elf, R_OK) != 0) {
         snprintf(msg, sizeof msg, "ELF: cannot read %s (%s)", elf, strerror(errno));
         usage_error(msg);
@@ -363,6 +410,7 @@ int main(int argc, char **argv)
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), uart_xon_hook, NULL);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), uart_xoff_hook, NULL);
     for (i = 0; i < n_ch; i++) adc_in[i] = avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + i);
+    adc_force = avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC3);
     enc_a = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('E'), 4);
     enc_b = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('E'), 5);
     {

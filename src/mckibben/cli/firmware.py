@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, emit_json, print_table
+from mckibben.cli._common import JSON_OPTION, emit_json, parse_flag, print_table
 from mckibben.rig import firmware as FW
 
 firmware_app = typer.Typer(help="The Arduino Mega firmware: build the image, flash it, write the Arduino sketch.",
@@ -13,16 +13,19 @@ firmware_app = typer.Typer(help="The Arduino Mega firmware: build the image, fla
 app.add_typer(firmware_app, name="firmware")
 
 CHANNELS_OPTION = typer.Option(3, "--channels", help="Pressure channels of the image (1..3).")
+LOAD_CELL_OPTION = typer.Option(None, "--load-cell", help="Full scale of a load cell on A3 (e.g. 5N; "
+                                                          "docs/firmware.md, 'Load cell'); default none.")
 
 
 @firmware_app.command("build")
 def build_cmd(
     n_channels: int = CHANNELS_OPTION,
     out: str = typer.Option("firmware-build", "--out", help="Folder for mckibben.elf and mckibben.hex."),
+    load_cell: str = LOAD_CELL_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Build the ATmega2560 image (avr-gcc) from the firmware sources shipped in the package."""
-    image = FW.build(n_channels, out)
+    image = FW.build(n_channels, out, load_cell=parse_flag(load_cell, "force", "load_cell", allow_zero=False))
     if json:
         emit_json(image.to_dict())
         return
@@ -34,10 +37,12 @@ def flash_cmd(
     port: str = typer.Option(..., "--port", help="The Mega's serial port, e.g. /dev/ttyACM0."),
     n_channels: int = CHANNELS_OPTION,
     dry_run: bool = typer.Option(False, "--dry-run", help="Build, and print the avrdude command without running it."),
+    load_cell: str = LOAD_CELL_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Build the image and flash it through the Mega's bootloader with avrdude."""
-    res = FW.flash(port, n_channels, dry_run=dry_run)
+    res = FW.flash(port, n_channels, dry_run=dry_run,
+                   load_cell=parse_flag(load_cell, "force", "load_cell", allow_zero=False))
     if json:
         emit_json(res.to_dict())
         return

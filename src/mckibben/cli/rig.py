@@ -15,6 +15,7 @@ from mckibben.atomic import check_output_file
 from mckibben.control import registry as R
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
+from mckibben import hardware as HW
 from mckibben import rig
 from mckibben import control
 from mckibben.cli import tool as T
@@ -53,8 +54,9 @@ def record_cmd(
 
     link, hello, _ = rig.device.connect(port)  # the device resets on open: nothing older than this run is kept
     try:
-        rec = rig.Recorder(rec_out, meta={"port": port, "baud": rig.BAUD, "n_channels": hello.n_channels},
-                       nominal_length=l0)
+        rec = rig.Recorder(rec_out, meta={"port": port, "baud": rig.BAUD, "n_channels": hello.n_channels,
+                                          "load_cell_N": hello.load_cell},
+                           nominal_length=l0, parser=rig.protocol.Parser(load_cell=hello.load_cell))
     except BaseException:
         link.close()
         raise
@@ -205,6 +207,12 @@ def emulate_cmd(
                                                            "firmware image itself in simavr (libsimavr)."),
     supply: str = typer.Option(None, "--supply", help="Supply pressure of every channel (default 0.8MPa; up to "
                                                       "1MPa, above the safe maximum, to prove the supervisor)."),
+    load_cell: str = typer.Option(None, "--load-cell", help="Fit a load cell of this full scale on channel 0's "
+                                                            "muscle (e.g. 5N, the paper rig's; docs/firmware.md)."),
+    load_cell_offset: str = typer.Option(None, "--load-cell-offset", help="The load cell amplifier's zero offset, "
+                                                                          "as a force (default 0N)."),
+    load_cell_noise: str = typer.Option(None, "--load-cell-noise", help="The load cell's noise, standard deviation "
+                                                                        "(default 0N)."),
     json: bool = JSON_OPTION,
 ) -> None:
     """A virtual device on a pseudo-terminal (the firmware core, or its image in simavr) on N plants, in real time;
@@ -216,6 +224,13 @@ def emulate_cmd(
     if engine not in rig.engines.ENGINES:
         raise InputError(f"--engine: {engine!r} must be one of {', '.join(rig.engines.ENGINES)}")
     sup = parse_flag(supply, "pressure", "supply", allow_zero=False) if supply is not None else None
+    cell = None
+    if load_cell is None and (load_cell_offset is not None or load_cell_noise is not None):
+        raise InputError("--load-cell-offset/--load-cell-noise: give the load cell's full scale with --load-cell")
+    if load_cell is not None:
+        cell = HW.LoadCell(parse_flag(load_cell, "force", "load_cell", allow_zero=False),
+                            parse_flag(load_cell_offset or "0N", "force", "load_cell_offset", allow_negative=True),
+                            parse_flag(load_cell_noise or "0N", "force", "load_cell_noise"))
     boot = parse_quantity(boot_time, "time", "--boot-time")
     if boot > 10:
         raise InputError(f"--boot-time: {boot_time!r} is longer than 10 s")
@@ -226,7 +241,8 @@ def emulate_cmd(
         tool = T.build_tool(*(o.default for o in (T.MUSCLE_OPTION, T.PITCH_OPTION, T.DISCS_OPTION, T.PRELOAD_OPTION,
                                                   T.KB_OPTION, T.KA_OPTION, T.PMAX_OPTION)))  # tool track's defaults
         plants = experiments.link.tool_plants(tool, tool_path)
-    em = rig.engines.start_device(engine, plant=plants, n_channels=channels, boot_time=boot, supply=sup)
+    em = rig.engines.start_device(engine, plant=plants, n_channels=channels, boot_time=boot, supply=sup,
+                                  load_cell=cell)
     made = False
     try:  # from here on, a Ctrl-C or a SIGTERM at any point stops the device and removes its link
         if link:
@@ -238,7 +254,8 @@ def emulate_cmd(
             except OSError as exc:
                 raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
         if json:
-            emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels, "engine": engine})
+            emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels, "engine": engine,
+                       "load_cell_N": None if cell is None else cell.full_scale})
         else:
             err_console.print(f"emulated device ({engine} engine) on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
         em.run(d)

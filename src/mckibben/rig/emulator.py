@@ -15,6 +15,9 @@ telemetry frames. Like the device it is honest about time and the link:
   rate (``baud``/10 bytes per second) into the pty; a frame that does not fit the queue is
   dropped whole and counted (``dropped``), and its sequence number is spent, so a host sees the
   gap, as with the firmware.
+- **A load cell, when fitted** (``load_cell``): channel 0's muscle tension (the plant's pulling
+  force) read through :class:`mckibben.hardware.LoadCell` once per period, streamed in TELEMETRY
+  and announced in HELLO, as the firmware built with ``LOAD_CELL_MN`` does.
 """
 
 from __future__ import annotations
@@ -26,6 +29,10 @@ import threading
 import time
 import tty
 
+import numpy as np
+
+from mckibben import hardware as HW
+from mckibben.plant import physics as ph
 from mckibben.rig import protocol as P
 from mckibben.control.core import CoreParams
 from mckibben.errors import InputError
@@ -62,11 +69,13 @@ class Emulator:
         Send only the first half of every k-th telemetry frame (0: never); that frame is lost. [-]
     hold_adc : int, optional
         Channel 0's ADC reads this count whatever the pressure: a stuck sensor. [count]
+    load_cell : LoadCell, optional
+        A load cell on channel 0's muscle (:class:`mckibben.hardware.LoadCell`); None: none fitted. [-]
     """
 
     def __init__(self, plant=None, controller=None, n_channels: int = 3, ts: float = 1e-3, wake: float = 0.002,
                  baud: int = 1_000_000, boot_time: float = 0.3, garbage_every: int = 0, cut_every: int = 0,
-                 hold_adc: int | None = None):
+                 hold_adc: int | None = None, load_cell: HW.LoadCell | None = None):
 
         if not 1 <= int(n_channels) <= P.MAX_CHANNELS:
             raise InputError(f"Emulator: n_channels {n_channels!r} must be 1..{P.MAX_CHANNELS}")
@@ -79,6 +88,10 @@ class Emulator:
         self.ts, self.wake, self.baud, self.boot_time = ts, wake, int(baud), float(boot_time)
         self.garbage_every, self.cut_every = garbage_every, cut_every
         self.hold_adc = None if hold_adc is None else int(hold_adc)
+        if load_cell is not None and not isinstance(load_cell, HW.LoadCell):
+            raise InputError(f"Emulator: load_cell {load_cell!r} must be a mckibben.hardware.LoadCell or None")
+        self.load_cell = load_cell
+        self._force_rng = np.random.default_rng(int(getattr(plants[0], "seed", 0) or 0))
         self.master, slave = os.openpty()
         tty.setraw(slave)
         tty.setraw(self.master)
@@ -108,6 +121,7 @@ class Emulator:
             scratch = PlantStepper(self._plant_params[0], ts=self.ts)
             scratch.advance(0, 0)
             CoreBank([self._controller]).step([scratch.sense()[0]], [True], [0.0])
+            self._tension(scratch)
         self.bank = CoreBank([self._controller] * self.n)
         self.ctrl = self.bank[0]
         self.p_ref = [0.0] * self.n
@@ -177,8 +191,28 @@ class Emulator:
         self._queue += pkt
         return True
 
+    @staticmethod
+    def _tension(stepper) -> float:
+        """The muscle's pulling force now (the plant's ``outputs``, as the C plant's ``mk_outputs``). [N]"""
+        ph.outputs(1, stepper.bk, stepper.law)
+        return float(stepper.bk[ph.Y_FORCE])
+
+    def tensions(self) -> list[float]:
+        """The channels' true muscle tensions now: what a load cell on the muscle carries. [N]"""
+        with self._lock:
+            return [self._tension(pl) for pl in self.plants]
+
+    def force_count(self) -> int | None:
+        """The load cell's count of channel 0's tension now, with a fresh noise sample; None without one. [count]"""
+        cell = self.load_cell
+        if cell is None:
+            return None
+        e = cell.noise * float(self._force_rng.standard_normal()) if cell.noise > 0 else 0.0
+        return cell.count(self._tension(self.plants[0]), e)
+
     def step(self) -> None:
         """Run one control period of every channel; queue the telemetry frame it streams."""
+        force_adc = self.force_count()  # sampled at the start of the period, as the firmware's ADC3
         sensed = [pl.sense() for pl in self.plants]
         adcs = [a for a, _ in sensed]
         if self.hold_adc is not None:
@@ -193,7 +227,7 @@ class Emulator:
         chans = [P.ChannelTelemetry(adcs[i], out[i][0], out[i][1], self.bank[i].mode, out[i][2],
                                     self.bank[i].reference_pa, self.bank[i].surface_pa) for i in range(self.n)]
         t = P.Telemetry.of_channels(self._next_seq(), int(round(self._t_dev * self.ts * 1e6)) & 0xFFFFFFFF,
-                                    sensed[0][1], chans)
+                                    sensed[0][1], chans, force_adc)
         pkt = P.encode_telemetry(t)
         self.sent_telemetry += 1
         if self.cut_every and self.sent_telemetry % self.cut_every == 0:
@@ -256,7 +290,8 @@ class Emulator:
                 if not booting:
                     if not self._hello_sent:
                         self._send(P.encode_hello(self._next_seq(), self.n, int(round(self.ts * 1e6)), self.baud,
-                                                  self._n_gains()))
+                                                  self._n_gains(),
+                                                  None if self.load_cell is None else self.load_cell.full_scale))
                         self._hello_sent = True
                 frames = [] if booting else self.rx.feed(data)  # the bootloader swallows what came before
                 due = int(now / self.ts) - self.steps

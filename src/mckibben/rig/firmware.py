@@ -68,6 +68,29 @@ def _channels(n_channels) -> int:
     return int(n_channels)
 
 
+def load_cell_mn(load_cell, name: str = "load_cell") -> int:
+    """The Makefile's ``LOAD_CELL_MN`` for a load cell's full scale (0: none fitted). [mN]
+
+    Parameters
+    ----------
+    load_cell : float or None
+        Full scale of the load cell, above 0 and at most
+        :data:`mckibben.hardware.LOAD_CELL_FULL_SCALE_MAX`; None: no load cell. [N]
+    name : str, default "load_cell"
+        The argument's name in the error. [-]
+    """
+    if load_cell is None:
+        return 0
+    try:
+        f = float(load_cell)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: {load_cell!r} is not a force") from None
+    if not 0 < f <= HW.LOAD_CELL_FULL_SCALE_MAX or int(round(f * 1e3)) < 1:
+        raise InputError(f"{name}: {load_cell!r} is not a full scale above 0 and at most "
+                         f"{HW.LOAD_CELL_FULL_SCALE_MAX:g} N")
+    return int(round(f * 1e3))
+
+
 def _make(args: list[str], what: str) -> subprocess.CompletedProcess:
     if shutil.which("make") is None:
         raise missing("make")
@@ -85,13 +108,15 @@ class Image:
     elf: Path
     hex: Path
     n_channels: int
+    load_cell: float | None = None
 
     def to_dict(self) -> dict:
         return {"elf": str(self.elf), "hex": str(self.hex), "channels": self.n_channels,
-                "bytes": self.elf.stat().st_size}
+                "load_cell_N": self.load_cell, "bytes": self.elf.stat().st_size}
 
 
-def build(n_channels: int = HW.N_CHANNELS, out: str | os.PathLike = "firmware-build") -> Image:
+def build(n_channels: int = HW.N_CHANNELS, out: str | os.PathLike = "firmware-build",
+          load_cell: float | None = None) -> Image:
     """Build the ATmega2560 image (``make -C firmware``) into a folder: ``mckibben.elf`` and ``mckibben.hex``.
 
     Parameters
@@ -101,6 +126,9 @@ def build(n_channels: int = HW.N_CHANNELS, out: str | os.PathLike = "firmware-bu
     out : path, default "firmware-build"
         Folder to write the two files into (made if missing; its parent must exist). They are
         written whole or not at all. [-]
+    load_cell : float, optional
+        Full scale of a load cell on A3 (``MCK_LOAD_CELL_MN``; docs/firmware.md, "Load cell"); None:
+        no load cell. [N]
 
     Returns
     -------
@@ -113,6 +141,7 @@ def build(n_channels: int = HW.N_CHANNELS, out: str | os.PathLike = "firmware-bu
         missing (named with the package that installs it).
     """
     n = _channels(n_channels)
+    mn = load_cell_mn(load_cell)
     dest = Path(out).expanduser().resolve()
     if dest.exists() and not dest.is_dir():
         raise InputError(f"out: {str(out)!r} is not a folder")
@@ -122,10 +151,10 @@ def build(n_channels: int = HW.N_CHANNELS, out: str | os.PathLike = "firmware-bu
         raise missing("avr-gcc")
     dest.mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=".mckibben-fw-", dir=dest) as tmp:
-        _make([f"BUILD={tmp}", f"N_CHANNELS={n}", f"{tmp}/mckibben.hex"], "firmware build")
+        _make([f"BUILD={tmp}", f"N_CHANNELS={n}", f"LOAD_CELL_MN={mn}", f"{tmp}/mckibben.hex"], "firmware build")
         for name in ("mckibben.elf", "mckibben.hex"):
             os.replace(Path(tmp) / name, dest / name)
-    return Image(dest / "mckibben.elf", dest / "mckibben.hex", n)
+    return Image(dest / "mckibben.elf", dest / "mckibben.hex", n, mn / 1e3 if mn else None)
 
 
 def cache_folder(kind: str) -> Path:
@@ -137,18 +166,19 @@ def cache_folder(kind: str) -> Path:
     return base / "pil" / kind
 
 
-def cached_build(n_channels: int = HW.N_CHANNELS) -> Image:
-    """:func:`build` into the per-user cache, once per source and channel count. [-]"""
+def cached_build(n_channels: int = HW.N_CHANNELS, load_cell: float | None = None) -> Image:
+    """:func:`build` into the per-user cache, once per source, channel count and load cell. [-]"""
     n = _channels(n_channels)
+    mn = load_cell_mn(load_cell)
     h = hashlib.sha256()
     for p in sources():
         h.update(p.name.encode() + p.read_bytes())
-    folder = cache_folder("image") / f"{h.hexdigest()[:16]}-{n}"
-    image = Image(folder / "mckibben.elf", folder / "mckibben.hex", n)
+    folder = cache_folder("image") / (f"{h.hexdigest()[:16]}-{n}" + (f"-lc{mn}" if mn else ""))
+    image = Image(folder / "mckibben.elf", folder / "mckibben.hex", n, mn / 1e3 if mn else None)
     if image.elf.is_file() and image.hex.is_file():
         return image
     folder.parent.mkdir(parents=True, exist_ok=True)
-    return build(n, folder)
+    return build(n, folder, load_cell)
 
 
 @dataclass(frozen=True)
@@ -162,10 +192,10 @@ class Flash:
 
     def to_dict(self) -> dict:
         return {"command": shlex.join(self.command), "port": self.port, "dry_run": self.dry_run,
-                "hex": str(self.image.hex), "channels": self.image.n_channels}
+                "hex": str(self.image.hex), "channels": self.image.n_channels, "load_cell_N": self.image.load_cell}
 
 
-def flash(port: str, n_channels: int = HW.N_CHANNELS, dry_run: bool = False) -> Flash:
+def flash(port: str, n_channels: int = HW.N_CHANNELS, dry_run: bool = False, load_cell: float | None = None) -> Flash:
     """Build the image and flash it onto a Mega through its bootloader (``make upload``: avrdude, STK500v2).
 
     Parameters
@@ -177,6 +207,8 @@ def flash(port: str, n_channels: int = HW.N_CHANNELS, dry_run: bool = False) -> 
     dry_run : bool, default False
         Build (into the per-user cache, :func:`cached_build`), then return the avrdude command
         without running it. [-]
+    load_cell : float, optional
+        Full scale of a load cell on A3; None: no load cell. [N]
 
     Raises
     ------
@@ -190,8 +222,9 @@ def flash(port: str, n_channels: int = HW.N_CHANNELS, dry_run: bool = False) -> 
         raise InputError(f"port: {port!r} does not exist (is the Mega plugged in?)")
     if not dry_run and shutil.which("avrdude") is None:
         raise missing("avrdude")
-    image = cached_build(n_channels)
-    args = [f"BUILD={image.elf.parent}", f"N_CHANNELS={image.n_channels}", f"PORT={port}", "upload"]
+    image = cached_build(n_channels, load_cell)
+    args = [f"BUILD={image.elf.parent}", f"N_CHANNELS={image.n_channels}",
+            f"LOAD_CELL_MN={load_cell_mn(image.load_cell)}", f"PORT={port}", "upload"]
     plan = _make(["-n", *args], "firmware flash")
     lines = [ln for ln in plan.stdout.splitlines() if ln.startswith("avrdude") or "/avrdude" in ln]
     command = shlex.split(lines[-1]) if lines else []

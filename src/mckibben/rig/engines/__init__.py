@@ -49,7 +49,8 @@ def with_supply(plants, n_channels: int, supply: float | None):
 
 
 def start_device(engine: str = "python", *, plant=None, n_channels: int = 3, boot_time: float = 0.3,
-                 supply: float | None = None, unthrottled: bool = False, hold_adc: int | None = None):
+                 supply: float | None = None, unthrottled: bool = False, hold_adc: int | None = None,
+                 load_cell: HW.LoadCell | None = None):
     """A device engine behind a pseudo-terminal, not yet running (``run()`` or ``start()`` it).
 
     Parameters
@@ -69,6 +70,9 @@ def start_device(engine: str = "python", *, plant=None, n_channels: int = 3, boo
         avr engine only: run as fast as the host allows instead of following wall time. [-]
     hold_adc : int, optional
         Channel 0's ADC reads this count whatever the pressure (a stuck sensor), 0..1023. [count]
+    load_cell : LoadCell, optional
+        A load cell on channel 0's muscle (full scale, offset, noise), modelled alike by both
+        engines (:class:`mckibben.hardware.LoadCell`); None: none fitted. [-]
 
     Raises
     ------
@@ -86,6 +90,7 @@ def start_device(engine: str = "python", *, plant=None, n_channels: int = 3, boo
     if engine == "python":
         if unthrottled:
             raise InputError("unthrottled: the python engine follows wall time only")
-        return Emulator(plant=plants, n_channels=n_channels, boot_time=boot_time, hold_adc=hold_adc)
+        return Emulator(plant=plants, n_channels=n_channels, boot_time=boot_time, hold_adc=hold_adc,
+                        load_cell=load_cell)
     return AvrDevice(plants, n_channels=int(n_channels), boot_time=boot_time, unthrottled=unthrottled,
-                     hold_adc=hold_adc)
+                     hold_adc=hold_adc, load_cell=load_cell)

@@ -5,7 +5,8 @@ libsimavr): it loads the very ELF that ``make -C firmware`` builds and ``make up
 clocks it at 16 MHz, feeds ADC0..2 from each channel's pressure through the sensor model, turns
 the six PWM compare outputs into valve commands, feeds the encoder pins from channel 0's length
 and bridges USART0 to a pseudo-terminal, with the Mega's reset on open, the bootloader's delay
-and HELLO. The plant is ``export/c/mk_plant.c``, the C port of :mod:`mckibben.plant.physics` the
+and HELLO; with a load cell, ADC3 reads channel 0's tension through :class:`mckibben.hardware.LoadCell`
+(the image built with ``LOAD_CELL_MN``). The plant is ``export/c/mk_plant.c``, the C port of :mod:`mckibben.plant.physics` the
 FMU compiles (its layout from :func:`mckibben.plant.c_layout.plant_header`).
 
 Both binaries are built on first use with the system tools and cached per user
@@ -41,21 +42,23 @@ PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
 #: The folder of the C plant's sources: package data beside mckibben.export (``export/c``), read as files.
 PLANT_C = Path(__file__).resolve().parents[2] / "export" / "c"
 
-def build_image(n_channels: int = HW.N_CHANNELS) -> Path:
-    """The firmware image (:func:`mckibben.rig.firmware.build`), built once per source and channel count
-    into the per-user cache.
+def build_image(n_channels: int = HW.N_CHANNELS, load_cell: float | None = None) -> Path:
+    """The firmware image (:func:`mckibben.rig.firmware.build`), built once per source, channel count and
+    load cell into the per-user cache.
 
     Parameters
     ----------
     n_channels : int, default 3
         Pressure channels, ``MCK_N_CHANNELS``, 1..3. [-]
+    load_cell : float, optional
+        Full scale of the load cell on A3 (``LOAD_CELL_MN``); None: none. [N]
 
     Returns
     -------
     pathlib.Path
         The ELF image.
     """
-    return FW.cached_build(n_channels).elf
+    return FW.cached_build(n_channels, load_cell).elf
 
 
 simavr_include = FW.simavr_include
@@ -173,6 +176,9 @@ class AvrDevice:
     stall_at : float, optional
         Simulated time at which the control tick stalls (Timer1's interrupts masked), to show the
         watchdog path. [s]
+    load_cell : LoadCell, optional
+        A load cell on channel 0's muscle (:class:`mckibben.hardware.LoadCell`): the image is built
+        with its full scale, the harness drives ADC3 from the plant's tension. [-]
 
     Attributes
     ----------
@@ -191,12 +197,17 @@ class AvrDevice:
     """
 
     def __init__(self, plants, n_channels: int = 3, boot_time: float = 0.3, unthrottled: bool = False,
-                 elf: str | os.PathLike | None = None, stall_at: float | None = None, hold_adc: int | None = None):
+                 elf: str | os.PathLike | None = None, stall_at: float | None = None, hold_adc: int | None = None,
+                 load_cell: HW.LoadCell | None = None):
         if not 0 <= float(boot_time) <= 10:
             raise InputError(f"boot_time: {boot_time!r} must be within 0..10 s")
         self.n = int(n_channels)
+        if load_cell is not None and not isinstance(load_cell, HW.LoadCell):
+            raise InputError(f"load_cell: {load_cell!r} must be a mckibben.hardware.LoadCell or None")
+        self.load_cell = load_cell
         require()
-        self.elf = Path(elf) if elf is not None else build_image(self.n)
+        self.elf = Path(elf) if elf is not None else build_image(
+            self.n, None if load_cell is None else load_cell.full_scale)
         self.harness = build_harness(plants[0])
         self._dir = tempfile.TemporaryDirectory(prefix="mckibben-avr-")
         params = Path(self._dir.name) / "plants.txt"
@@ -209,6 +220,10 @@ class AvrDevice:
             cmd += ["--hold-adc", str(int(hold_adc))]
         if stall_at is not None:
             cmd += ["--stall-at", repr(float(stall_at))]
+        if load_cell is not None:
+            cmd += ["--load-cell", repr(float(load_cell.full_scale)), "--load-cell-offset", repr(float(load_cell.offset)),
+                    "--load-cell-noise", repr(float(load_cell.noise)),
+                    "--load-cell-seed", str(int(getattr(plants[0], "seed", 0) or 0) & 0xFFFFFFFFFFFFFFFF)]
         self._cmd = cmd
         self._proc: subprocess.Popen | None = None
         self.stats: dict = {}
@@ -288,6 +303,11 @@ class AvrDevice:
     def pressures(self) -> list[float]:
         """The channels' true gauge pressures at the last counters line. [Pa]"""
         return list(self._stat("pressure_pa", []))
+
+    def tensions(self) -> list[float]:
+        """The channels' true muscle tensions (the C plant's ``mk_outputs`` force) at the last counters
+        line: what a load cell on the muscle carries. [N]"""
+        return list(self._stat("tension_n", []))
 
     def start(self) -> "AvrDevice":
         """The harness runs from construction: nothing to start (as ``Emulator.start``)."""
