@@ -484,7 +484,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
 
     res = bounded_fit(lambda v: spec.force(v, p, ell, direction, rest), f, spec.starts, spec.names, spec.lo, spec.hi,
                       model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
-                      source=source, physical_flags=spec.physical, cluster_unit="runs")
+                      source=source, physical_flags=spec.physical, cluster_unit="runs", priors=spec.priors)
     return _with_monotone_flag(res, d)
 
 
