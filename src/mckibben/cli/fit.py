@@ -38,7 +38,8 @@ def fit_cmd(
                                                     "lowest pressure) or column (a tare_N column)."),
     save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law."),
     rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail (a load-cell floor): keep "
-                                                      "(default, counted) or exclude."),
+                                                      "(default, counted), exclude, or censor (a reading at a floor "
+                                                      "says only force <= floor)."),
     pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: none "
                                                                       "(default), lowest or column (pressure_zero_kPa)."),
     rest_length: str = typer.Option(None, "--rest-length", help="with --save and a family law: the rest length of the "
@@ -97,7 +98,8 @@ def compare_cmd(
     cv: str = typer.Option(None, "--cv", metavar=choices(CV_METHODS), help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
                                               "family table (muscle and rest_length columns), leave-one-muscle-out."),
     tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest or column (see docs/data.md)."),
-    rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail: keep (default) or exclude."),
+    rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail: keep (default), exclude or censor "
+                                                      "(a reading at a floor says only force <= floor)."),
     pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: "
                                                                       "none (default), lowest or column."),
     select: list[str] = SELECT_OPTION,
@@ -151,7 +153,8 @@ def _sensor_warnings(what: str, report: dict) -> None:
     rails = report.get("rails", {})
     if rails.get("rows_at_rail"):
         where = ", ".join(f"{r['column']} {r['side']} {r['value']:g}" for r in rails["rails"])
-        done = "excluded" if rails.get("excluded") else "kept (--rails exclude to drop them)"
+        done = ("excluded" if rails.get("excluded") else "censored (a reading at a floor: force <= floor)"
+                if rails.get("censored") else "kept (--rails exclude to drop them, --rails censor to censor them)")
         tare = "; tares read at the rail: the load cell's zero is unknown there" if "tare_at_rail" in report.get(
             "flags", []) else ""
         err_console.print(f"warning: {what}: {rails['rows_at_rail']} rows at a sensor's rail ({where}), {done}{tare}",

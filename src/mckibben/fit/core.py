@@ -608,6 +608,34 @@ def cluster_covariance(jac, resid, clusters, p_scale=None, prior_jac=None):
     return (bread @ (c * meat + meat_prior) @ bread) / np.outer(norms, norms)
 
 
+def censor_hinge(r, cens):
+    """Model − data with a censored point's consistent side zeroed: max(r, 0) at a floor, min(r, 0) at a ceiling.
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        Model − data per point. [response unit]
+    cens : numpy.ndarray of int or None
+        Per point: 0 a reading, −1 at a floor (the response is at most the reading), +1 at a
+        ceiling (at least); None: every point a reading. [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        The error a bound leaves: 0 where the model keeps to it. [response unit]
+    """
+    if cens is None:
+        return r
+    return np.where(cens < 0, np.maximum(r, 0.0), np.where(cens > 0, np.minimum(r, 0.0), r))
+
+
+def _tobit(r, cens, s0):
+    """The censored likelihood as residuals: ±s₀·√(−2 ln Φ(∓r/s₀)), r = model − bound (floor: −, ceiling: +)."""
+    from scipy import special  # deferred on purpose: SciPy
+    z = np.where(cens > 0, r, -r) / s0
+    return np.where(cens > 0, -1.0, 1.0) * s0 * np.sqrt(np.maximum(-2.0 * special.log_ndtr(z), 0.0))
+
+
 def _prior_dominates(jac, jac_prior, free, k, sigma, s0) -> bool:
     """Whether the data tell less about parameter k than its prior (profiled over the other free parameters).
 
@@ -751,7 +779,7 @@ def fit_flags(names, values, lo, hi, r2, condition_number, extra=(), *, ref=None
 def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str, what: str, valid_range: dict,
                 func: Callable, clusters=None, condition: dict | None = None, source: str = "",
                 physical_flags: Callable | None = None, cluster_unit: str = "trials",
-                priors: dict | None = None) -> FitResult:
+                priors: dict | None = None, censored=None) -> FitResult:
     """Bounded nonlinear least squares from several starts, with flags and trial-aware intervals.
 
     Every start is run briefly (:func:`scipy.optimize.least_squares`, trust region reflective,
@@ -802,6 +830,19 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
         (a parameter the prior holds is constrained), and a parameter about which the data tell
         less than the prior (its data sensitivity ‖J_k‖ below the prior's) carries the note
         ``<name>_from_prior``. ``None``: the data alone.
+    censored : array_like of int, optional
+        Per point: 0 a reading, −1 a reading at a sensor's floor (the response is at most ``y``),
+        +1 at its ceiling (at least ``y``). A censored point's term is the censored (Tobit)
+        likelihood, −ln Φ((y − f)/s₀) at the floor, written as the residual
+        s₀·√(−2 ln Φ((y − f)/s₀)) (s₀ as for ``priors``; the short runs use its limit s₀ → 0, the
+        hinge max(f − y, 0)): a model below the floor costs nothing, one above it what a reading
+        would. The residuals reported are data − model with the same hinge (0 where the model
+        keeps to the bound). ``None``: every point a reading.
+
+    References
+    ----------
+    [tobin1958] Tobin, J. (1958), Estimation of relationships for limited dependent variables,
+    Econometrica 26(1), 24–36 (the censored likelihood).
 
     Returns
     -------
@@ -814,13 +855,16 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     p = lo.size
     require_points(y.size, p, what)
     best, tried = None, []
+    cens = None if censored is None else np.asarray(censored, dtype=int)
+    if cens is not None and not cens.any():
+        cens = None
     for x0 in starts:
         x0 = np.clip(np.asarray(x0, dtype=float), lo, hi)
         scale = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(x0), 1e-12))
         shift = np.where(np.isfinite(lo), lo, 0.0)
 
         def resid(th, shift=shift, scale=scale):
-            return np.asarray(model_fn(th * scale + shift), dtype=float) - y
+            return censor_hinge(np.asarray(model_fn(th * scale + shift), dtype=float) - y, cens)
 
         th0 = (x0 - shift) / scale
         tlo, thi = (lo - shift) / scale, (hi - shift) / scale
@@ -843,6 +887,10 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     width = np.log(np.array([float(priors[nm][1]) for nm in priors]))
     s0 = float(np.sqrt(2.0 * tried[0][0] / max(n - p, 1))) or 1.0  # the data's noise, from the best short run
     for cost, x, resid, tlo, thi, shift, scale in tried[:2]:
+        if cens is not None:
+            def resid(th, shift=shift, scale=scale):  # noqa: F811 - the censored likelihood's rows
+                r = np.asarray(model_fn(th * scale + shift), dtype=float) - y
+                return np.where(cens == 0, r, _tobit(r, cens, s0))
         if pk.size:
             def resid(th, data=resid, shift=shift, scale=scale):  # noqa: F811 - the data's rows, then the priors'
                 v = th[pk] * scale[pk] + shift[pk]
@@ -852,7 +900,8 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
             best = (res, shift, scale)
     res, shift, scale = best
     values = res.x * scale + shift
-    resid = -np.asarray(res.fun)[:n]  # data - model
+    scores = -np.asarray(res.fun)[:n]  # data - model, as the fit weighed it (the censored likelihood's rows)
+    resid = -censor_hinge(np.asarray(model_fn(values), dtype=float) - y, cens) if cens is not None else scores
     jac_prior = res.jac[n:] / scale  # the priors' rows (none without priors)
     ref = reference_magnitude(values, lo, hi, [np.clip(np.asarray(x0, dtype=float), lo, hi) for x0 in starts])
     side = at_bounds(values, lo, hi, ref, res.active_mask)
@@ -873,7 +922,7 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
             cond = float(np.linalg.cond(jaug[:, free] / norms))
             labels = np.unique(clusters) if clusters is not None else np.array([0])
             if use_clusters(clusters):
-                cf = cluster_covariance(jf, resid, clusters, prior_jac=jaug[n:, free])
+                cf = cluster_covariance(jf, scores, clusters, prior_jac=jaug[n:, free])
                 t_dof = int(labels.size - 1)
                 method = f"cluster-robust ({labels.size} {cluster_unit})"
             else:

@@ -55,7 +55,7 @@ import numpy as np
 
 from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
 from mckibben.errors import InputError, check_instance, unknown_name
-from mckibben.fit.core import FitResult, bounded_fit, data_range, heldout_flags, linear_fit
+from mckibben.fit.core import FitResult, bounded_fit, censor_hinge, data_range, heldout_flags, linear_fit
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
 from mckibben.models.law_statics import rising_root
@@ -273,8 +273,10 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
 
     In order: the pressure transducer's zero is removed (:func:`mckibben.data.io.apply_pressure_zero`),
     rows at a sensor's rail are found on the raw readings (:func:`mckibben.data.io.find_rails`),
-    the load cell is tared (:func:`mckibben.data.io.apply_tare`), and the rows at a rail are kept
-    or excluded. A run whose tare was read at the load cell's floor has an unknown zero: it is
+    the load cell is tared (:func:`mckibben.data.io.apply_tare`), and the rows at a rail are kept,
+    excluded or censored (``rails="censor"``: a column ``censored``, −1 for a force at the load
+    cell's floor, "at most this", +1 at its ceiling, "at least this", 0 for a reading; the fit's
+    likelihood treats them so, :func:`mckibben.fit.core.bounded_fit`). A run whose tare was read at the load cell's floor has an unknown zero: it is
     marked ``at_rail`` and the report's ``flags`` say ``tare_at_rail``.
 
     Parameters
@@ -283,8 +285,9 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
         An ``isometric`` table.
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
-    rails : {"keep", "exclude"}, default "keep"
-        Rows at a rail: kept (counted, flagged) or excluded from the fit. [-]
+    rails : {"keep", "exclude", "censor"}, default "keep"
+        Rows at a rail: kept (counted, flagged), excluded from the fit, or censored (a force at
+        the rail is a bound on the force, not its value). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_pressure_zero`. [-]
 
@@ -292,7 +295,7 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
     -------
     points : pandas.DataFrame
         ``held_length`` [m], ``pressure`` [Pa], ``force`` [N], ``direction``, ``trial`` (and
-        ``rest_length``, ``muscle`` of a family).
+        ``rest_length``, ``muscle`` of a family; ``censored`` with ``rails="censor"``).
     report : dict
         The tare's report (``method``, ``per_run_N``) with ``pressure_zero``, ``rails`` (each rail,
         ``rows_at_rail``, ``excluded``) and ``flags``.
@@ -313,12 +316,20 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
             run["at_rail"] = True
     if any(r.get("at_rail") for r in report.get("per_run_N", [])):
         flags.append("tare_at_rail")
-    report.update(pressure_zero=pz, rails={**rail_report, "excluded": rails == "exclude"}, flags=flags)
+    report.update(pressure_zero=pz, rails={**rail_report, "excluded": rails == "exclude",
+                                           "censored": rails == "censor"}, flags=flags)
     if rails == "exclude":
         tared = Table(tared.kind, tared.path, tared.data[~at_rail], tared.columns)
     cols = ["held_length", "pressure", "force", "direction", "trial"]
     cols += [c for c in ("rest_length", "muscle") if c in tared.data]  # a family table's muscles
     d = tared.data[cols].copy()
+    if rails == "censor":
+        raw = zeroed.data["force"].to_numpy(dtype=float)
+        side = np.zeros(len(d), dtype=int)
+        for r in rail_report["rails"]:
+            if r["column"] == "force":
+                side[raw == r["value"]] = -1 if r["side"] == "low" else 1
+        d["censored"] = side
     return d, report
 
 
@@ -484,7 +495,8 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
 
     res = bounded_fit(lambda v: spec.force(v, p, ell, direction, rest), f, spec.starts, spec.names, spec.lo, spec.hi,
                       model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
-                      source=source, physical_flags=spec.physical, cluster_unit="runs", priors=spec.priors)
+                      source=source, physical_flags=spec.physical, cluster_unit="runs", priors=spec.priors,
+                      censored=d["censored"].to_numpy(dtype=int) if "censored" in d else None)
     return _with_monotone_flag(res, d)
 
 
@@ -833,6 +845,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
             extra = {"rest_length": sub["rest_length"].to_numpy(dtype=float)} if "rest_length" in sub else {}
             value, fl = r.predict(pressure=sub["pressure"].to_numpy(), length=sub["held_length"].to_numpy(),
                                   direction=sub["direction"].to_numpy(), **extra)
+            if "censored" in sub:  # a prediction that keeps to a rail's bound is no error (``rails="censor"``)
+                value = f[test] + censor_hinge(value - f[test], sub["censored"].to_numpy(dtype=int))
             pred[test] = value
             extrapolated += int(np.any(fl))
             ok = np.isfinite(value)
