@@ -702,7 +702,13 @@ class ModelComparison(Result):
                 "tare": self.tare, "models": self.scores}
 
     def plot(self, ax=None):
-        """Held-out and in-sample RMSE per model, as % of the peak force (bar chart).
+        """Held-out and in-sample RMSE per model, as % of the peak force, with each fold's error.
+
+        One row per model (names on the vertical axis, never clipped), sorted by held-out error:
+        the in-sample and the pooled held-out RMSE as bars, each held-out fold's RMSE (as % of its
+        muscle's peak) as a dot, so the spread across folds shows. A flagged model's bars are
+        hatched and its label says ``(flagged)``, the recommended one (``best``) is in bold; a
+        model that could not be fitted is listed without bars.
 
         Parameters
         ----------
@@ -715,15 +721,34 @@ class ModelComparison(Result):
         """
         import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
+        df = self.to_pandas().iloc[::-1].reset_index(drop=True)  # the best at the top
         if ax is None:
-            _, ax = plt.subplots(figsize=(6, 3.5))
-        df = self.to_pandas()
-        x = np.arange(len(df))
-        ax.bar(x - 0.2, df["rmse_N"] / self.peak_force * 100, 0.4, label="in-sample")
-        ax.bar(x + 0.2, df["cv_rmse_pct_of_peak"], 0.4, label=f"held out ({self.cv})")
-        ax.set_xticks(x, df["model"], rotation=20, ha="right", fontsize="small")
-        ax.set_ylabel("RMSE [% of peak force]")
-        ax.legend(fontsize="small")
+            _, ax = plt.subplots(figsize=(7.5, 1.8 + 0.45 * len(df)), layout="constrained")
+        y = np.arange(len(df))
+        flagged = np.array([bool(f) for f in df["flags"]])
+        ins = np.where(df["rmse_N"].notna(), df["rmse_N"].astype(float) / self.peak_force * 100, np.nan)
+        held = df["cv_rmse_pct_of_peak"].astype(float).to_numpy()
+        for rows, hatch, suffix in ((~flagged, None, ""), (flagged, "//", ", flagged")):
+            ax.barh(y[rows] + 0.2, ins[rows], 0.38, color="C0", hatch=hatch, edgecolor="white" if hatch else None,
+                    label=f"in-sample{suffix}" if rows.any() else None)
+            ax.barh(y[rows] - 0.2, held[rows], 0.38, color="C1", hatch=hatch, edgecolor="white" if hatch else None,
+                    label=f"held out, pooled{suffix}" if rows.any() else None)
+        dots = "held out, one fold"
+        for k, folds in enumerate(df["folds"]):
+            pct = [f["rmse_pct_of_peak"] for f in folds if np.isfinite(f["rmse_pct_of_peak"])]
+            if pct:
+                ax.plot(pct, np.full(len(pct), y[k] - 0.2), "o", color="k", ms=3, alpha=0.7, label=dots)
+                dots = None  # one legend entry
+        labels = [f"{m} (flagged)" if fl else m for m, fl in zip(df["model"], flagged)]
+        ax.set_yticks(y, labels)
+        for tick, m in zip(ax.get_yticklabels(), df["model"]):
+            if m == self.best:
+                tick.set_fontweight("bold")
+        ax.set_xlabel("RMSE [% of peak force]")
+        ax.set_title(f"{self.cv}: held out and in-sample error (best: {self.best})", fontsize="medium")
+        ax.set_xlim(left=0)
+        ax.legend(fontsize="small", loc="upper center", bbox_to_anchor=(0.5, -0.12 - 0.6 / (1.2 + 0.45 * len(df))),
+                  ncol=3, frameon=False)  # below the axes: never over the data
         return ax.figure
 
 
