@@ -227,13 +227,22 @@ class IsometricFit(Result):
                              "force_fit_N": d["force"].to_numpy() - self.result.residuals,
                              "residual_N": self.result.residuals})
 
-    def plot(self, ax=None):
-        """Force against pressure per held length, inflate and deflate, with the fit and its 95 % band.
+    def plot(self, ax=None, kind: str = "fit"):
+        """The fit over the data, its residuals, or measured against fitted force.
+
+        ``kind="fit"``: force against pressure per held length (each at its own length, and for a
+        family at its own muscle's rest length, coloured by muscle), inflate and deflate, the fitted
+        curve and its 95 % band. The band is clipped to the data's force range (±10 % of it); when
+        it reaches beyond (a parameter the data barely constrain), the figure says so.
+        ``"residuals"``: measured − fitted force against pressure, per held length.
+        ``"parity"``: measured against fitted force with the 1:1 line.
 
         Parameters
         ----------
         ax : matplotlib.axes.Axes, optional
             Axes to draw on (default: a new figure).
+        kind : {"fit", "residuals", "parity"}, default "fit"
+            Which figure. [-]
 
         Returns
         -------
@@ -241,29 +250,76 @@ class IsometricFit(Result):
         """
         import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
+        if kind not in PLOT_KINDS:
+            raise unknown_name("fit plot kind", kind, PLOT_KINDS)
         if ax is None:
-            fig, ax = plt.subplots(figsize=(6, 4))
+            _, ax = plt.subplots(figsize=(6.5, 4.5), layout="constrained")
         fig = ax.figure
-        d = self.data
-        lengths = np.unique(d["held_length"])
-        colors = plt.get_cmap("viridis")(np.linspace(0, 0.85, lengths.size))
+        d = self.data.reset_index(drop=True)
+        f = d["force"].to_numpy(dtype=float)
+        fitted = f - self.result.residuals
+        rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.zeros(len(d))
+        ell_all = d["held_length"].to_numpy(dtype=float)
+        runs = np.unique(np.column_stack([np.round(rest, 9), held_length_groups(ell_all)]), axis=0, return_inverse=True)[1]
+        runs = np.asarray(runs).ravel()
+        family = "rest_length" in d
+        shades = np.unique(np.round(rest, 9)) if family else np.unique(held_length_groups(ell_all))
+        colors = plt.get_cmap("viridis")(np.linspace(0, 0.85, max(shades.size, 1)))
+        if kind == "parity":
+            ax.plot(fitted, f, "o", ms=2.5, alpha=0.5)
+            lim = [min(f.min(), fitted.min()), max(f.max(), fitted.max())]
+            ax.plot(lim, lim, "k-", lw=1, label="measured = fitted")
+            ax.set_xlabel("fitted force [N]")
+            ax.set_ylabel("measured force [N]")
+            ax.set_title(f"{self.model}: measured against fitted, RMS {self.result.residual_rms:.3g} N")
+            ax.legend(fontsize="small", loc="upper left")
+            return fig
         pg = np.linspace(0.0, float(d["pressure"].max()), 60)
-        for ell, col in zip(lengths, colors):
-            sel = np.isclose(d["held_length"], ell)
+        span = float(np.ptp(f)) or 1.0
+        ylo, yhi = float(f.min()) - 0.1 * span, float(f.max()) + 0.1 * span
+        wide, labelled = False, set()
+        for k in np.unique(runs):
+            sel = runs == k
+            ell = float(np.median(ell_all[sel]))
+            shade = np.round(rest[sel][0], 9) if family else held_length_groups(ell_all)[sel][0]
+            col = colors[int(np.searchsorted(shades, shade))]
+            if family:
+                who = str(d["muscle"][sel].iloc[0])
+                label = None if who in labelled else f"{who} ({rest[sel][0] * 1e3:g} mm)"
+                labelled.add(who)
+            else:
+                label = f"{ell * 1e3:g} mm"
+            extra = {"rest_length": np.full_like(pg, rest[sel][0])} if family else {}
             for dn, mk, ls in (("inflate", "o", "-"), ("deflate", "v", "--")):
-                s = sel & (d["direction"] == dn).to_numpy()
-                if not s.any():
+                sd = sel & (d["direction"] == dn).to_numpy()
+                if not sd.any():
                     continue
-                ax.plot(d["pressure"][s] / 1e3, d["force"][s], mk, ms=3, color=col, alpha=0.6)
-                f = self.result.func(self.result.values, pressure=pg, length=np.full_like(pg, ell), direction=dn)
-                band = self.result.band(pressure=pg, length=np.full_like(pg, ell), direction=dn)
-                ax.plot(pg / 1e3, f, ls, color=col, lw=1,
-                        label=f"{ell * 1e3:g} mm" if dn == "inflate" else None)
-                ax.fill_between(pg / 1e3, f - band, f + band, color=col, alpha=0.15, lw=0)
+                x = d["pressure"][sd].to_numpy() / 1e3
+                if kind == "residuals":
+                    ax.plot(x, self.result.residuals[sd], mk, ms=2.5, color=col, alpha=0.6, label=label)
+                    label = None
+                    continue
+                ax.plot(x, f[sd], mk, ms=3, color=col, alpha=0.6)
+                fc = self.result.func(self.result.values, pressure=pg, length=np.full_like(pg, ell), direction=dn, **extra)
+                band = self.result.band(pressure=pg, length=np.full_like(pg, ell), direction=dn, **extra)
+                wide |= bool(np.any(~np.isfinite(band)) or np.any(fc - band < ylo) or np.any(fc + band > yhi))
+                ax.plot(pg / 1e3, fc, ls, color=col, lw=1, label=label if dn == "inflate" else None)
+                ax.fill_between(pg / 1e3, np.clip(fc - band, ylo, yhi), np.clip(fc + band, ylo, yhi), color=col,
+                                alpha=0.15, lw=0)
         ax.set_xlabel("pressure [kPa]")
-        ax.set_ylabel("force [N]")
-        ax.set_title(f"{self.model}: o inflate, v deflate, 95 % band")
-        ax.legend(title="held length", fontsize="small")
+        if kind == "residuals":
+            ax.axhline(0.0, color="k", lw=0.8)
+            ax.set_ylabel("measured − fitted force [N]")
+            ax.set_title(f"{self.model}: residuals, o inflate, v deflate")
+        else:
+            ax.set_ylim(ylo, yhi)
+            ax.set_ylabel("force [N]")
+            ax.set_title(f"{self.model}: o inflate, v deflate, 95 % band")
+            if wide:
+                ax.text(0.01, 0.99, "band clipped to the data's range: it is wider (a parameter the data barely "
+                        "constrain)", transform=ax.transAxes, va="top", fontsize="x-small", wrap=True)
+        ax.legend(title="muscle (rest length)" if family else "held length", fontsize="x-small", ncol=2 if family else 1,
+                  loc="upper left")
         return fig
 
 
@@ -499,6 +555,9 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
                       censored=d["censored"].to_numpy(dtype=int) if "censored" in d else None)
     return _with_monotone_flag(res, d)
 
+
+#: The figures :meth:`IsometricFit.plot` draws.
+PLOT_KINDS = ("fit", "residuals", "parity")
 
 #: A fitted force that falls with rising pressure at a held length by more than this fraction of the
 #: peak force, inside the fitted range, is flagged ``force_falls_with_pressure``: a muscle pulls
