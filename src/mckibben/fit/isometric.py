@@ -495,7 +495,14 @@ def _runs(d: pd.DataFrame) -> np.ndarray:
     return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
 
 
-def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "") -> FitResult:
+#: How a family's rest lengths enter a fit: as recorded, or each muscle's fitted as a nuisance parameter.
+REST_LENGTHS = ("nominal", "fitted")
+#: Largest fitted rest-length shift, as a fraction of the muscle's recorded rest length. [-]
+REST_SHIFT_MAX = 0.05
+
+
+def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "",
+               rest_lengths: str = "nominal") -> FitResult:
     """Fit one force model to isometric points (already tared). See :func:`fit_isometric`.
 
     Parameters
@@ -508,11 +515,20 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         A key of :data:`ALL_MODELS`. [-]
     source : str
         The data file, for messages.
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        A family's rest lengths as recorded, or each muscle's own fitted as a nuisance parameter
+        ``rest_shift_<muscle>_m`` (its true rest length less the recorded one, within ±
+        :data:`REST_SHIFT_MAX` of it; a family law on a family table only). A cut muscle's rest
+        length is measured to a millimetre or so, and a family law's end length absorbs the
+        errors otherwise. A muscle the fit did not see (a held-out one) is predicted at its
+        recorded rest length plus the family's mean shift (the recording's bias). [-]
 
     Returns
     -------
     FitResult
     """
+    if rest_lengths not in REST_LENGTHS:
+        raise unknown_name("rest_lengths", rest_lengths, REST_LENGTHS)
     model = model_name(model)
     what = f"fit {model} on {source}"
     p = d["pressure"].to_numpy(dtype=float)
@@ -545,13 +561,39 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
                          source=source, clusters=clusters, cluster_unit="runs")
         return _with_monotone_flag(res, d)
     spec = _spec(model, muscle, fmax, p, ell, f, direction, rest)
+    k = len(spec.names)
+    names, lo, hi, starts = spec.names, spec.lo, spec.hi, spec.starts
+    recorded = np.zeros(0)
+    if rest_lengths == "fitted":
+        if not (family and is_family(d)):
+            raise InputError(f"{what}: rest_lengths 'fitted' needs a family law on a family table (a muscle and a "
+                             "rest_length column, two muscles or more)")
+        who = d["muscle"].astype(str).to_numpy()
+        musc, idx = np.unique(who, return_inverse=True)
+        recorded = np.array([rest[who == m][0] for m in musc])
+        names = names + tuple(f"rest_shift_{m}_m" for m in musc)
+        lo = np.concatenate([lo, -REST_SHIFT_MAX * recorded])
+        hi = np.concatenate([hi, REST_SHIFT_MAX * recorded])
+        starts = [np.concatenate([x0, np.zeros(musc.size)]) for x0 in starts]
+        rest_fit = lambda v: rest + v[k:][idx]  # noqa: E731 - each row's muscle's fitted rest length
+    else:
+        rest_fit = lambda v: rest  # noqa: E731
 
     def func(values, pressure, length, direction="inflate", rest_length=None):
-        return spec.force(values, pressure, length, direction, rest_length)
+        values = np.asarray(values, dtype=float)
+        if rest_length is not None and values.size > k:
+            # the muscles the fit saw at their fitted rest length, any other at the family's mean shift
+            # (the recording's bias: a muscle's own scatter about it is what the fit cannot know)
+            rl = np.asarray(rest_length, dtype=float)
+            seen = [np.isclose(rl, r0, rtol=0, atol=1e-9) for r0 in recorded]
+            rest_length = rl + sum(np.where(m, dv, 0.0) for m, dv in zip(seen, values[k:])) + np.where(
+                np.any(seen, axis=0), 0.0, float(np.mean(values[k:])))
+        return spec.force(values[:k], pressure, length, direction, rest_length)
 
-    res = bounded_fit(lambda v: spec.force(v, p, ell, direction, rest), f, spec.starts, spec.names, spec.lo, spec.hi,
+    res = bounded_fit(lambda v: spec.force(v[:k], p, ell, direction, rest_fit(v)), f, starts, names, lo, hi,
                       model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
-                      source=source, physical_flags=spec.physical, cluster_unit="runs", priors=spec.priors,
+                      source=source, physical_flags=lambda v: spec.physical(v[:k]) if spec.physical else [],
+                      cluster_unit="runs", priors=spec.priors,
                       censored=d["censored"].to_numpy(dtype=int) if "censored" in d else None)
     return _with_monotone_flag(res, d)
 
@@ -585,7 +627,7 @@ def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
 
 
 def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none", rails: str = "keep",
-                  pressure_zero: str = "none") -> IsometricFit:
+                  pressure_zero: str = "none", rest_lengths: str = "nominal") -> IsometricFit:
     """Fit a static force model F(P, L) to an isometric table.
 
     Geometry missing from the muscle file (braid angle, wall) is fitted within the bounds of
@@ -609,10 +651,12 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
         A key of :data:`ALL_MODELS`. [-]
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
-    rails : {"keep", "exclude"}, default "keep"
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a sensor's rail (:func:`isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         The pressure transducer's zero (:func:`isometric_points`). [-]
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        A family's rest lengths as recorded or fitted per muscle (:func:`fit_points`). [-]
 
     Returns
     -------
@@ -625,7 +669,7 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     check_instance(table, "table", Table, "a Table (mckibben.read_table)")
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
     d, report = isometric_points(table, tare, rails, pressure_zero)
-    res = fit_points(d, muscle, model, source=table.path)
+    res = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths)
     return IsometricFit(model, res, muscle, report, d)
 
 
@@ -834,7 +878,8 @@ def _fold_keys(d: pd.DataFrame, cv: str) -> tuple[np.ndarray, list]:
 
 
 def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
-                      models=None, rails: str = "keep", pressure_zero: str = "none") -> ModelComparison:
+                      models=None, rails: str = "keep", pressure_zero: str = "none",
+                      rest_lengths: str = "nominal") -> ModelComparison:
     """Fit every force model to an isometric table and score it on held-out lengths, trials or muscles.
 
     Every model is fitted on the same folds: ``leave-one-length-out`` leaves each held length out
@@ -872,10 +917,12 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         See :func:`mckibben.data.io.apply_tare`. [-]
     models : sequence of str, optional
         Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`MUSCLE_MODELS`). [-]
-    rails : {"keep", "exclude"}, default "keep"
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a sensor's rail (:func:`isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         The pressure transducer's zero (:func:`isometric_points`). [-]
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        A family's rest lengths as recorded or fitted per muscle (:func:`fit_points`). [-]
 
     Returns
     -------
@@ -887,6 +934,11 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         raise unknown_name("`cv` scheme", cv, CV_METHODS)
     d, report = isometric_points(table, tare, rails, pressure_zero)
     family = is_family(d)
+    if rest_lengths not in REST_LENGTHS:
+        raise unknown_name("rest_lengths", rest_lengths, REST_LENGTHS)
+    if rest_lengths == "fitted" and not family:
+        raise InputError(f"compare on {table.path}: rest_lengths 'fitted' needs a family table (a muscle and a "
+                         "rest_length column, two muscles or more)")
     if cv == "leave-one-muscle-out" and not family:
         raise InputError(f"compare on {table.path}: leave-one-muscle-out needs a family table (a muscle and a "
                          "rest_length column, two muscles or more)")
@@ -907,7 +959,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     scores, fits = [], {}
     for model in models:
         try:
-            full = fit_points(d, muscle, model, source=table.path)
+            full = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths)
         except InputError as exc:
             scores.append({"model": model, "n_parameters": 0, "rmse_N": None, "r2": None, "max_error_N": None,
                            "max_error_pct_of_peak": None, "cv_rmse_N": None, "cv_rmse_pct_of_peak": None,
@@ -921,7 +973,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         for g in groups:
             test = key == g
             try:
-                r = fit_points(d[~test], muscle, model, source=table.path)
+                r = fit_points(d[~test], muscle, model, source=table.path,
+                               rest_lengths=rest_lengths if is_family(d[~test]) else "nominal")
             except InputError as exc:
                 notes.append(f"fold {fold_names[int(g)]} not fitted: {exc}")
                 continue
