@@ -7,6 +7,11 @@ muscle's error and the end length within their intervals.
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -79,3 +84,27 @@ def test_rest_lengths_refused_where_they_mean_nothing(family, tmp_path):
         fit_isometric(read_table(tmp_path / "one.csv"), muscle, "virtual-work", rest_lengths="fitted")
     with pytest.raises(InputError, match="family table"):
         compare_isometric(read_table(tmp_path / "one.csv"), muscle, rest_lengths="fitted")
+
+
+@pytest.mark.slow  # four runs of the command as separate processes: ~9 s
+def test_the_commands_fit_and_compare_with_fitted_rest_lengths(family, tmp_path):
+    table, _ = family
+    data = str(table.path)
+    toml = str(Path(data).parent / "t.toml")
+
+    def run(*args):
+        return subprocess.run([sys.executable, "-m", "mckibben.cli", *args], capture_output=True, text=True, timeout=600)
+
+    r = run("fit", data, "--model", "virtual-work", "--muscle-file", toml, "--rest-lengths", "fitted", "--json")
+    assert r.returncode == 0, r.stderr
+    fit = json.loads(r.stdout)["fits"][0]
+    lo, hi = fit["ci95"]["rest_shift_m120_m"]
+    assert lo < TRUE_SHIFT["m120"] < hi  # reported with its interval
+    r = run("compare", data, "--muscle-file", toml, "--cv", "leave-one-muscle-out", "--rest-lengths", "fitted", "--json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["best"] == "virtual-work"
+    for bad, says in ((["--rest-lengths", "free"], "free"), (["--rest-lengths", "fitted", "--save", str(tmp_path / "x.toml")], "save")):
+        r = run("fit", data, "--model", "virtual-work", "--muscle-file", toml, *bad)
+        assert r.returncode == 2 and says in r.stderr and "Traceback" not in r.stderr, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert not (tmp_path / "x.toml").exists()  # nothing half-written

@@ -13,7 +13,7 @@ from mckibben.cli._common import (COLUMNS_OPTION, JSON_OPTION, MUSCLE_FILE_ARG_O
                                   parse_pairs, print_notes, print_table)
 from mckibben.data.io import PRESSURE_ZEROS, RAIL_POLICIES, TARES
 from mckibben.data.schema import KINDS
-from mckibben.fit.isometric import CV_METHODS
+from mckibben.fit.isometric import CV_METHODS, REST_LENGTHS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
 from mckibben.units import parse_quantity
@@ -44,6 +44,9 @@ def fit_cmd(
                                                                       "(default), lowest or column (pressure_zero_kPa)."),
     rest_length: str = typer.Option(None, "--rest-length", help="with --save and a family law: the rest length of the "
                                                                 "muscle the file describes (default: the muscle file's)."),
+    rest_lengths: str = typer.Option("nominal", "--rest-lengths", metavar=choices(REST_LENGTHS),
+                                     help="isometric family: each muscle's rest length as recorded (nominal, default) "
+                                          "or fitted with its interval (see docs/fit.md)."),
     select: list[str] = SELECT_OPTION,
     columns: list[str] = COLUMNS_OPTION,
     plot: str = plot_option("the fit: force curves over the data (isometric), else the residuals"),
@@ -58,7 +61,8 @@ def fit_cmd(
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
     picked = parse_pairs(select, "--select", "cut_length_cm=10")
     names = parse_pairs(columns, "--columns", "phase=direction")
-    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names)
+    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names,
+                        rest_lengths)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
@@ -102,6 +106,9 @@ def compare_cmd(
                                                       "(a reading at a floor says only force <= floor)."),
     pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: "
                                                                       "none (default), lowest or column."),
+    rest_lengths: str = typer.Option("nominal", "--rest-lengths", metavar=choices(REST_LENGTHS),
+                                     help="isometric family: each muscle's rest length as recorded (nominal, default) "
+                                          "or fitted with its interval (see docs/fit.md)."),
     select: list[str] = SELECT_OPTION,
     columns: list[str] = COLUMNS_OPTION,
     plot: str = plot_option("the held-out error of every model"),
@@ -113,7 +120,7 @@ def compare_cmd(
     muscle = muscle_file_of(muscle, old_muscle, "compare")
     res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
                             parse_pairs(select, "--select", "cut_length_cm=10"),
-                            parse_pairs(columns, "--columns", "phase=direction"))
+                            parse_pairs(columns, "--columns", "phase=direction"), rest_lengths)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
