@@ -54,8 +54,9 @@ def test_compare_figure_has_whole_labels_units_fold_spread_and_flag_marks(tmp_pa
     assert dots == sum(len(s["folds"]) for s in c.scores) == 4 * len(models)
     hatched = {p.get_hatch() for p in ax.patches}
     assert "//" in hatched and None in hatched  # flagged bars hatched, the others plain
-    # the legend sits below the axes, not over the bars
-    assert fig.legends or ax.get_legend().get_window_extent().y1 <= ax.get_window_extent().y0
+    # the legend sits beside the axes, not over the bars, and inside the figure
+    leg = ax.get_legend().get_window_extent()
+    assert leg.x0 >= ax.get_window_extent().x1 and leg.x1 <= box.x1 and leg.y0 >= box.y0
 
 
 def _family(tmp_path):

@@ -810,8 +810,8 @@ class ModelComparison(Result):
         One row per model (names on the vertical axis, never clipped), sorted by held-out error:
         the in-sample and the pooled held-out RMSE as bars, each held-out fold's RMSE (as % of its
         muscle's peak) as a dot, so the spread across folds shows. A flagged model's bars are
-        hatched and its label says ``(flagged)``, the recommended one (``best``) is in bold; a
-        model that could not be fitted is listed without bars.
+        hatched and its label says ``(flagged)``, the recommended one (``best``) is in bold, the
+        legend beside the axes; a model that could not be fitted is listed without bars.
 
         Parameters
         ----------
@@ -826,7 +826,7 @@ class ModelComparison(Result):
 
         df = self.to_pandas().iloc[::-1].reset_index(drop=True)  # the best at the top
         if ax is None:
-            _, ax = plt.subplots(figsize=(7.5, 1.8 + 0.45 * len(df)), layout="constrained")
+            _, ax = plt.subplots(figsize=(9.0, 1.6 + 0.45 * max(len(df), 3)), layout="constrained")
         y = np.arange(len(df))
         flagged = np.array([bool(f) for f in df["flags"]])
         ins = np.where(df["rmse_N"].notna(), df["rmse_N"].astype(float) / self.peak_force * 100, np.nan)
@@ -850,8 +850,7 @@ class ModelComparison(Result):
         ax.set_xlabel("RMSE [% of peak force]")
         ax.set_title(f"{self.cv}: held out and in-sample error (best: {self.best})", fontsize="medium")
         ax.set_xlim(left=0)
-        ax.legend(fontsize="small", loc="upper center", bbox_to_anchor=(0.5, -0.12 - 0.6 / (1.2 + 0.45 * len(df))),
-                  ncol=3, frameon=False)  # below the axes: never over the data
+        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside: never over the data
         return ax.figure
 
 
