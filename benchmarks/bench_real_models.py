@@ -14,7 +14,12 @@ and prints every model's held-out RMSE as % of the held-out muscle's peak force,
 about its predictions) and notes, the best model per muscle (picked on held-out error among the
 unflagged), and any model that is best but carries flags.
 
-Run: python benchmarks/bench_real_models.py [--quick]   (--quick: the family only)
+With ``--sensors`` it runs instead the sensor and specimen models of issue 33 (item 4): per muscle
+``compare … --tare lowest --rails censor`` (a reading at the load cell's floor censored), and on the
+family ``compare … --cv leave-one-muscle-out --tare lowest --rest-lengths fitted`` and the same
+``fit --model virtual-work`` (each muscle's rest length fitted, with its interval).
+
+Run: python benchmarks/bench_real_models.py [--quick | --sensors]   (--quick: the family only)
 """
 
 from __future__ import annotations
@@ -84,6 +89,40 @@ def table(out: dict) -> list[str]:
     return lines
 
 
+def sensors_bench() -> int:
+    """The rails censored per muscle; the family's rest lengths fitted."""
+    if not SOURCE.is_file():
+        print(f"skipped: {SOURCE} is absent (real third-party data, not shipped)")
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        per, fam, fam_toml = lab_tables(Path(tmp))
+        print("per muscle, leave-one-length-out, --tare lowest: --rails keep -> --rails censor")
+        worst = {}
+        for m, rest, iso, toml in per:
+            line = []
+            for rails in ("keep", "censor"):
+                out = run("compare", str(iso), "--muscle", str(toml), "--cv", "leave-one-length-out", "--tare", "lowest",
+                          "--rails", rails)
+                b = next(s for s in out["models"] if s["model"] == out["best"])
+                worst.setdefault(rails, []).append(b["cv_rmse_pct_of_peak"])
+                line.append(f"{rails}: best {out['best']} {b['cv_rmse_pct_of_peak']:.2f} %")
+            print(f"  {m}: rows at the rail {out['tare']['rails']['rows_at_rail']}; " + "; ".join(line))
+        for rails, pct in worst.items():
+            print(f"  best per muscle, --rails {rails}: median {np.median(pct):.2f} %, worst {np.max(pct):.2f} %")
+        for rl in ("nominal", "fitted"):
+            out = run("compare", str(fam), "--muscle", str(fam_toml), "--cv", "leave-one-muscle-out", "--tare", "lowest",
+                      "--rest-lengths", rl)
+            print(f"family, leave-one-muscle-out, --rest-lengths {rl}: best {out['best']}")
+            print("\n".join(table(out)))
+            fit = run("fit", str(fam), "--model", "virtual-work", "--muscle", str(fam_toml), "--tare", "lowest",
+                      "--rest-lengths", rl)["fits"][0]
+            shown = {n: (v, fit["ci95"][n]) for n, v in fit["parameters"].items() if n.startswith("rest_shift")
+                     or n in ("end_zone_m", "e0")}
+            print(f"    fit on all: RMS {fit['rmse_N']:.3f} N, flags {fit['flags'] or 'none'}; "
+                  + ", ".join(f"{n} {v:.4g} [{lo:.4g}, {hi:.4g}]" for n, (v, (lo, hi)) in shown.items()))
+    return 0
+
+
 def main_bench(quick: bool = False) -> int:
     if not SOURCE.is_file():
         print(f"skipped: {SOURCE} is absent (real third-party data, not shipped)")
@@ -118,4 +157,4 @@ def main_bench(quick: bool = False) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main_bench("--quick" in sys.argv))
+    sys.exit(sensors_bench() if "--sensors" in sys.argv else main_bench("--quick" in sys.argv))

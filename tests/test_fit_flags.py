@@ -83,7 +83,7 @@ def test_correlated_but_predictive_fit_is_not_discarded():
 def test_notes_are_split_from_flags():
     flags, notes = split_fit_flags(["large_offset", "negative_area", "x_at_lower_bound"])
     assert flags == ("large_offset", "x_at_lower_bound") and notes == ("negative_area",)
-    assert set(FIT_NOTES) == {"correlated_parameters", "negative_area"}
+    assert set(FIT_NOTES) == {"correlated_parameters", "negative_area", "<name>_from_prior"}
 
 
 def test_heldout_far_above_insample_is_a_flag_of_compare():

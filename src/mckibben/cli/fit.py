@@ -13,7 +13,7 @@ from mckibben.cli._common import (COLUMNS_OPTION, JSON_OPTION, MUSCLE_FILE_ARG_O
                                   parse_pairs, print_notes, print_table)
 from mckibben.data.io import PRESSURE_ZEROS, RAIL_POLICIES, TARES
 from mckibben.data.schema import KINDS
-from mckibben.fit.isometric import CV_METHODS
+from mckibben.fit.isometric import CV_METHODS, REST_LENGTHS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
 from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE
@@ -39,11 +39,15 @@ def fit_cmd(
                                                     "lowest pressure) or column (a tare_N column)."),
     save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law."),
     rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail (a load-cell floor): keep "
-                                                      "(default, counted) or exclude."),
+                                                      "(default, counted), exclude, or censor (a reading at a floor "
+                                                      "says only force <= floor)."),
     pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: none "
                                                                       "(default), lowest or column (pressure_zero_kPa)."),
     rest_length: str = typer.Option(None, "--rest-length", help="with --save and a family law: the rest length of the "
                                                                 "muscle the file describes (default: the muscle file's)."),
+    rest_lengths: str = typer.Option("nominal", "--rest-lengths", metavar=choices(REST_LENGTHS),
+                                     help="isometric family: each muscle's rest length as recorded (nominal, default) "
+                                          "or fitted with its interval (see docs/fit.md)."),
     select: list[str] = SELECT_OPTION,
     columns: list[str] = COLUMNS_OPTION,
     direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: fit the law's direction-aware "
@@ -62,7 +66,7 @@ def fit_cmd(
     picked = parse_pairs(select, "--select", "cut_length_cm=10")
     names = parse_pairs(columns, "--columns", "phase=direction")
     res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names,
-                        DEFAULT_STRUCTURE if direction_aware else None)
+                        DEFAULT_STRUCTURE if direction_aware else None, rest_lengths)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
@@ -102,9 +106,13 @@ def compare_cmd(
     cv: str = typer.Option(None, "--cv", metavar=choices(CV_METHODS), help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
                                               "family table (muscle and rest_length columns), leave-one-muscle-out."),
     tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest or column (see docs/data.md)."),
-    rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail: keep (default) or exclude."),
+    rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail: keep (default), exclude or censor "
+                                                      "(a reading at a floor says only force <= floor)."),
     pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: "
                                                                       "none (default), lowest or column."),
+    rest_lengths: str = typer.Option("nominal", "--rest-lengths", metavar=choices(REST_LENGTHS),
+                                     help="isometric family: each muscle's rest length as recorded (nominal, default) "
+                                          "or fitted with its interval (see docs/fit.md)."),
     select: list[str] = SELECT_OPTION,
     columns: list[str] = COLUMNS_OPTION,
     direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: also score each law beside its "
@@ -119,7 +127,7 @@ def compare_cmd(
     res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
                             parse_pairs(select, "--select", "cut_length_cm=10"),
                             parse_pairs(columns, "--columns", "phase=direction"),
-                            DEFAULT_STRUCTURE if direction_aware else None)
+                            DEFAULT_STRUCTURE if direction_aware else None, rest_lengths)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
@@ -167,7 +175,8 @@ def _sensor_warnings(what: str, report: dict) -> None:
     rails = report.get("rails", {})
     if rails.get("rows_at_rail"):
         where = ", ".join(f"{r['column']} {r['side']} {r['value']:g}" for r in rails["rails"])
-        done = "excluded" if rails.get("excluded") else "kept (--rails exclude to drop them)"
+        done = ("excluded" if rails.get("excluded") else "censored (a reading at a floor: force <= floor)"
+                if rails.get("censored") else "kept (--rails exclude to drop them, --rails censor to censor them)")
         tare = "; tares read at the rail: the load cell's zero is unknown there" if "tare_at_rail" in report.get(
             "flags", []) else ""
         err_console.print(f"warning: {what}: {rails['rows_at_rail']} rows at a sensor's rail ({where}), {done}{tare}",

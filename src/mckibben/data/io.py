@@ -661,8 +661,9 @@ def _check_isometric(table: Table) -> None:
 TARES = ("none", "lowest", "column")
 #: Pressure-zero methods of :func:`apply_pressure_zero`.
 PRESSURE_ZEROS = ("none", "lowest", "column")
-#: What to do with rows at a sensor's rail (:func:`find_rails`).
-RAIL_POLICIES = ("keep", "exclude")
+#: What to do with rows at a sensor's rail (:func:`find_rails`): keep them as readings, exclude
+#: them, or censor them (a reading at a floor says "force ≤ floor": :func:`mckibben.fit.core.bounded_fit`).
+RAIL_POLICIES = ("keep", "exclude", "censor")
 #: A column's extreme value repeated on at least this many rows is a rail (a load cell that cannot
 #: read below a floor, a saturated transducer): a reading that many times exactly at the extreme is
 #: the converter's limit, not the quantity. [-]

@@ -98,6 +98,12 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
         doi="10.3368/jhr.50.2.317",
     ),
     Reference(
+        key="tobin1958",
+        title="Estimation of Relationships for Limited Dependent Variables",
+        authors=("Tobin",), venue="Econometrica, vol. 26, no. 1, pp. 24–36", year=1958,
+        doi=None, unestablished="DOI: not checked against a record of the journal's",
+    ),
+    Reference(
         key="levant1993",
         title="Sliding order and sliding accuracy in sliding mode control",
         authors=("Levant",), venue="International Journal of Control, vol. 58, no. 6, pp. 1247–1263", year=1993,

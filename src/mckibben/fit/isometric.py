@@ -55,7 +55,7 @@ import numpy as np
 
 from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
 from mckibben.errors import InputError, check_instance, unknown_name
-from mckibben.fit.core import FitResult, bounded_fit, data_range, heldout_flags, linear_fit
+from mckibben.fit.core import FitResult, bounded_fit, censor_hinge, data_range, heldout_flags, linear_fit
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
 from mckibben.models.law_statics import rising_root
@@ -227,13 +227,22 @@ class IsometricFit(Result):
                              "force_fit_N": d["force"].to_numpy() - self.result.residuals,
                              "residual_N": self.result.residuals})
 
-    def plot(self, ax=None):
-        """Force against pressure per held length, inflate and deflate, with the fit and its 95 % band.
+    def plot(self, ax=None, kind: str = "fit"):
+        """The fit over the data, its residuals, or measured against fitted force.
+
+        ``kind="fit"``: force against pressure per held length (each at its own length, and for a
+        family at its own muscle's rest length, coloured by muscle), inflate and deflate, the fitted
+        curve and its 95 % band. The band is clipped to the data's force range (±10 % of it); when
+        it reaches beyond (a parameter the data barely constrain), the figure says so.
+        ``"residuals"``: measured − fitted force against pressure, per held length.
+        ``"parity"``: measured against fitted force with the 1:1 line.
 
         Parameters
         ----------
         ax : matplotlib.axes.Axes, optional
             Axes to draw on (default: a new figure).
+        kind : {"fit", "residuals", "parity"}, default "fit"
+            Which figure. [-]
 
         Returns
         -------
@@ -241,29 +250,76 @@ class IsometricFit(Result):
         """
         import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
+        if kind not in PLOT_KINDS:
+            raise unknown_name("fit plot kind", kind, PLOT_KINDS)
         if ax is None:
-            fig, ax = plt.subplots(figsize=(6, 4))
+            _, ax = plt.subplots(figsize=(6.5, 4.5), layout="constrained")
         fig = ax.figure
-        d = self.data
-        lengths = np.unique(d["held_length"])
-        colors = plt.get_cmap("viridis")(np.linspace(0, 0.85, lengths.size))
+        d = self.data.reset_index(drop=True)
+        f = d["force"].to_numpy(dtype=float)
+        fitted = f - self.result.residuals
+        rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.zeros(len(d))
+        ell_all = d["held_length"].to_numpy(dtype=float)
+        runs = np.unique(np.column_stack([np.round(rest, 9), held_length_groups(ell_all)]), axis=0, return_inverse=True)[1]
+        runs = np.asarray(runs).ravel()
+        family = "rest_length" in d
+        shades = np.unique(np.round(rest, 9)) if family else np.unique(held_length_groups(ell_all))
+        colors = plt.get_cmap("viridis")(np.linspace(0, 0.85, max(shades.size, 1)))
+        if kind == "parity":
+            ax.plot(fitted, f, "o", ms=2.5, alpha=0.5)
+            lim = [min(f.min(), fitted.min()), max(f.max(), fitted.max())]
+            ax.plot(lim, lim, "k-", lw=1, label="measured = fitted")
+            ax.set_xlabel("fitted force [N]")
+            ax.set_ylabel("measured force [N]")
+            ax.set_title(f"{self.model}: measured against fitted, RMS {self.result.residual_rms:.3g} N")
+            ax.legend(fontsize="small", loc="upper left")
+            return fig
         pg = np.linspace(0.0, float(d["pressure"].max()), 60)
-        for ell, col in zip(lengths, colors):
-            sel = np.isclose(d["held_length"], ell)
+        span = float(np.ptp(f)) or 1.0
+        ylo, yhi = float(f.min()) - 0.1 * span, float(f.max()) + 0.1 * span
+        wide, labelled = False, set()
+        for k in np.unique(runs):
+            sel = runs == k
+            ell = float(np.median(ell_all[sel]))
+            shade = np.round(rest[sel][0], 9) if family else held_length_groups(ell_all)[sel][0]
+            col = colors[int(np.searchsorted(shades, shade))]
+            if family:
+                who = str(d["muscle"][sel].iloc[0])
+                label = None if who in labelled else f"{who} ({rest[sel][0] * 1e3:g} mm)"
+                labelled.add(who)
+            else:
+                label = f"{ell * 1e3:g} mm"
+            extra = {"rest_length": np.full_like(pg, rest[sel][0])} if family else {}
             for dn, mk, ls in (("inflate", "o", "-"), ("deflate", "v", "--")):
-                s = sel & (d["direction"] == dn).to_numpy()
-                if not s.any():
+                sd = sel & (d["direction"] == dn).to_numpy()
+                if not sd.any():
                     continue
-                ax.plot(d["pressure"][s] / 1e3, d["force"][s], mk, ms=3, color=col, alpha=0.6)
-                f = self.result.func(self.result.values, pressure=pg, length=np.full_like(pg, ell), direction=dn)
-                band = self.result.band(pressure=pg, length=np.full_like(pg, ell), direction=dn)
-                ax.plot(pg / 1e3, f, ls, color=col, lw=1,
-                        label=f"{ell * 1e3:g} mm" if dn == "inflate" else None)
-                ax.fill_between(pg / 1e3, f - band, f + band, color=col, alpha=0.15, lw=0)
+                x = d["pressure"][sd].to_numpy() / 1e3
+                if kind == "residuals":
+                    ax.plot(x, self.result.residuals[sd], mk, ms=2.5, color=col, alpha=0.6, label=label)
+                    label = None
+                    continue
+                ax.plot(x, f[sd], mk, ms=3, color=col, alpha=0.6)
+                fc = self.result.func(self.result.values, pressure=pg, length=np.full_like(pg, ell), direction=dn, **extra)
+                band = self.result.band(pressure=pg, length=np.full_like(pg, ell), direction=dn, **extra)
+                wide |= bool(np.any(~np.isfinite(band)) or np.any(fc - band < ylo) or np.any(fc + band > yhi))
+                ax.plot(pg / 1e3, fc, ls, color=col, lw=1, label=label if dn == "inflate" else None)
+                ax.fill_between(pg / 1e3, np.clip(fc - band, ylo, yhi), np.clip(fc + band, ylo, yhi), color=col,
+                                alpha=0.15, lw=0)
         ax.set_xlabel("pressure [kPa]")
-        ax.set_ylabel("force [N]")
-        ax.set_title(f"{self.model}: o inflate, v deflate, 95 % band")
-        ax.legend(title="held length", fontsize="small")
+        if kind == "residuals":
+            ax.axhline(0.0, color="k", lw=0.8)
+            ax.set_ylabel("measured − fitted force [N]")
+            ax.set_title(f"{self.model}: residuals, o inflate, v deflate")
+        else:
+            ax.set_ylim(ylo, yhi)
+            ax.set_ylabel("force [N]")
+            ax.set_title(f"{self.model}: o inflate, v deflate, 95 % band")
+            if wide:
+                ax.text(0.01, 0.99, "band clipped to the data's range: it is wider (a parameter the data barely "
+                        "constrain)", transform=ax.transAxes, va="top", fontsize="x-small", wrap=True)
+        ax.legend(title="muscle (rest length)" if family else "held length", fontsize="x-small", ncol=2 if family else 1,
+                  loc="upper left")
         return fig
 
 
@@ -273,8 +329,10 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
 
     In order: the pressure transducer's zero is removed (:func:`mckibben.data.io.apply_pressure_zero`),
     rows at a sensor's rail are found on the raw readings (:func:`mckibben.data.io.find_rails`),
-    the load cell is tared (:func:`mckibben.data.io.apply_tare`), and the rows at a rail are kept
-    or excluded. A run whose tare was read at the load cell's floor has an unknown zero: it is
+    the load cell is tared (:func:`mckibben.data.io.apply_tare`), and the rows at a rail are kept,
+    excluded or censored (``rails="censor"``: a column ``censored``, −1 for a force at the load
+    cell's floor, "at most this", +1 at its ceiling, "at least this", 0 for a reading; the fit's
+    likelihood treats them so, :func:`mckibben.fit.core.bounded_fit`). A run whose tare was read at the load cell's floor has an unknown zero: it is
     marked ``at_rail`` and the report's ``flags`` say ``tare_at_rail``.
 
     Parameters
@@ -283,8 +341,9 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
         An ``isometric`` table.
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
-    rails : {"keep", "exclude"}, default "keep"
-        Rows at a rail: kept (counted, flagged) or excluded from the fit. [-]
+    rails : {"keep", "exclude", "censor"}, default "keep"
+        Rows at a rail: kept (counted, flagged), excluded from the fit, or censored (a force at
+        the rail is a bound on the force, not its value). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_pressure_zero`. [-]
 
@@ -292,7 +351,7 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
     -------
     points : pandas.DataFrame
         ``held_length`` [m], ``pressure`` [Pa], ``force`` [N], ``direction``, ``trial`` (and
-        ``rest_length``, ``muscle`` of a family).
+        ``rest_length``, ``muscle`` of a family; ``censored`` with ``rails="censor"``).
     report : dict
         The tare's report (``method``, ``per_run_N``) with ``pressure_zero``, ``rails`` (each rail,
         ``rows_at_rail``, ``excluded``) and ``flags``.
@@ -313,12 +372,20 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
             run["at_rail"] = True
     if any(r.get("at_rail") for r in report.get("per_run_N", [])):
         flags.append("tare_at_rail")
-    report.update(pressure_zero=pz, rails={**rail_report, "excluded": rails == "exclude"}, flags=flags)
+    report.update(pressure_zero=pz, rails={**rail_report, "excluded": rails == "exclude",
+                                           "censored": rails == "censor"}, flags=flags)
     if rails == "exclude":
         tared = Table(tared.kind, tared.path, tared.data[~at_rail], tared.columns)
     cols = ["held_length", "pressure", "force", "direction", "trial"]
     cols += [c for c in ("rest_length", "muscle") if c in tared.data]  # a family table's muscles
     d = tared.data[cols].copy()
+    if rails == "censor":
+        raw = zeroed.data["force"].to_numpy(dtype=float)
+        side = np.zeros(len(d), dtype=int)
+        for r in rail_report["rails"]:
+            if r["column"] == "force":
+                side[raw == r["value"]] = -1 if r["side"] == "low" else 1
+        d["censored"] = side
     return d, report
 
 
@@ -428,7 +495,14 @@ def _runs(d: pd.DataFrame) -> np.ndarray:
     return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
 
 
-def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "") -> FitResult:
+#: How a family's rest lengths enter a fit: as recorded, or each muscle's fitted as a nuisance parameter.
+REST_LENGTHS = ("nominal", "fitted")
+#: Largest fitted rest-length shift, as a fraction of the muscle's recorded rest length. [-]
+REST_SHIFT_MAX = 0.05
+
+
+def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "",
+               rest_lengths: str = "nominal") -> FitResult:
     """Fit one force model to isometric points (already tared). See :func:`fit_isometric`.
 
     Parameters
@@ -441,11 +515,20 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         A key of :data:`ALL_MODELS`. [-]
     source : str
         The data file, for messages.
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        A family's rest lengths as recorded, or each muscle's own fitted as a nuisance parameter
+        ``rest_shift_<muscle>_m`` (its true rest length less the recorded one, within ±
+        :data:`REST_SHIFT_MAX` of it; a family law on a family table only). A cut muscle's rest
+        length is measured to a millimetre or so, and a family law's end length absorbs the
+        errors otherwise. A muscle the fit did not see (a held-out one) is predicted at its
+        recorded rest length plus the family's mean shift (the recording's bias). [-]
 
     Returns
     -------
     FitResult
     """
+    if rest_lengths not in REST_LENGTHS:
+        raise unknown_name("rest_lengths", rest_lengths, REST_LENGTHS)
     model = model_name(model)
     what = f"fit {model} on {source}"
     p = d["pressure"].to_numpy(dtype=float)
@@ -478,15 +561,45 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
                          source=source, clusters=clusters, cluster_unit="runs")
         return _with_monotone_flag(res, d)
     spec = _spec(model, muscle, fmax, p, ell, f, direction, rest)
+    k = len(spec.names)
+    names, lo, hi, starts = spec.names, spec.lo, spec.hi, spec.starts
+    recorded = np.zeros(0)
+    if rest_lengths == "fitted":
+        if not (family and is_family(d)):
+            raise InputError(f"{what}: rest_lengths 'fitted' needs a family law on a family table (a muscle and a "
+                             "rest_length column, two muscles or more)")
+        who = d["muscle"].astype(str).to_numpy()
+        musc, idx = np.unique(who, return_inverse=True)
+        recorded = np.array([rest[who == m][0] for m in musc])
+        names = names + tuple(f"rest_shift_{m}_m" for m in musc)
+        lo = np.concatenate([lo, -REST_SHIFT_MAX * recorded])
+        hi = np.concatenate([hi, REST_SHIFT_MAX * recorded])
+        starts = [np.concatenate([x0, np.zeros(musc.size)]) for x0 in starts]
+        rest_fit = lambda v: rest + v[k:][idx]  # noqa: E731 - each row's muscle's fitted rest length
+    else:
+        rest_fit = lambda v: rest  # noqa: E731
 
     def func(values, pressure, length, direction="inflate", rest_length=None):
-        return spec.force(values, pressure, length, direction, rest_length)
+        values = np.asarray(values, dtype=float)
+        if rest_length is not None and values.size > k:
+            # the muscles the fit saw at their fitted rest length, any other at the family's mean shift
+            # (the recording's bias: a muscle's own scatter about it is what the fit cannot know)
+            rl = np.asarray(rest_length, dtype=float)
+            seen = [np.isclose(rl, r0, rtol=0, atol=1e-9) for r0 in recorded]
+            rest_length = rl + sum(np.where(m, dv, 0.0) for m, dv in zip(seen, values[k:])) + np.where(
+                np.any(seen, axis=0), 0.0, float(np.mean(values[k:])))
+        return spec.force(values[:k], pressure, length, direction, rest_length)
 
-    res = bounded_fit(lambda v: spec.force(v, p, ell, direction, rest), f, spec.starts, spec.names, spec.lo, spec.hi,
+    res = bounded_fit(lambda v: spec.force(v[:k], p, ell, direction, rest_fit(v)), f, starts, names, lo, hi,
                       model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
-                      source=source, physical_flags=spec.physical, cluster_unit="runs")
+                      source=source, physical_flags=lambda v: spec.physical(v[:k]) if spec.physical else [],
+                      cluster_unit="runs", priors=spec.priors,
+                      censored=d["censored"].to_numpy(dtype=int) if "censored" in d else None)
     return _with_monotone_flag(res, d)
 
+
+#: The figures :meth:`IsometricFit.plot` draws.
+PLOT_KINDS = ("fit", "residuals", "parity")
 
 #: A fitted force that falls with rising pressure at a held length by more than this fraction of the
 #: peak force, inside the fitted range, is flagged ``force_falls_with_pressure``: a muscle pulls
@@ -514,7 +627,7 @@ def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
 
 
 def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none", rails: str = "keep",
-                  pressure_zero: str = "none") -> IsometricFit:
+                  pressure_zero: str = "none", rest_lengths: str = "nominal") -> IsometricFit:
     """Fit a static force model F(P, L) to an isometric table.
 
     Geometry missing from the muscle file (braid angle, wall) is fitted within the bounds of
@@ -538,10 +651,12 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
         A key of :data:`ALL_MODELS`. [-]
     tare : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.io.apply_tare`. [-]
-    rails : {"keep", "exclude"}, default "keep"
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a sensor's rail (:func:`isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         The pressure transducer's zero (:func:`isometric_points`). [-]
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        A family's rest lengths as recorded or fitted per muscle (:func:`fit_points`). [-]
 
     Returns
     -------
@@ -554,7 +669,7 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     check_instance(table, "table", Table, "a Table (mckibben.read_table)")
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
     d, report = isometric_points(table, tare, rails, pressure_zero)
-    res = fit_points(d, muscle, model, source=table.path)
+    res = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths)
     return IsometricFit(model, res, muscle, report, d)
 
 
@@ -690,7 +805,13 @@ class ModelComparison(Result):
                 "tare": self.tare, "models": self.scores}
 
     def plot(self, ax=None):
-        """Held-out and in-sample RMSE per model, as % of the peak force (bar chart).
+        """Held-out and in-sample RMSE per model, as % of the peak force, with each fold's error.
+
+        One row per model (names on the vertical axis, never clipped), sorted by held-out error:
+        the in-sample and the pooled held-out RMSE as bars, each held-out fold's RMSE (as % of its
+        muscle's peak) as a dot, so the spread across folds shows. A flagged model's bars are
+        hatched and its label says ``(flagged)``, the recommended one (``best``) is in bold, the
+        legend beside the axes; a model that could not be fitted is listed without bars.
 
         Parameters
         ----------
@@ -703,15 +824,33 @@ class ModelComparison(Result):
         """
         import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
+        df = self.to_pandas().iloc[::-1].reset_index(drop=True)  # the best at the top
         if ax is None:
-            _, ax = plt.subplots(figsize=(6, 3.5))
-        df = self.to_pandas()
-        x = np.arange(len(df))
-        ax.bar(x - 0.2, df["rmse_N"] / self.peak_force * 100, 0.4, label="in-sample")
-        ax.bar(x + 0.2, df["cv_rmse_pct_of_peak"], 0.4, label=f"held out ({self.cv})")
-        ax.set_xticks(x, df["model"], rotation=20, ha="right", fontsize="small")
-        ax.set_ylabel("RMSE [% of peak force]")
-        ax.legend(fontsize="small")
+            _, ax = plt.subplots(figsize=(9.0, 1.6 + 0.45 * max(len(df), 3)), layout="constrained")
+        y = np.arange(len(df))
+        flagged = np.array([bool(f) for f in df["flags"]])
+        ins = np.where(df["rmse_N"].notna(), df["rmse_N"].astype(float) / self.peak_force * 100, np.nan)
+        held = df["cv_rmse_pct_of_peak"].astype(float).to_numpy()
+        for rows, hatch, suffix in ((~flagged, None, ""), (flagged, "//", ", flagged")):
+            ax.barh(y[rows] + 0.2, ins[rows], 0.38, color="C0", hatch=hatch, edgecolor="white" if hatch else None,
+                    label=f"in-sample{suffix}" if rows.any() else None)
+            ax.barh(y[rows] - 0.2, held[rows], 0.38, color="C1", hatch=hatch, edgecolor="white" if hatch else None,
+                    label=f"held out, pooled{suffix}" if rows.any() else None)
+        dots = "held out, one fold"
+        for k, folds in enumerate(df["folds"]):
+            pct = [f["rmse_pct_of_peak"] for f in folds if np.isfinite(f["rmse_pct_of_peak"])]
+            if pct:
+                ax.plot(pct, np.full(len(pct), y[k] - 0.2), "o", color="k", ms=3, alpha=0.7, label=dots)
+                dots = None  # one legend entry
+        labels = [f"{m} (flagged)" if fl else m for m, fl in zip(df["model"], flagged)]
+        ax.set_yticks(y, labels)
+        for tick, m in zip(ax.get_yticklabels(), df["model"]):
+            if m == self.best:
+                tick.set_fontweight("bold")
+        ax.set_xlabel("RMSE [% of peak force]")
+        ax.set_title(f"{self.cv}: held out and in-sample error (best: {self.best})", fontsize="medium")
+        ax.set_xlim(left=0)
+        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside: never over the data
         return ax.figure
 
 
@@ -738,7 +877,8 @@ def _fold_keys(d: pd.DataFrame, cv: str) -> tuple[np.ndarray, list]:
 
 
 def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
-                      models=None, rails: str = "keep", pressure_zero: str = "none") -> ModelComparison:
+                      models=None, rails: str = "keep", pressure_zero: str = "none",
+                      rest_lengths: str = "nominal") -> ModelComparison:
     """Fit every force model to an isometric table and score it on held-out lengths, trials or muscles.
 
     Every model is fitted on the same folds: ``leave-one-length-out`` leaves each held length out
@@ -776,10 +916,12 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         See :func:`mckibben.data.io.apply_tare`. [-]
     models : sequence of str, optional
         Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`MUSCLE_MODELS`). [-]
-    rails : {"keep", "exclude"}, default "keep"
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a sensor's rail (:func:`isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         The pressure transducer's zero (:func:`isometric_points`). [-]
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        A family's rest lengths as recorded or fitted per muscle (:func:`fit_points`). [-]
 
     Returns
     -------
@@ -791,6 +933,11 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         raise unknown_name("`cv` scheme", cv, CV_METHODS)
     d, report = isometric_points(table, tare, rails, pressure_zero)
     family = is_family(d)
+    if rest_lengths not in REST_LENGTHS:
+        raise unknown_name("rest_lengths", rest_lengths, REST_LENGTHS)
+    if rest_lengths == "fitted" and not family:
+        raise InputError(f"compare on {table.path}: rest_lengths 'fitted' needs a family table (a muscle and a "
+                         "rest_length column, two muscles or more)")
     if cv == "leave-one-muscle-out" and not family:
         raise InputError(f"compare on {table.path}: leave-one-muscle-out needs a family table (a muscle and a "
                          "rest_length column, two muscles or more)")
@@ -811,7 +958,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     scores, fits = [], {}
     for model in models:
         try:
-            full = fit_points(d, muscle, model, source=table.path)
+            full = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths)
         except InputError as exc:
             scores.append({"model": model, "n_parameters": 0, "rmse_N": None, "r2": None, "max_error_N": None,
                            "max_error_pct_of_peak": None, "cv_rmse_N": None, "cv_rmse_pct_of_peak": None,
@@ -825,7 +972,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         for g in groups:
             test = key == g
             try:
-                r = fit_points(d[~test], muscle, model, source=table.path)
+                r = fit_points(d[~test], muscle, model, source=table.path,
+                               rest_lengths=rest_lengths if is_family(d[~test]) else "nominal")
             except InputError as exc:
                 notes.append(f"fold {fold_names[int(g)]} not fitted: {exc}")
                 continue
@@ -833,6 +981,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
             extra = {"rest_length": sub["rest_length"].to_numpy(dtype=float)} if "rest_length" in sub else {}
             value, fl = r.predict(pressure=sub["pressure"].to_numpy(), length=sub["held_length"].to_numpy(),
                                   direction=sub["direction"].to_numpy(), **extra)
+            if "censored" in sub:  # a prediction that keeps to a rail's bound is no error (``rails="censor"``)
+                value = f[test] + censor_hinge(value - f[test], sub["censored"].to_numpy(dtype=int))
             pred[test] = value
             extrapolated += int(np.any(fl))
             ok = np.isfinite(value)

@@ -59,7 +59,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
              select: dict | None = None, columns: dict | None = None,
-             direction_aware: str | None = None) -> tuple[dict, list]:
+             direction_aware: str | None = None, rest_lengths: str = "nominal") -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
 
     if model not in FIT_MODELS and model not in laws.ALIASES:  # an old law name is read (deprecated)
@@ -75,6 +75,8 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError(f"rails/`pressure_zero`: apply to isometric tables; {data} is a {table.kind} table")
     if save is not None and not isometric:
         raise InputError(f"save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
+    if rest_lengths != "nominal" and save is not None:
+        raise InputError("save: writes a family law at recorded rest lengths; fit with rest_lengths 'nominal' to save")
     if rest_length is not None and save is None:
         raise InputError("rest_length: sets the rest length of the muscle a family law's file describes; give `save`")
     if split_pressure is not None:
@@ -99,7 +101,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
     if isometric:
         if model not in ALL_MODELS and model not in laws.ALIASES:
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
-        fit = fit_isometric(table, spec, model, tare, rails, pressure_zero)
+        fit = fit_isometric(table, spec, model, tare, rails, pressure_zero, rest_lengths=rest_lengths)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
                "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
         _update_keeping_table_notes(out, fit.to_dict())
@@ -165,12 +167,14 @@ def _isometric_table(data: Path, select: dict | None = None, columns: dict | Non
 
 
 def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
-                       pressure_zero: str = "none", direction_aware: str | None = None) -> dict:
+                       pressure_zero: str = "none", direction_aware: str | None = None,
+                       rest_lengths: str = "nominal") -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
 
     spec = load_muscle(data, muscle, True, "compare", table)
     check_muscle(table, spec)
-    res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero)
+    res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero,
+                            rest_lengths=rest_lengths)
     out = {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
            **_table_notes(table), "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
     if direction_aware is not None:  # each law beside its direction-aware form (mckibben.fit.direction)
@@ -302,7 +306,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
               split_pressure: float | None = None, tare: str = "none", save: str | None = None,
               rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
               select: dict | None = None, columns: dict | None = None,
-              direction_aware: str | None = None) -> TableFit:
+              direction_aware: str | None = None, rest_lengths: str = "nominal") -> TableFit:
     """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
 
     Parameters
@@ -319,7 +323,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         Spring model: the low/high range split (default: the median pressure). [Pa]
     tare : {"none", "lowest", "column"}, default "none"
         Isometric tables: :func:`mckibben.data.io.apply_tare`. [-]
-    rails : {"keep", "exclude"}, default "keep"
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Isometric tables: rows at a sensor's rail (:func:`mckibben.fit.isometric.isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         Isometric tables: the pressure transducer's zero (:func:`mckibben.data.io.apply_pressure_zero`). [-]
@@ -337,6 +341,10 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         Isometric tables: fit the law's direction-aware form of this structure
         (:func:`mckibben.fit.direction.fit_direction_aware`); None: the plain law. [-]
 
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        Isometric family tables: each muscle's rest length as recorded or fitted
+        (:func:`mckibben.fit.isometric.fit_points`); not with ``save``. [-]
+
     Returns
     -------
     TableFit
@@ -344,7 +352,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         (:func:`mckibben.data.io.muscle_of_table`).
     """
     out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails,
-                         pressure_zero, select, columns, direction_aware)
+                         pressure_zero, select, columns, direction_aware, rest_lengths)
     return TableFit(out, fits)
 
 
@@ -408,7 +416,8 @@ class TableComparison(Result):
 
 def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none", rails: str = "keep",
                   pressure_zero: str = "none", select: dict | None = None,
-                  columns: dict | None = None, direction_aware: str | None = None) -> TableComparison:
+                  columns: dict | None = None, direction_aware: str | None = None,
+                  rest_lengths: str = "nominal") -> TableComparison:
     """Fit every applicable model to the same data and score it on held-out data.
 
     An isometric table: every force model, folds by held length (default) or trial
@@ -426,7 +435,7 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         Isometric tables only. [-]
     tare : {"none", "lowest", "column"}, default "none"
         Isometric tables only. [-]
-    rails : {"keep", "exclude"}, default "keep"
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Isometric tables: rows at a sensor's rail. [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         Isometric tables: the pressure transducer's zero. [-]
@@ -438,6 +447,9 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         Isometric tables: also score each law beside its direction-aware form of this structure,
         each trial held out in turn, by the up/down gap (RMS and max of the gap error; key
         ``direction_aware``, :func:`mckibben.fit.direction.compare_direction_aware`). [-]
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        Isometric family tables: each muscle's rest length as recorded or fitted
+        (:func:`mckibben.fit.isometric.fit_points`). [-]
 
     Returns
     -------
@@ -447,9 +459,9 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
     iso = _isometric_table(data, select, columns)
     if iso is not None:
         return TableComparison(_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare, rails,
-                                                  pressure_zero, direction_aware))
+                                                  pressure_zero, direction_aware, rest_lengths))
     if direction_aware is not None:
         raise InputError("direction_aware: scores laws on the inflate and deflate rows of an isometric table")
-    if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
+    if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none" or rest_lengths != "nominal":
         raise InputError("cv/`tare`: apply to isometric tables; the isotonic comparison chooses its own folds")
     return TableComparison(_compare_isotonic(data, muscle, select, columns))

@@ -46,6 +46,11 @@ class FitSpec:
         law's NumPy face with the fitted values, the load cell's zero included.
     physical : callable, optional
         ``physical(values) -> list of flag names`` for non-physical results.
+    priors : dict, optional
+        ``{name: (median, factor)}``: a log-normal prior on a positive parameter the data may not
+        see, median [parameter unit] and the factor one standard deviation spans (ln σ = ln factor)
+        [-]; the fit adds it to the least squares (:func:`mckibben.fit.core.bounded_fit`) and says
+        when the prior, not the data, holds the value.
     """
 
     names: tuple
@@ -54,6 +59,7 @@ class FitSpec:
     starts: list
     force: Callable
     physical: Callable | None = None
+    priors: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
