@@ -238,7 +238,8 @@ def emulate_cmd(
             except OSError as exc:
                 raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
         if json:
-            emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels, "engine": engine})
+            emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels, "engine": engine,
+                       "bench": str(em.bench)})
         else:
             err_console.print(f"emulated device ({engine} engine) on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
         em.run(d)
@@ -248,3 +249,37 @@ def emulate_cmd(
         em.stop()
         if made and os.path.islink(link):
             os.unlink(link)
+
+
+@rig_app.command("bench")
+def bench_cmd(
+    port: str = typer.Option(..., "--port", help="Serial port of the emulated device (or a link to it)."),
+    request: str = typer.Argument(..., help="load, hold, release or state."),
+    value: str = typer.Argument(None, help="load: a weight (61g, 0.6N); hold: a length (92mm)."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Change the simulated bench of an emulated device: hang a load, hold a length, release; or show it."""
+    from mckibben.rig import bench as B
+
+    if request in ("load", "hold"):
+        if value is None:
+            raise InputError(f"{request}: give a {'weight (61g, 0.6N)' if request == 'load' else 'length (92mm)'}")
+        v = parse_quantity(value, "force" if request == "load" else "length", request, allow_zero=request == "load")
+        line = f"{request} {v!r}"
+    elif request in ("release", "state"):
+        if value is not None:
+            raise InputError(f"{request}: takes no value (got {value!r})")
+        line = request
+    else:
+        raise InputError(f"request: {request!r} must be one of load, hold, release, state")
+    b = B.Bench.of_port(port)
+    if request == "state":
+        st = b.state()
+        out = {"load_N": st.load, "length_m": st.length, "pressure_Pa": st.pressure, "held": st.held}
+    else:
+        b.request(line)
+        out = {"request": line, "reply": "ok"}
+    if json:
+        emit_json(out)
+        return
+    print_table(f"Bench of {port}", list(out), [[str(v) for v in out.values()]])

@@ -35,6 +35,7 @@ from mckibben.errors import InputError
 from mckibben.plant import c_layout as CL
 from mckibben.plant import params as PP
 from mckibben.rig import firmware as FW
+from mckibben.rig.bench import bench_dir
 
 #: The plant's C sources (package data of mckibben.export, ``c/``) the harness compiles.
 PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
@@ -209,6 +210,8 @@ class AvrDevice:
             cmd += ["--hold-adc", str(int(hold_adc))]
         if stall_at is not None:
             cmd += ["--stall-at", repr(float(stall_at))]
+        bench_dir().mkdir(mode=0o700, parents=True, exist_ok=True)
+        cmd += ["--bench-dir", str(bench_dir())]  # the bench side channel (mckibben.rig.bench)
         self._cmd = cmd
         self._proc: subprocess.Popen | None = None
         self.stats: dict = {}
@@ -229,6 +232,8 @@ class AvrDevice:
             if line.startswith('{"port"'):
                 info = json.loads(line)
         self.port: str = info["port"]
+        #: The bench side channel's socket (:mod:`mckibben.rig.bench`).
+        self.bench = Path(info["bench"])
         self._reader = threading.Thread(target=self._read, name="mckibben-avr-stats", daemon=True)
         self._reader.start()
 
