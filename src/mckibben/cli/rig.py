@@ -283,3 +283,93 @@ def bench_cmd(
         emit_json(out)
         return
     print_table(f"Bench of {port}", list(out), [[str(v) for v in out.values()]])
+
+
+@rig_app.command("characterize")
+def characterize_cmd(
+    port: str = typer.Option(..., "--port", help="Serial port of the device or emulator (e.g. /dev/ttyACM0)."),
+    protocol: str = typer.Option(..., "--protocol", help="Protocol file (TOML): mckibben examples copy "
+                                                         "characterize.toml."),
+    out: str = typer.Option(..., "--out", help="Folder of the run: tables, muscle.toml, report/ (empty or new, "
+                                               "or a stopped run's with --resume)."),
+    unattended: bool = typer.Option(False, "--unattended", help="Change the loads through the emulated bench's "
+                                                                "side channel instead of asking the operator."),
+    resume: bool = typer.Option(False, "--resume", help="Go on with a stopped run in --out: its completed load "
+                                                        "steps are kept, the others run."),
+    muscle_file: str = typer.Option(None, "--muscle-file", help="The muscle under test (TOML); with it the run "
+                                                                "fits every law and writes OUT/muscle.toml."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Run a characterization protocol on the bench: load steps, pressure up and down, tables, fitted muscle file."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn  # deferred: Rich's progress
+
+    from mckibben.rig import characterize as C
+
+    proto = C.read_protocol(protocol)  # a bad protocol or muscle file is refused before the port is touched
+    if muscle_file is not None:
+        from mckibben.data import read_muscle
+
+        read_muscle(muscle_file)
+    show = not json and sys.stderr.isatty()
+    bar = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} steps"),
+                   TimeRemainingColumn(), console=err_console, transient=True, disable=not show)
+    task = bar.add_task("characterize", total=1)
+
+    def progress(event, **info):
+        if event == "start":
+            bar.update(task, total=info["total"], completed=info["done"])
+        elif event == "load":
+            bar.update(task, description=f"load {info['load'] / 9.80665 * 1e3:.0f} g, trial {info['trial']}")
+        else:
+            bar.advance(task)
+
+    def prompt(text: str) -> str:
+        bar.stop()
+        try:
+            return err_console.input(text)
+        finally:
+            bar.start()
+
+    with bar:
+        res = C.characterize(port, proto, out, unattended=unattended, resume=resume, muscle_file=muscle_file,
+                             prompt=prompt, progress=progress)
+    summary = res.to_dict()
+    report = None
+    if muscle_file is not None:
+        try:
+            report = _characterize_report(res)
+        except InputError as exc:  # the run, its tables and muscle file stand without the report
+            summary["report_error"] = str(exc)
+            err_console.print(f"warning: no HTML report: {exc}", markup=False, highlight=False)
+    summary["report"] = report
+    if json:
+        emit_json(summary)
+        return
+    m = res.metrics
+    rows = [["load steps", f"{summary['load_steps']} of {summary['load_steps_expected']}"],
+            ["samples", str(m["samples"])], ["peak pressure", f"{m['peak_pressure_Pa'] / 1e6:.4f} MPa"],
+            *[[k, v] for k, v in summary["tables"].items()]]
+    if summary["fit"]:
+        f = summary["fit"]
+        rows += [["best law (held out)", f"{f['best']} ({f['best_cv_rmse_m'] * 1e3:.3f} mm)"],
+                 ["muscle file", f["muscle_file"]], ["report", str(report)]]
+    print_table(f"Characterization on {port}", [" what", "value"], rows)
+
+
+def _characterize_report(res) -> str:
+    """The HTML report of a run (the report package's, on a view of the run's folder as a one-muscle campaign)."""
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    from mckibben.report.characterize import characterize as campaign
+    from mckibben.report.html import write_report
+
+    out = Path(res.summary["out"])
+    with tempfile.TemporaryDirectory(prefix=".report-", dir=out) as tmp:
+        muscle = Path(tmp) / "muscle"
+        muscle.mkdir()
+        for name in ("muscle.toml", "isotonic.csv", "hysteresis.csv"):
+            shutil.copyfile(out / name, muscle / name)
+        folder, _ = write_report(campaign(tmp), out / "report")
+    return str(folder / "index.html")

@@ -14,19 +14,31 @@ tables and fits a muscle file. See ``docs/rig.md``.
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import re
+import time
 import tomllib
 from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
 
 import numpy as np
 
+from mckibben import hardware as HW
 from mckibben.atomic import as_path, check_input_file
 from mckibben.errors import InputError, unknown_name
 from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
-from mckibben.units import parse_quantity
+from mckibben.rig import protocol as P
+from mckibben.rig.bench import Bench
+from mckibben.rig.device import connect
+from mckibben.results import Result, to_jsonable
+from mckibben.rig.recorder import _atomic_parquet, _fsync_dir
+from mckibben.units import G_N, parse_quantity
 
-__all__ = ["Protocol", "read_protocol"]
+__all__ = ["CharacterizeResult", "CharacterizeStopped", "Protocol", "characterize", "collect_steps", "fit_run",
+           "read_protocol", "run_protocol", "write_tables"]
 
 #: The sections of a protocol file and the keys each takes.
 SECTIONS = {
@@ -248,3 +260,608 @@ def _protocol(doc: dict, text: str, source: str) -> Protocol:
         raise fail("isotonic", "loads", f"{n} steps in all: more than 20000")
     return Protocol(name, loads, pressures, hold, window, tolerance, timeout, trials, p_max, lengths, iso_p,
                     source, text)
+
+
+# -- the run on the device ------------------------------------------------------------------------
+
+#: Telemetry decimation during a run: one frame every 10 control periods (100 Hz). [-]
+DECIMATION = 10
+#: A step that ends farther than this from its set-point (and did not move half way there) is a
+#: fault: a leak, or a stuck sensor when the reading never changed. [Pa]
+REACH_TOLERANCE = 50e3
+#: The columns of a step journal part and of ``steps.parquet``.
+STEP_COLUMNS = ["load_index", "trial", "step", "load_N", "set_point_Pa", "pressure_Pa", "length_m", "direction",
+                "settled", "time_s", "pressure_max_Pa"]
+
+
+class CharacterizeStopped(InputError):
+    """The run stopped before the end: a safety stop (a one-line reason) or the operator's Ctrl-C.
+
+    The valves were vented; every load step completed before the stop is kept in the run's journal
+    (``--resume`` goes on from there).
+    """
+
+
+class _Session:
+    """One connection to the device: commands, telemetry, the safety checks on every frame."""
+
+    def __init__(self, port: str, limit: float):
+        self.port, self.limit = port, float(limit)
+        self.link, self.hello, self.parser = connect(port)
+        self.seq = 0
+        self.rows: list = []  # (t [s], p [Pa], encoder, inlet, bleed, faults, adc)
+        self.max_pressure = 0.0
+        try:
+            for pkt in (P.set_point(self._next(), 0), P.set_max_pressure(self._next(), self.limit, P.ALL),
+                        P.set_mode(self._next(), P.MODES["smc"], 0), P.stream(self._next(), True, DECIMATION)):
+                self.link.write(pkt)
+            self.wait(0.3)
+        except BaseException:
+            self.close()
+            raise
+
+    def _next(self) -> int:
+        self.seq = (self.seq + 1) & 0xFFFF
+        return self.seq
+
+    def poll(self) -> None:
+        """Read what arrived; check every telemetry frame (over-pressure, device faults)."""
+        for f in self.parser.feed(self.link.read(8192)):
+            if isinstance(f, P.Telemetry):
+                p = float(HW.adc_pressure(f.pressure_adc, HW.PA_PER_COUNT, 0.0))
+                self.rows.append((f.t_us * 1e-6, p, f.encoder, f.inlet_pwm, f.bleed_pwm, f.faults, f.pressure_adc))
+                self.max_pressure = max(self.max_pressure, p)
+                if f.faults & ~(1 << P.FAULT_NAMES.index("vent_commanded")):
+                    raise self.stop(f"the device reported {', '.join(P.fault_names(f.faults))}")
+                if p > self.limit + 2 * HW.PA_PER_COUNT:
+                    raise self.stop(f"pressure {p / 1e6:.4f} MPa above the maximum {self.limit / 1e6:g} MPa")
+
+    def wait(self, seconds: float, until=None) -> None:
+        """Follow the device's clock for ``seconds`` of telemetry time (or until ``until()``)."""
+        end_wall = time.monotonic() + 10.0 + 3.0 * seconds
+        t0 = None
+        while time.monotonic() < end_wall:
+            self.poll()
+            if not self.rows:
+                continue
+            t0 = self.rows[-1][0] if t0 is None else t0
+            if self.rows[-1][0] - t0 >= seconds or (until is not None and until()):
+                return
+        raise self.stop(f"the device stopped streaming telemetry ({len(self.rows)} frames)")
+
+    def set_point(self, pressure: float) -> None:
+        if pressure > self.limit:  # the one gate every set-point passes
+            raise self.stop(f"set-point {pressure / 1e6:g} MPa above the maximum {self.limit / 1e6:g} MPa")
+        self.link.write(P.set_point(self._next(), pressure, 0))
+
+    def stop(self, reason: str) -> CharacterizeStopped:
+        self.vent()
+        return CharacterizeStopped(f"port {self.port}: stopped: {reason}; valves vented")
+
+    def vent(self) -> None:
+        try:
+            self.link.write(P.set_point(self._next(), 0, 0))
+            self.link.write(P.vent(self._next(), P.ALL))
+        except Exception:  # the link may be gone; venting is best effort then
+            pass
+
+    def close(self) -> None:
+        try:
+            self.vent()
+            self.link.write(P.stream(self._next(), False, 1))
+            self.link.write(P.set_mode(self._next(), 0, P.ALL))
+        except Exception:
+            pass
+        self.link.close()
+
+
+def _settle(s: _Session, proto: Protocol, length_of, start: int) -> tuple[bool, np.ndarray]:
+    """Hold until the length moved less than the tolerance over the window (or the timeout); the window's rows."""
+    s.wait(proto.hold)
+
+    def settled() -> bool:
+        t_now = s.rows[-1][0]
+        w = [r for r in s.rows[start:] if r[0] >= t_now - proto.window]
+        if t_now - s.rows[start][0] < proto.hold + proto.window:
+            return False
+        lengths = length_of(np.array([r[2] for r in w]))
+        return float(lengths.max() - lengths.min()) <= proto.tolerance
+
+    t_start = s.rows[start][0]
+    ok = settled()
+    while not ok and s.rows[-1][0] - t_start < proto.timeout:
+        s.wait(proto.window / 2)
+        ok = settled()
+    t_now = s.rows[-1][0]
+    return ok, np.array([r for r in s.rows[start:] if r[0] >= t_now - proto.window], dtype=float)
+
+
+def _check_reached(s: _Session, target: float, p_before: float, win: np.ndarray, start: int) -> None:
+    """Stop on a leak or a stuck sensor: the pressure did not go toward a set-point it should reach."""
+    p_now = float(win[:, 1].mean())
+    if abs(p_now - target) <= REACH_TOLERANCE or abs(p_now - p_before) >= 0.5 * abs(target - p_before):
+        return
+    step = np.array(s.rows[start:], dtype=float)
+    if np.ptp(step[:, 6]) == 0:
+        raise s.stop(f"stuck pressure sensor: it read {p_now / 1e6:.4f} MPa throughout a step to "
+                     f"{target / 1e6:g} MPa")
+    if target > p_before and step[:, 3].max() > 0:
+        raise s.stop(f"leak: the pressure did not rise toward {target / 1e6:g} MPa with the inlet open "
+                     f"({p_before / 1e6:.4f} -> {p_now / 1e6:.4f} MPa)")
+    raise s.stop(f"the pressure did not follow the set-point {target / 1e6:g} MPa ({p_now / 1e6:.4f} MPa)")
+
+
+def _run_sweep(s: _Session, proto: Protocol, length_of, ref_len: float, load_index: int, trial: int, load: float,
+               progress) -> list:
+    """One load's sweep, up then down; the rows of its steps."""
+    rows = []
+    p_before = float(np.mean([r[1] for r in s.rows[-10:]]))
+    for k, (target, direction) in enumerate(proto.sweep):
+        start = len(s.rows)
+        s.set_point(target)
+        s.wait(0.0)
+        ok, win = _settle(s, proto, length_of, start)
+        _check_reached(s, target, p_before, win, start)
+        lengths = length_of(win[:, 2])
+        if lengths.min() <= 0 or lengths.max() > 2 * ref_len:  # the belt ran off the pulley's travel
+            raise s.stop(f"length {lengths.min() * 1e3:.2f} mm left the encoder's range")
+        p_mean = float(win[:, 1].mean())
+        rows.append((load_index, trial, k, load, target, p_mean, float(lengths.mean()), direction, bool(ok),
+                     float(win[-1, 0]), float(np.array(s.rows[start:], dtype=float)[:, 1].max())))
+        p_before = p_mean
+        if progress is not None:
+            progress(1)
+    return rows
+
+
+def _write_part(journal: Path, load_index: int, trial: int, rows: list, meta: dict) -> None:
+    """One completed load step, atomically: complete or absent (the recorder's journal discipline)."""
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+    import pyarrow as pa  # deferred on purpose: pyarrow
+
+    df = pd.DataFrame(rows, columns=STEP_COLUMNS)
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    table = table.replace_schema_metadata({b"mckibben": json.dumps(meta).encode()})
+    _atomic_parquet(table, journal / f"part-load{load_index:03d}-trial{trial:02d}.parquet")
+
+
+def _done_parts(journal: Path) -> dict:
+    """(load index, trial) → path of the completed load steps in a journal."""
+    out = {}
+    for f in sorted(journal.glob("part-load*-trial*.parquet")):
+        m = re.fullmatch(r"part-load(\d+)-trial(\d+)\.parquet", f.name)
+        if m:
+            out[(int(m.group(1)), int(m.group(2)))] = f
+    return out
+
+
+def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: bool = False,
+                 muscle_file=None, prompt=None, progress=None, bench=None) -> dict:
+    """Run a protocol's isotonic load steps on the device; journal each completed one; return the provenance.
+
+    For each load and trial: the load is hung (the operator is asked, or unattended the bench side
+    channel changes it), the muscle vented and let settle, then the pressure set-point of the
+    device's own controller (closed loop, SET_POINT) goes up the protocol's steps and back down; at
+    each step the run holds until the length settles by the protocol's rule and keeps one sample
+    (mean pressure and length over the settling window). A completed load step is written to
+    ``OUT/steps.journal/`` at once, atomically, so a run killed at any moment keeps every completed
+    step, and ``resume=True`` goes on with the others.
+
+    Parameters
+    ----------
+    port : str
+        Serial port of the device (or an emulator's pty, or a link to it). [-]
+    protocol : Protocol or str or os.PathLike
+        The protocol or its file. [-]
+    out : str or os.PathLike
+        The run's folder (made if absent; must be empty unless ``resume``). [-]
+    unattended : bool, default False
+        Change loads through the bench side channel (:mod:`mckibben.rig.bench`) instead of asking. [-]
+    resume : bool, default False
+        Go on with a run that stopped: skip the completed load steps in ``out``. [-]
+    muscle_file : str or os.PathLike, optional
+        The muscle under test (recorded in the provenance). [-]
+    prompt : callable, optional
+        ``prompt(text)`` asks the operator and returns when they confirm (default: ``input``). [-]
+    progress : callable, optional
+        ``progress(event, **info)``: ``("start", total=, done=)``, ``("load", load=, trial=)``, ``("step",)``. [-]
+    bench : Bench, optional
+        The bench client (default ``Bench.of_port(port)`` when unattended). [-]
+
+    Returns
+    -------
+    dict
+        The run's provenance (protocol, firmware, port, time, muscle file, limit, steps done).
+
+    Raises
+    ------
+    CharacterizeStopped
+        A safety stop or Ctrl-C (valves vented, completed steps kept).
+    """
+    proto = protocol if isinstance(protocol, Protocol) else read_protocol(protocol)
+    out = Path(out)
+    journal = out / "steps.journal"
+    if out.exists() and not out.is_dir():
+        raise InputError(f"out: {str(out)!r} is a file, not a folder")
+    if resume:
+        if not journal.is_dir():
+            raise InputError(f"resume: {str(out)!r} holds no run to resume (no steps.journal)")
+    elif out.is_dir() and any(out.iterdir()):
+        raise InputError(f"out: {str(out)!r} is not empty (give --resume to go on with its run)")
+    limit = min(proto.max_pressure, float(P_MAX_DEFAULT))
+    meta_file = journal / "run.json"
+    if resume and meta_file.is_file():
+        old = json.loads(meta_file.read_text())
+        if old.get("protocol_text") != proto.text:
+            raise InputError(f"resume: the protocol differs from the one {str(out)!r} was started with")
+    b = bench if bench is not None else (Bench.of_port(port) if unattended else None)
+    ask = prompt if prompt is not None else (lambda text: input(text))
+    journal.mkdir(parents=True, exist_ok=True)
+    done = _done_parts(journal)
+    todo = [(i, t, f) for i, t, f in proto.load_steps() if (i, t) not in done]
+    tell = progress if progress is not None else (lambda *a, **k: None)
+    tell("start", total=len(proto.load_steps()) * len(proto.sweep), done=len(done) * len(proto.sweep))
+    s = _Session(port, limit)
+    try:
+        meta = {"protocol": proto.source, "protocol_name": proto.name, "protocol_text": proto.text,
+                "port": port, "protocol_version": P.VERSION, "firmware": {
+                    "n_channels": s.hello.n_channels, "control_period_us": s.hello.ts_us, "baud": s.hello.baud,
+                    "n_gains": s.hello.n_gains, "protocol_version": P.VERSION},
+                "muscle_file": None if muscle_file is None else str(muscle_file),
+                "max_pressure_Pa": limit, "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                "controller": "smc", "unattended": bool(unattended)}
+        if not meta_file.is_file():
+            tmp = journal / ".run.json.tmp"
+            tmp.write_text(json.dumps(meta))
+            os.replace(tmp, meta_file)
+            _fsync_dir(journal)
+        ref_len, c0 = None, None
+        for load_index, trial, load in todo:
+            tell("load", load=load, trial=trial)
+            if b is not None:
+                b.release()
+                b.load(load)
+            else:
+                ask(f"hang {load / G_N * 1e3:.0f} g ({load:.3g} N) on channel 0 for trial {trial}, then Enter "
+                    "(Ctrl-C stops safely) ")
+            s.set_point(0.0)
+            start = len(s.rows)
+            s.wait(0.0)
+            _settle(s, proto, lambda c: -np.asarray(c, float) * HW.ENCODER_RESOLUTION, start)
+            if ref_len is None:
+                # the encoder counts from where it was zeroed: tie it to a length once per session,
+                # as the operator reads the muscle's length off the rule (or the bench reports it)
+                c0 = float(np.mean([r[2] for r in s.rows[-5:]]))
+                if b is not None:
+                    ref_len = b.state().length
+                else:
+                    ref_len = _ask_length(ask)
+                meta.setdefault("length_references", []).append({"length_m": ref_len, "encoder": c0})
+            length_of = (lambda r, c: (lambda cnt: r - (np.asarray(cnt, float) - c) * HW.ENCODER_RESOLUTION))(
+                ref_len, c0)
+            rows = _run_sweep(s, proto, length_of, ref_len, load_index, trial, load,
+                              (lambda n: tell("step")))
+            s.set_point(0.0)
+            _write_part(journal, load_index, trial, rows, {"max_pressure_Pa": s.max_pressure})
+    except KeyboardInterrupt:
+        s.vent()
+        raise CharacterizeStopped(f"port {port}: stopped by the operator; valves vented; "
+                                  f"{len(_done_parts(journal))} load steps kept in {out} (--resume goes on)") from None
+    finally:
+        s.close()
+    meta["finished"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    meta["peak_pressure_Pa"] = s.max_pressure
+    return meta
+
+
+def _ask_length(ask) -> float:
+    """The operator's reading of the muscle's length now (vented), with a unit."""
+    while True:
+        text = ask("the muscle's length now, vented (e.g. 100.2mm): ")
+        try:
+            return parse_quantity(str(text).strip(), "length", "length", allow_zero=False)
+        except InputError as exc:
+            print(f"error: {exc}")
+
+
+# -- from the journal to tables, and from tables to a muscle file -----------------------------------
+
+#: Plays of the hysteresis model fitted on each load's up/down branches, and the knots of its output
+#: map (a modified PI, Kuhnen 2003: the muscle's contraction saturates with pressure). [-]
+N_PLAYS, PI_KNOTS = 3, 3
+
+
+def collect_steps(out):
+    """Every completed load step of a run's journal, in protocol order (one row per settled step).
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The run's folder. [-]
+    """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    parts = _done_parts(Path(out) / "steps.journal")
+    if not parts:
+        return pd.DataFrame(columns=STEP_COLUMNS)
+    df = pd.concat([pd.read_parquet(parts[k]) for k in sorted(parts)], ignore_index=True)
+    return df.sort_values(["load_index", "trial", "step"], kind="stable").reset_index(drop=True)
+
+
+def write_tables(out, steps, meta: dict) -> dict:
+    """The run as the project's table kinds, with provenance: ``isotonic.csv`` and ``hysteresis.csv``.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The run's folder. [-]
+    steps : pandas.DataFrame
+        :func:`collect_steps`. [-]
+    meta : dict
+        The run's provenance (:func:`run_protocol`). [-]
+
+    Returns
+    -------
+    dict
+        Kind → path written.
+    """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    from mckibben.results import write_table
+
+    out = Path(out)
+    prov = {k: v for k, v in meta.items() if k != "protocol_text"}
+    hyst = pd.DataFrame({"pressure_MPa": steps["pressure_Pa"].to_numpy(float) / 1e6,
+                         "load_N": steps["load_N"].to_numpy(float),
+                         "length_mm": steps["length_m"].to_numpy(float) * 1e3,
+                         "direction": steps["direction"].astype(str).to_numpy(),
+                         "trial": steps["trial"].to_numpy(int)})
+    paths = {"hysteresis": write_table(hyst, out / "hysteresis.csv", {**prov, "kind": "hysteresis"}),
+             "isotonic": write_table(hyst.drop(columns=["direction"]), out / "isotonic.csv",
+                                     {**prov, "kind": "isotonic"})}
+    return paths
+
+
+def _moving(steps) -> np.ndarray:
+    """Rows where the muscle has left its vented length (below that the end stop, not the muscle, holds the load)."""
+    keep = np.zeros(len(steps), dtype=bool)
+    for _, g in steps.groupby(["load_index", "trial"]):
+        rest = float(g["length_m"].iloc[0])
+        keep[g.index.to_numpy()] = np.abs(g["length_m"].to_numpy(float) - rest) > 1.5 * HW.ENCODER_RESOLUTION
+    return keep & (steps["pressure_Pa"].to_numpy(float) > 0)
+
+
+def fit_run(out, muscle_file) -> dict:
+    """Fit the run's tables: compare every applicable law held out, write the best to ``OUT/muscle.toml``,
+    fit the hysteresis model on each load's up/down branches.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The run's folder, holding ``isotonic.csv`` and ``hysteresis.csv`` (:func:`write_tables`). [-]
+    muscle_file : str or os.PathLike
+        The muscle under test (its geometry, for the laws that need it). [-]
+
+    Returns
+    -------
+    dict
+        ``comparison`` (every model's held-out scores), ``best`` (the law written), ``muscle_file``,
+        ``hysteresis`` (per load: the operator and its up/down gap, measured and modelled). SI.
+    """
+    import dataclasses
+
+    from mckibben.data.io import read_muscle, read_table
+    from mckibben.fit.compare import compare_models
+    from mckibben.fit.hysteresis import fit_prandtl_ishlinskii
+    from mckibben.fit.isometric import IsometricFit, fit_isotonic_law
+    from mckibben.fit.muscle_file import save_muscle_file
+    from mckibben.models import laws
+    from mckibben.models.hysteresis import thresholds_uniform
+
+    out = Path(out)
+    spec = read_muscle(muscle_file)
+    iso = read_table(out / "isotonic.csv", "isotonic")
+    steps = collect_steps(out)
+    moving = _moving(steps)
+    if np.count_nonzero(moving) < 8:
+        raise InputError(f"out: {out}: only {np.count_nonzero(moving)} steps where the muscle moved; too few to fit")
+    fit_table = dataclasses.replace(iso, data=iso.data[moving])
+    cmp = compare_models(fit_table, spec)
+    scores = [sc.to_dict() for sc in cmp["scores"]]
+    candidates = [sc for sc in cmp["scores"] if sc.name in laws.fit_laws() and np.isfinite(sc.cv_rmse_m)]
+    if not candidates:
+        raise InputError(f"out: {out}: no force law could be fitted to the run ({'; '.join(s.note for s in cmp['scores'])})")
+    best = min(candidates, key=lambda sc: sc.cv_rmse_m)
+    res = fit_isotonic_law(fit_table, spec, best.name)
+    d = fit_table.data
+    pts = {"held_length": d["length"].to_numpy(float), "pressure": d["pressure"].to_numpy(float),
+           "force": d["load"].to_numpy(float), "direction": "inflate",
+           "trial": d["trial"].to_numpy() if "trial" in d else np.ones(len(d))}
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    fit = IsometricFit(best.name, res, spec, {"method": "none"}, pd.DataFrame(pts))
+    saved = save_muscle_file(out / "muscle.toml", dataclasses.replace(spec, path=str(out / "muscle.toml")), fit)
+    hyst = {}
+    for li, g in steps.groupby("load_index"):
+        g = g[moving[g.index.to_numpy()]]  # the branches where the muscle moves (the end stop has no loop)
+        p = g["pressure_Pa"].to_numpy(float)
+        ell = g["length_m"].to_numpy(float)
+        trials, direction = g["trial"].to_numpy(), g["direction"].to_numpy()
+        load = float(steps.loc[steps["load_index"] == li, "load_N"].iloc[0])
+        if len(g) < 2 * N_PLAYS + PI_KNOTS:
+            hyst[str(li)] = {"load_N": load, "error": f"{len(g)} steps where the muscle moved: too few for the loop"}
+            continue
+        l_ref = float(ell.max())
+        try:
+            pi = fit_prandtl_ishlinskii(p, l_ref - ell, thresholds_uniform(N_PLAYS, float(np.ptp(p))), run=trials,
+                                        start="virgin", input_offset=float(p.min()), output_knots=PI_KNOTS,
+                                        input_unit="Pa", output_unit="m", source=str(out / "hysteresis.csv"),
+                                        what=f"hysteresis of load {load:.4g} N")
+        except InputError as exc:
+            hyst[str(li)] = {"load_N": load, "error": str(exc)}
+            continue
+        y_hat = np.concatenate([l_ref - pi.model.apply(p[trials == t])[0] for t in pd.unique(trials)])
+        hyst[str(li)] = {"load_N": load, "model": pi.model.to_dict(), "reference_length_m": l_ref,
+                         "rmse_m": float(np.sqrt(np.mean((y_hat - ell) ** 2))),
+                         "gap_measured_m": branch_gap(p, ell, direction), "gap_model_m": branch_gap(p, y_hat, direction)}
+    return {"comparison": scores, "cv_method": cmp["cv_method"], "n_points": int(cmp["n_points"]),
+            "best": best.name, "best_cv_rmse_m": float(best.cv_rmse_m), "muscle_file": str(saved),
+            "parameters": dict(zip(res.names, (float(v) for v in res.values))),
+            "stderr": {n: float(v) for n, v in zip(res.names, res.stderr)},
+            "valid_range": {k: [float(a), float(b)] for k, (a, b) in res.valid_range.items()},
+            "hysteresis": hyst}
+
+
+def branch_gap(pressure, length, direction) -> float:
+    """Mean |deflating − inflating| length at the pressures both branches visited (the hysteresis gap). [m]
+
+    Parameters
+    ----------
+    pressure : array_like
+        Step pressures (set-point groups). [Pa]
+    length : array_like
+        Lengths. [m]
+    direction : array_like of str
+        ``inflate`` or ``deflate`` per row. [-]
+    """
+    p = np.round(np.asarray(pressure, float) / 1e4) * 1e4  # steps of the same set-point (10 kPa bins)
+    ell = np.asarray(length, float)
+    d = np.asarray(direction)
+    gaps = []
+    for q in np.unique(p):
+        up, down = ell[(p == q) & (d == "inflate")], ell[(p == q) & (d == "deflate")]
+        if len(up) and len(down):
+            gaps.append(abs(float(down.mean()) - float(up.mean())))
+    return float(np.mean(gaps)) if gaps else float("nan")
+
+
+# -- the one public call ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, repr=False)
+class CharacterizeResult(Result):
+    """A characterization run: its settled steps, its tables, the fitted muscle file.
+
+    Attributes
+    ----------
+    summary : dict
+        JSON-ready: provenance, tables written, steps, peak pressure, the comparison, the best law
+        and the muscle file, the hysteresis per load (SI). [-]
+    steps : pandas.DataFrame
+        One row per settled step (:data:`STEP_COLUMNS`). [-]
+    arguments : dict
+        Port, protocol, out, unattended, resume, muscle file. [-]
+    """
+
+    summary: dict
+    steps: object = field(repr=False)
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.rig.characterize.characterize"
+
+    @property
+    def metrics(self) -> dict:
+        """Load steps and samples recorded, the peak pressure [Pa], the best law and its held-out RMSE [m]."""
+        fit = self.summary.get("fit") or {}
+        return {"load_steps": self.summary["load_steps"], "samples": self.summary["samples"],
+                "peak_pressure_Pa": self.summary["peak_pressure_Pa"], "best": fit.get("best"),
+                "best_cv_rmse_m": fit.get("best_cv_rmse_m")}
+
+    def to_dict(self) -> dict:
+        """The summary (what ``--json`` prints)."""
+        return to_jsonable(self.summary)
+
+    def _series(self):
+        return self.steps
+
+    def plot(self, ax=None):
+        """The hysteresis loops: length against pressure per load, inflating and deflating; return the Figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+        """
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 4))
+        s = self.steps
+        for i, (load, g) in enumerate(s.groupby("load_N")):
+            for d, mark in (("inflate", "o-"), ("deflate", "s--")):
+                h = g[g["direction"] == d]
+                ax.plot(h["pressure_Pa"] / 1e6, h["length_m"] * 1e3, mark, color=f"C{i}", ms=3, lw=0.8,
+                        label=f"{load:.2g} N {d}")
+        ax.set_xlabel("pressure [MPa]")
+        ax.set_ylabel("length [mm]")
+        ax.legend(fontsize=7)
+        return ax.figure
+
+
+def characterize(port: str, protocol, out, *, unattended: bool = False, resume: bool = False, muscle_file=None,
+                 prompt=None, progress=None, bench=None) -> CharacterizeResult:
+    """Characterize a muscle on the bench: run a protocol, write its tables, fit a muscle file.
+
+    :func:`run_protocol` runs the load steps on the device (crash-safe, resumable); the completed
+    steps become ``OUT/isotonic.csv`` and ``OUT/hysteresis.csv`` (the project's table kinds, with
+    provenance beside them; :func:`mckibben.data.read_table` and ``mckibben fit`` read them) and
+    ``OUT/steps.parquet``; with a muscle file, :func:`fit_run` compares every applicable law held
+    out (:func:`mckibben.fit.compare.compare_models`), writes the best to ``OUT/muscle.toml`` (for
+    ``mckibben predict length --muscle-file``) and fits the hysteresis model on each load's up/down
+    branches. ``OUT/summary.json`` holds the summary.
+
+    Parameters
+    ----------
+    port : str
+        Serial port of the device (or an emulated one). [-]
+    protocol : Protocol or str or os.PathLike
+        The protocol or its file (:func:`read_protocol`). [-]
+    out : str or os.PathLike
+        The run's folder. [-]
+    unattended : bool, default False
+        Change loads through the bench side channel instead of asking the operator. [-]
+    resume : bool, default False
+        Go on with a stopped run in ``out``. [-]
+    muscle_file : str or os.PathLike, optional
+        The muscle under test; without it the run writes its tables and fits nothing. [-]
+    prompt, progress, bench
+        As :func:`run_protocol`. [-]
+
+    Returns
+    -------
+    CharacterizeResult
+
+    Raises
+    ------
+    InputError
+        A bad protocol, muscle file, port or folder, before anything moves.
+    CharacterizeStopped
+        A safety stop or Ctrl-C during the run (valves vented, completed load steps kept).
+    """
+    from mckibben.data.io import read_muscle
+    from mckibben.results import write_table
+
+    proto = protocol if isinstance(protocol, Protocol) else read_protocol(protocol)
+    if muscle_file is not None:
+        read_muscle(muscle_file)  # a bad muscle file is refused before anything moves
+    meta = run_protocol(port, proto, out, unattended=unattended, resume=resume, muscle_file=muscle_file,
+                        prompt=prompt, progress=progress, bench=bench)
+    out = Path(out)
+    steps = collect_steps(out)
+    tables = write_tables(out, steps, meta)
+    write_table(steps, out / "steps.parquet", {k: v for k, v in meta.items() if k != "protocol_text"}, "out")
+    expected = len(proto.load_steps())
+    summary = {"out": str(out), "port": port, "protocol": proto.source, "tables": tables,
+               "load_steps": int(steps.groupby(["load_index", "trial"]).ngroups),
+               "load_steps_expected": expected, "samples": len(steps),
+               "unsettled": int((~steps["settled"].astype(bool)).sum()),
+               "peak_pressure_Pa": float(steps["pressure_max_Pa"].max()) if len(steps) else 0.0,
+               "max_pressure_Pa": meta["max_pressure_Pa"], "firmware": meta["firmware"],
+               "muscle_file_used": None if muscle_file is None else str(muscle_file), "fit": None}
+    if muscle_file is not None:
+        summary["fit"] = fit_run(out, muscle_file)
+    tmp = out / ".summary.json.tmp"
+    tmp.write_text(json.dumps(to_jsonable(summary), indent=1))
+    os.replace(tmp, out / "summary.json")
+    return CharacterizeResult(summary, steps, {"port": port, "protocol": proto.source, "out": str(out),
+                                               "unattended": unattended, "resume": resume,
+                                               "muscle_file": None if muscle_file is None else str(muscle_file)})
