@@ -291,6 +291,7 @@ class _Session:
         self.seq = 0
         self.rows: list = []  # (t [s], p [Pa], encoder, inlet, bleed, faults, adc)
         self.max_pressure = 0.0
+        self.has_force = False  # a load cell's force in the telemetry (a later protocol version)
         try:
             for pkt in (P.set_point(self._next(), 0), P.set_max_pressure(self._next(), self.limit, P.ALL),
                         P.set_mode(self._next(), P.MODES["smc"], 0), P.stream(self._next(), True, DECIMATION)):
@@ -308,6 +309,7 @@ class _Session:
         """Read what arrived; check every telemetry frame (over-pressure, device faults)."""
         for f in self.parser.feed(self.link.read(8192)):
             if isinstance(f, P.Telemetry):
+                self.has_force = getattr(f, "force", None) is not None
                 p = float(HW.adc_pressure(f.pressure_adc, HW.PA_PER_COUNT, 0.0))
                 self.rows.append((f.t_us * 1e-6, p, f.encoder, f.inlet_pwm, f.bleed_pwm, f.faults, f.pressure_adc))
                 self.max_pressure = max(self.max_pressure, p)
@@ -496,13 +498,23 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
             raise InputError(f"resume: the protocol differs from the one {str(out)!r} was started with")
     b = bench if bench is not None else (Bench.of_port(port) if unattended else None)
     ask = prompt if prompt is not None else (lambda text: input(text))
-    journal.mkdir(parents=True, exist_ok=True)
-    done = _done_parts(journal)
+    done = _done_parts(journal) if journal.is_dir() else {}
     todo = [(i, t, f) for i, t, f in proto.load_steps() if (i, t) not in done]
     tell = progress if progress is not None else (lambda *a, **k: None)
-    tell("start", total=len(proto.load_steps()) * len(proto.sweep), done=len(done) * len(proto.sweep))
+    if b is not None:
+        b.state()  # the bench answers before anything moves
     s = _Session(port, limit)
     try:
+        if proto.lengths:
+            # isometric runs need the load cell's force (and its tare); not run here yet
+            why = "streams no force (no load cell)" if not s.has_force else "has a load cell, but"
+            raise InputError(f"{proto.source}: [isometric] lengths: the device on {port} {why}; isometric runs "
+                             "are not run yet: remove the [isometric] section")
+        try:
+            journal.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"out: cannot write {str(out)!r} ({exc.strerror})") from None
+        tell("start", total=len(proto.load_steps()) * len(proto.sweep), done=len(done) * len(proto.sweep))
         meta = {"protocol": proto.source, "protocol_name": proto.name, "protocol_text": proto.text,
                 "port": port, "protocol_version": P.VERSION, "firmware": {
                     "n_channels": s.hello.n_channels, "control_period_us": s.hello.ts_us, "baud": s.hello.baud,
@@ -631,6 +643,40 @@ def _moving(steps) -> np.ndarray:
     return keep & (steps["pressure_Pa"].to_numpy(float) > 0)
 
 
+def static_points(steps, moving, columns) -> "pd.DataFrame":
+    """The static length at each step pressure: the mean of the inflating and deflating branches.
+
+    Friction holds the muscle short of its static length on both branches, by about as much on
+    each (the plant's Dahl element, a real braid's friction): the branches' mean at one set-point
+    is the friction-free length the force laws describe. A set-point visited once (the top of the
+    sweep) keeps its one sample. A set-point where a branch has not left the vented length (the end
+    stop holds the load there, not the muscle) is left out.
+
+    Parameters
+    ----------
+    steps : pandas.DataFrame
+        :func:`collect_steps`. [-]
+    moving : numpy.ndarray of bool
+        The steps to use (:func:`_moving`). [-]
+    columns : sequence of str
+        The isotonic table's columns to give (``pressure``, ``load``, ``length``, ``trial``...). [-]
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (load, trial, set-point), SI, indexed from 1 like a read table. [-]
+    """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    s = steps.assign(moving=moving)
+    g = s.groupby(["load_index", "trial", "set_point_Pa"], sort=True)
+    d = pd.DataFrame({"pressure": g["pressure_Pa"].mean(), "load": g["load_N"].first(), "length": g["length_m"].mean(),
+                      "trial": g["trial"].first(), "both": g["moving"].all()})
+    d = d[d["both"].to_numpy()].reset_index(drop=True)  # a branch still at rest is held by the stop, not the muscle
+    d.index = range(1, len(d) + 1)
+    return d[[c for c in columns if c in d.columns]]
+
+
 def fit_run(out, muscle_file) -> dict:
     """Fit the run's tables: compare every applicable law held out, write the best to ``OUT/muscle.toml``,
     fit the hysteresis model on each load's up/down branches.
@@ -665,7 +711,7 @@ def fit_run(out, muscle_file) -> dict:
     moving = _moving(steps)
     if np.count_nonzero(moving) < 8:
         raise InputError(f"out: {out}: only {np.count_nonzero(moving)} steps where the muscle moved; too few to fit")
-    fit_table = dataclasses.replace(iso, data=iso.data[moving])
+    fit_table = dataclasses.replace(iso, data=static_points(steps, moving, iso.data.columns))
     cmp = compare_models(fit_table, spec)
     scores = [sc.to_dict() for sc in cmp["scores"]]
     candidates = [sc for sc in cmp["scores"] if sc.name in laws.fit_laws() and np.isfinite(sc.cv_rmse_m)]
