@@ -303,6 +303,7 @@ def characterize_cmd(
     """Run a characterization protocol on the bench: load steps, pressure up and down, tables, fitted muscle file."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn  # deferred: Rich's progress
 
+    from mckibben.report.run import run_report
     from mckibben.rig import characterize as C
 
     proto = C.read_protocol(protocol)  # a bad protocol or muscle file is refused before the port is touched
@@ -331,13 +332,13 @@ def characterize_cmd(
             bar.start()
 
     with bar:
-        res = C.characterize(port, proto, out, unattended=unattended, resume=resume, muscle_file=muscle_file,
+        res = C.run_characterization(port, proto, out, unattended=unattended, resume=resume, muscle_file=muscle_file,
                              prompt=prompt, progress=progress)
     summary = res.to_dict()
     report = None
     if muscle_file is not None:
         try:
-            report = _characterize_report(res)
+            report = str(run_report(res.summary["out"]))
         except InputError as exc:  # the run, its tables and muscle file stand without the report
             summary["report_error"] = str(exc)
             err_console.print(f"warning: no HTML report: {exc}", markup=False, highlight=False)
@@ -354,22 +355,3 @@ def characterize_cmd(
         rows += [["best law (held out)", f"{f['best']} ({f['best_cv_rmse_m'] * 1e3:.3f} mm)"],
                  ["muscle file", f["muscle_file"]], ["report", str(report)]]
     print_table(f"Characterization on {port}", [" what", "value"], rows)
-
-
-def _characterize_report(res) -> str:
-    """The HTML report of a run (the report package's, on a view of the run's folder as a one-muscle campaign)."""
-    import shutil
-    import tempfile
-    from pathlib import Path
-
-    from mckibben.report.characterize import characterize as campaign
-    from mckibben.report.html import write_report
-
-    out = Path(res.summary["out"])
-    with tempfile.TemporaryDirectory(prefix=".report-", dir=out) as tmp:
-        muscle = Path(tmp) / "muscle"
-        muscle.mkdir()
-        for name in ("muscle.toml", "isotonic.csv", "hysteresis.csv"):
-            shutil.copyfile(out / name, muscle / name)
-        folder, _ = write_report(campaign(tmp), out / "report")
-    return str(folder / "index.html")

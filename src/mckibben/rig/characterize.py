@@ -6,7 +6,7 @@ settling rule, the number of trials and the safety maximum, and optionally held 
 isometric runs on a rig with a load cell. It is checked whole before anything moves; a bad one is
 refused with its file, line and reason.
 
-:func:`characterize` runs it on a device (the Arduino Mega or an emulator engine) through its
+:func:`run_characterization` runs it on a device (the Arduino Mega or an emulator engine) through its
 serial link, with the operator (or, unattended, the bench side channel :mod:`mckibben.rig.bench`)
 changing the load between runs, records every settled step crash-safely, writes the project's own
 tables and fits a muscle file. See ``docs/rig.md``.
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from mckibben import hardware as HW
-from mckibben.atomic import as_path, check_input_file
+from mckibben.atomic import as_path, atomic_file, check_input_file
 from mckibben.errors import InputError, unknown_name
 from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
 from mckibben.rig import protocol as P
@@ -37,8 +37,8 @@ from mckibben.results import Result, to_jsonable
 from mckibben.rig.recorder import _atomic_parquet, _fsync_dir
 from mckibben.units import G_N, parse_quantity
 
-__all__ = ["CharacterizeResult", "CharacterizeStopped", "Protocol", "characterize", "collect_steps", "fit_run",
-           "read_protocol", "run_protocol", "write_tables"]
+__all__ = ["CharacterizeResult", "CharacterizeStopped", "Protocol", "collect_steps", "fit_run", "read_protocol",
+           "report_view", "run_characterization", "run_protocol", "static_points", "write_tables"]
 
 #: The sections of a protocol file and the keys each takes.
 SECTIONS = {
@@ -536,18 +536,11 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
             else:
                 ask(f"hang {load / G_N * 1e3:.0f} g ({load:.3g} N) on channel 0 for trial {trial}, then Enter "
                     "(Ctrl-C stops safely) ")
-            s.set_point(0.0)
-            start = len(s.rows)
-            s.wait(0.0)
-            _settle(s, proto, lambda c: -np.asarray(c, float) * HW.ENCODER_RESOLUTION, start)
+            _vent_and_settle(s, proto)
             if ref_len is None:
                 # the encoder counts from where it was zeroed: tie it to a length once per session,
                 # as the operator reads the muscle's length off the rule (or the bench reports it)
-                c0 = float(np.mean([r[2] for r in s.rows[-5:]]))
-                if b is not None:
-                    ref_len = b.state().length
-                else:
-                    ref_len = _ask_length(ask)
+                ref_len, c0 = _reference(s, b, ask)
                 meta.setdefault("length_references", []).append({"length_m": ref_len, "encoder": c0})
             length_of = (lambda r, c: (lambda cnt: r - (np.asarray(cnt, float) - c) * HW.ENCODER_RESOLUTION))(
                 ref_len, c0)
@@ -564,6 +557,34 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
     meta["finished"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     meta["peak_pressure_Pa"] = s.max_pressure
     return meta
+
+
+#: Gauge pressure below which the muscle counts as vented. [Pa]
+VENTED = 5e3
+
+
+def _vent_and_settle(s: _Session, proto: Protocol) -> None:
+    """Set-point 0, wait for the pressure to fall below :data:`VENTED`, then for the length to settle."""
+    s.set_point(0.0)
+    s.wait(0.0)
+    start = len(s.rows)
+    s.wait(proto.timeout, until=lambda: s.rows[-1][1] < VENTED)
+    if s.rows[-1][1] >= VENTED:
+        raise s.stop(f"the pressure stayed at {s.rows[-1][1] / 1e6:.4f} MPa with the set-point at 0")
+    _settle(s, proto, lambda c: -np.asarray(c, float) * HW.ENCODER_RESOLUTION, max(start, len(s.rows) - 1))
+
+
+def _reference(s: _Session, bench, ask) -> tuple[float, float]:
+    """A length and the encoder count read at the same moment: the bench's (or the operator's) reading between
+    two telemetry frames that show the same count. ``(length [m], count)``."""
+    for _ in range(50):
+        s.wait(0.02)
+        before = s.rows[-1][2]
+        length = bench.state().length if bench is not None else _ask_length(ask)
+        s.wait(0.02)
+        if s.rows[-1][2] == before or bench is None:
+            return length, float(s.rows[-1][2])
+    raise s.stop("the length never held still long enough to read it")
 
 
 def _ask_length(ask) -> float:
@@ -634,6 +655,49 @@ def write_tables(out, steps, meta: dict) -> dict:
     return paths
 
 
+def report_view(out, folder) -> Path:
+    """A run as a one-muscle campaign folder for the report package: ``muscle.toml``, ``isotonic.csv`` and
+    ``hysteresis.csv`` in ``folder``, each step at its set-point pressure.
+
+    The report's per-pressure fits (its Fig. 5, force against contraction per pressure) group rows
+    by pressure; a measured pressure differs from step to step by a count of the transducer, so the
+    view gives each step its set-point, as a lab's sheet lists its nominal pressures. The run's own
+    tables keep the measured pressures.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The run's folder (with ``muscle.toml``). [-]
+    folder : str or os.PathLike
+        An existing empty folder to write the view into. [-]
+
+    Returns
+    -------
+    pathlib.Path
+        The muscle folder inside ``folder``. [-]
+    """
+    import shutil
+
+    from mckibben.results import write_table
+
+    out, muscle = Path(out), Path(folder) / "muscle"
+    muscle.mkdir()
+    shutil.copyfile(out / "muscle.toml", muscle / "muscle.toml")
+    steps = collect_steps(out)
+    for kind in ("isotonic", "hysteresis"):
+        df = (pd_read_csv(out / f"{kind}.csv"))
+        df["pressure_MPa"] = steps["set_point_Pa"].to_numpy(float) / 1e6
+        write_table(df, muscle / f"{kind}.csv", {"view_of": str(out / f"{kind}.csv"), "pressure": "set-point"})
+    return muscle
+
+
+def pd_read_csv(path):
+    """A table file as written by :func:`write_tables` (pandas, deferred)."""
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    return pd.read_csv(path)
+
+
 def _moving(steps) -> np.ndarray:
     """Rows where the muscle has left its vented length (below that the end stop, not the muscle, holds the load)."""
     keep = np.zeros(len(steps), dtype=bool)
@@ -643,7 +707,7 @@ def _moving(steps) -> np.ndarray:
     return keep & (steps["pressure_Pa"].to_numpy(float) > 0)
 
 
-def static_points(steps, moving, columns) -> "pd.DataFrame":
+def static_points(steps, moving, columns):
     """The static length at each step pressure: the mean of the inflating and deflating branches.
 
     Friction holds the muscle short of its static length on both branches, by about as much on
@@ -700,9 +764,11 @@ def fit_run(out, muscle_file) -> dict:
     from mckibben.fit.compare import compare_models
     from mckibben.fit.hysteresis import fit_prandtl_ishlinskii
     from mckibben.fit.isometric import IsometricFit, fit_isotonic_law
-    from mckibben.fit.muscle_file import save_muscle_file
+    from mckibben.fit.muscle_file import muscle_file_text
     from mckibben.models import laws
     from mckibben.models.hysteresis import thresholds_uniform
+
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
     out = Path(out)
     spec = read_muscle(muscle_file)
@@ -717,16 +783,32 @@ def fit_run(out, muscle_file) -> dict:
     candidates = [sc for sc in cmp["scores"] if sc.name in laws.fit_laws() and np.isfinite(sc.cv_rmse_m)]
     if not candidates:
         raise InputError(f"out: {out}: no force law could be fitted to the run ({'; '.join(s.note for s in cmp['scores'])})")
-    best = min(candidates, key=lambda sc: sc.cv_rmse_m)
-    res = fit_isotonic_law(fit_table, spec, best.name)
     d = fit_table.data
-    pts = {"held_length": d["length"].to_numpy(float), "pressure": d["pressure"].to_numpy(float),
-           "force": d["load"].to_numpy(float), "direction": "inflate",
-           "trial": d["trial"].to_numpy() if "trial" in d else np.ones(len(d))}
-    import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-    fit = IsometricFit(best.name, res, spec, {"method": "none"}, pd.DataFrame(pts))
-    saved = save_muscle_file(out / "muscle.toml", dataclasses.replace(spec, path=str(out / "muscle.toml")), fit)
+    pts = pd.DataFrame({"held_length": d["length"].to_numpy(float), "pressure": d["pressure"].to_numpy(float),
+                        "force": d["load"].to_numpy(float), "direction": "inflate",
+                        "trial": d["trial"].to_numpy() if "trial" in d else np.ones(len(d))})
+    target = out / "muscle.toml"
+    rejected = {}
+    best = res = None
+    # best on held-out error first; a law whose muscle file does not give back the lengths it was scored on
+    # (the load-cell zero it fits has no meaning without a load cell, and the file's law has none) is passed over
+    for sc in sorted(candidates, key=lambda sc: sc.cv_rmse_m):
+        res = fit_isotonic_law(fit_table, spec, sc.name)
+        text = muscle_file_text(dataclasses.replace(spec, path=str(target)), IsometricFit(sc.name, res, spec,
+                                                                                          {"method": "none"}, pts))
+        pred = _file_lengths(text, out, d["pressure"].to_numpy(float), d["load"].to_numpy(float))
+        file_rmse = float(np.sqrt(np.nanmean((pred - d["length"].to_numpy(float)) ** 2))) if np.any(
+            np.isfinite(pred)) else float("inf")
+        if np.all(np.isfinite(pred)) and file_rmse <= 1.5 * sc.rmse_m + 2e-4:
+            best = sc
+            break
+        rejected[sc.name] = (f"its muscle file gives the lengths back with RMSE {file_rmse * 1e3:.3g} mm "
+                             f"(compared: {sc.rmse_m * 1e3:.3g} mm; flags {', '.join(res.flags) or 'none'})")
+    if best is None or res is None:
+        raise InputError(f"out: {out}: no force law's muscle file gives back the run's lengths ({rejected})")
+    with atomic_file(target, "out") as tmp:
+        Path(tmp).write_text(text, encoding="utf-8")
+    saved = target
     hyst = {}
     for li, g in steps.groupby("load_index"):
         g = g[moving[g.index.to_numpy()]]  # the branches where the muscle moves (the end stop has no loop)
@@ -755,7 +837,28 @@ def fit_run(out, muscle_file) -> dict:
             "parameters": dict(zip(res.names, (float(v) for v in res.values))),
             "stderr": {n: float(v) for n, v in zip(res.names, res.stderr)},
             "valid_range": {k: [float(a), float(b)] for k, (a, b) in res.valid_range.items()},
-            "hysteresis": hyst}
+            "passed_over": rejected, "hysteresis": hyst}
+
+
+def _file_lengths(text: str, out: Path, pressure, load) -> np.ndarray:
+    """The lengths a muscle file's law gives at (pressure, load) pairs, as ``mckibben predict length`` solves them. [m]"""
+    import tempfile
+
+    from mckibben.data.io import read_muscle
+    from mckibben.models.muscle import Muscle
+    from mckibben.models.static import length as static_length
+
+    with tempfile.TemporaryDirectory(prefix=".check-", dir=out) as tmp:
+        f = Path(tmp) / "muscle.toml"
+        f.write_text(text, encoding="utf-8")
+        m = Muscle.from_spec(read_muscle(f))
+    out_l = np.full(len(pressure), np.nan)
+    for i, (p, w) in enumerate(zip(pressure, load)):
+        try:
+            out_l[i] = float(static_length(np.array([p]), float(w), m, None).length[0])
+        except InputError:
+            pass
+    return out_l
 
 
 def branch_gap(pressure, length, direction) -> float:
@@ -802,7 +905,7 @@ class CharacterizeResult(Result):
     summary: dict
     steps: object = field(repr=False)
     arguments: dict = field(default_factory=dict)
-    call = "mckibben.rig.characterize.characterize"
+    call = "mckibben.rig.characterize.run_characterization"
 
     @property
     def metrics(self) -> dict:
@@ -843,7 +946,7 @@ class CharacterizeResult(Result):
         return ax.figure
 
 
-def characterize(port: str, protocol, out, *, unattended: bool = False, resume: bool = False, muscle_file=None,
+def run_characterization(port: str, protocol, out, *, unattended: bool = False, resume: bool = False, muscle_file=None,
                  prompt=None, progress=None, bench=None) -> CharacterizeResult:
     """Characterize a muscle on the bench: run a protocol, write its tables, fit a muscle file.
 
