@@ -141,6 +141,10 @@ def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
 @pytest.mark.slow
 def test_kill_9_then_resume_keeps_every_load_step_once(bar_run, tmp_path):
     engine, full, _, proto = bar_run
+    if engine == "python" and not _avr_engine_missing():
+        # CI's time: the journal and --resume are the host's, alike for both engines; the avr engine runs
+        # unthrottled (20 s here, the real-time Python engine 35 s)
+        pytest.skip("kill -9 / --resume runs on the avr engine where it is available")
     copy = copy_example("characterize.toml", tmp_path)
     out = tmp_path / "run"
     with _device(engine) as dev:

@@ -522,6 +522,7 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
                 "muscle_file": None if muscle_file is None else str(muscle_file),
                 "max_pressure_Pa": limit, "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                 "controller": "smc", "unattended": bool(unattended)}
+        refs: list[dict] = []
         if not meta_file.is_file():
             tmp = journal / ".run.json.tmp"
             tmp.write_text(json.dumps(meta))
@@ -541,7 +542,7 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
                 # the encoder counts from where it was zeroed: tie it to a length once per session,
                 # as the operator reads the muscle's length off the rule (or the bench reports it)
                 ref_len, c0 = _reference(s, b, ask)
-                meta.setdefault("length_references", []).append({"length_m": ref_len, "encoder": c0})
+                refs.append({"length_m": ref_len, "encoder": c0})
             length_of = (lambda r, c: (lambda cnt: r - (np.asarray(cnt, float) - c) * HW.ENCODER_RESOLUTION))(
                 ref_len, c0)
             rows = _run_sweep(s, proto, length_of, ref_len, load_index, trial, load,
@@ -554,6 +555,7 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
                                   f"{len(_done_parts(journal))} load steps kept in {out} (--resume goes on)") from None
     finally:
         s.close()
+    meta["length_references"] = refs
     meta["finished"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     meta["peak_pressure_Pa"] = s.max_pressure
     return meta
