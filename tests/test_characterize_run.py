@@ -213,6 +213,16 @@ def test_safety_stops_vented_with_one_line(tmp_path, fault, words):
         print(r.err.strip())
 
 
+def test_attended_run_without_an_operator_stops_vented(tmp_path):
+    with _device("python") as dev:  # the command in its own process, its standard input closed (as in CI)
+        r = subprocess.run([sys.executable, "-m", "mckibben.cli", "rig", "characterize", "--port", dev.port,
+                            "--protocol", str(copy_example("characterize.toml", tmp_path)), "--out",
+                            str(tmp_path / "run")], stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                           env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}, timeout=120)
+    err = r.stderr.strip().splitlines()[-1]
+    assert r.returncode == 2 and "no operator to answer" in err and "Traceback" not in r.stderr, r.stderr
+
+
 def test_bad_input_is_refused_before_anything_moves(tmp_path):
     proto = copy_example("characterize.toml", tmp_path)
     bad = tmp_path / "bad.toml"

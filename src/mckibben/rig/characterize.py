@@ -553,6 +553,11 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
         s.vent()
         raise CharacterizeStopped(f"port {port}: stopped by the operator; valves vented; "
                                   f"{len(_done_parts(journal))} load steps kept in {out} (--resume goes on)") from None
+    except EOFError:  # asked with no one to answer (standard input closed)
+        s.vent()
+        raise CharacterizeStopped(f"port {port}: stopped: no operator to answer (standard input is closed; on an "
+                                  f"emulated bench give --unattended); valves vented; {len(_done_parts(journal))} "
+                                  f"load steps kept in {out}") from None
     finally:
         s.close()
     meta["length_references"] = refs
