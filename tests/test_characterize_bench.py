@@ -66,3 +66,18 @@ def test_cli_bench(cli, tmp_path):
             assert r.code == 2 and words in r.err and "Traceback" not in r.err, (args, r.err)
     r = cli("rig", "bench", "--port", str(tmp_path / "nothing"), "state")
     assert r.code == 2 and "no bench socket" in r.err
+
+
+def test_no_place_for_the_socket_the_device_runs_without_a_bench(engine, monkeypatch, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("MCKIBBEN_BENCH_DIR", str(blocker / "bench"))  # under a file: no folder can be made
+    with start_device(engine, n_channels=1, boot_time=0.1) as dev:
+        assert dev.bench is None
+        with pytest.raises(InputError, match="no bench socket"):
+            Bench.of_port(dev.port).state()
+        from mckibben.rig.device import connect
+
+        link, hello, _ = connect(dev.port)  # the device itself answers
+        link.close()
+        assert hello.n_channels == 1

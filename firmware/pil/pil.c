@@ -509,7 +509,10 @@ int main(int argc, char **argv)
     signal(SIGTERM, on_signal);
     signal(SIGINT, on_signal);
     signal(SIGPIPE, SIG_IGN);
-    if (bench_dir && bench_open(bench_dir, name, msg, sizeof msg)) usage_error(msg);
+    if (bench_dir && bench_open(bench_dir, name, msg, sizeof msg)) { /* the device runs without a bench */
+        if (bench_sock >= 0) close(bench_sock);
+        bench_sock = -1;
+    }
     printf("{\"port\": \"%s\", \"channels\": %d, \"fields\": %d, \"bench\": \"%s\"}\n", name, n_ch, MK_NF,
            bench_sock >= 0 ? bench_addr.sun_path : "");
     fflush(stdout);

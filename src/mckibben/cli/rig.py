@@ -239,7 +239,7 @@ def emulate_cmd(
                 raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
         if json:
             emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels, "engine": engine,
-                       "bench": str(em.bench)})
+                       "bench": None if em.bench is None else str(em.bench)})
         else:
             err_console.print(f"emulated device ({engine} engine) on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
         em.run(d)

@@ -160,7 +160,7 @@ class Bench:
                     if not chunk:
                         break
                     buf += chunk
-        except (FileNotFoundError, ConnectionRefusedError):
+        except (FileNotFoundError, ConnectionRefusedError, NotADirectoryError):
             raise InputError(f"bench: no bench socket at {str(self.path)!r}; is the port an emulated device "
                              "(mckibben rig emulate)?") from None
         except OSError as exc:

@@ -329,12 +329,17 @@ class Emulator:
     def _bench_open(self) -> None:
         """Serve the bench socket of this port (:func:`mckibben.rig.bench.bench_path`) in a thread."""
         self.bench = B.bench_path(self.port)
-        self.bench.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
-        if self.bench.is_socket():
-            self.bench.unlink()  # a socket left by a killed device on a reused pty number
-        self._bench_sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        self._bench_sock.bind(str(self.bench))
-        self._bench_sock.listen(4)
+        try:
+            self.bench.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+            if self.bench.is_socket():
+                self.bench.unlink()  # a socket left by a killed device on a reused pty number
+            self._bench_sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            self._bench_sock.bind(str(self.bench))
+            self._bench_sock.listen(4)
+        except OSError:  # no place for the socket: the device runs, without a bench to script
+            self.bench = None
+            self._bench_sock = None
+            return
         self._bench_sock.settimeout(0.1)
         self._bench_thread = threading.Thread(target=self._bench_serve, name="mckibben-bench", daemon=True)
         self._bench_thread.start()
@@ -403,7 +408,7 @@ class Emulator:
 
     def _bench_close(self) -> None:
         sock = getattr(self, "_bench_sock", None)
-        if sock is None:
+        if sock is None or self.bench is None:
             return
         sock.close()
         t = getattr(self, "_bench_thread", None)

@@ -210,8 +210,11 @@ class AvrDevice:
             cmd += ["--hold-adc", str(int(hold_adc))]
         if stall_at is not None:
             cmd += ["--stall-at", repr(float(stall_at))]
-        bench_dir().mkdir(mode=0o700, parents=True, exist_ok=True)
-        cmd += ["--bench-dir", str(bench_dir())]  # the bench side channel (mckibben.rig.bench)
+        try:
+            bench_dir().mkdir(mode=0o700, parents=True, exist_ok=True)
+            cmd += ["--bench-dir", str(bench_dir())]  # the bench side channel (mckibben.rig.bench)
+        except OSError:
+            pass  # no place for the socket: the device runs, without a bench to script
         self._cmd = cmd
         self._proc: subprocess.Popen | None = None
         self.stats: dict = {}
@@ -233,7 +236,7 @@ class AvrDevice:
                 info = json.loads(line)
         self.port: str = info["port"]
         #: The bench side channel's socket (:mod:`mckibben.rig.bench`).
-        self.bench = Path(info["bench"])
+        self.bench = Path(info["bench"]) if info.get("bench") else None
         self._reader = threading.Thread(target=self._read, name="mckibben-avr-stats", daemon=True)
         self._reader.start()
 
