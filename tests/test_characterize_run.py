@@ -182,6 +182,7 @@ def test_kill_9_then_resume_keeps_every_load_step_once(bar_run, tmp_path):
                      "run's (bar: 1 %); the load steps redone after the kill are new measurements")
 
 
+@pytest.mark.slow
 def test_ctrl_c_vents_and_keeps_what_was_measured(tmp_path):
     proto = read_protocol(copy_example("characterize.toml", tmp_path))
     asked = []
