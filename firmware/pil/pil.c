@@ -33,6 +33,8 @@
  * --hold-adc C: channel 0's ADC reads count C whatever the pressure (a stuck sensor).
  * --load-cell FS [--load-cell-offset N] [--load-cell-noise N] [--load-cell-seed S]: a load cell of
  * full scale FS [N] on ADC3, its zero offset and noise standard deviation [N], the noise's seed.
+ * --bench-dir D: serve the bench side channel (mckibben.rig.bench) on the Unix socket
+ * D/<the pty's path, '/' as '_'>.sock: "load F" [N], "hold L" [m], "release", "state", one line each.
  * stdout: one JSON line {"port": ...} when ready, then one JSON line of counters every 0.2 s wall
  * and at the end. Exit 0; 2 with one line on stderr for bad input (a missing ELF, a bad PARAMS).
  */
@@ -43,6 +45,8 @@
 #include <math.h>
 #include <poll.h>
 #include <pty.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -354,6 +358,122 @@ static void usage_error(const char *what)
     exit(2);
 }
 
+/* --- the bench side channel (mckibben.rig.bench): channel 0's load, or its end held ------------- */
+static const char *bench_dir;
+static int bench_sock = -1, bench_conn = -1;
+static struct sockaddr_un bench_addr;
+static char bench_line[256];
+static size_t bench_len;
+
+static int bench_open(const char *dir, const char *pty, char *msg, size_t size)
+{
+    const char *p = pty;
+    size_t k;
+    while (*p == '/') p++;
+    memset(&bench_addr, 0, sizeof bench_addr);
+    bench_addr.sun_family = AF_UNIX;
+    if (strlen(dir) + strlen(p) + 7 >= sizeof bench_addr.sun_path) {
+        snprintf(msg, size, "pil: --bench-dir %s: the socket path is too long", dir);
+        return 1;
+    }
+    snprintf(bench_addr.sun_path, sizeof bench_addr.sun_path, "%s/%s.sock", dir, p);
+    for (k = strlen(dir) + 1; bench_addr.sun_path[k]; k++)
+        if (bench_addr.sun_path[k] == '/') bench_addr.sun_path[k] = '_';
+    unlink(bench_addr.sun_path); /* a socket left by a killed device on a reused pty number */
+    bench_sock = socket(AF_UNIX, SOCK_STREAM, 0);
+    if (bench_sock < 0 || bind(bench_sock, (struct sockaddr *)&bench_addr, sizeof bench_addr) != 0
+        || listen(bench_sock, 4) != 0) {
+        snprintf(msg, size, "pil: cannot serve the bench socket %s (%s)", bench_addr.sun_path, strerror(errno));
+        return 1;
+    }
+    fcntl(bench_sock, F_SETFL, fcntl(bench_sock, F_GETFL) | O_NONBLOCK);
+    return 0;
+}
+
+/* One request (mckibben.rig.bench.parse_request's grammar) applied to channel 0; the reply into out. */
+static void bench_request(char *line, char *out, size_t size)
+{
+    char verb[16], extra[8];
+    double v = 0.0;
+    int n = sscanf(line, "%15s %lf %7s", verb, &v, extra);
+    mk_plant *pl = &plant[0];
+    if (n < 1) {
+        snprintf(out, size, "error: empty request");
+    } else if (!strcmp(verb, "state") || !strcmp(verb, "release")) {
+        char rest[8];
+        if (sscanf(line, "%15s %7s", verb, rest) == 2) {
+            snprintf(out, size, "error: %s takes no value", verb);
+        } else if (!strcmp(verb, "state")) {
+            snprintf(out, size, "ok load %.17g length %.17g pressure %.17g held %d",
+                     (int)pl->prm[MK_C_load_kind] == MK_LOAD_SPRING ? 0.0 : pl->prm[MK_C_load_force],
+                     pl->s[MK_S_LEN], pl->s[MK_S_P] - MK_P_ATM, pl->prm[MK_C_mobile] == 0.0);
+        } else {
+            pl->prm[MK_C_load_kind] = MK_LOAD_HANGING;
+            mk_derive(pl);
+            snprintf(out, size, "ok");
+        }
+    } else if (strcmp(verb, "load") && strcmp(verb, "hold")) {
+        snprintf(out, size, "error: unknown request '%s' (load F, hold L, release, state)", verb);
+    } else if (n != 2) {
+        snprintf(out, size, "error: %s takes one number (%s)", verb, verb[0] == 'l' ? "newtons" : "metres");
+    } else if (!isfinite(v) || v < 0.0 || (verb[0] == 'h' && v == 0.0)) {
+        snprintf(out, size, "error: %s: %g must be a finite number %s", verb, v, verb[0] == 'l' ? ">= 0" : "> 0");
+    } else if (verb[0] == 'l') {
+        pl->prm[MK_C_load_force] = v;
+        mk_derive(pl);
+        snprintf(out, size, "ok");
+    } else if (v < pl->prm[MK_C_l_min] || v > pl->prm[MK_C_l_max]) {
+        snprintf(out, size, "error: hold %.17g is outside the muscle's travel %.17g..%.17g m", v, pl->prm[MK_C_l_min],
+                 pl->prm[MK_C_l_max]);
+    } else {
+        pl->prm[MK_C_load_kind] = MK_LOAD_BLOCKED;
+        mk_derive(pl); /* the one place mobile and inv_mass come from */
+        pl->s[MK_S_LEN] = v;
+        pl->s[MK_S_VEL] = 0.0;
+        snprintf(out, size, "ok");
+    }
+}
+
+/* Every simulated millisecond: take a client, answer its complete lines. */
+static void bench_poll(void)
+{
+    char tmp[256], out[256];
+    ssize_t n;
+    if (bench_sock < 0) return;
+    if (bench_conn < 0) {
+        bench_conn = accept(bench_sock, NULL, NULL);
+        if (bench_conn < 0) return;
+        fcntl(bench_conn, F_SETFL, fcntl(bench_conn, F_GETFL) | O_NONBLOCK);
+        bench_len = 0;
+    }
+    n = read(bench_conn, tmp, sizeof tmp);
+    if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)) {
+        close(bench_conn);
+        bench_conn = -1;
+        return;
+    }
+    for (ssize_t k = 0; k < n; k++) {
+        if (tmp[k] != '\n') {
+            if (bench_len < sizeof bench_line - 1) bench_line[bench_len++] = tmp[k];
+            continue;
+        }
+        bench_line[bench_len] = 0;
+        bench_request(bench_line, out, sizeof out);
+        strcat(out, "\n");
+        if (write(bench_conn, out, strlen(out)) < 0) break;
+        bench_len = 0;
+    }
+}
+
+static void bench_close(void)
+{
+    if (bench_conn >= 0) close(bench_conn);
+    if (bench_sock >= 0) {
+        close(bench_sock);
+        unlink(bench_addr.sun_path);
+    }
+}
+
 int main(int argc, char **argv)
 {
     const char *elf = NULL, *params = NULL;
@@ -375,6 +495,7 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--load-cell-offset") && i + 1 < argc) lc_offset = atof(argv[++i]);
         else if (!strcmp(argv[i], "--load-cell-noise") && i + 1 < argc) lc_noise = atof(argv[++i]);
         else if (!strcmp(argv[i], "--load-cell-seed") && i + 1 < argc) lc_rng ^= strtoull(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--bench-dir") && i + 1 < argc) bench_dir = argv[++i];
         else if (!strcmp(argv[i], "--unthrottled")) unthrottled = 1;
         else if (argv[i][0] == '-') {
             snprintf(msg, sizeof msg, "pil: unknown option %s", argv[i]);
@@ -436,7 +557,12 @@ int main(int argc, char **argv)
     signal(SIGTERM, on_signal);
     signal(SIGINT, on_signal);
     signal(SIGPIPE, SIG_IGN);
-    printf("{\"port\": \"%s\", \"channels\": %d, \"fields\": %d}\n", name, n_ch, MK_NF);
+    if (bench_dir && bench_open(bench_dir, name, msg, sizeof msg)) { /* the device runs without a bench */
+        if (bench_sock >= 0) close(bench_sock);
+        bench_sock = -1;
+    }
+    printf("{\"port\": \"%s\", \"channels\": %d, \"fields\": %d, \"bench\": \"%s\"}\n", name, n_ch, MK_NF,
+           bench_sock >= 0 ? bench_addr.sun_path : "");
     fflush(stdout);
 
     mcu_reset();
@@ -515,6 +641,7 @@ int main(int argc, char **argv)
                 out_len = 0; /* the UART shifts out to nobody */
                 in_len = 0;
             }
+            bench_poll();
             wall = now_s() - t0;
             if (!unthrottled) {
                 double ahead = t_sim - wall;
@@ -537,5 +664,6 @@ int main(int argc, char **argv)
     }
     report(t_sim, t_sim - booting_until, now_s() - t0, present, late_ms);
     close(master);
+    bench_close();
     return 0;
 }

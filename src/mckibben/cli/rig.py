@@ -255,7 +255,8 @@ def emulate_cmd(
                 raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
         if json:
             emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels, "engine": engine,
-                       "load_cell_N": None if cell is None else cell.full_scale})
+                       "load_cell_N": None if cell is None else cell.full_scale,
+                       "bench": None if em.bench is None else str(em.bench)})
         else:
             err_console.print(f"emulated device ({engine} engine) on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
         em.run(d)
@@ -265,3 +266,109 @@ def emulate_cmd(
         em.stop()
         if made and os.path.islink(link):
             os.unlink(link)
+
+
+@rig_app.command("bench")
+def bench_cmd(
+    port: str = typer.Option(..., "--port", help="Serial port of the emulated device (or a link to it)."),
+    request: str = typer.Argument(..., help="load, hold, release or state."),
+    value: str = typer.Argument(None, help="load: a weight (61g, 0.6N); hold: a length (92mm)."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Change the simulated bench of an emulated device: hang a load, hold a length, release; or show it."""
+    from mckibben.rig import bench as B
+
+    if request in ("load", "hold"):
+        if value is None:
+            raise InputError(f"{request}: give a {'weight (61g, 0.6N)' if request == 'load' else 'length (92mm)'}")
+        v = parse_quantity(value, "force" if request == "load" else "length", request, allow_zero=request == "load")
+        line = f"{request} {v!r}"
+    elif request in ("release", "state"):
+        if value is not None:
+            raise InputError(f"{request}: takes no value (got {value!r})")
+        line = request
+    else:
+        raise InputError(f"request: {request!r} must be one of load, hold, release, state")
+    b = B.Bench.of_port(port)
+    if request == "state":
+        st = b.state()
+        out = {"load_N": st.load, "length_m": st.length, "pressure_Pa": st.pressure, "held": st.held}
+    else:
+        b.request(line)
+        out = {"request": line, "reply": "ok"}
+    if json:
+        emit_json(out)
+        return
+    print_table(f"Bench of {port}", list(out), [[str(v) for v in out.values()]])
+
+
+@rig_app.command("characterize")
+def characterize_cmd(
+    port: str = typer.Option(..., "--port", help="Serial port of the device or emulator (e.g. /dev/ttyACM0)."),
+    protocol: str = typer.Option(..., "--protocol", help="Protocol file (TOML): mckibben examples copy "
+                                                         "characterize.toml."),
+    out: str = typer.Option(..., "--out", help="Folder of the run: tables, muscle.toml, report/ (empty or new, "
+                                               "or a stopped run's with --resume)."),
+    unattended: bool = typer.Option(False, "--unattended", help="Change the loads through the emulated bench's "
+                                                                "side channel instead of asking the operator."),
+    resume: bool = typer.Option(False, "--resume", help="Go on with a stopped run in --out: its completed load "
+                                                        "steps are kept, the others run."),
+    muscle_file: str = typer.Option(None, "--muscle-file", help="The muscle under test (TOML); with it the run "
+                                                                "fits every law and writes OUT/muscle.toml."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Run a characterization protocol on the bench: load steps, pressure up and down, tables, fitted muscle file."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn  # deferred: Rich's progress
+
+    from mckibben.report.run import run_report
+    from mckibben.rig import characterize as C
+
+    proto = C.read_protocol(protocol)  # a bad protocol or muscle file is refused before the port is touched
+    if muscle_file is not None:
+        from mckibben.data import read_muscle
+
+        read_muscle(muscle_file)
+    show = not json and sys.stderr.isatty()
+    bar = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} steps"),
+                   TimeRemainingColumn(), console=err_console, transient=True, disable=not show)
+    task = bar.add_task("characterize", total=1)
+
+    def progress(event, **info):
+        if event == "start":
+            bar.update(task, total=info["total"], completed=info["done"])
+        elif event == "load":
+            bar.update(task, description=f"load {info['load'] / 9.80665 * 1e3:.0f} g, trial {info['trial']}")
+        else:
+            bar.advance(task)
+
+    def prompt(text: str) -> str:
+        bar.stop()
+        try:
+            return err_console.input(text)
+        finally:
+            bar.start()
+
+    with bar:
+        res = C.run_characterization(port, proto, out, unattended=unattended, resume=resume, muscle_file=muscle_file,
+                             prompt=prompt, progress=progress)
+    summary = res.to_dict()
+    report = None
+    if muscle_file is not None:
+        try:
+            report = str(run_report(res.summary["out"]))
+        except InputError as exc:  # the run, its tables and muscle file stand without the report
+            summary["report_error"] = str(exc)
+            err_console.print(f"warning: no HTML report: {exc}", markup=False, highlight=False)
+    summary["report"] = report
+    if json:
+        emit_json(summary)
+        return
+    m = res.metrics
+    rows = [["load steps", f"{summary['load_steps']} of {summary['load_steps_expected']}"],
+            ["samples", str(m["samples"])], ["peak pressure", f"{m['peak_pressure_Pa'] / 1e6:.4f} MPa"],
+            *[[k, v] for k, v in summary["tables"].items()]]
+    if summary["fit"]:
+        f = summary["fit"]
+        rows += [["best law (held out)", f"{f['best']} ({f['best_cv_rmse_m'] * 1e3:.3f} mm)"],
+                 ["muscle file", f["muscle_file"]], ["report", str(report)]]
+    print_table(f"Characterization on {port}", [" what", "value"], rows)

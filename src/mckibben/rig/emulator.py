@@ -27,6 +27,7 @@ import select
 import struct
 import threading
 import time
+import socket
 import tty
 
 import numpy as np
@@ -38,6 +39,9 @@ from mckibben.control.core import CoreParams
 from mckibben.errors import InputError
 from mckibben.control.core import CoreBank
 from mckibben.plant import PlantStepper
+from mckibben.plant import params as PP
+from mckibben.plant import physics as PH
+from mckibben.rig import bench as B
 from mckibben.control.core import IP_GAIN0, N_GAINS
 
 #: The firmware's transmit ring (``TX_SIZE`` in firmware/src/main.c). [bytes]
@@ -109,6 +113,7 @@ class Emulator:
         self._thread = None
         self._lock = threading.Lock()
         self._boot()
+        self._bench_open()
 
     # -- device behaviour ------------------------------------------------------------------
     def _boot(self) -> None:
@@ -343,6 +348,7 @@ class Emulator:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
+        self._bench_close()
         try:
             os.close(self.master)
         except OSError:
@@ -353,3 +359,98 @@ class Emulator:
 
     def __exit__(self, *exc):
         self.stop()
+
+    # -- the bench side channel (mckibben.rig.bench) ------------------------------------------
+    def _bench_open(self) -> None:
+        """Serve the bench socket of this port (:func:`mckibben.rig.bench.bench_path`) in a thread."""
+        self.bench = B.bench_path(self.port)
+        try:
+            self.bench.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+            if self.bench.is_socket():
+                self.bench.unlink()  # a socket left by a killed device on a reused pty number
+            self._bench_sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            self._bench_sock.bind(str(self.bench))
+            self._bench_sock.listen(4)
+        except OSError:  # no place for the socket: the device runs, without a bench to script
+            self.bench = None
+            self._bench_sock = None
+            return
+        self._bench_sock.settimeout(0.1)
+        self._bench_thread = threading.Thread(target=self._bench_serve, name="mckibben-bench", daemon=True)
+        self._bench_thread.start()
+
+    def _bench_serve(self) -> None:
+        while not self._stop.is_set():
+            try:
+                conn, _ = self._bench_sock.accept()
+            except (TimeoutError, socket.timeout):
+                continue
+            except OSError:
+                return
+            with conn:
+                conn.settimeout(2.0)
+                buf = b""
+                try:
+                    while not self._stop.is_set():
+                        chunk = conn.recv(B.MAX_LINE)
+                        if not chunk:
+                            break
+                        buf += chunk
+                        while b"\n" in buf:
+                            line, buf = buf.split(b"\n", 1)
+                            conn.sendall((self.bench_request(line.decode(errors="replace")) + "\n").encode())
+                        if len(buf) > B.MAX_LINE:
+                            conn.sendall(b"error: line too long\n")
+                            break
+                except OSError:
+                    pass
+
+    def bench_request(self, line: str) -> str:
+        """Apply one bench request to channel 0's plant; return the reply line.
+
+        Parameters
+        ----------
+        line : str
+            A request of :mod:`mckibben.rig.bench` (``load F``, ``hold L``, ``release``, ``state``). [-]
+        """
+        try:
+            verb, value = B.parse_request(line)
+        except InputError as exc:
+            return f"error: {exc}"
+        with self._lock:
+            pl = self.plants[0]
+            row = pl.bk[PH.OFF_P:PH.OFF_P + PH.NP * PH.W:PH.W].copy()  # lane 0's packed parameters
+            if verb == "state":
+                held = row[PP.Col.mobile] == 0.0
+                load = 0.0 if row[PP.Col.load_kind] == PP.Load.spring else row[PP.Col.load_force]
+                return f"ok load {float(load)!r} length {pl.length!r} pressure {pl.pressure!r} held {int(held)}"
+            if verb == "load":
+                row[PP.Col.load_force] = value
+            elif verb == "hold":
+                lo, hi = row[PP.Col.l_min], row[PP.Col.l_max]
+                if not lo <= value <= hi:
+                    return f"error: hold {value!r} is outside the muscle's travel {float(lo)!r}..{float(hi)!r} m"
+                row[PP.Col.load_kind] = PP.Load.blocked
+                pl.bk[PH.Z_LEN] = value
+                pl.bk[PH.Z_VEL] = 0.0
+            elif verb == "release":
+                row[PP.Col.load_kind] = PP.Load.hanging
+            prm = row[None, :]
+            PP.derive(prm, self._plant_params[0].thermal)  # the one place inv_mass and mobile come from
+            pl.bk[PH.OFF_P:PH.OFF_P + PH.NP * PH.W:PH.W] = prm[0]
+            pl.p = pl.bk[PH.OFF_P:PH.OFF_P + PH.NP * PH.W:PH.W].copy()
+        return "ok"
+
+    def _bench_close(self) -> None:
+        sock = getattr(self, "_bench_sock", None)
+        if sock is None or self.bench is None:
+            return
+        sock.close()
+        t = getattr(self, "_bench_thread", None)
+        if t is not None:
+            t.join(timeout=2)
+        try:
+            if self.bench.is_socket():
+                self.bench.unlink()
+        except OSError:
+            pass

@@ -36,6 +36,7 @@ from mckibben.errors import InputError
 from mckibben.plant import c_layout as CL
 from mckibben.plant import params as PP
 from mckibben.rig import firmware as FW
+from mckibben.rig.bench import bench_dir
 
 #: The plant's C sources (package data of mckibben.export, ``c/``) the harness compiles.
 PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
@@ -224,6 +225,11 @@ class AvrDevice:
             cmd += ["--load-cell", repr(float(load_cell.full_scale)), "--load-cell-offset", repr(float(load_cell.offset)),
                     "--load-cell-noise", repr(float(load_cell.noise)),
                     "--load-cell-seed", str(int(getattr(plants[0], "seed", 0) or 0) & 0xFFFFFFFFFFFFFFFF)]
+        try:
+            bench_dir().mkdir(mode=0o700, parents=True, exist_ok=True)
+            cmd += ["--bench-dir", str(bench_dir())]  # the bench side channel (mckibben.rig.bench)
+        except OSError:
+            pass  # no place for the socket: the device runs, without a bench to script
         self._cmd = cmd
         self._proc: subprocess.Popen | None = None
         self.stats: dict = {}
@@ -244,6 +250,8 @@ class AvrDevice:
             if line.startswith('{"port"'):
                 info = json.loads(line)
         self.port: str = info["port"]
+        #: The bench side channel's socket (:mod:`mckibben.rig.bench`).
+        self.bench = Path(info["bench"]) if info.get("bench") else None
         self._reader = threading.Thread(target=self._read, name="mckibben-avr-stats", daemon=True)
         self._reader.start()
 
