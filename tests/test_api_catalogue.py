@@ -168,7 +168,7 @@ CASES = [
     ("models.force-length-True", lambda: _models().force(0.5e6, True, mk.get_muscle("mpam97"), model="wall-corrected"),
      "length"),
     ("models.force-muscle-name", lambda: _models().force(0.5e6, 0.09, "mpam97", model="chou-hannaford"), "muscle"),
-    ("models.force-model-None", lambda: _models().force(0.5e6, 0.09, mk.get_muscle("mpam97"), model=None), "model"),
+    ("models.force-model-number", lambda: _models().force(0.5e6, 0.09, mk.get_muscle("mpam97"), model=3), "model"),
     # model=None is the default (braid-map on a catalogue muscle, a muscle file's own law)
     ("models.length-model-number", lambda: _models().length(0.5e6, 0.6, mk.get_muscle("mpam97"), model=3), "model"),
     ("models.pressure-model-number", lambda: _models().pressure(0.08, 0.6, mk.get_muscle("mpam97"), model=3), "model"),
