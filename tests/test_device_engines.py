@@ -14,7 +14,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mckibben import hardware as HW
-from mckibben.control.core import CoreParams
 from mckibben.rig import protocol as P
 from mckibben.rig import Device
 from mckibben.rig.device import connect
@@ -44,10 +43,8 @@ def _until_acked(link, parser, make, seqs, tries=20):
 
 def test_hostile_bytes_then_a_supply_above_the_maximum_never_pass_the_maximum(engine):
     """10,000 random bytes in one session, then valid frames asking channel 0 for 2 MPa on a 1 MPa
-    supply: telemetry flows again and the device answers. Issue 31's safety bar, channel 0 never
-    above the 0.8 MPa maximum + 10 kPa, is NOT met by the controller core on either engine (peaks of
-    828 kPa, python, and 848 kPa, avr, were measured: past p_max + margin = 820 kPa too): the test
-    reports it as an expected failure with the peak, until the core's supervisor holds it."""
+    supply: telemetry flows again, the device answers, and channel 0 never passes the 0.8 MPa
+    maximum + 10 kPa (issue 31's safety bar: the supervisor's lead cut and headroom cap, 2b)."""
     rng = np.random.default_rng(31)
     with start_device(engine, supply=1.0e6) as em:
         link, hello, parser = connect(em.port)
@@ -67,10 +64,7 @@ def test_hostile_bytes_then_a_supply_above_the_maximum_never_pass_the_maximum(en
     p = np.array([f.channels[0].pressure_adc for f in tel]) * HW.PA_PER_COUNT
     assert p.max() >= 0.6e6  # it did drive toward the limit (the command was heard)
     assert all(f.channels[0].reference_pa <= HW.P_MAX_DEFAULT for f in tel)  # the 2 MPa ask is clamped
-    if p.max() > HW.P_MAX_DEFAULT + 10e3:
-        pytest.xfail(f"{engine}: channel 0 peaked at {p.max() / 1e3:.0f} kPa on a 1 MPa supply, past the "
-                     f"0.8 MPa maximum + 10 kPa (the core vents above p_max + margin = "
-                     f"{(HW.P_MAX_DEFAULT + CoreParams().margin) / 1e3:.0f} kPa, and overshoots that)")
+    assert p.max() <= HW.P_MAX_DEFAULT + 10e3, f"{engine}: channel 0 peaked at {p.max() / 1e3:.1f} kPa"
 
 
 def test_record_three_channels_delivers_every_period_into_the_parquet_file(tmp_path, engine):
