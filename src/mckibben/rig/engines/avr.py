@@ -41,6 +41,39 @@ PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
 #: The folder of the C plant's sources: package data beside mckibben.export (``export/c``), read as files.
 PLANT_C = Path(__file__).resolve().parents[2] / "export" / "c"
 
+#: The firmware's ring indices the harness watches for their high-water marks (``--rings``).
+RING_SYMBOLS = ("tx_head", "tx_tail", "rx_head", "rx_tail")
+
+
+def ring_symbols(elf: str | os.PathLike) -> str | None:
+    """The harness's ``--rings`` argument for ``elf``: the data addresses of USART0's ring indices
+    (:data:`RING_SYMBOLS`) and the receive ring's size, read from the image's symbols with avr-nm.
+
+    Parameters
+    ----------
+    elf : path
+        The firmware image. [-]
+
+    Returns
+    -------
+    str or None
+        ``"TXH,TXT,RXH,RXT,RXSIZE"`` (SRAM addresses [byte], size [byte]); None when avr-nm is
+        missing or the image lacks a symbol.
+    """
+    nm = shutil.which("avr-nm")
+    if nm is None:
+        return None
+    out = subprocess.run([nm, "-S", str(elf)], capture_output=True, text=True).stdout
+    sym = {}
+    for line in out.splitlines():
+        f = line.split()
+        if len(f) == 4:
+            sym[f[3]] = (int(f[0], 16) & 0xFFFF, int(f[1], 16))
+    if not all(name in sym for name in (*RING_SYMBOLS, "rx_buf")):
+        return None
+    return ",".join([*(str(sym[name][0]) for name in RING_SYMBOLS), str(sym["rx_buf"][1])])
+
+
 def build_image(n_channels: int = HW.N_CHANNELS) -> Path:
     """The firmware image (:func:`mckibben.rig.firmware.build`), built once per source and channel count
     into the per-user cache.
@@ -173,6 +206,13 @@ class AvrDevice:
     stall_at : float, optional
         Simulated time at which the control tick stalls (Timer1's interrupts masked), to show the
         watchdog path. [s]
+    adc_miss_at : float, optional
+        Simulated time from which the ADC's conversions miss the control tick (its completion
+        interrupt masked) for ``adc_miss_n`` periods. [s]
+    adc_miss_n : int, default 1
+        Control periods the conversions miss. [-]
+    profile : path, optional
+        File the harness writes at the end: CPU cycles per program address. [-]
 
     Attributes
     ----------
@@ -188,10 +228,13 @@ class AvrDevice:
         Control periods simulated; packets dropped whole because the host did not read. [-]
     stats : dict
         The harness's last counters line. [-]
+    instruments : dict
+        What the harness reads off the CPU (:attr:`instruments`). [-]
     """
 
     def __init__(self, plants, n_channels: int = 3, boot_time: float = 0.3, unthrottled: bool = False,
-                 elf: str | os.PathLike | None = None, stall_at: float | None = None, hold_adc: int | None = None):
+                 elf: str | os.PathLike | None = None, stall_at: float | None = None, hold_adc: int | None = None,
+                 adc_miss_at: float | None = None, adc_miss_n: int = 1, profile: str | os.PathLike | None = None):
         if not 0 <= float(boot_time) <= 10:
             raise InputError(f"boot_time: {boot_time!r} must be within 0..10 s")
         self.n = int(n_channels)
@@ -209,6 +252,15 @@ class AvrDevice:
             cmd += ["--hold-adc", str(int(hold_adc))]
         if stall_at is not None:
             cmd += ["--stall-at", repr(float(stall_at))]
+        if adc_miss_at is not None:
+            if not 1 <= int(adc_miss_n) <= 1000:
+                raise InputError(f"adc_miss_n: {adc_miss_n!r} must be within 1..1000 periods")
+            cmd += ["--adc-miss-at", repr(float(adc_miss_at)), "--adc-miss-n", str(int(adc_miss_n))]
+        if profile is not None:
+            cmd += ["--profile", str(profile)]
+        rings = ring_symbols(self.elf)
+        if rings is not None:
+            cmd += ["--rings", rings]
         self._cmd = cmd
         self._proc: subprocess.Popen | None = None
         self.stats: dict = {}
@@ -259,6 +311,16 @@ class AvrDevice:
         """Simulated time of the last watchdog reset, None before any. [s]"""
         t = float(self._stat("wdt_reset_at", -1.0))
         return None if t < 0 else t
+
+    @property
+    def instruments(self) -> dict:
+        """What the harness reads off the CPU since the image last started: ``ticks`` (Timer1
+        compare-A interrupts entered), ``tick_min_cycles``/``tick_max_cycles`` (the shortest and
+        longest period between two entries, 16,000 nominal), ``masked_max_cycles`` (the longest
+        stretch with interrupts masked: an ISR's run or an atomic block), ``tx_hwm``/``rx_hwm``
+        (the USART rings' high-water marks [byte]; -1 when not watched). [cycle, byte]"""
+        keys = ("ticks", "tick_min_cycles", "tick_max_cycles", "masked_max_cycles", "tx_hwm", "rx_hwm")
+        return {k: int(self._stat(k, -1)) for k in keys}
 
     @property
     def host_present(self) -> bool:
