@@ -137,6 +137,62 @@ def _valves(em):
     return em._stat("valves")
 
 
+@pytest.mark.skipif(_avr_engine_missing() is not None, reason="needs the avr engine")
+def test_the_harness_reads_the_tick_the_masked_interrupts_and_the_rings_off_the_cpu():
+    """The instruments of the image (read from the CPU, not from the firmware): under three channels
+    in closed loop streaming at 1 kHz plus a SET_POINTS every 2 ms, the tick's period stays near
+    16,000 cycles, interrupts are masked no longer than one tick's ISR, and the rings' fill is seen."""
+    from mckibben.rig.engines.avr import AvrDevice
+    from mckibben.plant import PlantParams
+
+    with AvrDevice([PlantParams()] * 3, boot_time=0.3) as em:
+        link, hello, parser = connect(em.port)
+        link.write(P.set_mode(1, P.MODES["smc"]))
+        link.write(P.stream(2, True, 1))
+        end, seq = time.monotonic() + 1.0, 3
+        while time.monotonic() < end:
+            link.write(P.set_points(seq, [3e5, 3e5, 3e5]))
+            seq += 1
+            parser.feed(link.read(8192))
+            time.sleep(0.002)
+        link.close()
+        time.sleep(0.4)  # the harness's next counters line
+        ins = em.instruments
+    assert ins["ticks"] >= 500
+    assert 15_000 <= ins["tick_min_cycles"] <= 16_000 <= ins["tick_max_cycles"] <= 17_000
+    assert 1_000 < ins["masked_max_cycles"] < 8_000  # the control ISR, three channels in closed loop
+    assert 50 <= ins["tx_hwm"] < 256 and 0 < ins["rx_hwm"] < 256  # a telemetry frame is ~60 bytes
+
+
+@pytest.mark.skipif(_avr_engine_missing() is not None, reason="needs the avr engine")
+@pytest.mark.parametrize("missed", [1, 10])
+def test_a_conversion_that_misses_the_tick_is_a_missing_sample_and_ten_latch_the_vent(missed):
+    """The ADC's interrupt masked for ``missed`` periods under closed loop: each such frame carries no
+    sample (pressure_adc 0); one passes, ten in a row (n_missing) latch MISSING and vent every channel."""
+    from mckibben.control.core import FAULT_MISSING
+    from mckibben.rig.engines.avr import AvrDevice
+    from mckibben.plant import PlantParams
+
+    with AvrDevice([PlantParams()] * 3, boot_time=0.3, adc_miss_at=1.2, adc_miss_n=missed) as em:
+        link, hello, parser = connect(em.port)
+        link.write(P.set_points(1, [5e5] * 3))
+        link.write(P.set_mode(2, P.MODES["smc"]))
+        link.write(P.stream(3, True, 1))
+        tel = [f for f in _read_for(link, parser, 1.5) if isinstance(f, P.Telemetry)]
+        link.close()
+        time.sleep(0.3)
+        valves = _valves(em)
+    first = next((i for i, f in enumerate(tel) if any(c.faults for c in f.channels)), len(tel))
+    empty = [f for f in tel[:first + 1] if all(c.pressure_adc == 0 for c in f.channels)]
+    assert len(empty) == missed
+    if missed == 1:
+        assert first == len(tel)  # no fault: the loop goes on holding 0.5 MPa
+        assert abs(tel[-1].channels[0].pressure_adc * HW.PA_PER_COUNT - 0.5e6) < 20e3
+    else:
+        assert all(c.faults & FAULT_MISSING for c in tel[-1].channels)
+        assert valves == [[0, 255]] * 3
+
+
 def _fuzz_device():
     import importlib.util
     from pathlib import Path
