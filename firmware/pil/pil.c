@@ -35,6 +35,15 @@
  * full scale FS [N] on ADC3, its zero offset and noise standard deviation [N], the noise's seed.
  * --bench-dir D: serve the bench side channel (mckibben.rig.bench) on the Unix socket
  * D/<the pty's path, '/' as '_'>.sock: "load F" [N], "hold L" [m], "release", "state", one line each.
+ * --adc-miss-at S [--adc-miss-n N]: from simulated time S, for N control periods (default 1), the
+ * ADC's completion interrupt is masked (ADIE off): the conversions do not reach the firmware
+ * before the tick, as a conversion that misses it.
+ * --rings TXH,TXT,RXH,RXT[,RXSIZE]: data addresses of the firmware's ring indices (from the ELF's
+ * symbols, mckibben.rig.engines.avr.ring_symbols): the counters report each ring's high-water mark.
+ * --profile FILE: at the end, the CPU cycles spent at each program address ("0xADDR cycles" lines).
+ * Measured always, from the CPU itself: each Timer1 compare-A interrupt's entry (the control tick;
+ * its period's min and max in cycles) and the longest stretch with SREG's I bit clear (interrupts
+ * masked: an ISR's whole run, or an ATOMIC block), counted from the first tick after a reset.
  * stdout: one JSON line {"port": ...} when ready, then one JSON line of counters every 0.2 s wall
  * and at the end. Exit 0; 2 with one line on stderr for bad input (a missing ELF, a bad PARAMS).
  */
@@ -106,6 +115,16 @@ static long long dropped_packets, dropped_bytes, rx_bytes, tx_bytes, resets, wdt
 static avr_cycle_count_t last_tx_cycle, min_tx_gap = (avr_cycle_count_t)-1; /* the line rate, as simavr runs it */
 static int enc_pos, enc_zero;
 static volatile sig_atomic_t stop_flag;
+/* instruments read off the CPU (see the usage above) */
+#define TICK_VECTOR_PC (17u * 4u) /* TIMER1_COMPA_vect: vector 17, 4 bytes a vector (jmp) */
+#define A_ADCSRA 0x7A
+#define ADIE_BIT 3
+static avr_cycle_count_t tick_last, tick_min = (avr_cycle_count_t)-1, tick_max, masked_since, masked_max;
+static long long ticks;
+static int masked;
+static uint16_t ring_addr[4]; /* tx_head, tx_tail, rx_head, rx_tail; 0: not watched */
+static unsigned rx_size = 128, tx_hwm, rx_hwm;
+static uint32_t *profile; /* cycles per word address */
 
 static void on_signal(int sig)
 {
@@ -263,8 +282,39 @@ static void encoder_edge(void)
     avr_raise_irq(enc_b, (uint32_t)((code >> 1) & 1));
 }
 
+/* After each instruction: the tick's entry, the I bit, the rings' fill, the profile. */
+static void instrument(avr_cycle_count_t before, avr_flashaddr_t pc)
+{
+    int i_bit = avr->sreg[S_I];
+    if (profile) profile[(pc >> 1) & 0x1FFFFu] += (uint32_t)(avr->cycle - before);
+    if (avr->pc == TICK_VECTOR_PC) {
+        if (ticks > 0) {
+            avr_cycle_count_t d = avr->cycle - tick_last;
+            if (d < tick_min) tick_min = d;
+            if (d > tick_max) tick_max = d;
+        }
+        tick_last = avr->cycle;
+        ticks++;
+    }
+    if (!i_bit && !masked) {
+        masked = 1;
+        masked_since = before;
+    } else if (i_bit && masked) {
+        masked = 0;
+        if (ticks > 0 && avr->cycle - masked_since > masked_max) masked_max = avr->cycle - masked_since;
+    }
+    if (ring_addr[0]) {
+        unsigned tx = (uint8_t)(avr->data[ring_addr[0]] - avr->data[ring_addr[1]]);
+        unsigned rx = (avr->data[ring_addr[2]] + rx_size - avr->data[ring_addr[3]]) % rx_size;
+        if (tx > tx_hwm) tx_hwm = tx;
+        if (rx > rx_hwm) rx_hwm = rx;
+    }
+}
+
 static void mcu_reset(void)
 {
+    ticks = 0;
+    masked = 0;
     avr_reset(avr);
     xoff = 0;
     /* the encoder counts from where the muscle is at reset (an incremental encoder) */
@@ -345,7 +395,11 @@ static void report(double t_sim, double t_dev, double wall, int present, long lo
         mk_outputs(&plant[i], &pg, &len, &force);
         printf("%s%.6f", i ? ", " : "", force);
     }
-    printf("], \"valves\": [");
+    printf("], \"ticks\": %lld, \"tick_min_cycles\": %lld, \"tick_max_cycles\": %lld, "
+           "\"masked_max_cycles\": %lld, \"tx_hwm\": %d, \"rx_hwm\": %d", ticks,
+           tick_min == (avr_cycle_count_t)-1 ? -1LL : (long long)tick_min, (long long)tick_max,
+           (long long)masked_max, ring_addr[0] ? (int)tx_hwm : -1, ring_addr[0] ? (int)rx_hwm : -1);
+    printf(", \"valves\": [");
     for (int i = 0; i < n_ch; i++)
         printf("%s[%d, %d]", i ? ", " : "", valves_now[i][0], valves_now[i][1]);
     printf("]}\n");
@@ -478,6 +532,9 @@ int main(int argc, char **argv)
 {
     const char *elf = NULL, *params = NULL;
     double boot_time = 0.3, duration = -1.0, stall_at = -1.0, t_sim = 0.0, booting_until, t0, next_report, wall;
+    double adc_miss_at = -1.0, adc_miss_until = -1.0;
+    int adc_miss_n = 1;
+    const char *profile_path = NULL;
     int unthrottled = 0, master, slave, present, i, chunk = 0;
     uint32_t avcc = 5000;
     long long late_ms = 0;
@@ -497,6 +554,16 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--load-cell-seed") && i + 1 < argc) lc_rng ^= strtoull(argv[++i], NULL, 10);
         else if (!strcmp(argv[i], "--bench-dir") && i + 1 < argc) bench_dir = argv[++i];
         else if (!strcmp(argv[i], "--unthrottled")) unthrottled = 1;
+        else if (!strcmp(argv[i], "--adc-miss-at") && i + 1 < argc) adc_miss_at = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--adc-miss-n") && i + 1 < argc) adc_miss_n = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--profile") && i + 1 < argc) profile_path = argv[++i];
+        else if (!strcmp(argv[i], "--rings") && i + 1 < argc) {
+            unsigned a[5] = {0, 0, 0, 0, 128};
+            if (sscanf(argv[++i], "%u,%u,%u,%u,%u", &a[0], &a[1], &a[2], &a[3], &a[4]) < 4 || !a[0] || !a[4])
+                usage_error("pil: --rings takes TXH,TXT,RXH,RXT[,RXSIZE] data addresses");
+            for (int k = 0; k < 4; k++) ring_addr[k] = (uint16_t)a[k];
+            rx_size = a[4];
+        }
         else if (argv[i][0] == '-') {
             snprintf(msg, sizeof msg, "pil: unknown option %s", argv[i]);
             usage_error(msg);
@@ -518,6 +585,7 @@ int main(int argc, char **argv)
         snprintf(msg, sizeof msg, "ELF: %s is not an AVR image simavr can load", elf);
         usage_error(msg);
     }
+    if (profile_path && !(profile = calloc(1u << 17, sizeof *profile))) usage_error("pil: no memory for --profile");
     avr = avr_make_mcu_by_name("atmega2560");
     if (!avr) usage_error("simavr has no atmega2560 core");
     avr_init(avr);
@@ -581,6 +649,14 @@ int main(int argc, char **argv)
             mk_advance(&plant[i], CHUNK_S);
         }
         sense();
+        if (adc_miss_at >= 0.0 && t_sim >= adc_miss_at) { /* conversions miss the tick */
+            avr->data[A_ADCSRA] &= (uint8_t)~(1u << ADIE_BIT);
+            adc_miss_until = adc_miss_at + adc_miss_n * 1e-3;
+            adc_miss_at = -1.0;
+        } else if (adc_miss_until >= 0.0 && t_sim >= adc_miss_until) {
+            avr->data[A_ADCSRA] |= (uint8_t)(1u << ADIE_BIT);
+            adc_miss_until = -1.0;
+        }
         if (stall_at >= 0.0 && t_sim >= stall_at) { /* the control tick stalls, once */
             avr->data[A_TIMSK1] = 0;
             stall_at = -1.0;
@@ -590,7 +666,10 @@ int main(int argc, char **argv)
             encoder_edge();
             mcusr_before = reg8(A_MCUSR);
             while (avr->cycle < end) {
+                avr_cycle_count_t before = avr->cycle;
+                avr_flashaddr_t pc = avr->pc;
                 int st = avr_run(avr);
+                instrument(before, pc);
                 if (st == cpu_Done || st == cpu_Crashed) {
                     /* the image stopped (sleep with interrupts off, or a crash): a Mega would hang
                        until its watchdog: reset it as the watchdog would */
@@ -663,6 +742,14 @@ int main(int argc, char **argv)
         }
     }
     report(t_sim, t_sim - booting_until, now_s() - t0, present, late_ms);
+    if (profile) {
+        FILE *pf = fopen(profile_path, "w");
+        if (pf) {
+            for (uint32_t w = 0; w < (1u << 17); w++)
+                if (profile[w]) fprintf(pf, "0x%x %u\n", w << 1, profile[w]);
+            fclose(pf);
+        }
+    }
     close(master);
     bench_close();
     return 0;

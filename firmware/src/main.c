@@ -68,7 +68,7 @@ static volatile uint16_t force_val; /* the last completed ADC3 count */
 static uint8_t enc_prev;
 
 /* --- USART0 with interrupt-driven ring buffers ------------------------------------------ */
-#define RX_SIZE 128u
+#define RX_SIZE 256u /* a host's burst (a USB frame's worth of commands) waits here: 2.5 ms of line */
 #define TX_SIZE 256u
 static volatile uint8_t rx_buf[RX_SIZE];
 static volatile uint8_t rx_head, rx_tail;
@@ -98,13 +98,11 @@ ISR(USART0_UDRE_vect)
 /* Queue a whole packet or nothing. */
 static uint8_t uart_send(const uint8_t *p, size_t n)
 {
-    uint8_t used, i;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { used = (uint8_t)(tx_head - tx_tail); }
+    uint8_t used, i, head = tx_head; /* only this loop writes tx_head: a register copy */
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { used = (uint8_t)(head - tx_tail); }
     if (n > (size_t)(TX_SIZE - 1u - used)) return 0;
-    for (i = 0; i < n; i++) {
-        tx_buf[tx_head] = p[i];
-        tx_head = (uint8_t)(tx_head + 1u);
-    }
+    for (i = 0; i < n; i++) tx_buf[head++] = p[i]; /* wraps at 256 by itself */
+    tx_head = head;
     UCSR0B |= (uint8_t)(1 << UDRIE0);
     return 1;
 }
@@ -440,7 +438,10 @@ int main(void)
         int c;
         uint16_t now;
         while ((c = uart_recv()) >= 0) {
-            if (mck_rx_feed(&rx, (uint8_t)c)) handle(&rx);
+            if (mck_rx_feed(&rx, (uint8_t)c)) {
+                handle(&rx);
+                break; /* one command, then the telemetry's turn: a burst must not starve it */
+            }
         }
         ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { now = tick; }
         if (stream_on && (uint16_t)(now - last_tick) >= decimation) {

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mckibben import control
 from mckibben import hardware as HW
 from mckibben.errors import ArgumentTypeError, InputError, check_real
 from mckibben.export.mujoco import MuscleBank, _mujoco, hanging_mass_mjcf, load_model, muscle_plant
@@ -159,7 +160,12 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     data = mujoco.MjData(model)
     # the braid-angle maps pull less when stretched below ~0.25 MPa: checked over the held pressures only
     floor = 0.9 * pressure if force_model == "empirical" else 0.0
-    bank = MuscleBank(model, ["muscle"], plant, controller=controller, initial_pressure=pressure, pressure_floor=floor)
+    # the supervisor's p_max at the transducer's full scale: its headroom cap holds a chamber some tens
+    # of kPa below p_max (docs/controller.md, 2b), and this rig holds `pressure`, the calibration
+    # point 0.8 MPa included (the 0.8 MPa supply bounds the chamber)
+    ctrl = (control.experiment_setup.controller_params(controller, p_max=HW.P_MAX_LIMIT)
+            if isinstance(controller, str) else controller)
+    bank = MuscleBank(model, ["muscle"], plant, controller=ctrl, initial_pressure=pressure, pressure_floor=floor)
     n = int(round(duration / timestep))
     every = bank.steps_per_period
     t, p, ln, f = [], [], [], []

@@ -38,6 +38,11 @@ SAFE_MAX_PRESSURE_PA = float(P_MAX_DEFAULT)
 STARTUP_TIMEOUT_S = 10.0
 #: Most load-cell samples :meth:`Device.tare` and :meth:`Device.read_force` take (10 s at 1 kHz). [-]
 MAX_FORCE_SAMPLES = 10_000
+#: Control periods between a streaming host's commands, and the telemetry decimation it asks for
+#: beside them: the firmware image's measured ceiling (``docs/firmware.md``, "Command rate"). With
+#: three channels in closed loop at 1 kHz, SET_POINTS every 2 ms beside telemetry at decimation 2
+#: all arrive and are ACKed; at 1 ms (or at decimation 1) the 16 MHz Mega runs out of cycles.
+PACED_PERIODS = 2
 #: The device's controllers by name (:data:`mckibben.rig.protocol.MODES`).
 CONTROLLERS = R.NAMES
 
@@ -102,7 +107,7 @@ def connect(port: str, hello_timeout: float | None = None, timeout: float = 0.02
                      f"mckibben device running firmware with protocol version {P.VERSION}?")
 
 
-#: Commands in flight at once: the firmware's receive ring holds 128 bytes and SET_GAIN takes it
+#: Commands in flight at once: the firmware's receive ring holds 256 bytes and SET_GAIN takes it
 #: ~1 ms to compute, while the line brings 100 bytes per ms; and its 256-byte transmit queue
 #: drops an ACK that does not fit.
 WINDOW = 4

@@ -43,6 +43,39 @@ PLANT_SOURCES = ("mk_plant.h", "mk_plant.c")
 #: The folder of the C plant's sources: package data beside mckibben.export (``export/c``), read as files.
 PLANT_C = Path(__file__).resolve().parents[2] / "export" / "c"
 
+#: The firmware's ring indices the harness watches for their high-water marks (``--rings``).
+RING_SYMBOLS = ("tx_head", "tx_tail", "rx_head", "rx_tail")
+
+
+def ring_symbols(elf: str | os.PathLike) -> str | None:
+    """The harness's ``--rings`` argument for ``elf``: the data addresses of USART0's ring indices
+    (:data:`RING_SYMBOLS`) and the receive ring's size, read from the image's symbols with avr-nm.
+
+    Parameters
+    ----------
+    elf : path
+        The firmware image. [-]
+
+    Returns
+    -------
+    str or None
+        ``"TXH,TXT,RXH,RXT,RXSIZE"`` (SRAM addresses [byte], size [byte]); None when avr-nm is
+        missing or the image lacks a symbol.
+    """
+    nm = shutil.which("avr-nm")
+    if nm is None:
+        return None
+    out = subprocess.run([nm, "-S", str(elf)], capture_output=True, text=True).stdout
+    sym = {}
+    for line in out.splitlines():
+        f = line.split()
+        if len(f) == 4:
+            sym[f[3]] = (int(f[0], 16) & 0xFFFF, int(f[1], 16))
+    if not all(name in sym for name in (*RING_SYMBOLS, "rx_buf")):
+        return None
+    return ",".join([*(str(sym[name][0]) for name in RING_SYMBOLS), str(sym["rx_buf"][1])])
+
+
 def build_image(n_channels: int = HW.N_CHANNELS, load_cell: float | None = None) -> Path:
     """The firmware image (:func:`mckibben.rig.firmware.build`), built once per source, channel count and
     load cell into the per-user cache.
@@ -180,6 +213,13 @@ class AvrDevice:
     load_cell : LoadCell, optional
         A load cell on channel 0's muscle (:class:`mckibben.hardware.LoadCell`): the image is built
         with its full scale, the harness drives ADC3 from the plant's tension. [-]
+    adc_miss_at : float, optional
+        Simulated time from which the ADC's conversions miss the control tick (its completion
+        interrupt masked) for ``adc_miss_n`` periods. [s]
+    adc_miss_n : int, default 1
+        Control periods the conversions miss. [-]
+    profile : path, optional
+        File the harness writes at the end: CPU cycles per program address. [-]
 
     Attributes
     ----------
@@ -195,11 +235,14 @@ class AvrDevice:
         Control periods simulated; packets dropped whole because the host did not read. [-]
     stats : dict
         The harness's last counters line. [-]
+    instruments : dict
+        What the harness reads off the CPU (:attr:`instruments`). [-]
     """
 
     def __init__(self, plants, n_channels: int = 3, boot_time: float = 0.3, unthrottled: bool = False,
                  elf: str | os.PathLike | None = None, stall_at: float | None = None, hold_adc: int | None = None,
-                 load_cell: HW.LoadCell | None = None):
+                 load_cell: HW.LoadCell | None = None, adc_miss_at: float | None = None, adc_miss_n: int = 1,
+                 profile: str | os.PathLike | None = None):
         if not 0 <= float(boot_time) <= 10:
             raise InputError(f"boot_time: {boot_time!r} must be within 0..10 s")
         self.n = int(n_channels)
@@ -230,6 +273,15 @@ class AvrDevice:
             cmd += ["--bench-dir", str(bench_dir())]  # the bench side channel (mckibben.rig.bench)
         except OSError:
             pass  # no place for the socket: the device runs, without a bench to script
+        if adc_miss_at is not None:
+            if not 1 <= int(adc_miss_n) <= 1000:
+                raise InputError(f"adc_miss_n: {adc_miss_n!r} must be within 1..1000 periods")
+            cmd += ["--adc-miss-at", repr(float(adc_miss_at)), "--adc-miss-n", str(int(adc_miss_n))]
+        if profile is not None:
+            cmd += ["--profile", str(profile)]
+        rings = ring_symbols(self.elf)
+        if rings is not None:
+            cmd += ["--rings", rings]
         self._cmd = cmd
         self._proc: subprocess.Popen | None = None
         self.stats: dict = {}
@@ -282,6 +334,16 @@ class AvrDevice:
         """Simulated time of the last watchdog reset, None before any. [s]"""
         t = float(self._stat("wdt_reset_at", -1.0))
         return None if t < 0 else t
+
+    @property
+    def instruments(self) -> dict:
+        """What the harness reads off the CPU since the image last started: ``ticks`` (Timer1
+        compare-A interrupts entered), ``tick_min_cycles``/``tick_max_cycles`` (the shortest and
+        longest period between two entries, 16,000 nominal), ``masked_max_cycles`` (the longest
+        stretch with interrupts masked: an ISR's run or an atomic block), ``tx_hwm``/``rx_hwm``
+        (the USART rings' high-water marks [byte]; -1 when not watched). [cycle, byte]"""
+        keys = ("ticks", "tick_min_cycles", "tick_max_cycles", "masked_max_cycles", "tx_hwm", "rx_hwm")
+        return {k: int(self._stat(k, -1)) for k in keys}
 
     @property
     def host_present(self) -> bool:
