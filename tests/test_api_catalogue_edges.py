@@ -318,11 +318,11 @@ def test_a_table_plots_what_its_kind_measures(kind_file):
     fig = table.plot()
     assert isinstance(fig, Figure)
     ax = fig.axes[0]
-    x, y, _ = _mod("data.io")._TABLE_PLOTS[table.kind]
+    x, y, _ = _mod("data.tables")._TABLE_PLOTS[table.kind]
     assert x.replace("_", " ") in ax.get_xlabel() and y.replace("_", " ") in ax.get_ylabel()
     # every row is drawn once, in the lab's units
     drawn = np.concatenate([line.get_ydata() for line in ax.lines])
-    factor = _mod("data.io")._PLOT_SCALE[y][0]
+    factor = _mod("data.tables")._PLOT_SCALE[y][0]
     np.testing.assert_allclose(np.sort(drawn), np.sort(table.data[y].to_numpy() * factor))
     # on a given Axes: that Axes' figure, drawn there
     import matplotlib.pyplot as plt

@@ -51,7 +51,7 @@ from mckibben import hardware as HW
 from mckibben._jit import njit
 from mckibben import control
 from mckibben.control.core import CoreParams, core_spec
-from mckibben.data.io import MuscleSpec
+from mckibben.data.muscle_file import MuscleSpec
 from mckibben.datasets import get_muscle
 from mckibben.errors import ArgumentTypeError, InputError, check_real
 from mckibben.models import laws as LW
@@ -127,7 +127,7 @@ def muscle_plant(muscle="mpam97", force_model: str | None = None, **fields) -> P
     muscle : str, MiniatureMuscle, Muscle, MuscleSpec, os.PathLike or PlantParams, default "mpam97"
         A published set by name (``mpam97``, ``mpam117``, ``mpam143``) or object
         (:meth:`PlantParams.for_muscle`: the rig of the paper, the plant's calibrated law), a
-        fitted muscle file (a ``.toml`` path, its :class:`~mckibben.data.io.MuscleSpec`, or a
+        fitted muscle file (a ``.toml`` path, its :class:`~mckibben.data.muscle_file.MuscleSpec`, or a
         :class:`~mckibben.models.muscle.Muscle` / tool muscle of one, with its branch:
         :meth:`PlantParams.from_muscle_file`, its own law), or a ready :class:`PlantParams`
         (one instance). [-]

@@ -23,7 +23,7 @@ from mckibben.models.muscle import Muscle
 from mckibben.models.mpam import MiniatureMuscle, predict_length
 from mckibben.models.spring import CONTRACTION, ELONGATION
 from mckibben.datasets import get_muscle
-from mckibben.data.io import MuscleSpec, read_muscle
+from mckibben.data.muscle_file import MuscleSpec, read_muscle
 
 #: A plant parameter: one value for every instance, or one per instance (shape (N,)). [SI unit of the field]
 Value = float | np.ndarray
