@@ -369,7 +369,7 @@ def test_a_reference_outside_the_rigs_range_is_flagged(reference):
 def test_values_just_inside_the_physical_limits_are_accepted():
     """The limits the catalogue holds are limits, not a wider ban: the value just inside each passes."""
     from mckibben.plant import PlantParams
-    from mckibben.plant.params import MIN_MOVING_MASS, TEMPERATURE_RANGE
+    from mckibben.plant.packing import MIN_MOVING_MASS, TEMPERATURE_RANGE
 
     PlantParams(moving_mass=MIN_MOVING_MASS).prepare()
     PlantParams(temperature=TEMPERATURE_RANGE[0]).prepare()
