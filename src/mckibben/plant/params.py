@@ -18,7 +18,9 @@ from mckibben import hardware as HW
 from mckibben.errors import ArgumentTypeError, InputError, check_instance, check_real, unknown_name
 from mckibben.limits import PLAUSIBLE_MAX
 from mckibben.models import laws as LW
-from mckibben.models.muscle import FILE_BRAID_ANGLE as MUSCLE_BRAID_ANGLE
+# the rest braid angle of a muscle file's rig (PlantParams.from_muscle_file), defined with the Muscle; imported
+# here, its old home
+from mckibben.models.muscle import FILE_BRAID_ANGLE  # noqa: F401
 from mckibben.models.muscle import Muscle
 from mckibben.models.mpam import MiniatureMuscle, predict_length
 from mckibben.models.spring import CONTRACTION, ELONGATION
@@ -38,9 +40,6 @@ Value = float | np.ndarray
 LAW_NAMES = {"calibrated": "tondu-lopez", **{n: n for n in LW.LAW_NAMES}, **LW.ALIASES}
 
 # --- the rig of a muscle file's own force law (PlantParams.from_muscle_file; docs/plant.md) ---------
-#: Rest braid angle assumed when neither the file nor its fitted law gives one (the project's
-#: construction angle, the default ``alpha0``): :data:`mckibben.models.muscle.FILE_BRAID_ANGLE`. [rad]
-FILE_BRAID_ANGLE = MUSCLE_BRAID_ANGLE
 #: Lumen over outer diameter when the file gives no tube: a 10 mm bore in a 12 mm sleeve, the
 #: commercial 10 mm class. Only the chamber volume depends on it. [-]
 FILE_LUMEN_FRACTION = 10.0 / 12.0
@@ -324,7 +323,7 @@ class PlantParams:
 
         - braid: an ideal braid (eq. 2 with k1 = 1, k2 = 0) of strand length ``strand_length_mm``,
           else L0/cos θ0 with the fitted θ0 (Chou–Hannaford, Tondu–Lopez), the file's
-          ``braid_angle_deg`` or :data:`FILE_BRAID_ANGLE`, shortened to where the law's pull peaks
+          ``braid_angle_deg`` or :data:`~mckibben.models.muscle.FILE_BRAID_ANGLE`, shortened to where the law's pull peaks
           when it peaks beyond the rest length (:attr:`mckibben.models.laws.Law.peak_length`, the
           wall-corrected braid; :class:`~mckibben.models.muscle.Muscle`): it sets the chamber
           volume's change with length and the end stops;

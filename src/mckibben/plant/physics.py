@@ -55,6 +55,8 @@ from mckibben._jit import generated_module, njit
 from mckibben.models import laws as LW
 from mckibben.plant import params as P
 from mckibben.plant import packing as PK
+from mckibben.models.laws import NTH
+from mckibben.plant.packing import NP, P_ATM, R_AIR, RHO0, T0  # module globals the kernels fold
 
 W = 64  #: lanes per block (instances innermost; 32–64 vectorize, 8 did not; 64 measured 6 % faster than 32)
 NS = 7
@@ -65,8 +67,6 @@ NST = 6
 # rows of the scratch area
 SC_PG, SC_LE, SC_FL, SC_LOLD, SC_XIN, SC_XBL, SC_FORCE, SC_MASS = range(8)
 NSC = 8
-NP = PK.NP
-NTH = LW.NTH
 #: Offsets of the areas of a block array (in float64 elements).
 OFF_P = 0
 OFF_TH = OFF_P + NP * W
@@ -74,10 +74,6 @@ OFF_ST = OFF_TH + NTH * W
 OFF_SC = OFF_ST + NST * NS * W
 BLOCK = OFF_SC + NSC * W  #: length of a block array
 
-P_ATM = PK.P_ATM
-R_AIR = PK.R_AIR
-T0 = PK.T0
-RHO0 = PK.RHO0
 LAMINAR = 0.999  # pressure ratio above which the subsonic flow is linearised to zero
 
 
