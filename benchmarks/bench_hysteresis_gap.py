@@ -34,7 +34,7 @@ import pandas as pd
 
 from bench_hysteresis import FIT_TRIALS, GRID_KPA, KNOTS, N_PLAYS, RAIL_N, SOURCE, SPAN_PA, TEST_TRIAL, _sequence
 from mckibben.data import read_table
-from mckibben.data.io import MuscleSpec
+from mckibben.data.muscle_file import MuscleSpec
 from mckibben.fit.direction import heldout_gap, loop_gap
 from mckibben.fit.hysteresis import fit_prandtl_ishlinskii
 from mckibben.models.hysteresis.direction import STRUCTURES

@@ -318,11 +318,11 @@ def test_a_table_plots_what_its_kind_measures(kind_file):
     fig = table.plot()
     assert isinstance(fig, Figure)
     ax = fig.axes[0]
-    x, y, _ = _mod("data.io")._TABLE_PLOTS[table.kind]
+    x, y, _ = _mod("data.tables")._TABLE_PLOTS[table.kind]
     assert x.replace("_", " ") in ax.get_xlabel() and y.replace("_", " ") in ax.get_ylabel()
     # every row is drawn once, in the lab's units
     drawn = np.concatenate([line.get_ydata() for line in ax.lines])
-    factor = _mod("data.io")._PLOT_SCALE[y][0]
+    factor = _mod("data.tables")._PLOT_SCALE[y][0]
     np.testing.assert_allclose(np.sort(drawn), np.sort(table.data[y].to_numpy() * factor))
     # on a given Axes: that Axes' figure, drawn there
     import matplotlib.pyplot as plt
@@ -369,7 +369,7 @@ def test_a_reference_outside_the_rigs_range_is_flagged(reference):
 def test_values_just_inside_the_physical_limits_are_accepted():
     """The limits the catalogue holds are limits, not a wider ban: the value just inside each passes."""
     from mckibben.plant import PlantParams
-    from mckibben.plant.params import MIN_MOVING_MASS, TEMPERATURE_RANGE
+    from mckibben.plant.packing import MIN_MOVING_MASS, TEMPERATURE_RANGE
 
     PlantParams(moving_mass=MIN_MOVING_MASS).prepare()
     PlantParams(temperature=TEMPERATURE_RANGE[0]).prepare()

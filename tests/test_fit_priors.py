@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from mckibben.data import read_muscle, read_table
-from mckibben.data.io import MuscleSpec
+from mckibben.data.muscle_file import MuscleSpec
 from mckibben.fit.core import bounded_fit
 from mckibben.fit.isometric import compare_isometric, fit_isometric
 from mckibben.models.laws.virtual_work import E0_PRIOR, VirtualWork, fit_spec

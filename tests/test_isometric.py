@@ -252,7 +252,7 @@ def test_stats_binomial_claim_in_the_coverage_test():
 def test_blocked_force_intercept_covers_with_per_trial_offsets():
     # the case: a cubic of the blocked force with a per-trial load-cell offset (sd 0.05 N over
     # 0.01 N noise); iid intervals covered the intercept 74 % of the time. Cluster-robust by trial:
-    from mckibben.data.io import Table
+    from mckibben.data.tables import Table
     from mckibben.fit.static import fit_cubics
 
     rng = np.random.default_rng(3)
@@ -272,7 +272,7 @@ def test_blocked_force_intercept_covers_with_per_trial_offsets():
 
 def test_held_lengths_read_by_an_instrument_group_into_their_set_points():
     # an LVDT reads each held length with 20 um scatter: still four lengths, four folds, 12 runs
-    from mckibben.data.io import Table
+    from mckibben.data.tables import Table
 
     t = read_table(ISO)
     d = t.data.copy()

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from mckibben.data import read_muscle, read_table
-from mckibben.data.io import RAIL_MIN_ROWS, apply_pressure_zero, find_rails
+from mckibben.data.preprocessing import RAIL_MIN_ROWS, apply_pressure_zero, find_rails
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
 from mckibben.errors import InputError
 from mckibben.fit.isometric import fit_isometric, isometric_points

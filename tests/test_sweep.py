@@ -212,7 +212,7 @@ def test_a_chunk_is_packed_as_its_runs_would_be_one_by_one(tmp_path):
     from mckibben.control.core import MODE_PID, CoreParams, core_spec
     from mckibben.datasets import get_muscle
     from mckibben.plant import PlantParams
-    from mckibben.plant.params import _FIELDS
+    from mckibben.plant.packing import _FIELDS
     from mckibben.sweep.run import _controllers, _plants
 
     rows = load_sweep(write(tmp_path, MIXED)).chunk(0)

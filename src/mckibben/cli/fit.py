@@ -11,7 +11,7 @@ from mckibben.cli import app
 from mckibben.cli._common import (COLUMNS_OPTION, JSON_OPTION, MUSCLE_FILE_ARG_OPTION, OLD_MUSCLE_FILE_OPTION,
                                   SELECT_OPTION, choices, console, emit_json, err_console, muscle_file_of,
                                   parse_pairs, print_notes, print_table)
-from mckibben.data.io import PRESSURE_ZEROS, RAIL_POLICIES, TARES
+from mckibben.data.preprocessing import PRESSURE_ZEROS, RAIL_POLICIES, TARES
 from mckibben.data.schema import KINDS
 from mckibben.fit.isometric import CV_METHODS, REST_LENGTHS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot

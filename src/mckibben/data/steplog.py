@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from mckibben.atomic import as_path, check_input_file
-from mckibben.data.io import _select_rows
+from mckibben.data.tables import _select_rows
 from mckibben.errors import ArgumentTypeError, InputError
 from mckibben.limits import PLAUSIBLE_MAX, first_implausible
 from mckibben.units import split_column, to_si

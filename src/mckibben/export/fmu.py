@@ -15,7 +15,7 @@ system C compiler, and its ``modelDescription.xml``:
   commands and the core's fault flags are outputs.
 
 **One physics, the Python side is the source.** The Numba plant (:mod:`mckibben.plant.physics`,
-:func:`mckibben.plant.params.derive`, the static start of :mod:`mckibben.plant.simulator`, the law
+:func:`mckibben.plant.packing.derive`, the static start of :mod:`mckibben.plant.simulator`, the law
 kernels of :mod:`mckibben.models.laws`) is the source of truth; ``c/mk_plant.c`` is a port of it
 and each law's C face (``models/laws/<law>.c``, gathered into a generated ``mk_laws.c``) a port of
 its kernel, the same equations and the same classical RK4 with the same substep (the control period over its
@@ -56,6 +56,7 @@ from mckibben.errors import InputError, check_instance
 from mckibben.models import laws as LW
 from mckibben.plant import c_layout as CL
 from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.units import si
 
 #: The FMU's model identifier (the binary's and the functions' name).
@@ -355,7 +356,7 @@ _PLANT_OUTPUTS = (("pressure", "Pa", "chamber pressure, gauge"), ("length", "m",
 
 def _variables(name: str, theta: np.ndarray, prm: np.ndarray, closed: bool) -> list[dict]:
     """The FMU's variables, in modelDescription order: outputs, inputs, parameters."""
-    c = PP.Col
+    c = PK.Col
     out = [dict(name=v, vr=VR[v], causality="output", variability="continuous", type="real", unit=u, desc=d)
            for v, u, d in _PLANT_OUTPUTS]
     commands = (("inlet", "inlet valve command, PWM counts 0..255 (lift-off near 112)"),

@@ -51,21 +51,22 @@ from mckibben import hardware as HW
 from mckibben._jit import njit
 from mckibben import control
 from mckibben.control.core import CoreParams, core_spec
-from mckibben.data.io import MuscleSpec
+from mckibben.data.muscle_file import MuscleSpec
 from mckibben.datasets import get_muscle
 from mckibben.errors import ArgumentTypeError, InputError, check_real
 from mckibben.models import laws as LW
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import MiniatureMuscle
 from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 
 __all__ = ["MuscleBank", "hanging_mass_mjcf", "load_model", "muscle_plant", "MUJOCO_HINT"]
 
 #: How to install the optional dependency (every error about a missing ``mujoco`` says it).
 MUJOCO_HINT = "pip install 'mckibben[mujoco]'"
-#: Packed parameter columns read here, by name (:class:`mckibben.plant.params.Col`).
-_COL = {name: int(PP.Col[name]) for name in ("supply_pressure", "l_min", "l_max", "temperature", "nominal_length",
+#: Packed parameter columns read here, by name (:class:`mckibben.plant.packing.Col`).
+_COL = {name: int(PK.Col[name]) for name in ("supply_pressure", "l_min", "l_max", "temperature", "nominal_length",
                                              "pa_per_count", "adc_zero", "encoder_resolution")}
 #: The plant's integration step (the simulator's 1 ms / 10 substeps): a longer MuJoCo step is
 #: split into RK4 steps no longer than this, so the chamber is integrated as accurately. [s]
@@ -127,7 +128,7 @@ def muscle_plant(muscle="mpam97", force_model: str | None = None, **fields) -> P
     muscle : str, MiniatureMuscle, Muscle, MuscleSpec, os.PathLike or PlantParams, default "mpam97"
         A published set by name (``mpam97``, ``mpam117``, ``mpam143``) or object
         (:meth:`PlantParams.for_muscle`: the rig of the paper, the plant's calibrated law), a
-        fitted muscle file (a ``.toml`` path, its :class:`~mckibben.data.io.MuscleSpec`, or a
+        fitted muscle file (a ``.toml`` path, its :class:`~mckibben.data.muscle_file.MuscleSpec`, or a
         :class:`~mckibben.models.muscle.Muscle` / tool muscle of one, with its branch:
         :meth:`PlantParams.from_muscle_file`, its own law), or a ready :class:`PlantParams`
         (one instance). [-]
@@ -228,7 +229,7 @@ class MuscleBank:
         Tendon length that is not muscle (attachments, the path to the anchor), per tendon. [m]
     pressure_floor : float, default 0.0
         Lowest pressure the run holds; a law is checked stable above it only (see
-        :func:`mckibben.plant.params.check_force_law`). [Pa]
+        :func:`mckibben.plant.packing.check_force_law`). [Pa]
     ts : float, default 1e-3
         Controller period; a whole number of MuJoCo time steps. [s]
 
@@ -284,7 +285,7 @@ class MuscleBank:
                 prm = plant.pack(1)
                 name, th = plant.law(1)
                 th = np.ascontiguousarray(th, dtype=float)
-                PP.check_force_law(name, prm, th, plant._law_label(), pressure_floor=floor)
+                PK.check_force_law(name, prm, th, plant._law_label(), pressure_floor=floor)
                 checked[id(x)] = (plant, prm[0], LW.LAW_INDEX[name], th[:, 0])
             plant, row, law, theta = checked[id(x)]
             if not 0.0 <= p0[k] <= row[_COL['supply_pressure']]:
@@ -512,10 +513,10 @@ def hanging_mass_mjcf(plant: PP.PlantParams, load: float, timestep: float = 1e-4
         MJCF text with the tendon ``muscle`` and its actuator.
     """
     l0 = float(plant.nominal_length)
-    mass = float(plant.moving_mass) + load / PP.G
+    mass = float(plant.moving_mass) + load / PK.G
     comp = float(plant.moving_mass) / mass
     return f"""<mujoco model="hanging mass">
-  <option timestep="{timestep!r}" gravity="0 0 {-PP.G!r}" integrator="Euler"/>
+  <option timestep="{timestep!r}" gravity="0 0 {-PK.G!r}" integrator="Euler"/>
   <worldbody>
     <site name="anchor" pos="0 0 0" size="0.001"/>
     <body name="load" pos="0 0 {-l0!r}" gravcomp="{comp!r}">

@@ -43,7 +43,8 @@ from functools import partial
 
 import numpy as np
 
-from mckibben.data.io import MuscleSpec, Table
+from mckibben.data.muscle_file import MuscleSpec
+from mckibben.data.tables import Table
 from mckibben.errors import InputError
 from mckibben.fit.static import (
     fit_cubics,

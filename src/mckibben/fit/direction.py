@@ -31,7 +31,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mckibben.data.io import MuscleSpec, Table
+from mckibben.data.muscle_file import MuscleSpec
+from mckibben.data.tables import Table
 from mckibben.errors import InputError, check_instance, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range
 from mckibben.fit.isometric import BOUNDS_NOTE, SURFACE, _runs, fit_points, is_family, isometric_points, model_name
@@ -485,12 +486,12 @@ def fit_direction_aware(table: Table, muscle: MuscleSpec, model: str, structure:
     structure : {"play", "friction"}, default :data:`DEFAULT_STRUCTURE`
         :data:`~mckibben.models.hysteresis.direction.STRUCTURES`. [-]
     tare : {"none", "lowest", "column"}, default "none"
-        :func:`mckibben.data.io.apply_tare`. [-]
+        :func:`mckibben.data.preprocessing.apply_tare`. [-]
     rails : {"keep", "exclude"}, default "exclude"
         Rows at a sensor's rail: excluded from the residuals (default; they stay in the pressure
         history) or kept. [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
-        :func:`mckibben.data.io.apply_pressure_zero`. [-]
+        :func:`mckibben.data.preprocessing.apply_pressure_zero`. [-]
     trials : sequence, optional
         Fit only these trials (the others held out). [-]
 

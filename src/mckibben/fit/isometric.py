@@ -53,7 +53,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
+from mckibben.data.preprocessing import RAIL_POLICIES, apply_pressure_zero, apply_tare, find_rails
+from mckibben.data.muscle_file import MuscleSpec
+from mckibben.data.tables import Table
 from mckibben.errors import InputError, check_instance, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, censor_hinge, data_range, heldout_flags, linear_fit
 from mckibben.models import laws
@@ -64,7 +66,7 @@ from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
-from mckibben.data.io import set_point_groups
+from mckibben.data.setpoints import set_point_groups
 from dataclasses import replace
 
 if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
@@ -151,7 +153,7 @@ class IsometricFit(Result):
     muscle : MuscleSpec
         The muscle file the fit used.
     tare : dict
-        The tare applied (:func:`mckibben.data.io.apply_tare`).
+        The tare applied (:func:`mckibben.data.preprocessing.apply_tare`).
     data : pandas.DataFrame
         The fitted points: ``held_length`` [m], ``pressure`` [Pa], ``force`` [N] (after the tare),
         ``direction``, ``trial``.
@@ -327,9 +329,9 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
                      pressure_zero: str = "none") -> tuple[pd.DataFrame, dict]:
     """The tared points of an isometric table (SI), and the sensor report.
 
-    In order: the pressure transducer's zero is removed (:func:`mckibben.data.io.apply_pressure_zero`),
-    rows at a sensor's rail are found on the raw readings (:func:`mckibben.data.io.find_rails`),
-    the load cell is tared (:func:`mckibben.data.io.apply_tare`), and the rows at a rail are kept,
+    In order: the pressure transducer's zero is removed (:func:`mckibben.data.preprocessing.apply_pressure_zero`),
+    rows at a sensor's rail are found on the raw readings (:func:`mckibben.data.preprocessing.find_rails`),
+    the load cell is tared (:func:`mckibben.data.preprocessing.apply_tare`), and the rows at a rail are kept,
     excluded or censored (``rails="censor"``: a column ``censored``, −1 for a force at the load
     cell's floor, "at most this", +1 at its ceiling, "at least this", 0 for a reading; the fit's
     likelihood treats them so, :func:`mckibben.fit.core.bounded_fit`). A run whose tare was read at the load cell's floor has an unknown zero: it is
@@ -340,12 +342,12 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
     table : Table
         An ``isometric`` table.
     tare : {"none", "lowest", "column"}, default "none"
-        See :func:`mckibben.data.io.apply_tare`. [-]
+        See :func:`mckibben.data.preprocessing.apply_tare`. [-]
     rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a rail: kept (counted, flagged), excluded from the fit, or censored (a force at
         the rail is a bound on the force, not its value). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
-        See :func:`mckibben.data.io.apply_pressure_zero`. [-]
+        See :func:`mckibben.data.preprocessing.apply_pressure_zero`. [-]
 
     Returns
     -------
@@ -650,7 +652,7 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     model : str, default "spring"
         A key of :data:`ALL_MODELS`. [-]
     tare : {"none", "lowest", "column"}, default "none"
-        See :func:`mckibben.data.io.apply_tare`. [-]
+        See :func:`mckibben.data.preprocessing.apply_tare`. [-]
     rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a sensor's rail (:func:`isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
@@ -913,7 +915,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     cv : {"leave-one-length-out", "leave-one-trial-out", "leave-one-muscle-out"}
         Cross-validation scheme. [-]
     tare : {"none", "lowest", "column"}, default "none"
-        See :func:`mckibben.data.io.apply_tare`. [-]
+        See :func:`mckibben.data.preprocessing.apply_tare`. [-]
     models : sequence of str, optional
         Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`MUSCLE_MODELS`). [-]
     rails : {"keep", "exclude", "censor"}, default "keep"

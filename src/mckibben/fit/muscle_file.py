@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mckibben.data.io import MuscleSpec, muscle_file_text_of
+from mckibben.data.muscle_file import MuscleSpec, muscle_file_text_of
 from mckibben.errors import InputError
 from mckibben.fit.isometric import ALL_MODELS, force_law, model_name, parameter_names
 from mckibben.models import laws
@@ -191,7 +191,7 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     Parameters
     ----------
     spec : MuscleSpec
-        A muscle file read by :func:`mckibben.data.io.read_muscle`.
+        A muscle file read by :func:`mckibben.data.muscle_file.read_muscle`.
 
     Raises
     ------

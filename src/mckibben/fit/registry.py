@@ -35,7 +35,7 @@ from mckibben.fit.names import FIT_MODELS, NEEDS_MUSCLE  # noqa: F401  (re-expor
 
 def load_muscle(data: Path, muscle: str | None, required: bool, what: str, table=None):
     """The muscle file given with --muscle, else ``muscle.toml`` beside the data, else the muscle the
-    table itself describes (:func:`mckibben.data.io.muscle_of_table`), or None."""
+    table itself describes (:func:`mckibben.data.muscle_file.muscle_of_table`), or None."""
 
     path = Path(muscle) if muscle else find_muscle_file(data)
     if path is None and table is not None:
@@ -322,11 +322,11 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
     split_pressure : float, optional
         Spring model: the low/high range split (default: the median pressure). [Pa]
     tare : {"none", "lowest", "column"}, default "none"
-        Isometric tables: :func:`mckibben.data.io.apply_tare`. [-]
+        Isometric tables: :func:`mckibben.data.preprocessing.apply_tare`. [-]
     rails : {"keep", "exclude", "censor"}, default "keep"
         Isometric tables: rows at a sensor's rail (:func:`mckibben.fit.isometric.isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
-        Isometric tables: the pressure transducer's zero (:func:`mckibben.data.io.apply_pressure_zero`). [-]
+        Isometric tables: the pressure transducer's zero (:func:`mckibben.data.preprocessing.apply_pressure_zero`). [-]
     rest_length : float, optional
         With ``save`` and a family law: the rest length of the muscle the saved file describes
         (default the muscle file's nominal length). [m]
@@ -349,7 +349,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
     -------
     TableFit
         With no muscle file, a table giving one muscle's rest length stands for it
-        (:func:`mckibben.data.io.muscle_of_table`).
+        (:func:`mckibben.data.muscle_file.muscle_of_table`).
     """
     out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails,
                          pressure_zero, select, columns, direction_aware, rest_lengths)

@@ -45,7 +45,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben.data.io import GROUP_GAP, MuscleSpec, Table, set_point_groups  # noqa: F401 (re-exported)
+from mckibben.data.setpoints import GROUP_GAP, set_point_groups  # noqa: F401 (re-exported)
+from mckibben.data.muscle_file import MuscleSpec  # noqa: F401 (re-exported)
+from mckibben.data.tables import Table  # noqa: F401 (re-exported)
 from mckibben.errors import InputError
 from mckibben.fit.core import (FitResult, bounded_fit, data_range, linear_fit, nonlinear_fit, require_distinct,
                                require_points)

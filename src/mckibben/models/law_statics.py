@@ -181,7 +181,7 @@ class LawMuscle:
     direction : str, default "inflate"
         Which branch of the law (a spring law's hysteresis). [-]
     source : object, optional
-        Where the law comes from (the :class:`~mckibben.data.io.MuscleSpec` of a muscle file),
+        Where the law comes from (the :class:`~mckibben.data.muscle_file.MuscleSpec` of a muscle file),
         for building the same muscle's plant. [-]
     citation : str
         Where the law comes from, in words.

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.atomic import atomic_file
-from mckibben.data.io import MuscleSpec, muscle_file_text_of, read_muscle
+from mckibben.data.muscle_file import MuscleSpec, muscle_file_text_of, read_muscle
 from mckibben.errors import InputError
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
@@ -82,7 +82,7 @@ class Muscle(LawMuscle):
         Parameters
         ----------
         spec : MuscleSpec
-            From :func:`mckibben.data.io.read_muscle`. [-]
+            From :func:`mckibben.data.muscle_file.read_muscle`. [-]
         direction : {"inflate", "deflate"}, default "inflate"
             The branch of a two-branch law (the spring model's hysteresis). [-]
         rest_length : float, optional

@@ -16,7 +16,7 @@ import numpy as np
 
 from mckibben import hardware as HW
 from mckibben.models import laws as LW
-from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 
 #: Control period and RK4 substeps of the C integrator: :func:`mckibben.plant.simulate`'s defaults.
@@ -113,23 +113,23 @@ def plant_header(fields: np.ndarray, theta: np.ndarray, law: int, thermal: str) 
              "   its parameter columns, law indices, theta rows and constants, and this build's values. */",
              "#ifndef MK_MODEL_H", "#define MK_MODEL_H", "", "#include <math.h>", ""]
     d = lines.append
-    d(f"#define MK_NP {PP.NP}")
-    d(f"#define MK_NF {len(PP.field_names())}")
+    d(f"#define MK_NP {PK.NP}")
+    d(f"#define MK_NF {len(PK.field_names())}")
     d(f"#define MK_NTH {LW.NTH}")
-    for col in PP.Col:
+    for col in PK.Col:
         d(f"#define MK_C_{col.name} {int(col)}")
     lines += law_defines()
-    consts = {"P_ATM": ph.P_ATM, "R_AIR": ph.R_AIR, "T0": ph.T0, "RHO0": ph.RHO0, "G": PP.G,
-              "GAMMA": PP.GAMMA, "LAMINAR": ph.LAMINAR, "P_MAX_LIMIT": HW.P_MAX_LIMIT, "TS": TS}
+    consts = {"P_ATM": ph.P_ATM, "R_AIR": ph.R_AIR, "T0": ph.T0, "RHO0": ph.RHO0, "G": PK.G,
+              "GAMMA": PK.GAMMA, "LAMINAR": ph.LAMINAR, "P_MAX_LIMIT": HW.P_MAX_LIMIT, "TS": TS}
     for k, x in consts.items():
         d(f"#define MK_{k} {c_double(x)}")
     d(f"#define MK_SUBSTEPS {int(SUBSTEPS)}")
     d(f"#define MK_ADC_MAX {int(HW.ADC_MAX)}")
-    for load in PP.Load:
+    for load in PK.Load:
         d(f"#define MK_LOAD_{load.name.upper()} {int(load)}")
     d(f"#define MK_THERMAL_ENERGY {1 if thermal == 'energy' else 0}")
     d(f"#define MK_LAW {int(law)}")
-    nf = len(PP.field_names())
+    nf = len(PK.field_names())
     d("static const double MK_FIELDS[MK_NF] = {" + ", ".join(c_double(v) for v in fields[:nf]) + "};")
     d("static const double MK_THETA[MK_NTH] = {" + ", ".join(c_double(v) for v in theta) + "};")
     return lines

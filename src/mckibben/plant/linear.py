@@ -19,6 +19,7 @@ import numpy as np
 from mckibben._jit import njit
 from mckibben.errors import InputError, check_real
 from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import _check_plant, _prepared, initial_states, static_equilibrium
 
@@ -140,7 +141,7 @@ def linearize(plant: PP.PlantParams | None = None, pressure: float = 0.55e6) -> 
         raise InputError("plant: linearize takes one rig (scalar parameters) only")
     pressure = check_real(pressure, "pressure", unit="Pa")
     prm, law, th = _prepared(plant, 1)
-    c = PP.Col
+    c = PK.Col
     supply = float(prm[0, c.supply_pressure])
     if not (math.isfinite(pressure) and 0 < pressure < supply):
         raise InputError(f"pressure = {pressure / 1e6:g} MPa: the operating point must be above 0 and below the supply "

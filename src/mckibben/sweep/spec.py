@@ -203,7 +203,7 @@ def _check_design(path, params: dict, cols: dict) -> None:
 def _check_ranges(path, cols: dict, controller_kind: str) -> None:
     """Refuse, before any run, a swept value the plant or the controller would refuse in the middle.
 
-    The plant's :func:`~mckibben.plant.params.validate` and the controller's packing
+    The plant's :func:`~mckibben.plant.packing.validate` and the controller's packing
     (:func:`~mckibben.control.core.core_spec`) check each field's range on its own; they are run
     here on two instances holding every swept field's smallest and largest drawn value, so a
     negative conductance or gain is named now, not by a worker after hours."""

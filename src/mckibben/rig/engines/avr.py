@@ -35,6 +35,7 @@ from mckibben import hardware as HW
 from mckibben.errors import InputError
 from mckibben.plant import c_layout as CL
 from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.rig import firmware as FW
 from mckibben.rig.bench import bench_dir
 
@@ -174,7 +175,7 @@ def write_params(plants, path: Path) -> None:
     path : pathlib.Path
         The text file to write. [-]
     """
-    nf = len(PP.field_names())
+    nf = len(PK.field_names())
     have = CL.c_laws()
     lines = []
     for i, p in enumerate(plants):
