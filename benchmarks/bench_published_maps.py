@@ -11,7 +11,8 @@ For each map it runs, as a lab would, ``mckibben compare MAP.csv --muscle-file M
 leave-one-length-out --json`` (the library call :func:`mckibben.fit.compare_table`), once with the
 table's zeros kept as readings (``--rails keep``) and once with them censored (``--rails censor``: a
 zero in the map is where the held muscle is slack, the law's force there is at most 0). It prints per
-model the in-sample and held-out RMS and maximum error in % of the peak, the flags, the best accepted
+model the in-sample and held-out RMS and maximum error in % of the peak, the ratio of held-out to
+in-sample RMSE on the folds that interpolate (``heldout_far_above_insample`` above 3), the flags, the best accepted
 model (the comparison's ``best``: lowest held-out error among the unflagged) and its in-sample
 maximum error beside the paper's; then the rows that carry the largest errors of the best accepted
 model and of the model with the lowest in-sample maximum error (``fit --model``, the same options).
@@ -39,6 +40,12 @@ def pct(x) -> str:
     return "    -" if x is None else f"{float(x):5.2f}"
 
 
+def ratio(m: dict) -> str:
+    """Held-out over in-sample RMSE on the interpolating folds' points (what ``heldout_far_above_insample`` reads)."""
+    cv, fit = m.get("cv_rmse_interpolated_N"), m.get("rmse_interpolated_N")
+    return "    -" if cv is None or not fit else f"{cv / fit:5.2f}"
+
+
 def worst_rows(data: Path, muscle: Path, model: str, rails: str, n: int) -> list[str]:
     """The n rows with the largest |measured − fitted| of one model fitted to all rows."""
     fit = fit_table(data, model, muscle=str(muscle), rails=rails)
@@ -60,11 +67,11 @@ def main(argv=None) -> int:
         for rails in RAILS:
             res = compare_table(data, muscle=str(muscle), cv="leave-one-length-out", rails=rails).to_dict()
             print(f"\n{name}, rails {rails}: peak {res['peak_force_N']:.1f} N; the paper's model: max {paper} %")
-            print(f"  {'model':16s} {'RMS in':>6s} {'max in':>6s} {'RMS out':>7s} {'max out':>7s}  flags")
+            print(f"  {'model':16s} {'RMS in':>6s} {'max in':>6s} {'RMS out':>7s} {'max out':>7s} {'ratio':>5s}  flags")
             for m in res["models"]:
                 print(f"  {m['model']:16s} {pct(m.get('rmse_N') and 100 * m['rmse_N'] / res['peak_force_N'])} "
                       f"{pct(m['max_error_pct_of_peak'])}  {pct(m['cv_rmse_pct_of_peak'])}   "
-                      f"{pct(m['cv_max_error_pct_of_peak'])}  {', '.join(m['flags']) or 'none'}"
+                      f"{pct(m['cv_max_error_pct_of_peak'])} {ratio(m)}  {', '.join(m['flags']) or 'none'}"
                       + (f"  [notes: {', '.join(m['notes'])}]" if m.get("notes") else ""))
             by = {m["model"]: m for m in res["models"]}
             best = res.get("best")
