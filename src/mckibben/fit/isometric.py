@@ -57,7 +57,8 @@ from mckibben.data.preprocessing import RAIL_POLICIES, apply_pressure_zero, appl
 from mckibben.data.muscle_file import MuscleSpec
 from mckibben.data.tables import Table
 from mckibben.errors import InputError, check_instance, unknown_name
-from mckibben.fit.core import FitResult, bounded_fit, censor_hinge, data_range, heldout_flags, linear_fit
+from mckibben.fit.core import (FitResult, bounded_fit, censor_hinge, data_range, heldout_flags, interpolated_rms,
+                               linear_fit)
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
 from mckibben.models.law_statics import rising_root
@@ -899,7 +900,9 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     **Best.** The model with the smallest held-out RMSE among those whose predictions carry no
     doubt: no flag on its fit on all the data (a bound that binds, a parameter the data do not
     constrain, a non-physical value) and a held-out error at most :data:`~mckibben.fit.core.HELDOUT_RATIO`
-    times its in-sample error (else ``heldout_far_above_insample``). Notes (parameters that only
+    times its in-sample error on the same points, those of the folds that predict within the fitted
+    range (else ``heldout_far_above_insample``; :func:`~mckibben.fit.core.interpolated_rms`: the
+    extrapolated folds are counted apart and still scored in the held-out error). Notes (parameters that only
     trade off) do not discard a model. A flagged model is reported, not recommended;
     when every model is flagged, the smallest held-out RMSE of all, and ``best_flagged`` says so.
 
@@ -970,6 +973,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
             continue
         fits[model] = IsometricFit(model, full, muscle, report, d)
         pred = np.full(f.size, np.nan)
+        inside = np.zeros(f.size, dtype=bool)  # points of the folds that predict within the fitted range
         extrapolated, notes, folds = 0, [], []
         for g in groups:
             test = key == g
@@ -987,6 +991,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
                 value = f[test] + censor_hinge(value - f[test], sub["censored"].to_numpy(dtype=int))
             pred[test] = value
             extrapolated += int(np.any(fl))
+            inside[test] = not np.any(fl)
             ok = np.isfinite(value)
             rm = float(np.sqrt(np.mean((value[ok] - f[test][ok]) ** 2))) if ok.any() else float("nan")
             pk = max(muscle_peak[m] for m in set(who[test]))
@@ -998,7 +1003,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         if not ok.all():
             notes.append(f"{int((~ok).sum())} points not predicted")
         pct = [x["rmse_pct_of_peak"] for x in folds if np.isfinite(x["rmse_pct_of_peak"])]
-        heldout = list(heldout_flags(cv_rmse, full.residual_rms))
+        cv_within, fit_within = interpolated_rms(pred - f, full.residuals, inside)
+        heldout = list(heldout_flags(cv_within, fit_within))
         ins, held = max_error(full.residuals, f), max_error(pred - f, f)
         scores.append({"model": model, "n_parameters": len(full.values), "rmse_N": full.residual_rms,
                        "r2": full.r2, "max_error_N": ins[0], "max_error_pct_of_peak": ins[1],
@@ -1006,6 +1012,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
                        "cv_max_error_N": held[0], "cv_max_error_pct_of_peak": held[1],
                        "median_fold_pct_of_peak": float(np.median(pct)) if pct else None,
                        "worst_fold_pct_of_peak": float(np.max(pct)) if pct else None,
+                       "cv_rmse_interpolated_N": cv_within, "rmse_interpolated_N": fit_within,
                        "extrapolated_folds": extrapolated, "flags": list(full.flags) + heldout, "notes": list(full.notes), "note": "; ".join(notes),
                        "folds": folds})
     ranked = [s for s in scores if s["cv_rmse_N"] is not None and np.isfinite(s["cv_rmse_N"])]

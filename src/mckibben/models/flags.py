@@ -59,7 +59,7 @@ FIT_FLAGS = {
     "<name>_unconstrained": "the data do not constrain the parameter: its 95 % interval, even with every other "
                             "parameter held, is wider than its bound span (or its magnitude)",
     "r2_below_0.5": "the model explains less than half the variance",
-    "heldout_far_above_insample": "held-out error more than HELDOUT_RATIO times the in-sample error",
+    "heldout_far_above_insample": "held-out error more than HELDOUT_RATIO times the in-sample error (the interpolating folds)",
 }
 
 #: Notes a fit can carry (strings in ``FitResult.notes``): worth reporting, but no doubt about the
