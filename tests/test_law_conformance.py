@@ -366,3 +366,18 @@ def test_an_isotonic_table_from_the_law_is_fitted_and_compared_through_its_force
     # fits in length, which have no load-cell zero; every other law through its force, as here)
     scores = {s.name: s for s in compare_models(table, fit.muscle)["scores"]}
     assert name in scores
+
+
+def test_a_law_with_its_own_procedure_has_one_and_every_fit_spec_reads_without_data(case):
+    # Law.own_fit (non-isometric tables) is served by mckibben.fit.static.OWN_FITS, nothing else
+    # names the law; and a saved law is read back through its spec with no data (names and force)
+    from mckibben.fit import static
+    from mckibben.fit.isometric import force_law, parameter_names
+
+    assert set(static.OWN_FITS) == set(laws.own_fit_laws())
+    for name in laws.fit_laws():
+        fit = case(name)[5]
+        assert parameter_names(name, fit.muscle) == tuple(fit.result.names), name
+        p, ell = fit.data["pressure"].to_numpy(), fit.data["held_length"].to_numpy()
+        np.testing.assert_allclose(force_law(name, fit.muscle, fit.result.values)(p, ell),
+                                   fit.result.func(fit.result.values, p, ell), rtol=1e-12, err_msg=name)

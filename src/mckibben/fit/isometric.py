@@ -61,7 +61,7 @@ from mckibben.models.flags import flag_names
 from mckibben.models.law_statics import rising_root
 from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
 from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
-from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
+from mckibben.models.laws.spring import NOMINAL_TOL, SPRING_NAMES, spring_model_of
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
 from mckibben.data.io import set_point_groups
@@ -703,14 +703,6 @@ def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
             return sum(a * t for a, t in zip(v, terms))
 
         return sfunc
-    if model == "spring":  # one pressure range to infinity: the law as saved
-        l0 = muscle.nominal_length
-
-        def spring(pressure, length, direction="inflate"):
-            d = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
-            return spring_force(length, pressure, spring_model_of(v, l0, np.inf), d)[0]
-
-        return spring
     spec = _spec(model, muscle, 1.0, *_NO_DATA)
     return lambda pressure, length, direction="inflate": spec.force(v, pressure, length, direction)
 
@@ -728,8 +720,6 @@ def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
     model = model_name(model)
     if model == SURFACE:
         return SURFACE_NAMES
-    if model == "spring":
-        return SPRING_NAMES
     return _spec(model, muscle, 1.0, *_NO_DATA).names
 
 

@@ -56,6 +56,7 @@ from mckibben.models.physical import BraidGeometry, length_under_load, tondu_lop
 if TYPE_CHECKING:
     import pandas as pd
 
+from mckibben.models.laws.spring import LAW as _SPRING_LAW
 from mckibben.models.spring import DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel, spring_force
 from mckibben.fit.isometric import D0_FACTOR, THETA_MAX, THETA_STARTS_DEG
 from mckibben.fit.isometric import K_BOUNDS, R0_FACTOR
@@ -452,9 +453,10 @@ def fit_spring(table: Table, terms=DEFAULT_TERMS, split_pressure: float | None =
     ----------
     Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (1)–(2), Tables 1–2, §5.
     """
-    _need(table, ("force_length", "isotonic"), "spring")
+    law = _SPRING_LAW
+    _need(table, law.own_fit.tables, law.name)
     d = table.data
-    what = _what("spring", table)
+    what = _what(law.name, table)
     p = d["pressure"].to_numpy()
     ell = d["length"].to_numpy()
     force = (d["force"] if "force" in d else d["load"]).to_numpy()
@@ -520,13 +522,27 @@ def fit_spring(table: Table, terms=DEFAULT_TERMS, split_pressure: float | None =
     def func(values, length, pressure, direction=ELONGATION):
         return spring_force(length, pressure, model_of(values), direction)[0]
 
-    res = nonlinear_fit(residual, theta0, names, model="spring", response="force_N", what=what, clusters=_clusters(d),
+    res = nonlinear_fit(residual, theta0, names, model=law.name, response="force_N", what=what, clusters=_clusters(d),
                         valid_range=data_range(pressure=p, length=ell), scale=scale, func=func,
                         source=table.path, y=force)
     stretch = ell - np.polyval(res.values[:3], p)
     srange = (0.0, float(np.max(stretch)))
     model = _spring_model_from(res.values, blocks, terms, split, l0, prange, srange, f"fitted to {table.path}")
     return SpringFit(model, res, blocks)
+
+
+def _fit_spring_table(table: Table, spec: MuscleSpec | None, split_pressure: float | None) -> tuple[list, dict]:
+    """``fit --model spring`` on its own tables: the fit and what ``--json`` adds (split, blocks, terms)."""
+    sf = fit_spring(table, split_pressure=split_pressure, nominal_length=spec.nominal_length if spec else None)
+    return [sf.result], {"split_pressure_Pa": sf.model.split_pressure, "blocks": [list(b) for b in sf.blocks],
+                         "terms_P_Ls_exponents": [list(t) for t in sf.model.terms]}
+
+
+#: Each law's own fit procedure on the non-isometric tables of its :attr:`Law.own_fit
+#: <mckibben.models.laws.Law.own_fit>`, by the law's registry name:
+#: ``procedure(table, muscle or None, split_pressure [Pa] or None) -> (fits, extra --json fields)``.
+#: The law conformance suite holds this to :func:`mckibben.models.laws.own_fit_laws`.
+OWN_FITS = {_SPRING_LAW.name: _fit_spring_table}
 
 
 def spring_names_for_terms(terms=DEFAULT_TERMS) -> list[str]:
