@@ -395,7 +395,10 @@ def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
     The law's own fit spec (:attr:`mckibben.models.laws.Law.fit_spec`), as on an isometric table: a
     muscle hanging a load at rest is a muscle held at that length pulling that load (friction
     aside). The residuals are in force [N]; :func:`law_length` solves the fitted law for the length.
-    The spec's load-cell zero is fitted too (it absorbs a bias in the loads' calibration).
+    The spec's load-cell zero is fitted too (it absorbs a bias in the loads' calibration). A
+    ``direction`` column (a hysteresis table's ``inflate``/``deflate``) labels each point's branch,
+    so a two-branch law (:attr:`~mckibben.models.laws.Law.branches`) fits both; without one every
+    point is ``inflate``.
 
     Parameters
     ----------
@@ -418,8 +421,10 @@ def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
     if table.kind not in ("isotonic", "hysteresis"):
         raise InputError(f"fit {model}: needs an isotonic or hysteresis table; {table.path} is a {table.kind} table")
     d = table.data
+    # a loop's rows keep their branch (a two-branch law fits both); a table without one is inflate
+    direction = d["direction"].to_numpy(dtype=object) if "direction" in d else "inflate"
     pts = pd.DataFrame({"held_length": d["length"].to_numpy(dtype=float), "pressure": d["pressure"].to_numpy(dtype=float),
-                        "force": d["load"].to_numpy(dtype=float), "direction": "inflate",
+                        "force": d["load"].to_numpy(dtype=float), "direction": direction,
                         "trial": d["trial"].to_numpy() if "trial" in d else np.ones(len(d))})
     return fit_points(pts, muscle, model, source=str(table.path))
 
