@@ -1010,7 +1010,9 @@ def read_muscle(path) -> MuscleSpec:
                              f"(at most {to_si(top, 'm', 'length') / to_si(1.0, unit, dim):g} {unit})")
     for quantity, (dim, required) in MUSCLE_KEYS.items():
         if required and quantity not in values:
-            raise InputError(f"{name}: key {quantity}_<unit> missing (e.g. {quantity}_mm = ...)")
+            law = values["force_model"]["model"] if "force_model" in values else None  # the law that needs it
+            needs = f"; its force law {law} ([force_model]) needs it" if law else ""
+            raise InputError(f"{name}: key {quantity}_<unit> missing{needs} (e.g. {quantity}_mm = ...)")
     spec = MuscleSpec(**values)
     if spec.strand_length is not None and spec.strand_length < spec.nominal_length:
         raise InputError(

@@ -75,6 +75,10 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError(f"rails/`pressure_zero`: apply to isometric tables; {data} is a {table.kind} table")
     if save is not None and not isometric:
         raise InputError(f"save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
+    if save is not None and spec.outer_diameter is None:  # a table's rest length stood for the muscle file
+        raise InputError(f"save: a muscle file of the {model} force law needs the muscle's outer diameter (its "
+                         f"chamber), which {spec.path or data} does not give; give `muscle` FILE.toml with "
+                         f"outer_diameter_mm")
     if rest_lengths != "nominal" and save is not None:
         raise InputError("save: writes a family law at recorded rest lengths; fit with rest_lengths 'nominal' to save")
     if rest_length is not None and save is None:
