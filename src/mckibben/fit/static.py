@@ -56,7 +56,9 @@ from mckibben.models.physical import BraidGeometry, length_under_load, tondu_lop
 if TYPE_CHECKING:
     import pandas as pd
 
+from mckibben.models.laws.chou_hannaford import LAW as _CH_LAW
 from mckibben.models.laws.spring import LAW as _SPRING_LAW
+from mckibben.models.laws.tondu_lopez import LAW as _TL_LAW
 from mckibben.models.spring import DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel, spring_force
 from mckibben.fit.isometric import D0_FACTOR, THETA_MAX, THETA_STARTS_DEG
 from mckibben.fit.isometric import K_BOUNDS, R0_FACTOR
@@ -602,22 +604,22 @@ def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     warnings.warn("fit_chou_hannaford is deprecated: fit every law through its force, "
                   "mckibben.fit.isometric.fit_isotonic_law(table, muscle, 'chou-hannaford')", DeprecationWarning, stacklevel=2)
 
-    _need(table, ("isotonic", "hysteresis"), "chou-hannaford")
+    _need(table, ("isotonic", "hysteresis"), _CH_LAW.name)
     d = table.data[_positive(table.data)]
-    what = _what("chou-hannaford", table)
+    what = _what(_CH_LAW.name, table)
     require_distinct(d["pressure"], 3, "pressures above zero", what, "Chou–Hannaford (2 parameters and a check)")
-    od = muscle.need("outer_diameter", "chou-hannaford")
+    od = muscle.need("outer_diameter", _CH_LAW.name)
     l0 = muscle.nominal_length
     p, f, ell = d["pressure"].to_numpy(), d["load"].to_numpy(), d["length"].to_numpy()
 
     def func(values, pressure, load):
         geom = BraidGeometry(float(values[0]), float(values[0] / (np.pi * values[1])))
-        return length_under_load(pressure, load, geom, "chou-hannaford")[0]
+        return length_under_load(pressure, load, geom, _CH_LAW.name)[0]
 
     lo = np.array([l0, D0_FACTOR[0] * od])
     hi = np.array([l0 / np.cos(THETA_MAX), D0_FACTOR[1] * od])
     starts = [np.array([l0 / np.cos(np.deg2rad(t)), fac * od]) for t in THETA_STARTS_DEG for fac in (1.5, 3.0)]
-    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("b_m", "d0_m"), lo, hi, model="chou-hannaford",
+    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("b_m", "d0_m"), lo, hi, model=_CH_LAW.name,
                        response="length_m", what=what, valid_range=data_range(pressure=p, load=f), func=func,
                        clusters=_clusters(d), source=table.path)
 
@@ -653,13 +655,13 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     warnings.warn("fit_tondu_lopez is deprecated: fit every law through its force, "
                   "mckibben.fit.isometric.fit_isotonic_law(table, muscle, 'tondu-lopez')", DeprecationWarning, stacklevel=2)
 
-    _need(table, ("isotonic", "hysteresis"), "tondu-lopez")
+    _need(table, ("isotonic", "hysteresis"), _TL_LAW.name)
     d = table.data[_positive(table.data)]
-    what = _what("tondu-lopez", table)
+    what = _what(_TL_LAW.name, table)
     require_distinct(d["pressure"], 3, "pressures above zero", what, "Tondu–Lopez (2 parameters and a check)")
-    od = muscle.need("outer_diameter", "tondu-lopez")
+    od = muscle.need("outer_diameter", _TL_LAW.name)
     p, f, ell = d["pressure"].to_numpy(), d["load"].to_numpy(), d["length"].to_numpy()
-    l0, a0 = muscle.nominal_length, muscle.need("braid_angle", "tondu-lopez on isotonic data")
+    l0, a0 = muscle.nominal_length, muscle.need("braid_angle", f"{_TL_LAW.name} on isotonic data")
 
     def func(values, pressure, load):
         eps, _ = tondu_lopez_contraction(pressure, load, values[1], a0, values[0])
@@ -668,7 +670,7 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     lo = np.array([K_BOUNDS[0], R0_FACTOR[0] * od])
     hi = np.array([K_BOUNDS[1], R0_FACTOR[1] * od])
     starts = [np.array([k, fac * od]) for k in (1.0, 2.0) for fac in (0.4, 0.7)]
-    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("k", "r0_m"), lo, hi, model="tondu-lopez",
+    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("k", "r0_m"), lo, hi, model=_TL_LAW.name,
                        response="length_m", what=what, valid_range=data_range(pressure=p, load=f), func=func,
                        clusters=_clusters(d), source=table.path)
 
