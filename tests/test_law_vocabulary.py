@@ -15,6 +15,7 @@ import ast
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import mckibben
@@ -142,3 +143,23 @@ def test_saving_a_law_fitted_without_a_muscle_file_names_the_law_and_writes_noth
     assert r.code == 2 and "Traceback" not in r.err
     assert f"--save: a muscle file of the {model} force law needs the muscle's outer diameter" in r.err, r.err
     assert not out.exists()
+
+
+# --- the old named functions: second names of registered laws, deprecated ----------------------------
+
+@pytest.mark.parametrize("old, new, law", [
+    ("force_chou_hannaford", "force", "chou-hannaford"), ("force_wall_corrected", "force", "wall-corrected"),
+    ("force_mpam", "force", "braid-map"), ("length_chou_hannaford", "length", "chou-hannaford"),
+    ("length_wall_corrected", "length", "wall-corrected")])
+def test_an_old_named_static_function_warns_and_gives_its_law(old, new, law):
+    from mckibben.datasets import get_muscle
+    from mckibben.models import static
+
+    m = get_muscle("mpam97")
+    second = 0.09 if new == "force" else 0.3  # a length [m] for force, a load [N] for length
+    with pytest.warns(DeprecationWarning, match=rf"{old} is deprecated; use {new}\(.*'{law}'\)"):
+        got = getattr(static, old)(0.5e6, second, m)
+    want = getattr(static, new)(0.5e6, second, m, law)
+    out = "load" if new == "force" else "length"  # a force result holds the pull as its load
+    np.testing.assert_array_equal(getattr(got, out), getattr(want, out))
+    assert got.model == ("mpam" if old == "force_mpam" else law)
