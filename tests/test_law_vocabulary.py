@@ -122,6 +122,15 @@ def test_a_muscle_file_of_a_fitted_law_without_its_outer_diameter_names_the_law(
     assert r.err.count("\n") == 1 and "outer_diameter" in r.err and "force law spring" in r.err, r.err
 
 
+@pytest.mark.parametrize("name", [n for n, law in laws.LAWS.items() if "outer_diameter" in law.needs])
+def test_fitting_a_law_that_needs_the_outer_diameter_to_a_file_without_it_names_the_law(cli, tmp_path, name):
+    m = tmp_path / "m.toml"
+    m.write_text('id = "x"\nnominal_length_mm = 300\n')
+    r = cli("fit", str(COMMERCIAL / "isometric.csv"), "--model", name, "--muscle-file", str(m))
+    assert r.code == 2 and r.err.strip() == (f"error: {m}: key outer_diameter_<unit> missing; {name} needs it"
+                                             " (e.g. outer_diameter_mm = ...)"), r.err
+
+
 def test_a_muscle_file_without_a_law_keeps_the_plain_message(tmp_path):
     f = tmp_path / "m.toml"
     f.write_text('id = "m"\nnominal_length_mm = 300\n')

@@ -33,9 +33,10 @@ from mckibben.fit.names import FIT_MODELS, NEEDS_MUSCLE  # noqa: F401  (re-expor
 
 
 
-def load_muscle(data: Path, muscle: str | None, required: bool, what: str, table=None):
+def load_muscle(data: Path, muscle: str | None, required: bool, what: str, table=None, models=()):
     """The muscle file given with --muscle, else ``muscle.toml`` beside the data, else the muscle the
-    table itself describes (:func:`mckibben.data.io.muscle_of_table`), or None."""
+    table itself describes (:func:`mckibben.data.io.muscle_of_table`), or None. A muscle-file key
+    missing names the laws of ``models`` that need it (:attr:`mckibben.models.laws.Law.needs`)."""
 
     path = Path(muscle) if muscle else find_muscle_file(data)
     if path is None and table is not None:
@@ -46,7 +47,14 @@ def load_muscle(data: Path, muscle: str | None, required: bool, what: str, table
         if required:
             raise InputError(f"{what}: needs a muscle file; give `muscle` FILE.toml or put muscle.toml beside {data}")
         return None
-    return read_muscle(path)
+    return read_muscle(path, _needed_by(models))
+
+
+def _needed_by(models) -> dict:
+    """Muscle-file field -> the registered laws among ``models`` that need it (for its message)."""
+    named = [laws.LAWS[n] for n in (laws.ALIASES.get(m, m) for m in models) if n in laws.LAWS]
+    fields = {q for law in named for q in law.needs}
+    return {q: " and ".join(law.name for law in named if q in law.needs) for q in fields}
 
 
 def _synthetic(data: Path, spec) -> bool:
@@ -66,7 +74,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise unknown_name("model", model, FIT_MODELS)
     table = read_table(data, kind, select, columns)
     isometric = table.kind == "isometric"
-    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}", table)
+    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}", table, (model,))
     if spec is not None:
         check_muscle(table, spec)
     if tare != "none" and not isometric:
