@@ -12,7 +12,7 @@ Also here: a muscle file or a fit that lacks the outer diameter says which law n
 from __future__ import annotations
 
 import ast
-import sys
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -53,11 +53,12 @@ def _names() -> set:
     return set(laws.LAWS) | set(laws.ALIASES)
 
 
-def law_literals() -> list[tuple[str, str, str, int]]:
-    """Every exact law-name string literal in src/ outside the law files and data: (file, scope, literal, line)."""
+@functools.lru_cache
+def law_literals(root: Path = SRC) -> list[tuple[str, str, str, int]]:
+    """Every exact law-name string literal under ``root`` outside the law files and data: (file, scope, literal, line)."""
     names, hits = _names(), []
-    for path in sorted(SRC.rglob("*.py")):
-        rel = path.relative_to(SRC).as_posix()
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root).as_posix()
         if rel.startswith(HOME):
             continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
@@ -92,14 +93,13 @@ def test_the_allow_list_holds_only_sites_that_exist():
     assert set(ALLOWED) <= found, sorted(set(ALLOWED) - found)
 
 
-def test_the_scan_finds_a_hand_list(tmp_path, monkeypatch):
+def test_the_scan_finds_a_hand_list(tmp_path):
     # the test can fail: a consumer that branches on a law's name is caught
     fake = tmp_path / "mckibben"
     (fake / "fit").mkdir(parents=True)
     (fake / "fit" / "newcode.py").write_text('"""doc naming spring"""\n\ndef f(model):\n'
                                              '    return model == "spring" or f"the {model} law"\n')
-    monkeypatch.setattr(sys.modules[__name__], "SRC", fake)
-    assert [(f, s, lit) for f, s, lit, _ in law_literals()] == [("fit/newcode.py", "f", "spring")]
+    assert [(f, s, lit) for f, s, lit, _ in law_literals(fake)] == [("fit/newcode.py", "f", "spring")]
 
 
 # --- the outer diameter: which law needs it ---------------------------------------------------------
