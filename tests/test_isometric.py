@@ -241,7 +241,8 @@ def test_model_that_needs_a_missing_field_names_it(cli, tmp_path):
     m = tmp_path / "m.toml"
     m.write_text('id = "x"\nnominal_length_mm = 100\n')  # the law's fit spec needs the outer diameter
     r = cli("fit", str(iso), "--model", "tondu-lopez", "--muscle-file", str(m))
-    assert r.code == 2 and r.err.strip() == f"error: {m}: key outer_diameter_<unit> missing (e.g. outer_diameter_mm = ...)"
+    assert r.code == 2 and r.err.strip() == (f"error: {m}: key outer_diameter_<unit> missing; tondu-lopez needs it"
+                                             " (e.g. outer_diameter_mm = ...)")
 
 
 def test_stats_binomial_claim_in_the_coverage_test():

@@ -366,3 +366,49 @@ def test_an_isotonic_table_from_the_law_is_fitted_and_compared_through_its_force
     # fits in length, which have no load-cell zero; every other law through its force, as here)
     scores = {s.name: s for s in compare_models(table, fit.muscle)["scores"]}
     assert name in scores
+
+
+def test_a_law_with_its_own_procedure_has_one_and_every_fit_spec_reads_without_data(case):
+    # Law.own_fit (non-isometric tables) is served by mckibben.fit.static.OWN_FITS, nothing else
+    # names the law; and a saved law is read back through its spec with no data (names and force)
+    from mckibben.fit import static
+    from mckibben.fit.isometric import force_law, parameter_names
+
+    assert set(static.OWN_FITS) == set(laws.own_fit_laws())
+    for name in laws.fit_laws():
+        fit = case(name)[5]
+        assert parameter_names(name, fit.muscle) == tuple(fit.result.names), name
+        p, ell = fit.data["pressure"].to_numpy(), fit.data["held_length"].to_numpy()
+        np.testing.assert_allclose(force_law(name, fit.muscle, fit.result.values)(p, ell),
+                                   fit.result.func(fit.result.values, p, ell), rtol=1e-12, err_msg=name)
+
+
+@pytest.mark.parametrize("name", [n for n in NAMES if laws.LAWS[n].branches == 2])
+def test_a_two_branch_law_fits_both_branches_of_a_hysteresis_table(case, tmp_path, name):
+    # a hysteresis table's direction column labels each point's branch: before, every row was
+    # 'inflate' and the deflate coefficients came back unconstrained (no data held them)
+    kind, params, theta, m, path, fit = case(name)
+    l0 = float(fit.muscle.nominal_length)
+    peak = float(np.abs(fit.data["force"]).max())
+    p, f = (a.ravel() for a in np.meshgrid(np.linspace(0.25e6, 0.6e6, 8), np.linspace(0.2, 0.6, 5) * peak))
+    rows, lengths = [], {}
+    for direction in ("inflate", "deflate"):
+        ell, state = law_statics.rising_root(lambda pp, ww, dn=direction: fit.result.func(fit.result.values, pp, ww, dn),
+                                             p, f, 0.6 * l0, 1.05 * l0)
+        ok = state == 0
+        assert ok.sum() >= 20, f"{name} {direction}: the law holds too few of the loads"
+        lengths[direction] = (p[ok], f[ok], ell[ok])
+        rows += [f"{float(a) / 1e3!r},{float(b)!r},{float(c) * 1e3!r},{direction},1\n"
+                 for a, b, c in zip(p[ok], f[ok], ell[ok])]
+    gap = np.max(np.abs(fit.result.func(fit.result.values, p, 0.9 * l0, "inflate")
+                        - fit.result.func(fit.result.values, p, 0.9 * l0, "deflate")))
+    assert gap > 0.01 * peak, f"{name}: the branches do not differ; the test could not tell them apart"
+    csv = tmp_path / "hysteresis.csv"
+    csv.write_text("pressure_kPa,load_N,length_mm,direction,trial\n" + "".join(rows))
+    res = fit_isotonic_law(read_table(csv, "hysteresis"), fit.muscle, name)
+    assert not [fl for fl in res.flags if fl.endswith("_unconstrained")], res.flags
+    for direction, (pp, ff, ell) in lengths.items():  # each branch's lengths come back
+        back, state = law_statics.rising_root(lambda a, b, dn=direction: res.func(res.values, a, b, dn),
+                                              pp, ff, 0.6 * l0, 1.05 * l0)
+        # rtol: the fit's tolerance on noise-free data (as the isotonic test above)
+        np.testing.assert_allclose(back, ell, rtol=1e-4, err_msg=f"{name} {direction}")

@@ -104,7 +104,7 @@ MUSCLE_MAX_SIZE = {"nominal_length": 20.0, "strand_length": 20.0, "outer_diamete
                    "tube_inner_diameter": 0.5, "tube_outer_diameter": 0.5, "strand_diameter": 0.5}
 
 
-def read_muscle(path) -> MuscleSpec:
+def read_muscle(path, needed_by: dict | None = None) -> MuscleSpec:
     """Read a muscle file (TOML): id, lengths and diameters as ``quantity_unit`` keys, notes.
 
     Parameters
@@ -115,6 +115,9 @@ def read_muscle(path) -> MuscleSpec:
         ``tube_outer_diameter_mm``, ``strand_diameter_mm``, ``braid_angle_deg``, ``notes``,
         ``synthetic`` and a ``[force_model]`` table (a fitted force law, written by
         ``mckibben fit --save``).
+    needed_by : dict, optional
+        Field -> what reads the file for it (``{"outer_diameter": "tondu-lopez"}``): a missing
+        required key's message names it. Default: the file's own ``[force_model]``, if any. [-]
 
     Returns
     -------
@@ -172,7 +175,10 @@ def read_muscle(path) -> MuscleSpec:
                              f"(at most {to_si(top, 'm', 'length') / to_si(1.0, unit, dim):g} {unit})")
     for quantity, (dim, required) in MUSCLE_KEYS.items():
         if required and quantity not in values:
-            raise InputError(f"{name}: key {quantity}_<unit> missing (e.g. {quantity}_mm = ...)")
+            law = values["force_model"]["model"] if "force_model" in values else None  # the law that needs it
+            needs = (f"; {needed_by[quantity]} needs it" if needed_by and quantity in needed_by
+                     else f"; its force law {law} ([force_model]) needs it" if law else "")
+            raise InputError(f"{name}: key {quantity}_<unit> missing{needs} (e.g. {quantity}_mm = ...)")
     spec = MuscleSpec(**values)
     if spec.strand_length is not None and spec.strand_length < spec.nominal_length:
         raise InputError(

@@ -64,7 +64,7 @@ from mckibben.models.flags import flag_names
 from mckibben.models.law_statics import rising_root
 from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
 from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
-from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
+from mckibben.models.laws.spring import NOMINAL_TOL, SPRING_NAMES, spring_model_of
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
 from mckibben.data.setpoints import set_point_groups
@@ -398,7 +398,10 @@ def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
     The law's own fit spec (:attr:`mckibben.models.laws.Law.fit_spec`), as on an isometric table: a
     muscle hanging a load at rest is a muscle held at that length pulling that load (friction
     aside). The residuals are in force [N]; :func:`law_length` solves the fitted law for the length.
-    The spec's load-cell zero is fitted too (it absorbs a bias in the loads' calibration).
+    The spec's load-cell zero is fitted too (it absorbs a bias in the loads' calibration). A
+    ``direction`` column (a hysteresis table's ``inflate``/``deflate``) labels each point's branch,
+    so a two-branch law (:attr:`~mckibben.models.laws.Law.branches`) fits both; without one every
+    point is ``inflate``.
 
     Parameters
     ----------
@@ -421,8 +424,10 @@ def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
     if table.kind not in ("isotonic", "hysteresis"):
         raise InputError(f"fit {model}: needs an isotonic or hysteresis table; {table.path} is a {table.kind} table")
     d = table.data
+    # a loop's rows keep their branch (a two-branch law fits both); a table without one is inflate
+    direction = d["direction"].to_numpy(dtype=object) if "direction" in d else "inflate"
     pts = pd.DataFrame({"held_length": d["length"].to_numpy(dtype=float), "pressure": d["pressure"].to_numpy(dtype=float),
-                        "force": d["load"].to_numpy(dtype=float), "direction": "inflate",
+                        "force": d["load"].to_numpy(dtype=float), "direction": direction,
                         "trial": d["trial"].to_numpy() if "trial" in d else np.ones(len(d))})
     return fit_points(pts, muscle, model, source=str(table.path))
 
@@ -706,14 +711,6 @@ def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
             return sum(a * t for a, t in zip(v, terms))
 
         return sfunc
-    if model == "spring":  # one pressure range to infinity: the law as saved
-        l0 = muscle.nominal_length
-
-        def spring(pressure, length, direction="inflate"):
-            d = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
-            return spring_force(length, pressure, spring_model_of(v, l0, np.inf), d)[0]
-
-        return spring
     spec = _spec(model, muscle, 1.0, *_NO_DATA)
     return lambda pressure, length, direction="inflate": spec.force(v, pressure, length, direction)
 
@@ -731,8 +728,6 @@ def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
     model = model_name(model)
     if model == SURFACE:
         return SURFACE_NAMES
-    if model == "spring":
-        return SPRING_NAMES
     return _spec(model, muscle, 1.0, *_NO_DATA).names
 
 

@@ -14,8 +14,9 @@ FIT_MODELS = {
     "cubic": "one cubic in pressure per load/direction (isotonic, hysteresis, braid_angle, blocked_force)",
     "surface": "one cubic-in-pressure, linear-in-load surface of the length (isotonic)",
     "force-contraction": "one cubic of load vs contraction per pressure, Fig. 5 (isotonic; muscle file)",
-    # the spring law's own procedure on the tables only it takes (force_length; isotonic with --split-pressure)
-    "spring": "Lu(P) and K(P, Ls) per direction and pressure range (force_length, isotonic or isometric)",
+    # a law with a procedure of its own on the tables only it takes (the spring model's: force_length;
+    # isotonic with --split-pressure): Law.own_fit, mckibben.fit.static.OWN_FITS
+    **{n: law.own_fit.note for n, law in laws.own_fit_laws().items()},
     "first-order": "p0, p_final, tau of pressure step responses (step_response)",
 }
 #: Models fitted by a procedure of their own on non-isometric tables (no muscle file needed there).

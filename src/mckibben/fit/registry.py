@@ -33,9 +33,10 @@ from mckibben.fit.names import FIT_MODELS, NEEDS_MUSCLE  # noqa: F401  (re-expor
 
 
 
-def load_muscle(data: Path, muscle: str | None, required: bool, what: str, table=None):
+def load_muscle(data: Path, muscle: str | None, required: bool, what: str, table=None, models=()):
     """The muscle file given with --muscle, else ``muscle.toml`` beside the data, else the muscle the
-    table itself describes (:func:`mckibben.data.muscle_file.muscle_of_table`), or None."""
+    table itself describes (:func:`mckibben.data.muscle_file.muscle_of_table`), or None. A muscle-file key
+    missing names the laws of ``models`` that need it (:attr:`mckibben.models.laws.Law.needs`)."""
 
     path = Path(muscle) if muscle else find_muscle_file(data)
     if path is None and table is not None:
@@ -46,7 +47,14 @@ def load_muscle(data: Path, muscle: str | None, required: bool, what: str, table
         if required:
             raise InputError(f"{what}: needs a muscle file; give `muscle` FILE.toml or put muscle.toml beside {data}")
         return None
-    return read_muscle(path)
+    return read_muscle(path, _needed_by(models))
+
+
+def _needed_by(models) -> dict:
+    """Muscle-file field -> the registered laws among ``models`` that need it (for its message)."""
+    named = [laws.LAWS[n] for n in (laws.ALIASES.get(m, m) for m in models) if n in laws.LAWS]
+    fields = {q for law in named for q in law.needs}
+    return {q: " and ".join(law.name for law in named if q in law.needs) for q in fields}
 
 
 def _synthetic(data: Path, spec) -> bool:
@@ -66,7 +74,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise unknown_name("model", model, FIT_MODELS)
     table = read_table(data, kind, select, columns)
     isometric = table.kind == "isometric"
-    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}", table)
+    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}", table, (model,))
     if spec is not None:
         check_muscle(table, spec)
     if tare != "none" and not isometric:
@@ -75,15 +83,23 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError(f"rails/`pressure_zero`: apply to isometric tables; {data} is a {table.kind} table")
     if save is not None and not isometric:
         raise InputError(f"save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
+    if save is not None and spec.outer_diameter is None:  # a table's rest length stood for the muscle file
+        raise InputError(f"save: a muscle file of the {model} force law needs the muscle's outer diameter (its "
+                         f"chamber), which {spec.path or data} does not give; give `muscle` FILE.toml with "
+                         f"outer_diameter_mm")
     if rest_lengths != "nominal" and save is not None:
         raise InputError("save: writes a family law at recorded rest lengths; fit with rest_lengths 'nominal' to save")
     if rest_length is not None and save is None:
         raise InputError("rest_length: sets the rest length of the muscle a family law's file describes; give `save`")
+    law = laws.LAWS.get(laws.ALIASES.get(model, model))
+    own = law.own_fit if law is not None and not isometric else None  # the law's own procedure (Law.own_fit)
     if split_pressure is not None:
         check_real(split_pressure, "split_pressure", lo=0.0, unit="Pa")
-        if model != "spring" or isometric:
-            raise InputError(f"split_pressure: splits the data of the spring model on an isotonic or force-length "
-                             f"table; fit {model} on a {table.kind} table has no split")
+        if own is None or not own.split_pressure:
+            splitters = {n: lw.own_fit.tables for n, lw in laws.own_fit_laws().items() if lw.own_fit.split_pressure}
+            kinds = sorted({k.replace("_", "-") for t in splitters.values() for k in t}, reverse=True)
+            raise InputError(f"split_pressure: splits the data of the {' or '.join(splitters)} model on an "
+                             f"{' or '.join(kinds)} table; fit {model} on a {table.kind} table has no split")
     if rest_length is not None:
         check_real(rest_length, "rest_length", lo=0.0, lo_open=True, unit="m")
     extra: dict = {}
@@ -116,17 +132,13 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         fits = [static.fit_surface(table)]
     elif model == "force-contraction":
         fits = list(static.fit_force_contraction(table, spec).values())
-    elif model == "spring":
+    elif own is not None and law is not None:  # the law's own procedure (it checks the table kind)
         if split_pressure is not None:
             p = table.data["pressure"].to_numpy()
             if not float(p.min()) <= split_pressure < float(p.max()):
                 raise InputError(f"split_pressure: {split_pressure / 1e6:g} MPa is outside the pressures of {data} "
                                  f"({p.min() / 1e6:g}..{p.max() / 1e6:g} MPa): one range would get no point")
-        sf = static.fit_spring(table, split_pressure=split_pressure,
-                               nominal_length=spec.nominal_length if spec else None)
-        fits = [sf.result]
-        extra = {"split_pressure_Pa": sf.model.split_pressure, "blocks": [list(b) for b in sf.blocks],
-                 "terms_P_Ls_exponents": [list(t) for t in sf.model.terms]}
+        fits, extra = static.OWN_FITS[law.name](table, spec, split_pressure)
     elif model in laws.fit_laws() or model in laws.ALIASES:  # every registered law: through its force
         fits = [fit_isotonic_law(table, spec, model)]
     else:

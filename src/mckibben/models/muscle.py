@@ -140,7 +140,7 @@ class Muscle(LawMuscle):
         peak = law.peak_length(theta) if law.peak_length is not None else math.inf
         if l0 < peak < b:  # the law's pull falls beyond its peak (the wall-corrected braid): the braid ends there
             b = peak
-        od = spec.need("outer_diameter", "a muscle")
+        od = spec.need("outer_diameter", f"the muscle of its {law.name} force law (its chamber)")
         stops = (float(b) / math.sqrt(3.0), float(b))
         return cls(name=spec.id, nominal_length=l0, law=kind, theta=np.asarray(theta, dtype=float),
                    strand_length=float(b), pressure_range=valid.get("pressure", (0.0, np.inf)),

@@ -23,6 +23,7 @@ The laws themselves stay where they are written once, one file each in :mod:`mck
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +37,12 @@ from mckibben.units import quantity
 from mckibben.models.geometry import miniature_geometry
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import predict_length
+from mckibben.models.laws.chou_hannaford import LAW as _CH_LAW
+from mckibben.models.laws.wall_corrected import LAW as _WALL_LAW
+
+#: The law :func:`force`, :func:`length` and :func:`pressure` use for a catalogue muscle when no
+#: ``model`` is given: its braid-angle map (eq. 2 + 3 of [mpam-characterization]), the one default.
+DEFAULT_LAW = "braid-map"
 
 __all__ = ["StaticResult", "force", "force_chou_hannaford", "force_laws", "force_mpam", "force_wall_corrected",
            "length", "length_chou_hannaford", "length_mpam", "length_wall_corrected", "pressure"]
@@ -137,6 +144,9 @@ def length_mpam(pressure, load, muscle) -> StaticResult:
 def length_chou_hannaford(pressure, load, muscle) -> StaticResult:
     """Length under a hanging load from the thin-walled Chou–Hannaford force law.
 
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`length` with ``model="chou-hannaford"``.
+
     Parameters
     ----------
     pressure : array_like or str
@@ -150,11 +160,16 @@ def length_chou_hannaford(pressure, load, muscle) -> StaticResult:
     -------
     StaticResult
     """
-    return length(pressure, load, muscle, "chou-hannaford")
+    warnings.warn("mckibben.models.static.length_chou_hannaford is deprecated; "
+                  "use length(pressure, load, muscle, 'chou-hannaford')", DeprecationWarning, stacklevel=2)
+    return length(pressure, load, muscle, _CH_LAW.name)
 
 
 def length_wall_corrected(pressure, load, muscle) -> StaticResult:
     """Length under a hanging load from the Chou–Hannaford law with the tube wall's thickness.
+
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`length` with ``model="wall-corrected"``.
 
     Parameters
     ----------
@@ -169,11 +184,17 @@ def length_wall_corrected(pressure, load, muscle) -> StaticResult:
     -------
     StaticResult
     """
-    return length(pressure, load, muscle, "wall-corrected")
+    warnings.warn("mckibben.models.static.length_wall_corrected is deprecated; "
+                  "use length(pressure, load, muscle, 'wall-corrected')", DeprecationWarning, stacklevel=2)
+    return length(pressure, load, muscle, _WALL_LAW.name)
 
 
 def force_mpam(pressure, length, muscle) -> StaticResult:
     """Force the muscle pulls with at a pressure and length: the empirical model solved for the load.
+
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`force` with ``model="braid-map"`` (whose result
+        says ``braid-map``, this one ``mpam``).
 
     Parameters
     ----------
@@ -193,16 +214,17 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
     [mpam-characterization], eq. (2) with (3), Tables I and II.
     """
 
-    return dataclasses.replace(force(pressure, length, muscle, "braid-map"), model="mpam")
-
-
-def _force_physical(pressure, length, muscle, wall: bool, name: str) -> StaticResult:
-    return force(pressure, length, muscle, name)
+    warnings.warn("mckibben.models.static.force_mpam is deprecated; "
+                  "use force(pressure, length, muscle, 'braid-map')", DeprecationWarning, stacklevel=2)
+    return dataclasses.replace(force(pressure, length, muscle, DEFAULT_LAW), model="mpam")
 
 
 def force_chou_hannaford(pressure, length, muscle) -> StaticResult:
     """Force from the thin-walled Chou–Hannaford law at a pressure and length.
 
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`force` with ``model="chou-hannaford"``.
+
     Parameters
     ----------
     pressure : array_like or str
@@ -216,12 +238,17 @@ def force_chou_hannaford(pressure, length, muscle) -> StaticResult:
     -------
     StaticResult
     """
-    return _force_physical(pressure, length, muscle, False, "chou-hannaford")
+    warnings.warn("mckibben.models.static.force_chou_hannaford is deprecated; "
+                  "use force(pressure, length, muscle, 'chou-hannaford')", DeprecationWarning, stacklevel=2)
+    return force(pressure, length, muscle, _CH_LAW.name)
 
 
 def force_wall_corrected(pressure, length, muscle) -> StaticResult:
     """Force from the Chou–Hannaford law with the tube wall's thickness at a pressure and length.
 
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`force` with ``model="wall-corrected"``.
+
     Parameters
     ----------
     pressure : array_like or str
@@ -235,7 +262,9 @@ def force_wall_corrected(pressure, length, muscle) -> StaticResult:
     -------
     StaticResult
     """
-    return _force_physical(pressure, length, muscle, True, "wall-corrected")
+    warnings.warn("mckibben.models.static.force_wall_corrected is deprecated; "
+                  "use force(pressure, length, muscle, 'wall-corrected')", DeprecationWarning, stacklevel=2)
+    return force(pressure, length, muscle, _WALL_LAW.name)
 
 
 def force_laws() -> dict[str, str]:
@@ -263,7 +292,7 @@ def _statics(muscle, model: str | None):
             raise InputError(f"model: {model!r} is not the {muscle.law} law of muscle {muscle.name!r}; "
                              "leave it out to use the muscle's own law")
         return muscle.law, muscle, None
-    name, law, params = _published("braid-map" if model is None else model, muscle, "model")
+    name, law, params = _published(DEFAULT_LAW if model is None else model, muscle, "model")
     if hasattr(params, "length_for_pressure") and hasattr(params, "pressure_for_length"):
         return name, params, params
     b = getattr(params, "strand_length", None) or miniature_geometry(muscle.nominal_length, muscle.geometry).strand_length
@@ -411,7 +440,7 @@ def force(pressure, length, muscle, model: str | None = None, **options) -> Stat
                                 f"give one of: {', '.join(force_laws())}")
     if isinstance(muscle, LawMuscle):
         return _own_force(pressure, length, muscle, model, options)
-    name, law, params = _published("braid-map" if model is None else model, muscle, "force model")
+    name, law, params = _published(DEFAULT_LAW if model is None else model, muscle, "force model")
     p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
     for key, value in options.items():
         if not hasattr(params, key) or not dataclasses.is_dataclass(params):

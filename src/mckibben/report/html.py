@@ -19,6 +19,7 @@ from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
 from mckibben.atomic import check_output_dir
 from mckibben.datasets.campaign import campaign_muscle_dirs
 from mckibben.datasets.references import cited, render
+from mckibben.models.laws.spring import LAW as _SPRING_LAW
 from mckibben.results import provenance
 from mckibben.results import to_jsonable
 from mckibben.atomic import atomic_dir
@@ -89,10 +90,12 @@ def summarize(char: dict) -> dict:
                                "models": [s.to_dict() for s in r.comparison["scores"]]}
     iso = [{"muscle": spec.id, **c.to_dict()} for spec, c in char.get("isometric", [])]
     return {"synthetic": char["synthetic"], "data": char["root"], "table_I": t1, "table_II": t2,
-            "blocked_force": bf, "step_response": steps, "spring": spring, "comparison": comp, "isometric": iso,
+            "blocked_force": bf, "step_response": steps, SPRING_KEY: spring, "comparison": comp, "isometric": iso,
             "skipped": [s for r in char["muscles"] for s in r.skipped]}
 
 
+#: The summary's key of the spring model's fits (the law's registry name). [-]
+SPRING_KEY = _SPRING_LAW.name
 #: What the report takes from which work, by bibliography key (mckibben.datasets.references).
 _SPRING = "[wickramatunge2010]"
 _SOURCES = ("[mpam-characterization] (eq. 1–3, Tables I–II, Figs. 3, 5, 6, 9, 10, §IV.A); "
@@ -221,10 +224,10 @@ def render_html(summary: dict, figures: list[str]) -> str:
                             [[s["muscle"], f"{s['command']:g}", _pm(s["tau_s"], s["tau_stderr_s"], 1e3),
                               f"[{s['tau_ci95_s'][0] * 1e3:.1f}, {s['tau_ci95_s'][1] * 1e3:.1f}]", f"{s['p_final_Pa'] / MPA:.3f}"]
                              for s in summary["step_response"]]))
-    if summary["spring"]:
+    if summary[SPRING_KEY]:
         parts.append(f"<h2>Spring model of {html.escape(render(_SPRING))}: Lu(P) = h2·P² + h1·P + h0,"
                      " K = c3·P + c2·P·Ls + c1·Ls + c0 (SI)</h2>")
-        for s in summary["spring"]:
+        for s in summary[SPRING_KEY]:
             parts.append(f"<p>{html.escape(s['muscle'])}: split {s['split_pressure_Pa'] / MPA:.3g} MPa, R² {s['r2']:.5f},"
                          f" force RMS {s['residual_rms_N'] * 1e3:.1f} mN, n {s['n_points']}</p>")
             parts.append(_table(["parameter", "value ± s.e."], [[k, _pm(v, s["stderr"][k], digits=4)] for k, v in s["parameters"].items()]))

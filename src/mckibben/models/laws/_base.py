@@ -63,6 +63,28 @@ class FitSpec:
 
 
 @dataclass(frozen=True)
+class OwnFit:
+    """A law's own fit procedure on tables other than isometric (beside its :class:`FitSpec`).
+
+    The procedure itself lives in :data:`mckibben.fit.static.OWN_FITS` under the law's name (the fits
+    sit above the models); this record is what the command line and the fit registry ask the law.
+
+    Attributes
+    ----------
+    tables : tuple of str
+        The table kinds the procedure reads (``force_length``, ``isotonic``). [-]
+    note : str
+        One line for the ``fit --model`` listing: what the procedure fits, on which tables. [-]
+    split_pressure : bool
+        Whether the procedure splits the data at a pressure (``fit --split-pressure``). [-]
+    """
+
+    tables: tuple
+    note: str
+    split_pressure: bool = False
+
+
+@dataclass(frozen=True)
 class Law:
     """One registered force law: everything the fitter, the plant, the tool and the CLI read.
 
@@ -124,6 +146,10 @@ class Law:
         stretched, the same at every pressure, beyond which it falls (the wall-corrected braid); a
         muscle file's braid ends there (:class:`~mckibben.models.muscle.Muscle`), so its plant and
         FMU never run the falling branch. None: the law does not fall before the straight braid. [m]
+    own_fit : OwnFit, optional
+        The law's own fit procedure on non-isometric tables (the spring model's on force-length
+        and isotonic tables); None: such tables are fitted through the law's force
+        (:func:`mckibben.fit.isometric.fit_isotonic_law`). [-]
     extra : dict
         Law-specific facts other code may read (``optional_names``). [-]
     """
@@ -148,6 +174,7 @@ class Law:
     plant_theta: Callable | None = None
     length_of: Callable | None = None
     peak_length: Callable | None = None
+    own_fit: OwnFit | None = None
 
     @property
     def stem(self) -> str:
