@@ -44,7 +44,6 @@ ALLOWED = {
     ("cli/params.py", "show_cmd", "spring"): "`params list`: the kind of the published spring sets",
     ("models/mpam.py", "force_from_length", "braid-map"): "the braid map's kernel called by name for its messages",
     # old alias used inside (left for their owners; reported, not a second list)
-    ("experiments/mujoco.py", "hanging_mass", "empirical"): "old alias of braid-map, tested for its floor",
     ("tool/mujoco_model.py", "simulate_tracking_mujoco", "empirical"): "old alias of braid-map, the tool's catalogue law",
 }
 

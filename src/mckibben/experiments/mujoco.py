@@ -28,7 +28,9 @@ from mckibben.errors import ArgumentTypeError, InputError, check_real
 from mckibben.export.mujoco import MuscleBank, _mujoco, hanging_mass_mjcf, load_model, muscle_plant
 from mckibben.datasets import get_muscle
 from mckibben.models import laws as LW
+from mckibben.models.laws.braid_map import LAW as BRAID_MAP
 from mckibben.models.mpam import MiniatureMuscle, predict_length
+from mckibben.plant import params as PP
 from mckibben.plant.simulator import static_equilibrium
 from mckibben.results import Result, TimeResponse
 from mckibben.units import si
@@ -159,7 +161,7 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     model = load_model(hanging_mass_mjcf(plant, load, timestep))
     data = mujoco.MjData(model)
     # the braid-angle maps pull less when stretched below ~0.25 MPa: checked over the held pressures only
-    floor = 0.9 * pressure if force_model == "empirical" else 0.0
+    floor = 0.9 * pressure if PP.LAW_NAMES.get(force_model or "calibrated") == BRAID_MAP.name else 0.0
     # the supervisor's p_max at the transducer's full scale: its headroom cap holds a chamber some tens
     # of kPa below p_max (docs/controller.md, 2b), and this rig holds `pressure`, the calibration
     # point 0.8 MPa included (the 0.8 MPa supply bounds the chamber)
