@@ -119,6 +119,8 @@ def test_bar_unattended_run_fits_a_muscle_file_that_matches_the_plant(bar_run):
           f"{worst[:5]}")
     assert np.all(err <= 0.05), worst  # a guard on what is reached where the muscle moved 5 mm; the bar is 2 %
     if err_all.max() > 0.02:
+        # the branches' mean is the plant's friction-free length (0.03 mm off at 0.41 MPa, 0.6 N); the law family
+        # lacks the plant's tube stretched past the rest length (docs/rig.md), so the best law misfits there
         pytest.xfail(f"bar NOT met: up to {err_all.max() * 100:.1f} % off the plant's static length, over 2 % at "
                      f"{int(np.sum(err_all > 0.02))} of {len(err_all)} points ({worst[:3]}); where the muscle moved "
                      f">= 5 mm: max {err.max() * 100:.2f} %")
