@@ -81,3 +81,39 @@ def test_no_place_for_the_socket_the_device_runs_without_a_bench(engine, monkeyp
         link, hello, _ = connect(dev.port)  # the device itself answers
         link.close()
         assert hello.n_channels == 1
+
+
+def _encoder(port: str, link, parser, seconds: float = 0.2) -> int:
+    """The encoder count of the newest telemetry frame after reading for ``seconds`` (what was queued drained). [count]"""
+    from mckibben.rig import protocol as P
+
+    got: list = []
+    end = time.monotonic() + seconds
+    while time.monotonic() < end or not got and time.monotonic() < end + 5.0:
+        got += [f.encoder for f in parser.feed(link.read(4096)) if isinstance(f, P.Telemetry)]
+    assert got, f"{port}: no telemetry"
+    return got[-1]
+
+
+@pytest.mark.slow  # the avr engine's image in simavr: 5-40 s on a loaded machine
+def test_both_engines_count_the_encoder_from_where_the_muscle_was_at_reset(engine):
+    # an incremental encoder: the Mega's count starts at 0 on reset (opening the port), wherever the muscle is;
+    # the avr harness (firmware/pil/pil.c) and the Python emulator agree on it
+    from mckibben import hardware as HW
+    from mckibben.rig import protocol as P
+    from mckibben.rig.device import connect
+
+    with start_device(engine, n_channels=1, boot_time=0.1) as dev:
+        b = Bench.of_port(dev.port)
+        b.load(2.1)  # vented, the heavy weight pulls the muscle well past its nominal length
+        at_reset = _settle(b).length
+        assert at_reset - 0.097 > 5 * HW.ENCODER_RESOLUTION
+        link, _, parser = connect(dev.port)  # the open resets the device
+        try:
+            link.write(P.stream(1, True, 1))
+            assert abs(_encoder(dev.port, link, parser)) <= 1  # not the shortening from the nominal length
+            b.hold(at_reset - 3e-3)  # 3 mm shorter: about 17.6 counts of shortening
+            time.sleep(0.3)
+            assert abs(_encoder(dev.port, link, parser) - 3e-3 / HW.ENCODER_RESOLUTION) <= 1
+        finally:
+            link.close()

@@ -26,7 +26,7 @@ from mckibben.models.static import length as static_length
 from mckibben.plant import params as PP
 from mckibben.plant.simulator import static_length as plant_static_length
 from mckibben.rig.bench import Bench
-from mckibben.rig.characterize import CharacterizeStopped, collect_steps, read_protocol, run_characterization
+from mckibben.rig.characterize import CharacterizeStopped, collect_steps, read_protocol, run_characterization, run_protocol
 from mckibben.errors import UnreachableError
 
 from conftest import DEVICE_ENGINES, _avr_engine_missing, run_cli, start_device
@@ -119,6 +119,8 @@ def test_bar_unattended_run_fits_a_muscle_file_that_matches_the_plant(bar_run):
           f"{worst[:5]}")
     assert np.all(err <= 0.05), worst  # a guard on what is reached where the muscle moved 5 mm; the bar is 2 %
     if err_all.max() > 0.02:
+        # the branches' mean is the plant's friction-free length (0.03 mm off at 0.41 MPa, 0.6 N); the law family
+        # lacks the plant's tube stretched past the rest length (docs/rig.md), so the best law misfits there
         pytest.xfail(f"bar NOT met: up to {err_all.max() * 100:.1f} % off the plant's static length, over 2 % at "
                      f"{int(np.sum(err_all > 0.02))} of {len(err_all)} points ({worst[:3]}); where the muscle moved "
                      f">= 5 mm: max {err.max() * 100:.2f} %")
@@ -173,13 +175,9 @@ def test_kill_9_then_resume_keeps_every_load_step_once(bar_run, tmp_path):
     a, b = _predict(out / "muscle.toml", grid), _predict(full / "muscle.toml", grid)
     rel = float(np.max(np.abs(a - b) / b))
     print(f"{engine}: resumed vs uninterrupted: max {rel * 100:.3f} %")
-    # a guard against a broken resume (a length reference taken while the muscle moved put it 20 % off); two
-    # runs of one bench differ by their encoder's zero (a resumed session's loads sat 0.27 mm off, measured) and
-    # then by which law wins the held-out comparison: 1.1 % and 5.3 % were measured on the avr engine
-    assert rel <= 0.10
-    if rel > 0.01:
-        pytest.xfail(f"bar NOT met: the resumed run's muscle file is up to {rel * 100:.2f} % off the uninterrupted "
-                     "run's (bar: 1 %); the load steps redone after the kill are new measurements")
+    # the issue's bar: 1 %. Two sessions of one bench now read one length alike (both engines count the encoder
+    # from the reset, the avr harness no longer drops counts after it): 0.10 % measured on the avr engine
+    assert rel <= 0.01
 
 
 @pytest.mark.slow
@@ -247,3 +245,30 @@ def test_bad_input_is_refused_before_anything_moves(tmp_path):
         assert r.code == 2 and words in r.err and "Traceback" not in r.err, (args, r.err)
         assert len(r.err.strip().splitlines()) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml", "characterize.toml", "full"]  # nothing written
+
+
+@pytest.mark.slow  # two loads in real time: ~30 s on a loaded machine
+def test_a_rig_with_a_load_cell_is_tared_at_the_start_of_each_run(tmp_path):
+    # the cell reads 0.3 N with nothing on it: each run tares it (vented, the weight off) and the steps' force is
+    # the muscle's tension less that zero, which a hanging load at rest pulls
+    from mckibben.hardware import LoadCell
+
+    proto_file = tmp_path / "p.toml"
+    proto_file.write_text('[protocol]\nname = "tare"\ntrials = 1\nmax_pressure = "0.8MPa"\n'
+                          '[isotonic]\nloads = ["61g", "150g"]\npressures = { from = "0MPa", to = "0.6MPa", steps = 3 }\n'
+                          'hold = "0.1s"\n[settling]\nwindow = "0.08s"\ntolerance = "0.2mm"\ntimeout = "2s"\n')
+    proto = read_protocol(proto_file)
+    with _device("python", load_cell=LoadCell(5.0, 0.3, 0.002)) as dev:
+        meta = run_protocol(dev.port, proto, tmp_path / "run", unattended=True)
+    tares = meta["load_cell_tares"]
+    assert [(t["load_index"], t["trial"]) for t in tares] == [(0, 1), (1, 1)]
+    # the cell's zero, and the braid friction's hold on a vented muscle (the plant's 0.01 N)
+    assert all(t["force_offset_N"] == pytest.approx(0.3, abs=0.02) for t in tares), tares
+    steps = collect_steps(tmp_path / "run")
+    moved = steps[steps["pressure_Pa"] > 0.4e6]
+    assert len(moved) >= 2
+    # the tension is the load to within the braid's friction (the plant's Dahl limit) and the cell's counts
+    pp = PP.PlantParams()
+    limit = pp.friction_force + pp.friction_per_pa * moved["pressure_Pa"] + 0.02
+    assert np.all(np.abs(moved["force_N"] - moved["load_N"]) <= limit), moved[["load_N", "force_N"]]
+    assert moved["force_N"].notna().all()

@@ -269,6 +269,8 @@ static void sense(void)
 
 /* gray code sequence the firmware's quad_step counts +1 along: A = bit 0, B = bit 1 */
 static const int GRAY[4] = {0, 2, 3, 1};
+/* the sequence's index at count 0: both channels high (GRAY[2] = 3), the level of the pull-ups */
+#define ENC_PHASE 2
 
 static void encoder_edge(void)
 {
@@ -277,7 +279,7 @@ static void encoder_edge(void)
     int code;
     if (target == enc_pos) return;
     enc_pos += target > enc_pos ? 1 : -1;
-    code = GRAY[((enc_pos % 4) + 4) % 4];
+    code = GRAY[(((enc_pos + ENC_PHASE) % 4) + 4) % 4];
     avr_raise_irq(enc_a, (uint32_t)(code & 1));
     avr_raise_irq(enc_b, (uint32_t)((code >> 1) & 1));
 }
@@ -321,8 +323,14 @@ static void mcu_reset(void)
     enc_zero = encoder_count(plant[0].s[MK_S_LEN], plant[0].prm[MK_C_nominal_length],
                              plant[0].prm[MK_C_encoder_resolution]);
     enc_pos = 0;
+    /* both channels high at count 0 (ENC_PHASE): the firmware turns on D2/D3's pull-ups at start-up,
+       which in simavr sets the pins high whatever was driven before; at another phase its first
+       decodes would miss counts (2-3 were lost after each reset). Through 0 to 1: an irq keeps its
+       value over avr_reset, and raising the value it holds is no edge. */
     avr_raise_irq(enc_a, 0);
     avr_raise_irq(enc_b, 0);
+    avr_raise_irq(enc_a, 1);
+    avr_raise_irq(enc_b, 1);
 }
 
 /* --- parameters --------------------------------------------------------------------------------- */

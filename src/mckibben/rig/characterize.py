@@ -271,7 +271,7 @@ DECIMATION = 10
 REACH_TOLERANCE = 50e3
 #: The columns of a step journal part and of ``steps.parquet``.
 STEP_COLUMNS = ["load_index", "trial", "step", "load_N", "set_point_Pa", "pressure_Pa", "length_m", "direction",
-                "settled", "time_s", "pressure_max_Pa"]
+                "settled", "time_s", "pressure_max_Pa", "force_N"]
 
 
 class CharacterizeStopped(InputError):
@@ -289,7 +289,7 @@ class _Session:
         self.port, self.limit = port, float(limit)
         self.link, self.hello, self.parser = connect(port)
         self.seq = 0
-        self.rows: list = []  # (t [s], p [Pa], encoder, inlet, bleed, faults, adc)
+        self.rows: list = []  # (t [s], p [Pa], encoder, inlet, bleed, faults, adc, force [N] or NaN)
         self.max_pressure = 0.0
         self.has_force = False  # a load cell's force in the telemetry (a later protocol version)
         try:
@@ -309,9 +309,11 @@ class _Session:
         """Read what arrived; check every telemetry frame (over-pressure, device faults)."""
         for f in self.parser.feed(self.link.read(8192)):
             if isinstance(f, P.Telemetry):
-                self.has_force = getattr(f, "force", None) is not None
+                force = getattr(f, "force", None)
+                self.has_force = force is not None
                 p = float(HW.adc_pressure(f.pressure_adc, HW.PA_PER_COUNT, 0.0))
-                self.rows.append((f.t_us * 1e-6, p, f.encoder, f.inlet_pwm, f.bleed_pwm, f.faults, f.pressure_adc))
+                self.rows.append((f.t_us * 1e-6, p, f.encoder, f.inlet_pwm, f.bleed_pwm, f.faults, f.pressure_adc,
+                                  math.nan if force is None else float(force)))
                 self.max_pressure = max(self.max_pressure, p)
                 if f.faults & ~(1 << P.FAULT_NAMES.index("vent_commanded")):
                     raise self.stop(f"the device reported {', '.join(P.fault_names(f.faults))}")
@@ -394,8 +396,8 @@ def _check_reached(s: _Session, target: float, p_before: float, win: np.ndarray,
 
 
 def _run_sweep(s: _Session, proto: Protocol, length_of, ref_len: float, load_index: int, trial: int, load: float,
-               progress) -> list:
-    """One load's sweep, up then down; the rows of its steps."""
+               progress, tare: float = math.nan) -> list:
+    """One load's sweep, up then down; the rows of its steps (``force_N``: the load cell's mean less ``tare``)."""
     rows = []
     p_before = float(np.mean([r[1] for r in s.rows[-10:]]))
     for k, (target, direction) in enumerate(proto.sweep):
@@ -409,7 +411,8 @@ def _run_sweep(s: _Session, proto: Protocol, length_of, ref_len: float, load_ind
             raise s.stop(f"length {lengths.min() * 1e3:.2f} mm left the encoder's range")
         p_mean = float(win[:, 1].mean())
         rows.append((load_index, trial, k, load, target, p_mean, float(lengths.mean()), direction, bool(ok),
-                     float(win[-1, 0]), float(np.array(s.rows[start:], dtype=float)[:, 1].max())))
+                     float(win[-1, 0]), float(np.array(s.rows[start:], dtype=float)[:, 1].max()),
+                     float(win[:, 7].mean()) - tare))
         p_before = p_mean
         if progress is not None:
             progress(1)
@@ -523,6 +526,7 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
                 "max_pressure_Pa": limit, "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                 "controller": "smc", "unattended": bool(unattended)}
         refs: list[dict] = []
+        tares: list[dict] = []
         if not meta_file.is_file():
             tmp = journal / ".run.json.tmp"
             tmp.write_text(json.dumps(meta))
@@ -531,6 +535,16 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
         ref_len, c0 = None, None
         for load_index, trial, load in todo:
             tell("load", load=load, trial=trial)
+            tare = math.nan
+            if s.has_force:  # tare the load cell at the start of each run: nothing hanging, the muscle vented
+                if b is not None:
+                    b.release()
+                    b.load(0.0)
+                else:
+                    ask("take the weight off channel 0 (the load cell is tared at zero force), then Enter "
+                        "(Ctrl-C stops safely) ")
+                tare = _tare(s, proto)
+                tares.append({"load_index": load_index, "trial": trial, "force_offset_N": tare})
             if b is not None:
                 b.release()
                 b.load(load)
@@ -546,9 +560,9 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
             length_of = (lambda r, c: (lambda cnt: r - (np.asarray(cnt, float) - c) * HW.ENCODER_RESOLUTION))(
                 ref_len, c0)
             rows = _run_sweep(s, proto, length_of, ref_len, load_index, trial, load,
-                              (lambda n: tell("step")))
+                              (lambda n: tell("step")), tare)
             s.set_point(0.0)
-            _write_part(journal, load_index, trial, rows, {"max_pressure_Pa": s.max_pressure})
+            _write_part(journal, load_index, trial, rows, {"max_pressure_Pa": s.max_pressure, "force_offset_N": tare})
     except KeyboardInterrupt:
         s.vent()
         raise CharacterizeStopped(f"port {port}: stopped by the operator; valves vented; "
@@ -561,6 +575,7 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
     finally:
         s.close()
     meta["length_references"] = refs
+    meta["load_cell_tares"] = tares
     meta["finished"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     meta["peak_pressure_Pa"] = s.max_pressure
     return meta
@@ -579,6 +594,15 @@ def _vent_and_settle(s: _Session, proto: Protocol) -> None:
     if s.rows[-1][1] >= VENTED:
         raise s.stop(f"the pressure stayed at {s.rows[-1][1] / 1e6:.4f} MPa with the set-point at 0")
     _settle(s, proto, lambda c: -np.asarray(c, float) * HW.ENCODER_RESOLUTION, max(start, len(s.rows) - 1))
+
+
+def _tare(s: _Session, proto: Protocol) -> float:
+    """The load cell's zero: its mean reading over the settling window, vented with nothing hanging
+    (:meth:`mckibben.rig.device.Device.tare` on the run's own connection). [N]"""
+    _vent_and_settle(s, proto)
+    t_now = s.rows[-1][0]
+    f = np.array([r[7] for r in s.rows if r[0] >= t_now - proto.window], dtype=float)
+    return float(np.mean(f))
 
 
 def _reference(s: _Session, bench, ask) -> tuple[float, float]:

@@ -15,6 +15,8 @@ telemetry frames. Like the device it is honest about time and the link:
   rate (``baud``/10 bytes per second) into the pty; a frame that does not fit the queue is
   dropped whole and counted (``dropped``), and its sequence number is spent, so a host sees the
   gap, as with the firmware.
+- **An incremental encoder.** Channel 0's length is counted from where the muscle was at the
+  last reset (the firmware's count starts at 0 there), as on the Mega and in the avr harness.
 - **A load cell, when fitted** (``load_cell``): channel 0's muscle tension (the plant's pulling
   force) read through :class:`mckibben.hardware.LoadCell` once per period, streamed in TELEMETRY
   and announced in HELLO, as the firmware built with ``LOAD_CELL_MN`` does.
@@ -127,6 +129,10 @@ class Emulator:
             scratch.advance(0, 0)
             CoreBank([self._controller]).step([scratch.sense()[0]], [True], [0.0])
             self._tension(scratch)
+        # the pulley's encoder is incremental: the firmware's count starts at 0 on reset, wherever the
+        # muscle is (the avr harness, firmware/pil/pil.c mcu_reset, counts the same way)
+        pl = self.plants[0]
+        self._enc_zero = int(HW.encoder_count(pl.length, pl.p[PP.Col.nominal_length], pl.p[PP.Col.encoder_resolution]))
         self.bank = CoreBank([self._controller] * self.n)
         self.ctrl = self.bank[0]
         self.p_ref = [0.0] * self.n
@@ -232,7 +238,7 @@ class Emulator:
         chans = [P.ChannelTelemetry(adcs[i], out[i][0], out[i][1], self.bank[i].mode, out[i][2],
                                     self.bank[i].reference_pa, self.bank[i].surface_pa) for i in range(self.n)]
         t = P.Telemetry.of_channels(self._next_seq(), int(round(self._t_dev * self.ts * 1e6)) & 0xFFFFFFFF,
-                                    sensed[0][1], chans, force_adc)
+                                    sensed[0][1] - self._enc_zero, chans, force_adc)
         pkt = P.encode_telemetry(t)
         self.sent_telemetry += 1
         if self.cut_every and self.sent_telemetry % self.cut_every == 0:

@@ -206,10 +206,14 @@ class TonduLopez:
 
 
 def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
-    """Fit spec on isometric data: α0 (unless the muscle file gives the braid angle), r0, k and the load cell's zero.
+    """Fit spec on isometric data: α0 (unless the muscle file gives the braid angle), r0, k, the pressure
+    threshold (when there are data) and the load cell's zero.
 
     Bounds: α0 in [1°, 54.7°) (beyond, the ideal braid pushes); r0 within [0.25, 1] × the outer
-    diameter (an effective braid radius at rest); k in [0.5, 5]; the zero within ± the peak force.
+    diameter (an effective braid radius at rest); k in [0.5, 5]; the threshold P_th in [0, 0.9 × the
+    data's top pressure] ([mpam-characterization] Fig. 10: the tube takes pressure before the braid
+    moves); the zero within ± the peak force. Without data (the names of a saved law) the threshold
+    is optional: a saved law without it has none.
 
     Parameters
     ----------
@@ -218,27 +222,33 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     fmax : float
         Largest |force| of the data. [N]
     data : mapping, optional
-        Unused. [-]
+        ``pressure`` [Pa]; None or empty: the names only. [-]
     """
     od, l0, alpha_known = geometry_params(muscle, "tondu-lopez")
+    n = 0 if data is None else np.size(data["pressure"])
+    p_top = float(np.max(data["pressure"])) if n else 0.0
     names, lo, hi = [], [], []
     if alpha_known is None:
         names.append("alpha0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
-    names += ["r0_m", "k", "offset_N"]
-    lo += [R0_FACTOR[0] * od, K_BOUNDS[0], -fmax]
-    hi += [R0_FACTOR[1] * od, K_BOUNDS[1], fmax]
+    names += ["r0_m", "k"] + (["p_threshold_Pa"] if n else []) + ["offset_N"]
+    lo += [R0_FACTOR[0] * od, K_BOUNDS[0]] + ([0.0] if n else []) + [-fmax]
+    hi += [R0_FACTOR[1] * od, K_BOUNDS[1]] + ([0.9 * p_top] if n else []) + [fmax]
+    a_known = alpha_known is not None
 
     def force(v, pressure, length, direction=None, rest_length=None):
-        a0 = alpha_known if alpha_known is not None else v[0]
-        r0, k, off = v[-3], v[-2], v[-1]
+        # a saved law carries the threshold whatever data the spec was built on: its length says
+        a0 = alpha_known if a_known else v[0]
+        with_th = len(v) == (4 if a_known else 5)
+        r0, k, off = v[-4 if with_th else -3], v[-3 if with_th else -2], v[-1]
+        dp = np.maximum(np.asarray(pressure, dtype=float) - v[-2], 0.0) if with_th else pressure
         eps = 1.0 - np.asarray(length, dtype=float) / l0
-        return tondu_lopez_force(pressure, eps, r0, a0, k) + off
+        return tondu_lopez_force(dp, eps, r0, a0, k) + off
 
     starts = []
     for tdeg in (THETA_STARTS_DEG if alpha_known is None else (None,)):
-        for kk in (1.0,):
-            x = [] if alpha_known is not None else [np.deg2rad(tdeg)]
-            starts.append(np.array(x + [0.45 * od, kk, 0.0]))
+        for th in ((0.0, 0.4 * p_top) if n else (None,)):
+            x = [] if a_known else [np.deg2rad(tdeg)]
+            starts.append(np.array(x + [0.45 * od, 1.0] + ([] if th is None else [th]) + [0.0]))
     return FitSpec(tuple(names), np.array(lo), np.array(hi), starts, force, lambda v: offset_flag(v[-1], fmax))
 
 
@@ -248,7 +258,8 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
     Parameters
     ----------
     values : dict
-        ``alpha0_rad`` (unless the muscle gives ``braid_angle``), ``r0_m``, ``k``. [SI]
+        ``alpha0_rad`` (unless the muscle gives ``braid_angle``), ``r0_m``, ``k``, ``p_threshold_Pa``
+        (optional, default 0). [SI]
     muscle : MuscleSpec
         The muscle the law was fitted for. [-]
     direction : str
@@ -257,7 +268,8 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
         Unused. [-]
     """
     return TonduLopez(float(values["r0_m"]), float(values.get("alpha0_rad", muscle.braid_angle)), float(values["k"]),
-                      0.0, muscle.nominal_length, citation=f"fitted: {muscle.path or muscle.id}")
+                      float(values.get("p_threshold_Pa", 0.0)), muscle.nominal_length,
+                      citation=f"fitted: {muscle.path or muscle.id}")
 
 
 def published(muscle) -> TonduLopez:
@@ -277,9 +289,10 @@ def published(muscle) -> TonduLopez:
 
 LAW = Law(
     "tondu-lopez", tondu_lopez, "Tondu & Lopez (2000) eq. (4), with a pressure threshold",
-    description="Tondu-Lopez with its contraction correction k, fitted alpha0 and r0",
+    description="Tondu-Lopez with its contraction correction k, fitted alpha0, r0 and pressure threshold",
     params=TonduLopez, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
     from_values=from_values, needs=("nominal_length", "outer_diameter"), published=published,
+    extra={"optional_names": ("p_threshold_Pa",)},
     c_rows={"TL_R0": TL_R0, "TL_A": TL_A, "TL_B": TL_B, "TL_K": TL_K, "TL_PTH": TL_PTH, "TL_IL0": TL_IL0},
     # the plant's calibrated columns: radius and braid angle at rest, k, threshold pressure
     plant_theta=lambda col, muscle: tondu_lopez_theta(col["r0"], col["alpha0"], col["k_tl"], col["p_threshold"],
