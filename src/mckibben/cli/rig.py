@@ -16,7 +16,9 @@ from mckibben.control import registry as R
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
 from mckibben import hardware as HW
+from mckibben import data as data_pkg
 from mckibben import rig
+from mckibben import report as report_pkg
 from mckibben import control
 from mckibben.cli import tool as T
 import collections
@@ -276,8 +278,6 @@ def bench_cmd(
     json: bool = JSON_OPTION,
 ) -> None:
     """Change the simulated bench of an emulated device: hang a load, hold a length, release; or show it."""
-    from mckibben.rig import bench as B
-
     if request in ("load", "hold"):
         if value is None:
             raise InputError(f"{request}: give a {'weight (61g, 0.6N)' if request == 'load' else 'length (92mm)'}")
@@ -289,7 +289,7 @@ def bench_cmd(
         line = request
     else:
         raise InputError(f"request: {request!r} must be one of load, hold, release, state")
-    b = B.Bench.of_port(port)
+    b = rig.Bench.of_port(port)
     if request == "state":
         st = b.state()
         out = {"load_N": st.load, "length_m": st.length, "pressure_Pa": st.pressure, "held": st.held}
@@ -320,14 +320,9 @@ def characterize_cmd(
     """Run a characterization protocol on the bench: load steps, pressure up and down, tables, fitted muscle file."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn  # deferred: Rich's progress
 
-    from mckibben.report.run import run_report
-    from mckibben.rig import characterize as C
-
-    proto = C.read_protocol(protocol)  # a bad protocol or muscle file is refused before the port is touched
+    proto = rig.read_protocol(protocol)  # a bad protocol or muscle file is refused before the port is touched
     if muscle_file is not None:
-        from mckibben.data import read_muscle
-
-        read_muscle(muscle_file)
+        data_pkg.read_muscle(muscle_file)
     show = not json and sys.stderr.isatty()
     bar = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} steps"),
                    TimeRemainingColumn(), console=err_console, transient=True, disable=not show)
@@ -349,13 +344,13 @@ def characterize_cmd(
             bar.start()
 
     with bar:
-        res = C.run_characterization(port, proto, out, unattended=unattended, resume=resume, muscle_file=muscle_file,
+        res = rig.run_characterization(port, proto, out, unattended=unattended, resume=resume, muscle_file=muscle_file,
                              prompt=prompt, progress=progress)
     summary = res.to_dict()
     report = None
     if muscle_file is not None:
         try:
-            report = str(run_report(res.summary["out"]))
+            report = str(report_pkg.run_report(res.summary["out"]))
         except InputError as exc:  # the run, its tables and muscle file stand without the report
             summary["report_error"] = str(exc)
             err_console.print(f"warning: no HTML report: {exc}", markup=False, highlight=False)

@@ -33,7 +33,17 @@ from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
 from mckibben.rig import protocol as P
 from mckibben.rig.bench import Bench
 from mckibben.rig.device import connect
-from mckibben.results import Result, to_jsonable
+from mckibben.results import Result, to_jsonable, write_table
+from mckibben.data.muscle_file import read_muscle
+from mckibben.data.tables import read_table
+from mckibben.fit.compare import compare_models
+from mckibben.fit.hysteresis import fit_prandtl_ishlinskii
+from mckibben.fit.isometric import IsometricFit, fit_isotonic_law
+from mckibben.fit.muscle_file import muscle_file_text
+from mckibben.models import laws
+from mckibben.models.hysteresis import thresholds_uniform
+from mckibben.models.muscle import Muscle
+from mckibben.models.static import length as static_length
 from mckibben.rig.recorder import _atomic_parquet, _fsync_dir
 from mckibben.units import G_N, parse_quantity
 
@@ -671,7 +681,6 @@ def write_tables(out, steps, meta: dict) -> dict:
     """
     import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
-    from mckibben.results import write_table
 
     out = Path(out)
     prov = {k: v for k, v in meta.items() if k != "protocol_text"}
@@ -710,7 +719,6 @@ def report_view(out, folder) -> Path:
     """
     import shutil
 
-    from mckibben.results import write_table
 
     out, muscle = Path(out), Path(folder) / "muscle"
     muscle.mkdir()
@@ -796,13 +804,6 @@ def fit_run(out, muscle_file) -> dict:
     """
     import dataclasses
 
-    from mckibben.data.io import read_muscle, read_table
-    from mckibben.fit.compare import compare_models
-    from mckibben.fit.hysteresis import fit_prandtl_ishlinskii
-    from mckibben.fit.isometric import IsometricFit, fit_isotonic_law
-    from mckibben.fit.muscle_file import muscle_file_text
-    from mckibben.models import laws
-    from mckibben.models.hysteresis import thresholds_uniform
 
     import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
@@ -886,9 +887,6 @@ def _file_lengths(text: str, out: Path, pressure, load) -> np.ndarray:
     """The lengths a muscle file's law gives at (pressure, load) pairs, as ``mckibben predict length`` solves them. [m]"""
     import tempfile
 
-    from mckibben.data.io import read_muscle
-    from mckibben.models.muscle import Muscle
-    from mckibben.models.static import length as static_length
 
     with tempfile.TemporaryDirectory(prefix=".check-", dir=out) as tmp:
         f = Path(tmp) / "muscle.toml"
@@ -1028,8 +1026,6 @@ def run_characterization(port: str, protocol, out, *, unattended: bool = False, 
     CharacterizeStopped
         A safety stop or Ctrl-C during the run (valves vented, completed load steps kept).
     """
-    from mckibben.data.io import read_muscle
-    from mckibben.results import write_table
 
     proto = protocol if isinstance(protocol, Protocol) else read_protocol(protocol)
     if muscle_file is not None:
