@@ -57,8 +57,9 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
     note = f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
     fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": flags,
           "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": valid,
-          "parameters": dict(zip(r.names, (float(v) for v in r.values))),
-          "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s)}}
+          # each run's zero (tare "fitted") belongs to the table, not to the muscle: the law keeps the runs' mean
+          "parameters": {n: float(v) for n, v in zip(r.names, r.values) if not n.startswith("zero_dev_")},
+          "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s) and not n.startswith("zero_dev_")}}
     return muscle_file_text_of(spec, fm, note)
 
 
