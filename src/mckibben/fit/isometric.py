@@ -498,30 +498,33 @@ def _runs(d: pd.DataFrame) -> np.ndarray:
 def zero_runs(d: pd.DataFrame) -> tuple[np.ndarray, list]:
     """Run label per row and each run's keys, a run being what has one zero of the load cell.
 
-    A run is one held length × trial × direction (inflate, deflate), of one muscle in a family:
-    the pressure sweep between two re-clampings or re-zeroings of a lab's rig.
+    A run is one held length × trial, of one muscle in a family (the clusters of the covariance and
+    the runs of ``tare="lowest"``): one clamping, its pressure swept up and back down. Its inflate
+    and deflate phases share the zero: nothing re-zeroes the cell between them, and a zero per
+    phase would take the up/down gap (the hysteresis loop, a force the law misses) for a zero; on
+    the real Festo 10 mm muscles per-phase zeros spread with a standard deviation of 20–32 N
+    (benchmarks/RESULTS.md).
 
     Parameters
     ----------
     d : pandas.DataFrame
-        Isometric points: ``held_length`` [m], ``trial``, ``direction`` (``muscle`` of a family).
+        Isometric points: ``held_length`` [m], ``trial`` (``muscle`` of a family).
 
     Returns
     -------
     label : numpy.ndarray
         Run index per row (0 … R−1). [-]
     keys : list of dict
-        Per run: ``held_length_m``, ``trial``, ``direction`` (and ``muscle``). [-]
+        Per run: ``held_length_m``, ``trial`` (and ``muscle``). [-]
     """
     groups, lengths = set_point_groups(d["held_length"].to_numpy(dtype=float), decimals=6)
     who = d["muscle"].astype(str).to_numpy() if "muscle" in d else np.full(len(d), "")
-    cols = [who, groups, d["trial"].to_numpy(), d["direction"].astype(str).to_numpy()]
-    keys_rows = list(zip(*cols))
-    uniq = sorted(set(keys_rows), key=lambda t: (t[0], int(t[1]), t[2], t[3]))
+    keys_rows = list(zip(who, groups, d["trial"].to_numpy()))
+    uniq = sorted(set(keys_rows), key=lambda t: (t[0], int(t[1]), t[2]))
     index = {t: i for i, t in enumerate(uniq)}
     label = np.array([index[t] for t in keys_rows], dtype=int)
-    keys = [{**({"muscle": m} if m else {}), "held_length_m": float(lengths[g]), "trial": int(tr), "direction": dn}
-            for m, g, tr, dn in uniq]
+    keys = [{**({"muscle": m} if m else {}), "held_length_m": float(lengths[g]), "trial": int(tr)}
+            for m, g, tr in uniq]
     return label, keys
 
 
@@ -611,7 +614,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         recorded rest length plus the family's mean shift (the recording's bias). [-]
     zeros : {"shared", "per-run"}, default "shared"
         The load cell's zero: the law's one ``offset_N`` (or none, for a law without one), or a zero
-        per run (:func:`zero_runs`: held length × trial × direction) as the law's zero plus a
+        per run (:func:`zero_runs`: held length × trial) as the law's zero plus a
         deviation ``zero_dev_<i>_N`` per run, the deviations summing to 0 (R − 1 of them fitted; so
         ``offset_N`` stays the runs' mean zero, which predicts a run the fit did not see). Each
         run's zero and its interval: :func:`run_zeros`. With a zero per run the runs' offsets are in
