@@ -79,9 +79,14 @@ def fit_cmd(
         return
     if out.get("tare", {}).get("method", "none") != "none":
         t = out["tare"]
-        vals = [r["tare_N"] for r in t.get("per_run_N", [])] or t.get("tare_N_range", [])
-        console.print(f"tare ({t['method']}): {len(t.get('per_run_N', []))} runs, "
-                      f"{min(vals):.3g} to {max(vals):.3g} N subtracted" if vals else f"tare ({t['method']})")
+        if t["method"] == "fitted":  # each run's zero fitted with the law, nothing subtracted
+            z = [r["zero_N"] for r in t.get("per_run_N", [])]
+            console.print(f"tare (fitted): {len(z)} runs, zeros {min(z):.3g} to {max(z):.3g} N fitted (intervals in "
+                          "--json)" if z else "tare (fitted)")
+        else:
+            vals = [r["tare_N"] for r in t.get("per_run_N", [])] or t.get("tare_N_range", [])
+            console.print(f"tare ({t['method']}): {len(t.get('per_run_N', []))} runs, "
+                          f"{min(vals):.3g} to {max(vals):.3g} N subtracted" if vals else f"tare ({t['method']})")
     if out.get("saved"):
         console.print(f"wrote muscle file {out['saved']} with the fitted {model} force law")
     if out["synthetic"]:
