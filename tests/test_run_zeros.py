@@ -28,18 +28,23 @@ TRIALS = (1, 2, 3)
 NOISE = 0.4  # [N], the load cell's scatter about a run's zero
 
 
-def _campaign(tmp_path, seed=33):
-    """The CSV and muscle file of a 4 × 3-run campaign (each swept up and down) with a zero per run."""
+def _campaign(tmp_path, seed=33, missed=0.0):
+    """The CSV and muscle file of a 4 × 3-run campaign (each swept up and down) with a zero per run.
+
+    ``missed`` [N]: a force the law lacks, the same at every pressure of a held length and alternating
+    in sign from one length to the next (what a wrong length dependence leaves behind).
+    """
     rng = np.random.default_rng(seed)
     b = L0 / np.cos(THETA0)
     geom = BraidGeometry(b, b / (np.pi * D0), 0.0)
     p_up = np.linspace(0.0, 600e3, 13)
     rows = []
-    for frac in LENGTHS:
+    for j, frac in enumerate(LENGTHS):
         for trial in TRIALS:
             zero = rng.normal(3.0, 4.0)  # a cell never zeroed: a few newtons either way, per run
             for direction, p in (("inflate", p_up), ("deflate", p_up[::-1])):
-                f = chou_hannaford_force(p, np.full(p.size, frac * L0), geom) + zero + rng.normal(0, NOISE, p.size)
+                f = (chou_hannaford_force(p, np.full(p.size, frac * L0), geom) + zero + missed * (-1) ** j
+                     + rng.normal(0, NOISE, p.size))
                 rows += [{"held_length_mm": frac * L0 * 1e3, "pressure_kPa": pk / 1e3, "force_N": fk,
                           "direction": direction, "trial": trial, "_zero": zero} for pk, fk in zip(p, f)]
     d = pd.DataFrame(rows)
@@ -73,6 +78,13 @@ def test_fitted_tare_recovers_each_runs_zero(tmp_path):
     assert not fit.flags, fit.flags
     # the zeros are reported beside the run they belong to
     assert {"held_length_m", "trial", "zero_N", "ci95_N"} <= set(runs[0])
+
+
+def test_zeros_that_carry_a_missed_force_are_flagged(tmp_path):
+    # ±60 N that changes with the held length (about 8 % of the ~700 N peak): the run zeros take it up
+    iso, toml, _ = _campaign(tmp_path, missed=60.0)
+    fit = fit_isometric(read_table(str(iso)), read_muscle(str(toml)), "chou-hannaford", tare="fitted")
+    assert "run_zeros_spread" in fit.flags  # (the same campaign without it carries no flag: the test above)
 
 
 def test_one_zero_for_the_whole_table_misses_the_runs(tmp_path):

@@ -663,6 +663,8 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
             x, names = np.column_stack([x, dev]), names + tuple(f"zero_dev_{i}_N" for i in range(dev.shape[1]))
         res = linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
                          source=source, clusters=None if zeros == "per-run" else clusters, cluster_unit="runs")
+        if zeros == "per-run":
+            res = _with_zero_spread_flag(res, d, fmax)
         return _with_monotone_flag(res, d)
     spec = _spec(model, muscle, fmax, p, ell, f, direction, rest)
     k = len(spec.names)
@@ -711,7 +713,24 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
                       source=source, physical_flags=lambda v: spec.physical(v[:k]) if spec.physical else [],
                       cluster_unit="runs", priors=spec.priors,
                       censored=d["censored"].to_numpy(dtype=int) if "censored" in d else None)
+    if zeros == "per-run":
+        res = _with_zero_spread_flag(res, d, fmax)
     return _with_monotone_flag(res, d)
+
+
+#: Runs' fitted zeros (``zeros="per-run"``) whose standard deviation exceeds
+#: :data:`~mckibben.models.laws._base.OFFSET_FLAG` × the peak force are flagged ``run_zeros_spread``:
+#: a zero per run can absorb any force that changes from one held length to the next, so zeros that
+#: spread past a load cell's plausible zero error carry force the law misses, and a run the fit did
+#: not see (predicted at the runs' mean zero) is off by that spread.
+ZERO_SPREAD_FLAG = OFFSET_FLAG
+
+
+def _with_zero_spread_flag(res: FitResult, d: pd.DataFrame, fmax: float) -> FitResult:
+    z = np.array([r["zero_N"] for r in run_zeros(res, d)])
+    if z.size > 1 and float(np.std(z)) > ZERO_SPREAD_FLAG * fmax:
+        return replace(res, flags=res.flags + ("run_zeros_spread",))
+    return res
 
 
 #: The figures :meth:`IsometricFit.plot` draws.
