@@ -23,9 +23,9 @@ With ``--physical [TARE]`` it runs the physical laws of issue 33 (item 3) per mu
 library (``compare_isometric(..., models=[chou-hannaford, wall-corrected, tondu-lopez])``,
 leave-one-length-out, ``--tare lowest`` or the TARE given, e.g. ``fitted``): each law's held-out
 RMSE as % of peak, the parameters at a bound, its zero, its geometry, and (``fitted``) the spread
-of the runs' zeros.
+of the runs' zeros; ``--physical TARE MODEL,MODEL`` runs those models instead.
 
-Run: python benchmarks/bench_real_models.py [--quick | --sensors | --physical [TARE]]   (--quick: the family only)
+Run: python benchmarks/bench_real_models.py [--quick | --sensors | --physical [TARE [MODELS]]]   (--quick: the family only)
 """
 
 from __future__ import annotations
@@ -132,8 +132,8 @@ def sensors_bench() -> int:
 PHYSICAL = ("chou-hannaford", "wall-corrected", "tondu-lopez")
 
 
-def physical_bench(tare: str = "lowest") -> int:
-    """The physical laws per muscle: held out, parameters at a bound, zero and geometry (issue 33, item 3)."""
+def physical_bench(tare: str = "lowest", models=PHYSICAL) -> int:
+    """The physical laws (or ``models``) per muscle: held out, parameters at a bound, zero and geometry (issue 33)."""
     from mckibben.data import read_muscle, read_table
     from mckibben.fit.isometric import compare_isometric
 
@@ -142,10 +142,10 @@ def physical_bench(tare: str = "lowest") -> int:
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         per, _, _ = lab_tables(Path(tmp))
-        print(f"per muscle, leave-one-length-out, tare {tare}: the physical laws")
+        print(f"per muscle, leave-one-length-out, tare {tare}: {', '.join(models)}")
         for m, rest, iso, toml in per:
             c = compare_isometric(read_table(str(iso)), read_muscle(str(toml)), "leave-one-length-out", tare=tare,
-                                  models=list(PHYSICAL))
+                                  models=list(models))
             print(f"  {m} (rest {rest:g} mm)")
             for s in c.scores:
                 r = c.fits[s["model"]].result
@@ -200,5 +200,6 @@ def main_bench(quick: bool = False) -> int:
 if __name__ == "__main__":
     if "--physical" in sys.argv:
         i = sys.argv.index("--physical")
-        sys.exit(physical_bench(sys.argv[i + 1] if len(sys.argv) > i + 1 else "lowest"))
+        rest = sys.argv[i + 1:]
+        sys.exit(physical_bench(rest[0] if rest else "lowest", tuple(rest[1].split(",")) if len(rest) > 1 else PHYSICAL))
     sys.exit(sensors_bench() if "--sensors" in sys.argv else main_bench("--quick" in sys.argv))
