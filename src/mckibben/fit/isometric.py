@@ -8,7 +8,7 @@ model                       force                                               
 ==========================  ===========================================================  ==========
 ``chou-hannaford``          π·D0²·P/4·(3cos²θ − 1), cos θ = L·cos θ0/L0                 θ0, D0
 ``wall-corrected``          the same + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]              θ0, D0, t
-``tondu-lopez``             π·r0²·P·[a(1 − kε)² − b], ε = 1 − L/L0                       α0, r0, k
+``tondu-lopez``             π·r0²·(P − P_th)·[a(1 − kε)² − b], ε = 1 − L/L0              α0, r0, k, P_th
 ``spring``                  K(P, Ls)·Ls, Ls = L − Lu(P), K per direction ([wickramatunge2010], eq. 1–2)  h, c
 ``surface``                 Σ a_ij·P^i·ε^j (i ≤ 3, j ≤ 1) + deflate·(b0 + b1·P)         a, b
 ==========================  ===========================================================  ==========
@@ -29,8 +29,11 @@ Physical bounds (``BOUNDS_NOTE``):
   the braid diameter at rest, which is about the outer diameter, and θ0 ≥ 15° keeps D0 below
   4 × that;
 - r0 (the braid radius at rest, an effective value) within [0.25, 1] × the outer diameter;
-- wall thickness t within [0, 0.25] × the outer diameter; Tondu–Lopez k within [0.5, 5];
-- offset within ± the largest measured force, flagged ``large_offset`` beyond 5 % of it;
+- wall thickness t within [0.01, 0.25] × the outer diameter; Tondu–Lopez k within [0.5, 5] and
+  its pressure threshold P_th within [0, 0.5] × the highest measured pressure;
+- offset within ± 10 % of the largest measured force for the physical laws (a load cell's
+  plausible zero error; ± all of it for the others), flagged ``large_offset`` beyond 5 % of it;
+- log-normal priors from the muscle file's outer diameter on θ0, D0, t and r0 (the laws' files);
 - spring stiffness: K ≥ 0 is checked at every data point (``negative_stiffness`` flag), not
   forced by bounds, since single coefficients of K may be negative while K stays positive.
 
@@ -76,10 +79,12 @@ if TYPE_CHECKING:
 __all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "MUSCLE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
            "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
-           "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length", "max_error", "parameter_names"]
+           "WALL_FACTOR", "ZEROS", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length",
+           "max_error", "parameter_names", "run_zeros", "zero_runs"]
 
 BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
-               "wall in [0, 0.25] x outer diameter; k in [0.5, 5]; |offset| <= peak force; spring K >= 0 checked")
+               "wall in [0.01, 0.25] x outer diameter; k in [0.5, 5]; tondu-lopez p_th in [0, 0.5] x top pressure; "
+               "|offset| <= 10 % of peak force (physical laws), peak force (others); spring K >= 0 checked")
 
 #: The data-driven model: no physical law, not in the law registry (the plant cannot run it).
 SURFACE = "surface"
