@@ -7,19 +7,21 @@ priors built from the outer diameter are what the spec says.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+import pandas as pd
 import pytest
 
+from mckibben.data import read_table
 from mckibben.data.io import MuscleSpec
-from mckibben.fit.isometric import fit_points
+from mckibben.fit.isometric import fit_isometric, fit_points
 from mckibben.models.geometry import BraidGeometry
 from mckibben.models.laws._base import OFFSET_FLAG
 from mckibben.models.laws.chou_hannaford import (BRAID_ANGLE_PRIOR, D0_PRIOR_FACTOR, WALL_MIN, WALL_PRIOR, ZERO_FACTOR,
                                                  braid_spec, chou_hannaford_force)
 from mckibben.models.laws.tondu_lopez import R0_PRIOR, fit_spec, tondu_lopez_force
 from mckibben.models.laws.wall_corrected import wall_corrected_force
-
-import pandas as pd
 
 L0, OD = 0.300, 0.012
 SPEC = MuscleSpec("c12", L0, outer_diameter=OD)
@@ -99,3 +101,22 @@ def test_a_zero_the_law_cannot_explain_sits_at_its_bound_and_says_so():
     d = _points(lambda p, ell: chou_hannaford_force(p, ell, _braid(theta0, d0)) - 0.2 * 300.0, 4)
     res = fit_points(d, SPEC, "chou-hannaford")
     assert "offset_N_at_lower_bound" in res.flags
+
+
+REAL = Path(__file__).resolve().parents[2] / "shared/data/real/festo10_isometric.csv"
+
+
+@pytest.mark.skipif(not REAL.is_file(), reason="real third-party data (../shared/data/real/) absent: not shipped")
+def test_on_the_real_festo_muscle_tondu_lopez_fits_a_threshold_not_a_large_zero(tmp_path):
+    d = pd.read_csv(REAL)
+    d = d[d["cut_length_cm"] == 10].rename(columns={"phase": "direction"})
+    iso = tmp_path / "festo10-10cm.csv"
+    d[["held_length_mm", "pressure_kPa", "force_N", "direction", "trial"]].to_csv(iso, index=False)
+    m = MuscleSpec("festo10-10cm", float(d["rest_length_mm"].iloc[0]) * 1e-3, outer_diameter=0.010)
+    fit = fit_isometric(read_table(str(iso)), m, "tondu-lopez", tare="lowest")
+    peak = float(np.max(np.abs(fit.data["force"])))
+    # before the threshold was fitted: a zero of -37.7 N (11 % of peak) and r0 at its lower bound;
+    # now a zero within a load cell's plausible error and a threshold of ~150 kPa (benchmarks/RESULTS.md)
+    assert abs(fit.result["offset_N"]) < OFFSET_FLAG * peak
+    assert 50e3 < fit.result["p_threshold_Pa"] < 250e3
+    assert not [f for f in fit.flags if f.endswith("_bound")], fit.flags
