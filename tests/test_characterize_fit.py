@@ -45,8 +45,26 @@ def test_tondu_lopez_fit_recovers_the_pressure_threshold(p_th):
 
 def test_a_saved_tondu_lopez_law_without_a_threshold_still_reads():
     spec = read_muscle(MUSCLE)
-    names = parameter_names("tondu-lopez", spec)  # the names of a saved law: no data, no threshold
-    assert "p_threshold_Pa" not in names and "p_threshold_Pa" in LAWS["tondu-lopez"].extra["optional_names"]
+    names = parameter_names("tondu-lopez", spec)  # the names a law is saved with now, the threshold among them
+    # and optional, so a law saved before the threshold was fitted (without it) reads
+    assert "p_threshold_Pa" in names and "p_threshold_Pa" in LAWS["tondu-lopez"].extra["optional_names"]
     old = force_law("tondu-lopez", spec, [0.432e-3, 1.63, 0.0])
     new = force_law("tondu-lopez", spec, [0.432e-3, 1.63, 0.29e6, 0.0])
     assert float(old(0.5e6, 0.09)) > float(new(0.5e6, 0.09)) > 0 and float(new(0.2e6, 0.09)) == 0.0
+
+
+def test_a_muscle_file_saved_without_the_threshold_reads_and_predicts(tmp_path):
+    """A Tondu–Lopez [force_model] written before the threshold was fitted (no p_threshold_Pa)
+    reads through the muscle-file reader and pulls as a law with no threshold."""
+    from mckibben.data.muscle_file import read_muscle as read
+    from mckibben.fit.muscle_file import muscle_force_law
+
+    text = MUSCLE.read_text() + (
+        '\n[force_model]\nmodel = "tondu-lopez"\nsource = "a campaign fitted before the threshold"\n'
+        "[force_model.parameters]\nr0_m = 0.000432\nk = 1.63\noffset_N = 0.0\n")
+    f = tmp_path / "old.toml"
+    f.write_text(text)
+    law = muscle_force_law(read(f))
+    assert "p_threshold_Pa" not in law.parameters
+    old = force_law("tondu-lopez", read(f), [0.432e-3, 1.63, 0.0])
+    assert float(law.force(0.5e6, 0.09)[0]) == pytest.approx(float(old(0.5e6, 0.09)))

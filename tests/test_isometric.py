@@ -97,12 +97,16 @@ def test_every_model_fits_the_synthetic_commercial_campaign():
 
 
 def test_physical_models_are_flagged_on_data_they_cannot_explain():
-    # the truth has an opening pressure and rubber elasticity the ideal braid lacks: the ideal
-    # braid buys a large load-cell zero to make up for it, and says so; Tondu-Lopez fits the opening
-    # pressure (its threshold) and still cannot follow the rubber within its bounds
+    # the truth has an opening pressure and rubber elasticity the ideal braid lacks: the ideal braid
+    # buys a large load-cell zero to make up for it, and says so
     t, m = read_table(ISO), read_muscle(MUSCLE)
     assert "large_offset" in fit_isometric(t, m, "chou-hannaford").flags
-    assert fit_isometric(t, m, "tondu-lopez").flags
+    # Tondu-Lopez fits the opening pressure as its threshold instead of absorbing it in the zero
+    # (P_open = 15 kPa, datasets/isometric.py; the elasticity it lacks moves it a few kPa), and
+    # still says it cannot explain the rest
+    tl = fit_isometric(t, m, "tondu-lopez")
+    assert 10e3 < tl.result["p_threshold_Pa"] < 30e3
+    assert tl.flags
 
 
 def test_compare_picks_the_best_on_held_out_lengths():
@@ -313,10 +317,11 @@ def test_tondu_lopez_and_spring_cover_with_per_trial_offsets():
     def forces(clean):
         return clean + rng.normal(0, 1.5, (200, runs.max() + 1))[:, runs] + rng.normal(0, 0.4, (200, len(d)))
 
-    # Tondu–Lopez, alpha0 = 25 deg, r0 = 6 mm, k = 1.3, zero 2 N
-    truth = np.array([np.deg2rad(25.0), 6e-3, 1.3, 2.0])
-    covered, flagged = np.zeros(4), 0
-    for f in forces(tondu_lopez_force(p, 1 - ell / L0, truth[1], truth[0], truth[2]) + truth[3]):
+    # Tondu–Lopez, alpha0 = 25 deg, r0 = 6 mm, k = 1.3, a threshold of 20 kPa, zero 2 N
+    truth = np.array([np.deg2rad(25.0), 6e-3, 1.3, 20e3, 2.0])
+    covered, flagged = np.zeros(5), 0
+    for f in forces(tondu_lopez_force(np.maximum(p - truth[3], 0.0), 1 - ell / L0, truth[1], truth[0], truth[2])
+                    + truth[4]):
         r = fit_points(d.assign(force=f), SPEC, "tondu-lopez")
         if r.flags:  # alpha0 trades against r0: some campaigns end on r0's bound, and say so
             assert any(fl.endswith("_bound") for fl in r.flags) and np.isnan(r.stderr).any()

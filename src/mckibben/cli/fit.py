@@ -36,7 +36,8 @@ def fit_cmd(
     kind: str = typer.Option(None, "--kind", metavar=choices(KINDS), help="Experiment kind, if neither the file name nor its columns tell."),
     split_pressure: str = typer.Option(None, "--split-pressure", help="spring: low/high range split (default: median pressure)."),
     tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest (each run's force at its "
-                                                    "lowest pressure) or column (a tare_N column)."),
+                                                    "lowest pressure), column (a tare_N column) or fitted (each "
+                                                    "run's zero fitted with the law, with its interval)."),
     save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law."),
     rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail (a load-cell floor): keep "
                                                       "(default, counted), exclude, or censor (a reading at a floor "
@@ -78,9 +79,14 @@ def fit_cmd(
         return
     if out.get("tare", {}).get("method", "none") != "none":
         t = out["tare"]
-        vals = [r["tare_N"] for r in t.get("per_run_N", [])] or t.get("tare_N_range", [])
-        console.print(f"tare ({t['method']}): {len(t.get('per_run_N', []))} runs, "
-                      f"{min(vals):.3g} to {max(vals):.3g} N subtracted" if vals else f"tare ({t['method']})")
+        if t["method"] == "fitted":  # each run's zero fitted with the law, nothing subtracted
+            z = [r["zero_N"] for r in t.get("per_run_N", [])]
+            console.print(f"tare (fitted): {len(z)} runs, zeros {min(z):.3g} to {max(z):.3g} N fitted (intervals in "
+                          "--json)" if z else "tare (fitted)")
+        else:
+            vals = [r["tare_N"] for r in t.get("per_run_N", [])] or t.get("tare_N_range", [])
+            console.print(f"tare ({t['method']}): {len(t.get('per_run_N', []))} runs, "
+                          f"{min(vals):.3g} to {max(vals):.3g} N subtracted" if vals else f"tare ({t['method']})")
     if out.get("saved"):
         console.print(f"wrote muscle file {out['saved']} with the fitted {model} force law")
     if out["synthetic"]:
@@ -105,7 +111,7 @@ def compare_cmd(
     old_muscle: str = OLD_MUSCLE_FILE_OPTION,
     cv: str = typer.Option(None, "--cv", metavar=choices(CV_METHODS), help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
                                               "family table (muscle and rest_length columns), leave-one-muscle-out."),
-    tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest or column (see docs/data.md)."),
+    tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest, column or fitted (see docs/data.md)."),
     rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail: keep (default), exclude or censor "
                                                       "(a reading at a floor says only force <= floor)."),
     pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: "

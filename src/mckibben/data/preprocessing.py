@@ -14,8 +14,9 @@ from mckibben.data.tables import Table
 from mckibben.errors import InputError, check_instance, unknown_name
 
 
-#: Tare methods of :func:`apply_tare`.
-TARES = ("none", "lowest", "column")
+#: Tare methods of :func:`apply_tare` (``"fitted"``: each run's zero is fitted with the force law,
+#: :func:`mckibben.fit.isometric.fit_points`; the table is left as read).
+TARES = ("none", "lowest", "column", "fitted")
 #: Pressure-zero methods of :func:`apply_pressure_zero`.
 PRESSURE_ZEROS = ("none", "lowest", "column")
 #: What to do with rows at a sensor's rail (:func:`find_rails`): keep them as readings, exclude
@@ -84,7 +85,7 @@ def apply_pressure_zero(table: Table, method: str = "none") -> tuple[Table, dict
     ----------
     table : Table
         A table with a pressure column. [-]
-    method : {"none", "lowest", "column"}, default "none"
+    method : {"none", "lowest", "column", "fitted"}, default "none"
         How to find the offset. [-]
 
     Returns
@@ -124,6 +125,8 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
       removes real pre-tension at rest length: use it when the models should see force due to
       pressure only.
     - ``"column"``: the table's ``tare`` column (a tare run's reading) is subtracted row by row.
+    - ``"fitted"``: nothing is subtracted here (pre-tension is kept as force); each run's zero is
+      a parameter of the fit, with its interval (:func:`mckibben.fit.isometric.fit_points`).
 
     Parameters
     ----------
@@ -135,7 +138,7 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
     Returns
     -------
     table : Table
-        The table with the force tared (the same table for ``"none"``).
+        The table with the force tared (the same table for ``"none"`` and ``"fitted"``).
     report : dict
         ``method`` and, when used, ``per_run_N``: a list of ``{held_length_m, trial, tare_N}``
         (``"lowest"``) or ``tare_N_range`` (``"column"``). Printed by the CLI when a tare is used.
@@ -147,7 +150,7 @@ def apply_tare(table: Table, method: str = "none") -> tuple[Table, dict]:
         raise InputError(f"tare: applies to isometric tables; {table.path} is a {table.kind} table")
     d = table.data.copy()
     report: dict = {"method": method}
-    if method == "none":
+    if method in ("none", "fitted"):
         if "tare" in d:
             report["note"] = "the tare column was not subtracted (use tare 'column')"
         return table, report

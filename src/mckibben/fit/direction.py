@@ -404,8 +404,16 @@ def _law_name(model: str) -> str:
     return name
 
 
+def _no_fitted_tare(tare: str) -> None:
+    """A direction-aware fit has one load-cell zero: ``tare="fitted"`` (a zero per run) is refused by name."""
+    if tare == "fitted":
+        raise InputError("tare: 'fitted' (a zero per run) applies to the plain laws' fit and compare; a direction-aware"
+                         " fit takes none, lowest or column")
+
+
 def _points(table: Table, tare: str, rails: str, pressure_zero: str, trials=None):
     """All points (the history) and which of them enter the residuals (rails excluded or kept)."""
+    _no_fitted_tare(tare)
     d, report = isometric_points(table, tare, "keep", pressure_zero)
     fitted = np.ones(len(d), dtype=bool)
     if rails == "exclude":
@@ -732,6 +740,7 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
         held-out force RMSE of both), the operator's values per fold (``play_threshold_Pa``), and
         ``note`` (why a law could not be scored).
     """
+    _no_fitted_tare(tare)
     if models is None:
         d, _ = isometric_points(table, tare, "keep", pressure_zero)
         models = list(laws.fit_laws(family=True) if is_family(d) else laws.fit_laws())

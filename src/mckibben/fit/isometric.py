@@ -8,7 +8,7 @@ model                       force                                               
 ==========================  ===========================================================  ==========
 ``chou-hannaford``          π·D0²·P/4·(3cos²θ − 1), cos θ = L·cos θ0/L0                 θ0, D0
 ``wall-corrected``          the same + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]              θ0, D0, t
-``tondu-lopez``             π·r0²·P·[a(1 − kε)² − b], ε = 1 − L/L0                       α0, r0, k
+``tondu-lopez``             π·r0²·(P − P_th)·[a(1 − kε)² − b], ε = 1 − L/L0              α0, r0, k, P_th
 ``spring``                  K(P, Ls)·Ls, Ls = L − Lu(P), K per direction ([wickramatunge2010], eq. 1–2)  h, c
 ``surface``                 Σ a_ij·P^i·ε^j (i ≤ 3, j ≤ 1) + deflate·(b0 + b1·P)         a, b
 ==========================  ===========================================================  ==========
@@ -29,8 +29,11 @@ Physical bounds (``BOUNDS_NOTE``):
   the braid diameter at rest, which is about the outer diameter, and θ0 ≥ 15° keeps D0 below
   4 × that;
 - r0 (the braid radius at rest, an effective value) within [0.25, 1] × the outer diameter;
-- wall thickness t within [0, 0.25] × the outer diameter; Tondu–Lopez k within [0.5, 5];
-- offset within ± the largest measured force, flagged ``large_offset`` beyond 5 % of it;
+- wall thickness t within [0.01, 0.25] × the outer diameter; Tondu–Lopez k within [0.5, 5] and
+  its pressure threshold P_th within [0, 0.5] × the highest measured pressure;
+- offset within ± 10 % of the largest measured force for the physical laws (a load cell's
+  plausible zero error; ± all of it for the others), flagged ``large_offset`` beyond 5 % of it;
+- log-normal priors from the muscle file's outer diameter on θ0, D0, t and r0 (the laws' files);
 - spring stiffness: K ≥ 0 is checked at every data point (``negative_stiffness`` flag), not
   forced by bounds, since single coefficients of K may be negative while K stays positive.
 
@@ -79,10 +82,12 @@ if TYPE_CHECKING:
 __all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "MUSCLE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
            "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
-           "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length", "max_error", "parameter_names"]
+           "WALL_FACTOR", "ZEROS", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length",
+           "max_error", "parameter_names", "run_zeros", "zero_runs"]
 
 BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
-               "wall in [0, 0.25] x outer diameter; k in [0.5, 5]; |offset| <= peak force; spring K >= 0 checked")
+               "wall in [0.01, 0.25] x outer diameter; k in [0.5, 5]; tondu-lopez p_th in [0, 0.5] x top pressure; "
+               "|offset| <= 10 % of peak force (physical laws), peak force (others); spring K >= 0 checked")
 
 #: The data-driven model: no physical law, not in the law registry (the plant cannot run it).
 SURFACE = "surface"
@@ -342,7 +347,7 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
     ----------
     table : Table
         An ``isometric`` table.
-    tare : {"none", "lowest", "column"}, default "none"
+    tare : {"none", "lowest", "column", "fitted"}, default "none"
         See :func:`mckibben.data.preprocessing.apply_tare`. [-]
     rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a rail: kept (counted, flagged), excluded from the fit, or censored (a force at
@@ -503,6 +508,96 @@ def _runs(d: pd.DataFrame) -> np.ndarray:
     return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
 
 
+def zero_runs(d: pd.DataFrame) -> tuple[np.ndarray, list]:
+    """Run label per row and each run's keys, a run being what has one zero of the load cell.
+
+    A run is one held length × trial, of one muscle in a family (the clusters of the covariance and
+    the runs of ``tare="lowest"``): one clamping, its pressure swept up and back down. Its inflate
+    and deflate phases share the zero: nothing re-zeroes the cell between them, and a zero per
+    phase would take the up/down gap (the hysteresis loop, a force the law misses) for a zero; on
+    the real Festo 10 mm muscles per-phase zeros spread with a standard deviation of 20–32 N
+    (benchmarks/RESULTS.md).
+
+    Parameters
+    ----------
+    d : pandas.DataFrame
+        Isometric points: ``held_length`` [m], ``trial`` (``muscle`` of a family).
+
+    Returns
+    -------
+    label : numpy.ndarray
+        Run index per row (0 … R−1). [-]
+    keys : list of dict
+        Per run: ``held_length_m``, ``trial`` (and ``muscle``). [-]
+    """
+    groups, lengths = set_point_groups(d["held_length"].to_numpy(dtype=float), decimals=6)
+    who = d["muscle"].astype(str).to_numpy() if "muscle" in d else np.full(len(d), "")
+    keys_rows = list(zip(who, groups, d["trial"].to_numpy()))
+    uniq = sorted(set(keys_rows), key=lambda t: (t[0], int(t[1]), t[2]))
+    index = {t: i for i, t in enumerate(uniq)}
+    label = np.array([index[t] for t in keys_rows], dtype=int)
+    keys = [{**({"muscle": m} if m else {}), "held_length_m": float(lengths[g]), "trial": int(tr)}
+            for m, g, tr in uniq]
+    return label, keys
+
+
+#: How each run's load-cell zero enters a fit: as the law's one zero, or fitted per run (``tare="fitted"``).
+ZEROS = ("shared", "per-run")
+
+
+def _zero_contrasts(d: pd.DataFrame) -> np.ndarray:
+    """Sum-to-zero contrasts of the runs (:func:`zero_runs`): column i is 1 on run i, −1 on the last run. [-]"""
+    label, keys = zero_runs(d)
+    r = len(keys)
+    c = np.zeros((label.size, max(r - 1, 0)))
+    for i in range(r - 1):
+        c[label == i, i] = 1.0
+    c[label == r - 1, :] = -1.0
+    return c
+
+
+def run_zeros(res: FitResult, d: pd.DataFrame) -> list:
+    """Each run's fitted load-cell zero and its 95 % interval, from a fit with ``zeros="per-run"``.
+
+    A run's zero is the law's ``offset_N`` (0 for a law without one) plus its deviation (the last
+    run's, minus the sum of the others'); its variance is cᵀ·Σ·c over the covariance Σ of the fit.
+
+    Parameters
+    ----------
+    res : FitResult
+        A fit by :func:`fit_points` with ``zeros="per-run"``. [-]
+    d : pandas.DataFrame
+        The points it was fitted on. [-]
+
+    Returns
+    -------
+    list of dict
+        Per run (:func:`zero_runs`'s keys): ``zero_N`` and ``ci95_N`` ([lo, hi], NaN-free only when
+        the zero's deviation is off its bounds). [N]
+    """
+    _, keys = zero_runs(d)
+    names = list(res.names)
+    dev = [names.index(f"zero_dev_{i}_N") for i in range(len(keys) - 1)]
+    base = names.index("offset_N") if "offset_N" in names else None
+    cov = np.asarray(res.covariance, dtype=float)
+    tq = res.t_quantile
+    out = []
+    for r, key in enumerate(keys):
+        c = np.zeros(len(names))
+        if base is not None:
+            c[base] = 1.0
+        if r < len(dev):
+            c[dev[r]] = 1.0
+        else:
+            c[dev] = -1.0
+        z = float(c @ np.asarray(res.values, dtype=float))
+        used = c != 0
+        var = float(c[used] @ cov[np.ix_(used, used)] @ c[used])
+        half = tq * np.sqrt(var) if np.isfinite(var) and var >= 0 else float("nan")
+        out.append({**key, "zero_N": z, "ci95_N": [z - half, z + half]})
+    return out
+
+
 #: How a family's rest lengths enter a fit: as recorded, or each muscle's fitted as a nuisance parameter.
 REST_LENGTHS = ("nominal", "fitted")
 #: Largest fitted rest-length shift, as a fraction of the muscle's recorded rest length. [-]
@@ -510,7 +605,7 @@ REST_SHIFT_MAX = 0.05
 
 
 def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "",
-               rest_lengths: str = "nominal") -> FitResult:
+               rest_lengths: str = "nominal", zeros: str = "shared") -> FitResult:
     """Fit one force model to isometric points (already tared). See :func:`fit_isometric`.
 
     Parameters
@@ -530,6 +625,15 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         length is measured to a millimetre or so, and a family law's end length absorbs the
         errors otherwise. A muscle the fit did not see (a held-out one) is predicted at its
         recorded rest length plus the family's mean shift (the recording's bias). [-]
+    zeros : {"shared", "per-run"}, default "shared"
+        The load cell's zero: the law's one ``offset_N`` (or none, for a law without one), or a zero
+        per run (:func:`zero_runs`: held length × trial) as the law's zero plus a
+        deviation ``zero_dev_<i>_N`` per run, the deviations summing to 0 (R − 1 of them fitted; so
+        ``offset_N`` stays the runs' mean zero, which predicts a run the fit did not see). Each
+        run's zero and its interval: :func:`run_zeros`. With a zero per run the runs' offsets are in
+        the model, and a cluster-robust covariance by run would see no scatter in them (a run's own
+        zero absorbs its residuals' mean): the covariance is s²·(JᵀJ)⁻¹, the rows of a run taken as
+        independent about its zero. [-]
 
     Returns
     -------
@@ -537,6 +641,8 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
     """
     if rest_lengths not in REST_LENGTHS:
         raise unknown_name("rest_lengths", rest_lengths, REST_LENGTHS)
+    if zeros not in ZEROS:
+        raise unknown_name("zeros", zeros, ZEROS)
     model = model_name(model)
     what = f"fit {model} on {source}"
     p = d["pressure"].to_numpy(dtype=float)
@@ -565,13 +671,19 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
             return sum(v * t for v, t in zip(values, terms))
 
         names = SURFACE_NAMES[: x.shape[1]]
+        if zeros == "per-run":
+            dev = _zero_contrasts(d)
+            x, names = np.column_stack([x, dev]), names + tuple(f"zero_dev_{i}_N" for i in range(dev.shape[1]))
         res = linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
-                         source=source, clusters=clusters, cluster_unit="runs")
+                         source=source, clusters=None if zeros == "per-run" else clusters, cluster_unit="runs")
+        if zeros == "per-run":
+            res = _with_zero_spread_flag(res, d, fmax)
         return _with_monotone_flag(res, d)
     spec = _spec(model, muscle, fmax, p, ell, f, direction, rest)
     k = len(spec.names)
     names, lo, hi, starts = spec.names, spec.lo, spec.hi, spec.starts
     recorded = np.zeros(0)
+    m_shift = 0
     if rest_lengths == "fitted":
         if not (family and is_family(d)):
             raise InputError(f"{what}: rest_lengths 'fitted' needs a family law on a family table (a muscle and a "
@@ -579,31 +691,59 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         who = d["muscle"].astype(str).to_numpy()
         musc, idx = np.unique(who, return_inverse=True)
         recorded = np.array([rest[who == m][0] for m in musc])
+        m_shift = musc.size
         names = names + tuple(f"rest_shift_{m}_m" for m in musc)
         lo = np.concatenate([lo, -REST_SHIFT_MAX * recorded])
         hi = np.concatenate([hi, REST_SHIFT_MAX * recorded])
         starts = [np.concatenate([x0, np.zeros(musc.size)]) for x0 in starts]
-        rest_fit = lambda v: rest + v[k:][idx]  # noqa: E731 - each row's muscle's fitted rest length
+        rest_fit = lambda v: rest + v[k:k + m_shift][idx]  # noqa: E731 - each row's muscle's fitted rest length
     else:
         rest_fit = lambda v: rest  # noqa: E731
+    dev = np.zeros((p.size, 0))
+    if zeros == "per-run":
+        dev = _zero_contrasts(d)
+        names = names + tuple(f"zero_dev_{i}_N" for i in range(dev.shape[1]))
+        lo = np.concatenate([lo, np.full(dev.shape[1], -fmax)])
+        hi = np.concatenate([hi, np.full(dev.shape[1], fmax)])
+        starts = [np.concatenate([x0, np.zeros(dev.shape[1])]) for x0 in starts]
+    kz = k + m_shift  # the run zeros' deviations start here
 
     def func(values, pressure, length, direction="inflate", rest_length=None):
         values = np.asarray(values, dtype=float)
-        if rest_length is not None and values.size > k:
+        if rest_length is not None and m_shift:
             # the muscles the fit saw at their fitted rest length, any other at the family's mean shift
             # (the recording's bias: a muscle's own scatter about it is what the fit cannot know)
             rl = np.asarray(rest_length, dtype=float)
+            shifts = values[k:kz]
             seen = [np.isclose(rl, r0, rtol=0, atol=1e-9) for r0 in recorded]
-            rest_length = rl + sum(np.where(m, dv, 0.0) for m, dv in zip(seen, values[k:])) + np.where(
-                np.any(seen, axis=0), 0.0, float(np.mean(values[k:])))
-        return spec.force(values[:k], pressure, length, direction, rest_length)
+            rest_length = rl + sum(np.where(m, dv, 0.0) for m, dv in zip(seen, shifts)) + np.where(
+                np.any(seen, axis=0), 0.0, float(np.mean(shifts)))
+        return spec.force(values[:k], pressure, length, direction, rest_length)  # a run's zero: the runs' mean
 
-    res = bounded_fit(lambda v: spec.force(v[:k], p, ell, direction, rest_fit(v)), f, starts, names, lo, hi,
-                      model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
+    res = bounded_fit(lambda v: spec.force(v[:k], p, ell, direction, rest_fit(v)) + dev @ v[kz:], f, starts, names,
+                      lo, hi, model=model, response="force_N", what=what, valid_range=vr, func=func,
+                      clusters=None if zeros == "per-run" else clusters,
                       source=source, physical_flags=lambda v: spec.physical(v[:k]) if spec.physical else [],
                       cluster_unit="runs", priors=spec.priors,
                       censored=d["censored"].to_numpy(dtype=int) if "censored" in d else None)
+    if zeros == "per-run":
+        res = _with_zero_spread_flag(res, d, fmax)
     return _with_monotone_flag(res, d)
+
+
+#: Runs' fitted zeros (``zeros="per-run"``) whose standard deviation exceeds
+#: :data:`~mckibben.models.laws._base.OFFSET_FLAG` × the peak force are flagged ``run_zeros_spread``:
+#: a zero per run can absorb any force that changes from one held length to the next, so zeros that
+#: spread past a load cell's plausible zero error carry force the law misses, and a run the fit did
+#: not see (predicted at the runs' mean zero) is off by that spread.
+ZERO_SPREAD_FLAG = OFFSET_FLAG
+
+
+def _with_zero_spread_flag(res: FitResult, d: pd.DataFrame, fmax: float) -> FitResult:
+    z = np.array([r["zero_N"] for r in run_zeros(res, d)])
+    if z.size > 1 and float(np.std(z)) > ZERO_SPREAD_FLAG * fmax:
+        return replace(res, flags=res.flags + ("run_zeros_spread",))
+    return res
 
 
 #: The figures :meth:`IsometricFit.plot` draws.
@@ -657,8 +797,10 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
         The muscle file (nominal length and outer diameter are required).
     model : str, default "spring"
         A key of :data:`ALL_MODELS`. [-]
-    tare : {"none", "lowest", "column"}, default "none"
-        See :func:`mckibben.data.preprocessing.apply_tare`. [-]
+    tare : {"none", "lowest", "column", "fitted"}, default "none"
+        See :func:`mckibben.data.preprocessing.apply_tare`; ``"fitted"``: the force is left as read (pre-tension
+        kept) and each run's zero is fitted (:func:`fit_points` with ``zeros="per-run"``), reported
+        with its interval in ``tare["per_run_N"]`` (:func:`run_zeros`). [-]
     rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a sensor's rail (:func:`isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
@@ -677,7 +819,10 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     check_instance(table, "table", Table, "a Table (mckibben.read_table)")
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
     d, report = isometric_points(table, tare, rails, pressure_zero)
-    res = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths)
+    zeros = "per-run" if tare == "fitted" else "shared"
+    res = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths, zeros=zeros)
+    if zeros == "per-run":
+        report["per_run_N"] = run_zeros(res, d)
     return IsometricFit(model, res, muscle, report, d)
 
 
@@ -912,7 +1057,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         The muscle file (for a family: the type's outer diameter and geometry). [-]
     cv : {"leave-one-length-out", "leave-one-trial-out", "leave-one-muscle-out"}
         Cross-validation scheme. [-]
-    tare : {"none", "lowest", "column"}, default "none"
+    tare : {"none", "lowest", "column", "fitted"}, default "none"
         See :func:`mckibben.data.preprocessing.apply_tare`. [-]
     models : sequence of str, optional
         Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`MUSCLE_MODELS`). [-]
@@ -932,6 +1077,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     if cv not in CV_METHODS:
         raise unknown_name("`cv` scheme", cv, CV_METHODS)
     d, report = isometric_points(table, tare, rails, pressure_zero)
+    zeros = "per-run" if tare == "fitted" else "shared"
     family = is_family(d)
     if rest_lengths not in REST_LENGTHS:
         raise unknown_name("rest_lengths", rest_lengths, REST_LENGTHS)
@@ -958,7 +1104,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     scores, fits = [], {}
     for model in models:
         try:
-            full = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths)
+            full = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths, zeros=zeros)
         except InputError as exc:
             scores.append({"model": model, "n_parameters": 0, "rmse_N": None, "r2": None, "max_error_N": None,
                            "max_error_pct_of_peak": None, "cv_rmse_N": None, "cv_rmse_pct_of_peak": None,
@@ -966,7 +1112,9 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
                            "extrapolated_folds": 0, "flags": [], "folds": [],
                            "note": f"not fitted: {exc}"})
             continue
-        fits[model] = IsometricFit(model, full, muscle, report, d)
+        # each model's own run zeros (tare "fitted") in its fit's report
+        fits[model] = IsometricFit(model, full, muscle, {**report, "per_run_N": run_zeros(full, d)}
+                                   if zeros == "per-run" else report, d)
         pred = np.full(f.size, np.nan)
         inside = np.zeros(f.size, dtype=bool)  # points of the folds that predict within the fitted range
         extrapolated, notes, folds = 0, [], []
@@ -974,7 +1122,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
             test = key == g
             try:
                 r = fit_points(d[~test], muscle, model, source=table.path,
-                               rest_lengths=rest_lengths if is_family(d[~test]) else "nominal")
+                               rest_lengths=rest_lengths if is_family(d[~test]) else "nominal", zeros=zeros)
             except InputError as exc:
                 notes.append(f"fold {fold_names[int(g)]} not fitted: {exc}")
                 continue
