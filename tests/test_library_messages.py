@@ -25,6 +25,11 @@ KNOWN = {
     ("rig/engines/avr.py", "--stall-at"): "the PIL harness's own flag",
     ("rig/engines/avr.py", "--hold-adc"): "the PIL harness's own flag",
     ("rig/engines/avr.py", "--load-cell"): "the PIL harness's own flags (--load-cell, -offset, -noise, -seed)",
+    ("rig/engines/avr.py", "--bench-dir"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--adc-miss-at"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--adc-miss-n"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--profile"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--rings"): "the PIL harness's own flag",
     # provenance notes of the generated data: the command that generated them
     ("datasets/campaign.py", "mckibben datasets generate --seed"): "provenance of generated data",
     ("datasets/isometric.py", "mckibben fit isometric.csv --model spring --json"): "the generated data's README",

@@ -5,16 +5,16 @@ emulator and the firmware image in simavr) has no operator, so beside its serial
 small line-based Unix socket through which a script changes the bench of channel 0. One request per
 line, SI numbers, one reply line each:
 
-==================  =====================================================  ==========================
-request             what the bench does                                    reply
-==================  =====================================================  ==========================
-``load F``          hangs a weight of F newtons (``F >= 0``)               ``ok``
-``hold L``          clamps the muscle's end at length L metres (isometric)  ``ok``
-``release``         lets the end go again (the weight hangs)               ``ok``
-``state``           reports the bench of channel 0                         ``ok load F length L
-                                                                           pressure P held 0|1``
-anything else       nothing                                                ``error: <reason>``
-==================  =====================================================  ==========================
+=============  ======================================================  =======================
+request        what the bench does                                     reply
+=============  ======================================================  =======================
+``load F``     hangs a weight of F newtons (``F >= 0``)                ``ok``
+``hold L``     clamps the muscle's end at length L metres (isometric)  ``ok``
+``release``    lets the end go again (the weight hangs)                ``ok``
+``state``      reports the bench of channel 0                          ``ok load F length L``
+                                                                       ``pressure P held 0|1``
+anything else  nothing                                                 ``error: <reason>``
+=============  ======================================================  =======================
 
 The socket of a device whose serial port is ``PORT`` is :func:`bench_path` ``(PORT)`` (a symbolic
 link to the port leads to the same socket), so a script that knows the port finds its bench:

@@ -502,7 +502,7 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
         if not journal.is_dir():
             raise InputError(f"resume: {str(out)!r} holds no run to resume (no steps.journal)")
     elif out.is_dir() and any(out.iterdir()):
-        raise InputError(f"out: {str(out)!r} is not empty (give --resume to go on with its run)")
+        raise InputError(f"out: {str(out)!r} is not empty (give `resume` to go on with its run)")
     limit = min(proto.max_pressure, float(P_MAX_DEFAULT))
     meta_file = journal / "run.json"
     if resume and meta_file.is_file():
@@ -576,11 +576,11 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
     except KeyboardInterrupt:
         s.vent()
         raise CharacterizeStopped(f"port {port}: stopped by the operator; valves vented; "
-                                  f"{len(_done_parts(journal))} load steps kept in {out} (--resume goes on)") from None
+                                  f"{len(_done_parts(journal))} load steps kept in {out} (`resume` goes on)") from None
     except EOFError:  # asked with no one to answer (standard input closed)
         s.vent()
         raise CharacterizeStopped(f"port {port}: stopped: no operator to answer (standard input is closed; on an "
-                                  f"emulated bench give --unattended); valves vented; {len(_done_parts(journal))} "
+                                  f"emulated bench give `unattended`); valves vented; {len(_done_parts(journal))} "
                                   f"load steps kept in {out}") from None
     finally:
         s.close()
