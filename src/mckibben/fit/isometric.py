@@ -710,7 +710,7 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
 
     def func(values, pressure, length, direction="inflate", rest_length=None):
         values = np.asarray(values, dtype=float)
-        if rest_length is not None and m_shift:
+        if rest_length is not None and m_shift and values.size >= kz:  # the law's values alone: as recorded
             # the muscles the fit saw at their fitted rest length, any other at the family's mean shift
             # (the recording's bias: a muscle's own scatter about it is what the fit cannot know)
             rl = np.asarray(rest_length, dtype=float)
