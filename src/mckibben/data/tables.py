@@ -548,19 +548,20 @@ def _meant(quantity: str, frame, aside: list[str]) -> str:
 
 
 def _check_plausible(data: pd.DataFrame, cols: dict, name: str, is_csv: bool) -> None:
-    """Refuse a magnitude no braided muscle produces (:data:`mckibben.limits.PLAUSIBLE_MAX`)."""
+    """Refuse a magnitude no braided muscle produces (:data:`mckibben.limits.PLAUSIBLE_MAX`), or a length
+    below :data:`mckibben.limits.PLAUSIBLE_MIN_LENGTH` (metres under a millimetre heading)."""
 
     for q, (_, _, col) in cols.items():
         if q not in QUANTITIES:
             continue
         dim = QUANTITIES[q][0]
-        i = first_implausible(data[q].to_numpy(), dim)
+        v = data[q].to_numpy(dtype=float)
+        i = first_implausible(v, dim)
         if i is not None:
             r = int(data.index[i])
             raise InputError(f"{_where(name, r, col, is_csv)}: {_g(data[q].iloc[i])} {SI_UNIT[dim]} is not a plausible "
                              f"{QUANTITIES[q][2].split(' (')[0]} (more than {PLAUSIBLE_MAX[dim]:g} {SI_UNIT[dim]})")
         if dim == "length":
-            v = data[q].to_numpy(dtype=float)
             short = np.flatnonzero(np.isfinite(v) & (v < PLAUSIBLE_MIN_LENGTH))
             if short.size:
                 r = int(data.index[short[0]])

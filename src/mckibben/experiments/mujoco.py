@@ -30,7 +30,6 @@ from mckibben.datasets import get_muscle
 from mckibben.models import laws as LW
 from mckibben.models.laws.braid_map import LAW as BRAID_MAP
 from mckibben.models.mpam import MiniatureMuscle, predict_length
-from mckibben.plant import params as PP
 from mckibben.plant.simulator import static_equilibrium
 from mckibben.results import Result, TimeResponse
 from mckibben.units import si
@@ -160,8 +159,9 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     plant = muscle_plant(m_obj, force_model, **({} if friction else {"friction_force": 0.0, "friction_per_pa": 0.0}))
     model = load_model(hanging_mass_mjcf(plant, load, timestep))
     data = mujoco.MjData(model)
+    name, th = plant.law(1)  # the law the plant resolved its force model to
     # the braid-angle maps pull less when stretched below ~0.25 MPa: checked over the held pressures only
-    floor = 0.9 * pressure if PP.LAW_NAMES.get(force_model or "calibrated") == BRAID_MAP.name else 0.0
+    floor = 0.9 * pressure if name == BRAID_MAP.name else 0.0
     # the supervisor's p_max at the transducer's full scale: its headroom cap holds a chamber some tens
     # of kPa below p_max (docs/controller.md, 2b), and this rig holds `pressure`, the calibration
     # point 0.8 MPa included (the 0.8 MPa supply bounds the chamber)
@@ -183,7 +183,6 @@ def hanging_mass(muscle="mpam97", pressure=0.4e6, load=0.6, *, force_model: str 
     held = float(np.mean(p_arr[tail]))
     predicted = float(predict_length(m_obj, held, load).length)
     prm = plant.replace(load_force=load).pack(1)
-    name, th = plant.law(1)
     plant_len = float(static_equilibrium(prm, LW.LAW_INDEX[name], th, held)[0][0])
     return HangingMassResult(np.array(t), p_arr, np.array(ln), np.array(f), m_obj.name, float(load), float(pressure),
                              predicted, plant_len,

@@ -174,13 +174,9 @@ class MiniatureMuscle:
 
     @property
     def length_stops(self) -> tuple[float, float]:
-        """The braid's end stops through eq. (2): locking angle (cos θ = 1/√3) and straight braid (cos θ = 1). [m]
-
-        ``k1·Ls/√3 + k2`` and ``k1·Ls + k2`` ([mpam-characterization], eq. (2)); no length outside
-        them is a length this muscle can take (the plant's end stops are the same).
-        """
-        k1ls = self.k1 * self.strand_length
-        return k1ls / float(np.sqrt(3.0)) + self.k2, k1ls + self.k2
+        """The braid's end stops (:func:`braid_end_stops`): no length outside them is one this muscle takes. [m]"""
+        lo, hi = braid_end_stops(self.strand_length, self.k1, self.k2)
+        return float(lo), float(hi)
 
     def length_for_pressure(self, pressure, load) -> "LengthPrediction":
         """Length at a pressure under a hanging load: :func:`predict_length` (the muscle statics' interface).
@@ -219,6 +215,30 @@ class LengthPrediction:
     contraction: np.ndarray  #: 1 - l/L0 [-]
     cos_theta: np.ndarray  #: cosine of the braid angle [-]
     flags: np.ndarray  #: Flag mask per element (uint16)
+
+
+def braid_end_stops(strand_length, k1, k2):
+    """The braid's end stops through eq. (2): the locking angle (cos θ = 1/√3) and the straight braid (cos θ = 1).
+
+    ``k1·Ls/√3 + k2`` and ``k1·Ls + k2`` ([mpam-characterization], eq. (2)); the one formula the
+    muscle's range and the plant's end stops (:func:`mckibben.plant.packing.derive`) share.
+
+    Parameters
+    ----------
+    strand_length : array_like
+        Strand length Ls. [m]
+    k1 : array_like
+        Eq. (2)'s scale. [-]
+    k2 : array_like
+        Eq. (2)'s offset. [m]
+
+    Returns
+    -------
+    tuple of array_like
+        The locking and the straight length. [m]
+    """
+    k1ls = k1 * strand_length
+    return k1ls / np.sqrt(3.0) + k2, k1ls + k2
 
 
 #: The most elements a static model takes in one call (after broadcasting): the forward maps cost

@@ -20,6 +20,7 @@ from mckibben.errors import InputError
 from mckibben.limits import PLAUSIBLE_MAX
 from mckibben.units import P_ATM  # noqa: F401  (the plant's atmosphere: PK.P_ATM in the kernels)
 from mckibben.models import laws as LW
+from mckibben.models.mpam import braid_end_stops
 
 R_AIR = 287.05  #: specific gas constant of air [J/(kg·K)]
 T0 = 293.15  #: ISO 6358 reference temperature, also the supply temperature [K]
@@ -100,8 +101,7 @@ def derive(p: np.ndarray, thermal: str = "energy") -> None:
     p[:, c.inv_valve_tau] = 1.0 / p[:, c.valve_tau]
     # end stops: the braid's locking angle (cos θ = 1/√3, where an ideal braid's force vanishes)
     # and the straight braid (cos θ = 1), through eq. (2)
-    p[:, c.l_min] = k1ls / np.sqrt(3.0) + p[:, c.k2]
-    p[:, c.l_max] = k1ls + p[:, c.k2]
+    p[:, c.l_min], p[:, c.l_max] = braid_end_stops(p[:, c.strand_length], p[:, c.k1], p[:, c.k2])
     kind = p[:, c.load_kind]
     p[:, c.mobile] = np.where(kind == Load.blocked, 0.0, 1.0)
     hang = kind == Load.hanging
@@ -173,9 +173,9 @@ def validate(p: np.ndarray, law_fields: bool = True) -> None:
         check(col["k_tl"] > 0, "k_tl", "must be > 0")
         check(col["p_threshold"] < HW.P_MAX_LIMIT, "p_threshold",
               "must be below the compressor's 1 MPa, else the muscle never pulls")
-    check(col["nominal_length"] < col["strand_length"] * col["k1"] + col["k2"], "nominal_length",
-          "must be shorter than the straightened braid k1·Ls + k2")
-    check(col["nominal_length"] > col["strand_length"] * col["k1"] / np.sqrt(3.0) + col["k2"], "nominal_length",
+    locking, straight = braid_end_stops(col["strand_length"], col["k1"], col["k2"])
+    check(col["nominal_length"] < straight, "nominal_length", "must be shorter than the straightened braid k1·Ls + k2")
+    check(col["nominal_length"] > locking, "nominal_length",
           "must be longer than the braid at its locking angle k1·Ls/√3 + k2")
     check(col["inner_diameter"] < col["outer_diameter"], "inner_diameter", "must be below the outer diameter")
     check((col["alpha0"] > 0) & (col["alpha0"] < np.pi / 2), "alpha0", "must be in (0, 90°)")
