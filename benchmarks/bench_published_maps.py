@@ -49,7 +49,7 @@ def ratio(m: dict) -> str:
 def worst_rows(data: Path, muscle: Path, model: str, rails: str, n: int) -> list[str]:
     """The n rows with the largest |measured − fitted| of one model fitted to all rows."""
     fit = fit_table(data, model, muscle=str(muscle), rails=rails)
-    d = fit.fits[0]._series()  # the fitted points, the model's force and the residual (IsometricFit)
+    d = fit.fits[0].points()  # the fitted points, the model's force and the residual (IsometricFit)
     peak = float(np.max(np.abs(d["force_N"])))
     d = d.assign(err=d["residual_N"].abs()).sort_values("err", ascending=False).head(n)
     out = [f"    {model}: largest errors (held length, pressure, measured, fitted, error % of peak)"]

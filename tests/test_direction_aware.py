@@ -175,7 +175,7 @@ def test_predict_along_a_history_and_on_branches(tmp_path, truth):
         fit.pressure(10.0, ell, "up")
     fig = fit.plot()
     assert fig.axes[0].get_xlabel() == "pressure [kPa]"
-    df = fit.to_pandas()
+    df = fit.points()
     assert {"force_N", "force_model_N", "fitted"} <= set(df.columns)
     assert fit.to_dict()["direction_aware"]["structure"] == "play"
 

@@ -87,7 +87,7 @@ def test_a_fill_that_has_not_settled_takes_the_nominal_supply():
     assert measured_plateau(t_, y_, 0.0, TRUE["p0"]) is None
     f = fit_fill(t, y, p_supply=TRUE["supply"])
     assert f.supply["source"] == "nominal" and f.params["p_supply_Pa"] == TRUE["supply"]
-    assert f.stderr["p_supply_Pa"] == 0.0
+    assert f.se("p_supply_Pa") == 0.0
     g = fit_fill(t, y)  # no nominal: fitted above the highest sample
     assert g.supply["source"] == "fitted" and g.params["p_supply_Pa"] >= np.max(y)
 

@@ -23,9 +23,9 @@ def test_fopdt_recovered_with_noise_and_stderr_covers_truth():
     assert f.input_step == 160.0 and f.t_step == pytest.approx(0.1)
     # white noise: the truth lies within 4 standard errors (p > 0.9999 for a correct covariance)
     for k, key in (("gain", "gain"), ("tau", "tau_s"), ("dead_time", "dead_time_s")):
-        assert abs(f.params[key] - truth[k]) < 4 * f.stderr[key], key
+        assert abs(f.params[key] - truth[k]) < 4 * f.se(key), key
     # and the standard errors are small: < 1 % of tau, < 1 ms of dead time at this noise level
-    assert f.stderr["tau_s"] < 0.01 * truth["tau"] and f.stderr["dead_time_s"] < 1e-3
+    assert f.se("tau_s") < 0.01 * truth["tau"] and f.se("dead_time_s") < 1e-3
     assert_allclose(np.std(f.residuals), 2e3, rtol=0.1)  # residuals are the noise (rtol: 1000 samples)
     lo, hi = f.confidence_intervals(0.99)["tau_s"]
     assert lo < truth["tau"] < hi

@@ -134,7 +134,7 @@ def test_result_objects_plot_and_tabulate(tmp_path):
     fig = fit.plot()
     fig.savefig(tmp_path / "iso.png")
     assert (tmp_path / "iso.png").stat().st_size > 10_000
-    df = fit.to_pandas()
+    df = fit.points()
     assert np.allclose(df["force_N"] - df["force_fit_N"], df["residual_N"])
     assert df.attrs["provenance"]["call"] == "mckibben.fit.isometric.fit_isometric"
     assert repr(fit).startswith("IsometricFit(model='spring'")
@@ -384,7 +384,7 @@ def test_fit_table_and_compare_table_are_library_calls(tmp_path):
 
     f = fit_table(ISO, "spring")
     assert f.metrics["r2"] > 0.99 and f.metrics["flags"] == [] and f.summary["muscle"] == "commercial10"
-    assert set(f.to_pandas()["parameter"]) == set(f.summary["parameters"])
+    assert set(f.to_pandas()["name"]) == set(f.summary["parameters"])
     f.plot().savefig(tmp_path / "f.png")
     c = compare_table(ISO, cv="leave-one-trial-out")
     assert c.metrics["best"] == "spring" and len(c.to_pandas()) == len(ALL_MODELS)

@@ -34,7 +34,8 @@ import math
 import os
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from collections.abc import Callable
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
@@ -464,3 +465,284 @@ class TimeResponse:
             else:
                 data[column] = a
         return pd.DataFrame(data)
+
+
+#: Unit tokens a parameter name may end with (``dead_time_s``, ``a30_N_per_MPa3``, ``wn_rad_s``):
+#: :attr:`FitBase.units` reads a parameter's unit from the first of them in its name. [-]
+UNIT_TOKENS = frozenset({"m", "m2", "m3", "mm", "N", "Pa", "MPa", "kPa", "s", "rad", "deg", "kg", "K", "J", "W",
+                         "count", "pwm", "per"})
+
+
+def unit_of_name(name: str) -> str:
+    """The unit suffix of a parameter name: ``"a30_N_per_MPa3"`` → ``"N_per_MPa3"``, ``"zeta"`` → ``""``.
+
+    Parameters
+    ----------
+    name : str
+        A parameter name, ``quantity_unit`` (the quantity's first word is never read as a unit). [-]
+    """
+    words = str(name).split("_")
+    for i in range(1, len(words)):
+        if words[i] in UNIT_TOKENS:
+            return "_".join(words[i:])
+    return ""
+
+
+_T = TypeVar("_T")
+
+
+class _Word(Generic[_T]):
+    """One word of :class:`FitBase`'s vocabulary, computed unless the fit holds it itself.
+
+    A non-data descriptor (as :class:`_Time`): a fit that stores the word as a field (a dataclass's
+    ``names``, ``flags``) keeps its own value. Read on the class it raises AttributeError, so a
+    dataclass field of the same name is a plain field, not one whose default is this descriptor.
+    """
+
+    def __init__(self, func: Callable[[Any], _T]) -> None:
+        self.func = func
+        self.__doc__ = func.__doc__
+        self.name = func.__name__
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.name = name
+
+    def __get__(self, obj, owner=None) -> _T:
+        if obj is None:
+            raise AttributeError(f"{getattr(owner, '__name__', owner)}.{self.name}: a word of a fit instance")
+        return self.func(obj)
+
+
+class FitBase(Result):
+    """Base of every fitted model: one vocabulary for a fit's parameters (lmfit's ``ModelResult`` in spirit).
+
+    A fit gives, whatever it fitted (a force law, a step response, a hysteresis operator):
+
+    ``names``
+        Parameter names, ``quantity_unit`` (``"k2_m"``, ``"tau_s"``). [-]
+    ``values``, ``stderr``
+        Values and standard errors, arrays in the order of ``names`` (NaN: a parameter held at a
+        bound). [parameter units]
+    ``ci95``
+        95 % intervals, shape (p, 2): ``values ∓ t_quantile·stderr``, Student's t with ``dof``
+        degrees of freedom. [parameter units]
+    ``params``
+        ``{name: value}``; ``fit[name]`` is one value, ``fit.se(name)`` its standard error.
+    ``units``
+        Each parameter's unit, read from its name (:func:`unit_of_name`). [-]
+    ``residuals``, ``n_points``, ``dof``, ``residual_rms``, ``r2``
+        Measured − fitted per point, their count, n − p, their root mean square and the
+        coefficient of determination. [response unit]
+    ``aic``
+        Akaike's criterion of a least-squares fit, n·ln(RSS/n) + 2p (NaN where the fit is no
+        plain least squares: priors, censored points). [-]
+    ``flags``, ``notes``
+        Why its predictions deserve doubt; what is worth reporting without doubting them.
+    ``source``
+        The data file fitted (empty when arrays were given).
+
+    and :attr:`metrics`, :meth:`to_pandas` (the parameter table: ``name``, ``value``, ``stderr``,
+    ``ci95_low``, ``ci95_high``, ``unit``), :meth:`to_dict`, :meth:`to_file` and :meth:`plot`
+    (the residuals, unless a fit draws more).
+
+    A subclass gives ``names``, ``values``, ``stderr`` and ``residuals`` (fields or properties),
+    or wraps a least-squares record (a :class:`~mckibben.fit.core.FitResult`) in the attribute
+    named by :attr:`RECORD`, whose words it then speaks. Any word it holds itself comes first.
+    """
+
+    #: The attribute holding the least-squares record this fit wraps (``"result"``); empty: none. [-]
+    RECORD: str = ""
+
+    def _record(self):
+        if not self.RECORD:
+            raise NotImplementedError(f"{type(self).__name__}: give names, values, stderr and residuals, or RECORD")
+        return getattr(self, self.RECORD)
+
+    @_Word
+    def names(self) -> tuple:
+        """Parameter names, ``quantity_unit``. [-]"""
+        return tuple(self._record().names)
+
+    @_Word
+    def values(self) -> np.ndarray:
+        """Parameter values, in the order of :attr:`names`. [parameter units]"""
+        return np.asarray(self._record().values, dtype=float)
+
+    @_Word
+    def stderr(self) -> np.ndarray:
+        """Standard errors of the parameters (NaN: held at a bound). [parameter units]"""
+        return np.asarray(self._record().stderr, dtype=float)
+
+    @_Word
+    def residuals(self) -> np.ndarray:
+        """Measured − fitted response per point. [response unit]"""
+        return np.asarray(self._record().residuals, dtype=float)
+
+    @_Word
+    def flags(self) -> tuple:
+        """Why the fit's predictions deserve doubt (empty: nothing found). [-]"""
+        return tuple(self._record().flags) if self.RECORD else ()
+
+    @_Word
+    def notes(self) -> tuple:
+        """What is worth reporting but casts no doubt on the predictions by itself. [-]"""
+        return tuple(self._record().notes) if self.RECORD else ()
+
+    @_Word
+    def source(self) -> str:
+        """The data file fitted (empty when arrays were given). [-]"""
+        return str(self._record().source) if self.RECORD else ""
+
+    @_Word
+    def n_points(self) -> int:
+        """Number of points fitted. [-]"""
+        return int(self._record().n_points) if self.RECORD else int(np.size(self.residuals))
+
+    @_Word
+    def dof(self) -> int:
+        """Residual degrees of freedom n − p. [-]"""
+        return int(self._record().dof) if self.RECORD else self.n_points - len(self.names)
+
+    @_Word
+    def t_quantile(self) -> float:
+        """Student's t quantile of a two-sided 95 % interval with :attr:`dof` degrees of freedom. [-]"""
+        if self.RECORD:
+            return float(self._record().t_quantile)
+        from scipy import special  # deferred on purpose: SciPy
+        return float(special.stdtrit(max(self.dof, 1), 0.975))  # t quantile, as stats.t.ppf
+
+    @_Word
+    def ci95(self) -> np.ndarray:
+        """95 % confidence intervals, shape (p, 2). [parameter units]"""
+        if self.RECORD:
+            return np.asarray(self._record().ci95, dtype=float)
+        half = self.t_quantile * self.stderr
+        return np.column_stack([self.values - half, self.values + half])
+
+    @_Word
+    def r2(self) -> float:
+        """Coefficient of determination (NaN when unknown). [-]"""
+        return float(self._record().r2) if self.RECORD else float("nan")
+
+    @_Word
+    def aic(self) -> float:
+        """Akaike information criterion n·ln(RSS/n) + 2p (lower is better; NaN where undefined). [-]"""
+        if self.RECORD:
+            return float(self._record().aic)
+        return least_squares_aic(self.residuals, len(self.names))
+
+    @property
+    def params(self) -> dict:
+        """``{name: value}``. [parameter units]"""
+        return {n: float(v) for n, v in zip(self.names, self.values)}
+
+    @property
+    def units(self) -> tuple:
+        """Each parameter's unit, from its name (:func:`unit_of_name`). [-]"""
+        return tuple(unit_of_name(n) for n in self.names)
+
+    @property
+    def residual_rms(self) -> float:
+        """Root mean square of the residuals. [response unit]"""
+        r = np.asarray(self.residuals, dtype=float)
+        return float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
+
+    def __getitem__(self, name: str) -> float:
+        return float(self.values[self._index(name)])
+
+    def _index(self, name: str) -> int:
+        if name not in self.names:
+            raise unknown_name(f"parameter of {type(self).__name__}", name, self.names)
+        return list(self.names).index(name)
+
+    def se(self, name: str) -> float:
+        """Standard error of one parameter.
+
+        Parameters
+        ----------
+        name : str
+            Parameter name (one of :attr:`names`). [-]
+        """
+        return float(self.stderr[self._index(name)])
+
+    @property
+    def arguments(self) -> dict:  # type: ignore[override]
+        """What was fitted: the data file."""
+        return {"source": self.source}
+
+    @property
+    def metrics(self) -> dict:
+        """``residual_rms``, ``r2``, ``aic``, ``n_points`` and ``flags``."""
+        return {"residual_rms": self.residual_rms, "r2": self.r2, "aic": self.aic, "n_points": self.n_points,
+                "flags": list(self.flags)}
+
+    def _series(self):
+        """The parameter table: name, value, stderr, 95 % interval and unit per parameter."""
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+        ci = np.asarray(self.ci95, dtype=float).reshape(-1, 2)
+        return pd.DataFrame({"name": list(self.names), "value": np.asarray(self.values, dtype=float),
+                             "stderr": np.asarray(self.stderr, dtype=float), "ci95_low": ci[:, 0],
+                             "ci95_high": ci[:, 1], "unit": list(self.units)})
+
+    def to_pandas(self):
+        """The parameter table: ``name``, ``value``, ``stderr``, ``ci95_low``, ``ci95_high``, ``unit``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per parameter, with ``attrs["provenance"]``.
+        """
+        return super().to_pandas()
+
+    def to_dict(self) -> dict:
+        """JSON-ready: parameters, standard errors, 95 % intervals, statistics, flags and notes."""
+        return to_jsonable({"parameters": self.params, "stderr": dict(zip(self.names, self.stderr)),
+                            "ci95": dict(zip(self.names, np.asarray(self.ci95).tolist())), **self.metrics,
+                            "notes": list(self.notes), "source": self.source})
+
+    def plot(self, ax=None):
+        """The residuals against the point's index, their RMS in the title.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
+        r = np.asarray(self.residuals, dtype=float)
+        ax.plot(np.arange(r.size), r, ".", ms=3)
+        ax.axhline(0.0, color="k", lw=0.8)
+        ax.set(xlabel="point", ylabel="measured − fitted",
+               title=f"{type(self).__name__}: residual RMS {self.residual_rms:.4g}")
+        return ax.figure
+
+
+def least_squares_aic(residuals, k: int) -> float:
+    """Akaike's criterion of a least-squares fit under Gaussian noise: n·ln(RSS/n) + 2k.
+
+    Parameters
+    ----------
+    residuals : array_like
+        Measured − fitted per point. [response unit]
+    k : int
+        Number of fitted parameters. [-]
+
+    References
+    ----------
+    [akaike1974] Akaike, H. (1974), A new look at the statistical model identification, IEEE Trans.
+    Automatic Control AC-19, 716–723; −2·ln L of Gaussian noise at its fitted variance is n·ln(RSS/n)
+    up to a constant.
+    """
+    r = np.asarray(residuals, dtype=float)
+    n = r.size
+    if n == 0:
+        return float("nan")
+    return float(n * math.log(max(float(r @ r), 1e-300) / n) + 2 * k)

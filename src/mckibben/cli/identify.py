@@ -66,7 +66,7 @@ def identify_cmd(
             rows = []
             for f in fits:
                 for k, v in f.params.items():
-                    rows.append([f"order {f.order}", k, v, f.stderr[k]])
+                    rows.append([f"order {f.order}", k, v, f.se(k)])
                 if f.order == "fill":
                     src = f.supply.get("source")
                     rows.append(["order fill", "supply from", {"plateau": "the measured plateau",

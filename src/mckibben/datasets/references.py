@@ -104,6 +104,12 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
         doi=None, unestablished="DOI: not checked against a record of the journal's",
     ),
     Reference(
+        key="akaike1974",
+        title="A new look at the statistical model identification",
+        authors=("Akaike",), venue="IEEE Transactions on Automatic Control, vol. AC-19, pp. 716–723", year=1974,
+        doi=None, unestablished="DOI and issue: the sources found give the volume and pages only",
+    ),
+    Reference(
         key="levant1993",
         title="Sliding order and sliding accuracy in sliding mode control",
         authors=("Levant",), venue="International Journal of Control, vol. 58, no. 6, pp. 1247–1263", year=1993,

@@ -565,7 +565,7 @@ def fig13(betas=(120.0, 150.0), *, laws=SMC_LAWS, eps=None, ki=None, muscle_file
             raise unknown_name("`laws` entry", law, SMC_LAWS)
     fit, model, _ = default_identification()
     rows, rec = fig13_runs(model, betas=betas, laws=tuple(laws), eps=e, ki=k)
-    return Fig13Result(rows, rec, model, float(fit.stderr["tau_s"]),
+    return Fig13Result(rows, rec, model, fit.se("tau_s"),
                        {"betas_counts": list(betas), "laws": list(laws), "eps_Pa": e, "ki_per_s": k})
 
 

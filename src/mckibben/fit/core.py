@@ -22,6 +22,7 @@ import numpy as np
 
 from mckibben.errors import InputError
 from mckibben.models.flags import Flag, outside, split_fit_flags
+from mckibben.results import FitBase, least_squares_aic
 
 #: Largest condition number of the column-scaled design (or Jacobian) we accept. Beyond it the
 #: data cannot tell the parameters apart: doubles keep ~16 digits, and 1e10 leaves ~6 for the fit.
@@ -91,9 +92,12 @@ INPUT_UNITS = {"pressure": "Pa", "load": "N", "length": "m", "force": "N", "cos_
                "time": "s", "braid_angle": "rad"}
 
 
-@dataclass(frozen=True)
-class FitResult:
+@dataclass(frozen=True, repr=False)
+class FitResult(FitBase):
     """A fitted model: parameters, their uncertainty, fit statistics and validity range.
+
+    The least-squares record every fit of the library builds on, and a member of the fit family
+    (:class:`~mckibben.results.FitBase`: ``params``, ``ci95``, ``to_pandas()``, ``plot()``, ...).
 
     Attributes
     ----------
@@ -140,6 +144,9 @@ class FitResult:
     priors : dict
         ``{name: (median, factor)}``: the log-normal priors the fit added to the data
         (:func:`bounded_fit`); empty when the data alone were fitted. [parameter unit, -]
+    censored : bool
+        Whether some points were censored (a sensor's rail, :func:`bounded_fit`): the residuals
+        then hinge at the bound and the fit is no plain least squares (:attr:`aic` is NaN). [-]
     """
 
     model: str
@@ -161,6 +168,28 @@ class FitResult:
     covariance_method: str = "ols"
     notes: tuple = ()
     priors: dict = field(default_factory=dict)
+    censored: bool = False
+
+    call = "mckibben.fit"
+
+    @property
+    def arguments(self) -> dict:  # type: ignore[override]
+        """What was fitted: the model, the data file and the condition."""
+        return {"model": self.model, "source": self.source, "condition": self.condition}
+
+    @property
+    def metrics(self) -> dict:
+        """``residual_rms_<unit>``, ``r2``, ``aic``, ``n_points`` and ``flags``."""
+        unit = self.response.split("_", 1)[1] if "_" in self.response else ""
+        return {f"residual_rms_{unit}" if unit else "residual_rms": self.residual_rms, "r2": self.r2, "aic": self.aic,
+                "n_points": self.n_points, "flags": list(self.flags)}
+
+    @property
+    def aic(self) -> float:
+        """n·ln(RSS/n) + 2p (:func:`~mckibben.results.least_squares_aic`); NaN with priors or censored points. [-]"""
+        if self.priors or self.censored:
+            return float("nan")
+        return least_squares_aic(self.residuals, len(self.names))
 
     @property
     def stderr(self) -> np.ndarray:
@@ -180,27 +209,9 @@ class FitResult:
         return np.column_stack([self.values - half, self.values + half])
 
     @property
-    def residual_rms(self) -> float:
-        """Root mean square of the residuals. [response unit]"""
-        return float(np.sqrt(np.mean(self.residuals**2)))
-
-    @property
     def sigma(self) -> float:
         """Residual standard error sqrt(SSR/dof). [response unit]"""
         return float(np.sqrt(np.sum(self.residuals**2) / max(self.dof, 1)))
-
-    def __getitem__(self, name: str) -> float:
-        return float(self.values[self.names.index(name)])
-
-    def se(self, name: str) -> float:
-        """Standard error of one parameter.
-
-        Parameters
-        ----------
-        name : str
-            Parameter name. [-]
-        """
-        return float(self.stderr[self.names.index(name)])
 
     def predict(self, **inputs):
         """Evaluate the fitted model and flag inputs outside the fitted range.
@@ -973,4 +984,5 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     flags, notes = fit_flags(names, values, lo, hi, r2, cond, extra, ref=ref, at=side, conditional_halfwidth=half)
     held = [f"{names[k]}_from_prior" for k in pk if free[k] and _prior_dominates(jac, jac_prior, free, k, sigma, s0)]
     return FitResult(model, tuple(names), values, cov, n - p, n, resid, response, r2, dict(valid_range), cond,
-                     dict(condition or {}), func, source, flags, t_dof, method, notes + tuple(held), priors)
+                     dict(condition or {}), func, source, flags, t_dof, method, notes + tuple(held), priors,
+                     cens is not None)

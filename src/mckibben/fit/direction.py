@@ -39,7 +39,7 @@ from mckibben.fit.isometric import BOUNDS_NOTE, SURFACE, _runs, fit_points, is_f
 from mckibben.models import laws
 from mckibben.models.law_statics import rising_root
 from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, DIRECTIONS, STRUCTURES, branch_state, direction_aware_force, play_pressure
-from mckibben.results import Result, to_jsonable
+from mckibben.results import FitBase, Result, provenance, to_jsonable
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -168,8 +168,10 @@ def gap_scores(measured, predicted) -> dict:
 
 
 @dataclass(repr=False)
-class DirectionAwareFit(Result):
-    """A law's direction-aware form fitted to an isometric table (:func:`fit_direction_aware`).
+class DirectionAwareFit(FitBase):
+    """A law's direction-aware form fitted to an isometric table (:func:`fit_direction_aware`); a
+    fit-family member speaking its :attr:`result`'s words (``to_pandas()`` is the parameter table,
+    :meth:`points` the points).
 
     Attributes
     ----------
@@ -203,11 +205,12 @@ class DirectionAwareFit(Result):
     runs: list = field(repr=False)
     law_force: Callable = field(repr=False)
 
+    RECORD = "result"
     call = "mckibben.fit.direction.fit_direction_aware"
     _repr_keys = ("rmse_N", "play_threshold_Pa", "friction_area_m2", "flags")
 
     @property
-    def arguments(self) -> dict:
+    def arguments(self) -> dict:  # type: ignore[override]
         """What was fitted: law, structure, data file, muscle and tare."""
         return {"model": self.model, "structure": self.structure, "source": self.result.source,
                 "muscle": self.muscle.id, "tare": self.tare.get("method", "none")}
@@ -328,13 +331,23 @@ class DirectionAwareFit(Result):
         return to_jsonable({**self.result.to_dict(), "direction_aware": {"structure": self.structure, **self.operator},
                             "tare": self.tare, "bounds": BOUNDS_NOTE})
 
-    def _series(self) -> pd.DataFrame:
+    def points(self) -> pd.DataFrame:
+        """The points in the protocol's order, whether each was fitted, and the model's force.
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``held_length_m``, ``pressure_Pa``, ``force_N``, ``direction``, ``trial``, ``fitted``,
+            ``force_model_N``; provenance in ``attrs``.
+        """
         import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
         d = self.data.reset_index(drop=True)
-        return pd.DataFrame({"held_length_m": d["held_length"], "pressure_Pa": d["pressure"], "force_N": d["force"],
-                             "direction": d["direction"], "trial": d["trial"], "fitted": d["fitted"],
-                             "force_model_N": d["force_model"]})
+        df = pd.DataFrame({"held_length_m": d["held_length"], "pressure_Pa": d["pressure"], "force_N": d["force"],
+                           "direction": d["direction"], "trial": d["trial"], "fitted": d["fitted"],
+                           "force_model_N": d["force_model"]})
+        df.attrs["provenance"] = provenance(self.call, self.arguments)
+        return df
 
     def plot(self, ax=None):
         """Measured and modelled loops: force against pressure per held length, along each run's history.

@@ -23,6 +23,7 @@ import numpy as np
 from mckibben.errors import InputError, check_array
 from mckibben.fit.core import FitResult, linear_fit
 from mckibben.models.hysteresis import PrandtlIshlinskii, descended_state, play_matrix
+from mckibben.results import FitBase
 
 #: How the plays start at each run's first sample.
 STARTS = ("virgin", "descended")
@@ -31,9 +32,10 @@ STARTS = ("virgin", "descended")
 W0_FLOOR = 0.05
 
 
-@dataclass(frozen=True)
-class PIFit:
-    """A fitted Prandtl–Ishlinskii operator and its least-squares record.
+@dataclass(frozen=True, repr=False)
+class PIFit(FitBase):
+    """A fitted Prandtl–Ishlinskii operator and its least-squares record (whose words it speaks:
+    :class:`~mckibben.results.FitBase`).
 
     Parameters
     ----------
@@ -48,6 +50,14 @@ class PIFit:
     model: PrandtlIshlinskii
     fit: FitResult
     start: str
+
+    RECORD = "fit"
+    call = "mckibben.fit.hysteresis.fit_prandtl_ishlinskii"
+
+    @property
+    def arguments(self) -> dict:  # type: ignore[override]
+        """What was fitted: the data file and how the plays started."""
+        return {"source": self.source, "start": self.start}
 
     @property
     def metrics(self) -> dict:

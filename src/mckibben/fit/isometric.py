@@ -69,7 +69,7 @@ from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_
 from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
 from mckibben.models.laws.spring import NOMINAL_TOL, SPRING_NAMES, spring_model_of
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
-from mckibben.results import Result
+from mckibben.results import FitBase, Result, provenance
 from mckibben.data.setpoints import set_point_groups
 from dataclasses import replace
 
@@ -147,8 +147,10 @@ SURFACE_NAMES = ("a30_N_per_MPa3", "a20_N_per_MPa2", "a10_N_per_MPa", "a00_N", "
 
 
 @dataclass(repr=False)
-class IsometricFit(Result):
-    """A force model fitted to an isometric table.
+class IsometricFit(FitBase):
+    """A force model fitted to an isometric table; a fit-family member speaking its :attr:`result`'s
+    words (:class:`~mckibben.results.FitBase`: ``to_pandas()`` is the parameter table, :meth:`points`
+    the fitted points).
 
     Attributes
     ----------
@@ -171,25 +173,21 @@ class IsometricFit(Result):
     tare: dict
     data: pd.DataFrame = field(repr=False)
 
+    RECORD = "result"
     call = "mckibben.fit.isometric.fit_isometric"
     _repr_keys = ("rmse_N", "r2", "flags")
 
     @property
-    def arguments(self) -> dict:
+    def arguments(self) -> dict:  # type: ignore[override]
         """What was fitted: model, data file, muscle and tare."""
         return {"model": self.model, "source": self.result.source, "muscle": self.muscle.id,
                 "tare": self.tare.get("method", "none")}
 
     @property
-    def flags(self) -> list:
-        """The fit's doubt flags (empty: nothing found)."""
-        return list(self.result.flags)
-
-    @property
     def metrics(self) -> dict:
         """``rmse_N``, ``r2``, ``n_points``, ``flags`` and the covariance used."""
         return {"rmse_N": self.result.residual_rms, "r2": self.result.r2, "n_points": self.result.n_points,
-                "flags": self.flags, "covariance": self.result.covariance_method}
+                "flags": list(self.flags), "covariance": self.result.covariance_method}
 
     def predict(self, pressure, length, direction="inflate"):
         """Force at pressures and lengths, with out-of-range flags.
@@ -226,14 +224,23 @@ class IsometricFit(Result):
         return {**self.result.to_dict(), "max_error_N": err, "max_error_pct_of_peak": pct, "tare": self.tare,
                 "bounds": BOUNDS_NOTE}
 
-    def _series(self) -> pd.DataFrame:
-        """The fitted points with the model's force and the residual (``quantity_unit`` columns)."""
+    def points(self) -> pd.DataFrame:
+        """The fitted points with the model's force and the residual (``quantity_unit`` columns).
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``held_length_m``, ``pressure_Pa``, ``force_N``, ``direction``, ``trial``,
+            ``force_fit_N``, ``residual_N``; provenance in ``attrs``.
+        """
         import pandas as pd  # deferred on purpose: pandas (0.25 s)
         d = self.data.reset_index(drop=True)
-        return pd.DataFrame({"held_length_m": d["held_length"], "pressure_Pa": d["pressure"], "force_N": d["force"],
-                             "direction": d["direction"], "trial": d["trial"],
-                             "force_fit_N": d["force"].to_numpy() - self.result.residuals,
-                             "residual_N": self.result.residuals})
+        df = pd.DataFrame({"held_length_m": d["held_length"], "pressure_Pa": d["pressure"], "force_N": d["force"],
+                           "direction": d["direction"], "trial": d["trial"],
+                           "force_fit_N": d["force"].to_numpy() - self.result.residuals,
+                           "residual_N": self.result.residuals})
+        df.attrs["provenance"] = provenance(self.call, self.arguments)
+        return df
 
     def plot(self, ax=None, kind: str = "fit"):
         """The fit over the data, its residuals, or measured against fitted force.

@@ -17,7 +17,7 @@ import numpy as np
 
 from mckibben.errors import ArgumentTypeError, InputError, check_real, unknown_name
 from mckibben.models import laws
-from mckibben.results import Result
+from mckibben.results import FitBase, Result
 from mckibben.data import find_muscle_file, muscle_of_table, read_muscle
 from mckibben.datasets.campaign import is_synthetic
 from mckibben.data import check_muscle, read_table
@@ -232,8 +232,12 @@ def _compare_isotonic(data: Path, muscle: str | None = None, select: dict | None
 
 
 @dataclass(repr=False)
-class TableFit(Result):
+class TableFit(FitBase):
     """One model fitted to one experiment table (:func:`fit_table`).
+
+    A fit-family member (:class:`~mckibben.results.FitBase`): its words are its fits' joined, in
+    order; a model fitted per load or per pressure (several fits) names each parameter
+    ``<name> (<condition>)`` and its :meth:`to_pandas` has a ``condition`` column.
 
     Attributes
     ----------
@@ -241,8 +245,9 @@ class TableFit(Result):
         What ``mckibben fit --json`` prints: file, kind, model, muscle, synthetic, the fits'
         parameters, standard errors, intervals, statistics and flags.
     fits : list
-        The fit objects (:class:`~mckibben.fit.core.FitResult` or
-        :class:`~mckibben.fit.isometric.IsometricFit`).
+        The fit objects (:class:`~mckibben.fit.core.FitResult`,
+        :class:`~mckibben.fit.isometric.IsometricFit` or
+        :class:`~mckibben.fit.direction.DirectionAwareFit`).
     """
 
     summary: dict
@@ -251,14 +256,86 @@ class TableFit(Result):
     call = "mckibben.fit.registry.fit_table"
 
     @property
-    def arguments(self) -> dict:
+    def arguments(self) -> dict:  # type: ignore[override]
         """The data file and the model."""
         return {"file": self.summary["file"], "model": self.summary["model"]}
 
+    @staticmethod
+    def _condition(fit) -> str:
+        cond = getattr(fit, "condition", None) or {}
+        return ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}" for k, v in cond.items())
+
     @property
-    def flags(self) -> list:
+    def names(self) -> tuple:
+        """The fits' parameter names; ``<name> (<condition>)`` when there are several fits. [-]"""
+        if len(self.fits) == 1:
+            return tuple(self.fits[0].names)
+        return tuple(f"{n} ({self._condition(f)})" for f in self.fits for n in f.names)
+
+    @property
+    def units(self) -> tuple:
+        """Each parameter's unit (its fit's). [-]"""
+        return tuple(u for f in self.fits for u in f.units)
+
+    def _joined(self, word: str) -> np.ndarray:
+        parts = [np.asarray(getattr(f, word), dtype=float) for f in self.fits]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    @property
+    def values(self) -> np.ndarray:
+        """Parameter values, the fits' in order. [parameter units]"""
+        return self._joined("values")
+
+    @property
+    def stderr(self) -> np.ndarray:
+        """Standard errors, the fits' in order. [parameter units]"""
+        return self._joined("stderr")
+
+    @property
+    def ci95(self) -> np.ndarray:
+        """95 % intervals, shape (p, 2): each fit's own (its t quantile). [parameter units]"""
+        parts = [np.asarray(f.ci95, dtype=float).reshape(-1, 2) for f in self.fits]
+        return np.vstack(parts) if parts else np.zeros((0, 2))
+
+    @property
+    def residuals(self) -> np.ndarray:
+        """Measured − fitted per point, the fits' in order. [response unit]"""
+        return self._joined("residuals")
+
+    @property
+    def n_points(self) -> int:
+        """Points fitted, all fits. [-]"""
+        return int(sum(f.n_points for f in self.fits))
+
+    @property
+    def dof(self) -> int:
+        """Residual degrees of freedom, all fits. [-]"""
+        return int(sum(f.dof for f in self.fits))
+
+    @property
+    def r2(self) -> float:
+        """R² of a single fit (NaN for several: each has its own, in :attr:`summary`). [-]"""
+        return float(self.fits[0].r2) if len(self.fits) == 1 else float("nan")
+
+    @property
+    def aic(self) -> float:
+        """The fits' AIC summed (independent fits: their log-likelihoods add). [-]"""
+        return float(sum(f.aic for f in self.fits)) if self.fits else float("nan")
+
+    @property
+    def flags(self) -> tuple:
         """The fit's flags (all fits' for a per-load or per-pressure model)."""
-        return list(self.summary.get("flags", []))
+        return tuple(self.summary.get("flags", []))
+
+    @property
+    def notes(self) -> tuple:
+        """The table reader's and the fits' notes. [-]"""
+        return tuple(self.summary.get("notes", []))
+
+    @property
+    def source(self) -> str:
+        """The table file. [-]"""
+        return str(self.summary["file"])
 
     @property
     def metrics(self) -> dict:
@@ -274,10 +351,9 @@ class TableFit(Result):
     def _series(self):
         import pandas as pd  # deferred on purpose: pandas (0.25 s)
 
-        rows = [{"condition": str(f["condition"]), "parameter": n, "value": v, "stderr": f["stderr"][n],
-                 "ci95_low": f["ci95"][n][0], "ci95_high": f["ci95"][n][1]}
-                for f in self.summary["fits"] for n, v in f["parameters"].items()]
-        return pd.DataFrame(rows)
+        frames = [f._series().assign(condition=self._condition(f)) for f in self.fits]
+        df = pd.concat(frames, ignore_index=True) if frames else super()._series()
+        return df[["condition"] + [c for c in df.columns if c != "condition"]] if frames else df
 
     def plot(self, ax=None):
         """An isometric fit's force curves (:meth:`IsometricFit.plot`); else the residuals per point.

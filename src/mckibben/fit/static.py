@@ -49,6 +49,7 @@ from mckibben.data.setpoints import GROUP_GAP, set_point_groups  # noqa: F401 (r
 from mckibben.data.muscle_file import MuscleSpec  # noqa: F401 (re-exported)
 from mckibben.data.tables import Table  # noqa: F401 (re-exported)
 from mckibben.errors import InputError
+from mckibben.results import FitBase, unit_of_name
 from mckibben.fit.core import (FitResult, bounded_fit, data_range, linear_fit, nonlinear_fit, require_distinct,
                                require_points)
 from mckibben.models.geometry import MiniatureGeometry
@@ -398,9 +399,9 @@ def fit_surface(table: Table, load_degree: int = 1) -> FitResult:
 # the spring model of [wickramatunge2010]
 
 
-@dataclass(frozen=True)
-class SpringFit:
-    """A fitted spring model and its statistics.
+@dataclass(frozen=True, repr=False)
+class SpringFit(FitBase):
+    """A fitted spring model and its statistics; a fit-family member speaking its :attr:`result`'s words.
 
     Attributes
     ----------
@@ -416,6 +417,19 @@ class SpringFit:
     model: SpringModel
     result: FitResult
     blocks: tuple
+
+    RECORD = "result"
+    call = "mckibben.fit.static.fit_spring"
+
+    @property
+    def units(self) -> tuple:
+        """Each parameter's unit: Lu's from its name; a stiffness term P^i·Ls^j's N/(Pa^i·m^(j+1)). [-]"""
+        def power(unit, k):
+            return "" if k == 0 else unit if k == 1 else f"{unit}{k}"
+
+        term = tuple("N_per_" + "_".join(x for x in (power("Pa", i), power("m", j + 1)) if x)
+                     for i, j in self.model.terms)
+        return tuple(unit_of_name(n) for n in self.result.names[:3]) + term * len(self.blocks)
 
 
 def _spring_model_from(values, blocks, terms, split, l0, prange, srange, citation):

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mckibben.errors import InputError
+from mckibben.results import FitBase
 from mckibben.units import P_ATM
 
 if TYPE_CHECKING:  # python-control costs ~0.8 s at import: imported where an LTI object is built
@@ -111,51 +112,146 @@ def sopdt_response(t, gain: float, wn: float, zeta: float, dead_time: float, y0:
     return y0 + gain * input_step * np.real(unit)
 
 
-@dataclass(frozen=True)
-class StepFit:
-    """A low-order model fitted to one step response, with its uncertainty.
+@dataclass(frozen=True, repr=False, kw_only=True)
+class ResponseFit(FitBase):
+    """What the fits of one response in time share (:class:`StepFit`, :class:`FillFit`): a member
+    of the fit family (:class:`~mckibben.results.FitBase`).
 
     Parameters
     ----------
-    order : int
-        1 (FOPDT) or 2 (SOPDT). [-]
-    params : dict of str to float
-        Fitted values: ``gain`` [output/input], ``dead_time_s``, ``y0`` [output] and ``tau_s``
-        (order 1) or ``wn_rad_s``, ``zeta`` (order 2). [mixed]
-    stderr : dict of str to float
-        Standard errors of ``params`` (covariance scaled by the residual variance). [mixed]
+    names : tuple of str
+        Parameter names, ``quantity_unit``. [-]
+    values : numpy.ndarray
+        Fitted values, in the order of ``names`` (:attr:`params` maps them). [mixed]
+    stderr : numpy.ndarray
+        Their standard errors (covariance scaled by the residual variance). [mixed]
     t_step : float
         Time of the input step. [s]
-    input_step : float
-        Size of the input step (1 when no input column was given). [input]
     t : numpy.ndarray
         Time of the fitted samples. [s]
     residuals : numpy.ndarray
         Measured minus fitted output at ``t``. [output]
     rmse : float
-        Root mean square of the residuals. [output]
+        Root mean square of the residuals (:attr:`residual_rms`). [output]
     r2 : float
         Coefficient of determination. [-]
     aic : float
-        Akaike information criterion, n·ln(RSS/n) + 2k (lower is better). [-]
+        Akaike information criterion, n·ln(RSS/n) + 2k, k the parameters fitted (lower is better). [-]
     flags : tuple of str
         Why the fit deserves doubt (empty: nothing found): ``<param>_at_lower_bound`` /
         ``_at_upper_bound`` (a dead time of 0 is a value, not a bound), ``poor_fit_r2``
         (R² < :data:`R2_POOR`), ``residual_runs`` (residual signs in runs: the model's shape is
         wrong, :func:`runs_z`).
+    source : str, default ""
+        The log fitted (empty when arrays were given). [-]
     """
 
-    order: int
-    params: dict
-    stderr: dict
+    names: tuple
+    values: np.ndarray = field(repr=False)
+    stderr: np.ndarray = field(repr=False)
     t_step: float
-    input_step: float
     t: np.ndarray = field(repr=False)
     residuals: np.ndarray = field(repr=False)
     rmse: float
     r2: float
     aic: float
     flags: tuple = ()
+    source: str = ""
+
+    @property
+    def arguments(self) -> dict:  # type: ignore[override]
+        """What was fitted: the model's order, the step's time and the log."""
+        return {"order": getattr(self, "order", ""), "t_step_s": self.t_step, "source": self.source}
+
+    @property
+    def metrics(self) -> dict:
+        """``rmse``, ``r2``, ``aic``, ``n_points`` and ``flags``."""
+        return {"rmse": self.rmse, "r2": self.r2, "aic": self.aic, "n_points": self.n_points, "flags": list(self.flags)}
+
+    @property
+    def dead_time(self) -> float:
+        """Dead time. [s]"""
+        return self.params["dead_time_s"]
+
+    def predict(self, t) -> np.ndarray:
+        """The fitted response at times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Time. [s]
+        """
+        raise NotImplementedError
+
+    def confidence_intervals(self, level: float = 0.95) -> dict:
+        """Symmetric confidence intervals from the standard errors (Student t, n − p degrees of freedom).
+
+        Parameters
+        ----------
+        level : float, default 0.95
+            Confidence level. [-]
+        """
+        from scipy import special  # deferred on purpose: SciPy
+        q = special.stdtrit(max(self.dof, 1), 0.5 + level / 2.0)  # Student's t quantile (scipy.stats.t.ppf's own)
+        return {k: (v - q * s, v + q * s) for (k, v), s in zip(self.params.items(), self.stderr)}
+
+    def plot(self, ax=None):
+        """The measured response and the fitted model against time.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
+        fitted = self.predict(self.t)
+        ax.plot(self.t, fitted + self.residuals, ".", ms=2, alpha=0.6, label="measured")
+        ax.plot(self.t, fitted, "-", lw=1.2, label=f"fitted ({self.arguments['order']})")
+        ax.axvline(self.t_step, color="k", lw=0.6, ls=":")
+        ax.set(xlabel="time [s]", ylabel="output", title=f"{type(self).__name__}: RMS {self.rmse:.4g}, R² {self.r2:.4f}")
+        ax.legend(fontsize="small")
+        return ax.figure
+
+    def _common_dict(self) -> dict:
+        """What both fits' JSON holds after their parameters: statistics and flags."""
+        return {"aic": self.aic, "n_samples": int(len(self.t)), "residual_runs_z": runs_z(self.residuals),
+                "flags": list(self.flags)}
+
+
+def _named(values: dict, errors: dict) -> dict:
+    """``ResponseFit``'s fields from ``{name: value}`` and ``{name: stderr}`` (the same names)."""
+    names = tuple(values)
+    return {"names": names, "values": np.array([values[k] for k in names], dtype=float),
+            "stderr": np.array([errors[k] for k in names], dtype=float)}
+
+
+@dataclass(frozen=True, repr=False, kw_only=True)
+class StepFit(ResponseFit):
+    """A low-order model fitted to one step response, with its uncertainty (:class:`ResponseFit`'s fields).
+
+    Parameters
+    ----------
+    order : int
+        1 (FOPDT) or 2 (SOPDT). [-]
+    input_step : float
+        Size of the input step (1 when no input column was given). [input]
+
+    The parameters (:attr:`params`, :attr:`stderr`): ``gain`` [output/input], ``dead_time_s``,
+    ``y0`` [output], ``tau_s`` (order 1) or ``wn_rad_s``, ``zeta`` (order 2), and ``p_final``
+    [output].
+    """
+
+    order: int
+    input_step: float
+
+    call = "mckibben.fit.step.fit_step_response"
 
     @property
     def gain(self) -> float:
@@ -168,11 +264,6 @@ class StepFit:
         if self.order == 1:
             return self.params["tau_s"]
         return 2.0 * self.params["zeta"] / self.params["wn_rad_s"]
-
-    @property
-    def dead_time(self) -> float:
-        """Dead time. [s]"""
-        return self.params["dead_time_s"]
 
     def predict(self, t) -> np.ndarray:
         """The fitted response at times ``t``.
@@ -209,19 +300,6 @@ class StepFit:
             sys = sys * control.tf(num, den)
         return sys
 
-    def confidence_intervals(self, level: float = 0.95) -> dict:
-        """Symmetric confidence intervals from the standard errors (Student t).
-
-        Parameters
-        ----------
-        level : float, default 0.95
-            Confidence level. [-]
-        """
-        from scipy import special  # deferred on purpose: SciPy
-        dof = max(len(self.t) - len(self.params), 1)
-        q = special.stdtrit(dof, 0.5 + level / 2.0)  # Student's t quantile (scipy.stats.t.ppf's own)
-        return {k: (v - q * self.stderr[k], v + q * self.stderr[k]) for k, v in self.params.items()}
-
     def to_dict(self, output_unit: str = "", input_unit: str = "") -> dict:
         """Plain dict for JSON: values, standard errors and fit statistics.
 
@@ -236,12 +314,11 @@ class StepFit:
         gain_key = f"gain{suffix}_per_{input_unit}" if input_unit else f"gain{suffix}"
         rename = {"gain": gain_key, "y0": f"y0{suffix}"}
         out = {"order": self.order, "t_step_s": self.t_step, "input_step": self.input_step}
-        for k, v in self.params.items():
+        for (k, v), se in zip(self.params.items(), self.stderr):
             out[rename.get(k, k)] = v
-            out[f"{rename.get(k, k)}_stderr"] = self.stderr[k]
-        out.update({f"rmse{suffix}": self.rmse, "r2": self.r2, "aic": self.aic, "n_samples": int(len(self.t)),
-                    f"max_abs_residual{suffix}": float(np.max(np.abs(self.residuals))),
-                    "residual_runs_z": runs_z(self.residuals), "flags": list(self.flags)})
+            out[f"{rename.get(k, k)}_stderr"] = float(se)
+        out.update({f"rmse{suffix}": self.rmse, "r2": self.r2,
+                    f"max_abs_residual{suffix}": float(np.max(np.abs(self.residuals))), **self._common_dict()})
         return out
 
 
@@ -407,8 +484,7 @@ def fit_step_response(t, y, u=None, *, order: int = 1, t_step: float | None = No
     order_keys = ["gain"] + [k for k in names if k != "p_final"] + ["p_final"]
     return StepFit(
         order=order,
-        params={k: values[k] for k in order_keys},
-        stderr={k: errors[k] for k in order_keys},
+        **_named({k: values[k] for k in order_keys}, {k: errors[k] for k in order_keys}),
         t_step=t_step,
         input_step=du,
         t=t,
@@ -557,23 +633,18 @@ def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0, volume_gr
     return r * ps - P_ATM
 
 
-@dataclass(frozen=True)
-class FillFit:
+@dataclass(frozen=True, repr=False, kw_only=True)
+class FillFit(ResponseFit):
     """The orifice fill of a growing volume fitted to a rising step (see :func:`fill_response`).
 
-    Attributes
+    :class:`ResponseFit`'s fields, the parameters (:attr:`params`, :attr:`stderr`) ``p0_Pa``,
+    ``tau_fill_s``, ``b``, ``dead_time_s``, ``volume_growth``, ``p_supply_Pa`` (``p_supply_Pa``'s
+    error is 0 when the supply was taken as given), residuals in Pa, and:
+
+    Parameters
     ----------
-    params, stderr : dict
-        ``p0_Pa``, ``tau_fill_s``, ``b``, ``dead_time_s``, ``volume_growth``, ``p_supply_Pa`` and
-        their errors (``p_supply_Pa``'s is 0 when the supply was taken as given). [mixed]
-    t_step : float
-        Time of the step. [s]
-    t, residuals : numpy.ndarray
-        Times and residuals. [s, Pa]
-    rmse, r2, aic : float
-        As in :class:`StepFit`.
-    flags : tuple of str
-        As in :class:`StepFit`.
+    order : str, default "fill"
+        The model's name, where :class:`StepFit` has its order. [-]
     supply : dict
         Where the supply came from: ``source`` (``"plateau"``: estimated within the measured
         plateau; ``"fitted"``: estimated above the highest sample, the fill did not settle;
@@ -581,22 +652,10 @@ class FillFit:
         plateau, or None), ``nominal_Pa`` (the given supply, or None). [Pa]
     """
 
-    params: dict
-    stderr: dict
-    t_step: float
-    t: np.ndarray = field(repr=False)
-    residuals: np.ndarray = field(repr=False)
-    rmse: float
-    r2: float
-    aic: float
-    flags: tuple = ()
     order: str = "fill"
     supply: dict = field(default_factory=dict)
 
-    @property
-    def dead_time(self) -> float:
-        """Dead time. [s]"""
-        return self.params["dead_time_s"]
+    call = "mckibben.fit.step.fit_fill"
 
     def predict(self, t) -> np.ndarray:
         """The fitted fill at times ``t``.
@@ -621,13 +680,12 @@ class FillFit:
             Unused. [-]
         """
         out = {"order": "fill", "t_step_s": self.t_step}
-        for k, v in self.params.items():
+        for (k, v), se in zip(self.params.items(), self.stderr):
             out[k] = v
-            out[f"{k}_stderr"] = self.stderr[k]
+            out[f"{k}_stderr"] = float(se)
         out.update({"supply_source": self.supply.get("source"), "plateau_Pa": self.supply.get("plateau_Pa"),
                     "p_supply_nominal_Pa": self.supply.get("nominal_Pa")})
-        out.update({"rmse_Pa": self.rmse, "r2": self.r2, "aic": self.aic, "n_samples": int(len(self.t)),
-                    "residual_runs_z": runs_z(self.residuals), "flags": list(self.flags)})
+        out.update({"rmse_Pa": self.rmse, "r2": self.r2, **self._common_dict()})
         return out
 
 
@@ -776,8 +834,8 @@ def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | Non
         params["p_supply_Pa"], errors["p_supply_Pa"] = max(float(p_supply), ymax), 0.0  # type: ignore[arg-type]
     supply = {"source": source, "plateau_Pa": plateau[0] if plateau is not None else None,
               "nominal_Pa": float(p_supply) if p_supply is not None else None}
-    return FillFit(params, errors, t_step, t, res, math.sqrt(rss / n), r2, n * math.log(max(rss, 1e-300) / n) + 2 * k,
-                   flags, supply=supply)
+    return FillFit(**_named(params, errors), t_step=t_step, t=t, residuals=res, rmse=math.sqrt(rss / n), r2=r2,
+                   aic=n * math.log(max(rss, 1e-300) / n) + 2 * k, flags=flags, supply=supply)
 
 
 #: Trials whose half-rise times (:func:`half_rise_time`) differ by more than this factor, with no

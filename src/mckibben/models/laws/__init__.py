@@ -84,7 +84,7 @@ from mckibben.models.laws import chou_hannaford as _chou_hannaford_file
 from mckibben.models.laws import spring as _spring_file
 from mckibben.models.laws import tondu_lopez as _tondu_lopez_file
 from mckibben.models.laws import wall_corrected as _wall_corrected_file
-from mckibben.models.laws._base import MAP_MAX_LOADS, MPA, NTH, FitSpec, Law, OwnFit, evaluate_kernel
+from mckibben.models.laws._base import MAP_MAX_LOADS, MPA, NTH, FitSpec, Law, OwnFitSpec, evaluate_kernel
 from mckibben.models.laws.braid_map import BM_COEF, BM_K1, BM_K2, BM_LOADS, BM_LS, BM_N, braid_map, braid_map_theta
 from mckibben.models.laws.chou_hannaford import CH_B, CH_C, CH_D0, CH_T, chou_hannaford, chou_hannaford_theta
 from mckibben.models.laws.spring import SP_H0, SP_H1, SP_H2, SP_HIGH, SP_LOW, SP_SPLIT, spring, spring_theta
@@ -92,7 +92,7 @@ from mckibben.models.laws.tondu_lopez import TL_A, TL_B, TL_IL0, TL_K, TL_PTH, T
 from mckibben.models.laws.wall_corrected import wall_corrected
 
 __all__ = [
-    "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "FitSpec", "Law", "OwnFit",
+    "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "FitSpec", "Law", "OwnFitSpec",
     "evaluate", "fit_laws", "get_law", "own_fit_laws", "law_of", "law_table_markdown", "resolve",
     "tondu_lopez", "chou_hannaford", "wall_corrected", "braid_map", "spring",
     "tondu_lopez_theta", "chou_hannaford_theta", "braid_map_theta", "spring_theta",

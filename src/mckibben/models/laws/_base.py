@@ -63,7 +63,7 @@ class FitSpec:
 
 
 @dataclass(frozen=True)
-class OwnFit:
+class OwnFitSpec:
     """A law's own fit procedure on tables other than isometric (beside its :class:`FitSpec`).
 
     The procedure itself lives in :data:`mckibben.fit.static.OWN_FITS` under the law's name (the fits
@@ -146,7 +146,7 @@ class Law:
         stretched, the same at every pressure, beyond which it falls (the wall-corrected braid); a
         muscle file's braid ends there (:class:`~mckibben.models.muscle.Muscle`), so its plant and
         FMU never run the falling branch. None: the law does not fall before the straight braid. [m]
-    own_fit : OwnFit, optional
+    own_fit : OwnFitSpec, optional
         The law's own fit procedure on non-isometric tables (the spring model's on force-length
         and isotonic tables); None: such tables are fitted through the law's force
         (:func:`mckibben.fit.isometric.fit_isotonic_law`). [-]
@@ -174,7 +174,7 @@ class Law:
     plant_theta: Callable | None = None
     length_of: Callable | None = None
     peak_length: Callable | None = None
-    own_fit: OwnFit | None = None
+    own_fit: OwnFitSpec | None = None
 
     @property
     def stem(self) -> str:

@@ -24,7 +24,7 @@ from mckibben._kernels import kernel, register
 
 from mckibben.errors import InputError, check_array
 from mckibben.models.flags import Flag, flag_where, outside
-from mckibben.models.laws._base import NTH, FitSpec, Law, OwnFit, evaluate_kernel
+from mckibben.models.laws._base import NTH, FitSpec, Law, OwnFitSpec, evaluate_kernel
 
 # θ: h2, h1, h0 (Lu = h2·P² + h1·P + h0), split pressure, low c3, c2, c1, c0, high c3, c2, c1, c0
 SP_H2, SP_H1, SP_H0, SP_SPLIT, SP_LOW, SP_HIGH = 0, 1, 2, 3, 4, 8
@@ -369,7 +369,7 @@ LAW = Law(
     description="F = K(P, Ls)*Ls of Wickramatunge & Leephakpreeda (2010) (Lu(P) quadratic, K per inflate/deflate)",
     params=SpringModel, theta_of=spring_theta, fit_spec=fit_spec, from_values=from_values,
     needs=("nominal_length",), branches=2,
-    own_fit=OwnFit(("force_length", "isotonic"),
+    own_fit=OwnFitSpec(("force_length", "isotonic"),
                    "Lu(P) and K(P, Ls) per direction and pressure range (force_length, isotonic or isometric)",
                    split_pressure=True),
     c_rows={"SP_H2": SP_H2, "SP_H1": SP_H1, "SP_H0": SP_H0, "SP_SPLIT": SP_SPLIT, "SP_LOW": SP_LOW, "SP_HIGH": SP_HIGH},
