@@ -25,6 +25,12 @@ Sampled signals live in one type, :class:`TimeResponse` (python-control's ``Time
 spirit): the simulator's, the closed loop's, the device's, the tool's and the MuJoCo runs' records
 all give ``time`` [s], ``n_samples``, ``n_instances``, ``signal(name, i)`` and ``frame(i)``, whose
 columns follow :data:`SIGNAL_COLUMNS`; the results' ``to_pandas`` are built from those frames.
+
+Fitted models are one family, :class:`FitBase` (lmfit's ``ModelResult`` in spirit): the
+least-squares record :class:`~mckibben.fit.core.FitResult`, the step and fill fits, the spring
+model's, the hysteresis operator's, the force laws' and the table fit all give ``names``,
+``values``, ``stderr``, ``ci95``, ``params``, ``flags``, ``notes``, ``n_points``,
+``residual_rms``, ``aic`` and ``source``; their ``to_pandas`` is the parameter table.
 """
 
 from __future__ import annotations
@@ -672,7 +678,9 @@ class FitBase(Result):
 
     @property
     def metrics(self) -> dict:
-        """``residual_rms``, ``r2``, ``aic``, ``n_points`` and ``flags``."""
+        """``residual_rms``, ``r2``, ``aic``, ``n_points`` and ``flags`` (the record's, unit-suffixed, for a wrapper)."""
+        if self.RECORD:
+            return dict(self._record().metrics)
         return {"residual_rms": self.residual_rms, "r2": self.r2, "aic": self.aic, "n_points": self.n_points,
                 "flags": list(self.flags)}
 
