@@ -224,6 +224,23 @@ def test_friction_area_is_found_back_on_both_branches_and_reaches_the_plant(tmp_
     # the static length is the loop's middle: between the branches
     up, down, mid = (float(m.length_for_pressure(0.5e6, 1.2, b).length) for b in ("inflate", "deflate", None))
     assert up > mid > down
+    # mckibben predict length gives each branch (--branch) and the static length (without)
+    for branch, want in (("inflate", up), ("deflate", down), (None, mid)):
+        r = run_cli("predict", "length", "--muscle-file", str(path), "--pressure", "0.5MPa", "--load", "1.2N",
+                    *(["--branch", branch] if branch else []), "--json")
+        assert r.code == 0 and r.json()["length_m"] == pytest.approx(want, rel=1e-12), (branch, r.err)
+
+
+def test_a_branch_is_refused_where_there_is_no_friction_or_no_such_branch(tmp_path, isotonic_points):
+    spec = read_muscle(MUSCLE)
+    res = fit_isotonic_law(_table(tmp_path, isotonic_points, "isotonic"), spec, "tondu-lopez", tube=True)
+    path = _saved(tmp_path, res, spec)
+    for args, words in ((["--muscle-file", str(path), "--branch", "sideways"], "sideways"),
+                        (["--muscle-file", str(path), "--branch", "inflate"], "no fitted friction"),
+                        (["--muscle", "mpam97", "--branch", "deflate"], "no fitted friction")):
+        r = run_cli("predict", "length", "--pressure", "0.5MPa", "--load", "1N", *args)
+        assert r.code == 2 and words in r.err and "branch" in r.err and "Traceback" not in r.err, (args, r.err)
+        assert len(r.err.strip().splitlines()) == 1
 
 
 def test_branch_force_is_the_friction_structure_far_along_a_branch():
