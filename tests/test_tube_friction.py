@@ -179,8 +179,9 @@ def test_friction_branches_have_the_plant_dahl_elements_sign():
                 st.advance(0, 115 if st.pressure > target else 0)
 
     seen = {}
-    for branch, legs in (("inflate", ((0.0, 0.3e6, 1e6), (0.3e6, 0.42e6, 0.05e6), (0.42e6, 0.45e6, 0.01e6))),
-                         ("deflate", ((0.45e6, 0.6e6, 1e6), (0.6e6, 0.53e6, 0.05e6), (0.53e6, 0.5e6, 0.01e6)))):
+    for branch, legs in (("inflate", ((0.0, 0.4e6, 1e6), (0.4e6, 0.43e6, 0.05e6), (0.43e6, 0.45e6, 0.01e6))),
+                         ("deflate", ((0.45e6, 0.6e6, 1e6), (0.6e6, 0.53e6, 0.2e6), (0.53e6, 0.515e6, 0.05e6),
+                                      (0.515e6, 0.5e6, 0.01e6)))):
         for leg in legs:
             ramp(*leg)
         z, fc = st.bk[ph.Z_FRIC], A_F * st.pressure
