@@ -253,3 +253,12 @@ def test_branch_force_is_the_friction_structure_far_along_a_branch():
     assert np.allclose(branch_force(law, [2.0], 1e-7, p, ell, "inflate"), static - 1e-7 * p, rtol=1e-12)
     assert np.allclose(branch_force(law, [2.0], 1e-7, p, ell, "deflate"), static + 1e-7 * p, rtol=1e-12)
     assert np.allclose(branch_force(law, [2.0], 1e-7, p, ell, None), static, rtol=1e-12)
+
+
+def test_a_two_branch_law_on_one_branch_keeps_the_tube_interval(tmp_path, isotonic_points):
+    # the spring law's deflate coefficients see no isotonic row (all inflate): they get no interval, flagged, and
+    # the parameters the data see keep theirs (the tube's stiffness among them)
+    res = fit_isotonic_law(_table(tmp_path, isotonic_points, "isotonic"), read_muscle(MUSCLE), "spring", tube=True)
+    se = dict(zip(res.names, res.stderr))
+    assert np.isfinite(se[TUBE_NAME]) and se[TUBE_NAME] > 0 and np.isfinite(se["h0_m"])
+    assert all(np.isnan(se[f"c{k}_deflate"]) and f"c{k}_deflate_unconstrained" in res.flags for k in range(4))
