@@ -262,3 +262,15 @@ def test_a_two_branch_law_on_one_branch_keeps_the_tube_interval(tmp_path, isoton
     se = dict(zip(res.names, res.stderr))
     assert np.isfinite(se[TUBE_NAME]) and se[TUBE_NAME] > 0 and np.isfinite(se["h0_m"])
     assert all(np.isnan(se[f"c{k}_deflate"]) and f"c{k}_deflate_unconstrained" in res.flags for k in range(4))
+
+
+@pytest.mark.slow  # every model of the comparison, twice each law: ~12 s
+def test_the_held_out_comparison_scores_each_law_with_and_without_the_tube(tmp_path, isotonic_points):
+    from mckibben.fit.compare import TUBE_SUFFIX, compare_models
+
+    res = compare_models(_table(tmp_path, isotonic_points, "isotonic"), read_muscle(MUSCLE), tube=True)
+    cv = {s.name: s.cv_rmse_m for s in res["scores"]}
+    # the plant's law with its tube is found on loads it did not see; without the term it cannot follow the points
+    # hung past the rest length
+    assert cv["tondu-lopez" + TUBE_SUFFIX] < 0.2 * cv["tondu-lopez"], cv
+    assert cv["tondu-lopez" + TUBE_SUFFIX] < 0.1e-3  # m: within 0.1 mm held out, on exact data
