@@ -117,26 +117,33 @@ def test_bar_unattended_run_fits_a_muscle_file_that_matches_the_plant(bar_run):
     print(f"{engine}: best law {summary['fit']['best']}; moved >= 5 mm: {len(grid)} points, max error "
           f"{err.max() * 100:.2f} %; everywhere the muscle moved: {len(everywhere)} points, worst (%, (MPa, N)) "
           f"{worst[:5]}")
-    assert np.all(err <= 0.05), worst  # a guard on what is reached where the muscle moved 5 mm; the bar is 2 %
-    if err_all.max() > 0.02:
-        # the branches' mean is the plant's friction-free length (0.03 mm off at 0.41 MPa, 0.6 N); the law family
-        # lacks the plant's tube stretched past the rest length (docs/rig.md), so the best law misfits there
-        pytest.xfail(f"bar NOT met: up to {err_all.max() * 100:.1f} % off the plant's static length, over 2 % at "
-                     f"{int(np.sum(err_all > 0.02))} of {len(err_all)} points ({worst[:3]}); where the muscle moved "
-                     f">= 5 mm: max {err.max() * 100:.2f} %")
+    # the issue's bar: 2 % of the plant's static length everywhere the muscle moved. Met since the laws carry the
+    # tube's stretch past the rest length (models/tube.py; 1.02-1.05 % Python, 0.78-0.80 % avr, two runs each): the plant pulls with
+    # it, and a quarter of the protocol hangs the muscle past its rest length
+    assert err_all.max() <= 0.02, worst
+    assert np.all(err <= 0.02), worst
 
 
 @pytest.mark.slow
 def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
     engine, _, summary, _ = bar_run
-    hyst = summary["fit"]["hysteresis"]
-    gaps = {h["load_N"]: (h["gap_measured_m"], h["gap_model_m"]) for h in hyst.values() if "error" not in h}
+    fit = summary["fit"]
+    hyst = fit["hysteresis"]
+    # the model that holds across loads: the muscle file's law with its friction, law -/+ A_f.P = load, one A_f
+    assert "error" not in fit["friction"] and fit["friction"]["friction_area_m2"] > 0, fit["friction"]
+    gaps = {h["load_N"]: (h["gap_measured_m"], h["gap_model_m"], h["prandtl_ishlinskii"].get("gap_model_m", np.nan))
+            for h in hyst.values() if "error" not in h}
     assert gaps, hyst
-    rel = {f: abs(m - g) / g for f, (g, m) in gaps.items()}
-    print(f"{engine}: hysteresis gap per load [mm]: " + ", ".join(
-        f"{f:.2f} N: measured {g * 1e3:.3f}, model {m * 1e3:.3f}" for f, (g, m) in gaps.items()))
+    rel = {f: abs(m - g) / g for f, (g, m, _) in gaps.items()}
+    print(f"{engine}: A_f = {fit['friction']['friction_area_m2']:.3g} m2 ({fit['best']}); up/down gap per load [mm]: "
+          + ", ".join(f"{f:.2f} N: measured {g * 1e3:.3f}, file {m * 1e3:.3f}, PI of the load {pi * 1e3:.3f}"
+                      for f, (g, m, pi) in gaps.items()))
     if max(rel.values()) > 0.20:
-        pytest.xfail(f"the PI model's up/down gap is off by up to {max(rel.values()) * 100:.0f} % (bar: 20 %): "
+        # measured (docs/rig.md): the settled steps' friction is at its slip limit under 0.6 N but at 0.2-0.6 of it
+        # under 1.4-2.1 N (the plant's own law at the recorded pressure and length): the device's pressure overshoots
+        # each inflating step (~75 kPa) and the muscle slips partly back, more under a heavier load, so the measured
+        # loop narrows with load, which a friction of pressure alone does not follow
+        pytest.xfail(f"the muscle file's friction gap is off by up to {max(rel.values()) * 100:.0f} % (bar: 20 %): "
                      + ", ".join(f"{f:.2f} N {r * 100:.0f} %" for f, r in rel.items()))
 
 

@@ -14,6 +14,7 @@ import os
 import shutil
 import subprocess
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -40,6 +41,9 @@ from mckibben.models.laws.relative_strain import RelativeStrain  # noqa: E402
 from mckibben.models.laws.virtual_work import VirtualWork  # noqa: E402
 from mckibben.plant import PlantParams, simulate  # noqa: E402
 from mckibben.plant.params import FILE_LUMEN_FRACTION  # noqa: E402
+from mckibben.data.muscle_file import muscle_file_text_of  # noqa: E402
+from mckibben.models.hysteresis.direction import FRICTION_NAME  # noqa: E402
+from mckibben.models.tube import TUBE_NAME  # noqa: E402
 
 STEP, DURATION = 117, 0.5
 
@@ -94,6 +98,25 @@ def test_published_fmu_validates_and_equals_the_numba_plant(tmp_path, fmi):
             f"sources/fmi{fmi}Functions.h"} <= files
     sim = simulate(PlantParams(), DURATION, inlet=STEP, n=1)
     _assert_equivalent(_run(fmu), sim)
+
+
+def test_a_muscle_files_tube_and_friction_travel_into_its_fmu(tmp_path):
+    # a Tondu-Lopez law with the tube's stretch and the braid's friction (rig characterize writes such a file):
+    # its plant runs them (passive_stiffness, friction_per_pa) and so does its FMU, to round-off
+    spec = read_muscle(Path(__file__).resolve().parents[1] / "src/mckibben/datasets/campaign/mpam97/muscle.toml")
+    path = tmp_path / "tube.toml"
+    path.write_text(muscle_file_text_of(spec, {"model": "tondu-lopez", "valid_range": {"pressure": (0.0, 0.8e6)},
+                                               "parameters": {"r0_m": 0.43e-3, "k": 1.6, "p_threshold_Pa": 0.29e6,
+                                                              "offset_N": 0.0, TUBE_NAME: 180.0,
+                                                              FRICTION_NAME: 0.15e-6}}))
+    plant = PlantParams.from_muscle_file(path, load_force=1.2)
+    assert plant.passive_stiffness == 180.0 and plant.friction_per_pa == 0.15e-6
+    fmu = export_fmu(muscle_file=path, load=1.2, out=tmp_path / "t.fmu")
+    res = _run(fmu, inlet=140)
+    _assert_equivalent(res, simulate(plant, DURATION, inlet=140, n=1))
+    # and the vented muscle hangs past its rest length on its tube (1.2 N on 180 N/m: 6.7 mm, past the straight
+    # braid at 97 mm / cos 20° = 103.2 mm, where it rests)
+    assert res["length"][0] > spec.nominal_length
 
 
 _PLANTS = {  # every law of the registry with its C face, the other chamber model, the other loads

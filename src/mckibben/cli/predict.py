@@ -107,12 +107,15 @@ def length_cmd(
     load: str = LOAD_OPTION,
     model: str = LENGTH_MODEL_OPTION,
     muscle_file: str = STATICS_FILE_OPTION,
+    branch: str = typer.Option(None, "--branch", help="inflate or deflate: the length on that branch of the loop "
+                               "of a --muscle-file with a fitted friction (mckibben rig characterize); default the "
+                               "static length."),
     json: bool = JSON_OPTION,
 ) -> None:
     """Length and contraction at a pressure under a hanging load (eq. 2 + 3, or a registered law solved for the length)."""
     m, name, f = _statics_muscle(muscle, muscle_file, model, load)
     p = parse_values(pressure, "pressure", "--pressure")
-    r = static_length(p, f, m, name)
+    r = static_length(p, f, m, name, branch)
     flags = [flag_names(x) for x in r.flags]
     if json:
         out = {

@@ -364,6 +364,9 @@ def characterize_cmd(
             *[[k, v] for k, v in summary["tables"].items()]]
     if summary["fit"]:
         f = summary["fit"]
+        fr = f.get("friction") or {}
         rows += [["best law (held out)", f"{f['best']} ({f['best_cv_rmse_m'] * 1e3:.3f} mm)"],
+                 ["friction A_f", f"{fr['friction_area_m2'] * 1e6:.4g} mm² (N/MPa)" if "friction_area_m2" in fr
+                  and "error" not in fr else fr.get("error", "not fitted")],
                  ["muscle file", f["muscle_file"]], ["report", str(report)]]
     print_table(f"Characterization on {port}", [" what", "value"], rows)

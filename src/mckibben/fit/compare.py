@@ -86,12 +86,12 @@ def _surface(train: Table):
     return (lambda p, f: res.predict(pressure=p, load=f)[0]), len(res.values)
 
 
-def _by_force(name, muscle, lo, hi):
+def _by_force(name, muscle, lo, hi, tube=False):
     # the bracket: a fifth of the measured range beyond each end (the law must cross the load there)
     pad = 0.2 * (hi - lo) + 1e-3 * hi
 
     def make(train: Table):
-        res = fit_isotonic_law(train, muscle, name)
+        res = fit_isotonic_law(train, muscle, name, tube=tube)
         return (lambda p, f: law_length(res, p, f, lo - pad, hi + pad)), len(res.values)
 
     return make
@@ -156,7 +156,11 @@ def _scores(pred, meas, l0):
     return rmse, (float(np.max(rel)) if rel.size else float("nan")), (float(np.mean(rel <= PAPER_TOLERANCE)) if rel.size else float("nan"))
 
 
-def compare_models(table: Table, muscle: MuscleSpec, braid: Table | None = None) -> dict:
+#: The suffix of a law's name in the comparison when it carries the tube's stretch (``compare_models(tube=True)``).
+TUBE_SUFFIX = "+tube"
+
+
+def compare_models(table: Table, muscle: MuscleSpec, braid: Table | None = None, tube: bool = False) -> dict:
     """Fit every applicable model to an isotonic table and score their length predictions.
 
     Parameters
@@ -167,6 +171,10 @@ def compare_models(table: Table, muscle: MuscleSpec, braid: Table | None = None)
         The muscle file (nominal length for the contraction; geometry for the physical models).
     braid : Table, optional
         A ``braid_angle`` table with pressure and load, for the paper's pipeline (eq. 2 + 3).
+    tube : bool, default False
+        Also score every law with the tube's passive stretch fitted beside it
+        (:func:`~mckibben.fit.isometric.fit_isotonic_law` with ``tube=True``), named
+        ``<law>+tube`` (:data:`TUBE_SUFFIX`): the held-out error says whether the term earns its place.
 
     Returns
     -------
@@ -193,6 +201,8 @@ def compare_models(table: Table, muscle: MuscleSpec, braid: Table | None = None)
         "surface": _surface,
         # every registered law with a fit spec, fitted through its force (fit_isotonic_law)
         **{name: _by_force(name, muscle, float(np.min(ell)), float(np.max(ell))) for name in laws.fit_laws()},
+        **({name + TUBE_SUFFIX: _by_force(name, muscle, float(np.min(ell)), float(np.max(ell)), tube=True)
+            for name in laws.fit_laws()} if tube else {}),
         "gaussian process": _gaussian_process,
     }
     scores = []

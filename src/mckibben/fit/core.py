@@ -961,20 +961,22 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     sigma = float(np.sqrt(resid @ resid / max(n - p, 1)))
     # the fit's information: the data's and the priors' (their rows as data rows of the residuals' σ)
     jaug = np.vstack([jac, jac_prior * sigma / s0])
-    if free.any():
-        jf = jac[:, free]
-        norms = np.linalg.norm(jaug[:, free], axis=0)
-        if np.all(norms > 0):
-            cond = float(np.linalg.cond(jaug[:, free] / norms))
-            labels = np.unique(clusters) if clusters is not None else np.array([0])
-            if use_clusters(clusters):
-                cf = cluster_covariance(jf, scores, clusters, prior_jac=jaug[n:, free])
-                t_dof = int(labels.size - 1)
-                method = f"cluster-robust ({labels.size} {cluster_unit})"
-            else:
-                js = jaug[:, free] / norms
-                cf = sigma**2 * np.linalg.pinv(js.T @ js) / np.outer(norms, norms)
-            cov[np.ix_(free, free)] = cf
+    # a parameter no data row (nor prior) moves with has no interval (flagged unconstrained below), and costs the
+    # others none: e.g. a two-branch law's second branch on data of one direction
+    seen = free & (np.linalg.norm(jaug, axis=0) > 0)
+    if seen.any():
+        jf = jac[:, seen]
+        norms = np.linalg.norm(jaug[:, seen], axis=0)
+        cond = float(np.linalg.cond(jaug[:, seen] / norms)) if seen.sum() == free.sum() else float("inf")
+        labels = np.unique(clusters) if clusters is not None else np.array([0])
+        if use_clusters(clusters):
+            cf = cluster_covariance(jf, scores, clusters, prior_jac=jaug[n:, seen])
+            t_dof = int(labels.size - 1)
+            method = f"cluster-robust ({labels.size} {cluster_unit})"
+        else:
+            js = jaug[:, seen] / norms
+            cf = sigma**2 * np.linalg.pinv(js.T @ js) / np.outer(norms, norms)
+        cov[np.ix_(seen, seen)] = cf
     from scipy import special  # deferred on purpose: SciPy
     tq = float(special.stdtrit(t_dof if t_dof is not None else max(n - p, 1), 0.975))
     with np.errstate(divide="ignore"):

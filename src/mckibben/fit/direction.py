@@ -38,15 +38,17 @@ from mckibben.fit.core import FitResult, bounded_fit, data_range
 from mckibben.fit.isometric import BOUNDS_NOTE, SURFACE, _runs, fit_points, is_family, isometric_points, model_name
 from mckibben.models import laws
 from mckibben.models.law_statics import rising_root
-from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, DIRECTIONS, STRUCTURES, branch_state, direction_aware_force, play_pressure
+from mckibben.models.hysteresis.direction import (DEFAULT_STRUCTURE, DIRECTIONS, FRICTION_NAME, STRUCTURES, branch_force,
+                                                  branch_state, direction_aware_force, play_pressure)
+from mckibben.models.tube import TUBE_MAX_STRAIN, TUBE_NAME, with_tube
 from mckibben.results import FitBase, Result, provenance, to_jsonable
 
 if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["DEFAULT_STRUCTURE", "GAP_STEP_PA", "THRESHOLD_MAX_FRACTION", "FRICTION_MAX", "DirectionAwareFit",
-           "HeldoutGap", "compare_direction_aware", "fit_direction_aware", "gap_scores", "heldout_gap", "loop_gap",
-           "run_order"]
+           "HeldoutGap", "compare_direction_aware", "fit_direction_aware", "fit_isotonic_friction", "gap_scores",
+           "heldout_gap", "loop_gap", "run_order"]
 
 #: The play's threshold is bounded by this fraction of the largest pressure of the data. [-]
 THRESHOLD_MAX_FRACTION = 0.25
@@ -769,3 +771,101 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
         out.append({**row, **h.metrics, "play_threshold_Pa": [f.result["play_threshold_Pa"] for f in h.fits],
                     "flags": sorted({fl for f in h.fits for fl in f.result.flags}), "note": ""})
     return out
+
+
+def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube: bool = False,
+                          start=None) -> FitResult:
+    """A law's ``"friction"`` form fitted to the up/down branches of isotonic sweeps: law ∓ A_f·P = load.
+
+    Each point (P, load, L, direction) of a hysteresis table (an isotonic sweep's rows with their
+    branch) is a muscle far along a branch of its loop: the pressure has moved one way since the
+    last step and the braid slipped, so its friction is at its limit, against the motion. Inflating
+    (contracting) the muscle pulls the load plus the friction, deflating the load less it:
+    F_law(P, L) − A_f·P = load on the inflating branch, F_law(P, L) + A_f·P = load on the deflating
+    one (:func:`mckibben.models.hysteresis.direction.branch_force`, the ``"friction"`` structure at
+    its branch state; a Dahl element's slip limit proportional to pressure). The law's parameters
+    (its own fit spec, read, never copied; the law's inflate branch for every point: the friction,
+    not a second branch of the law, makes the loop), the tube's stiffness with ``tube``
+    (:mod:`mckibben.models.tube`) and A_f, one for every load, are fitted jointly.
+
+    Parameters
+    ----------
+    table : Table
+        A ``hysteresis`` table (pressure, load, length, direction, trial), both branches; the rows where
+        the muscle hangs on an end stop left out by the caller. [-]
+    muscle : MuscleSpec
+        The muscle file (nominal length, outer diameter; the law's bounds read it). [-]
+    model : str
+        A registered law with a fit spec (:func:`mckibben.models.laws.fit_laws`). [-]
+    tube : bool, default False
+        Fit the tube's stretch past the rest length with the law. [-]
+    start : array_like, optional
+        A start for the law's parameters (and the tube's, with ``tube``), e.g. a static fit's values
+        (:func:`mckibben.fit.isometric.fit_isotonic_law`); default the law's own starts. [SI]
+
+    Returns
+    -------
+    FitResult
+        The law's parameters (the tube's stiffness with ``tube``), then ``friction_area_m2`` A_f [m²];
+        ``result.predict(pressure=, length=, direction=)`` gives the branch's force (``direction``
+        "inflate" or "deflate"). Residuals in force [N].
+
+    References
+    ----------
+    Tondu & Lopez (2000), their friction force proportional to pressure (the form); Dahl (1968)
+    for the slip limit (the plant's braid friction, ``docs/plant.md``).
+    """
+    check_instance(table, "table", Table, "a Table (mckibben.read_table)")
+    check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
+    name = _law_name(model)
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    if table.kind != "hysteresis" or "direction" not in table.data:
+        raise InputError(f"fit {name} (friction) on {table.path}: needs a hysteresis table (pressure, load, length, "
+                         f"direction); it is a {table.kind} table")
+    t = table.data
+    d = pd.DataFrame({"held_length": t["length"].to_numpy(dtype=float), "pressure": t["pressure"].to_numpy(dtype=float),
+                      "force": t["load"].to_numpy(dtype=float), "direction": t["direction"].to_numpy(dtype=object),
+                      "trial": t["trial"].to_numpy() if "trial" in t else np.ones(len(t))})
+    dirn = d["direction"].to_numpy()
+    bad = ~np.isin(dirn, list(DIRECTIONS))
+    if bad.any():
+        raise InputError(f"{table.path}: direction {dirn[bad][0]!r} is not one of {', '.join(DIRECTIONS)}")
+    what = f"fit {name} (friction, isotonic branches) on {table.path}"
+    if not np.any(dirn == "inflate") or not np.any(dirn == "deflate"):
+        raise InputError(f"{what}: needs both inflate and deflate rows; a loop has two branches")
+    p = d["pressure"].to_numpy(dtype=float)
+    ell = d["held_length"].to_numpy(dtype=float)
+    f = d["force"].to_numpy(dtype=float)
+    pmax = float(np.max(p))
+    if not pmax > 0:
+        raise InputError(f"{what}: no pressure above zero")
+    fmax = float(np.max(np.abs(f))) or 1.0
+    spec = _law_spec(name, muscle, fmax, d)
+    law_force, names, lo, hi, starts = spec.force, tuple(spec.names), spec.lo, spec.hi, list(spec.starts)
+    if tube:
+        k_max = fmax / (TUBE_MAX_STRAIN * muscle.nominal_length)
+        law_force = with_tube(spec.force, muscle.nominal_length)
+        names, lo, hi = names + (TUBE_NAME,), np.r_[lo, 0.0], np.r_[hi, k_max]
+        starts = [np.r_[x0, 0.05 * k_max] for x0 in starts]
+    n_law = len(names)
+    if start is not None:
+        x0 = np.clip(np.asarray(start, dtype=float).ravel()[:n_law], lo, hi)
+        if x0.size != n_law:
+            raise InputError(f"start: {x0.size} values, the law has {n_law}")
+        starts = [x0]
+    area = fmax / pmax  # [m²]: the scale of the friction area
+    lo, hi = np.r_[lo, 0.0], np.r_[hi, FRICTION_MAX * area]
+    starts = [np.r_[x0, a0 * area] for x0 in starts for a0 in (0.02, 0.1)]
+    names = names + (FRICTION_NAME,)
+
+    def func(values, pressure, length, direction="inflate", rest_length=None):
+        v = np.asarray(values, dtype=float)
+        return branch_force(law_force, v[:-1], v[-1], pressure, length, direction, direction="inflate",
+                            rest_length=rest_length)
+
+    physical = (lambda v: spec.physical(v[:len(spec.names)])) if spec.physical is not None else None
+    return bounded_fit(lambda v: func(v, p, ell, dirn), f, starts, names, lo, hi, model=name, response="force_N",
+                       what=what, valid_range=data_range(pressure=p, length=ell), func=func,
+                       clusters=d["trial"].to_numpy(), source=str(table.path), physical_flags=physical,
+                       priors=spec.priors)

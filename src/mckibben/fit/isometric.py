@@ -65,6 +65,7 @@ from mckibben.fit.core import (FitResult, bounded_fit, censor_hinge, data_range,
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
 from mckibben.models.law_statics import rising_root
+from mckibben.models.tube import TUBE_MAX_STRAIN, TUBE_NAME, with_tube
 from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
 from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
 from mckibben.models.laws.spring import NOMINAL_TOL, SPRING_NAMES, spring_model_of
@@ -404,7 +405,7 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
     return d, report
 
 
-def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
+def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str, tube: bool = False) -> FitResult:
     """A registered law fitted to an isotonic table through its force: each point (P, load, L) is F(P, L) = load.
 
     The law's own fit spec (:attr:`mckibben.models.laws.Law.fit_spec`), as on an isometric table: a
@@ -423,6 +424,8 @@ def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
         The muscle file (its nominal length and what the law's fit needs). [-]
     model : str
         A law of :func:`mckibben.models.laws.fit_laws` (or an old name). [-]
+    tube : bool, default False
+        Fit the tube's passive stretch with the law (:func:`fit_points`, :mod:`mckibben.models.tube`). [-]
 
     Returns
     -------
@@ -441,7 +444,7 @@ def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
     pts = pd.DataFrame({"held_length": d["length"].to_numpy(dtype=float), "pressure": d["pressure"].to_numpy(dtype=float),
                         "force": d["load"].to_numpy(dtype=float), "direction": direction,
                         "trial": d["trial"].to_numpy() if "trial" in d else np.ones(len(d))})
-    return fit_points(pts, muscle, model, source=str(table.path))
+    return fit_points(pts, muscle, model, source=str(table.path), tube=tube)
 
 
 def law_length(res: FitResult, pressure, load, lo: float, hi: float) -> np.ndarray:
@@ -612,7 +615,7 @@ REST_SHIFT_MAX = 0.05
 
 
 def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "",
-               rest_lengths: str = "nominal", zeros: str = "shared") -> FitResult:
+               rest_lengths: str = "nominal", zeros: str = "shared", tube: bool = False) -> FitResult:
     """Fit one force model to isometric points (already tared). See :func:`fit_isometric`.
 
     Parameters
@@ -641,6 +644,13 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         the model, and a cluster-robust covariance by run would see no scatter in them (a run's own
         zero absorbs its residuals' mean): the covariance is s²·(JᵀJ)⁻¹, the rows of a run taken as
         independent about its zero. [-]
+    tube : bool, default False
+        Fit the tube's passive stretch with the law (:mod:`mckibben.models.tube`): a stiffness
+        ``tube_stiffness_N_per_m`` k_t in [0, peak force / (:data:`~mckibben.models.tube.TUBE_MAX_STRAIN`
+        × the rest length)] pulling k_t·max(L − L0, 0) beside the law, L0 each row's rest length (the
+        fitted one with ``rest_lengths="fitted"``). The last parameter; flagged
+        ``tube_stiffness_N_per_m_unconstrained`` when no point stretches the muscle past its rest
+        length (the data then say nothing of it). A registered law only. [-]
 
     Returns
     -------
@@ -667,6 +677,8 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
     rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(p.size, muscle.nominal_length)
     if family:
         vr["rest_length"] = (float(rest.min()), float(rest.max()))
+    if tube and law is None:
+        raise InputError(f"{what}: tube: the tube's stretch is a term of a registered force law; {model} is not one")
     if model == "surface":
         l0 = muscle.nominal_length
         x = np.column_stack(_surface_terms(p, ell, direction, l0))
@@ -714,6 +726,21 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         hi = np.concatenate([hi, np.full(dev.shape[1], fmax)])
         starts = [np.concatenate([x0, np.zeros(dev.shape[1])]) for x0 in starts]
     kz = k + m_shift  # the run zeros' deviations start here
+    kt = kz + dev.shape[1]  # the tube's stiffness (tube=True): the last parameter
+    tube_fn = None
+    if tube:
+        names = names + (TUBE_NAME,)
+        k_max = fmax / (TUBE_MAX_STRAIN * float(np.min(rest)))
+        lo, hi = np.concatenate([lo, [0.0]]), np.concatenate([hi, [k_max]])
+        starts = [np.concatenate([x0, [0.05 * k_max]]) for x0 in starts]
+        tube_fn = with_tube(spec.force, float(muscle.nominal_length))
+
+    def law_force(v, pressure, length, direction=None, rest_length=None):
+        """The law's force (its values first) and, with ``tube``, the tube's (k_t the last value)."""
+        v = np.asarray(v, dtype=float)
+        if tube_fn is None:
+            return spec.force(v[:k], pressure, length, direction, rest_length)
+        return tube_fn(np.concatenate([v[:k], v[-1:]]), pressure, length, direction, rest_length)
 
     def func(values, pressure, length, direction="inflate", rest_length=None):
         values = np.asarray(values, dtype=float)
@@ -725,9 +752,9 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
             seen = [np.isclose(rl, r0, rtol=0, atol=1e-9) for r0 in recorded]
             rest_length = rl + sum(np.where(m, dv, 0.0) for m, dv in zip(seen, shifts)) + np.where(
                 np.any(seen, axis=0), 0.0, float(np.mean(shifts)))
-        return spec.force(values[:k], pressure, length, direction, rest_length)  # a run's zero: the runs' mean
+        return law_force(values, pressure, length, direction, rest_length)  # a run's zero: the runs' mean
 
-    res = bounded_fit(lambda v: spec.force(v[:k], p, ell, direction, rest_fit(v)) + dev @ v[kz:], f, starts, names,
+    res = bounded_fit(lambda v: law_force(v, p, ell, direction, rest_fit(v)) + dev @ v[kz:kt], f, starts, names,
                       lo, hi, model=model, response="force_N", what=what, valid_range=vr, func=func,
                       clusters=None if zeros == "per-run" else clusters,
                       source=source, physical_flags=lambda v: spec.physical(v[:k]) if spec.physical else [],

@@ -20,6 +20,8 @@ from mckibben.fit.isometric import ALL_MODELS, force_law, model_name, parameter_
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION
+from mckibben.models.muscle import MUSCLE_TERMS, law_values
+from mckibben.models.tube import TUBE_NAME, tube_force
 from mckibben.atomic import atomic_file
 
 def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) -> str:
@@ -103,7 +105,8 @@ class MuscleForceLaw:
     model : str
         The fitted model's name.
     parameters : dict
-        Parameter name -> value. [SI]
+        Parameter name -> value, with the terms of :data:`~mckibben.models.muscle.MUSCLE_TERMS` the
+        file carries (the tube's stiffness, the friction area). [SI]
     valid_range : dict
         ``pressure`` and ``length`` -> (min, max) of the data it was fitted on. [Pa, m]
     flags : tuple of str
@@ -136,7 +139,10 @@ class MuscleForceLaw:
             :class:`~mckibben.models.flags.Flag` masks.
         """
         p, ell = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
-        f = np.broadcast_to(force_law(self.model, self.spec, list(self.parameters.values()))(p, ell, direction), p.shape)
+        f = np.broadcast_to(force_law(self.model, self.spec, list(law_values(self.parameters).values()))(p, ell, direction),
+                            p.shape)
+        if self.parameters.get(TUBE_NAME):  # the tube's pull past the rest length (models/tube.py)
+            f = f + tube_force(ell, self.spec.nominal_length, self.parameters[TUBE_NAME])
         flags = np.zeros(p.shape, dtype=np.uint16)
         if "pressure" in self.valid_range:
             flags |= outside(p, *self.valid_range["pressure"], Flag.PRESSURE_OUT_OF_RANGE)
@@ -172,7 +178,7 @@ class MuscleForceLaw:
             where = self.spec.path or self.spec.id
             raise InputError(f"{where}: the data-driven {self.model} force law has no physical law the plant can run;"
                              f" fit one of {', '.join(laws.fit_laws())}")
-        return law.from_values(self.parameters, self.spec, direction, self.valid_range)
+        return law.from_values(law_values(self.parameters), self.spec, direction, self.valid_range)
 
     def plant_law(self, direction: str = "inflate") -> tuple:
         """``(name, θ)`` of the plant's law registry (:func:`mckibben.models.laws.law_of`).
@@ -209,7 +215,14 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
         raise InputError(f"{where}: key force_model.model: {model!r} is not one of {', '.join(ALL_MODELS)}")
     model = model_name(model)  # an old name (wall-chou-hannaford) is read as its registry name
     names = parameter_names(model, spec)
-    params = fm["parameters"]
+    params = law_values(fm["parameters"])  # the tube's and the friction's terms are any law's (optional)
+    if model not in laws.LAWS and len(params) != len(fm["parameters"]):
+        extra = ", ".join(n for n in fm["parameters"] if n in MUSCLE_TERMS)
+        raise InputError(f"{where}: key force_model.parameters: {extra} is a term of a registered force law; the "
+                         f"data-driven {model} model has none")
+    for term in MUSCLE_TERMS:
+        if fm["parameters"].get(term, 0.0) < 0:
+            raise InputError(f"{where}: key force_model.parameters.{term}: {fm['parameters'][term]!r} must be >= 0")
     optional = laws.LAWS[model].extra.get("optional_names", ()) if model in laws.LAWS else ()
     if tuple(params) != tuple(names) and (tuple(n for n in params if n not in optional)
                                           == tuple(n for n in names if n not in optional)):
@@ -229,7 +242,7 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
             if not (isinstance(v, list) and len(v) == 2 and all(isinstance(x, (int, float)) for x in v)):
                 raise InputError(f"{where}: key force_model.valid_{q}_{unit}: must be [min, max]")
             vr[q] = (float(v[0]), float(v[1]))
-    return MuscleForceLaw(spec, model, dict(params), vr, tuple(fm.get("flags", ())))
+    return MuscleForceLaw(spec, model, dict(fm["parameters"]), vr, tuple(fm.get("flags", ())))
 
 
 #: The branches of a fitted force law: the spring model has one per direction of travel (its

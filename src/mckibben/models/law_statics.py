@@ -40,7 +40,9 @@ import numpy as np
 from mckibben.errors import InputError
 from mckibben.models import laws
 from mckibben.models.flags import Flag, flag_where, outside
+from mckibben.models.hysteresis.direction import DIRECTIONS, branch_force
 from mckibben.models.mpam import LengthPrediction
+from mckibben.models.tube import tube_force
 
 #: Tension at which a slack muscle is taken as just taut: a slack muscle's length is where its
 #: law first pulls this much. [N]
@@ -185,6 +187,13 @@ class LawMuscle:
         for building the same muscle's plant. [-]
     citation : str
         Where the law comes from, in words.
+    tube_stiffness : float, default 0.0
+        The tube's stiffness past the rest length (:mod:`mckibben.models.tube`): its pull
+        k_t·max(l − L0, 0) is added to the law's. [N/m]
+    friction_area : float, default 0.0
+        The braid's friction area A_f (:func:`mckibben.models.hysteresis.direction.branch_force`):
+        inflating the muscle pulls A_f·P less than its static force, deflating A_f·P more (the
+        ``branch`` of :meth:`force` and the solvers; without one, the static force). [m²]
     """
 
     name: str
@@ -198,6 +207,8 @@ class LawMuscle:
     direction: str = "inflate"
     source: object = None
     citation: str = ""
+    tube_stiffness: float = 0.0
+    friction_area: float = 0.0
 
     def __post_init__(self):
         if self.law not in laws.LAWS:
@@ -208,14 +219,27 @@ class LawMuscle:
         if not (math.isfinite(b) and math.isfinite(l0) and b / math.sqrt(3.0) < l0 < b):
             raise InputError(f"strand length: {b * 1e3:.4g} mm must hold the nominal {l0 * 1e3:.4g} mm between the"
                              " braid's end stops b/√3 and b")
+        for name in ("tube_stiffness", "friction_area"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise InputError(f"{name}: {value!r} must be a finite number >= 0")
 
     @property
     def length_stops(self) -> tuple[float, float]:
         """The braid's end stops: locking angle ``b/√3`` and straight braid ``b``. [m]"""
         return self.strand_length / math.sqrt(3.0), self.strand_length
 
-    def force(self, pressure, length) -> np.ndarray:
-        """The law's pull at pressures and lengths (negative where it would push). [N]
+    def _static(self, theta, pressure, length) -> np.ndarray:
+        """The law's pull plus the tube's (:func:`mckibben.models.tube.tube_force`). [N]"""
+        f = laws.evaluate(self.law, pressure, length, theta)
+        return f + tube_force(length, self.nominal_length, self.tube_stiffness) if self.tube_stiffness else f
+
+    def force(self, pressure, length, branch: str | None = None) -> np.ndarray:
+        """The muscle's pull at pressures and lengths (negative where the law would push). [N]
+
+        The law's pull, plus the tube's past the rest length (:attr:`tube_stiffness`); on a
+        ``branch``, less (inflating) or more (deflating) by the friction A_f·P
+        (:attr:`friction_area`, :func:`mckibben.models.hysteresis.direction.branch_force`).
 
         Parameters
         ----------
@@ -223,13 +247,20 @@ class LawMuscle:
             Gauge pressure. [Pa]
         length : array_like
             Muscle length. [m]
+        branch : {"inflate", "deflate"}, optional
+            The branch of the friction's loop; None: the static (friction-free) pull. [-]
         """
-        return laws.evaluate(self.law, pressure, length, self.theta)
+        if branch is not None and branch not in DIRECTIONS:
+            raise InputError(f"branch: {branch!r} must be inflate or deflate (or None: the static pull)")
+        if branch is None or not self.friction_area:
+            return self._static(self.theta, pressure, length)
+        return branch_force(self._static, self.theta, self.friction_area, pressure, length, branch)
 
     def _exact(self):
-        """The law's closed-form inverse on this θ, if it has one (:attr:`mckibben.models.laws.Law.length_of`)."""
+        """The law's closed-form inverse on this θ, if it has one (:attr:`mckibben.models.laws.Law.length_of`)
+        and the muscle has no tube term (the inverse is the law's alone)."""
         length_of = laws.LAWS[self.law].length_of
-        return None if length_of is None else (lambda p, w: length_of(self.theta, p, w))
+        return None if length_of is None or self.tube_stiffness else (lambda p, w: length_of(self.theta, p, w))
 
     def _range_flags(self, pressure, length) -> np.ndarray:
         return (outside(pressure, *self.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
@@ -239,7 +270,7 @@ class LawMuscle:
         return LengthPrediction(pressure, load, length, 1.0 - length / self.nominal_length,
                                 length / self.strand_length, flags.astype(np.uint16))
 
-    def length_for_pressure(self, pressure, load) -> LengthPrediction:
+    def length_for_pressure(self, pressure, load, branch: str | None = None) -> LengthPrediction:
         """The length at which the muscle, at a pressure, pulls a load: the law solved for the length.
 
         Parameters
@@ -248,6 +279,9 @@ class LawMuscle:
             Gauge pressure. [Pa]
         load : array_like
             Tension (hanging load). [N]
+        branch : {"inflate", "deflate"}, optional
+            The length on the inflating or deflating branch of the friction's loop (:meth:`force`);
+            None: the static length. [-]
 
         Returns
         -------
@@ -256,12 +290,14 @@ class LawMuscle:
         """
         p, w = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
         lo, hi = self.length_stops
-        length, state = rising_root(self.force, p, np.maximum(w, TAUT_FORCE), lo, hi, self._exact())
+        exact = self._exact() if branch is None or not self.friction_area else None
+        length, state = rising_root(lambda pp, ell: self.force(pp, ell, branch), p, np.maximum(w, TAUT_FORCE), lo, hi,
+                                    exact)
         flags = (self._range_flags(p, length) | flag_where(state < 0, Flag.NEGATIVE_LENGTH)
                  | flag_where(state > 0, Flag.COS_THETA_ABOVE_ONE))
         return self._prediction(p, w, length, flags)
 
-    def pressure_for_length(self, length, load, p_max: float) -> LengthPrediction:
+    def pressure_for_length(self, length, load, p_max: float, branch: str | None = None) -> LengthPrediction:
         """The pressure that holds the muscle at a length under a load: the law solved for the pressure.
 
         Parameters
@@ -272,6 +308,9 @@ class LawMuscle:
             Tension (hanging load). [N]
         p_max : float
             Highest pressure allowed. [Pa]
+        branch : {"inflate", "deflate"}, optional
+            The pressure on the inflating or deflating branch of the friction's loop (:meth:`force`);
+            None: the static pressure. [-]
 
         Returns
         -------
@@ -287,13 +326,14 @@ class LawMuscle:
         # a length held at exactly 0 Pa or p_max (the workspace's faces) stays reachable after
         # round-off, as the miniature's inverse (its 1e-9 MPa tolerance)
         p_lo, p_hi = -PRESSURE_TOL, p_max + PRESSURE_TOL
-        g_lo = np.where(on_braid, self.force(p_lo, ell) - w, np.nan)
-        g_hi = np.where(on_braid, self.force(p_hi, ell) - w, np.nan)
+        g_lo = np.where(on_braid, self.force(p_lo, ell, branch) - w, np.nan)
+        g_hi = np.where(on_braid, self.force(p_hi, ell, branch) - w, np.nan)
         pressure = np.full(ell.shape, np.nan)
         pressure[g_lo == 0] = p_lo
         pressure[(g_hi == 0) & (g_lo != 0)] = p_hi
         inside = (g_lo < 0) & (g_hi > 0)
-        pressure[inside] = _root(lambda pp, el, ww: self.force(pp, el) - ww, p_lo, p_hi, (ell[inside], w[inside]))
+        pressure[inside] = _root(lambda pp, el, ww: self.force(pp, el, branch) - ww, p_lo, p_hi,
+                                 (ell[inside], w[inside]))
         pressure = np.clip(pressure, 0.0, p_max)
         reached = np.isfinite(pressure)
         flags = (self._range_flags(np.where(reached, pressure, self.pressure_range[0]), ell)

@@ -37,9 +37,27 @@ from mckibben.data.muscle_file import MuscleSpec, muscle_file_text_of, read_musc
 from mckibben.errors import InputError
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
+from mckibben.models.hysteresis.direction import FRICTION_NAME
 from mckibben.models.law_statics import LawMuscle
+from mckibben.models.tube import TUBE_NAME
 
-__all__ = ["FILE_BRAID_ANGLE", "Muscle"]
+__all__ = ["FILE_BRAID_ANGLE", "MUSCLE_TERMS", "Muscle", "law_values"]
+
+#: The terms any law of a muscle file may carry beside its own parameters (in ``[force_model.parameters]``,
+#: optional; a file without them has none): the tube's stiffness past the rest length
+#: (:mod:`mckibben.models.tube`) and the braid's friction area (:func:`~mckibben.models.hysteresis.direction.branch_force`). [-]
+MUSCLE_TERMS = (TUBE_NAME, FRICTION_NAME)
+
+
+def law_values(parameters: dict) -> dict:
+    """A saved law's own parameters: a muscle file's ``[force_model.parameters]`` without :data:`MUSCLE_TERMS`. [SI]
+
+    Parameters
+    ----------
+    parameters : dict
+        Name -> value, as saved. [SI]
+    """
+    return {n: v for n, v in parameters.items() if n not in MUSCLE_TERMS}
 
 #: Rest braid angle assumed when neither the file nor its fitted law gives one: the project's
 #: construction angle. It only shapes the chamber volume's change with length and the end stops;
@@ -54,7 +72,8 @@ class Muscle(LawMuscle):
     Attributes (beyond :class:`~mckibben.models.law_statics.LawMuscle`'s)
     ----------------------------------------------------------------------
     values : dict
-        The law's parameters by name, as saved in the muscle file. [SI]
+        The law's parameters by name, as saved in the muscle file (with the terms of
+        :data:`MUSCLE_TERMS` it carries). [SI]
     params : object
         The law's parameter object (:attr:`mckibben.models.laws.Law.from_values`). [-]
     flags : tuple of str
@@ -124,8 +143,11 @@ class Muscle(LawMuscle):
             lo, hi = valid.get("rest_length", (-np.inf, np.inf))
             if outside(rest_length, lo, hi, Flag.REST_LENGTH_OUT_OF_RANGE) and "rest_length_out_of_range" not in fit_flags:
                 fit_flags += ("rest_length_out_of_range",)  # extrapolated beyond the family's rest lengths
+        for term in MUSCLE_TERMS:
+            if fm["parameters"].get(term, 0.0) < 0:
+                raise InputError(f"{where}: key force_model.parameters.{term}: {fm['parameters'][term]!r} must be >= 0")
         try:
-            params = law.from_values(fm["parameters"], spec, direction, valid)
+            params = law.from_values(law_values(fm["parameters"]), spec, direction, valid)
         except KeyError as exc:
             raise InputError(f"{where}: key force_model.parameters: missing {exc.args[0]} for model {law.name}") from None
         kind, theta = laws.law_of(params, law=law.name, direction="contraction" if direction == "deflate" else "elongation")
@@ -146,7 +168,9 @@ class Muscle(LawMuscle):
                    strand_length=float(b), pressure_range=valid.get("pressure", (0.0, np.inf)),
                    length_range=valid.get("length", stops), outer_diameter=float(od), direction=direction,
                    source=spec, citation=f"{law.name} force law fitted to {fm.get('source', 'data')} ({where})",
-                   values=dict(fm["parameters"]), params=params, flags=fit_flags)
+                   values=dict(fm["parameters"]), params=params, flags=fit_flags,
+                   tube_stiffness=float(fm["parameters"].get(TUBE_NAME, 0.0)),
+                   friction_area=float(fm["parameters"].get(FRICTION_NAME, 0.0)))
 
     @classmethod
     def from_muscle_file(cls, path, direction: str = "inflate", rest_length: float | None = None) -> "Muscle":

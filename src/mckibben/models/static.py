@@ -322,7 +322,19 @@ def _law_flags(name: str, params, p, ell, load, flags) -> np.ndarray:
     return np.asarray(flags).astype(np.uint16)
 
 
-def length(pressure, load, muscle, model: str | None = None) -> StaticResult:
+def _check_branch(branch, muscle) -> None:
+    """A friction ``branch`` is a muscle file's (a :class:`~mckibben.models.law_statics.LawMuscle` with a fitted friction)."""
+    if branch is None:
+        return
+    if branch not in ("inflate", "deflate"):
+        raise InputError(f"branch: {branch!r} must be inflate or deflate (or none: the static length)")
+    if not isinstance(muscle, LawMuscle) or not muscle.friction_area:
+        who = f"muscle {muscle.name!r}" if isinstance(muscle, LawMuscle) else "a catalogue muscle"
+        raise InputError(f"branch: {who} has no fitted friction (friction_area_m2 in its muscle file: "
+                         "mckibben rig characterize fits it); leave the branch out for the static length")
+
+
+def length(pressure, load, muscle, model: str | None = None, branch: str | None = None) -> StaticResult:
     """Length under a hanging load: a registered law's force solved for the length.
 
     The law's pull at the pressure equals the load at the returned length
@@ -344,6 +356,10 @@ def length(pressure, load, muscle, model: str | None = None) -> StaticResult:
     model : str, optional
         A law with a published parameter set (:func:`force_laws`); default ``braid-map`` (a
         catalogue muscle) or the muscle file's law. Old names (``mpam``) are read, deprecated. [-]
+    branch : {"inflate", "deflate"}, optional
+        A muscle file with a fitted friction: the length on the inflating or deflating branch of
+        its loop (law ∓ A_f·P = load, :meth:`~mckibben.models.law_statics.LawMuscle.length_for_pressure`);
+        None: the static length. [-]
 
     Returns
     -------
@@ -354,9 +370,10 @@ def length(pressure, load, muscle, model: str | None = None) -> StaticResult:
     ----------
     Each law's own file (:mod:`mckibben.models.laws`) cites its paper and equation.
     """
+    _check_branch(branch, muscle)
     name, statics, params = _statics(muscle, model)
     p, f = _pair(MAX_SOLVE_POINTS, pressure=pressure, load=load)
-    r = statics.length_for_pressure(p, f)
+    r = statics.length_for_pressure(p, f, branch) if branch is not None else statics.length_for_pressure(p, f)
     flags = _law_flags(name, params, p, r.length, f, r.flags)
     return StaticResult(name, p, f, r.length, r.contraction, flags, r.cos_theta)
 

@@ -334,8 +334,13 @@ class PlantParams:
         - valves and leak: the calibrated rig's sonic conductances scaled by the ratio of the
           chamber volumes at rest, so the fill keeps the calibrated rig's time constant
           (≈ 0.09 s) that the controllers' gains were chosen for;
-        - passive stiffness and friction 0: the fitted law is the whole measured force, the tube's
-          elasticity included, and one branch of it (the spring model's inflate or deflate);
+        - passive stiffness: the file's tube stiffness (``tube_stiffness_N_per_m``, a law fitted with
+          the tube's stretch, :mod:`mckibben.models.tube`), else 0 (the fitted law is the whole
+          measured force, the tube's elasticity included);
+        - friction: ``friction_per_pa`` the file's friction area (``friction_area_m2``, A_f·P fitted
+          on the up/down branches, :func:`mckibben.fit.direction.fit_isotonic_friction`) and
+          ``friction_force`` 0, else none (the fitted law is one branch of the measured force:
+          the spring model's inflate or deflate, or the branches' mean);
         - moving mass :data:`FILE_MOVING_MASS`; damping critical for that mass and a hanging
           load's (``load_force``/g) on the law's steepest stiffness at the supply pressure;
         - supply: the top of the fitted pressure range (the law is not known above it), ≤ 1 MPa.
@@ -402,7 +407,8 @@ class PlantParams:
             alpha0=float(np.arccos(min(l0 / b, 1.0))) or base.alpha0, k_tl=1.0, p_threshold=0.0,
             dead_volume=dead, tube_diameter=FILE_TUBE_BORE, valve_conductance=base.valve_conductance * scale,
             bleed_conductance=base.bleed_conductance * scale, leak_conductance=base.leak_conductance * scale,
-            passive_stiffness=0.0, friction_force=0.0, friction_per_pa=0.0, moving_mass=FILE_MOVING_MASS,
+            passive_stiffness=float(m.tube_stiffness), friction_force=0.0, friction_per_pa=float(m.friction_area),
+            moving_mass=FILE_MOVING_MASS,
             supply_pressure=supply if supply > 0 else base.supply_pressure, spring_free_length=l0,
             load_force=0.0, force_model=obj, muscle_name="", muscle=None,
         )

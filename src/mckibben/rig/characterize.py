@@ -36,12 +36,14 @@ from mckibben.rig.device import connect
 from mckibben.results import Result, to_jsonable, write_table
 from mckibben.data.muscle_file import read_muscle
 from mckibben.data.tables import read_table
-from mckibben.fit.compare import compare_models
+from mckibben.fit.compare import TUBE_SUFFIX, compare_models
+from mckibben.fit.direction import fit_isotonic_friction
 from mckibben.fit.hysteresis import fit_prandtl_ishlinskii
 from mckibben.fit.isometric import IsometricFit, fit_isotonic_law
 from mckibben.fit.muscle_file import muscle_file_text
 from mckibben.models import laws
 from mckibben.models.hysteresis import thresholds_uniform
+from mckibben.models.hysteresis.direction import FRICTION_NAME
 from mckibben.models.muscle import Muscle
 from mckibben.models.static import length as static_length
 from mckibben.rig.recorder import _atomic_parquet, _fsync_dir
@@ -640,8 +642,9 @@ def _ask_length(ask) -> float:
 
 # -- from the journal to tables, and from tables to a muscle file -----------------------------------
 
-#: Plays of the hysteresis model fitted on each load's up/down branches, and the knots of its output
-#: map (a modified PI, Kuhnen 2003: the muscle's contraction saturates with pressure). [-]
+#: Plays of the Prandtl-Ishlinskii loop fitted on each load's up/down branches (beside the muscle file's
+#: friction, one for every load), and the knots of its output map (a modified PI, Kuhnen 2003: the
+#: muscle's contraction saturates with pressure). [-]
 N_PLAYS, PI_KNOTS = 3, 3
 
 
@@ -786,8 +789,21 @@ def static_points(steps, moving, columns):
 
 
 def fit_run(out, muscle_file) -> dict:
-    """Fit the run's tables: compare every applicable law held out, write the best to ``OUT/muscle.toml``,
-    fit the hysteresis model on each load's up/down branches.
+    """Fit the run's tables: compare every applicable law held out, write the best to ``OUT/muscle.toml``
+    with the braid's friction fitted on the up/down branches, and give each load's up/down gap.
+
+    The laws are compared on the branches' mean at each set-point (the friction-free length), each
+    with and without the tube's stretch past the rest length (:mod:`mckibben.models.tube`;
+    :func:`mckibben.fit.compare.compare_models` with ``tube=True``): the term is kept only when the
+    law with it predicts the held-out loads better (the held-out error decides, not the in-sample
+    fit or its flags: the term only acts on the points hung past the rest length, and a held-out
+    load is the test a lab's next load puts it to). The chosen law is then fitted again with the
+    friction, law ∓ A_f·P = load on the inflating/deflating branches of every load, one A_f
+    (:func:`mckibben.fit.direction.fit_isotonic_friction`); that law, its tube and A_f are written
+    when its static lengths still match the branches' mean as the compared fit did. Each load's gap
+    is the measured one and the muscle file's (its law with the friction solved for the length on
+    each branch at each step's pressure: what ``predict length --branch`` gives), and, beside it,
+    a Prandtl–Ishlinskii loop fitted to that load alone.
 
     Parameters
     ----------
@@ -799,8 +815,12 @@ def fit_run(out, muscle_file) -> dict:
     Returns
     -------
     dict
-        ``comparison`` (every model's held-out scores), ``best`` (the law written), ``muscle_file``,
-        ``hysteresis`` (per load: the operator and its up/down gap, measured and modelled). SI.
+        ``comparison`` (every model's held-out scores; ``<law>+tube`` with the tube's term), ``best``
+        (the law written), ``muscle_file``, ``parameters``/``stderr``/``valid_range`` (of the law
+        written), ``friction`` (``friction_area_m2``, its standard error and interval, or why it was
+        not written), ``hysteresis`` (per load: ``gap_measured_m``, ``gap_model_m`` of the muscle
+        file's friction, ``rmse_m`` of its branch lengths, and ``prandtl_ishlinskii``: that load's own
+        loop and its gap). SI.
     """
     import dataclasses
 
@@ -815,9 +835,10 @@ def fit_run(out, muscle_file) -> dict:
     if np.count_nonzero(moving) < 8:
         raise InputError(f"out: {out}: only {np.count_nonzero(moving)} steps where the muscle moved; too few to fit")
     fit_table = dataclasses.replace(iso, data=static_points(steps, moving, iso.data.columns))
-    cmp = compare_models(fit_table, spec)
+    # every law with and without the tube's stretch: the held-out error decides whether it keeps the term
+    cmp = compare_models(fit_table, spec, tube=True)
     scores = [sc.to_dict() for sc in cmp["scores"]]
-    candidates = [sc for sc in cmp["scores"] if sc.name in laws.fit_laws() and np.isfinite(sc.cv_rmse_m)]
+    candidates = [sc for sc in cmp["scores"] if _law_of_score(sc.name)[0] in laws.fit_laws() and np.isfinite(sc.cv_rmse_m)]
     if not candidates:
         raise InputError(f"out: {out}: no force law could be fitted to the run ({'; '.join(s.note for s in cmp['scores'])})")
     d = fit_table.data
@@ -832,8 +853,9 @@ def fit_run(out, muscle_file) -> dict:
     # (the load-cell zero it fits has no meaning without a load cell, and the file's law has none) is passed over;
     # when every one is, the file that gives the lengths back best is written
     for sc in sorted(candidates, key=lambda sc: sc.cv_rmse_m):
-        res = fit_isotonic_law(fit_table, spec, sc.name)
-        text = muscle_file_text(dataclasses.replace(spec, path=str(target)), IsometricFit(sc.name, res, spec,
+        name, tube = _law_of_score(sc.name)
+        res = fit_isotonic_law(fit_table, spec, name, tube=tube)
+        text = muscle_file_text(dataclasses.replace(spec, path=str(target)), IsometricFit(name, res, spec,
                                                                                           {"method": "none"}, pts))
         pred = _file_lengths(text, out, d["pressure"].to_numpy(float), d["load"].to_numpy(float))
         miss = np.where(np.isfinite(pred), pred - d["length"].to_numpy(float), 0.05)  # unreachable: 5 cm off
@@ -849,9 +871,34 @@ def fit_run(out, muscle_file) -> dict:
         rejected.pop(best.name, None)
     else:
         res, text = tried[-1][2], tried[-1][3]
+    name, tube = _law_of_score(best.name)
+    # the same law with the braid's friction, law ∓ A_f·P, on both branches of every load (one A_f for all):
+    # its file gives the static length (the law) and each branch's, and the plant of the file runs the friction
+    hyst_table = read_table(out / "hysteresis.csv", "hysteresis")
+    branches = dataclasses.replace(hyst_table, data=hyst_table.data[moving])
+    friction: dict = {"law": best.name}
+    try:
+        fr = fit_isotonic_friction(branches, spec, name, tube=tube, start=res.values)
+    except InputError as exc:
+        friction["error"] = str(exc)
+    else:
+        fr_text = muscle_file_text(dataclasses.replace(spec, path=str(target)),
+                                   IsometricFit(name, fr, spec, {"method": "none"}, pts))
+        pred = _file_lengths(fr_text, out, d["pressure"].to_numpy(float), d["load"].to_numpy(float))
+        miss = np.where(np.isfinite(pred), pred - d["length"].to_numpy(float), 0.05)
+        k = fr.names.index(FRICTION_NAME)
+        friction.update({"friction_area_m2": float(fr.values[k]), "stderr_m2": float(fr.stderr[k]),
+                         "ci95_m2": [float(x) for x in fr.ci95[k]], "rmse_N": float(fr.residual_rms),
+                         "flags": list(fr.flags), "static_rmse_m": float(np.sqrt(np.mean(miss ** 2)))})
+        if friction["static_rmse_m"] <= 1.5 * best.rmse_m + 2e-4:  # its law still gives the lengths back
+            res, text = fr, fr_text
+        else:
+            friction["error"] = (f"not written: its law gives the static lengths back with RMSE "
+                                 f"{friction['static_rmse_m'] * 1e3:.3g} mm (compared: {best.rmse_m * 1e3:.3g} mm)")
     with atomic_file(target, "out") as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
     saved = target
+    written = Muscle.from_spec(read_muscle(saved))
     hyst = {}
     for li, g in steps.groupby("load_index"):
         g = g[moving[g.index.to_numpy()]]  # the branches where the muscle moves (the end stop has no loop)
@@ -862,25 +909,40 @@ def fit_run(out, muscle_file) -> dict:
         if len(g) < 2 * N_PLAYS + PI_KNOTS:
             hyst[str(li)] = {"load_N": load, "error": f"{len(g)} steps where the muscle moved: too few for the loop"}
             continue
+        # the muscle file's branches: its law with the friction, solved for the length at each step's pressure
+        y_law = np.full(len(g), np.nan)
+        for dn in ("inflate", "deflate"):
+            sel = direction == dn
+            if sel.any():
+                y_law[sel] = written.length_for_pressure(p[sel], load, dn).length
+        row = {"load_N": load, "gap_measured_m": branch_gap(p, ell, direction),
+               "gap_model_m": branch_gap(p, y_law, direction), "model": "friction",
+               "rmse_m": float(np.sqrt(np.nanmean((y_law - ell) ** 2)))}
         l_ref = float(ell.max())
-        try:
+        try:  # the per-load Prandtl-Ishlinskii loop, beside: a loop of this load only
             pi = fit_prandtl_ishlinskii(p, l_ref - ell, thresholds_uniform(N_PLAYS, float(np.ptp(p))), run=trials,
                                         start="virgin", input_offset=float(p.min()), output_knots=PI_KNOTS,
                                         input_unit="Pa", output_unit="m", source=str(out / "hysteresis.csv"),
                                         what=f"hysteresis of load {load:.4g} N")
         except InputError as exc:
-            hyst[str(li)] = {"load_N": load, "error": str(exc)}
-            continue
-        y_hat = np.concatenate([l_ref - pi.model.apply(p[trials == t])[0] for t in pd.unique(trials)])
-        hyst[str(li)] = {"load_N": load, "model": pi.model.to_dict(), "reference_length_m": l_ref,
-                         "rmse_m": float(np.sqrt(np.mean((y_hat - ell) ** 2))),
-                         "gap_measured_m": branch_gap(p, ell, direction), "gap_model_m": branch_gap(p, y_hat, direction)}
+            row["prandtl_ishlinskii"] = {"error": str(exc)}
+        else:
+            y_hat = np.concatenate([l_ref - pi.model.apply(p[trials == t])[0] for t in pd.unique(trials)])
+            row["prandtl_ishlinskii"] = {"model": pi.model.to_dict(), "reference_length_m": l_ref,
+                                         "rmse_m": float(np.sqrt(np.mean((y_hat - ell) ** 2))),
+                                         "gap_model_m": branch_gap(p, y_hat, direction)}
+        hyst[str(li)] = row
     return {"comparison": scores, "cv_method": cmp["cv_method"], "n_points": int(cmp["n_points"]),
             "best": best.name, "best_cv_rmse_m": float(best.cv_rmse_m), "muscle_file": str(saved),
             "parameters": dict(zip(res.names, (float(v) for v in res.values))),
             "stderr": {n: float(v) for n, v in zip(res.names, res.stderr)},
             "valid_range": {k: [float(a), float(b)] for k, (a, b) in res.valid_range.items()},
-            "passed_over": rejected, "hysteresis": hyst}
+            "passed_over": rejected, "friction": friction, "hysteresis": hyst}
+
+
+def _law_of_score(name: str) -> tuple[str, bool]:
+    """A comparison's model name as (law, with the tube's stretch) (:data:`mckibben.fit.compare.TUBE_SUFFIX`)."""
+    return (name[: -len(TUBE_SUFFIX)], True) if name.endswith(TUBE_SUFFIX) else (name, False)
 
 
 def _file_lengths(text: str, out: Path, pressure, load) -> np.ndarray:
@@ -994,9 +1056,10 @@ def run_characterization(port: str, protocol, out, *, unattended: bool = False, 
     steps become ``OUT/isotonic.csv`` and ``OUT/hysteresis.csv`` (the project's table kinds, with
     provenance beside them; :func:`mckibben.data.read_table` and ``mckibben fit`` read them) and
     ``OUT/steps.parquet``; with a muscle file, :func:`fit_run` compares every applicable law held
-    out (:func:`mckibben.fit.compare.compare_models`), writes the best to ``OUT/muscle.toml`` (for
-    ``mckibben predict length --muscle-file``) and fits the hysteresis model on each load's up/down
-    branches. ``OUT/summary.json`` holds the summary.
+    out (:func:`mckibben.fit.compare.compare_models`, each with and without the tube's stretch),
+    writes the best with the braid's friction fitted on the up/down branches to ``OUT/muscle.toml``
+    (for ``mckibben predict length --muscle-file``, ``--branch`` for either branch) and gives each
+    load's up/down gap, measured and the file's. ``OUT/summary.json`` holds the summary.
 
     Parameters
     ----------

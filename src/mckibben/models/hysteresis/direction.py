@@ -35,12 +35,15 @@ import numpy as np
 from mckibben.errors import InputError, unknown_name
 from mckibben.models.hysteresis.prandtl_ishlinskii import play_matrix
 
-__all__ = ["DEFAULT_STRUCTURE", "DIRECTIONS", "STRUCTURES", "branch_state", "direction_aware_force", "play_pressure"]
+__all__ = ["DEFAULT_STRUCTURE", "DIRECTIONS", "FRICTION_NAME", "STRUCTURES", "branch_force", "branch_state",
+           "direction_aware_force", "play_pressure"]
 
+#: The friction area A_f's name among a fitted law's parameters (and in a muscle file). [m²] (= N/Pa)
+FRICTION_NAME = "friction_area_m2"
 #: The direction-aware structures: name -> its extra parameters (names with units), one line.
 STRUCTURES = {
     "play": (("play_threshold_Pa",), "law(z, L), z = play of threshold r on the pressure (Hammerstein)"),
-    "friction": (("play_threshold_Pa", "friction_area_m2"), "law(P, L) + A_f·P·(z − P)/r (Tondu–Lopez friction)"),
+    "friction": (("play_threshold_Pa", FRICTION_NAME), "law(P, L) + A_f·P·(z − P)/r (Tondu–Lopez friction)"),
 }
 #: The structure ``mckibben fit --direction-aware`` fits, chosen on held-out evidence
 #: (docs/hysteresis.md, ``benchmarks/bench_hysteresis_gap.py``). [-]
@@ -162,3 +165,46 @@ def direction_aware_force(law_force, structure: str, values, pressure, length, z
     if structure == "play":
         return np.asarray(law_force(law_v, z, length, **law_inputs), dtype=float)
     return np.asarray(law_force(law_v, p, length, **law_inputs), dtype=float) + op[1] * p * np.clip((z - p) / r, -1, 1)
+
+
+def branch_force(law_force, law_values, friction_area: float, pressure, length, branch, **law_inputs) -> np.ndarray:
+    """A law's force far along a branch of its ``"friction"`` form: law ∓ A_f·P (inflating −, deflating +).
+
+    The ``"friction"`` structure (:func:`direction_aware_force`) at the play's branch state
+    (:func:`branch_state`), where its factor (z − P)/r is −1 inflating and +1 deflating whatever the
+    threshold r: the steady force of a muscle whose pressure has moved one way for a while (each
+    step of an isotonic sweep, the braid slipping). With ``branch`` None, the law alone (the
+    friction-free middle of the loop).
+
+    Parameters
+    ----------
+    law_force : callable
+        ``law_force(law_values, pressure [Pa], length [m], **law_inputs) -> force [N]``. [-]
+    law_values : array_like
+        The law's parameters. [SI]
+    friction_area : float
+        A_f (≥ 0). [m²]
+    pressure : array_like
+        Gauge pressure. [Pa]
+    length : array_like
+        Muscle length. [m]
+    branch : str, array_like of str, or None
+        ``"inflate"`` or ``"deflate"`` per element (broadcast), or None. [-]
+    law_inputs : dict
+        Passed to ``law_force`` (``direction`` for a law with a branch per direction). [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        Force. [N]
+
+    References
+    ----------
+    Tondu & Lopez (2000): a dry-friction force proportional to pressure, opposing the motion.
+    """
+    if branch is None:
+        return np.asarray(law_force(np.asarray(law_values, dtype=float), pressure, length, **law_inputs), dtype=float)
+    r = 1.0  # any threshold: far along a branch (z − P)/r = ∓1 [Pa]
+    values = np.concatenate([np.asarray(law_values, dtype=float).ravel(), [r, float(friction_area)]])
+    return direction_aware_force(law_force, "friction", values, pressure, length,
+                                 branch_state(pressure, branch, r), **law_inputs)
