@@ -4,7 +4,7 @@
 held-out error among the fits that carry no flag (:func:`mckibben.fit.isometric.best_of`). That
 choice is made on the very folds whose errors are reported, so the best's held-out error is the
 minimum of several noisy estimates: optimistic, the more so the more candidates there are and the
-closer they score (Varma & Simon 2006; Cawley & Talbot 2010, sec. 5.2).
+closer they score (Varma & Simon (2006) [varma2006]; Cawley & Talbot (2010) [cawley2010]).
 
 :func:`compare_nested` takes the choice out of the held-out data. For each *outer* fold (a held
 length, a trial or a muscle, the folds of ``compare``'s ``cv``) the whole selection runs again on
@@ -33,9 +33,9 @@ non-nested, in points of % of peak (positive: the non-nested figure flattered th
 
 References
 ----------
-Varma, S. & Simon, R. (2006). Bias in error estimation when using cross-validation for model
-selection. BMC Bioinformatics 7, 91. Cawley, G. C. & Talbot, N. L. C. (2010). On over-fitting in
-model selection and subsequent selection bias in performance evaluation. JMLR 11, 2079–2107.
+Varma & Simon (2006) [varma2006]: nested cross-validation against the optimism of the chosen
+model's cross-validated error. Cawley & Talbot (2010) [cawley2010]: selection bias in
+performance evaluation.
 """
 
 from __future__ import annotations
@@ -299,7 +299,7 @@ def compare_nested(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length
 
     References
     ----------
-    Varma & Simon (2006); Cawley & Talbot (2010), sec. 5.2 (module notes).
+    Varma & Simon (2006) [varma2006]; Cawley & Talbot (2010) [cawley2010].
     """
     check_instance(table, "table", Table, "a Table (mckibben.read_table)")
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
