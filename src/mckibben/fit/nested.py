@@ -324,8 +324,8 @@ def compare_nested(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length
         held = names[int(g)]
         test_rows = d.index[key == g]
         keep = ~table.data.index.isin(test_rows)
-        inner_table = replace(table, data=table.data[keep],
-                              extra=table.extra[keep] if getattr(table, "extra", None) is not None else None)
+        extra = table.extra
+        inner_table = replace(table, data=table.data[keep], extra=extra[keep] if extra is not None else None)
         note, who, inner_rmse, flagged = "", None, float("nan"), False
         try:
             _, _, pick, flagged = _select(inner_table, muscle, cv, tare, models, rails, pressure_zero, options)
