@@ -14,7 +14,10 @@ with the same candidates, the same ``cv`` on the inner folds, and the same ``bes
 chosen candidate, refitted on the outer training data, predicts the outer fold; that fit and its
 score are the fold's entry in the comparison on all the data (``compare``'s own fold loop: the same
 fit of the same rows, so a candidate's outer score is one number however it was chosen). So the
-nested and the non-nested figures differ only in *which* candidate scores each fold.
+nested and the non-nested figures differ only in *which* candidate scores each fold. The outer
+score keeps compare's sensor corrections, found on the whole table (a pressure zero ``"lowest"``,
+a rail); the selection finds its own on the outer training rows (with ``rails="exclude"``, a
+held-out fold's rows at the rail stay in those rows and are excluded there again).
 
 **Candidates.** One data structure, :class:`Candidate`: each model ``compare`` scores
 (:data:`~mckibben.fit.isometric.FAMILY_MODELS` on a family table, else
