@@ -25,7 +25,14 @@ leave-one-length-out, ``--tare lowest`` or the TARE given, e.g. ``fitted``): eac
 RMSE as % of peak, the parameters at a bound, its zero, its geometry, and (``fitted``) the spread
 of the runs' zeros; ``--physical TARE MODEL,MODEL`` runs those models instead.
 
-Run: python benchmarks/bench_real_models.py [--quick | --sensors | --physical [TARE [MODELS]]]   (--quick: the family only)
+With ``--nested`` it runs the issue's bar-1 figures non-nested and nested (issue 33, item 7):
+per muscle ``compare ISO.csv … --cv leave-one-length-out --tare lowest --nested`` and on the family
+``compare FAMILY.csv … --cv leave-one-muscle-out --tare lowest --nested`` (the laws as candidates),
+then ``--rest-lengths nominal,fitted`` (each law with either rest-length option as a candidate):
+each outer fold's choice made on the other folds alone (:func:`mckibben.fit.nested.compare_nested`),
+and the non-nested best's figure beside it.
+
+Run: python benchmarks/bench_real_models.py [--quick | --sensors | --nested | --physical [TARE [MODELS]]]   (--quick: the family only)
 """
 
 from __future__ import annotations
@@ -129,6 +136,54 @@ def sensors_bench() -> int:
     return 0
 
 
+def nested_line(out: dict) -> str:
+    """Non-nested and nested figures of one ``compare --nested`` run: pooled, max, median and worst fold."""
+    nn, ne = out["non_nested"], out["nested"]
+    return (f"non-nested best {nn['best']}: RMSE {nn['rmse_pct_of_peak']:.2f} %, max {nn['max_error_pct_of_peak']:.2f} %, "
+            f"folds median {nn['median_fold_pct_of_peak']:.2f} / worst {nn['worst_fold_pct_of_peak']:.2f} %; nested: RMSE "
+            f"{ne['rmse_pct_of_peak']:.2f} %, max {ne['max_error_pct_of_peak']:.2f} %, folds median "
+            f"{ne['median_fold_pct_of_peak']:.2f} / worst {ne['worst_fold_pct_of_peak']:.2f} %; optimism "
+            f"{out['optimism_pct_of_peak']:+.2f} points; choices "
+            + ", ".join(f"{k} {v}/{out['n_folds']}" for k, v in out["selection"].items()))
+
+
+def nested_bench() -> int:
+    """The bar-1 figures non-nested and nested: per muscle leave-one-length-out, family leave-one-muscle-out."""
+    import time
+
+    if not SOURCE.is_file():
+        print(f"skipped: {SOURCE} is absent (real third-party data, not shipped)")
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        per, fam, fam_toml = lab_tables(Path(tmp))
+        print("per muscle, leave-one-length-out, --tare lowest --nested", flush=True)
+        pooled: dict = {"non-nested": [], "nested": []}
+        for m, rest, iso, toml in per:
+            t0 = time.perf_counter()
+            out = run("compare", str(iso), "--muscle", str(toml), "--cv", "leave-one-length-out", "--tare", "lowest",
+                      "--nested")
+            pooled["non-nested"].append(out["non_nested"]["rmse_pct_of_peak"])
+            pooled["nested"].append(out["nested"]["rmse_pct_of_peak"])
+            print(f"  {m} (rest {rest:g} mm, {time.perf_counter() - t0:.0f} s): {nested_line(out)}")
+            for f in out["folds"]:
+                print(f"      held out {f['held_out']:<10} chose {f['chosen']}{' (flagged)' if f['chosen_flagged'] else ''}: "
+                      f"{f['rmse_pct_of_peak']:.2f} % (max {f['max_error_pct_of_peak']:.2f} %); non-nested best "
+                      f"{f['non_nested_rmse_pct_of_peak']:.2f} %", flush=True)
+        for k, v in pooled.items():
+            print(f"  per muscle, {k}: median {np.median(v):.2f} %, worst {np.max(v):.2f} % of peak", flush=True)
+        for rl in ("nominal", "nominal,fitted"):
+            t0 = time.perf_counter()
+            out = run("compare", str(fam), "--muscle", str(fam_toml), "--cv", "leave-one-muscle-out", "--tare", "lowest",
+                      "--nested", "--rest-lengths", rl)
+            print(f"family ({len(per)} muscles), leave-one-muscle-out, --tare lowest --nested --rest-lengths {rl} "
+                  f"({time.perf_counter() - t0:.0f} s): {nested_line(out)}")
+            for f in out["folds"]:
+                print(f"      held out {f['held_out']:<16} chose {f['chosen']}{' (flagged)' if f['chosen_flagged'] else ''}: "
+                      f"{f['rmse_pct_of_peak']:.2f} % (max {f['max_error_pct_of_peak']:.2f} %); non-nested best "
+                      f"{f['non_nested_rmse_pct_of_peak']:.2f} %", flush=True)
+    return 0
+
+
 PHYSICAL = ("chou-hannaford", "wall-corrected", "tondu-lopez")
 
 
@@ -202,4 +257,6 @@ if __name__ == "__main__":
         i = sys.argv.index("--physical")
         rest = sys.argv[i + 1:]
         sys.exit(physical_bench(rest[0] if rest else "lowest", tuple(rest[1].split(",")) if len(rest) > 1 else PHYSICAL))
+    if "--nested" in sys.argv:
+        sys.exit(nested_bench())
     sys.exit(sensors_bench() if "--sensors" in sys.argv else main_bench("--quick" in sys.argv))

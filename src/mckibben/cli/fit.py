@@ -17,6 +17,7 @@ from mckibben.fit.isometric import CV_METHODS, REST_LENGTHS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
 from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE
+from mckibben.errors import InputError
 from mckibben.units import parse_quantity
 from mckibben import fit
 
@@ -123,13 +124,20 @@ def compare_cmd(
     columns: list[str] = COLUMNS_OPTION,
     direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: also score each law beside its "
                                          "direction-aware form, each trial held out, by the up/down gap."),
-    plot: str = plot_option("the held-out error of every model"),
+    nested: bool = typer.Option(False, "--nested", help="isometric: nested cross-validation: each fold's error of "
+                                "the model chosen on the other folds alone (the non-nested best's error is "
+                                "optimistic; see docs/fit.md). With --rest-lengths nominal,fitted both are candidates."),
+    plot: str = plot_option("the held-out error of every model (--nested: each fold's, nested and not)"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
     check_outputs(plot, dpi)
     muscle = muscle_file_of(muscle, old_muscle, "compare")
+    if nested:
+        _compare_nested(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, select, columns, direction_aware,
+                        plot, dpi, json)
+        return
     res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
                             parse_pairs(select, "--select", "cut_length_cm=10"),
                             parse_pairs(columns, "--columns", "phase=direction"),
@@ -174,6 +182,40 @@ def compare_cmd(
     print_table(f"Length under load vs pressure, {out['n_points']} points of {out['file']} (P > 0); CV: {out['cv_method']}",
                 [" model", "params", "RMSE mm", "max rel. err. ε %", "within 20 % ε", "CV RMSE mm", "CV within 20 %", " note"],
                 rows)
+
+
+def _compare_nested(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, select, columns, direction_aware,
+                    plot, dpi, json) -> None:
+    """``compare --nested``: parse, call :func:`mckibben.fit.nested.compare_nested_table`, print."""
+    if direction_aware:
+        raise InputError("--direction-aware: scores the up/down gap of each law apart, each trial held out; --nested "
+                         "chooses among the plain laws by held-out force: give one of them")
+    res = fit.compare_nested_table(data, muscle, cv, tare, rails, pressure_zero,
+                                   parse_pairs(select, "--select", "cut_length_cm=10"),
+                                   parse_pairs(columns, "--columns", "phase=direction"),
+                                   tuple(x.strip() for x in rest_lengths.split(",")))
+    out = res.to_dict()
+    print_notes(out.get("notes"))
+    if plot:
+        write_plot(res.plot(), plot, dpi, res)
+    if json:
+        emit_json(out)
+        return
+    if out["synthetic"]:
+        console.print("[bold yellow]SYNTHETIC data[/] (generated, not measured)")
+    rows = [[str(f["held_out"]), f"{f['chosen'] or '—'}{' (flagged)' if f['chosen_flagged'] else ''}",
+             _g(f["rmse_pct_of_peak"], ".2f"), _g(f["max_error_pct_of_peak"], ".2f"),
+             _g(f["non_nested_rmse_pct_of_peak"], ".2f"), f["note"][:50]] for f in out["folds"]]
+    print_table(f"Nested {out['cv']} on {out['file']} (peak {out['peak_force_N']:.4g} N): each fold predicted by the "
+                "model chosen without it", [" held out", " chosen", "RMSE % of peak", "max % of peak",
+                                            f"non-nested best ({out['non_nested_best']}) RMSE %", " note"], rows)
+    ne, nn = out["nested"], out["non_nested"]
+    for what, m in (("nested", ne), (f"non-nested ({out['non_nested_best']})", nn)):
+        console.print(f"{what}: RMSE {_g(m['rmse_pct_of_peak'], '.2f')} % of peak, max {_g(m['max_error_pct_of_peak'], '.2f')} %, "
+                      f"folds median {_g(m['median_fold_pct_of_peak'], '.2f')} % / worst {_g(m['worst_fold_pct_of_peak'], '.2f')} %")
+    choices = ", ".join(f"{k} {v}/{out['n_folds']}" for k, v in out["selection"].items())
+    console.print(f"optimism of the non-nested figure: {_g(out['optimism_pct_of_peak'], '+.2f')} points of % of peak; "
+                  f"choices: {choices}")
 
 
 def _sensor_warnings(what: str, report: dict) -> None:

@@ -122,6 +122,18 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
         doi="10.1016/j.automatica.2024.112027",
     ),
     Reference(
+        key="varma2006",
+        title="Bias in error estimation when using cross-validation for model selection",
+        authors=("Varma", "Simon"), venue="BMC Bioinformatics, vol. 7, article 91", year=2006,
+        doi="10.1186/1471-2105-7-91",
+    ),
+    Reference(
+        key="cawley2010",
+        title="On Over-fitting in Model Selection and Subsequent Selection Bias in Performance Evaluation",
+        authors=("Cawley", "Talbot"), venue="Journal of Machine Learning Research, vol. 11, pp. 2079–2107", year=2010,
+        doi=None, unestablished="DOI: the journal gives its papers none",
+    ),
+    Reference(
         key="hunt2017",
         title="Modeling length effects of braided pneumatic actuators",
         authors=("Hunt", "Graber-Tilton", "Quinn"),

@@ -5,7 +5,8 @@ cluster-robust covariance), :mod:`mckibben.fit.static` (one fit per static model
 :mod:`mckibben.fit.isometric` (force models on isometric tests), :mod:`mckibben.fit.hysteresis`
 (Prandtl–Ishlinskii operators on inflate/deflate data), :mod:`mckibben.fit.direction` (a law's
 direction-aware form, hysteresis inside the force law, and the held-out up/down gap), :mod:`mckibben.fit.compare`
-(every model on the same data), :mod:`mckibben.fit.registry` (``fit_table``/``compare_table``:
+(every model on the same data), :mod:`mckibben.fit.nested` (compare's choice by nested
+cross-validation), :mod:`mckibben.fit.registry` (``fit_table``/``compare_table``:
 what ``mckibben fit``/``compare`` run) and :mod:`mckibben.fit.muscle_file` (fitted laws in
 muscle files).
 """
@@ -23,6 +24,7 @@ _EXPORTS = {
     "PIFit": "hysteresis", "fit_prandtl_ishlinskii": "hysteresis",
     "fit_direction_aware": "direction", "heldout_gap": "direction",
     "compare_table": "registry", "fit_table": "registry",
+    "NestedComparison": "nested", "compare_nested": "nested", "compare_nested_table": "nested",
 }
 
 __all__ = sorted(_EXPORTS)
@@ -42,6 +44,9 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.fit.isometric import fit_isometric as fit_isometric
     from mckibben.fit.registry import compare_table as compare_table
     from mckibben.fit.registry import fit_table as fit_table
+    from mckibben.fit.nested import NestedComparison as NestedComparison
+    from mckibben.fit.nested import compare_nested as compare_nested
+    from mckibben.fit.nested import compare_nested_table as compare_nested_table
 
 
 def __getattr__(name: str):

@@ -83,7 +83,7 @@ if TYPE_CHECKING:
 __all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "MUSCLE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
            "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
-           "WALL_FACTOR", "ZEROS", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length",
+           "WALL_FACTOR", "ZEROS", "best_of", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length",
            "max_error", "parameter_names", "run_zeros", "zero_runs"]
 
 BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
@@ -1192,7 +1192,31 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
                        "cv_rmse_interpolated_N": cv_within, "rmse_interpolated_N": fit_within,
                        "extrapolated_folds": extrapolated, "flags": list(full.flags) + heldout, "notes": list(full.notes), "note": "; ".join(notes),
                        "folds": folds})
+    chosen, every_flagged = best_of(scores)
+    return ModelComparison(cv, scores, chosen["model"] if chosen else None, peak, fits, report, table.path,
+                           best_flagged=every_flagged)
+
+
+def best_of(scores: list) -> tuple[dict | None, bool]:
+    """Compare's rule for ``best``: the smallest held-out RMSE among the scores that carry no flag.
+
+    The one place the rule is written: :func:`compare_isometric` and the nested cross-validation
+    (:func:`mckibben.fit.nested.compare_nested`, whose candidates are scores of several comparisons)
+    both call it.
+
+    Parameters
+    ----------
+    scores : list of dict
+        :attr:`ModelComparison.scores` entries (``cv_rmse_N`` [N], ``flags``). [-]
+
+    Returns
+    -------
+    (dict or None, bool)
+        The chosen score (None when no score has a finite held-out error), and whether every
+        ranked score is flagged (then the chosen one is the smallest held-out RMSE of all). [-]
+    """
     ranked = [s for s in scores if s["cv_rmse_N"] is not None and np.isfinite(s["cv_rmse_N"])]
     clean = [s for s in ranked if not s["flags"]]
-    best = min(clean or ranked, key=lambda s: s["cv_rmse_N"])["model"] if ranked else None
-    return ModelComparison(cv, scores, best, peak, fits, report, table.path, best_flagged=bool(ranked and not clean))
+    if not ranked:
+        return None, False
+    return min(clean or ranked, key=lambda s: s["cv_rmse_N"]), not clean
