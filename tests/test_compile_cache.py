@@ -343,8 +343,8 @@ def test_a_runner_compiled_in_memory_gives_the_cached_runners_bits(monkeypatch):
     spec = C.core_spec(C.CoreParams(), 3)
     ref = np.where(np.arange(300) >= 20, 0.45e6, 0.0)
     cached = simulate(PlantParams(), 0.3, controller=spec, reference=ref, n=3)
-    in_memory = _jit._in_memory(_runner, "kernel", spec[0])
-    assert in_memory.kernel is spec[0]
+    in_memory = _jit._in_memory(_runner, "controller_kernel", spec[0])
+    assert in_memory.controller_kernel is spec[0]
     monkeypatch.setattr(S, "_runner_of", lambda kernel: in_memory)
     again = simulate(PlantParams(), 0.3, controller=spec, reference=ref, n=3)
     assert cached.pressure.max() > 0.4e6
@@ -522,7 +522,7 @@ def test_doctor_finds_the_optional_python_packages_without_importing_them(monkey
 
     loaded = "mujoco" in sys.modules  # (another test of this process may have loaded it)
     rep = doctor.check()
-    assert set(rep.packages) == set(doctor.PACKAGES)
+    assert set(rep.packages) == set(doctor.OPTIONAL_PACKAGES)
     for name, p in rep.packages.items():  # the test extras install both
         assert p["found"] and name in p["found"] and "pip install" in p["install"]
     assert ("mujoco" in sys.modules) == loaded  # found, not loaded

@@ -118,7 +118,7 @@ def test_a_stalled_tick_resets_the_image_by_its_watchdog_and_the_host_sees_hello
 
     with AvrDevice([PlantParams()] * 3, boot_time=0.3, stall_at=1.5) as em:
         link, hello, parser = connect(em.port)
-        link.write(P.set_mode(1, P.MODES["open-loop"], channel=0))
+        link.write(P.set_mode(1, P.MODES["open_loop"], channel=0))
         link.write(P.set_open_loop(2, 120, 0, channel=0))
         link.write(P.stream(3, True, 10))
         frames = _read_for(link, parser, 2.5)
