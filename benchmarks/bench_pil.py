@@ -145,7 +145,7 @@ def watchdog() -> None:
     stall = 1.5
     with AvrDevice(PLANTS, **CELL, boot_time=0.3, stall_at=stall) as dev:
         link, _, parser = connect(dev.port, timeout=0)
-        link.write(P.set_mode(1, P.MODES["open-loop"], channel=0))
+        link.write(P.set_mode(1, P.MODES["open_loop"], channel=0))
         link.write(P.set_open_loop(2, 120, 0, channel=0))
         link.write(P.stream(3, True, 10))
         frames = _read(link, parser, 2.5)

@@ -349,6 +349,7 @@ def _only_ours(call, value, takes_none: bool = False):
     assert not _no_number(value, takes_none), f"a result for {value!r}"
 
 
+@pytest.mark.slow
 @_SETTINGS
 @given(value=_weird, which=st.sampled_from(["duration", "ts", "n", "substeps", "reference", "initial_pressure"]))
 def test_simulate_random_values(value, which):
@@ -478,6 +479,7 @@ def _no_number(value, takes_none: bool) -> bool:
     return isinstance(value, float) and math.isnan(value)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())
 def test_every_entry_point_random_values(data):

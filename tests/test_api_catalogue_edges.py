@@ -286,6 +286,7 @@ HEAVY = {
 }
 
 
+@pytest.mark.slow
 def test_memory_and_time_cases_are_refused_quickly():
     got = refusals_in_subprocess("""
         import numpy as np

@@ -31,6 +31,7 @@ def test_quantities_as_numbers_or_text():
         mt.make_tool(discs="many")
 
 
+@pytest.mark.slow
 def test_track_result_and_its_series(cli, tmp_path):
     res = mx.track_tip(mt.parse_path("circle:radius=3mm,period=1s"), periods=[1.0])
     assert res.metrics["runs"] == 1 and 0 < res.metrics["rms_error_m"] < 3e-3

@@ -48,6 +48,7 @@ def test_generate_refuses_a_folder_that_is_not_a_campaign(tmp_path):
     assert (tmp_path / "keep.txt").read_text() == "mine"  # nothing touched
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["mpam117", "mpam97"])
 def test_campaign_round_trip_over_seeds(tmp_path, name):
     truth = campaign_truth(name)

@@ -87,6 +87,7 @@ def test_a_muscle_read_through_a_floor_is_recovered_when_the_floor_is_censored(t
     assert c.scores[0]["flags"] == [] and c.scores[0]["cv_rmse_N"] < 2.0  # 1 N of noise
 
 
+@pytest.mark.slow
 def test_the_command_censors_and_refuses_an_unknown_policy(tmp_path):
     iso, toml = _clipped_table(tmp_path)
     run = [sys.executable, "-m", "mckibben.cli", "fit", str(iso), "--model", "virtual-work", "--muscle-file", str(toml)]

@@ -222,6 +222,7 @@ def test_safety_stops_vented_with_one_line(tmp_path, fault, words):
         print(r.err.strip())
 
 
+@pytest.mark.slow
 def test_attended_run_without_an_operator_stops_vented(tmp_path):
     with _device("python") as dev:  # the command in its own process, its standard input closed (as in CI)
         r = subprocess.run([sys.executable, "-m", "mckibben.cli", "rig", "characterize", "--port", dev.port,

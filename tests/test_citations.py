@@ -95,6 +95,7 @@ def test_params_commands_as_separate_processes(tmp_path):
     _check_params(lambda *args: _mckibben(*args, cwd=tmp_path))
 
 
+@pytest.mark.slow
 def test_every_help_text_is_clean(cli):
     commands = list(_commands())
     assert ["params", "list"] in commands and ["reproduce"] in commands and len(commands) > 30

@@ -6,12 +6,12 @@ import pytest
 
 from mckibben import experiments
 from mckibben.cli import app
-from mckibben.cli._common import command_of, flag_names, in_flags
+from mckibben.cli._common import command_of, option_flags, in_flags
 from mckibben.errors import InputError
 
 
 def test_a_commands_flags_come_from_its_own_options():
-    flags = flag_names(command_of(app, ["control", "step", "--beta", "300"]))
+    flags = option_flags(command_of(app, ["control", "step", "--beta", "300"]))
     assert flags["beta"] == "--beta" and flags["start"] == "--from" and flags["p_max"] == "--p-max"
     assert flags["muscle_file"] == "--muscle-file"
 
@@ -27,7 +27,7 @@ def test_a_commands_flags_come_from_its_own_options():
     ("`order` 1 or 2", "`order` 1 or 2"),
 ])
 def test_in_flags_rewrites_the_arguments_a_message_names(message, shown):
-    assert in_flags(message, flag_names(command_of(app, ["control", "step"]))) == shown
+    assert in_flags(message, option_flags(command_of(app, ["control", "step"]))) == shown
 
 
 def test_the_library_names_the_python_argument():

@@ -58,6 +58,7 @@ def test_force_from_the_cli(cli):
     assert len(out["force_N"]) == 2
 
 
+@pytest.mark.slow
 def test_force_length_and_pressure_of_a_law_with_its_own_published_set(cli):
     # hunt-quinn has no parameters for a catalogue miniature muscle, but a published set of its own
     # (datasets.LAW_SETS): --model LAW takes it, as does --muscle SET; the numbers are the set's own
@@ -142,6 +143,7 @@ def test_bad_input_gives_one_line_and_exit_2(cli, args, message):
     assert r.err.count("\n") == 1 and r.err.startswith(message)
 
 
+@pytest.mark.slow
 def test_reproduce_prints_the_published_tables(cli, tmp_path):
     r = cli("reproduce", "--out", str(tmp_path / "report"), "--json")
     assert r.code == 0

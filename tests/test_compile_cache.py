@@ -101,6 +101,7 @@ def test_the_command_sequence_from_a_clean_cache_then_again_compiles_nothing(tmp
     assert _snapshot(cache) == before  # nothing saved again: the cache does not grow
 
 
+@pytest.mark.slow
 def test_a_first_compilation_says_so_once_on_stderr(tmp_path):
     env = _env(MCKIBBEN_CACHE_DIR=str(tmp_path / "cache"))
     r, stats, err = _run(["simulate", "open-loop", "--duration", "0.05s"], tmp_path, env)
@@ -122,6 +123,7 @@ def test_an_unwritable_cache_folder_runs_uncached_with_one_warning(tmp_path):
     assert not blocker.with_name("cache").exists()
 
 
+@pytest.mark.slow
 def test_a_corrupt_cache_entry_is_compiled_again_not_fatal(tmp_path):
     cache = tmp_path / "cache"
     env = _env(MCKIBBEN_CACHE_DIR=str(cache))
@@ -315,6 +317,7 @@ def test_quick_commands_import_no_heavy_package(args):
     assert r.stdout.strip() == "0 []", (r.stdout, r.stderr[-2000:])
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(600)
 @pytest.mark.parametrize("args", [["simulate", "open-loop", "--valve", "117", "--json"],
                                   ["control", "step", "--controller", "smc", "--law", "paper", "--beta", "150",
@@ -333,6 +336,7 @@ def test_simulation_commands_import_no_lti_plotting_table_or_cluster_package(arg
     assert r.stdout.strip() == "0 []", (r.stdout, r.stderr[-2000:])
 
 
+@pytest.mark.slow
 def test_a_runner_compiled_in_memory_gives_the_cached_runners_bits(monkeypatch):
     """The path of an uncached process or a kernel defined in a notebook cell: same numbers, to the bit."""
     from mckibben import _jit
@@ -343,8 +347,8 @@ def test_a_runner_compiled_in_memory_gives_the_cached_runners_bits(monkeypatch):
     spec = C.core_spec(C.CoreParams(), 3)
     ref = np.where(np.arange(300) >= 20, 0.45e6, 0.0)
     cached = simulate(PlantParams(), 0.3, controller=spec, reference=ref, n=3)
-    in_memory = _jit._in_memory(_runner, "kernel", spec[0])
-    assert in_memory.kernel is spec[0]
+    in_memory = _jit._in_memory(_runner, "controller_kernel", spec[0])
+    assert in_memory.controller_kernel is spec[0]
     monkeypatch.setattr(S, "_runner_of", lambda kernel: in_memory)
     again = simulate(PlantParams(), 0.3, controller=spec, reference=ref, n=3)
     assert cached.pressure.max() > 0.4e6
@@ -412,6 +416,7 @@ def test_doctor_reports_the_cache_the_tools_and_an_unanswering_scheduler(cli):
 # one compiler per kernel across processes, and the background warm-up of a first command
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_the_background_warm_up_compiles_what_the_runner_calls(tmp_path):
     """The warm-up compiles the integrator, its outputs and the firmware core with the very
@@ -450,6 +455,7 @@ print("STATS", sum(dispatcher.stats.cache_hits.values()), sum(dispatcher.stats.c
 """
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(600)
 def test_a_process_waits_for_a_kernel_another_one_compiles_and_loads_it(tmp_path):
     """Two processes that need the integrator at once from a cold cache: the first compiles it
@@ -522,7 +528,7 @@ def test_doctor_finds_the_optional_python_packages_without_importing_them(monkey
 
     loaded = "mujoco" in sys.modules  # (another test of this process may have loaded it)
     rep = doctor.check()
-    assert set(rep.packages) == set(doctor.PACKAGES)
+    assert set(rep.packages) == set(doctor.OPTIONAL_PACKAGES)
     for name, p in rep.packages.items():  # the test extras install both
         assert p["found"] and name in p["found"] and "pip install" in p["install"]
     assert ("mujoco" in sys.modules) == loaded  # found, not loaded

@@ -13,7 +13,7 @@ import pytest
 
 from mckibben.control import core
 from mckibben.control.laws import smc
-from mckibben.control.registry import MODES
+from mckibben.control.registry import MODE_IDS
 from mckibben.errors import InputError
 
 ADC_PA = 1e6 / 1023  # default pa_per_count [Pa/count]
@@ -85,7 +85,7 @@ def test_tanh_table_error():
 
 
 def test_coefficients_from_gain_scales():
-    c = core.derive([g.default for g in core.GAINS], 1000)
+    c = core.derive_core([g.default_value for g in core.GAINS], 1000)
     assert c["c_p"] == round(2**24 / 3000.0)  # 1/G in Q8 counts, Q16
     assert c["c_dref"] == round(2**24 * 0.09 / (3000.0 * 1e-3))
     assert c["c_e"] == round(2**24 * 0.09 * 10.0 / 3000.0)
@@ -202,7 +202,7 @@ def test_vent_off_and_open_loop():
     assert ctrl.step(300, True, 0) == (0, 255, core.FAULT_VENT)
     assert ctrl.set_mode(core.MODE_OFF) == 0
     assert ctrl.step(300, True, 500e3) == (0, 0, 0)
-    assert ctrl.set_mode(max(core.R.MODES) + 1) == core.STATUS_RANGE  # the first mode past the registry's last (was 4)
+    assert ctrl.set_mode(max(core.R.MODE_IDS) + 1) == core.STATUS_RANGE  # the first mode past the registry's last (was 4)
     assert ctrl.set_gain(core.N_GAINS, 1) == core.STATUS_GAIN_ID
     assert ctrl.set_gain(core.GAIN_IDS["smc_beta"], 255_001) == core.STATUS_RANGE
     assert ctrl.set_max_pressure(1_000_001) == core.STATUS_RANGE
@@ -218,7 +218,7 @@ def test_vent_off_and_open_loop():
     ({"ts": 1.5e-7}, "ts=1.5e-07 must be a whole number of microseconds"),
     ({"ts": 0.02}, "ts=0.02 must be"),
     ({"p_max": 1.2e6}, "p_max=1200000.0 outside [0, 1000000] Pa"),
-    ({"mode": max(MODES) + 1}, f"mode={max(MODES) + 1} outside the integers 0..{max(MODES)}"),  # past the registry's
+    ({"mode": max(MODE_IDS) + 1}, f"mode={max(MODE_IDS) + 1} outside the integers 0..{max(MODE_IDS)}"),  # past the registry's
 ])
 def test_bad_parameters_raise_input_error(kwargs, message):
     with pytest.raises(InputError, match=message.replace("[", r"\[").replace("(", r"\(")):

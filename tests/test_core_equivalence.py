@@ -120,11 +120,11 @@ def run_both(c, py, events):
 def test_defaults_match(clib):
     """Python's CoreParams defaults are the C defaults, gain by gain."""
     values = core.gain_values(core.CoreParams())
-    assert [g.default for g in core.GAINS] == list(values)
+    assert [g.default_value for g in core.GAINS] == list(values)
     c, py = CCore(clib), py_core()
     # Setting each default again changes nothing: compare a short closed run before/after.
     for g in core.GAINS:
-        assert c.set_gain(g.id, g.default) == py.set_gain(g.id, g.default) == 0
+        assert c.set_gain(g.id, g.default_value) == py.set_gain(g.id, g.default_value) == 0
 
 
 def test_mulq16_and_tanh(clib):

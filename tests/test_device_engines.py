@@ -67,6 +67,7 @@ def test_hostile_bytes_then_a_supply_above_the_maximum_never_pass_the_maximum(en
     assert p.max() <= HW.P_MAX_DEFAULT + 10e3, f"{engine}: channel 0 peaked at {p.max() / 1e3:.1f} kPa"
 
 
+@pytest.mark.slow
 def test_record_three_channels_delivers_every_period_into_the_parquet_file(tmp_path, engine):
     """``rig record --duration 3s`` at the default decimation (1): at least 99 % of the control
     periods arrive, and the Parquet file holds every delivered frame."""
@@ -97,6 +98,7 @@ def _step(engine):
     return res
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(_avr_engine_missing() is not None, reason="needs the avr engine")
 def test_the_image_and_the_python_engine_step_alike():
     """The same 0.5 MPa step on both engines: time constants within 15 %, final pressures within 10 kPa."""
@@ -118,7 +120,7 @@ def test_a_stalled_tick_resets_the_image_by_its_watchdog_and_the_host_sees_hello
 
     with AvrDevice([PlantParams()] * 3, boot_time=0.3, stall_at=1.5) as em:
         link, hello, parser = connect(em.port)
-        link.write(P.set_mode(1, P.MODES["open-loop"], channel=0))
+        link.write(P.set_mode(1, P.MODES["open_loop"], channel=0))
         link.write(P.set_open_loop(2, 120, 0, channel=0))
         link.write(P.stream(3, True, 10))
         frames = _read_for(link, parser, 2.5)
@@ -164,6 +166,7 @@ def test_the_harness_reads_the_tick_the_masked_interrupts_and_the_rings_off_the_
     assert 50 <= ins["tx_hwm"] < 256 and 0 < ins["rx_hwm"] < 256  # a telemetry frame is ~60 bytes
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(_avr_engine_missing() is not None, reason="needs the avr engine")
 @pytest.mark.parametrize("missed", [1, 10])
 def test_a_conversion_that_misses_the_tick_is_a_missing_sample_and_ten_latch_the_vent(missed):

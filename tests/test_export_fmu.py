@@ -282,6 +282,7 @@ def test_bad_out_and_controller_are_refused(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(600)
 def test_a_built_package_carries_the_firmware_core(tmp_path):
     """pip install . (a wheel) takes the firmware's C core along (setup.py copies firmware/core into

@@ -45,6 +45,7 @@ def test_a_family_table_is_read_and_refused_by_one_muscle_laws(tmp_path):
         fit_points(d, read_muscle(MUSCLE), "spring")
 
 
+@pytest.mark.slow
 def test_leave_one_muscle_out_needs_a_family(tmp_path, cli):
     with pytest.raises(InputError, match="needs a family table"):
         compare_isometric(read_table(ISO), read_muscle(MUSCLE), "leave-one-muscle-out")

@@ -81,6 +81,7 @@ def test_fit_too_few_pressures_from_the_cli(cli, tmp_path):
                      " (4 coefficients and a check of its fit) needs at least 5\n")
 
 
+@pytest.mark.slow
 def test_compare_on_a_bundled_muscle(cli):
     r = cli("compare", str(BUNDLED / "mpam117"), "--json")
     assert r.code == 0, r.err
@@ -155,7 +156,7 @@ def test_isotonic_chou_hannaford_is_bounded_and_flagged(cli):
 
 
 @pytest.mark.parametrize("command", [["fit", str(BUNDLED / "mpam97" / "blocked_force.csv"), "--model", "cubic"],
-                                     ["compare", str(BUNDLED / "mpam117")]])
+                                     pytest.param(["compare", str(BUNDLED / "mpam117")], marks=pytest.mark.slow)])
 def test_fit_and_compare_draw_their_figure(cli, tmp_path, command):
     import json
 

@@ -14,7 +14,7 @@ from mckibben.models.hysteresis import (
     apply,
     descended_state,
     forward_state,
-    inverse,
+    inverse_operator,
     inverse_state,
     invert,
     loading_curve,
@@ -127,11 +127,11 @@ def test_inverse_of_forward_is_identity_on_random_inputs(seed):
     back2, _ = invert(pi, y2, z1)
     np.testing.assert_allclose(back2, wild[1000:], rtol=0, atol=1e-9)
     # and forward of inverse
-    inv = inverse(pi)
+    inv = inverse_operator(pi)
     u_of_y, _ = apply(inv, wild)
     np.testing.assert_allclose(apply(pi, u_of_y)[0], wild, rtol=0, atol=1e-9)
     # the inverse of the inverse is the operator; the state maps are each other's inverse
-    again = inverse(inv)
+    again = inverse_operator(inv)
     np.testing.assert_allclose(again.thresholds, r, atol=1e-12)
     np.testing.assert_allclose(again.weights, w, rtol=1e-9)
     np.testing.assert_allclose(forward_state(pi, inverse_state(pi, z1)), z1, atol=1e-12)
@@ -139,7 +139,7 @@ def test_inverse_of_forward_is_identity_on_random_inputs(seed):
 
 def test_inverse_thresholds_are_the_loading_curve_at_the_thresholds():
     pi = _muscle()
-    inv = inverse(pi)
+    inv = inverse_operator(pi)
     np.testing.assert_allclose(inv.thresholds, loading_curve(pi, R) - pi.output_offset, rtol=1e-12)
     assert inv.weights[0] == pytest.approx(1 / W[0]) and np.all(inv.weights[1:] < 0)
     assert (inv.input_unit, inv.output_unit) == ("m", "Pa")
@@ -195,7 +195,7 @@ def test_bad_parameters_name_the_argument(kwargs, name):
 
 def test_not_invertible_is_refused():
     with pytest.raises(InputError, match="not invertible"):
-        inverse(PrandtlIshlinskii([0.0, 1.0], [1.0, -2.0]))
+        inverse_operator(PrandtlIshlinskii([0.0, 1.0], [1.0, -2.0]))
 
 
 def test_fit_refuses_plays_that_never_move():

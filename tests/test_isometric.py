@@ -47,6 +47,7 @@ def _coverage(d, forces, model, muscle, truth):
     return covered / len(forces)
 
 
+@pytest.mark.slow
 def test_chou_hannaford_recovers_the_braid_and_covers_with_per_trial_offsets():
     # 200 small campaigns (4 lengths x 4 trials, 5 pressures up and back) with a per-run load-cell
     # zero of sd 1.5 N over 0.4 N noise: the offsets dominate, as in lab data (notes/lab-data.md).
@@ -62,6 +63,7 @@ def test_chou_hannaford_recovers_the_braid_and_covers_with_per_trial_offsets():
     assert np.all(covered / 200 >= 0.90), dict(zip(["theta0", "d0", "offset"], covered / 200))
 
 
+@pytest.mark.slow
 def test_coverage_without_offsets():
     # no per-run offset: the cluster-robust intervals still cover (they are not just wide)
     rng = np.random.default_rng(1)
@@ -109,6 +111,7 @@ def test_physical_models_are_flagged_on_data_they_cannot_explain():
     assert tl.flags
 
 
+@pytest.mark.slow
 def test_compare_picks_the_best_on_held_out_lengths():
     c = compare_isometric(read_table(ISO), read_muscle(MUSCLE), "leave-one-length-out")
     df = c.to_pandas()
@@ -167,6 +170,7 @@ def test_fit_flags_go_to_stderr_in_one_line(cli):
     assert "large_offset" in r.json()["flags"]
 
 
+@pytest.mark.slow
 def test_compare_cli_json(cli):
     r = cli("compare", str(ISO), "--muscle-file", str(MUSCLE), "--cv", "leave-one-trial-out", "--json")
     assert r.code == 0
@@ -376,6 +380,7 @@ def test_the_data_driven_surface_has_no_plant_law(tmp_path):
         law.plant_law()
 
 
+@pytest.mark.slow
 def test_fit_table_and_compare_table_are_library_calls(tmp_path):
     import matplotlib
 
@@ -392,6 +397,7 @@ def test_fit_table_and_compare_table_are_library_calls(tmp_path):
     assert (tmp_path / "c.png").stat().st_size > 5_000
 
 
+@pytest.mark.slow
 def test_compare_text_shows_the_extrapolated_folds_and_fit_counts_runs(cli):
     r = cli("compare", str(ISO), "--muscle-file", str(MUSCLE))
     assert r.code == 0, r.err

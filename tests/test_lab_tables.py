@@ -156,6 +156,7 @@ def test_fit_on_one_muscle_of_a_lab_table_as_a_user_runs_it(table):
     assert "note: " + str(table) + ": columns free_length_620kPa_mm, n_samples are unknown: kept aside" in r.stderr
 
 
+@pytest.mark.slow
 def test_compare_on_one_muscle_of_a_lab_table(cli, table):
     r = cli("compare", str(table), "--select", "cut_length_cm=25", "--columns", "phase=direction", "--json")
     assert r.code == 0, r.err

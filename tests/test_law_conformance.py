@@ -344,6 +344,7 @@ def test_every_registered_law_is_checked_here():
         assert all(laws.resolve(a) == n for a, n in laws.ALIASES.items())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", NAMES)
 def test_an_isotonic_table_from_the_law_is_fitted_and_compared_through_its_force(case, tmp_path, name):
     kind, params, theta, m, path, fit = case(name)

@@ -38,8 +38,8 @@ ALLOWED = {
     # deprecated named functions and aliases, kept readable
     ("models/static.py", "force_mpam", "mpam"): "deprecated force_mpam labels its result with its old name",
     ("models/static.py", "length_mpam", "mpam"): "length_mpam (the braid map's closed form) labels its result",
-    ("plant/params.py", "<module>", "tondu-lopez"): "`calibrated`, the plant's default: Tondu-Lopez with the "
-                                                    "plant's calibrated columns (not an old name: no deprecation)",
+    ("plant/packing.py", "<module>", "tondu-lopez"): "`calibrated`, the plant's default: Tondu-Lopez with the "
+                                                     "plant's calibrated columns (not an old name: no deprecation)",
     # data, not vocabulary
     ("cli/params.py", "show_cmd", "spring"): "`params list`: the kind of the published spring sets",
     ("models/mpam.py", "force_from_length", "braid-map"): "the braid map's kernel called by name for its messages",

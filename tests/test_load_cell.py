@@ -206,6 +206,7 @@ def test_the_cell_rails_at_zero_below_zero_force(engine):
     assert len(frames) > 100 and {fr.force_adc for fr in frames} == {0}
 
 
+@pytest.mark.slow
 def test_tare_then_read_force_and_step_report_the_tared_force(engine):
     with start_device(engine, load_cell=CELL, boot_time=0.05) as dev:
         d = Device(dev.port)
@@ -230,6 +231,7 @@ def test_tare_then_read_force_and_step_report_the_tared_force(engine):
     assert out["force_N"] == pytest.approx(tension + CELL.offset, abs=0.1)  # the load holds the tension
 
 
+@pytest.mark.slow
 def test_rig_record_writes_a_force_column(engine, tmp_path):
     out = tmp_path / "rec.parquet"
     with start_device(engine, load_cell=CELL, boot_time=0.05) as dev:

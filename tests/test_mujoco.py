@@ -115,6 +115,7 @@ def test_the_endoscope_is_built_from_the_tool():
     assert load_model(endoscope_mjcf(stiff)).jnt_stiffness[1] > model.jnt_stiffness[1]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(180)
 def test_tool_track_in_mujoco_agrees_with_the_quasi_static_tool_on_a_slow_path():
     """The issue's bar: the MuJoCo engine's tip RMS error within 1.5× of the quasi-static tool's, same keys.

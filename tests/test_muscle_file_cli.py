@@ -40,6 +40,7 @@ def test_simulate_open_loop_runs_the_fitted_muscle(cli, files):
     assert 0.245 < d["final_length_m"] < 0.300
 
 
+@pytest.mark.slow
 def test_control_step_on_the_fitted_muscle_reaches_its_target(cli, files, tmp_path):
     design = tmp_path / "design.json"
     r = cli("control", "step", "--muscle-file", files["spring"], "--load", "100N", "--target", "0.4MPa",

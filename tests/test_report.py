@@ -20,6 +20,7 @@ def report(tmp_path_factory):
     return out, r.json()
 
 
+@pytest.mark.slow
 def test_report_files(report):
     out, summary = report
     assert sorted(p.name for p in out.iterdir()) == sorted(FIGURES + ["index.html", "summary.json"])
@@ -35,6 +36,7 @@ def test_report_files(report):
     assert not [p for p in out.parent.iterdir() if p.name.startswith(".report-")]  # no temp folder left
 
 
+@pytest.mark.slow
 def test_report_has_the_held_out_isometric_comparison(report):
     _, s = report
     (iso,) = s["isometric"]
@@ -45,6 +47,7 @@ def test_report_has_the_held_out_isometric_comparison(report):
     assert all(m["cv_rmse_N"] >= best["cv_rmse_N"] for m in iso["models"])
 
 
+@pytest.mark.slow
 def test_report_tables_beside_the_published_values(report):
     _, s = report
     assert s["synthetic"] is True and s["out"].endswith("report")
@@ -86,6 +89,7 @@ def test_reproduce_refuses_a_folder_that_is_not_a_report(tmp_path):
     assert (tmp_path / "mine.txt").read_text() == "keep"
 
 
+@pytest.mark.slow
 def test_report_figures_are_captioned_and_it_ends_with_how_to_run_it_on_your_data(report):
     import html
     import re

@@ -6,9 +6,12 @@ import json
 import pathlib
 import re
 
+import pytest
+
 from mckibben.cli import main
 
 
+@pytest.mark.slow
 def test_reproduce_names_version_time_arguments_and_input_hashes(tmp_path, monkeypatch):
     import mckibben
 

@@ -45,6 +45,7 @@ def _record(port, out, seconds):
     return meta["counters"], data
 
 
+@pytest.mark.slow
 def test_ten_seconds_at_1khz_three_channels_with_no_missing_frame(tmp_path, engine):
     with start_device(engine) as em:
         c, df = _record(em.port, tmp_path / "run.parquet", 10.0)
@@ -66,6 +67,7 @@ def test_ten_seconds_at_1khz_three_channels_with_no_missing_frame(tmp_path, engi
     assert not (tmp_path / "run.parquet.journal").exists()
 
 
+@pytest.mark.slow
 def test_garbage_and_cut_frames_are_counted_and_skipped(tmp_path):
     with Emulator(garbage_every=100, cut_every=250) as em:
         c, df = _record(em.port, tmp_path / "run.parquet", 2.0)
@@ -152,6 +154,7 @@ def test_the_clock_runs_when_nobody_reads_and_drops_are_counted_like_a_uart(engi
     assert (t[-1] - t[0]) / 1000 + 1 >= len(t) + parser.missing - 5
 
 
+@pytest.mark.slow
 def test_kill_9_loses_at_most_a_quarter_second_and_the_next_recorder_keeps_nothing_older(tmp_path, engine):
     out = tmp_path / "run.parquet"
     with start_device(engine) as em:
@@ -219,6 +222,7 @@ def test_rig_gains_round_trip_and_the_emulator_applies_them_identically(cli, tmp
         assert r.code == 0 and "verified" in r.out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["SIGTERM", "SIGINT"])
 def test_emulate_removes_its_link_on_signals(tmp_path, kind, engine):
     link = tmp_path / "tty"

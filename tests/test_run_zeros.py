@@ -121,6 +121,7 @@ def _cli(*args):
     return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_cli_fit_tare_fitted_prints_each_runs_zero(tmp_path):
     iso, toml, _ = _campaign(tmp_path)
     r = _cli("fit", str(iso), "--model", "chou-hannaford", "--muscle-file", str(toml), "--tare", "fitted", "--json")
@@ -130,6 +131,7 @@ def test_cli_fit_tare_fitted_prints_each_runs_zero(tmp_path):
     assert len(runs) == 12 and all(lo <= z["zero_N"] <= hi for z in runs for lo, hi in [z["ci95_N"]])
 
 
+@pytest.mark.slow
 def test_cli_fit_tare_fitted_text_names_the_zeros(tmp_path):
     iso, toml, _ = _campaign(tmp_path)
     r = _cli("fit", str(iso), "--model", "chou-hannaford", "--muscle-file", str(toml), "--tare", "fitted")
@@ -137,6 +139,7 @@ def test_cli_fit_tare_fitted_text_names_the_zeros(tmp_path):
     assert "tare (fitted): 12 runs, zeros" in r.stdout
 
 
+@pytest.mark.slow
 def test_cli_bad_tare_is_one_line_exit_2(tmp_path):
     iso, toml, _ = _campaign(tmp_path)
     r = _cli("fit", str(iso), "--model", "chou-hannaford", "--muscle-file", str(toml), "--tare", "fited")

@@ -39,7 +39,7 @@ def test_fixed_point_command_follows_the_float_law():
         st = np.zeros(core.N_ISTATE, dtype=np.int64)
         u, s = stsmc.law(st, ip, so, io, int(p), int(pref), e)
         assert s == e
-        assert abs(u / 256 - float(stsmc.float_command(params, pref, e, 0.0))) <= 1.0
+        assert abs(u / 256 - float(stsmc.float_law(params, pref, e, 0.0))) <= 1.0
 
 
 def test_steps_to_target_on_the_calibrated_plant_without_overshoot_beyond_the_bar():

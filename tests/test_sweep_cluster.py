@@ -90,6 +90,7 @@ def cluster(tmp_path):
         p.wait(timeout=30)
 
 
+@pytest.mark.slow
 def test_cluster_equals_in_process_and_survives_a_killed_worker(cluster, tmp_path):
     addr, workers = cluster
     toml = tmp_path / "sweep.toml"

@@ -77,6 +77,7 @@ def test_open_loop_and_hysteresis_are_results_with_tables():
     assert issubclass(HysteresisBenefit, Result)
 
 
+@pytest.mark.slow
 def test_tool_tracking_is_a_time_response_with_channels():
     res = mk.track_tip(mk.tool.parse_path("circle:radius=5mm,period=1s"))
     rec = res.results[0]

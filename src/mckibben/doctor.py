@@ -37,7 +37,7 @@ TOOLS = {
     "arduino-cli": ("an alternative way to build and flash the firmware", "see arduino.github.io/arduino-cli"),
 }
 #: The optional Python packages (the extras of pyproject.toml): name -> (what for, how to install).
-PACKAGES = {
+OPTIONAL_PACKAGES = {
     "mujoco": ("the MuJoCo bridge (mckibben.export.mujoco; the tool's MuJoCo engine)", "pip install 'mckibben[mujoco]'"),
     "fmpy": ("exports and checks FMUs (mckibben export fmu)", "pip install 'mckibben[fmu]'"),
 }
@@ -216,7 +216,7 @@ class Report:
     scheduler : dict or None
         The Dask scheduler asked about: ``{"address": ..., "reachable": bool, "detail": ...}``.
     packages : dict
-        Optional Python package (:data:`PACKAGES`) -> ``{"found": its file or None, "for": ...,
+        Optional Python package (:data:`OPTIONAL_PACKAGES`) -> ``{"found": its file or None, "for": ...,
         "install": ...}``.
     """
 
@@ -308,7 +308,7 @@ def check(scheduler: str | None = None) -> Report:
     where = _jit.cache_dir()
     tools = {name: {"found": _tool(name), "for": what, "install": how} for name, (what, how) in TOOLS.items()}
     packages = {}
-    for name, (what, how) in PACKAGES.items():  # found, not imported: MuJoCo alone takes a second to load
+    for name, (what, how) in OPTIONAL_PACKAGES.items():  # found, not imported: MuJoCo alone takes a second to load
         spec = importlib.util.find_spec(name)
         packages[name] = {"found": None if spec is None else spec.origin, "for": what, "install": how}
     return Report(
@@ -318,8 +318,8 @@ def check(scheduler: str | None = None) -> Report:
         scheduler=None if scheduler is None else _probe_scheduler(scheduler), packages=packages)
 
 
-def run(scheduler: str | None = None, *, warm_up: bool = True,
-        progress: Callable[[int, int, str], None] | None = None) -> tuple[Report, WarmResult | None]:
+def diagnose(scheduler: str | None = None, *, warm_up: bool = True,
+             progress: Callable[[int, int, str], None] | None = None) -> tuple[Report, WarmResult | None]:
     """What ``mckibben doctor`` does: check the arguments, warm the cache (optional), then report once.
 
     Parameters

@@ -35,7 +35,7 @@ _EXITS = (click.exceptions.Exit, typer.Exit)
 _ABORTS = (click.Abort, typer.Abort)
 
 from mckibben import __version__, compile_notice, results  # noqa: E402  (after the Click/Typer compatibility shims)
-from mckibben.cli._common import command_of, flag_names, in_flags  # noqa: E402
+from mckibben.cli._common import command_of, option_flags, in_flags  # noqa: E402
 from mckibben.errors import InputError  # noqa: E402
 
 app = typer.Typer(
@@ -162,7 +162,7 @@ def _run(args: list[str], debug: bool) -> int:
     try:
         result = app(args=args, prog_name="mckibben", standalone_mode=False)
     except InputError as exc:  # the library names Python arguments: say the flags the user typed
-        return _fail(in_flags(str(exc), flag_names(command_of(app, args))), 2)
+        return _fail(in_flags(str(exc), option_flags(command_of(app, args))), 2)
     except _NO_ARGS as exc:
         sys.stdout.write(exc.ctx.get_help() + "\n" if exc.ctx is not None else "")
         return 0

@@ -30,13 +30,13 @@ from rich.table import Table
 from mckibben.errors import InputError
 from mckibben.results import to_jsonable
 from mckibben.units import parse_quantity
-from mckibben import fit
 
 console = Console(soft_wrap=True)
 err_console = Console(stderr=True, soft_wrap=True)
 
 JSON_OPTION = typer.Option(False, "--json", help="Print one JSON object on stdout (SI units).")
-#: ``--direction`` of every command that takes ``--muscle-file``; check it with :func:`check_direction`.
+#: ``--direction`` of every command that takes ``--muscle-file``; check it with
+#: :func:`mckibben.fit.muscle_file.check_direction` (the one check).
 DIRECTION_OPTION = typer.Option("inflate", "--direction", help="--muscle-file: the fitted law's inflate or deflate "
                                                                 "branch (a spring law's hysteresis; the other laws "
                                                                 "have one).")
@@ -155,16 +155,6 @@ def muscle_file_of(muscle_file: str | None, old: str | None, command: str) -> st
     return old
 
 
-def check_direction(direction: str) -> str:
-    """``--direction``, checked: ``inflate`` or ``deflate`` (else one line, exit 2).
-
-    The value only; :func:`mckibben.fit.muscle_file.check_direction` (the one check) also refuses
-    ``deflate`` for a file whose law has one branch, given the law.
-    """
-
-    return fit.muscle_file.check_direction(direction)
-
-
 def command_of(app, args: list[str]):
     """The (sub)command a command line runs: ``["control", "step", ...]`` -> the ``control step`` command."""
     command = typer.main.get_command(app)
@@ -177,7 +167,7 @@ def command_of(app, args: list[str]):
     return command
 
 
-def flag_names(command) -> dict[str, str]:
+def option_flags(command) -> dict[str, str]:
     """Python argument name -> how the command takes it (``start`` -> ``--from``; an argument: ``FILE``)."""
     flags = {}
     for param in getattr(command, "params", ()):
@@ -197,7 +187,7 @@ def in_flags(message: str, flags: dict[str, str]) -> str:
     """A library message with the Python arguments it names written as the command's flags.
 
     The argument a message starts with (``p_max: ...``, ``target/start: ...``) and any argument
-    in backquotes (```start```) become the flags of ``flags`` (from :func:`flag_names`); a name
+    in backquotes (```start```) become the flags of ``flags`` (from :func:`option_flags`); a name
     the command does not take is left as written.
     """
     def leading(m: re.Match) -> str:

@@ -26,7 +26,7 @@ def doctor_cmd(
         def progress(done: int, total: int, name: str) -> None:
             bar.update(task, completed=done, total=total, description=name)
 
-        report, warmed = doctor.run(scheduler, warm_up=warm, progress=progress)
+        report, warmed = doctor.diagnose(scheduler, warm_up=warm, progress=progress)
     if json:
         emit_json({**report.to_dict(), "warm": None if warmed is None else warmed.to_dict(), "ok": report.ok})
     else:

@@ -42,8 +42,8 @@ def fmu_cmd(
     if design is not None:
         if controller is None:
             raise InputError("--design: give --controller smc or pid with it")
-        if controller not in export.fmu.CONTROLLERS:
-            raise InputError(f"--controller: {controller!r}; choose {' or '.join(export.fmu.CONTROLLERS)}")
+        if controller not in export.fmu.LOOP_CONTROLLERS:
+            raise InputError(f"--controller: {controller!r}; choose {' or '.join(export.fmu.LOOP_CONTROLLERS)}")
         ctrl = control.core.load_design(design, "design")
         if ctrl.mode != export.fmu.controller_mode(controller):
             raise InputError(f"--design {design}: its mode is {ctrl.mode}, not --controller {controller}")

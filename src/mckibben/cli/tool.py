@@ -10,13 +10,13 @@ from mckibben import experiments
 from mckibben.cli._common import (
     DIRECTION_OPTION,
     JSON_OPTION,
-    check_direction,
     console,
     emit_json,
     err_console,
     muscle_option,
     print_table,
 )
+from mckibben.fit.muscle_file import check_direction
 from mckibben.cli._output import check_outputs, plot_option, progress_bar, write_plot
 from mckibben.control import registry as R
 from mckibben.errors import InputError, unknown_name

@@ -31,7 +31,7 @@ from mckibben import _lazy
 #: the rig, the sweeps and the command line read) must not wait for them. Every name is of this
 #: package or below it: the experiments are the layer above's (:mod:`mckibben.experiments`).
 _WHERE = {
-    "CONTROLLERS": "mckibben.control.experiment_setup",
+    "CONTROLLERS": "mckibben.control.registry",
     "CoreParams": "mckibben.control.core",
     "FirstOrderModel": "mckibben.control.first_order",
     "PIDDesign": "mckibben.control.laws.pid",

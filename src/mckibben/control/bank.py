@@ -14,7 +14,8 @@ from collections.abc import Sequence
 from mckibben.errors import InputError
 from mckibben.control import registry as R
 from mckibben.control.core_params import GAIN_IDS, GAINS, N_GAINS, CoreParams, fill_coefficients, pack_params
-from mckibben.control.step import FAULT_VENT, P_MAX_LIMIT, STATUS_GAIN_ID, STATUS_OK, STATUS_RANGE, core_kernel, core_step
+from mckibben.hardware import P_MAX_LIMIT
+from mckibben.control.step import FAULT_VENT, STATUS_GAIN_ID, STATUS_OK, STATUS_RANGE, core_kernel, core_step
 from mckibben.control.layout import (
     IP_GAIN0, IP_OL_BLEED,
     IP_OL_INLET, IP_P_MAX, IP_P_OVER, IS_DQ, IS_E_PREV, IS_FIRST,
@@ -99,7 +100,7 @@ class CoreController:
         mode : int
             0 off, 1 sliding mode, 2 PID, 3 open loop. [-]
         """
-        if mode not in R.MODES:
+        if mode not in R.MODE_IDS:
             return STATUS_RANGE
         st = self.istate
         st[IS_MODE] = mode

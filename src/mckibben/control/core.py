@@ -31,9 +31,10 @@ from mckibben.control.bank import (  # noqa: F401  (re-exported)
     CoreBank, CoreController
 )
 from mckibben.control.core_params import (  # noqa: F401  (re-exported)
-    GAINS, GAIN_IDS, N_GAINS, N_IPARAMS, N_ISTATE, CoreParams, Gain, core_spec, counts_from_command, derive,
+    GAINS, GAIN_IDS, N_GAINS, N_IPARAMS, N_ISTATE, CoreParams, core_spec, counts_from_command, derive_core,
     derive_arrays, fill_coefficients, float_command, gain_values, pack_batch, pack_params
 )
+from mckibben.control.core_params import derive_core as derive  # noqa: F401  (its name before 0.x: kept)
 from mckibben.control.design_file import (  # noqa: F401  (re-exported)
     DESIGN_FORMAT, load_design, save_design
 )
@@ -47,13 +48,14 @@ from mckibben.control.layout import (  # noqa: F401  (re-exported)
 )
 from mckibben.control.step import (  # noqa: F401  (re-exported)
     FAULT_ADC_RANGE, FAULT_MISSING, FAULT_OVERPRESSURE, FAULT_STUCK, FAULT_VENT, HEADROOM_SHIFT, LEAD_SAMPLES,
-    MODE_OFF, MODE_OPEN_LOOP, MODE_PID, MODE_SMC, P_MAX_LIMIT, P_NONE, RESP_DU, RESP_P_MIN, STATUS_GAIN_ID, STATUS_OK,
-    STATUS_RANGE, TS_US_MAX, TS_US_MIN, core_kernel, core_step
+    MODE_PID, MODE_SMC, P_NONE, RESP_DU, RESP_P_MIN, STATUS_GAIN_ID, STATUS_OK, STATUS_RANGE, core_kernel, core_step
 )
+from mckibben.control.registry import MODE_OFF, MODE_OPEN_LOOP  # noqa: F401  (re-exported)
+from mckibben.hardware import P_MAX_LIMIT, TS_US_MAX, TS_US_MIN  # noqa: F401  (re-exported)
 
 __all__ = [
     "CORE_N_ISTATE", "CoreBank", "CoreController", "CoreParams", "DESIGN_FORMAT", "FAULT_ADC_RANGE",
-    "FAULT_MISSING", "FAULT_OVERPRESSURE", "FAULT_STUCK", "FAULT_VENT", "GAINS", "GAIN_IDS", "Gain", "IP_ADC_MAX",
+    "FAULT_MISSING", "FAULT_OVERPRESSURE", "FAULT_STUCK", "FAULT_VENT", "GAINS", "GAIN_IDS", "IP_ADC_MAX",
     "IP_ADC_MIN", "IP_ADC_ZERO", "IP_ALPHA", "IP_BETA_Q8", "IP_C_DREF", "IP_C_E", "IP_C_EPS", "IP_C_KD",
     "IP_C_KI", "IP_C_KIP", "IP_C_KP", "IP_C_P", "IP_C_U0", "IP_GAIN0", "IP_GS_PA", "IP_ISUM_MAX", "IP_N_MISSING",
     "HEADROOM_SHIFT", "IP_N_STUCK", "IP_OL_BLEED", "IP_OL_INLET", "IP_PPC_Q8", "IP_P_MAX", "IP_P_OVER", "IP_RESP_U", "IP_S_SAT",
@@ -62,6 +64,6 @@ __all__ = [
     "IS_REFERENCE", "IS_STUCK_N", "IS_SURFACE", "LEAD_SAMPLES", "MODE_OFF", "MODE_OPEN_LOOP", "MODE_PID",
     "MODE_SMC", "N_GAINS", "N_IPARAMS", "N_ISTATE", "P_MAX_LIMIT", "P_NONE", "RESP_DU", "RESP_P_MIN",
     "STATUS_GAIN_ID", "STATUS_OK", "STATUS_RANGE", "TS_US_MAX", "TS_US_MIN", "core_kernel", "core_spec",
-    "core_step", "counts_from_command", "derive", "derive_arrays", "fill_coefficients", "float_command",
+    "core_step", "counts_from_command", "derive", "derive_arrays", "derive_core", "fill_coefficients", "float_command",
     "gain_values", "load_design", "mulq16", "pack_batch", "pack_params", "save_design", "tanh_q15", "tanh_table"
 ]

@@ -12,44 +12,27 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, make_dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
 from mckibben import hardware as HW
 from mckibben.errors import InputError, unknown_name
 from mckibben.control import registry as R
+# the gains of SET_GAIN in id order, their ids, and the arrays' lengths with every extension law's slots: the registry's
+from mckibben.control.laws import GAIN_IDS
+from mckibben.control.registry import ALL_GAINS as GAINS  # the SET_GAIN table (core.GAINS)
+from mckibben.control.registry import N_GAINS, N_IPARAMS, N_ISTATE
 from mckibben.control.fixed import rdiv as _rdiv
 from mckibben.control.layout import (
     IP_ADC_MAX, IP_ADC_MIN, IP_ADC_ZERO, IP_ALPHA, IP_BETA_Q8, IP_C_DREF, IP_C_E, IP_C_EPS, IP_C_KD, IP_C_KI,
     IP_C_KIP, IP_C_KP, IP_C_P, IP_C_U0, IP_GAIN0, IP_GS_PA, IP_ISUM_MAX, IP_N_MISSING, IP_N_STUCK, IP_OL_BLEED,
     IP_OL_INLET, IP_P_MAX, IP_P_OVER, IP_PPC_Q8, IP_RESP_U, IP_S_SAT, IP_TS_US, IS_FIRST,
     IS_MODE, IS_P_PREV)
-from mckibben.control.step import MODE_PID, MODE_SMC, P_MAX_LIMIT, P_NONE, RESP_DU, TS_US_MAX, TS_US_MIN, core_kernel
+from mckibben.control.step import MODE_PID, MODE_SMC, P_NONE, RESP_DU, core_kernel
+from mckibben.hardware import P_MAX_LIMIT, TS_US_MAX, TS_US_MIN
 
 
-class Gain(NamedTuple):
-    """One SET_GAIN entry: the value sent is ``round(physical * scale)`` in ``[lo, hi]``."""
-
-    id: int
-    name: str
-    unit: str
-    scale: float
-    lo: int
-    hi: int
-    default: int
-
-
-#: The gains of SET_GAIN, in id order (the registry's: :data:`mckibben.control.registry.GAINS`).
-GAINS: tuple[Gain, ...] = tuple(Gain(g.id, g.name, g.unit, g.scale, g.lo, g.hi, g.default_value) for g in R.GAINS)
-GAIN_IDS = {g.name: g.id for g in GAINS}
-N_GAINS = len(GAINS)
-
-# --- array layouts (mckibben.control.layout); the extension laws' slots follow the core's ------
-
-#: Lengths of the arrays with every registered extension law's slots (:data:`mckibben.control.registry.LAYOUT`).
-N_IPARAMS = R.N_IPARAMS
-N_ISTATE = R.N_ISTATE
 # --- gains -> coefficients (mirror of derive() in controller.c) -------------------------------
 
 
@@ -100,7 +83,7 @@ def derive_arrays(gains, ts_us) -> dict[str, np.ndarray]:
     return {k: np.asarray(v, dtype=np.int64) for k, v in c.items()}
 
 
-def derive(gains: Sequence[int], ts_us: int) -> dict[str, int]:
+def derive_core(gains: Sequence[int], ts_us: int) -> dict[str, int]:
     """The derived coefficients of the fixed-point law from the SET_GAIN values.
 
     Parameters
@@ -154,8 +137,8 @@ def fill_coefficients(ip: np.ndarray) -> None:
 # --- physical parameters ----------------------------------------------------------------------
 
 
-#: The gains' defaults, by CoreParams field: the registry's (:data:`mckibben.control.registry.GAINS`).
-_D: dict = {g.param: g.default for g in R.GAINS}
+#: The gains' defaults, by CoreParams field: the registry's (:data:`mckibben.control.registry.ALL_GAINS`).
+_D: dict = {g.param: g.default for g in R.ALL_GAINS}
 #: The extension laws' gains (registry), fields of CoreParams too; a dataclass built from the
 #: registry so that a registered law brings its parameters along.
 _ExtensionParams: Any = make_dataclass(
@@ -250,7 +233,7 @@ class CoreParams(_ExtensionParams):
 
 
 #: CoreParams field of each gain, in id order.
-_PARAM_OF_GAIN = tuple(g.param for g in R.GAINS)
+_PARAM_OF_GAIN = tuple(g.param for g in R.ALL_GAINS)
 
 
 def _extension_docs() -> str:
@@ -384,7 +367,7 @@ def pack_batch(params: Mapping[str, object] | None = None, n: int | None = None)
         p_max = np.where(np.isfinite(c["p_max"]), np.rint(c["p_max"]), -1.0)
         cols.check((p_max < 0) | (p_max > P_MAX_LIMIT),
                    lambda row: f"controller parameter p_max={cols.value('p_max', row)!r} outside [0, {P_MAX_LIMIT}] Pa")
-        for name, lo, hi in (("mode", 0, max(R.MODES)), ("open_loop_inlet", 0, 255), ("open_loop_bleed", 0, 255)):
+        for name, lo, hi in (("mode", 0, max(R.MODE_IDS)), ("open_loop_inlet", 0, 255), ("open_loop_bleed", 0, 255)):
             v = c[name]
             cols.check(~np.isfinite(v) | (np.floor(v) != v) | (v < lo) | (v > hi),
                        lambda row, name=name, lo=lo, hi=hi: (f"controller parameter {name}={cols.value(name, row)!r} "

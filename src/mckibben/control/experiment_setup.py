@@ -34,6 +34,7 @@ from mckibben.data.steplog import read_step_log
 from mckibben.datasets import get_muscle
 from mckibben.errors import ArgumentTypeError, InputError, unknown_name
 from mckibben.fit.muscle_file import check_direction, muscle_force_law
+from mckibben.hardware import CONTROL_PERIOD as TS  # the control period of the core and of every record [s]
 from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
 from mckibben.limits import check_budget, check_load, check_p_max
 from mckibben.models import laws as LW
@@ -41,15 +42,11 @@ from mckibben.plant import PlantParams
 from mckibben.units import si
 
 __all__ = [
-    "CONTROLLERS", "FILE_IDENTIFICATION_S", "TS", "boundary_layer", "check_beta", "check_ki", "check_periods",
+    "FILE_IDENTIFICATION_S", "TS", "boundary_layer", "check_beta", "check_ki", "check_periods",
     "controller_params", "default_identification", "identified_model", "identify_file_plant", "muscle_file_plant",
     "plant_load", "pressure_reference", "rest_pull", "tuned_controller",
 ]
 
-#: Controllers the firmware core runs (:data:`mckibben.control.registry.NAMES`).
-CONTROLLERS = R.NAMES
-#: Control period of the core and of every record. [s]
-TS = 1e-3
 
 
 @lru_cache(maxsize=1)
@@ -169,8 +166,8 @@ def controller_params(controller: str = "smc", model: FirstOrderModel | None = N
     -------
     CoreParams
     """
-    if controller not in CONTROLLERS:
-        raise unknown_name("controller", controller, CONTROLLERS)
+    if controller not in R.NAMES:
+        raise unknown_name("controller", controller, R.NAMES)
     if law not in SMC_LAWS:
         raise unknown_name("`law`", law, SMC_LAWS)
     b, k = check_beta(beta), check_ki(ki)
@@ -341,8 +338,8 @@ def tuned_controller(controller: str, model: FirstOrderModel, plant, *, law: str
         ``.params`` (the core's parameters), ``.gains``, ``.steps``, ``.met``.
     """
 
-    if controller not in CONTROLLERS:
-        raise unknown_name("controller", controller, CONTROLLERS)
+    if controller not in R.NAMES:
+        raise unknown_name("controller", controller, R.NAMES)
     if law not in SMC_LAWS:
         raise unknown_name("`law`", law, SMC_LAWS)
     b, k, e = check_beta(beta), check_ki(ki), boundary_layer(eps)

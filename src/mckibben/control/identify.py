@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mckibben.control.core_params import CoreParams, core_spec
-from mckibben.control.step import MODE_OPEN_LOOP
+from mckibben.control.registry import MODE_OPEN_LOOP
 from mckibben.control.first_order import FirstOrderModel
 from mckibben.control.loop import time_grid, run_closed_loop
 from mckibben.data.steplog import (  # noqa: F401 (re-exported)

@@ -4,7 +4,7 @@ The entries are the files of :mod:`mckibben.control.laws` (one per controller, e
 :class:`ControllerSpec` of real function objects, discovered); their modes and gain ids are the
 one table's (:mod:`mckibben.control.laws._table`). This module adds the supervisor's own
 settings (:data:`SUPERVISOR_GAINS`) and derives what the core, the experiments, the rig, the
-sweeps, the plots and the command line read: every gain in id order (:data:`GAINS`), the valid
+sweeps, the plots and the command line read: every gain in id order (:data:`ALL_GAINS`), the valid
 modes, the extension laws' slots in the core's arrays (:data:`LAYOUT`) and the dispatch of the
 core's step to them (:func:`extension_law`). None of them keeps its own list of controllers or
 defaults.
@@ -24,11 +24,11 @@ from __future__ import annotations
 from mckibben._kernels import kernel, register
 from mckibben import hardware as HW
 from mckibben.control import laws
-from mckibben.control.laws import ControllerSpec, GainSpec
+from mckibben.control.laws import CONTROLLERS, ControllerSpec, GainSpec
 from mckibben.control.layout import CORE_N_ISTATE, IP_GAIN0
 from mckibben.errors import unknown_name
 
-__all__ = ["CONTROLLERS", "ControllerSpec", "EXTENSIONS", "GAINS", "GainSpec", "LAYOUT", "MODES", "MODE_OFF",
+__all__ = ["ALL_GAINS", "CONTROLLERS", "ControllerSpec", "EXTENSIONS", "GainSpec", "LAYOUT", "MODE_IDS", "MODE_OFF",
            "MODE_OPEN_LOOP", "NAMES", "N_GAINS", "N_IPARAMS", "N_ISTATE", "PID", "SMC", "SUPERVISOR_GAINS",
            "default_of", "extension_law", "get"]
 
@@ -60,20 +60,19 @@ SUPERVISOR_GAINS: tuple[GainSpec, ...] = (
 if tuple(g.name for g in SUPERVISOR_GAINS) != tuple(laws.TABLE["supervisor"][1]):
     raise ImportError("mckibben.control.registry: SUPERVISOR_GAINS differ from the table's supervisor row")
 
-#: Every controller of the core, by name, in mode order.
-CONTROLLERS: dict[str, ControllerSpec] = laws.CONTROLLERS
 #: The core's own two laws (``controller.c``): every build has them, and the command line's and
 #: the tool's defaults read their designs.
 SMC, PID = CONTROLLERS["smc"], CONTROLLERS["pid"]
 
 # --- derived tables -----------------------------------------------------------------------------
 
-#: Every SET_GAIN entry in id order: the controllers' and the supervisor's.
-GAINS: tuple[GainSpec, ...] = tuple(sorted(SUPERVISOR_GAINS + tuple(g for c in CONTROLLERS.values() for g in c.gains),
+#: Every SET_GAIN entry in id order: the controllers' and the supervisor's (a controller's own are its
+#: ``GAINS``, :attr:`ControllerSpec.gains`).
+ALL_GAINS: tuple[GainSpec, ...] = tuple(sorted(SUPERVISOR_GAINS + tuple(g for c in CONTROLLERS.values() for g in c.gains),
                                            key=lambda g: g.id))
-N_GAINS = len(GAINS)
-#: Valid SET_MODE ids.
-MODES: tuple[int, ...] = tuple(sorted((MODE_OFF, MODE_OPEN_LOOP, *(c.mode for c in CONTROLLERS.values()))))
+N_GAINS = len(ALL_GAINS)
+#: Valid SET_MODE ids (the ids of the table's :data:`~mckibben.control.laws.MODES`, by name).
+MODE_IDS: tuple[int, ...] = tuple(sorted((MODE_OFF, MODE_OPEN_LOOP, *(c.mode for c in CONTROLLERS.values()))))
 #: Controller names (``--controller``).
 NAMES: tuple[str, ...] = tuple(CONTROLLERS)
 #: The extension laws (beyond the core's sliding mode and PID), in mode order.
@@ -175,7 +174,7 @@ def default_of(param: str) -> float | int:
     return _DEFAULTS[param]
 
 
-_DEFAULTS = {g.param: g.default for g in GAINS}
+_DEFAULTS = {g.param: g.default for g in ALL_GAINS}
 
 
 register(__name__)  # the kernels above compile once the package loads Numba (mckibben._kernels)

@@ -21,7 +21,6 @@ import math
 
 
 from mckibben._jit import njit
-from mckibben import hardware as HW
 from mckibben.control import registry as R
 from mckibben.control.fixed import clamp as _clamp
 from mckibben.control.laws import pid, smc
@@ -30,15 +29,14 @@ from mckibben.control.layout import (
     IP_OL_INLET, IP_P_MAX, IP_P_OVER, IP_PPC_Q8, IP_RESP_U, IS_E_PREV, IS_FIRST,
     IS_HELD_ADC, IS_ISUM, IS_LAST_BLEED, IS_LAST_INLET, IS_LATCHED, IS_MISSING_N, IS_MODE, IS_OVER,
     IS_P_PREV, IS_P_SEEN, IS_PREF_PREV, IS_REFERENCE, IS_STUCK_N, IS_SURFACE)
+from mckibben.control.registry import MODE_OPEN_LOOP
 from mckibben.hardware import ADC_MAX
 
 
 # --- modes and fault flags (firmware/core/controller.h, docs/protocol.md) ---------------------
 
-MODE_OFF = R.MODE_OFF
 MODE_SMC = R.SMC.mode
 MODE_PID = R.PID.mode
-MODE_OPEN_LOOP = R.MODE_OPEN_LOOP
 
 FAULT_OVERPRESSURE = 0x01
 FAULT_ADC_RANGE = 0x02
@@ -50,10 +48,6 @@ STATUS_OK = 0
 STATUS_RANGE = 3
 STATUS_GAIN_ID = 4
 
-#: Compiled limit of the maximum pressure [Pa] (full scale of the 0-1 MPa transducer).
-P_MAX_LIMIT = HW.P_MAX_LIMIT
-TS_US_MIN = HW.TS_US_MIN
-TS_US_MAX = HW.TS_US_MAX
 
 
 #: Supervisor 2b: the inlet is shut and the bleed opened wide while p + LEAD_SAMPLES·(p − p_prev)

@@ -58,10 +58,10 @@ N_STEPS = 16  #: pressure set points up (and back down) [-]
 N_TRIALS = 3
 ZERO_COMMON = 2.0  #: load-cell zero common to all runs [N]
 ZERO_SD = 1.5  #: run-to-run load-cell zero scatter [N]
-FORCE_SD = 0.4  #: force noise [N]
+FORCE_NOISE_SD = 0.4  #: force noise [N]
 FORCE_STEP = 0.1  #: load-cell resolution [N]
-PRESSURE_SD = 1e3  #: pressure noise [Pa]
-PRESSURE_STEP = 1e3  #: transducer resolution [Pa]
+PRESSURE_NOISE_SD = 1e3  #: pressure noise [Pa]
+PRESSURE_RESOLUTION = 1e3  #: transducer resolution [Pa]
 HELD_FRACTIONS = (0.0, 0.25, 0.5, 0.75)
 
 
@@ -151,11 +151,11 @@ def isometric_campaign(seed: int = 0, n_trials: int = N_TRIALS, lengths=None, n_
         for trial in range(1, n_trials + 1):
             zero = ZERO_COMMON + rng.normal(0.0, ZERO_SD)
             for direction, sets in (("inflate", up), ("deflate", up[::-1][1:])):
-                p = np.maximum(sets + rng.normal(0.0, PRESSURE_SD, sets.size), 0.0)
-                f = true_force(p, ell, direction) + zero + rng.normal(0.0, FORCE_SD, sets.size)
+                p = np.maximum(sets + rng.normal(0.0, PRESSURE_NOISE_SD, sets.size), 0.0)
+                f = true_force(p, ell, direction) + zero + rng.normal(0.0, FORCE_NOISE_SD, sets.size)
                 frames.append(pd.DataFrame({
                     "held_length_mm": np.round(ell * 1e3, 2),
-                    "pressure_kPa": np.round(p / PRESSURE_STEP) * PRESSURE_STEP / 1e3,
+                    "pressure_kPa": np.round(p / PRESSURE_RESOLUTION) * PRESSURE_RESOLUTION / 1e3,
                     "force_N": np.round(f / FORCE_STEP) * FORCE_STEP,
                     "direction": direction, "trial": trial, "muscle": MUSCLE_ID}))
     return pd.concat(frames, ignore_index=True)
@@ -166,7 +166,7 @@ MUSCLE_TOML = (f'id = "{MUSCLE_ID}"\nnominal_length_mm = {L0 * 1e3:g}\nouter_dia
                'mckibben.datasets.isometric (seed 0), not a measurement. Braid angle and strand length are not '
                'given, as for a commercial muscle."\n')
 
-README = """# SYNTHETIC isometric campaign of a commercial-size muscle
+ISOMETRIC_README = """# SYNTHETIC isometric campaign of a commercial-size muscle
 
 **Generated, not measured.** `isometric.csv` is `mckibben.datasets.isometric.isometric_campaign(seed=0)`:
 a 300 mm, 10 mm-class braided muscle held at four lengths (0, 25, 50, 75 % of the way to its free
@@ -195,5 +195,5 @@ def write_isometric_campaign(folder, seed: int = 0) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     isometric_campaign(seed).to_csv(out / "isometric.csv", index=False)
     (out / "muscle.toml").write_text(MUSCLE_TOML, encoding="utf-8")
-    (out / "README.md").write_text(README, encoding="utf-8")
+    (out / "README.md").write_text(ISOMETRIC_README, encoding="utf-8")
     return out

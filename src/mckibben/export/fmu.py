@@ -15,7 +15,7 @@ system C compiler, and its ``modelDescription.xml``:
   commands and the core's fault flags are outputs.
 
 **One physics, the Python side is the source.** The Numba plant (:mod:`mckibben.plant.physics`,
-:func:`mckibben.plant.packing.derive`, the static start of :mod:`mckibben.plant.simulator`, the law
+:func:`mckibben.plant.packing.derive_columns`, the static start of :mod:`mckibben.plant.simulator`, the law
 kernels of :mod:`mckibben.models.laws`) is the source of truth; ``c/mk_plant.c`` is a port of it
 and each law's C face (``models/laws/<law>.c``, gathered into a generated ``mk_laws.c``) a port of
 its kernel, the same equations and the same classical RK4 with the same substep (the control period over its
@@ -55,18 +55,20 @@ from mckibben.datasets import get_muscle
 from mckibben.errors import InputError, check_instance
 from mckibben.models import laws as LW
 from mckibben.plant import c_layout as CL
+# the control period and RK4 substeps of the FMU's integrator: mckibben.plant.simulate's defaults
+from mckibben.plant.c_layout import SUBSTEPS, TS
 from mckibben.plant import params as PP
 from mckibben.plant import packing as PK
 from mckibben.units import si
 
 #: The FMU's model identifier (the binary's and the functions' name).
 MODEL_IDENTIFIER = "mckibben_plant"
-#: The C sources of the plant, package data of :mod:`mckibben.export` (``c/``).
-PLANT_SOURCES = ("mk_plant.h", "mk_plant.c", "mk_loop.h", "mk_loop.c")
+#: The C sources of the plant and its closed loop, package data of :mod:`mckibben.export` (``c/``).
+PLANT_LOOP_SOURCES = ("mk_plant.h", "mk_plant.c", "mk_loop.h", "mk_loop.c")
 #: The firmware's controller core compiled into a closed-loop FMU (``firmware/core``, the C that runs on the Mega).
 FIRMWARE_SOURCES = ("controller.c", "controller.h", "laws.h", *(f"law_{c.name}.h" for c in R.EXTENSIONS))
-#: Controllers that close the loop inside the FMU (the firmware core's modes).
-CONTROLLERS = ("smc", "pid")
+#: Controllers that close the loop inside the FMU (the firmware core's own laws).
+LOOP_CONTROLLERS = tuple(c.name for c in R.CONTROLLERS.values() if not c.extension)
 #: FMI versions written. [-]
 FMI_VERSIONS = (2, 3)
 #: The FMI headers each version's wrapper includes, read from FMPy's package.
@@ -78,8 +80,6 @@ VR = {"time": 0, "pressure": 1, "length": 2, "force": 3, "inlet": 4, "bleed": 5,
 THETA_VR = 100
 #: The compiler's flags for the FMU's binary (C99, position-independent, only the FMI functions exported).
 CFLAGS = ("-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra")
-#: Control period and RK4 substeps of the FMU's integrator: :func:`mckibben.plant.simulate`'s defaults.
-TS, SUBSTEPS = CL.TS, CL.SUBSTEPS
 
 _UNITS = {"Pa": 'kg="1" m="-1" s="-2"', "m": 'm="1"', "N": 'kg="1" m="1" s="-2"'}
 
@@ -159,7 +159,7 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         src = root / "sources"
         src.mkdir()
         pkg = resources.files("mckibben.export") / "c"
-        for fname in PLANT_SOURCES + (f"fmi{fmi}_plant.c",):
+        for fname in PLANT_LOOP_SOURCES + (f"fmi{fmi}_plant.c",):
             (src / fname).write_bytes((pkg / fname).read_bytes())
         (src / "mk_laws.c").write_text(CL.laws_c())
         sources: tuple[str, ...] = ("mk_plant.c", "mk_laws.c", "mk_loop.c", f"fmi{fmi}_plant.c")
@@ -234,8 +234,8 @@ def _controller(controller, plant, muscle_file, law, beta) -> CoreParams | None:
         return None
     if isinstance(controller, CoreParams):
         return controller
-    if not isinstance(controller, str) or controller not in CONTROLLERS:
-        raise InputError(f"controller: {controller!r}; choose {' or '.join(CONTROLLERS)} (or a CoreParams design)")
+    if not isinstance(controller, str) or controller not in LOOP_CONTROLLERS:
+        raise InputError(f"controller: {controller!r}; choose {' or '.join(LOOP_CONTROLLERS)} (or a CoreParams design)")
     if muscle_file is not None:  # tuned on the file's own plant, as `control step --muscle-file`
         return tuned_controller(controller, identify_file_plant(plant), plant, law=law, beta=beta).params
     return controller_params(controller, law=law, beta=beta)
@@ -247,10 +247,10 @@ def controller_mode(controller: str) -> int:
     Parameters
     ----------
     controller : str
-        A name of :data:`CONTROLLERS`. [-]
+        A name of :data:`LOOP_CONTROLLERS`. [-]
     """
-    if controller not in CONTROLLERS:
-        raise InputError(f"controller: {controller!r}; choose {' or '.join(CONTROLLERS)}")
+    if controller not in LOOP_CONTROLLERS:
+        raise InputError(f"controller: {controller!r}; choose {' or '.join(LOOP_CONTROLLERS)}")
     return MODE_SMC if controller == "smc" else MODE_PID
 
 

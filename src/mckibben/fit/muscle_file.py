@@ -19,6 +19,9 @@ from mckibben.errors import InputError
 from mckibben.fit.isometric import ALL_MODELS, force_law, model_name, parameter_names
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
+# the branches of a fitted force law (inflate, deflate): the spring model has one per direction of travel (its
+# hysteresis); every other model has one, the same for both
+from mckibben.models.hysteresis.direction import DIRECTIONS
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION
 from mckibben.models.muscle import MUSCLE_TERMS, law_values
 from mckibben.models.tube import TUBE_NAME, tube_force
@@ -245,9 +248,6 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     return MuscleForceLaw(spec, model, dict(fm["parameters"]), vr, tuple(fm.get("flags", ())))
 
 
-#: The branches of a fitted force law: the spring model has one per direction of travel (its
-#: hysteresis); every other model has one, the same for both.
-DIRECTIONS = ("inflate", "deflate")
 
 
 def check_direction(direction: str, law: MuscleForceLaw | None = None) -> str:

@@ -62,14 +62,15 @@ if TYPE_CHECKING:
 from mckibben.models.laws.chou_hannaford import LAW as _CH_LAW
 from mckibben.models.laws.spring import LAW as _SPRING_LAW
 from mckibben.models.laws.tondu_lopez import LAW as _TL_LAW
-from mckibben.models.spring import DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel, spring_force
+from mckibben.models.laws import MPA
+from mckibben.models.laws.spring import SPRING_DIRECTIONS as DIRECTIONS
+from mckibben.models.spring import DEFAULT_TERMS, ELONGATION, HIGH, LOW, SpringModel, spring_force
 from mckibben.fit.isometric import D0_FACTOR, THETA_MAX, THETA_STARTS_DEG
 from mckibben.fit.isometric import K_BOUNDS, R0_FACTOR
 
 if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
     import pandas as pd
 
-MPA = 1e6
 
 
 def _need(table: Table, kinds: tuple[str, ...], model: str) -> None:

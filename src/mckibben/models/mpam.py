@@ -26,10 +26,9 @@ from mckibben.hardware import P_MAX_LIMIT
 from mckibben.models.flags import Flag, flag_where, outside
 from mckibben.models.geometry import MiniatureGeometry
 from mckibben.models.kinematic import braid_from_length, length_from_braid
-from mckibben.models.laws._base import evaluate_kernel
+from mckibben.models.laws._base import MPA, evaluate_kernel  # MPA: Pa per MPa, the papers' cubics take P in MPa
 from mckibben.models.laws.braid_map import braid_map, braid_map_theta
 
-MPA = 1e6  # Pa per MPa: the papers' cubics take P in MPa
 
 
 @dataclass(frozen=True)
@@ -221,7 +220,7 @@ def braid_end_stops(strand_length, k1, k2):
     """The braid's end stops through eq. (2): the locking angle (cos θ = 1/√3) and the straight braid (cos θ = 1).
 
     ``k1·Ls/√3 + k2`` and ``k1·Ls + k2`` ([mpam-characterization], eq. (2)); the one formula the
-    muscle's range and the plant's end stops (:func:`mckibben.plant.packing.derive`) share.
+    muscle's range and the plant's end stops (:func:`mckibben.plant.packing.derive_columns`) share.
 
     Parameters
     ----------

@@ -38,10 +38,11 @@ import numpy as np
 
 from mckibben.errors import InputError
 from mckibben.models.flags import Flag, flag_where, outside
-from mckibben.models.laws.spring import (CONTRACTION, DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel,
+from mckibben.models.laws.spring import SPRING_DIRECTIONS as DIRECTIONS  # its name here before: kept
+from mckibben.models.laws.spring import (CONTRACTION, DEFAULT_TERMS, SPRING_DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel,
                                          _coefficients_for, spring_force, stiffness, unstretched_length)
 
-__all__ = ["CONTRACTION", "DEFAULT_TERMS", "DIRECTIONS", "ELONGATION", "HIGH", "LOW", "SpringModel", "spring_force",
+__all__ = ["CONTRACTION", "DEFAULT_TERMS", "DIRECTIONS", "ELONGATION", "HIGH", "LOW", "SPRING_DIRECTIONS", "SpringModel", "spring_force",
            "spring_length", "spring_length_series", "stiffness", "unstretched_length"]
 
 def spring_length(force, pressure, model: SpringModel, direction=ELONGATION, max_stretch=None):

@@ -1,6 +1,6 @@
 """The simulator's compiled runner, a template bound to one controller kernel at a time.
 
-The functions here call the controller kernel by the global name ``kernel``. A compiled function
+The functions here call the controller kernel by the global name ``controller_kernel``. A compiled function
 that took the kernel as an *argument* could not be cached (its argument type names a dispatcher
 that lives in one process only: Numba would save a new copy in every process, and its index could
 not be pickled again once it held another process's kernel). So :func:`mckibben._jit.module_for`
@@ -22,13 +22,13 @@ from mckibben import hardware as HW
 from mckibben._jit import njit
 from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
+from mckibben.plant.physics import NS, W
 
 FLAG_NONFINITE = 1  #: the state became NaN or infinite (simulation of that instance stopped)
 FLAG_ABOVE_SUPPLY = 2  #: the chamber rose above the supply pressure by more than 1 kPa
 FLAG_END_STOP = 4  #: the length reached an end stop of the braid (locking or straight) during the run
 
 _C = PK.Col
-NS, W = ph.NS, ph.W
 
 
 @njit(error_model="numpy")
@@ -37,7 +37,7 @@ def no_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
     return 0, 0, 0
 
 
-kernel = no_kernel  # kernel-import
+controller_kernel = no_kernel  # kernel-import
 
 
 @njit(error_model="numpy")
@@ -119,7 +119,7 @@ def run_block(use_kernel, b0, nl, istate, iparams, fstate, fparams, schedule, pr
             enc = HW.encoder_count(length, bk[ph.X_L0 + j], bk[X_ENC + j])
             r = ref[i if per_instance_ref else 0, k]
             if use_kernel:
-                u_in, u_bl, fault = kernel(istate[i], iparams[i], fstate[i], fparams[i], adc, enc, True, r)
+                u_in, u_bl, fault = controller_kernel(istate[i], iparams[i], fstate[i], fparams[i], adc, enc, True, r)
             else:
                 row = i if per_instance_sched else 0
                 u_in = schedule[row, k, 0]

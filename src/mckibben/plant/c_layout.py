@@ -15,12 +15,13 @@ import math
 import numpy as np
 
 from mckibben import hardware as HW
+from mckibben.hardware import CONTROL_PERIOD as TS  # the control period of the C integrator [s]
 from mckibben.models import laws as LW
 from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 
-#: Control period and RK4 substeps of the C integrator: :func:`mckibben.plant.simulate`'s defaults.
-TS, SUBSTEPS = HW.CONTROL_PERIOD, 10
+#: RK4 substeps of the C integrator per control period (:data:`TS`): :func:`mckibben.plant.simulate`'s default.
+SUBSTEPS = 10
 
 
 def c_double(x: float) -> str:

@@ -2,7 +2,7 @@
 
 A :class:`~mckibben.plant.params.PlantParams` is packed (:meth:`~mckibben.plant.params.PlantParams.pack`)
 into one float64 row per instance whose columns are the members of :class:`Col`: first the fields
-(:func:`field_names`), then the constants of the hot loop :func:`derive` fills. :func:`validate`
+(:func:`field_names`), then the constants of the hot loop :func:`derive_columns` fills. :func:`validate`
 refuses a physically wrong row and :func:`check_force_law` a force law the integrator cannot run,
 each naming the parameter or the range. The air's constants the chamber and the packing use are
 here too. The compiled kernels (:mod:`mckibben.plant.physics`), the C layout
@@ -21,6 +21,11 @@ from mckibben.limits import PLAUSIBLE_MAX
 from mckibben.units import P_ATM  # noqa: F401  (the plant's atmosphere: PK.P_ATM in the kernels)
 from mckibben.models import laws as LW
 from mckibben.models.mpam import braid_end_stops
+
+#: The plant's force models, by the name ``PlantParams(force_model=...)`` takes -> the registry's law
+#: name: the registry's names and old aliases (:mod:`mckibben.models.laws`, the one vocabulary), plus
+#: ``calibrated``: Tondu–Lopez with the plant's calibrated columns.
+FORCE_MODELS = {"calibrated": "tondu-lopez", **{n: n for n in LW.LAW_NAMES}, **LW.ALIASES}
 
 R_AIR = 287.05  #: specific gas constant of air [J/(kg·K)]
 T0 = 293.15  #: ISO 6358 reference temperature, also the supply temperature [K]
@@ -81,7 +86,7 @@ NP = len(Col)
 ALPHA0_MAX = float(np.arccos(1.0 / np.sqrt(3.0)))
 
 
-def derive(p: np.ndarray, thermal: str = "energy") -> None:
+def derive_columns(p: np.ndarray, thermal: str = "energy") -> None:
     """Fill the derived columns of packed, validated parameters (in place).
 
     Parameters

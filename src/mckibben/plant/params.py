@@ -27,7 +27,9 @@ from mckibben.models.spring import CONTRACTION, ELONGATION
 from mckibben.datasets import get_muscle
 from mckibben.data.muscle_file import MuscleSpec, read_muscle
 from mckibben.plant.packing import _FIELDS, ALPHA0_MAX, G, K_AIR, LOADS, NP, NUSSELT_TUBE, T0, THERMAL, Load
-from mckibben.plant.packing import check_force_law, derive, validate
+from mckibben.plant.packing import FORCE_MODELS as LAW_NAMES  # the plant's force-model names (its old name here)
+from mckibben.plant.packing import check_force_law, validate
+from mckibben.plant.packing import derive_columns as derive  # its old name here
 # the names' old home: imported so that ``mckibben.plant.params.<name>`` still works
 from mckibben.plant.packing import GAMMA, MIN_MOVING_MASS, P_ATM, R_AIR, RHO0, TEMPERATURE_RANGE  # noqa: F401
 from mckibben.plant.packing import Col, field_names  # noqa: F401
@@ -35,9 +37,6 @@ from mckibben.plant.packing import Col, field_names  # noqa: F401
 #: A plant parameter: one value for every instance, or one per instance (shape (N,)). [SI unit of the field]
 Value = float | np.ndarray
 
-#: Force laws, by name: the registry's names and old aliases (:mod:`mckibben.models.laws`, the one
-#: vocabulary), plus ``calibrated``: Tondu–Lopez with the plant's calibrated columns.
-LAW_NAMES = {"calibrated": "tondu-lopez", **{n: n for n in LW.LAW_NAMES}, **LW.ALIASES}
 
 # --- the rig of a muscle file's own force law (PlantParams.from_muscle_file; docs/plant.md) ---------
 #: Lumen over outer diameter when the file gives no tube: a 10 mm bore in a 12 mm sleeve, the

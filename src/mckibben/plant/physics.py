@@ -162,7 +162,7 @@ def _dispatch_source() -> str:
 
 #: The index of the default law (the plant's ``calibrated`` force model), which :func:`rhs` runs
 #: inline (its loop vectorizes with the rest).
-_TL = LW.LAW_INDEX[P.LAW_NAMES[P.PlantParams.force_model]]
+_TL = LW.LAW_INDEX[PK.FORCE_MODELS[P.PlantParams.force_model]]
 #: The law dispatchers, generated from the registry and cached per user (:func:`mckibben._jit.generated_module`).
 _DISPATCH = generated_module("law_dispatch", _dispatch_source())
 law_force = _DISPATCH.law_force

@@ -44,6 +44,7 @@ from mckibben.plant import _runner
 from mckibben.plant import params as PP
 from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
+from mckibben.plant.physics import NS, W
 from mckibben.plant._runner import FLAG_ABOVE_SUPPLY, FLAG_END_STOP, FLAG_NONFINITE  # noqa: F401 (public here)
 
 #: The reference left the rig's physical range [0, 1 MPa] somewhere: the controller's supervisor
@@ -60,7 +61,6 @@ _INT_SERIES = frozenset(("inlet", "bleed", "faults", "adc", "encoder"))
 _C = PK.Col
 C_L0, C_KP, C_LF, C_KS, C_LFREE = (int(c) for c in (_C.nominal_length, _C.passive_stiffness, _C.load_force,
                                                    _C.spring_rate, _C.spring_free_length))
-NP, NTH, NS, W = PK.NP, LW.NTH, ph.NS, ph.W
 
 
 @dataclass(frozen=True, repr=False, eq=False)
@@ -150,7 +150,7 @@ def _runner_of(kernel):
         return _runner
     if not (isinstance(kernel, numba.core.registry.CPUDispatcher) or numba.config.DISABLE_JIT and callable(kernel)):
         raise InputError(f"controller kernel: a Numba @njit function, not a {type(kernel).__name__}")
-    return _jit.module_for(_runner, "kernel", kernel)
+    return _jit.module_for(_runner, "controller_kernel", kernel)
 
 
 def _run(runner, use_kernel, *args):
@@ -577,7 +577,7 @@ def _run_python(f, dummy_i, dummy_f, common, out, flags, rec, n_inst, n_steps, t
             raise InputError(f"controller returned ({u_in}, {u_bl}); PWM counts must be in 0..255")
         return u_in, u_bl, 0
 
-    run_block = types.FunctionType(_runner.run_block.py_func.__code__, dict(vars(_runner), kernel=kernel))
+    run_block = types.FunctionType(_runner.run_block.py_func.__code__, dict(vars(_runner), controller_kernel=kernel))
     for b0 in range(0, n_inst, W):
         run_block(True, b0, min(W, n_inst - b0), dummy_i, dummy_i, dummy_f, dummy_f, *common, *out.values(), flags, rec)
 

@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.fit.static import trial_stats
+from mckibben.models.laws import MPA
 from mckibben.models.spring import CONTRACTION, ELONGATION
 from mckibben.plotting import figure_metadata
 
 COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf")
-MPA = 1e6
 
 
 def _figure(ncols: int, width=4.2, height=3.4):

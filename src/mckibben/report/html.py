@@ -19,6 +19,7 @@ from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
 from mckibben.atomic import check_output_dir
 from mckibben.datasets.campaign import campaign_muscle_dirs
 from mckibben.datasets.references import cited, render
+from mckibben.models.laws import MPA
 from mckibben.models.laws.spring import LAW as _SPRING_LAW
 from mckibben.results import provenance
 from mckibben.results import to_jsonable
@@ -26,7 +27,6 @@ from mckibben.atomic import atomic_dir
 import hashlib
 import json
 
-MPA = 1e6
 
 
 def _pm(v, se, scale=1.0, digits=3):

@@ -14,7 +14,7 @@ import numpy as np
 
 from mckibben.control import registry as R
 from mckibben.errors import ArgumentTypeError, InputError
-from mckibben.hardware import BAUD as _HW_BAUD
+from mckibben.hardware import BAUD
 from mckibben.hardware import ADC_MAX, P_MAX_DEFAULT, pressure_from_adc
 from mckibben.results import Result, TimeResponse
 from mckibben.rig import protocol as P
@@ -27,8 +27,6 @@ from mckibben.control.core import CoreParams, load_design
 __all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "ForceResult", "GainsResult", "RigStepResult", "TareResult",
            "connect", "open_port", "write_gains"]
 
-#: Baud rate of the serial link (``docs/protocol.md``; :data:`mckibben.hardware.BAUD`).
-BAUD = _HW_BAUD
 #: How long :func:`connect` waits for the firmware's HELLO after opening the port: a Mega resets
 #: on open and its bootloader listens for 1-2 s before the firmware starts. [s]
 HELLO_TIMEOUT_S = 4.0
@@ -43,8 +41,6 @@ MAX_FORCE_SAMPLES = 10_000
 #: three channels in closed loop at 1 kHz, SET_POINTS every 2 ms beside telemetry at decimation 2
 #: all arrive and are ACKed; at 1 ms (or at decimation 1) the 16 MHz Mega runs out of cycles.
 PACED_PERIODS = 2
-#: The device's controllers by name (:data:`mckibben.rig.protocol.MODES`).
-CONTROLLERS = R.NAMES
 
 
 def open_port(port: str, timeout: float = 0.02):
@@ -461,8 +457,8 @@ class Device:
         p = si(target, "pressure", "target", allow_zero=False)
         if p > SAFE_MAX_PRESSURE_PA:
             raise InputError(f"target: {target!r} is above the {SAFE_MAX_PRESSURE_PA / 1e6:g} MPa safe limit")
-        if controller not in CONTROLLERS:
-            raise InputError(f"controller: {controller!r} must be one of {', '.join(CONTROLLERS)}")  # the registry's
+        if controller not in R.NAMES:
+            raise InputError(f"controller: {controller!r} must be one of {', '.join(R.NAMES)}")  # the registry's
         d = si(duration, "time", "duration", allow_zero=False)
         if d > 60:
             raise InputError(f"duration: {duration!r} is longer than 60 s")

@@ -42,6 +42,7 @@ from mckibben.errors import InputError
 from mckibben.control.core import CoreBank
 from mckibben.plant import PlantStepper
 from mckibben.plant import params as PP
+from mckibben.plant.packing import derive_columns
 from mckibben.plant import physics as PH
 from mckibben.rig import bench as B
 from mckibben.control.core import IP_GAIN0, N_GAINS
@@ -442,7 +443,7 @@ class Emulator:
             elif verb == "release":
                 row[PP.Col.load_kind] = PP.Load.hanging
             prm = row[None, :]
-            PP.derive(prm, self._plant_params[0].thermal)  # the one place inv_mass and mobile come from
+            derive_columns(prm, self._plant_params[0].thermal)  # the one place inv_mass and mobile come from
             pl.bk[PH.OFF_P:PH.OFF_P + PH.NP * PH.W:PH.W] = prm[0]
             pl.p = pl.bk[PH.OFF_P:PH.OFF_P + PH.NP * PH.W:PH.W].copy()
         return "ok"

@@ -25,7 +25,7 @@ from mckibben import hardware as HW
 from mckibben.errors import InputError
 
 #: The Debian packages that install each tool the firmware needs.
-PACKAGES = {"avr-gcc": "gcc-avr avr-libc", "make": "make", "cc": "gcc", "libsimavr": "libsimavr-dev libelf-dev",
+APT_PACKAGES = {"avr-gcc": "gcc-avr avr-libc", "make": "make", "cc": "gcc", "libsimavr": "libsimavr-dev libelf-dev",
             "avrdude": "avrdude", "simavr": "simavr"}
 
 
@@ -43,7 +43,7 @@ def simavr_include() -> Path:
 
 def missing(tool: str) -> InputError:
     """The one-line refusal for a missing tool, naming the Debian package that installs it."""
-    return InputError(f"{tool} not found: install it (Debian/Ubuntu: sudo apt-get install {PACKAGES[tool]})")
+    return InputError(f"{tool} not found: install it (Debian/Ubuntu: sudo apt-get install {APT_PACKAGES[tool]})")
 
 
 def firmware_dir() -> Path:

@@ -15,7 +15,8 @@ import struct
 from dataclasses import dataclass, field
 
 from mckibben import hardware as HW
-from mckibben.control import registry as R
+# SET_MODE ids by name (off, every registered controller, open_loop): the one table's
+from mckibben.control.laws import MODES  # noqa: F401  (P.MODES: the protocol's)
 
 VERSION = 3
 #: Versions the parser reads: 1 (one channel, 500000 baud), 2 (no load cell) and 3.
@@ -28,8 +29,6 @@ ALL = 0xFF  #: channel byte of SET_MODE, SET_MAX_PRESSURE and VENT: every channe
 TELEMETRY, ACK, HELLO = 0x01, 0x02, 0x03
 SET_POINT, SET_GAIN, SET_MODE, SET_MAX_PRESSURE, VENT, STREAM, SET_OPEN_LOOP = 0x10, 0x11, 0x12, 0x13, 0x14, 0x15, 0x16
 SET_POINTS, GET_GAIN = 0x17, 0x18
-#: SET_MODE ids by name: off, every registered controller (:mod:`mckibben.control.registry`), open loop.
-MODES = {"off": R.MODE_OFF, **{c.name: c.mode for c in R.CONTROLLERS.values()}, "open-loop": R.MODE_OPEN_LOOP}
 
 _TELEMETRY_V1 = struct.Struct("<IHiBBBBii")  # 22 bytes, version 1
 _TELEMETRY_HEAD = struct.Struct("<IiB")  # t_us, encoder, n: 9 bytes

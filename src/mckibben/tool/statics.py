@@ -21,11 +21,11 @@ import numpy as np
 
 from mckibben.errors import InputError, UnreachableError
 from mckibben.models.flags import Flag, flag_names, flag_where
+from mckibben.models.laws import MPA
 from mckibben.tool.geometry import MUSCLE_ANGLES, Tool
 from mckibben.tool.kinematics import Arc, arc_from_lengths, arc_from_tip, lengths_from_arc, tip_position, tip_rotation
 
 from mckibben.tool.kinematics import _COS, _SIN  # exact cos/sin of the muscle angles
-MPA = 1e6
 
 
 def muscle_tensions(arc: Arc, tool: Tool) -> np.ndarray:

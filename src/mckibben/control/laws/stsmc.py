@@ -159,7 +159,7 @@ def derive(gains, ts_us) -> dict:
     return {k: np.asarray(v, dtype=np.int64) for k, v in c.items()}
 
 
-def float_command(params: Params, p_ref, e, v):
+def float_law(params: Params, p_ref, e, v):
     """The law in float64, for measuring the fixed-point error.
 
     Parameters
@@ -262,7 +262,7 @@ CONTROLLER = ControllerSpec(
     summary="super-twisting (second-order) sliding mode on the model's static inverse",
     gains=GAINS, law=law, design=design, candidates=candidates, describe=describe,
     designs={"stsmc": DESIGN}, grid={"stsmc": GRID},
-    state=N_STATE, coefs=COEFS, derive=derive, float_law=float_command,
+    state=N_STATE, coefs=COEFS, derive=derive, float_law=float_law,
     references="Levant 1993; Moreno & Osorio 2012; Seeber & Andritsch 2025 (mckibben.control.laws.stsmc)",
 )
 

@@ -16,7 +16,7 @@ from mckibben.models.hysteresis.prandtl_ishlinskii import (
     apply,
     descended_state,
     forward_state,
-    inverse,
+    inverse_operator,
     inverse_state,
     invert,
     loading_curve,
@@ -25,6 +25,8 @@ from mckibben.models.hysteresis.prandtl_ishlinskii import (
     play_matrix,
     thresholds_uniform,
 )
+# its name before: kept (mckibben.tool.inverse is the tool's inverse kinematics)
+from mckibben.models.hysteresis.prandtl_ishlinskii import inverse_operator as inverse
 
-__all__ = ["PI_CITATION", "PrandtlIshlinskii", "apply", "descended_state", "forward_state", "inverse", "inverse_state", "invert",
+__all__ = ["PI_CITATION", "PrandtlIshlinskii", "apply", "descended_state", "forward_state", "inverse", "inverse_operator", "inverse_state", "invert",
            "loading_curve", "output_map", "output_map_inverse", "play_matrix", "thresholds_uniform"]

@@ -187,8 +187,8 @@ class PrandtlIshlinskii:
         return apply(self, u, state)
 
     def inverse(self) -> PrandtlIshlinskii:
-        """The exact inverse operator (see :func:`inverse`)."""
-        return inverse(self)
+        """The exact inverse operator (see :func:`inverse_operator`)."""
+        return inverse_operator(self)
 
     def loading_curve(self, u) -> np.ndarray:
         """The initial loading curve φ(u) (see :func:`loading_curve`)."""
@@ -373,7 +373,7 @@ def loading_curve(params: PrandtlIshlinskii, u) -> np.ndarray:
     return output_map(params, v) if params.output_map is not None else v
 
 
-def inverse(params: PrandtlIshlinskii) -> PrandtlIshlinskii:
+def inverse_operator(params: PrandtlIshlinskii) -> PrandtlIshlinskii:
     """The exact inverse PI operator, in closed form from the initial loading curve.
 
     r'_j = Σ_{i≤j} w_i·(r_j − r_i), w'_0 = 1/w_0, w'_j = −w_j/(W_j·W_{j−1}) with
@@ -426,7 +426,7 @@ def inverse(params: PrandtlIshlinskii) -> PrandtlIshlinskii:
 def inverse_state(params: PrandtlIshlinskii, state) -> np.ndarray:
     """The inverse operator's play states that match the forward operator's.
 
-    z'_j = W_j·z_j + Σ_{i>j} w_i·z_i: with them, :func:`inverse` continues a sequence the
+    z'_j = W_j·z_j + Σ_{i>j} w_i·z_i: with them, :func:`inverse_operator` continues a sequence the
     forward operator left in ``state`` and inverts it exactly (the virgin state maps to the
     virgin state).
 
@@ -464,7 +464,7 @@ def forward_state(params: PrandtlIshlinskii, inverse_state_) -> np.ndarray:
     numpy.ndarray
         The forward operator's play outputs, shape (n,). [input unit]
     """
-    return inverse_state(inverse(replace(params, output_map=None)), inverse_state_)
+    return inverse_state(inverse_operator(replace(params, output_map=None)), inverse_state_)
 
 
 def invert(params: PrandtlIshlinskii, y, state=None) -> tuple[np.ndarray, np.ndarray]:
@@ -487,7 +487,7 @@ def invert(params: PrandtlIshlinskii, y, state=None) -> tuple[np.ndarray, np.nda
         The forward operator's play outputs after the last sample. [input unit]
     """
     classical = replace(params, output_map=None)
-    inv = inverse(classical)
+    inv = inverse_operator(classical)
     z_inv = inverse_state(classical, _state(params, state))
     u, zf_inv = apply(inv, output_map_inverse(params, y), z_inv)
     return u, inverse_state(inv, zf_inv)

@@ -26,7 +26,11 @@ from mckibben.models.laws import _eval_template
 NTH = 44
 #: Most characterized loads a braid-angle map may have in the kernel.
 MAP_MAX_LOADS = 8
-MPA = 1e6  # Pa per MPa
+#: Pa per MPa: the papers' cubics take the pressure in MPa (each law converts at its edge). [Pa/MPa]
+MPA = 1e6
+#: Largest end length a family law fits (relative-strain's end fittings, virtual-work's end zone), as a
+#: fraction of the shortest rest length in the data. [-]
+END_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -240,7 +244,7 @@ def _eval_compiled(kernel, p, length, th, col, w, out):
     """The loop compiled once per law: a module generated for the kernel (``_eval_template``)."""
     jit = _kernels.jit()  # loads Numba (compiling every marked kernel)
     compiled = getattr(sys.modules[kernel.__module__], kernel.__name__)  # the dispatcher, now that Numba is loaded
-    jit.module_for(_eval_template, "kernel", compiled).eval_loop(p, length, th, col, w, out)
+    jit.module_for(_eval_template, "law_kernel", compiled).eval_loop(p, length, th, col, w, out)
 
 
 def evaluate_kernel(kernel, name: str, pressure, length, theta) -> np.ndarray:

@@ -214,8 +214,8 @@ class HuntQuinn:
 #: the model absorbs a constant force offset Δ exactly (F → F − Δ is c0 → c0 + c5·Δ,
 #: ε_max → ε_max + c4·Δ), so a separate zero would be unidentified but for the slack rows, and an
 #: isotonic fit would trade it against the smallest load.
-NAMES = ("c0_kPa", "c1_kPa", "c3", "c4_per_N", "c5_kPa_per_N", "max_strain")
-#: Published c2, held in fits (see :data:`NAMES`). [-]
+FIT_NAMES = ("c0_kPa", "c1_kPa", "c3", "c4_per_N", "c5_kPa_per_N", "max_strain")
+#: Published c2, held in fits (see :data:`FIT_NAMES`). [-]
 C2_HELD = 2.0265
 #: Bounds of ε_max in a fit. [-]
 MAX_STRAIN_BOUNDS = (0.01, 0.6)
@@ -227,7 +227,7 @@ def _law_of(d, rest_length) -> HuntQuinn:
 
 
 def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
-    """Fit spec: c0, c1, c3, c4, c5 and ε_max (c2 held at the published 2.0265, c6 = 0; no load-cell zero, see :data:`NAMES`).
+    """Fit spec: c0, c1, c3, c4, c5 and ε_max (c2 held at the published 2.0265, c6 = 0; no load-cell zero, see :data:`FIT_NAMES`).
 
     Bounds: c1, c5 > 0 (pressure rises with contraction and with force), |c2·c3| < π/2 (the
     tangent's range at rest length), −1/F_max ≤ c4 ≤ 0 (force shortens the stroke), ε_max in
@@ -249,13 +249,13 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     hi = np.array([np.inf, np.inf, c3_lim, 0.0, np.inf, MAX_STRAIN_BOUNDS[1]])
 
     def force(v, pressure, length, direction=None, rest_length=None):
-        d = dict(zip(NAMES, v))
+        d = dict(zip(FIT_NAMES, v))
         law = _law_of(d, l0 if rest_length is None else float(np.asarray(rest_length).flat[0]))
         return law.force(pressure, length)
 
     pub = (254.3, 192.0, -0.461, max(-0.331e-3, -0.9 / fmax), 1.23)
     starts = [np.clip(np.array(pub + (e,)), lo, hi) for e in (0.15, 0.3)]
-    return FitSpec(NAMES, lo, hi, starts, force)
+    return FitSpec(FIT_NAMES, lo, hi, starts, force)
 
 
 def from_values(values: dict, muscle, direction: str = "inflate", valid_range: dict | None = None) -> HuntQuinn:
@@ -272,7 +272,7 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
     valid_range : dict, optional
         Unused. [-]
     """
-    d = {k: float(values[k]) for k in NAMES}
+    d = {k: float(values[k]) for k in FIT_NAMES}
     return _law_of(d | {"citation": f"fitted: {muscle.path or muscle.id}"}, float(muscle.nominal_length))
 
 

@@ -37,16 +37,15 @@ import numpy as np
 from mckibben._kernels import kernel, register
 
 from mckibben.errors import InputError
-from mckibben.models.laws._base import MPA, NTH, FitSpec, Law, evaluate_kernel, offset_flag
+from mckibben.models.laws._base import END_FRACTION, MPA, NTH, FitSpec, Law, evaluate_kernel, offset_flag
 
 # θ: a1 [N/Pa], a2 [N/Pa²], c0 [N], c1 [N/Pa], L0 [m], le [m]
 RS_A1, RS_A2, RS_C0, RS_C1, RS_L0, RS_LE = range(6)
 NAME = "relative-strain"
-#: Largest end-fitting length, as a fraction of the shortest rest length in the data. [-]
-END_FRACTION = 0.5
-OPTIONAL = ("end_length_m",)
+#: The fitted parameter a single rest length cannot identify: the end fittings' length.
+RS_OPTIONAL = ("end_length_m",)
 #: Every parameter, the optional end length included, in order.
-FULL_NAMES = ("a1_N_per_MPa", "a2_N_per_MPa2", "c0_N", "c1_N_per_MPa", "end_length_m", "offset_N")
+RS_FULL_NAMES = ("a1_N_per_MPa", "a2_N_per_MPa2", "c0_N", "c1_N_per_MPa", "end_length_m", "offset_N")
 
 
 @kernel(error_model="numpy", inline="always")
@@ -164,7 +163,7 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     def force(v, pressure, length, direction=None, rest_length=None):
         rl = muscle.nominal_length if rest_length is None else rest_length
         # a saved family law carries the end length whatever data the spec was built on: its length says
-        nm = names if len(v) == len(names) else tuple(n for n in FULL_NAMES if len(v) == 6 or n not in OPTIONAL)
+        nm = names if len(v) == len(names) else tuple(n for n in RS_FULL_NAMES if len(v) == 6 or n not in RS_OPTIONAL)
         return _force(v, nm, pressure, length, rl)
 
     starts = []
@@ -221,7 +220,7 @@ LAW = Law(
     NAME, relative_strain, "mckibben's form, after the length effect of Hunt et al. (2017) [hunt2017] (not their equation)",
     description="family law: blocked force and its fall with relative strain, an end-fitting length across rest lengths",
     params=RelativeStrain, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
-    from_values=from_values, needs=("nominal_length",), family=True, extra={"optional_names": OPTIONAL},
+    from_values=from_values, needs=("nominal_length",), family=True, extra={"optional_names": RS_OPTIONAL},
     c_rows={"RS_A1": RS_A1, "RS_A2": RS_A2, "RS_C0": RS_C0, "RS_C1": RS_C1, "RS_L0": RS_L0, "RS_LE": RS_LE},
 )
 

@@ -61,7 +61,9 @@ def spring(pressure, length, th, o, w):
 DEFAULT_TERMS: tuple[tuple[int, int], ...] = ((1, 0), (1, 1), (0, 1), (0, 0))
 
 ELONGATION, CONTRACTION = "elongation", "contraction"
-DIRECTIONS = (ELONGATION, CONTRACTION)
+#: The spring model's directions of travel (its two hysteresis branches; not the ``inflate``/``deflate``
+#: of :data:`mckibben.models.hysteresis.direction.DIRECTIONS`).
+SPRING_DIRECTIONS = (ELONGATION, CONTRACTION)
 LOW, HIGH = "low", "high"
 
 
@@ -101,7 +103,7 @@ class SpringModel:
 
     def __post_init__(self):
         for key, c in self.coefficients.items():
-            if key[0] not in DIRECTIONS or key[1] not in (LOW, HIGH):
+            if key[0] not in SPRING_DIRECTIONS or key[1] not in (LOW, HIGH):
                 raise InputError(f"SpringModel: bad coefficient key {key!r}; use (direction, 'low'|'high')")
             if len(c) != len(self.terms):
                 raise InputError(f"SpringModel: {key} has {len(c)} coefficients for {len(self.terms)} terms")
@@ -203,7 +205,7 @@ def spring_force(length, pressure, model: SpringModel, direction=ELONGATION):
         d = np.broadcast_to(np.asarray(direction), pressure.shape)
         force = np.where(d == ELONGATION, evaluate_kernel(spring, "spring", pressure, length, spring_theta(model, ELONGATION)),
                          evaluate_kernel(spring, "spring", pressure, length, spring_theta(model, CONTRACTION)))
-        force = np.where(np.isin(d, DIRECTIONS), force, np.nan)
+        force = np.where(np.isin(d, SPRING_DIRECTIONS), force, np.nan)
     else:  # other stiffness terms: the general polynomial
         c = _coefficients_for(model, pressure, direction)
         force = stiffness(pressure, stretch, c, model.terms) * stretch

@@ -59,13 +59,11 @@ import numpy as np
 from mckibben._kernels import kernel, register
 
 from mckibben.errors import InputError
-from mckibben.models.laws._base import MPA, NTH, FitSpec, Law, evaluate_kernel, offset_flag
+from mckibben.models.laws._base import END_FRACTION, MPA, NTH, FitSpec, Law, evaluate_kernel, offset_flag
 
 # θ: a0 [N/Pa], a1 [N/Pa], a2 [N/Pa²], g0 [N], e0 [-], g1 [N], L0 [m], λ [m]
 VW_A0, VW_A1, VW_A2, VW_G0, VW_E0, VW_G1, VW_L0, VW_LAM = range(8)
 NAME = "virtual-work"
-#: Largest end-zone length λ, as a fraction of the shortest rest length in the data. [-]
-END_FRACTION = 0.5
 #: Bounds of the elastic term's strain scale e0. [-]
 E0_BOUNDS = (1e-3, 0.5)
 #: Log-normal prior on e0: median and the factor of one standard deviation. The elastic force is the
@@ -81,9 +79,10 @@ E0_BOUNDS = (1e-3, 0.5)
 E0_PRIOR = (0.02, 3.0)
 #: Starting strain scales of the multi-start (the law is linear in the other parameters). [-]
 E0_STARTS = (0.01, 0.03, 0.1)
-OPTIONAL = ("end_zone_m",)
+#: The fitted parameter a single rest length cannot identify: the end zone's length λ.
+VW_OPTIONAL = ("end_zone_m",)
 #: Every parameter, the optional end length included, in order.
-FULL_NAMES = ("a0_N_per_MPa", "a1_N_per_MPa", "a2_N_per_MPa2", "g0_N", "e0", "g1_N", "end_zone_m", "offset_N")
+VW_FULL_NAMES = ("a0_N_per_MPa", "a1_N_per_MPa", "a2_N_per_MPa2", "g0_N", "e0", "g1_N", "end_zone_m", "offset_N")
 
 
 @kernel(error_model="numpy", inline="always")
@@ -236,7 +235,7 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     n = 0 if data is None else np.size(data["pressure"])
     rest = np.asarray(data["rest_length"], dtype=float) if n else np.full(1, muscle.nominal_length)
     family = n > 0 and np.unique(np.round(rest, 6)).size > 1
-    names = tuple(nm for nm in FULL_NAMES if family or nm not in OPTIONAL)
+    names = tuple(nm for nm in VW_FULL_NAMES if family or nm not in VW_OPTIONAL)
     le_max = END_FRACTION * float(rest.min())
     bounds = {"a0_N_per_MPa": (0.0, np.inf), "a1_N_per_MPa": (-np.inf, 0.0), "a2_N_per_MPa2": (-np.inf, np.inf),
               "g0_N": (0.0, np.inf), "e0": E0_BOUNDS, "g1_N": (-np.inf, np.inf), "end_zone_m": (0.0, le_max),
@@ -247,8 +246,8 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     def force(v, pressure, length, direction=None, rest_length=None):
         rl = muscle.nominal_length if rest_length is None else rest_length
         # a saved family law carries the end length whatever data the spec was built on: its length says
-        nm = names if len(v) == len(names) else tuple(n for n in FULL_NAMES if len(v) == len(FULL_NAMES)
-                                                      or n not in OPTIONAL)
+        nm = names if len(v) == len(names) else tuple(n for n in VW_FULL_NAMES if len(v) == len(VW_FULL_NAMES)
+                                                      or n not in VW_OPTIONAL)
         return _force(v, nm, pressure, length, rl)
 
     starts = []
@@ -320,7 +319,7 @@ LAW = Law(
     description="family law: pressure on an effective area less the sleeve's elastic force, what the end fittings "
                 "cost across rest lengths",
     params=VirtualWork, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
-    from_values=from_values, needs=("nominal_length",), family=True, extra={"optional_names": OPTIONAL},
+    from_values=from_values, needs=("nominal_length",), family=True, extra={"optional_names": VW_OPTIONAL},
     c_rows={"VW_A0": VW_A0, "VW_A1": VW_A1, "VW_A2": VW_A2, "VW_G0": VW_G0, "VW_E0": VW_E0, "VW_G1": VW_G1,
             "VW_L0": VW_L0, "VW_LAM": VW_LAM},
 )

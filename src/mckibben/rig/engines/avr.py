@@ -37,6 +37,7 @@ from mckibben.plant import c_layout as CL
 from mckibben.plant import params as PP
 from mckibben.plant import packing as PK
 from mckibben.rig import firmware as FW
+from mckibben.rig.firmware import simavr_include
 from mckibben.rig.bench import bench_dir
 
 #: The plant's C sources (package data of mckibben.export, ``c/``) the harness compiles.
@@ -95,8 +96,6 @@ def build_image(n_channels: int = HW.N_CHANNELS, load_cell: float | None = None)
     """
     return FW.cached_build(n_channels, load_cell).elf
 
-
-simavr_include = FW.simavr_include
 
 
 def build_harness(plant: PP.PlantParams | None = None) -> Path:
