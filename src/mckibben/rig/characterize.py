@@ -1,8 +1,8 @@
 """Characterize a muscle on the bench with one call: protocol file → tables → fitted muscle file.
 
 A *protocol* (a TOML file, :func:`read_protocol`; ``mckibben examples copy characterize.toml``)
-states the hanging loads, the pressure steps (up to the top, then back down), the hold time, the
-settling rule, the number of trials and the safety maximum, and optionally held lengths for
+states the hanging loads, the pressure steps (up to the top, then back down; stepped, or ramped at a
+rate), the hold time, the settling rule, the number of trials and the safety maximum, and optionally held lengths for
 isometric runs on a rig with a load cell. It is checked whole before anything moves; a bad one is
 refused with its file, line and reason.
 
@@ -466,15 +466,14 @@ def _ramp(s: _Session, start: float, target: float, rate: float) -> None:
     """
     top = min(target, s.limit)
     dt_max = PACED_PERIODS * HW.CONTROL_PERIOD
-    end_wall = time.monotonic() + 10.0 + 3.0 * abs(target - start) / rate
     s.link.write(P.stream(s._next(), True, PACED_PERIODS))  # a frame, and a set-point, every paced period
     try:
         s.wait(0.0)
         t_last, p = s.rows[-1][0], start
         while p != top:
-            n = len(s.rows)
+            n, deadline = len(s.rows), time.monotonic() + 10.0
             while len(s.rows) == n:  # the next frame
-                if time.monotonic() > end_wall:
+                if time.monotonic() > deadline:
                     raise s.stop(f"the device stopped streaming telemetry ({len(s.rows)} frames)")
                 s.poll(prompt=True)
             dp = rate * min(s.rows[-1][0] - t_last, dt_max)
@@ -540,7 +539,8 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
 
     For each load and trial: the load is hung (the operator is asked, or unattended the bench side
     channel changes it), the muscle vented and let settle, then the pressure set-point of the
-    device's own controller (closed loop, SET_POINT) goes up the protocol's steps and back down; at
+    device's own controller (closed loop, SET_POINT) goes up the protocol's steps and back down (with
+    the protocol's ``ramp``, as a rate-limited ramp from one step to the next, :func:`_ramp`); at
     each step the run holds until the length settles by the protocol's rule and keeps one sample
     (mean pressure and length over the settling window). A completed load step is written to
     ``OUT/steps.journal/`` at once, atomically, so a run killed at any moment keeps every completed
