@@ -19,8 +19,8 @@ def test_example_is_the_seed_campaign(tmp_path):
     assert [d for _, d in sweep].count("inflate") == len(p.pressures)
     assert sweep[-1] == (p.pressures[0], "deflate")  # back down to the first step
     assert len(p.load_steps()) == len(p.loads) * p.trials
-    # each step approached as a ramp, not a jump (the controller's step overshoot is not the muscle's hysteresis)
-    assert p.ramp == pytest.approx(0.25e6)
+    # stepped: ramped, the fitted friction's muscle file is less repeatable than the resume bar allows (docs/rig.md)
+    assert p.ramp == 0.0
 
 
 GOOD = """[protocol]
