@@ -81,7 +81,8 @@ PARSERS = {("control/references.py", "parse_reference"),
            # a characterization protocol is a file a user writes, with units ("0.6N", "0.8MPa"): its
            # reader is an edge, like a reference file's
            ("rig/characterize.py", "_ask_length"), ("rig/characterize.py", "_protocol"),
-           ("rig/characterize.py", "quantity"), ("rig/characterize.py", "quantities")}
+           ("rig/characterize.py", "quantity"), ("rig/characterize.py", "quantities"),
+           ("rig/characterize.py", "_ramp_rate")}
 
 
 def _text_parsing_calls():

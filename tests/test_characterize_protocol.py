@@ -19,6 +19,8 @@ def test_example_is_the_seed_campaign(tmp_path):
     assert [d for _, d in sweep].count("inflate") == len(p.pressures)
     assert sweep[-1] == (p.pressures[0], "deflate")  # back down to the first step
     assert len(p.load_steps()) == len(p.loads) * p.trials
+    # stepped: ramped, the fitted friction's muscle file is less repeatable than the resume bar allows (docs/rig.md)
+    assert p.ramp == 0.0
 
 
 GOOD = """[protocol]
@@ -42,6 +44,16 @@ hold = "0.1s"
     (("hold = \"0.1s\"", "hold = \"0.1s\"\nspeed = 3"), 9, "speed"),
     (("max_pressure = \"0.6MPa\"", "max_pressure = \"2MPa\""), 3, "full scale"),
     (("[isotonic]", "[isotonik]"), 5, "isotonik"),
+    # the set-point ramp: a rate of pressure, > 0, not a step in disguise, not a week
+    (("hold = \"0.1s\"", "hold = \"0.1s\"\nramp = \"0MPa/s\""), 9, "zero"),
+    (("hold = \"0.1s\"", "hold = \"0.1s\"\nramp = \"-0.5MPa/s\""), 9, "ramp"),
+    (("hold = \"0.1s\"", "hold = \"0.1s\"\nramp = \"0.5MPa\""), 9, "rate of pressure"),
+    (("hold = \"0.1s\"", "hold = \"0.1s\"\nramp = 0.5"), 9, "rate of pressure"),
+    (("hold = \"0.1s\"", "hold = \"0.1s\"\nramp = \"0.5mm/s\""), 9, "pressure"),
+    (("hold = \"0.1s\"", "hold = \"0.1s\"\nramp = \"0.5MPa/kg\""), 9, "ramp"),
+    (("hold = \"0.1s\"", "hold = \"0.1s\"\nramp = \"500MPa/s\""), 9, "that is a step"),
+    (("hold = \"0.1s\"", "hold = \"0.1s\"\nramp = \"1Pa/s\""), 9, "longer than 10 minutes"),
+    (("hold = \"0.1s\"", "hold = \"0.1s\"\nramp = \"nanMPa/s\""), 9, "ramp"),
 ])
 def test_bad_protocol_names_line_and_reason(tmp_path, edit, line, words):
     f = tmp_path / "p.toml"
@@ -59,3 +71,13 @@ def test_not_toml_and_missing_file(tmp_path):
         read_protocol(f)
     with pytest.raises(InputError):
         read_protocol(tmp_path / "absent.toml")
+
+
+@pytest.mark.parametrize("text, rate", [("\"0.5MPa/s\"", 0.5e6), ("\"500kPa/s\"", 0.5e6), ("\"0.5kPa/ms\"", 0.5e6),
+                                        ("\"30MPa/min\"", 0.5e6), ("\"step\"", 0.0)])
+def test_ramp_reads_a_rate_of_pressure(tmp_path, text, rate):
+    f = tmp_path / "p.toml"
+    f.write_text(GOOD.replace("hold = \"0.1s\"", f"hold = \"0.1s\"\nramp = {text}"))
+    assert read_protocol(f).ramp == pytest.approx(rate, rel=1e-12)
+    f.write_text(GOOD)
+    assert read_protocol(f).ramp == 0.0  # stepped unless asked

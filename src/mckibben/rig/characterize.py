@@ -1,8 +1,8 @@
 """Characterize a muscle on the bench with one call: protocol file → tables → fitted muscle file.
 
 A *protocol* (a TOML file, :func:`read_protocol`; ``mckibben examples copy characterize.toml``)
-states the hanging loads, the pressure steps (up to the top, then back down), the hold time, the
-settling rule, the number of trials and the safety maximum, and optionally held lengths for
+states the hanging loads, the pressure steps (up to the top, then back down; stepped, or ramped at a
+rate), the hold time, the settling rule, the number of trials and the safety maximum, and optionally held lengths for
 isometric runs on a rig with a load cell. It is checked whole before anything moves; a bad one is
 refused with its file, line and reason.
 
@@ -32,7 +32,7 @@ from mckibben.errors import InputError, unknown_name
 from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
 from mckibben.rig import protocol as P
 from mckibben.rig.bench import Bench
-from mckibben.rig.device import connect
+from mckibben.rig.device import PACED_PERIODS, connect
 from mckibben.results import Result, to_jsonable, write_table
 from mckibben.data.muscle_file import read_muscle
 from mckibben.data.tables import read_table
@@ -55,7 +55,7 @@ __all__ = ["CharacterizeResult", "CharacterizeStopped", "Protocol", "collect_ste
 #: The sections of a protocol file and the keys each takes.
 SECTIONS = {
     "protocol": ("name", "trials", "max_pressure"),
-    "isotonic": ("loads", "pressures", "hold"),
+    "isotonic": ("loads", "pressures", "hold", "ramp"),
     "settling": ("window", "tolerance", "timeout"),
     "isometric": ("lengths", "pressures", "hold"),
 }
@@ -63,6 +63,11 @@ SECTIONS = {
 EXAMPLE = {"pressure": "0.8MPa", "time": "0.5s", "length": "0.2mm", "force": "61g"}
 #: Most steps one sweep (up and down) may hold: a protocol is a lab's afternoon, not a typo's week. [-]
 MAX_STEPS = 200
+#: Fastest set-point ramp a protocol may ask for: the full scale in 10 ms (one telemetry frame of a run,
+#: :data:`DECIMATION` control periods), past which a ramp is a step. [Pa/s]
+MAX_RAMP_RATE = 100e6
+#: Longest ramp between two steps (the hold's limit): a slower rate is a typo, not a protocol. [s]
+MAX_RAMP_TIME = 600.0
 
 
 @dataclass(frozen=True)
@@ -92,6 +97,9 @@ class Protocol:
         Pressure steps of the isometric runs (default the isotonic ones). [Pa]
     source : str
         The file it was read from. [-]
+    ramp : float
+        Rate at which the set-point moves from one step to the next, a monotonic approach with no
+        overshoot past the step (``0``: stepped, the set-point jumps). [Pa/s]
     """
 
     name: str
@@ -107,6 +115,7 @@ class Protocol:
     iso_pressures: tuple = ()
     source: str = ""
     text: str = field(default="", repr=False)
+    ramp: float = 0.0
 
     @property
     def sweep(self) -> list[tuple[float, str]]:
@@ -254,6 +263,10 @@ def _protocol(doc: dict, text: str, source: str) -> Protocol:
     hold = quantity("isotonic", "hold", "time", "0.5s")
     if hold > 600:
         raise fail("isotonic", "hold", f"{hold:g} s is longer than 10 minutes")
+    ramp = _ramp_rate(doc["isotonic"].get("ramp"), lambda reason: fail("isotonic", "ramp", reason))
+    if ramp and max(pressures) - min(pressures) > MAX_RAMP_TIME * ramp:
+        raise fail("isotonic", "ramp", f"{ramp / 1e6:g} MPa/s takes longer than {MAX_RAMP_TIME / 60:g} minutes "
+                                       f"from {min(pressures) / 1e6:g} to {max(pressures) / 1e6:g} MPa")
     window = quantity("settling", "window", "time", "0.2s", zero=False)
     tolerance = quantity("settling", "tolerance", "length", "0.2mm", zero=False)
     timeout = quantity("settling", "timeout", "time", "5s", zero=False)
@@ -271,7 +284,26 @@ def _protocol(doc: dict, text: str, source: str) -> Protocol:
     if n > 20_000:
         raise fail("isotonic", "loads", f"{n} steps in all: more than 20000")
     return Protocol(name, loads, pressures, hold, window, tolerance, timeout, trials, p_max, lengths, iso_p,
-                    source, text)
+                    source, text, ramp)
+
+
+def _ramp_rate(raw, fail) -> float:
+    """A protocol's ``ramp``: ``"0.5MPa/s"`` (any pressure unit over s, ms or min) or ``"step"``/absent (0). [Pa/s]"""
+    if raw is None or raw == "step":
+        return 0.0
+    if not isinstance(raw, str) or "/" not in raw:
+        raise fail(f"{raw!r} must be a rate of pressure, as text (e.g. \"0.5MPa/s\"), or \"step\"")
+    num, _, per = raw.rpartition("/")
+    try:
+        rate = parse_quantity(num, "pressure", "ramp", allow_zero=False)
+        seconds = 60.0 if per.strip() == "min" else parse_quantity("1" + per.strip(), "time", "ramp")
+    except InputError as exc:
+        raise fail(str(exc)) from None
+    rate /= seconds
+    if rate > MAX_RAMP_RATE:
+        raise fail(f"{rate / 1e6:g} MPa/s is faster than {MAX_RAMP_RATE / 1e6:g} MPa/s: that is a step "
+                   "(write ramp = \"step\")")
+    return rate
 
 
 # -- the run on the device ------------------------------------------------------------------------
@@ -317,9 +349,14 @@ class _Session:
         self.seq = (self.seq + 1) & 0xFFFF
         return self.seq
 
-    def poll(self) -> None:
-        """Read what arrived; check every telemetry frame (over-pressure, device faults)."""
-        for f in self.parser.feed(self.link.read(8192)):
+    def poll(self, prompt: bool = False) -> None:
+        """Read what arrived; check every telemetry frame (over-pressure, device faults).
+
+        ``prompt``: return as soon as anything arrived (what is waiting, or the next byte) rather than
+        after the link's read timeout, for a caller that answers every frame (:func:`_ramp`).
+        """
+        size = (self.link.in_waiting or 1) if prompt else 8192
+        for f in self.parser.feed(self.link.read(size)):
             if isinstance(f, P.Telemetry):
                 force = getattr(f, "force", None)
                 self.has_force = force is not None
@@ -407,15 +444,59 @@ def _check_reached(s: _Session, target: float, p_before: float, win: np.ndarray,
     raise s.stop(f"the pressure did not follow the set-point {target / 1e6:g} MPa ({p_now / 1e6:.4f} MPa)")
 
 
+def _ramp(s: _Session, start: float, target: float, rate: float) -> None:
+    """Move the set-point from ``start`` to ``target`` at ``rate`` at most: one SET_POINT per telemetry frame.
+
+    During the ramp the device streams a frame every :data:`mckibben.rig.device.PACED_PERIODS`
+    control periods (the firmware's measured command ceiling, as ``tool track --port`` streams), and
+    each frame gets a set-point ``rate·Δt`` closer to the target, Δt the device time since the last
+    one but at most one paced period: so every increment stays small (the controller's reference
+    feed-forward is the increment over a period), a host that falls behind the device (a slow machine,
+    an unthrottled simulator) makes the ramp slower, never steeper, and the set-point never passes the
+    target (nor the session's maximum). The caller sends the target itself at the end.
+
+    Parameters
+    ----------
+    s : _Session
+        The run's connection. [-]
+    start, target : float
+        The set-points the ramp leaves and reaches. [Pa]
+    rate : float
+        Its rate, > 0. [Pa/s]
+    """
+    top = min(target, s.limit)
+    dt_max = PACED_PERIODS * HW.CONTROL_PERIOD
+    s.link.write(P.stream(s._next(), True, PACED_PERIODS))  # a frame, and a set-point, every paced period
+    try:
+        s.wait(0.0)
+        t_last, p = s.rows[-1][0], start
+        while p != top:
+            n, deadline = len(s.rows), time.monotonic() + 10.0
+            while len(s.rows) == n:  # the next frame
+                if time.monotonic() > deadline:
+                    raise s.stop(f"the device stopped streaming telemetry ({len(s.rows)} frames)")
+                s.poll(prompt=True)
+            dp = rate * min(s.rows[-1][0] - t_last, dt_max)
+            t_last = s.rows[-1][0]
+            p = min(p + dp, top) if top > start else max(p - dp, top)
+            s.set_point(p)
+    finally:
+        s.link.write(P.stream(s._next(), True, DECIMATION))
+
+
 def _run_sweep(s: _Session, proto: Protocol, length_of, ref_len: float, load_index: int, trial: int, load: float,
                progress, tare: float = math.nan) -> list:
     """One load's sweep, up then down; the rows of its steps (``force_N``: the load cell's mean less ``tare``)."""
     rows = []
     p_before = float(np.mean([r[1] for r in s.rows[-10:]]))
+    previous = 0.0  # the sweep starts vented
     for k, (target, direction) in enumerate(proto.sweep):
         start = len(s.rows)
+        if proto.ramp:
+            _ramp(s, previous, target, proto.ramp)
         s.set_point(target)
         s.wait(0.0)
+        previous = target
         ok, win = _settle(s, proto, length_of, start)
         _check_reached(s, target, p_before, win, start)
         lengths = length_of(win[:, 2])
@@ -458,7 +539,8 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
 
     For each load and trial: the load is hung (the operator is asked, or unattended the bench side
     channel changes it), the muscle vented and let settle, then the pressure set-point of the
-    device's own controller (closed loop, SET_POINT) goes up the protocol's steps and back down; at
+    device's own controller (closed loop, SET_POINT) goes up the protocol's steps and back down (with
+    the protocol's ``ramp``, as a rate-limited ramp from one step to the next, :func:`_ramp`); at
     each step the run holds until the length settles by the protocol's rule and keeps one sample
     (mean pressure and length over the settling window). A completed load step is written to
     ``OUT/steps.journal/`` at once, atomically, so a run killed at any moment keeps every completed
