@@ -1,28 +1,33 @@
 """Compiled kernels, compiled once per machine: where they are cached, and why a cache never breaks a command.
 
-Every Numba function of the package is made with :func:`njit` from here, never with
-``numba.njit`` directly. It caches on disk in a per-user folder (:func:`cache_dir`), never inside
-the installed package:
+Every Numba function of the package is made with :func:`njit` from here (or marked with
+:func:`mckibben._kernels.kernel`, which compiles through it), never with ``numba.njit`` directly.
+Only Numba's public API is used (a test scans the package for private Numba attributes):
 
-- ``$MCKIBBEN_CACHE_DIR`` if set, else ``$NUMBA_CACHE_DIR/mckibben``, else the platform's user
-  cache folder (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS,
-  ``%LOCALAPPDATA%`` on Windows) ``/mckibben``; below it one folder per package version.
-- A cached kernel is fresh while the *package's* sources are unchanged: the stamp Numba keeps in
-  each index is a hash of every source file of the package (:func:`fingerprint`), not of the
-  kernel's own file only, because kernels inline functions and constants from other modules and
-  Numba does not see those change (numba#1833). Content hashes, not times: a reinstall of the same
-  version keeps its cache; an edit anywhere invalidates it, and the next compilation overwrites the
-  stale entries in place (the folder does not grow).
-- When no folder can be written (a system-wide install run by an account without a writable
-  home), kernels compile in memory: one warning line, the command runs.
-- A failure to read or write a cache entry (a foreign, truncated or concurrently replaced file) is
-  never fatal: the entry is compiled in memory instead, with one warning.
+- **Where.** Each kernel caches on disk with Numba's own ``cache=True`` under Numba's
+  ``config.CACHE_DIR`` set to :func:`cache_dir` while the dispatcher is made (and put back after,
+  so a user's own Numba functions are not moved): ``$MCKIBBEN_CACHE_DIR`` if set, else
+  ``$NUMBA_CACHE_DIR/mckibben``, else the platform's user cache folder (``$XDG_CACHE_HOME`` or
+  ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows)
+  ``/mckibben``; below it ``<package version>/<fingerprint>``. Never inside the installed package.
+- **Fresh.** The fingerprint (:func:`fingerprint`) is a hash of every source file of the package
+  and of the Python, Numba and llvmlite versions. Numba stamps an entry with its own file only,
+  but kernels inline functions and constants from other modules and Numba does not see those
+  change (numba#1833): a folder per package content means a stale entry can never be read. A
+  reinstall of the same sources finds its folder again; folders not used for
+  :data:`PRUNE_AFTER_S` are removed when a new one is made.
+- **No folder.** When no folder can be written (a system-wide install run by an account without a
+  writable home), kernels compile in memory: one warning line, the command runs.
+- **Never fatal.** A failure to read a cache entry (a truncated or damaged file) removes that
+  kernel's entries and compiles it again; a failure to save one keeps the compiled code in memory;
+  one warning either way (:meth:`Kernel.compile`).
+- **Once across processes.** A process takes a lock on a kernel (``flock`` on a file beside its
+  entries) from before it looks the kernel up in the cache to after it saved it; another process
+  that needs the same kernel waits, then loads it (Dask workers, a second terminal, the background
+  warm-up), instead of compiling it too.
 - No cached function takes another compiled function as an argument: such a function cannot be
   cached (its argument type names a dispatcher of one process only), so the simulator's runner is
   generated once per controller kernel, with the kernel as a true global (:func:`module_for`).
-- One process compiles a kernel at a time: a process that finds a kernel missing takes a lock on
-  its index (``flock``) while it compiles; another process that needs the same kernel waits and
-  loads it (Dask workers, a second terminal, the background warm-up), instead of compiling it too.
 - The first compilation of a process starts a background warm-up on the machine's other core
   (:func:`start_background_warm`): it compiles the integrator and the firmware core's mirror,
   the longest kernels every simulation needs, while the command compiles its own start, so a
@@ -33,31 +38,37 @@ See ``../shared/notes/numba-cache.md`` for the facts of Numba's cache this desig
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import importlib.util
 import inspect
 import os
+import shutil
 import sys
 import threading
+import time
 import types
 import warnings
 from pathlib import Path
 
+import llvmlite
 import numba
-from numba.core import caching
+from numba.core import event as _event
+from numba.core import sigutils
+from numba.core.registry import CPUDispatcher
 
 try:
     import fcntl as _fcntl
 except ImportError:  # Windows: no compile lock
     _fcntl = None  # type: ignore[assignment]
-from numba.core import event as _event
 
 from mckibben import _kernels
 from mckibben import compile_notice as _notice_module
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 _ENV_DIR = "MCKIBBEN_CACHE_DIR"
+#: A fingerprint folder unused for this long is removed when a new one is made. [s]
+PRUNE_AFTER_S = 14 * 24 * 3600.0
+_USED = ".last-used"
 
 #: Every dispatcher made by :func:`njit` in this process (the warm-up and the tests read them).
 DISPATCHERS: list = []
@@ -83,12 +94,17 @@ def _user_cache_base() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
 
 
-def _candidate() -> Path:
+def _base() -> Path:
+    """The folder holding one folder per version (what ``MCKIBBEN_CACHE_DIR`` names)."""
     if os.environ.get(_ENV_DIR):
-        return Path(os.environ[_ENV_DIR]).expanduser() / _version()
+        return Path(os.environ[_ENV_DIR]).expanduser()
     if os.environ.get("NUMBA_CACHE_DIR"):
-        return Path(os.environ["NUMBA_CACHE_DIR"]).expanduser() / "mckibben" / _version()
-    return _user_cache_base() / "mckibben" / _version()
+        return Path(os.environ["NUMBA_CACHE_DIR"]).expanduser() / "mckibben"
+    return _user_cache_base() / "mckibben"
+
+
+def _candidate() -> Path:
+    return _base() / _version() / fingerprint()[:16]
 
 
 def _usable(path: Path) -> bool:
@@ -100,6 +116,27 @@ def _usable(path: Path) -> bool:
         return True
     except (OSError, RuntimeError):  # RuntimeError: Path.home() with no home at all
         return False
+
+
+def _mark_used(path: Path) -> None:
+    """Record that ``path`` is in use; when it is new, remove its sibling folders unused for :data:`PRUNE_AFTER_S`."""
+    stamp = path / _USED
+    new = not stamp.exists()
+    try:
+        stamp.touch()
+    except OSError:
+        return
+    if not new:
+        return
+    now = time.time()
+    for sibling in path.parent.iterdir():
+        used = sibling / _USED
+        try:
+            old = sibling != path and used.exists() and now - used.stat().st_mtime > PRUNE_AFTER_S
+        except OSError:
+            continue
+        if old:
+            shutil.rmtree(sibling, ignore_errors=True)
 
 
 def cache_dir() -> Path | None:
@@ -119,6 +156,8 @@ def cache_dir() -> Path | None:
                 _STATE["problem"] = None if ok else (
                     f"cannot write the kernel cache folder {path}; kernels are compiled in memory for this "
                     f"process only (set {_ENV_DIR} to a writable folder to cache them)")
+                if ok:
+                    _mark_used(path)
         return _STATE["dir"]
 
 
@@ -129,22 +168,18 @@ def cache_problem() -> str | None:
 
 
 def fingerprint() -> str:
-    """SHA-256 of every source file of the package, in path order: the stamp of every cached kernel."""
+    """SHA-256 of every source file of the package (in path order) and of the Python, Numba and llvmlite versions.
+
+    Names the cache folder: a kernel cached by other sources or another compiler is never read.
+    """
     with _LOCK:
         if "fingerprint" not in _STATE:
-            h = hashlib.sha256()
+            h = hashlib.sha256(f"{sys.version}|{numba.__version__}|{llvmlite.__version__}".encode())
             for f in sorted(PACKAGE_DIR.rglob("*.py")):
                 h.update(str(f.relative_to(PACKAGE_DIR)).encode())
                 h.update(f.read_bytes())
             _STATE["fingerprint"] = h.hexdigest()
         return _STATE["fingerprint"]
-
-
-@functools.lru_cache(maxsize=None)
-def _file_hash(path: str, mtime_ns: int, size: int) -> str:
-    """SHA-256 of a source file, read once per version of it (one stamp per function of the file)."""
-    with open(path, "rb") as f:
-        return hashlib.sha256(f.read()).hexdigest()
 
 
 def _runner_dir() -> Path | None:
@@ -158,88 +193,12 @@ def _ours(py_file: str) -> bool:
     return path.is_relative_to(PACKAGE_DIR) or (runners is not None and path.is_relative_to(runners))
 
 
-class _Locator(caching._CacheLocator):
-    """Numba cache locator for the package's functions: the per-user folder, the package's stamp."""
-
-    def __init__(self, py_func, py_file):
-        self._py_file = py_file
-        self._lineno = py_func.__code__.co_firstlineno
-        base = cache_dir()
-        assert base is not None  # from_function checked it
-        self._cache_path = str(base / "numba" / self.get_suitable_cache_subpath(py_file))
-
-    def ensure_cache_path(self):
-        os.makedirs(self._cache_path, exist_ok=True)
-
-    def get_cache_path(self):
-        return self._cache_path
-
-    def get_source_stamp(self):
-        # the package's sources and the function's own file (a generated runner is not in the package)
-        st = os.stat(self._py_file)
-        return (fingerprint(), _file_hash(self._py_file, st.st_mtime_ns, st.st_size))
-
-    def get_disambiguator(self):
-        return str(self._lineno)
-
-    @classmethod
-    def from_function(cls, py_func, py_file):
-        if cache_dir() is None or not os.path.exists(py_file) or not _ours(py_file):
-            return None
-        self = cls(py_func, py_file)
-        try:
-            self.ensure_cache_path()
-        except OSError:
-            return None
-        return self
-
-
-def _install_locator() -> None:
-    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")
-    if _Locator not in impl._locator_classes:
-        impl._locator_classes.insert(0, _Locator)
-
-
-class _SafeCache(caching.FunctionCache):
-    """Numba's function cache, where a failure to load or save an entry compiles in memory instead,
-    and where a kernel another process is compiling is waited for and loaded (:class:`_CompileLock`)."""
-
-    def _load(self, sig, target_context):
-        try:
-            return super().load_overload(sig, target_context)
-        except Exception as exc:  # noqa: BLE001 - a foreign/truncated entry: compile instead
-            _cache_warning(f"a cached kernel could not be read ({type(exc).__name__}: {exc}); compiling it")
-            return None
-
-    def load_overload(self, sig, target_context):
-        found = self._load(sig, target_context)
-        if found is not None:
-            return found
-        lock = _CompileLock.of(self)
-        if lock is not None and lock.acquire():  # another process held it: it may have saved the kernel
-            found = self._load(sig, target_context)
-            if found is not None:
-                lock.release()
-        return found  # None: this process compiles, holding the lock until save_overload
-
-    def save_overload(self, sig, data):
-        try:
-            super().save_overload(sig, data)
-        except Exception as exc:  # noqa: BLE001 - the compiled code is in memory; only the save failed
-            _cache_warning(f"a compiled kernel could not be cached ({type(exc).__name__}: {exc})")
-        finally:
-            lock = _CompileLock.held(self)
-            if lock is not None:
-                lock.release()
-
-
 class _CompileLock:
-    """An exclusive ``flock`` on ``<kernel index>.lock`` while this process compiles that kernel.
+    """An exclusive ``flock`` on a kernel's ``.lock`` file, held while this process loads or compiles it.
 
-    Held from the cache miss to the save (or to a failed compilation, see :class:`_LockRelease`);
-    the operating system drops it if the process dies. A process that finds it held waits (at most
-    :data:`WAIT_S`), then loads what the holder saved. Not on Windows (no ``fcntl``): there every
-    process compiles for itself, as before.
+    The operating system drops it if the process dies. A process that finds it held waits (at
+    most :data:`WAIT_S`), then looks the kernel up in the cache, where the holder saved it. Not on
+    Windows (no ``fcntl``): there every process compiles for itself.
     """
 
     WAIT_S = 600.0
@@ -249,53 +208,31 @@ class _CompileLock:
         self.path = path
         self.fd: int | None = None
 
-    @classmethod
-    def of(cls, cache) -> "_CompileLock | None":
-        if _fcntl is None:
-            return None
-        path = cls._path(cache)
-        if path is None or path in cls._held:  # already ours (a nested compile of the same kernel)
-            return None
-        return cls(path)
-
-    @classmethod
-    def held(cls, cache) -> "_CompileLock | None":
-        path = cls._path(cache)
-        return cls._held.get(path) if path is not None else None
-
-    @staticmethod
-    def _path(cache) -> str | None:
-        index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
-        return f"{index}.lock" if index else None
-
     def acquire(self) -> bool:
-        """Take the lock, waiting while another process holds it; True if it had to wait."""
+        """Take the lock, waiting while another process holds it; True if it is held now."""
+        if _fcntl is None or self.path in _CompileLock._held:  # none, or ours already (a recursive kernel)
+            return False
         try:
+            os.makedirs(os.path.dirname(self.path), exist_ok=True)
             self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError:
             return False  # a read-only cache folder: no lock, compile as before
-        waited = False
-        deadline = None
+        deadline = time.monotonic() + self.WAIT_S
         while True:
             try:
                 _fcntl.flock(self.fd, _fcntl.LOCK_EX | _fcntl.LOCK_NB)
-                break
             except BlockingIOError:
-                import time
-
-                deadline = deadline or time.monotonic() + self.WAIT_S
-                if time.monotonic() > deadline:  # a stuck holder: compile anyway
-                    os.close(self.fd)
-                    self.fd = None
-                    return waited
-                waited = True
-                time.sleep(0.05)
+                if time.monotonic() < deadline:
+                    time.sleep(0.05)
+                    continue
             except OSError:
-                os.close(self.fd)
-                self.fd = None
-                return False
-        _CompileLock._held[self.path] = self
-        return waited
+                pass
+            else:
+                _CompileLock._held[self.path] = self
+                return True
+            os.close(self.fd)  # a stuck holder or a folder without locks: compile without it
+            self.fd = None
+            return False
 
     def release(self) -> None:
         if self.fd is not None:
@@ -307,25 +244,6 @@ class _CompileLock:
                 self.fd = None
 
 
-class _LockRelease(_event.Listener):
-    """Drop a kernel's compile lock when its compilation fails (no save follows then)."""
-
-    def on_start(self, event):
-        pass
-
-    def on_end(self, event):
-        # numba's Event.is_failed reads the wrong way round (True when no exception): read the details
-        if getattr(event, "_exc_details", None) is None:
-            return
-        disp = event.data.get("dispatcher") if isinstance(event.data, dict) else None
-        lock = _CompileLock.held(getattr(disp, "_cache", None)) if disp is not None else None
-        if lock is not None:
-            lock.release()
-
-
-_event.register("numba:compile", _LockRelease())
-
-
 def _cache_warning(message: str) -> None:
     with _LOCK:
         if _STATE.get("warned"):
@@ -334,11 +252,93 @@ def _cache_warning(message: str) -> None:
     warnings.warn(message, RuntimeWarning, stacklevel=3)
 
 
+class Kernel(CPUDispatcher):
+    """Numba's CPU dispatcher, whose :meth:`compile` makes the disk cache safe to share and never fatal.
+
+    Numba calls ``compile`` for every new signature: a call from Python, and a call from another
+    compiled function while that one is typed. Only public members of the dispatcher are used:
+    ``overloads``, ``stats`` and ``py_func``.
+    """
+
+    def compile(self, sig):
+        """Load the overload for ``sig`` from the cache, or compile and save it, under the kernel's lock.
+
+        Parameters
+        ----------
+        sig : numba signature or tuple of numba types
+            The argument types. [-]
+
+        Returns
+        -------
+        callable
+            The compiled entry point (Numba's).
+        """
+        args, _ = sigutils.normalize_signature(sig)
+        entries = None if tuple(args) in self.overloads else _entry_files(self)
+        if entries is None:  # compiled already in this process, or not cached on disk
+            return super().compile(sig)
+        lock = _CompileLock(str(entries[0] / f"{entries[1]}.lock"))
+        held = lock.acquire()
+        try:
+            return _compile_safely(self, sig, tuple(args), entries)
+        finally:
+            if held:
+                lock.release()
+
+
+def _entry_files(disp: Kernel) -> tuple[Path, str] | None:
+    """The folder of a kernel's cache entries and the start of their names (as Numba names them), or None."""
+    where = getattr(disp.stats, "cache_path", None)
+    base = cache_dir()
+    if not isinstance(where, str) or base is None or not Path(where).is_relative_to(base):
+        return None
+    func = disp.py_func
+    name = f"{func.__module__}.{func.__qualname__}".replace("<", "").replace(">", "")
+    return Path(where), f"{name}-{func.__code__.co_firstlineno}.py"
+
+
+def _compile_safely(disp: Kernel, sig, args: tuple, entries: tuple[Path, str]):
+    """Numba's compile (load, or compile and save), where neither a damaged entry nor a failed save is fatal."""
+    misses = sum(disp.stats.cache_misses.values())
+    try:
+        return CPUDispatcher.compile(disp, sig)
+    except Exception as exc:  # noqa: BLE001 - a cache problem must not reach the run
+        done = disp.overloads.get(args)
+        if done is not None:  # compiled and in memory: only the save failed
+            _cache_warning(f"a compiled kernel could not be cached ({type(exc).__name__}: {exc})")
+            return done.entry_point
+        if sum(disp.stats.cache_misses.values()) != misses:
+            raise  # the compilation itself failed: the caller's error, not the cache's
+        _cache_warning(f"a cached kernel could not be read ({type(exc).__name__}: {exc}); compiling it")
+        folder, stem = entries
+        for f in folder.glob(f"{stem}*.nb[ic]"):
+            f.unlink(missing_ok=True)
+        return CPUDispatcher.compile(disp, sig)
+
+
+def _make(func, cached: bool, options: dict):
+    """A :class:`Kernel` for ``func`` with Numba's ``njit`` options; caching under :func:`cache_dir` when ``cached``."""
+    options = dict(options)
+    locals_ = options.pop("locals", {})
+    options["nopython"] = True
+    options.setdefault("boundscheck", None)
+    disp = Kernel(py_func=func, locals=locals_, targetoptions=options)
+    if cached:
+        previous = numba.config.CACHE_DIR
+        numba.config.CACHE_DIR = str(cache_dir() / "numba")  # type: ignore[operator]
+        try:
+            disp.enable_caching()
+        finally:
+            numba.config.CACHE_DIR = previous
+    return disp
+
+
 def njit(*args, **options):
     """``numba.njit`` for the package: cached in :func:`cache_dir`, or compiled in memory when it cannot be.
 
     Takes Numba's options (``cache`` is decided here and may not be given). Use as ``@njit`` or
-    ``@njit(error_model="numpy", ...)``.
+    ``@njit(error_model="numpy", ...)``. Returns a :class:`Kernel` (the function itself with
+    ``NUMBA_DISABLE_JIT=1``).
     """
     if "cache" in options:
         raise TypeError("mckibben._jit.njit decides caching itself; do not pass cache=")
@@ -349,13 +349,17 @@ def njit(*args, **options):
     options.setdefault("fastmath", False)
 
     def wrap(func):
+        if numba.config.DISABLE_JIT:
+            return func
+        if not inspect.isfunction(func):
+            raise TypeError(f"njit: func must be a function, got {type(func).__name__}")
         with _LOCK:
-            cached = cache_dir() is not None
-            if cached:
-                _install_locator()
-            disp = numba.njit(cache=cached, **options)(func)
-            if cached and hasattr(disp, "_cache"):  # not with NUMBA_DISABLE_JIT=1 (a plain function)
-                disp._cache.__class__ = _SafeCache
+            try:
+                source = inspect.getsourcefile(func)
+            except TypeError:
+                source = None
+            cached = cache_dir() is not None and source is not None and os.path.exists(source) and _ours(source)
+            disp = _make(func, cached, options)
             DISPATCHERS.append(disp)
         return disp
 
@@ -519,8 +523,10 @@ def _memory_njit(*args, **options):
     options.setdefault("fastmath", False)
 
     def wrap(func):
+        if numba.config.DISABLE_JIT:
+            return func
         with _LOCK:
-            disp = numba.njit(cache=False, **options)(func)
+            disp = _make(func, False, options)
             DISPATCHERS.append(disp)
         return disp
 
@@ -546,7 +552,7 @@ def _in_memory(template, kernel_name: str, kernel):
         options = getattr(value, "targetoptions", None)
         if options is not None:
             options = {k: v for k, v in options.items() if k not in ("nopython", "cache", "boundscheck")}
-        module.__dict__[name] = clone if options is None else numba.njit(cache=False, **options)(clone)
+        module.__dict__[name] = clone if options is None else _make(clone, False, options)
         if options is not None:
             DISPATCHERS.append(module.__dict__[name])
     return module
@@ -557,18 +563,18 @@ def _in_memory(template, kernel_name: str, kernel):
 
 class _FirstCompile(_event.Listener):
     def __init__(self, callback):
-        self._callback = callback
-        self._done = False
+        self.callback = callback
+        self.done = False
 
     def on_start(self, event):
-        if self._done:
+        if self.done:
             return
         disp = event.data.get("dispatcher") if isinstance(event.data, dict) else None
         py_func = getattr(disp, "py_func", None)
         path = inspect.getsourcefile(py_func) if py_func is not None else None
         if path is not None and _ours(path):
-            self._done = True
-            self._callback()
+            self.done = True
+            self.callback()
 
     def on_end(self, event):
         pass
@@ -623,7 +629,7 @@ def start_background_warm() -> object | None:
     if (os.environ.get(BACKGROUND_ENV, "1") in ("0", "warming") or cache_dir() is None or _fcntl is None
             or (os.cpu_count() or 1) < 2 or numba.config.DISABLE_JIT):
         return None
-    env = {**os.environ, BACKGROUND_ENV: "warming", _ENV_DIR: str(cache_dir().parent)}
+    env = {**os.environ, BACKGROUND_ENV: "warming", _ENV_DIR: str(cache_dir().parent.parent)}  # type: ignore[union-attr]
     try:
         return subprocess.Popen([sys.executable, "-c", "from mckibben.doctor import background_warm; "
                                  f"background_warm({os.getpid()})"],
