@@ -292,7 +292,9 @@ def test_kernels_give_the_same_bits_as_plain_python_and_compiled(tmp_path):
     LW, P, L = ns["LW"], ns["P"], ns["L"]
     from mckibben import hardware as HW
 
-    assert type(LW.tondu_lopez).__name__ == "CPUDispatcher" and type(HW.adc_count).__name__ == "CPUDispatcher"
+    from numba.core.registry import CPUDispatcher
+
+    assert isinstance(LW.tondu_lopez, CPUDispatcher) and isinstance(HW.adc_count, CPUDispatcher)
     for name, th in ns["CASES"].items():
         compiled = LW.evaluate(name, np.repeat(P, 2), np.repeat(L, 2), th)  # 120 elements: the compiled path
         np.testing.assert_array_equal(compiled[::2], python[name.replace("-", "_")], err_msg=name)
@@ -515,6 +517,22 @@ def test_the_cache_folder_is_named_by_the_package_sources(tmp_path):
     units.write_text(units.read_text() + "\n# an edit\n")
     second = folder()
     assert second != first and second.parent == first.parent
+
+
+def test_a_new_cache_folder_removes_only_its_long_unused_siblings(tmp_path):
+    from mckibben import _jit
+
+    version = tmp_path / "0.1.0"
+    old, recent, foreign, new = (version / n for n in ("old", "recent", "not-ours", "new"))
+    for folder in (old, recent, foreign, new):
+        folder.mkdir(parents=True)
+    (old / ".last-used").touch()
+    (recent / ".last-used").touch()
+    long_ago = (old / ".last-used").stat().st_mtime - _jit.PRUNE_AFTER_S - 60
+    os.utime(old / ".last-used", (long_ago, long_ago))
+    _jit._mark_used(new)
+    assert sorted(p.name for p in version.iterdir()) == ["new", "not-ours", "recent"]
+    assert (new / ".last-used").exists()
 
 
 # --- mckibben doctor ----------------------------------------------------------------------------

@@ -293,7 +293,7 @@ def _entry_files(disp: Kernel) -> tuple[Path, str] | None:
     if not isinstance(where, str) or base is None or not Path(where).is_relative_to(base):
         return None
     func = disp.py_func
-    name = f"{func.__module__}.{func.__qualname__}".replace("<", "").replace(">", "")
+    name = f"{Path(inspect.getfile(func)).stem}.{func.__qualname__}".replace("<", "").replace(">", "")
     return Path(where), f"{name}-{func.__code__.co_firstlineno}.py"
 
 
