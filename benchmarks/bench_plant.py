@@ -43,7 +43,7 @@ from numba import njit
 from mckibben import hardware as HW
 from mckibben.models import laws as LW
 from mckibben.plant import PlantParams, simulate
-from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import initial_states
 
@@ -91,7 +91,7 @@ def _c_final(n: int) -> float:
 
 
 def build_c(tmp: Path) -> dict:
-    names = [m.name for m in PP.Col]
+    names = [m.name for m in PK.Col]
     header = "".join(f"#define I_{name.upper()} {i}\n" for i, name in enumerate(names))
     header += f"#define NP_TOTAL {len(names)}\n#define NTH_TOTAL {LW.NTH}\n"
     header += "".join(f"#define {k} {getattr(LW, k)}\n" for k in ("TL_R0", "TL_A", "TL_B", "TL_K", "TL_PTH", "TL_IL0"))
@@ -138,7 +138,7 @@ def _pi_targets(pg, integ, prm):
     e = TARGET - HW.adc_pressure(adc, HW.PA_PER_COUNT, 0.0)
     integ += e * TS
     u = round(min(max(KP * e + KI * integ, -255), 255))
-    drv, db = prm[PP.Col.driver_gain], prm[PP.Col.dead_band]
+    drv, db = prm[PK.Col.driver_gain], prm[PK.Col.dead_band]
     return integ, ph.valve_target(max(u, 0), drv, db), ph.valve_target(max(-u, 0), drv, db)
 
 
@@ -150,7 +150,7 @@ def run_scipy(steps: int) -> float:
     integ = 0.0
     t0 = time.perf_counter()
     for k in range(steps):
-        integ, xi, xb = _pi_targets(y[0] - PP.P_ATM, integ, prm)
+        integ, xi, xb = _pi_targets(y[0] - PK.P_ATM, integ, prm)
         bk[ph.Y_XIN], bk[ph.Y_XBL] = xi, xb
 
         def f(t, yy):
@@ -173,13 +173,13 @@ def run_python_control(steps: int) -> float:
         return dx.copy()
 
     def out(t, xx, u, params):
-        return np.array([xx[0] - PP.P_ATM])
+        return np.array([xx[0] - PK.P_ATM])
 
     sys_ = control.nlsys(upd, out, inputs=2, outputs=1, states=ph.NS)
     integ = 0.0
     t0 = time.perf_counter()
     for k in range(steps):
-        integ, xi, xb = _pi_targets(x[0] - PP.P_ATM, integ, prm)
+        integ, xi, xb = _pi_targets(x[0] - PK.P_ATM, integ, prm)
         uu = np.array([[xi, xi], [xb, xb]])
         resp = control.input_output_response(sys_, [k * TS, (k + 1) * TS], uu, X0=x, solve_ivp_method="RK45",
                                              solve_ivp_kwargs={"rtol": 1e-8, "atol": 1e-12})

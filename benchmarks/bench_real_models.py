@@ -14,7 +14,18 @@ and prints every model's held-out RMSE as % of the held-out muscle's peak force,
 about its predictions) and notes, the best model per muscle (picked on held-out error among the
 unflagged), and any model that is best but carries flags.
 
-Run: python benchmarks/bench_real_models.py [--quick]   (--quick: the family only)
+With ``--sensors`` it runs instead the sensor and specimen models of issue 33 (item 4): per muscle
+``compare … --tare lowest --rails censor`` (a reading at the load cell's floor censored), and on the
+family ``compare … --cv leave-one-muscle-out --tare lowest --rest-lengths fitted`` and the same
+``fit --model virtual-work`` (each muscle's rest length fitted, with its interval).
+
+With ``--physical [TARE]`` it runs the physical laws of issue 33 (item 3) per muscle, by the
+library (``compare_isometric(..., models=[chou-hannaford, wall-corrected, tondu-lopez])``,
+leave-one-length-out, ``--tare lowest`` or the TARE given, e.g. ``fitted``): each law's held-out
+RMSE as % of peak, the parameters at a bound, its zero, its geometry, and (``fitted``) the spread
+of the runs' zeros; ``--physical TARE MODEL,MODEL`` runs those models instead.
+
+Run: python benchmarks/bench_real_models.py [--quick | --sensors | --physical [TARE [MODELS]]]   (--quick: the family only)
 """
 
 from __future__ import annotations
@@ -84,6 +95,75 @@ def table(out: dict) -> list[str]:
     return lines
 
 
+def sensors_bench() -> int:
+    """The rails censored per muscle; the family's rest lengths fitted."""
+    if not SOURCE.is_file():
+        print(f"skipped: {SOURCE} is absent (real third-party data, not shipped)")
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        per, fam, fam_toml = lab_tables(Path(tmp))
+        print("per muscle, leave-one-length-out, --tare lowest: --rails keep -> --rails censor")
+        worst = {}
+        for m, rest, iso, toml in per:
+            line = []
+            for rails in ("keep", "censor"):
+                out = run("compare", str(iso), "--muscle", str(toml), "--cv", "leave-one-length-out", "--tare", "lowest",
+                          "--rails", rails)
+                b = next(s for s in out["models"] if s["model"] == out["best"])
+                worst.setdefault(rails, []).append(b["cv_rmse_pct_of_peak"])
+                line.append(f"{rails}: best {out['best']} {b['cv_rmse_pct_of_peak']:.2f} %")
+            print(f"  {m}: rows at the rail {out['tare']['rails']['rows_at_rail']}; " + "; ".join(line))
+        for rails, pct in worst.items():
+            print(f"  best per muscle, --rails {rails}: median {np.median(pct):.2f} %, worst {np.max(pct):.2f} %")
+        for rl in ("nominal", "fitted"):
+            out = run("compare", str(fam), "--muscle", str(fam_toml), "--cv", "leave-one-muscle-out", "--tare", "lowest",
+                      "--rest-lengths", rl)
+            print(f"family, leave-one-muscle-out, --rest-lengths {rl}: best {out['best']}")
+            print("\n".join(table(out)))
+            fit = run("fit", str(fam), "--model", "virtual-work", "--muscle", str(fam_toml), "--tare", "lowest",
+                      "--rest-lengths", rl)["fits"][0]
+            shown = {n: (v, fit["ci95"][n]) for n, v in fit["parameters"].items() if n.startswith("rest_shift")
+                     or n in ("end_zone_m", "e0")}
+            print(f"    fit on all: RMS {fit['rmse_N']:.3f} N, flags {fit['flags'] or 'none'}; "
+                  + ", ".join(f"{n} {v:.4g} [{lo:.4g}, {hi:.4g}]" for n, (v, (lo, hi)) in shown.items()))
+    return 0
+
+
+PHYSICAL = ("chou-hannaford", "wall-corrected", "tondu-lopez")
+
+
+def physical_bench(tare: str = "lowest", models=PHYSICAL) -> int:
+    """The physical laws (or ``models``) per muscle: held out, parameters at a bound, zero and geometry (issue 33)."""
+    from mckibben.data import read_muscle, read_table
+    from mckibben.fit.isometric import compare_isometric
+
+    if not SOURCE.is_file():
+        print(f"skipped: {SOURCE} is absent (real third-party data, not shipped)")
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        per, _, _ = lab_tables(Path(tmp))
+        print(f"per muscle, leave-one-length-out, tare {tare}: {', '.join(models)}")
+        for m, rest, iso, toml in per:
+            c = compare_isometric(read_table(str(iso)), read_muscle(str(toml)), "leave-one-length-out", tare=tare,
+                                  models=list(models))
+            print(f"  {m} (rest {rest:g} mm)")
+            for s in c.scores:
+                r = c.fits[s["model"]].result
+                vals = {n: float(v) for n, v in zip(r.names, r.values) if not n.startswith("zero_dev_")}
+                bound = [f for f in s["flags"] if f.endswith("_bound")]
+                other = [f for f in s["flags"] if not f.endswith("_bound")]
+                geo = ", ".join(f"{n} {v:.4g}" for n, v in vals.items())
+                zeros = ""
+                if tare == "fitted":
+                    z = np.array([x["zero_N"] for x in c.fits[s["model"]].tare["per_run_N"]])
+                    zeros = f"; run zeros {z.min():.1f}..{z.max():.1f} N (sd {z.std():.1f})"
+                print(f"    {s['model']:<15} held out {s['cv_rmse_pct_of_peak']:6.2f} % of peak, in-sample "
+                      f"{s['rmse_N']:.3g} N; at bound: {', '.join(bound) or 'none'}; other flags: "
+                      f"{', '.join(other) or 'none'}; notes: {', '.join(s.get('notes', [])) or 'none'}\n"
+                      f"      {geo}{zeros}")
+    return 0
+
+
 def main_bench(quick: bool = False) -> int:
     if not SOURCE.is_file():
         print(f"skipped: {SOURCE} is absent (real third-party data, not shipped)")
@@ -118,4 +198,8 @@ def main_bench(quick: bool = False) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main_bench("--quick" in sys.argv))
+    if "--physical" in sys.argv:
+        i = sys.argv.index("--physical")
+        rest = sys.argv[i + 1:]
+        sys.exit(physical_bench(rest[0] if rest else "lowest", tuple(rest[1].split(",")) if len(rest) > 1 else PHYSICAL))
+    sys.exit(sensors_bench() if "--sensors" in sys.argv else main_bench("--quick" in sys.argv))

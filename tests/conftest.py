@@ -89,3 +89,31 @@ def refusals_in_subprocess(setup: str, cases: dict, memory_limit: int | None = N
                          timeout=timeout, env={**os.environ, "MCKIBBEN_NO_COMPILE_NOTICE": "1"})
     assert run.returncode == 0, run.stderr
     return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def _avr_engine_missing() -> str | None:
+    from mckibben.rig.engines import avr
+
+    return avr.available()
+
+
+#: The device engines every device test runs against: the Python emulator and the firmware image in
+#: simavr (skipped only where libsimavr, avr-gcc or make is missing).
+DEVICE_ENGINES = ["python", "avr"]
+
+
+@pytest.fixture(params=DEVICE_ENGINES)
+def engine(request) -> str:
+    """The device engine of a device test: ``python`` or ``avr`` (skipped, with the reason, without the tools)."""
+    if request.param == "avr":
+        why = _avr_engine_missing()
+        if why is not None:
+            pytest.skip(why)
+    return request.param
+
+
+def start_device(engine: str, **kw):
+    """A device of ``engine`` behind a pty, running (a context manager): :func:`mckibben.rig.engines.start_device`."""
+    from mckibben.rig.engines import start_device as start
+
+    return start(engine, **kw)

@@ -168,8 +168,13 @@ CASES = [
     ("models.force-length-True", lambda: _models().force(0.5e6, True, mk.get_muscle("mpam97"), model="wall-corrected"),
      "length"),
     ("models.force-muscle-name", lambda: _models().force(0.5e6, 0.09, "mpam97", model="chou-hannaford"), "muscle"),
-    ("models.force-model-None", lambda: _models().force(0.5e6, 0.09, mk.get_muscle("mpam97"), model=None), "model"),
-    ("models.length-model-None", lambda: _models().length(0.5e6, 0.6, mk.get_muscle("mpam97"), model=None), "model"),
+    ("models.force-model-number", lambda: _models().force(0.5e6, 0.09, mk.get_muscle("mpam97"), model=3), "model"),
+    # model=None is the default (braid-map on a catalogue muscle, a muscle file's own law)
+    ("models.length-model-number", lambda: _models().length(0.5e6, 0.6, mk.get_muscle("mpam97"), model=3), "model"),
+    ("models.pressure-model-number", lambda: _models().pressure(0.08, 0.6, mk.get_muscle("mpam97"), model=3), "model"),
+    ("models.pressure-length-None", lambda: _models().pressure(None, 0.6, mk.get_muscle("mpam97")), "length"),
+    ("models.pressure-p_max-0", lambda: _models().pressure(0.08, 0.6, mk.get_muscle("mpam97"), p_max=0.0), "p_max"),
+    ("models.pressure-muscle-None", lambda: _models().pressure(0.08, 0.6, None, model="chou-hannaford"), "muscle"),
     ("models.length-load-True", lambda: _models().length(0.4e6, True, mk.get_muscle("mpam97")), "load"),
     ("models.length-load-negative", lambda: _models().length(0.4e6, -1.0, mk.get_muscle("mpam97"),
                                                              model="chou-hannaford"), "load"),
@@ -370,13 +375,13 @@ def test_make_tool_random_values(value, which):
 @_SETTINGS
 @given(value=_weird, which=st.sampled_from(["lengths", "pitch_radius", "n_gaps"]))
 def test_tip_from_lengths_random_values(value, which):
-    _only_ours(lambda: _tip(**{which: value}), value)
+    _only_ours(lambda: _tip(**{which: value}), value, which == "n_gaps")  # n_gaps=None: the tool's own
 
 
 @settings(max_examples=15, deadline=None)
 @given(value=_weird, which=st.sampled_from(["periods", "path", "beta"]))
 def test_track_tip_random_values(value, which):
-    _only_ours(lambda: _track(**{which: value}), value)
+    _only_ours(lambda: _track(**{which: value}), value, which in ("periods", "beta"))  # None: their defaults
 
 
 @pytest.mark.parametrize("model", ["chou-hannaford", "wall-corrected"])
@@ -425,6 +430,9 @@ _ENTRY_POINTS = {
                                                         "model": "chou-hannaford", **k}), ("pressure", "length"), ()),
     "models.length": (lambda **k: _mod_models().length(**{"pressure": 4e5, "load": 0.6, "muscle": mk.get_muscle("mpam97"),
                                                           **k}), ("pressure", "load"), ()),
+    "models.pressure": (lambda **k: _mod_models().pressure(**{"length": 0.09, "load": 0.6,
+                                                              "muscle": mk.get_muscle("mpam97"), **k}),
+                        ("length", "load", "p_max"), ()),
     "step_response": (lambda **k: _experiments().step_response(**{"duration": 0.05, **k}),
                       ("target", "start", "load", "supply", "duration", "p_max", "beta", "eps", "ki"),
                       ("supply", "beta", "eps", "ki")),

@@ -240,6 +240,22 @@ CASES += [
     ("read_results-out-none", lambda: _mod("sweep").read_results(None), "out"),
     ("plot_pareto-ax-text", lambda: _mod("sweep").plot_pareto(_table(), ax="x"), "ax"),
     ("plot_sensitivity-ax-text", lambda: _mod("sweep").plot_sensitivity(_table(), ax="x"), "ax"),
+    # physically impossible values that passed silently (issue 34's catalogue)
+    ("plant-moving_mass-1e-308", lambda: _mod("plant").PlantParams(moving_mass=1e-308).prepare(), "moving_mass"),
+    ("plant-temperature-1e-308", lambda: _mod("plant").PlantParams(temperature=1e-308).prepare(), "temperature"),
+    ("plant-temperature-celsius", lambda: _mod("plant").PlantParams(temperature=20.0).prepare(), "temperature"),
+    ("plant-supply-empty", lambda: _mod("plant").PlantParams(supply_pressure=[]).prepare(), "supply_pressure"),
+    ("plant-supply-empty-array",
+     lambda: _mod("plant").PlantParams(supply_pressure=np.array([])).prepare(), "supply_pressure"),
+    ("force_from_length-length-negative", lambda: mk.force_from_length(_m(), 4e5, -0.01), "length"),
+    ("force_from_length-length-zero", lambda: mk.force_from_length(_m(), 4e5, 0.0), "length"),
+    ("pressure_for_length-length-zero", lambda: mk.pressure_for_length(_m(), 0.0, 0.6), "length"),
+    ("pressure_for_length-length-negative", lambda: mk.pressure_for_length(_m(), [0.09, -1.0], 0.6), "length"),
+    ("models.force-length-zero", lambda: _mod("models").force(4e5, 0.0, _m(), model="chou-hannaford"), "length"),
+    ("models.pressure-length-zero", lambda: _mod("models").pressure(0.0, 0.6, _m()), "length"),
+    ("tool-forward-lengths-nanometre",
+     lambda: _mod("tool").forward(lengths=[1e-9, 1e-9, 1.1e-9]), "lengths"),
+    ("tool-forward-lengths-past-strands", lambda: _mod("tool").forward(lengths=[1.0, 1.0, 0.99]), "lengths"),
 ]
 
 
@@ -302,11 +318,11 @@ def test_a_table_plots_what_its_kind_measures(kind_file):
     fig = table.plot()
     assert isinstance(fig, Figure)
     ax = fig.axes[0]
-    x, y, _ = _mod("data.io")._TABLE_PLOTS[table.kind]
+    x, y, _ = _mod("data.tables")._TABLE_PLOTS[table.kind]
     assert x.replace("_", " ") in ax.get_xlabel() and y.replace("_", " ") in ax.get_ylabel()
     # every row is drawn once, in the lab's units
     drawn = np.concatenate([line.get_ydata() for line in ax.lines])
-    factor = _mod("data.io")._PLOT_SCALE[y][0]
+    factor = _mod("data.tables")._PLOT_SCALE[y][0]
     np.testing.assert_allclose(np.sort(drawn), np.sort(table.data[y].to_numpy() * factor))
     # on a given Axes: that Axes' figure, drawn there
     import matplotlib.pyplot as plt
@@ -348,3 +364,33 @@ def test_a_reference_outside_the_rigs_range_is_flagged(reference):
     r = simulate(PlantParams(), 0.01, controller=core_spec(CoreParams(), 2), n=2,
                  reference=np.array([[5e5] * 10, [reference] * 10]))
     assert r.flags[0] & FLAG_REFERENCE_OUTSIDE == 0 and r.flags[1] & FLAG_REFERENCE_OUTSIDE
+
+
+def test_values_just_inside_the_physical_limits_are_accepted():
+    """The limits the catalogue holds are limits, not a wider ban: the value just inside each passes."""
+    from mckibben.plant import PlantParams
+    from mckibben.plant.packing import MIN_MOVING_MASS, TEMPERATURE_RANGE
+
+    PlantParams(moving_mass=MIN_MOVING_MASS).prepare()
+    PlantParams(temperature=TEMPERATURE_RANGE[0]).prepare()
+    PlantParams(temperature=TEMPERATURE_RANGE[1]).prepare()
+    PlantParams(supply_pressure=np.array([0.5e6])).prepare()
+    m = _m()
+    lo, hi = m.length_stops
+    assert mk.force_from_length(m, 4e5, 1e-12).force.shape == ()  # tiny but positive: flagged, not refused
+    tool = _mod("tool").make_tool()
+    tlo, thi = tool.muscle.length_stops
+    mid = 0.5 * (tlo + thi)
+    _mod("tool").forward(tool, lengths=[mid, mid, mid])
+    with pytest.raises(InputError, match="lengths"):
+        _mod("tool").forward(tool, lengths=[mid, mid, thi * 1.001])
+
+
+def test_a_muscle_file_with_a_nominal_length_of_1e_300_mm_is_refused(tmp_path):
+    from mckibben.datasets.campaign import BUNDLED
+
+    text = (BUNDLED / "mpam97" / "muscle.toml").read_text()
+    f = tmp_path / "tiny.toml"
+    f.write_text(text.replace("nominal_length_mm = 97", "nominal_length_mm = 1e-300"))
+    with pytest.raises(InputError, match=r"nominal_length_mm: 1e-300 is not a plausible length"):
+        mk.read_muscle(f)

@@ -77,7 +77,11 @@ def test_a_sine_reference_checks_its_numbers():
 #: Where the library takes numbers (issue 23): these packages and modules, and the one parser of
 #: text among them (the command line's ``--reference``).
 TAKES_NUMBERS = ("control", "rig", "experiments", "export")
-PARSERS = {("control/references.py", "parse_reference")}
+PARSERS = {("control/references.py", "parse_reference"),
+           # a characterization protocol is a file a user writes, with units ("0.6N", "0.8MPa"): its
+           # reader is an edge, like a reference file's
+           ("rig/characterize.py", "_ask_length"), ("rig/characterize.py", "_protocol"),
+           ("rig/characterize.py", "quantity"), ("rig/characterize.py", "quantities")}
 
 
 def _text_parsing_calls():

@@ -422,7 +422,7 @@ VALUE_CASES = [
     (["fit", "{fl}", "--model", "spring", "--split-pressure", "5mm"], "--split-pressure"),
     (["fit", "{iso}", "--model", "quintic"], "quintic"),
     (["fit", "{iso}", "--model", "cubic", "--kind", "nonsense"], "nonsense"),
-    (["fit", "{iso}", "--model", "kinematic", "--muscle", "{tmp}/none.toml"], "none.toml"),
+    (["fit", "{iso}", "--model", "kinematic", "--muscle-file", "{tmp}/none.toml"], "none.toml"),
     (["unknown-command"], "unknown-command"),
     (["rig", "emulate", "--duration", ""], "--duration"),
     (["control", "step", "--eps="], "--eps"),
@@ -467,6 +467,7 @@ FILE_CASES = {
     "huge.csv": "pressure_kPa,load_N,length_mm\n1e300,0.6,97\n",
     "units.csv": "pressure_mm,load_N,length_mm\n0,0.6,97\n",
     "bom.csv": "\ufeffpressure_kPa,load_N,length_mm\n0,0.6,97\n",
+    "metres.csv": "pressure_kPa,load_N,length_mm\n0,0.6,0.097\n100,0.6,0.094\n",
     "latin1.csv": None,
 }
 
@@ -593,3 +594,23 @@ def test_random_strings_at_every_option(tmp_path_factory, option, data):
     if r["code"] == 2:
         assert r["err"].count("\n") == 1, (args, r["err"])
     assert not [p for p in work.rglob("*") if TMP_TAG in p.name]
+
+
+@pytest.mark.parametrize("content, says", [
+    ("", "the sweep file is empty"),
+    ("# only a comment\n", "the sweep file is empty"),
+    ("[sweep]\nseed = 3\n[scenario]\nduration = \"0.05s\"\n", "nothing varies"),
+])
+def test_a_sweep_that_varies_nothing_is_refused(tmp_path, content, says):
+    f = tmp_path / "s.toml"
+    f.write_text(content)
+    out = tmp_path / "out"
+    assert_refused(run_cli("sweep", "run", str(f), "--out", str(out)), str(f), says)
+    assert not out.exists()
+
+
+def test_lengths_in_metres_under_a_millimetre_heading_are_refused(tmp_path):
+    f = tmp_path / "metres.csv"
+    f.write_text("pressure_kPa,load_N,length_mm\n0,0.6,0.0972\n100,0.6,0.0941\n")
+    r = run_cli("fit", str(f), "--model", "spring")
+    assert_refused(r, str(f), "holds metres")

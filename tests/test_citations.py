@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import json
+import os
 import re
 import subprocess
 import sys
@@ -18,6 +19,7 @@ import pytest
 import typer
 
 from mckibben.cli import app
+from mckibben import datasets
 from mckibben.datasets import MUSCLES, parameter_sets
 from mckibben.datasets.references import KEY_PATTERN, REFERENCES, cited, reference, render
 from mckibben.errors import InputError
@@ -33,8 +35,9 @@ def _clean(text: str, where: str) -> None:
 
 def _mckibben(*args: str, cwd: Path) -> tuple[str, str]:
     """``mckibben ARGS`` as a user runs it, a separate process: (stdout, stderr)."""
+    env = {**os.environ, "COLUMNS": "250"}  # a wide terminal: the tables wrap their cells to $COLUMNS
     r = subprocess.run([sys.executable, "-m", "mckibben.cli", *args], capture_output=True, text=True, timeout=600,
-                       cwd=cwd)
+                       cwd=cwd, env=env)
     assert r.returncode == 0, (args, r.stderr[-2000:])
     return r.stdout, r.stderr
 
@@ -62,7 +65,8 @@ def _check_params(run) -> None:
     assert "[mpam-characterization]" in out
 
     sets = json.loads(run("params", "list", "--json")[0])["parameter_sets"]
-    assert [s["name"] for s in sets] == [s["name"] for s in parameter_sets()] and len(sets) == 6
+    assert [s["name"] for s in sets] == [s["name"] for s in parameter_sets()]
+    assert len(sets) == len(datasets.MUSCLES) + len(datasets.SPRING_MUSCLE_SIZES) + len(datasets.LAW_SETS)
     for s in sets:
         record = REFERENCES[s["citation"]["key"]]
         assert s["citation"] == json.loads(json.dumps(record.to_dict())), s["name"]

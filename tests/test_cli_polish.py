@@ -107,3 +107,81 @@ def test_outputs_refused_before_any_work(cli, tmp_path, cmd, option, value, says
     r = cli(*args)
     assert r.code == 2 and says in r.err and r.err.count("\n") == 1, r.err
     assert list(tmp_path.iterdir()) == []  # nothing written
+
+
+def test_simulate_and_control_step_print_labels_with_units_alike(cli):
+    sim = cli("simulate", "open-loop")
+    step = cli("control", "step")
+    assert sim.code == 0 and step.code == 0, sim.err + step.err
+    for out in (sim.out, step.out):
+        assert "time constant (63 %)" in out and "rise time (10–90 %)" in out and " ms" in out
+        assert "_s " not in out and "_Pa" not in out and "_pct" not in out  # no raw JSON keys
+    assert " kPa" in step.out and "counts" in step.out and " MPa" in sim.out and " mm" in sim.out
+
+
+def test_every_error_line_has_the_one_prefix(cli):
+    usage = cli("fit", "x.csv")  # a usage error (Click's)
+    bad = cli("fit", "x.csv", "--model", "spring")  # the library's InputError
+    empty = cli("fit", "x.csv", "--model", "spring", "--plot", "")
+    for r in (usage, bad, empty):
+        assert r.code == 2 and r.err.startswith("error: ") and r.err.count("\n") == 1, r.err
+    assert usage.err == "error: mckibben fit: Missing option '--model'.\n"
+
+
+def _commands(group, path=()):
+    for name, cmd in getattr(group, "commands", {}).items():
+        yield (*path, name), cmd
+        yield from _commands(cmd, (*path, name))
+
+
+def test_the_command_lists_short_help_is_not_cut_at_an_abbreviation():
+    import typer
+
+    from mckibben.cli import app
+
+    root = typer.main.get_command(app)
+    helps = {" ".join(p): c.get_short_help_str(200) for p, c in _commands(root)}
+    assert helps["control fig13"].startswith("The paper's Fig. 13: sliding mode")
+    cut = {k: h for k, h in helps.items() if h.endswith(("Fig.", "e.g.", "eq.", "i.e."))}
+    assert not cut, cut
+
+
+def test_plain_tables_fit_columns_when_told(cli, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "70")
+    r = cli("params", "show", "mpam97")
+    assert r.code == 0 and max(len(line) for line in r.out.splitlines()) <= 70, r.out
+    rows = [line for line in r.out.splitlines() if line.strip()]
+    assert "citation" in r.out and len(rows) > 14  # the long citation wrapped onto continuation lines, not cut
+    monkeypatch.delenv("COLUMNS")
+    assert max(len(line) for line in cli("params", "show", "mpam97").out.splitlines()) > 70  # piped: a line per row
+
+
+@pytest.mark.parametrize("args", [["params", "show", "mpam97"], ["doctor", "--no-warm"]])
+def test_tables_fit_the_terminal(args):
+    import os
+    import pty
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    leader, follower = pty.openpty()
+    env = {**os.environ, "COLUMNS": "72", "LINES": "40", "TERM": "xterm",
+           "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    proc = subprocess.Popen([sys.executable, "-m", "mckibben.cli", *args], stdin=follower, stdout=follower,
+                            stderr=follower, env=env, close_fds=True)
+    os.close(follower)
+    chunks = []
+    while True:
+        try:
+            data = os.read(leader, 65536)
+        except OSError:  # the child closed the terminal
+            break
+        if not data:
+            break
+        chunks.append(data)
+    proc.wait(timeout=120)
+    os.close(leader)
+    text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", b"".join(chunks).decode("utf-8", "replace"))
+    assert proc.returncode in (0, 1), text  # doctor exits 1 when an optional part is missing
+    assert max(len(line.rstrip("\r")) for line in text.splitlines()) <= 72, text

@@ -29,6 +29,24 @@ def test_inverse_from_the_cli(cli):
     assert out["pressure_Pa"][0] is None and out["flags"][0] == ["unreachable"]
 
 
+def test_length_and_pressure_from_any_law_with_a_published_set(cli):
+    # the default is the braid map (eq. 2 + 3); --model solves another law for the length
+    base = cli("predict", "length", "--pressure", "0.8MPa", "--json").json()
+    out = cli("predict", "length", "--model", "braid-map", "--pressure", "0.8MPa", "--json").json()
+    assert out == base and out["model"] == "braid-map"
+    out = cli("predict", "length", "--model", "chou-hannaford", "--pressure", "0.8MPa", "--json").json()
+    assert out["model"] == "chou-hannaford" and out["flags"] == []
+    force = cli("predict", "force", "--model", "chou-hannaford", "--pressure", "0.8MPa",
+                "--length", f"{out['length_m'] * 1e3!r}mm", "--json").json()
+    assert force["force_N"] == pytest.approx(0.6, rel=1e-9)  # the law pulls the load at the length it gives
+    back = cli("predict", "pressure", "--model", "chou-hannaford", "--length", f"{out['length_m'] * 1e3!r}mm",
+               "--json").json()
+    assert back["pressure_Pa"] == pytest.approx(0.8e6, rel=1e-9)
+    r = cli("predict", "length", "--model", "mpam", "--pressure", "0.8MPa", "--json")
+    assert r.code == 0 and r.json()["length_m"] == base["length_m"]
+    assert "'mpam' is deprecated; use 'braid-map'" in r.err  # the old name, read with a deprecation note
+
+
 def test_force_from_the_cli(cli):
     out = cli("predict", "force", "--model", "chou-hannaford", "--pressure", "0.8MPa", "--json").json()
     assert out["force_N"] == pytest.approx(10.72, abs=0.01)
@@ -38,6 +56,32 @@ def test_force_from_the_cli(cli):
     assert out["force_N"] == pytest.approx(7.00, abs=0.01)
     out = cli("predict", "force", "--model", "empirical", "--pressure", "0.4,0.8MPa", "--json").json()
     assert len(out["force_N"]) == 2
+
+
+def test_force_length_and_pressure_of_a_law_with_its_own_published_set(cli):
+    # hunt-quinn has no parameters for a catalogue miniature muscle, but a published set of its own
+    # (datasets.LAW_SETS): --model LAW takes it, as does --muscle SET; the numbers are the set's own
+    from mckibben.datasets import LAW_SETS
+
+    law, hq = LAW_SETS["festo-dmsp10-189"]
+    out = cli("predict", "force", "--model", "hunt-quinn", "--pressure", "0.2,0.5,0.7MPa", "--length", "180mm",
+              "--json").json()
+    assert out["model"] == law == "hunt-quinn" and out["muscle"] == "festo-dmsp10-189"
+    np.testing.assert_array_equal(out["force_N"], hq.force([0.2e6, 0.5e6, 0.7e6], 0.18))  # the same kernel: same bits
+    assert out["flags"] == [[], [], ["pressure_out_of_range"]]  # the set was identified on 0-620 kPa
+    same = cli("predict", "force", "--muscle", "festo-dmsp10-189", "--pressure", "0.2,0.5,0.7MPa", "--length", "180mm",
+               "--json").json()
+    assert same == out
+    rest = cli("predict", "force", "--model", "hunt-quinn", "--pressure", "0.5MPa", "--json").json()
+    assert rest["length_m"] == hq.rest_length and rest["force_N"] == float(hq.force(0.5e6, hq.rest_length))
+    # its length under a load is where its force pulls the load, and the pressure for that length the same
+    ell = cli("predict", "length", "--model", "hunt-quinn", "--pressure", "0.5MPa", "--load", "100N", "--json").json()
+    assert ell["flags"] == [] and float(hq.force(0.5e6, ell["length_m"])) == pytest.approx(100.0, rel=1e-9)
+    back = cli("predict", "pressure", "--muscle", "festo-dmsp10-189", "--length", f"{ell['length_m'] * 1e3!r}mm",
+               "--load", "100N", "--json").json()
+    assert back["pressure_Pa"] == pytest.approx(0.5e6, rel=1e-9)
+    # the model as published gives the pressure back from the force at that length (P(ε, F), its own form)
+    assert float(hq.pressure(100.0, ell["length_m"])) == pytest.approx(0.5e6, rel=1e-9)
 
 
 def test_params(cli):
@@ -56,7 +100,7 @@ def test_params(cli):
     "args, message",
     [
         (["predict", "length", "--muscle", "mpam98", "--pressure", "1MPa"],
-         "error: unknown muscle 'mpam98'. Did you mean mpam97, mpam143, mpam117? Provide one of: mpam117, mpam143, mpam97"),
+         "error: unknown muscle 'mpam98'. Did you mean mpam97, mpam143, mpam117? Provide one of: festo-dmsp10-189, mpam117, mpam143, mpam97"),
         (["predict", "length", "--pressure", "0.8"],
          "error: --pressure: '0.8' has no unit; write it with one of Pa, kPa, MPa, bar, mbar, psi (e.g. 0.8MPa, 80psi, 5bar)"),
         (["predict", "length", "--pressure", "97mm"],
@@ -68,11 +112,27 @@ def test_params(cli):
         (["predict", "pressure", "--length", "80mm", "--p-max", "3furlongs"],
          "error: --p-max: unknown unit 'furlongs'; use one of Pa, kPa, MPa, bar, mbar, psi"),
         (["predict", "force", "--model", "hill", "--pressure", "1MPa"],
-         "error: unknown force model 'hill'. Provide one of: braid-map, chou-hannaford, tondu-lopez, wall-corrected"),
+         "error: unknown force model 'hill'. Provide one of: braid-map, chou-hannaford, hunt-quinn, tondu-lopez, wall-corrected"),
         (["predict", "force", "--pressure", "1MPa", "--braid-angle", "95deg"], "error: --braid-angle: '95deg' must be below 90deg"),
         (["params", "show", "spring-pam-z"], "error: unknown parameter set 'spring-pam-z'. Did you mean spring-pam-c, spring-pam-b, spring-pam-a?"),
-        (["predict", "length", "--pressure", "1MPa", "--bogus"], "error (mckibben predict length): No such option: --bogus"),
-        (["predict", "length"], "error (mckibben predict length): Missing option '--pressure'."),
+        (["predict", "length", "--pressure", "1MPa", "--model", "hill"],
+         "error: unknown --model 'hill'. Provide one of: braid-map, chou-hannaford, hunt-quinn, tondu-lopez, wall-corrected"),
+        (["predict", "pressure", "--length", "80mm", "--model", "virtual-work"],
+         "error: --model: virtual-work has no published parameters for a catalogue muscle; fit it"),
+        (["predict", "force", "--model", "hunt-quinn", "--muscle", "mpam97", "--pressure", "0.5MPa"],
+         "error: --muscle: 'mpam97': the hunt-quinn law's published parameters are the set(s) festo-dmsp10-189, not a "
+         "catalogue muscle's; give --muscle festo-dmsp10-189 or leave it out"),
+        (["predict", "length", "--model", "chou-hannaford", "--muscle", "festo-dmsp10-189", "--pressure", "0.5MPa"],
+         "error: --model: chou-hannaford is not the law of the published set festo-dmsp10-189 (hunt-quinn); leave "
+         "--model out or give --model hunt-quinn"),
+        (["predict", "force", "--muscle", "festo-dmsp10-189", "--pressure", "0.5MPa", "--wall", "1mm"],
+         "error: --wall: the published set festo-dmsp10-189 carries its own hunt-quinn constants for its 189 mm "
+         "muscle; --wall changes a catalogue miniature muscle only"),
+        (["predict", "length", "--pressure", "1MPa", "--model", "spring", "--muscle-file", "F.toml"],
+         "error: --model: 'spring' with --muscle-file: the file carries its own fitted law; give one of them"),
+        (["predict", "pressure", "--length", "80mm", "--muscle-file", "no-such-file.toml"], "error: "),
+        (["predict", "length", "--pressure", "1MPa", "--bogus"], "error: mckibben predict length: No such option: --bogus"),
+        (["predict", "length"], "error: mckibben predict length: Missing option '--pressure'."),
     ],
 )
 def test_bad_input_gives_one_line_and_exit_2(cli, args, message):

@@ -556,7 +556,7 @@ def test_doctor_reports_the_cache_the_tools_and_an_unanswering_scheduler(cli):
     assert r.code == 1, r.err  # not ok: the scheduler does not answer
     out = r.json()
     assert out["warm"] is None and out["ok"] is False and out["scheduler"]["reachable"] is False
-    assert out["cache_dir"] and set(out["tools"]) == {"avr-gcc", "simavr", "avrdude", "arduino-cli"}
+    assert out["cache_dir"] and set(out["tools"]) == {"avr-gcc", "simavr", "libsimavr", "avrdude", "arduino-cli"}
     assert "dask scheduler --port" in out["scheduler"]["detail"]
 
 

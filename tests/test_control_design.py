@@ -83,9 +83,12 @@ def test_supervised_callable_cannot_overpressurize():
     over = adc_from_pressure(0.8e6 + 25e3)  # beyond p_max + 20 kPa margin
     assert greedy(0.001, over, 0, 0.7e6) == (0, 255)
     assert greedy.faults & core.FAULT_OVERPRESSURE
-    # vents until the pressure is back below p_max, then the callable decides again
+    # vents until the pressure is back below p_max, then the callable decides again, its inlet
+    # within the headroom cap, (p_max - p) >> 8 counts: 255 from 65.3 kPa below p_max down
     assert greedy(0.002, adc_from_pressure(0.805e6), 0, 0.7e6) == (0, 255)
-    assert greedy(0.003, adc_from_pressure(0.79e6), 0, 0.7e6) == (255, 0)
+    inlet, bleed = greedy(0.003, adc_from_pressure(0.79e6), 0, 0.7e6)
+    assert 0 < inlet <= 10e3 / 256 + 2 and bleed == 0
+    assert greedy(0.004, adc_from_pressure(0.7e6), 0, 0.7e6) == (255, 0)
 
 
 def test_supervised_callable_vents_on_sensor_fault_and_sees_clamped_reference():

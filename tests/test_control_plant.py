@@ -108,7 +108,7 @@ def test_paper_law_without_the_model_term_does_not_make_v_decrease(model):
 
 
 #: Transient allowance above p_max + margin (docs/control.md, "Safety"): the inlet valve's lag
-#: while it closes, for supply ≤ 1 MPa and valve conductance ≤ 1.3× calibrated (90 kPa).
+#: while it closes, for supply ≤ 1 MPa and valve conductance ≤ 1.3× calibrated (50 kPa).
 ALLOWANCE = E.SAFETY_TRANSIENT_PA
 
 
@@ -160,8 +160,10 @@ def test_reference_above_the_maximum_is_clamped_on_the_plant(model):
     n = 600
     params = [E.smc_core_params(model, 150.0)]
     rec = E.run_closed_loop(core_spec(params), np.full(n, 2.0e6), n * 1e-3, E.plant_batch(supply_Pa=1.0e6))
-    assert abs(rec.pressure[0, -100:].mean() - 0.8e6) < 10e3  # held at p_max, not at the 2 MPa asked for
-    assert rec.pressure.max() <= 0.8e6 + 20e3 + E.SAFETY_TRANSIENT_PA
+    # held just below p_max, not at the 2 MPa asked for: the supervisor's headroom cap keeps the
+    # chattering law below the maximum (docs/control.md, Safety), and never more than 10 kPa above
+    assert 0.8e6 - 40e3 < rec.pressure[0, -100:].mean() < 0.8e6
+    assert rec.pressure.max() <= 0.8e6 + 10e3
 
 
 def test_robustness_runs_all_controllers_on_the_same_plants(model):

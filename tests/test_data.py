@@ -44,9 +44,10 @@ BAD_TABLES = [
      " (closest: isotonic, which needs pressure, load, length)"),
     ("isotonic.csv", "pressure_MPa,length_mm\n0.1,90\n",
      "isotonic.csv: missing column load_<unit> (e.g. load_N); a isotonic table needs pressure, load, length"),
-    ("unknown.csv", "pressure_MPa,load_N,length_mm,colour\n0.1,0.6,90,red\n",
-     "unknown.csv: column 'colour' is unknown; known columns are pressure_<unit>, load_<unit>, length_<unit>,"
-     " held_length_<unit>, force_<unit>, tare_<unit>, braid_angle_<unit>, time_<unit>, command, trial, direction, muscle"),
+    ("typo.csv", "presure_MPa,load_N,length_mm\n0.1,0.6,90\n",
+     "typo.csv: missing column pressure_<unit> (e.g. pressure_MPa): no experiment kind matches the columns"
+     " (closest: isotonic, which needs pressure, load, length); the unknown column presure_MPa (did you mean"
+     " pressure_MPa?) may be it"),
     ("other.csv", "pressure_MPa,load_N,length_mm,time_s\n0.1,0.6,90,0\n",
      "other.csv: column time_s is not part of the isotonic schema (required: pressure, load, length;"
      " optional: trial, muscle)"),
@@ -120,11 +121,18 @@ def test_bad_muscle_message(tmp_path, text, message):
 def test_muscle_file_that_does_not_match(tmp_path):
     m = read_muscle(_write(tmp_path, "m.toml", MUSCLE))
     assert m.strand_length == pytest.approx(0.112) and m.braid_angle == pytest.approx(np.deg2rad(20))
+    t = read_table(_write(tmp_path, "a.csv", "braid_angle_deg,length_mm,muscle\n20,97,m117\n25,95,m117\n"))
+    with pytest.raises(InputError) as exc:
+        check_muscle(t, m)
+    assert str(exc.value) == (f"{tmp_path / 'a.csv'}: row 1 (line 2), column muscle: 'm117' does not match muscle file"
+                              f" {tmp_path / 'm.toml'} (id 'm97')")
+    # a table of several muscles, the file's among them: pick its rows
     t = read_table(_write(tmp_path, "a.csv", "braid_angle_deg,length_mm,muscle\n20,97,m97\n25,95,m117\n"))
     with pytest.raises(InputError) as exc:
         check_muscle(t, m)
-    assert str(exc.value) == (f"{tmp_path / 'a.csv'}: row 2 (line 3), column muscle: 'm117' does not match muscle file"
-                              f" {tmp_path / 'm.toml'} (id 'm97')")
+    assert str(exc.value) == (f"{tmp_path / 'a.csv'}: column muscle: holds 2 muscles (m97, m117); pick the one of "
+                              f"muscle file {tmp_path / 'm.toml'} with `select` muscle=m97")
+    check_muscle(read_table(tmp_path / "a.csv", select={"muscle": "m97"}), m)
     t = read_table(_write(tmp_path, "b.csv", "braid_angle_deg,length_mm\n20,97\n10,140\n"))
     with pytest.raises(InputError) as exc:
         check_muscle(t, m)

@@ -26,14 +26,14 @@ from fmpy.validation import validate_fmu  # noqa: E402
 
 from mckibben.control.core import MODE_PID, core_spec, save_design  # noqa: E402
 from mckibben.control.metrics import step_metrics  # noqa: E402
-from mckibben.control.experiment_setup import controller_params, muscle_file_plant  # noqa: E402
+from mckibben.control.experiment_setup import controller_params, muscle_file_plant, rest_pull  # noqa: E402
 from mckibben.experiments.pressure import step_response  # noqa: E402
 from mckibben.data import read_muscle, read_table  # noqa: E402
 from mckibben.datasets import get_muscle  # noqa: E402
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC  # noqa: E402
 from mckibben.errors import InputError  # noqa: E402
 from mckibben.export import export_fmu  # noqa: E402
-from mckibben.export.fmu import CFLAGS, FIRMWARE_SOURCES  # noqa: E402
+from mckibben.export.fmu import CFLAGS, FILE_LOAD_FRACTION, FIRMWARE_SOURCES  # noqa: E402
 from mckibben.fit.isometric import fit_isometric  # noqa: E402
 from mckibben.fit.muscle_file import save_muscle_file  # noqa: E402
 from mckibben.models.laws.relative_strain import RelativeStrain  # noqa: E402
@@ -142,9 +142,15 @@ def test_fitted_muscle_file_fmu(tmp_path, cli, fitted, fmi):
     r = cli("export", "fmu", "--muscle-file", str(fitted), "--out", str(out), "--fmi", str(fmi))
     assert r.code == 0, r.err
     assert validate_fmu(str(out)) == []
+    # the default load is scaled to the muscle at hand: a quarter of what it pulls at rest (0.6 N, the
+    # miniature muscle's load, is nothing to this one)
+    names = {v.name: v for v in fmpy.read_model_description(str(out)).modelVariables}
+    load = float(names["load_force"].start)
+    assert load == round(FILE_LOAD_FRACTION * rest_pull(muscle_file_plant(fitted, 0.0)), 1) and load > 50
     res = _run(out)
-    _assert_equivalent(res, simulate(muscle_file_plant(fitted), DURATION, inlet=STEP, n=1))
-    want = cli("simulate", "open-loop", "--valve", "117", "--muscle-file", str(fitted), "--json").json()
+    _assert_equivalent(res, simulate(muscle_file_plant(fitted, load), DURATION, inlet=STEP, n=1))
+    want = cli("simulate", "open-loop", "--valve", "117", "--muscle-file", str(fitted), "--load", f"{load!r}N",
+               "--json").json()
     # the same metric on both (the fitted plant still rises at 0.5 s: its value there is 1.1 % above the
     # mean of the last 25 ms that the command reports)
     assert _final(res) == pytest.approx(want["final_pressure_Pa"], rel=0.01)

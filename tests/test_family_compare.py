@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -50,9 +51,15 @@ def test_leave_one_muscle_out_needs_a_family(tmp_path, cli):
     r = cli("compare", str(ISO), "--cv", "leave-one-muscle-out")
     assert r.code == 2 and "needs a family table" in r.err and len(r.err.strip().splitlines()) == 1
     bad = tmp_path / "bad.csv"
-    pd.read_csv(ISO).drop(columns="muscle").assign(rest_length_mm=300.0).to_csv(bad, index=False)
-    r = cli("compare", str(bad), "--muscle", str(MUSCLE))
-    assert r.code == 2 and "needs a muscle column" in r.err
+    d = pd.read_csv(ISO).drop(columns="muscle")
+    d.assign(rest_length_mm=np.where(np.arange(len(d)) < len(d) // 2, 300.0, 310.0)).to_csv(bad, index=False)
+    r = cli("compare", str(bad), "--muscle-file", str(MUSCLE))
+    assert r.code == 2 and r.err == (f"error: {bad}: column rest_length_mm holds 2 muscles (300, 310), each with its "
+                                     "own rest length; pick one with --select rest_length_mm=300, or fit them as a "
+                                     "family with a muscle column\n")
+    # one rest length and no muscle column: one muscle, read as it is
+    d.assign(rest_length_mm=300.0).to_csv(bad, index=False)
+    assert cli("compare", str(bad), "--muscle-file", str(MUSCLE)).code == 0
 
 
 def test_rest_length_needs_a_family_law_and_save(tmp_path, cli):

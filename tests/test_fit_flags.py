@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 
 from mckibben.fit.core import AT_BOUND_REL, COND_FLAG, at_bounds, bounded_fit
 from mckibben.models.flags import FIT_NOTES, split_fit_flags
@@ -83,7 +84,7 @@ def test_correlated_but_predictive_fit_is_not_discarded():
 def test_notes_are_split_from_flags():
     flags, notes = split_fit_flags(["large_offset", "negative_area", "x_at_lower_bound"])
     assert flags == ("large_offset", "x_at_lower_bound") and notes == ("negative_area",)
-    assert set(FIT_NOTES) == {"correlated_parameters", "negative_area"}
+    assert set(FIT_NOTES) == {"correlated_parameters", "negative_area", "<name>_from_prior"}
 
 
 def test_heldout_far_above_insample_is_a_flag_of_compare():
@@ -98,7 +99,37 @@ def test_heldout_far_above_insample_is_a_flag_of_compare():
     c = compare_isometric(read_table(folder / "isometric.csv"), read_muscle(folder / "muscle.toml"),
                           models=["surface", "chou-hannaford"])
     for s in c.scores:  # the comparison's own figures decide the flag, and it is in the flags `best` reads
-        far = s["cv_rmse_N"] > HELDOUT_RATIO * s["rmse_N"]
+        far = s["cv_rmse_interpolated_N"] > HELDOUT_RATIO * s["rmse_interpolated_N"]
         assert ("heldout_far_above_insample" in s["flags"]) == far, s
         assert isinstance(s["notes"], list)
+        # the held-out figure the flag reads is the one of the folds that interpolate
+        inner = [x for x in s["folds"] if not x["extrapolated"]]
+        assert 0 < len(inner) < len(s["folds"])  # four held lengths: the two extreme ones extrapolate
+        n = sum(x["n_points"] for x in inner)
+        # rtol: sums of squares regrouped, float64
+        assert_allclose(s["cv_rmse_interpolated_N"] ** 2 * n, sum(x["rmse_N"] ** 2 * x["n_points"] for x in inner),
+                        rtol=1e-9)
     assert c.best in {s["model"] for s in c.scores if not s["flags"]} or c.best_flagged
+
+
+def test_heldout_ratio_reads_the_interpolating_folds():
+    """An extrapolated fold's error (every law pays it) does not flag; the same error inside the range does."""
+    from mckibben.fit.core import heldout_flags, interpolated_rms
+
+    rng = np.random.default_rng(3)
+    residuals = rng.normal(0.0, 1.0, 40)  # in-sample, unit noise
+    heldout = residuals * 1.5  # held out: a fit that generalizes loses ~1.5x
+    inside = np.ones(40, dtype=bool)
+    inside[:10] = False  # the first fold (10 points) predicts beyond the fitted range
+    heldout[:10] = 20.0  # and misses by 20x the noise there
+    cv_all = float(np.sqrt(np.mean(heldout**2)))
+    assert heldout_flags(cv_all, float(np.sqrt(np.mean(residuals**2))))  # the pooled ratio would flag it
+    cv, fit = interpolated_rms(heldout, residuals, inside)
+    assert_allclose(cv / fit, 1.5, rtol=1e-12)  # rtol: the same points, scaled by 1.5 exactly
+    assert heldout_flags(cv, fit) == ()
+    heldout[10:20] = 20.0  # the same miss inside the range: a fit that describes only what it saw
+    assert heldout_flags(*interpolated_rms(heldout, residuals, inside)) == ("heldout_far_above_insample",)
+    # every fold extrapolating: all points; nothing predicted: no figure, no flag
+    assert_allclose(interpolated_rms(heldout, residuals, np.zeros(40, bool))[0], float(np.sqrt(np.mean(heldout**2))))
+    nan = interpolated_rms(np.full(3, np.nan), np.ones(3), np.ones(3, bool))
+    assert np.isnan(nan[0]) and heldout_flags(*nan) == ()

@@ -39,6 +39,9 @@ def test_constants_equal_the_firmware():
     assert row["MCK_GAIN_PA_PER_COUNT"][2] == round(HW.PA_PER_COUNT * 1e3)
     # and the ADC clamp of the step
     assert f"> {HW.ADC_MAX}u ? {HW.ADC_MAX}u" in source
+    # the load cell's ADC input
+    assert HW.LOAD_CELL_ADC == _define(main, "MCK_LOAD_CELL_ADC")
+    assert HW.PIN_MAP["load_cell"] == (f"A{HW.LOAD_CELL_ADC}",)
 
 
 def test_adc_rounds_to_the_nearest_count_halves_up_and_saturates():

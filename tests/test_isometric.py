@@ -89,7 +89,7 @@ def test_every_model_fits_the_synthetic_commercial_campaign():
         r = fit.result
         assert r.r2 > 0.95, model  # all reproduce the force's rise with pressure and fall with length
         assert np.all(np.isfinite(r.values)), model
-        assert fit.metrics["covariance"] == "cluster-robust (12 trials)"
+        assert fit.metrics["covariance"] == "cluster-robust (12 runs)"  # 4 held lengths x 3 trials
         # physical bounds hold whatever the fit did
         if "theta0_rad" in r.names:
             assert 0 < r["theta0_rad"] < np.arccos(1 / np.sqrt(3))
@@ -97,11 +97,16 @@ def test_every_model_fits_the_synthetic_commercial_campaign():
 
 
 def test_physical_models_are_flagged_on_data_they_cannot_explain():
-    # the truth has an opening pressure and rubber elasticity the ideal braid lacks: the ideal
-    # models buy a large load-cell zero to make up for it, and say so
+    # the truth has an opening pressure and rubber elasticity the ideal braid lacks: the ideal braid
+    # buys a large load-cell zero to make up for it, and says so
     t, m = read_table(ISO), read_muscle(MUSCLE)
-    for model in ("chou-hannaford", "tondu-lopez"):
-        assert "large_offset" in fit_isometric(t, m, model).flags
+    assert "large_offset" in fit_isometric(t, m, "chou-hannaford").flags
+    # Tondu-Lopez fits the opening pressure as its threshold instead of absorbing it in the zero
+    # (P_open = 15 kPa, datasets/isometric.py; the elasticity it lacks moves it a few kPa), and
+    # still says it cannot explain the rest
+    tl = fit_isometric(t, m, "tondu-lopez")
+    assert 10e3 < tl.result["p_threshold_Pa"] < 30e3
+    assert tl.flags
 
 
 def test_compare_picks_the_best_on_held_out_lengths():
@@ -146,7 +151,7 @@ def test_generated_campaign_is_the_bundled_one():
 
 
 def test_fit_spring_json_has_errors_and_flags(cli, tmp_path):
-    r = cli("fit", str(ISO), "--model", "spring", "--muscle", str(MUSCLE), "--json")
+    r = cli("fit", str(ISO), "--model", "spring", "--muscle-file", str(MUSCLE), "--json")
     assert r.code == 0, r.err
     out = r.json()
     for key in ("parameters", "stderr", "rmse_N", "r2", "flags"):
@@ -163,7 +168,7 @@ def test_fit_flags_go_to_stderr_in_one_line(cli):
 
 
 def test_compare_cli_json(cli):
-    r = cli("compare", str(ISO), "--muscle", str(MUSCLE), "--cv", "leave-one-trial-out", "--json")
+    r = cli("compare", str(ISO), "--muscle-file", str(MUSCLE), "--cv", "leave-one-trial-out", "--json")
     assert r.code == 0
     out = r.json()
     assert out["cv"] == "leave-one-trial-out"
@@ -208,6 +213,12 @@ def test_fit_save_then_predict_with_the_muscle_file(cli, tmp_path):
     expect, _ = fit.predict(np.array([0.3e6, 0.7e6]), 0.28)
     np.testing.assert_allclose(out["force_N"], expect, rtol=1e-9)  # the same law, through TOML's repr of floats
     assert out["flags"] == [[], ["pressure_out_of_range"]]  # 0.7 MPa is beyond the 620 kPa tested
+    # the uncertainty the file stores comes through: the fit's RMS residual and the parameters' errors
+    fm = doc["force_model"]
+    assert out["fit_rmse_N"] == fm["rmse_N"] == pytest.approx(fit.result.residual_rms, rel=1e-12)
+    assert out["parameters_stderr"] == fm["stderr"] and list(out["parameters"]) == list(fm["parameters"])
+    text = cli("predict", "force", "--muscle-file", str(saved), "--pressure", "0.3MPa", "--length", "280mm").out
+    assert f"± {fm['rmse_N']:.3g}" in text and "RMS residual" in text
 
 
 BAD = [
@@ -224,7 +235,7 @@ BAD = [
 def test_bad_isometric_tables_exit_2_with_one_line(cli, tmp_path, name, text, message, command):
     (tmp_path / name).write_text(text)
     args = ["--model", "spring"] if command == "fit" else []
-    r = cli(command, str(tmp_path / name), "--muscle", str(MUSCLE), *args, "--json")
+    r = cli(command, str(tmp_path / name), "--muscle-file", str(MUSCLE), *args, "--json")
     assert r.code == 2 and r.out == ""
     assert r.err.count("\n") == 1 and str(tmp_path / name) in r.err and message in r.err
 
@@ -233,10 +244,10 @@ def test_model_that_needs_a_missing_field_names_it(cli, tmp_path):
     iso = tmp_path / "isotonic.csv"
     iso.write_text("pressure_MPa,load_N,length_mm\n0.1,0.6,100\n0.2,0.6,99\n0.3,0.6,98\n0.4,0.6,97\n")
     m = tmp_path / "m.toml"
-    m.write_text('id = "x"\nnominal_length_mm = 100\nouter_diameter_mm = 12\n')
-    r = cli("fit", str(iso), "--model", "tondu-lopez", "--muscle", str(m))
-    assert r.code == 2 and r.err.strip() == (f"error: {m}: key braid_angle_<unit> missing; tondu-lopez on isotonic"
-                                             " data needs it (e.g. braid_angle_deg = ...)")
+    m.write_text('id = "x"\nnominal_length_mm = 100\n')  # the law's fit spec needs the outer diameter
+    r = cli("fit", str(iso), "--model", "tondu-lopez", "--muscle-file", str(m))
+    assert r.code == 2 and r.err.strip() == (f"error: {m}: key outer_diameter_<unit> missing; tondu-lopez needs it"
+                                             " (e.g. outer_diameter_mm = ...)")
 
 
 def test_stats_binomial_claim_in_the_coverage_test():
@@ -247,7 +258,7 @@ def test_stats_binomial_claim_in_the_coverage_test():
 def test_blocked_force_intercept_covers_with_per_trial_offsets():
     # the issue's case: a cubic of the blocked force with a per-trial load-cell offset (sd 0.05 N over
     # 0.01 N noise); iid intervals covered the intercept 74 % of the time. Cluster-robust by trial:
-    from mckibben.data.io import Table
+    from mckibben.data.tables import Table
     from mckibben.fit.static import fit_cubics
 
     rng = np.random.default_rng(3)
@@ -267,14 +278,14 @@ def test_blocked_force_intercept_covers_with_per_trial_offsets():
 
 def test_held_lengths_read_by_an_instrument_group_into_their_set_points():
     # an LVDT reads each held length with 20 um scatter: still four lengths, four folds, 12 runs
-    from mckibben.data.io import Table
+    from mckibben.data.tables import Table
 
     t = read_table(ISO)
     d = t.data.copy()
     d["held_length"] = d["held_length"] + np.random.default_rng(5).normal(0, 2e-5, len(d))
     noisy = Table("isometric", "lvdt.csv", d, t.columns)
     fit = fit_isometric(noisy, read_muscle(MUSCLE), "chou-hannaford")
-    assert fit.metrics["covariance"] == "cluster-robust (12 trials)"
+    assert fit.metrics["covariance"] == "cluster-robust (12 runs)"  # 4 held lengths x 3 trials
     c = compare_isometric(noisy, read_muscle(MUSCLE), models=["surface"])
     assert c.scores[0]["note"] == "" and c.scores[0]["extrapolated_folds"] == 2  # the two end lengths
 
@@ -306,10 +317,11 @@ def test_tondu_lopez_and_spring_cover_with_per_trial_offsets():
     def forces(clean):
         return clean + rng.normal(0, 1.5, (200, runs.max() + 1))[:, runs] + rng.normal(0, 0.4, (200, len(d)))
 
-    # Tondu–Lopez, alpha0 = 25 deg, r0 = 6 mm, k = 1.3, zero 2 N
-    truth = np.array([np.deg2rad(25.0), 6e-3, 1.3, 2.0])
-    covered, flagged = np.zeros(4), 0
-    for f in forces(tondu_lopez_force(p, 1 - ell / L0, truth[1], truth[0], truth[2]) + truth[3]):
+    # Tondu–Lopez, alpha0 = 25 deg, r0 = 6 mm, k = 1.3, a threshold of 20 kPa, zero 2 N
+    truth = np.array([np.deg2rad(25.0), 6e-3, 1.3, 20e3, 2.0])
+    covered, flagged = np.zeros(5), 0
+    for f in forces(tondu_lopez_force(np.maximum(p - truth[3], 0.0), 1 - ell / L0, truth[1], truth[0], truth[2])
+                    + truth[4]):
         r = fit_points(d.assign(force=f), SPEC, "tondu-lopez")
         if r.flags:  # alpha0 trades against r0: some campaigns end on r0's bound, and say so
             assert any(fl.endswith("_bound") for fl in r.flags) and np.isnan(r.stderr).any()
@@ -378,3 +390,15 @@ def test_fit_table_and_compare_table_are_library_calls(tmp_path):
     assert c.metrics["best"] == "spring" and len(c.to_pandas()) == len(ALL_MODELS)
     c.plot().savefig(tmp_path / "c.png")
     assert (tmp_path / "c.png").stat().st_size > 5_000
+
+
+def test_compare_text_shows_the_extrapolated_folds_and_fit_counts_runs(cli):
+    r = cli("compare", str(ISO), "--muscle-file", str(MUSCLE))
+    assert r.code == 0, r.err
+    js = cli("compare", str(ISO), "--muscle-file", str(MUSCLE), "--json").json()
+    assert "extrapolated folds" in r.out
+    for s in js["models"]:  # each model's row says how many of its held-out folds were extrapolated
+        row = next(line for line in r.out.splitlines() if line.startswith(s["model"] + " "))
+        assert f" {s['extrapolated_folds']}/{len(s['folds'])} " in row, row
+    fit = cli("fit", str(ISO), "--model", "spring", "--muscle-file", str(MUSCLE))
+    assert "cluster-robust (12 runs)" in fit.out and "trials)" not in fit.out

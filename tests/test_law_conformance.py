@@ -36,11 +36,12 @@ from mckibben.datasets import get_muscle
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
 from mckibben.errors import InputError
 from mckibben.export import export_fmu
-from mckibben.export.fmu import law_defines, laws_c
+from mckibben.plant.c_layout import law_defines, laws_c
 from mckibben.fit.compare import compare_models
 from mckibben.fit.isometric import fit_isometric, fit_isotonic_law, fit_points, law_length
 from mckibben.fit.muscle_file import muscle_force_law, save_muscle_file
-from mckibben.models import laws
+from mckibben import models
+from mckibben.models import law_statics, laws
 from mckibben.models.muscle import Muscle
 from mckibben.plant import PlantParams, simulate
 
@@ -223,14 +224,65 @@ def test_the_command_line_gives_the_library_number(case, cli, name):
     assert r.json()["force_N"] == pytest.approx(want, rel=1e-12)
 
 
-#: Laws whose fit to the commercial table the plant refuses, with the reason (strict: an xfail
-#: that passes fails, so this list cannot go stale).
-_NO_PLANT = {"wall-corrected": "the wall term's −1/sin θ makes any wall's force fall near the straight braid, "
-                               "which the muscle file's plant keeps as its end stop (negative stiffness)"}
+@pytest.mark.parametrize("name", NAMES)
+def test_the_command_line_gives_the_library_length_and_pressure(case, cli, name):
+    kind, params, theta, m, path, fit = case(name)
+    l0 = float(m.nominal_length)
+    load = round(0.5 * float(laws.evaluate(name, 0.4e6, l0, theta)), 6)  # half the blocked force: reached
+    which = ("--muscle-file", str(path)) if kind == "fitted" else ("--model", name, "--muscle", CATALOGUE)
+    r = cli("predict", "length", *which, "--pressure", "0.4MPa", "--load", f"{load!r}N", "--json")
+    assert r.code == 0, r.err
+    want = models.length(0.4e6, load, m, None if kind == "fitted" else name)
+    out = r.json()
+    assert out["model"] == name and out["length_m"] == pytest.approx(float(want.length), rel=1e-12)
+    ell = out["length_m"]
+    if not out["flags"]:
+        # solved with the law's own force: it pulls the load there (the root to ~4 ulp of the length)
+        assert float(laws.evaluate(name, 0.4e6, ell, theta)) == pytest.approx(load, rel=1e-8)
+    back = cli("predict", "pressure", *which, "--length", f"{ell * 1e3!r}mm", "--load", f"{load!r}N", "--json")
+    assert back.code == 0, back.err
+    want = models.pressure(ell, load, m, None if kind == "fitted" else name)
+    assert back.json()["pressure_Pa"] == pytest.approx(float(want.pressure), rel=1e-12)
+    assert float(want.pressure) == pytest.approx(0.4e6, rel=1e-7)  # the two inverses agree
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(reason=_NO_PLANT[n], strict=True))
-                                  if n in _NO_PLANT else n for n in NAMES])
+@pytest.mark.parametrize("name", NAMES)
+def test_a_closed_form_length_equals_the_solved_one(case, name):
+    law = laws.LAWS[name]
+    if law.length_of is None:
+        pytest.skip(f"{name} has no closed-form length (Law.length_of): solved by the scan alone")
+    kind, params, theta, m, path, fit = case(name)
+    l0 = float(m.nominal_length)
+    p = np.linspace(0.1e6, 0.8e6, 8)
+    load = 0.5 * laws.evaluate(name, p, l0, theta)
+    force = lambda pp, ell: laws.evaluate(name, pp, ell, theta)  # noqa: E731
+    exact = law_statics.rising_root(force, p, load, 0.5 * l0, 1.5 * l0, lambda pp, ww: law.length_of(theta, pp, ww))
+    scanned = law_statics.rising_root(force, p, load, 0.5 * l0, 1.5 * l0)
+    np.testing.assert_array_equal(exact[1], scanned[1])
+    # Chandrupatla's root to its default tolerance against the closed form
+    np.testing.assert_allclose(exact[0], scanned[0], rtol=1e-12)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_plant_runs_the_law_by_name_on_its_own_fields(name):
+    law = laws.LAWS[name]
+    base = PlantParams.for_muscle(get_muscle(CATALOGUE), force_model=name)
+    if law.plant_theta is None:  # its θ is not in the plant's fields: it needs the parameter object
+        with pytest.raises(InputError, match=f"force_model='{name}' needs its model object"):
+            base.law(1)
+        return
+    # a sweep over the plant's fields: each instance's θ is the law's of that instance alone
+    sweep = base.replace(r0=np.array([0.9, 1.1]) * base.r0, strand_length=np.array([1.0, 1.02]) * base.strand_length)
+    got, th = sweep.law()
+    assert got == name and th.shape == (laws.NTH, 2)
+    for i in range(2):
+        one = base.replace(r0=sweep.r0[i], strand_length=sweep.strand_length[i]).law(1)[1][:, 0]
+        np.testing.assert_array_equal(th[:, i], one)
+    f = laws.evaluate(name, 0.4e6, float(base.nominal_length), th)
+    assert np.all(np.isfinite(f)) and np.all(f > 0)  # it pulls at rest under pressure
+
+
+@pytest.mark.parametrize("name", NAMES)
 def test_a_muscle_file_round_trips_and_exports(case, tmp_path, name):
     kind, params, theta, m, path, fit = case(name)
     if kind != "fitted":
@@ -243,6 +295,28 @@ def test_a_muscle_file_round_trips_and_exports(case, tmp_path, name):
     with zipfile.ZipFile(fmu) as z:
         desc = z.read("modelDescription.xml").decode()
     assert f"{name} force law" in desc
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_muscle_file_stops_where_its_law_stops_pulling_more(case, name):
+    # a law whose pull peaks as the muscle stretches (Law.peak_length) peaks there at every pressure,
+    # and the muscle file's braid ends there when it lies beyond the rest length; its plant then runs
+    # (the wall-corrected fit of the commercial table peaks 28 % beyond the rest length, and its plant
+    # was refused for the falling branch beyond: negative stiffness)
+    law = laws.LAWS[name]
+    kind, params, theta, m, path, fit = case(name)
+    if law.peak_length is None:
+        pytest.skip(f"{name}: its pull does not peak before the straight braid (no Law.peak_length)")
+    peak = law.peak_length(theta)
+    p = np.array([[0.1e6], [0.4e6], [0.8e6]])
+    side = np.array([1 - 1e-6, 1 + 1e-6]) * peak  # just before, just after
+    f_peak, f_side = laws.evaluate(name, p, peak, theta), laws.evaluate(name, p, side[None, :], theta)
+    assert np.all(f_side < f_peak), f"{name}: the pull does not peak at {peak!r} m"
+    if kind == "fitted":
+        l0 = float(m.nominal_length)
+        if l0 < peak:
+            assert m.length_stops[1] <= peak  # the braid ends at the peak (or before it: a shorter strand)
+        PlantParams.from_muscle_file(m)  # runs: no negative stiffness inside its end stops
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -292,3 +366,49 @@ def test_an_isotonic_table_from_the_law_is_fitted_and_compared_through_its_force
     # fits in length, which have no load-cell zero; every other law through its force, as here)
     scores = {s.name: s for s in compare_models(table, fit.muscle)["scores"]}
     assert name in scores
+
+
+def test_a_law_with_its_own_procedure_has_one_and_every_fit_spec_reads_without_data(case):
+    # Law.own_fit (non-isometric tables) is served by mckibben.fit.static.OWN_FITS, nothing else
+    # names the law; and a saved law is read back through its spec with no data (names and force)
+    from mckibben.fit import static
+    from mckibben.fit.isometric import force_law, parameter_names
+
+    assert set(static.OWN_FITS) == set(laws.own_fit_laws())
+    for name in laws.fit_laws():
+        fit = case(name)[5]
+        assert parameter_names(name, fit.muscle) == tuple(fit.result.names), name
+        p, ell = fit.data["pressure"].to_numpy(), fit.data["held_length"].to_numpy()
+        np.testing.assert_allclose(force_law(name, fit.muscle, fit.result.values)(p, ell),
+                                   fit.result.func(fit.result.values, p, ell), rtol=1e-12, err_msg=name)
+
+
+@pytest.mark.parametrize("name", [n for n in NAMES if laws.LAWS[n].branches == 2])
+def test_a_two_branch_law_fits_both_branches_of_a_hysteresis_table(case, tmp_path, name):
+    # a hysteresis table's direction column labels each point's branch: before, every row was
+    # 'inflate' and the deflate coefficients came back unconstrained (no data held them)
+    kind, params, theta, m, path, fit = case(name)
+    l0 = float(fit.muscle.nominal_length)
+    peak = float(np.abs(fit.data["force"]).max())
+    p, f = (a.ravel() for a in np.meshgrid(np.linspace(0.25e6, 0.6e6, 8), np.linspace(0.2, 0.6, 5) * peak))
+    rows, lengths = [], {}
+    for direction in ("inflate", "deflate"):
+        ell, state = law_statics.rising_root(lambda pp, ww, dn=direction: fit.result.func(fit.result.values, pp, ww, dn),
+                                             p, f, 0.6 * l0, 1.05 * l0)
+        ok = state == 0
+        assert ok.sum() >= 20, f"{name} {direction}: the law holds too few of the loads"
+        lengths[direction] = (p[ok], f[ok], ell[ok])
+        rows += [f"{float(a) / 1e3!r},{float(b)!r},{float(c) * 1e3!r},{direction},1\n"
+                 for a, b, c in zip(p[ok], f[ok], ell[ok])]
+    gap = np.max(np.abs(fit.result.func(fit.result.values, p, 0.9 * l0, "inflate")
+                        - fit.result.func(fit.result.values, p, 0.9 * l0, "deflate")))
+    assert gap > 0.01 * peak, f"{name}: the branches do not differ; the test could not tell them apart"
+    csv = tmp_path / "hysteresis.csv"
+    csv.write_text("pressure_kPa,load_N,length_mm,direction,trial\n" + "".join(rows))
+    res = fit_isotonic_law(read_table(csv, "hysteresis"), fit.muscle, name)
+    assert not [fl for fl in res.flags if fl.endswith("_unconstrained")], res.flags
+    for direction, (pp, ff, ell) in lengths.items():  # each branch's lengths come back
+        back, state = law_statics.rising_root(lambda a, b, dn=direction: res.func(res.values, a, b, dn),
+                                              pp, ff, 0.6 * l0, 1.05 * l0)
+        # rtol: the fit's tolerance on noise-free data (as the isotonic test above)
+        np.testing.assert_allclose(back, ell, rtol=1e-4, err_msg=f"{name} {direction}")

@@ -119,7 +119,7 @@ def test_one_muscle_fits_without_an_end_zone(family):
 
 
 def test_a_non_physical_fit_is_flagged():
-    from mckibben.data.io import MuscleSpec
+    from mckibben.data.muscle_file import MuscleSpec
     from mckibben.models.laws.virtual_work import fit_spec
 
     spec = MuscleSpec(id="x", nominal_length=0.2, outer_diameter=0.01)

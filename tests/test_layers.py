@@ -252,3 +252,58 @@ def test_no_import_circle_in_the_package():
     """No circle anywhere in ``src/mckibben`` but through the one documented deferral (:data:`DEFERRED_OWN`)."""
     edges = {(a, b) for a, b, _, _ in IMPORTS if (a, b) not in DEFERRED_OWN}
     assert _cycles(edges) == []
+
+
+def _defined(tree: ast.Module) -> list[str]:
+    """The public names a module defines at its top level: functions, classes and assigned names
+    (an import, ``from x import name``, defines nothing: it names the one definition)."""
+    out = []
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            out.append(node.name)
+        elif isinstance(node, ast.Assign):
+            out += [t.id for t in node.targets if isinstance(t, ast.Name)]
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            out.append(node.target.id)
+    return [n for n in out if not n.startswith("_")]
+
+
+def _defined_twice(trees) -> dict[str, list[str]]:
+    where: dict[str, list[str]] = {}
+    for module, _, tree in trees:
+        for name in _defined(tree):
+            where.setdefault(name, []).append(module)
+    return {name: mods for name, mods in where.items() if len(mods) > 1}
+
+
+#: Packages whose grab-bags were split (issue 34): each public name is defined in one of their modules,
+#: and the old homes (``data.io``, ``plant.params``) import what moved.
+SPLIT = ("mckibben.data", "mckibben.plant")
+
+
+@pytest.mark.parametrize("package", SPLIT)
+def test_no_public_name_is_defined_twice_in_the_split_packages(package):
+    trees = [t for t in TREES if t[0] == package or t[0].startswith(package + ".")]
+    assert len(trees) >= 5  # the walk sees the package's modules
+    assert _defined_twice(trees) == {}
+
+
+def test_the_old_homes_still_import_what_moved():
+    """``mckibben.data.io`` and ``mckibben.plant.params`` define none of the moved names and still give each."""
+    import mckibben.data.io as io
+    import mckibben.plant.params as params
+
+    for old, names in ((io, io.__all__), (params, ("Col", "NP", "derive", "validate", "check_force_law", "Load", "G"))):
+        for name in names:
+            value = getattr(old, name)
+            home = getattr(value, "__module__", None)
+            if home is not None and callable(value):
+                assert home != old.__name__, f"{old.__name__}.{name} is defined there, not imported"
+    tree = next(t for m, _, t in TREES if m == "mckibben.data.io")
+    assert _defined(tree) == []  # io.py defines nothing public
+
+
+def test_the_twice_check_finds_a_name_defined_twice():
+    a = ast.parse("def read_table(path):\n    pass\nfrom x import Table\n")
+    b = ast.parse("read_table = None\nTable = 1\n")
+    assert _defined_twice([("p.a", False, a), ("p.b", False, b)]) == {"read_table": ["p.a", "p.b"]}

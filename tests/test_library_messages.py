@@ -19,11 +19,24 @@ FLAG = re.compile(r"(?:^|[\s(`'\"/])--[a-z][a-z-]*")
 KNOWN = {
     # another program's command line, quoted in a hint
     ("doctor.py", "; start one with: dask scheduler --port "): "the Dask scheduler's own flag",
+    # the processor-in-the-loop harness's own command line (firmware/pil/pil.c), which the engine runs
+    ("rig/engines/avr.py", "--boot-time"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--unthrottled"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--stall-at"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--hold-adc"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--load-cell"): "the PIL harness's own flags (--load-cell, -offset, -noise, -seed)",
+    ("rig/engines/avr.py", "--bench-dir"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--adc-miss-at"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--adc-miss-n"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--profile"): "the PIL harness's own flag",
+    ("rig/engines/avr.py", "--rings"): "the PIL harness's own flag",
     # provenance notes of the generated data: the command that generated them
     ("datasets/campaign.py", "mckibben datasets generate --seed"): "provenance of generated data",
     ("datasets/isometric.py", "mckibben fit isometric.csv --model spring --json"): "the generated data's README",
     ("datasets/published.py", "unreadable in our copy: fit them with `mckibben fit --model spring`"): "a data note",
     ("fit/muscle_file.py", "Force law fitted by mckibben fit --model "): "provenance note written into the file",
+    # the report's closing section: the command lines that run the same on a lab's own data
+    ("report/html.py", "<h2>Run it on your data</h2>"): "the report shows the commands to type",
 }
 
 

@@ -85,8 +85,10 @@ def test_out_of_range_pressure_and_load_are_flagged():
 def test_negative_length_is_flagged():
     r = predict_length(get_muscle("mpam143"), 0.8e6, 30.0)  # a wild extrapolation in load
     assert r.flags & Flag.LOAD_OUT_OF_RANGE
-    r = pressure_for_length(get_muscle("mpam97"), -0.01, 0.6)
+    r = pressure_for_length(get_muscle("mpam97"), 0.01, 0.6)  # a length no pressure reaches: flagged
     assert r.flags & Flag.UNREACHABLE
+    with pytest.raises(InputError, match="length: -0.01 m is not a muscle's length"):  # no muscle's: refused
+        pressure_for_length(get_muscle("mpam97"), -0.01, 0.6)
 
 
 # ---- loads between and beyond the characterized ones --------------------------------------

@@ -15,8 +15,8 @@ mujoco = pytest.importorskip("mujoco")
 from mckibben.control.core import core_spec  # noqa: E402
 from mckibben.control.experiment_setup import controller_params  # noqa: E402
 from mckibben.errors import InputError  # noqa: E402
-from mckibben.export.mujoco import (MuscleBank, hanging_mass, hanging_mass_mjcf, load_model, muscle_plant,  # noqa: E402
-                                    run_model)
+from mckibben.export.mujoco import MuscleBank, hanging_mass_mjcf, load_model, muscle_plant  # noqa: E402
+from mckibben.experiments.mujoco import hanging_mass, run_model  # noqa: E402
 from mckibben.plant import simulate, static_length  # noqa: E402
 from mckibben.experiments import track_tip as track  # noqa: E402
 from mckibben.tool import make_tool, parse_path  # noqa: E402

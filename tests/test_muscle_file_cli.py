@@ -23,7 +23,7 @@ def files(tmp_path_factory):
     out = {}
     for model in ("spring", "surface"):
         out[model] = str(folder / f"{model}.toml")
-        r = run_cli("fit", ISO, "--model", model, "--muscle", MUSCLE, "--save", out[model], "--json")
+        r = run_cli("fit", ISO, "--model", model, "--muscle-file", MUSCLE, "--save", out[model], "--json")
         assert r.code == 0, r.err
     return out
 

@@ -9,7 +9,7 @@ import pytest
 
 from mckibben.errors import InputError
 from mckibben.plant import PlantParams, calibration, open_loop_step, simulate
-from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import chamber_volume, initial_states
 
@@ -52,7 +52,7 @@ def test_air_mass_is_conserved_with_valves_closed_and_no_leak_while_the_load_mov
     assert moved.max() - moved.min() > 1e-3  # the load really moved (mm)
     # and the gas followed p·V^k = const while it moved
     vols = chamber_volume(p, moved)
-    pv = (res2.pressure[0] + PP.P_ATM) * vols ** exponent
+    pv = (res2.pressure[0] + PK.P_ATM) * vols ** exponent
     assert np.max(np.abs(pv / pv[0] - 1.0)) < 1e-9
 
 
@@ -70,8 +70,8 @@ def test_inflating_needs_more_pressure_than_deflating():
     lengths = []
     for pg in ramp:
         for _ in range(20):
-            bk[ph.Z_P] = pg + PP.P_ATM
-            bk[ph.Z_T] = PP.T0
+            bk[ph.Z_P] = pg + PK.P_ATM
+            bk[ph.Z_T] = PK.T0
             ph.rk4_step(1, bk, law, 1e-4)
         lengths.append(bk[ph.Z_LEN])
     lengths = np.array(lengths)

@@ -13,7 +13,7 @@ from mckibben.models.mpam import predict_length
 from mckibben.models.physical import BraidGeometry, TonduLopez, length_under_load
 from mckibben.models.spring import spring_length
 from mckibben.plant import PlantParams, simulate, static_length
-from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 
 PRESSURES = np.arange(1, 9) * 0.1e6  # the papers' 0.1..0.8 MPa
 LOADS = np.array([0.1, 0.6, 1.0, 1.5, 2.1, 3.0])  # around the characterized 0.6 and 2.1 N
@@ -35,7 +35,7 @@ def _cases(plant, model_length):
     prm = plant.pack(1)[0]
     p, w = (a.ravel() for a in np.meshgrid(PRESSURES, LOADS))
     want = np.asarray(model_length(p, w), dtype=float)
-    ok = np.isfinite(want) & (want > prm[PP.Col.l_min] + 1e-4) & (want < prm[PP.Col.nominal_length] - 1e-4)
+    ok = np.isfinite(want) & (want > prm[PK.Col.l_min] + 1e-4) & (want < prm[PK.Col.nominal_length] - 1e-4)
     return p[ok], w[ok], want[ok], prm
 
 
@@ -43,7 +43,7 @@ def _check_law(plant, model_length, at_least):
     p, w, want, prm = _cases(plant, model_length)
     assert p.size >= at_least
     # start 3 mm to alternate sides of the answer, inside the stops
-    start = np.clip(want + np.where(np.arange(p.size) % 2, 3e-3, -3e-3), prm[PP.Col.l_min], prm[PP.Col.l_max])
+    start = np.clip(want + np.where(np.arange(p.size) % 2, 3e-3, -3e-3), prm[PK.Col.l_min], prm[PK.Col.l_max])
     got = _settle(plant, p, w, start)
     # the bar of issue 13: ≤ 1 % length error at steady state (same kernel; the residue is the
     # 1 µN friction left on and the settling of 2 s)
@@ -127,10 +127,10 @@ def test_adiabatic_fill_follows_the_energy_balance():
     # energy balance, m − m0 = V(p − p0)/(γ·R·Ts), T = pV/(mR) (Richer & Hurmuzlu 2000)
     plant = PlantParams(load_kind=1.0, heat_transfer_coefficient=0.0, leak_conductance=0.0)
     r = simulate(plant, 0.05, inlet=255, n=1)
-    p = r.pressure[0] + PP.P_ATM
+    p = r.pressure[0] + PK.P_ATM
     m0 = r.air_mass[0, 0]
-    v = m0 * PP.R_AIR * PP.T0 / p[0]
-    t_expected = p * v / (PP.R_AIR * (m0 + v * (p - p[0]) / (1.4 * PP.R_AIR * PP.T0)))
+    v = m0 * PK.R_AIR * PK.T0 / p[0]
+    t_expected = p * v / (PK.R_AIR * (m0 + v * (p - p[0]) / (1.4 * PK.R_AIR * PK.T0)))
     np.testing.assert_allclose(r.temperature[0], t_expected, rtol=1e-7)  # RK4 round-off level
     assert r.temperature[0, -1] > 380  # the adiabatic fill heats the gas by ~100 K
 
@@ -140,8 +140,8 @@ def test_gas_cools_to_the_wall_and_air_use_is_isothermal_after_a_hold():
     # isothermal air mass. With wall exchange the 1 mm tubing's time constant is ~10 ms.
     plant = PlantParams(load_kind=1.0)
     r = simulate(plant, 2.0, inlet=255, n=1)
-    assert r.temperature[0, -1] == pytest.approx(PP.T0, abs=0.5)
-    iso = (r.pressure[0, -1] + PP.P_ATM) * r.air_mass[0, 0] / ((r.pressure[0, 0] + PP.P_ATM))
+    assert r.temperature[0, -1] == pytest.approx(PK.T0, abs=0.5)
+    iso = (r.pressure[0, -1] + PK.P_ATM) * r.air_mass[0, 0] / ((r.pressure[0, 0] + PK.P_ATM))
     assert r.air_mass[0, -1] == pytest.approx(iso, rel=2e-3)
     poly = simulate(plant.replace(thermal="polytropic"), 2.0, inlet=255, n=1)
     assert poly.air_mass[0, -1] < 0.8 * r.air_mass[0, -1]  # what the old model under-counted
@@ -189,7 +189,7 @@ def test_the_force_law_check_groups_instances_as_np_unique_does():
     key[13] = key[12]
     key[13, 2] = 0.0
     want = np.sort(np.unique(key, axis=0, return_index=True)[1])
-    np.testing.assert_array_equal(np.sort(PP._first_of_each_row(key)), want)
+    np.testing.assert_array_equal(np.sort(PK._first_of_each_row(key)), want)
     assert 3 < len(want) < 500
 
 
@@ -221,9 +221,9 @@ def test_record_keeps_only_the_series_asked_for():
 
 def test_a_scalar_plant_packs_the_same_after_an_empty_pack():
     plant = PlantParams()
-    assert plant.pack(0).shape == (0, PP.NP)
+    assert plant.pack(0).shape == (0, PK.NP)
     first = plant.pack(3)
-    assert first.shape == (3, PP.NP)
+    assert first.shape == (3, PK.NP)
     first[:] = 0.0  # the caller's copy: the next pack is untouched
     np.testing.assert_array_equal(plant.pack(2), PlantParams().pack(2))
 
@@ -267,7 +267,7 @@ def test_small_batches_bracket_the_static_start_as_the_compiled_bisection_does(n
     assert LW.LAW_NAMES[law] == name
     pg = rng.uniform(-5e4, 9e5, n)
     th = np.ascontiguousarray(th)
-    c = PP.Col
+    c = PK.Col
     out = []
     for run in (lambda a, b, s: S._bracket_balance(int(law), np.ascontiguousarray(prm), th.ravel(), th.shape[1],
                                                    pg, a, b, s),

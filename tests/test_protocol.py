@@ -80,7 +80,7 @@ def test_missing_counts_across_the_16_bit_wrap():
 
 def test_bad_version_and_wrong_length_are_counted():
     p = P.Parser()
-    raw = bytes([3, P.TELEMETRY, 0, 0]) + bytes(22)
+    raw = bytes([max(P.VERSIONS_READ) + 1, P.TELEMETRY, 0, 0]) + bytes(22)
     raw += P.crc16(raw).to_bytes(2, "little")
     p.feed(P.cobs_encode(raw) + b"\x00")
     assert p.bad_version == 1 and p.frames == 0
@@ -142,7 +142,7 @@ class ChannelC(ctypes.Structure):
 
 class TelemetryC(ctypes.Structure):
     _fields_ = [("t_us", ctypes.c_uint32), ("encoder", ctypes.c_int32), ("n", ctypes.c_uint8),
-                ("ch", ChannelC * 3)]
+                ("ch", ChannelC * 3), ("force_adc", ctypes.c_uint16)]
 
 
 @pytest.fixture(scope="module")
@@ -183,8 +183,10 @@ def test_c_ack_and_hello_match(clib):
     buf = (ctypes.c_uint8 * 32)()
     n = clib.mck_encode_ack(9, 513, P.GET_GAIN, 4, ctypes.c_int32(-5), buf, 32)
     assert bytes(buf[:n]) == P.encode_ack(9, 513, P.GET_GAIN, 4, -5)
-    n = clib.mck_encode_hello(0, 3, 1000, ctypes.c_uint32(1_000_000), 20, buf, 32)
+    n = clib.mck_encode_hello(0, 3, 1000, ctypes.c_uint32(1_000_000), 20, ctypes.c_uint32(0), buf, 32)
     assert bytes(buf[:n]) == P.encode_hello(0, 3, 1000, 1_000_000, 20)
+    n = clib.mck_encode_hello(0, 3, 1000, ctypes.c_uint32(1_000_000), 20, ctypes.c_uint32(20_000), buf, 32)
+    assert bytes(buf[:n]) == P.encode_hello(0, 3, 1000, 1_000_000, 20, load_cell=20.0)
 
 
 @pytest.mark.parametrize(

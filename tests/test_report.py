@@ -84,3 +84,23 @@ def test_reproduce_refuses_a_folder_that_is_not_a_report(tmp_path):
     # the output folder is checked first, before any data is read
     assert r.code == 2 and r.err.startswith(f"error: --out: {tmp_path} exists and is neither empty nor a report")
     assert (tmp_path / "mine.txt").read_text() == "keep"
+
+
+def test_report_figures_are_captioned_and_it_ends_with_how_to_run_it_on_your_data(report):
+    import html
+    import re
+
+    from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
+
+    out, _ = report
+    page = (out / "index.html").read_text()
+    captions = re.findall(r"<figcaption>(.*?)</figcaption>", page)
+    assert len(captions) == len(FIGURES)
+    for k, (name, text) in enumerate(zip(FIGURES, captions), 1):
+        first = (ALL_FIGURES | ISOMETRIC_FIGURES)[name].__doc__.strip().split()[0]  # the drawing function's words
+        assert html.unescape(text).startswith(f"Figure {k}. {first}"), text
+        assert f"alt='{text}'" in page  # the caption is the image's text too, not its file name
+    assert "alt='isometric.png'" not in page
+    tail = page[page.index("<h2>Run it on your data</h2>"):]
+    assert "mckibben fit isometric.csv --model spring --muscle-file my.toml --save mine.toml" in tail
+    assert "mckibben reproduce --data FOLDER" in tail and page.index("<h2>Figures</h2>") < page.index(tail)

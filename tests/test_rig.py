@@ -1,4 +1,5 @@
-"""The rig over a real pseudo-terminal: the emulator (firmware core on three plants) and the host.
+"""The rig over a real pseudo-terminal: the device engines (the Python emulator, and the firmware
+image itself in simavr against the C plant) and the host. Every device test runs against both.
 
 Real ptys, real processes and signals. Waits are bounded and generous; assertions are on counts
 and contents, not on how long something took.
@@ -23,6 +24,8 @@ from mckibben.rig.device import connect
 from mckibben.rig.emulator import Emulator
 from mckibben.rig.recorder import read_recording
 
+from conftest import start_device
+
 
 def _wait(cond, timeout=30.0, every=0.02):
     end = time.monotonic() + timeout
@@ -42,13 +45,15 @@ def _record(port, out, seconds):
     return meta["counters"], data
 
 
-def test_ten_seconds_at_1khz_three_channels_with_no_missing_frame(tmp_path):
-    with Emulator() as em:
+def test_ten_seconds_at_1khz_three_channels_with_no_missing_frame(tmp_path, engine):
+    with start_device(engine) as em:
         c, df = _record(em.port, tmp_path / "run.parquet", 10.0)
         dropped = em.dropped
     # every frame the device sent arrived, intact; the only gaps would be frames the device's
-    # UART queue dropped (a host starved of CPU stops reading: counted, never hidden)
-    assert c["corrupt"] == 0 and c["missing"] <= dropped
+    # UART queue dropped (a host starved of CPU stops reading: counted, never hidden) and, on the
+    # image, the periods its main loop came too late for (measured under 1 %: docs/firmware.md)
+    late = 0.01 * len(df) if engine == "avr" else 0
+    assert c["corrupt"] == 0 and c["missing"] <= dropped + late
     assert c["missing"] <= 100  # a recorder in its own process keeps up
     assert len(df) >= 9_400  # 10 s at 1 kHz, less the start-up of the stream (≤ 0.5 s)
     seq = df["seq"].to_numpy()
@@ -57,7 +62,7 @@ def test_ten_seconds_at_1khz_three_channels_with_no_missing_frame(tmp_path):
     assert np.allclose(np.diff(t), 1e-3 * np.diff(seq))  # every control period, 1 ms apart
     assert {"ch1_pressure_Pa", "ch2_faults"} <= set(df.columns)
     data, meta = read_recording(tmp_path / "run.parquet")
-    assert meta["protocol_version"] == 2 and meta["n_channels"] == 3
+    assert meta["protocol_version"] == P.VERSION and meta["n_channels"] == 3
     assert not (tmp_path / "run.parquet.journal").exists()
 
 
@@ -82,8 +87,8 @@ def test_garbage_and_cut_frames_are_counted_and_skipped(tmp_path):
     assert corrupt - 1 - dropped <= c["corrupt"] <= corrupt + 1
 
 
-def test_opening_the_port_resets_the_device_and_the_host_waits_for_hello():
-    with Emulator(boot_time=0.5) as em:
+def test_opening_the_port_resets_the_device_and_the_host_waits_for_hello(engine):
+    with start_device(engine, boot_time=0.5) as em:
         assert _wait(lambda: em.steps > 50)
         assert em.resets == 0
         # a host that writes at once, as rig step did: the bootloader swallows the command
@@ -123,8 +128,8 @@ def test_no_hello_is_a_clear_error():
         os.close(slave)
 
 
-def test_the_clock_runs_when_nobody_reads_and_drops_are_counted_like_a_uart():
-    with Emulator() as em:
+def test_the_clock_runs_when_nobody_reads_and_drops_are_counted_like_a_uart(engine):
+    with start_device(engine) as em:
         link, _, parser = connect(em.port)
         link.write(P.stream(0, True, 1))
         # stop reading: the pty fills, the UART queue overflows, frames are dropped and counted
@@ -135,19 +140,21 @@ def test_the_clock_runs_when_nobody_reads_and_drops_are_counted_like_a_uart():
         # read again: the host's parser sees every dropped frame as a gap in the device's seq
         assert _wait(lambda: frames.extend(parser.feed(link.read(65536))) or
                      parser.missing >= 300, timeout=30)
-        dropped = em.dropped
         frames.extend(parser.feed(link.read(65536)))
         link.close()
+        time.sleep(0.5)  # the avr engine's counters are a line its harness prints every 0.2 s
+        dropped = em.dropped
     assert parser.corrupt == 0
-    assert 300 <= parser.missing <= dropped
+    late = 0.01 * (len(frames) + parser.missing) if engine == "avr" else 0  # as in the ten-second test
+    assert 300 <= parser.missing <= dropped + late
     # the device clock in the telemetry followed every period, dropped or not
     t = [f.t_us for f in frames if isinstance(f, P.Telemetry)]
     assert (t[-1] - t[0]) / 1000 + 1 >= len(t) + parser.missing - 5
 
 
-def test_kill_9_loses_at_most_a_quarter_second_and_the_next_recorder_keeps_nothing_older(tmp_path):
+def test_kill_9_loses_at_most_a_quarter_second_and_the_next_recorder_keeps_nothing_older(tmp_path, engine):
     out = tmp_path / "run.parquet"
-    with Emulator() as em:
+    with start_device(engine) as em:
         rec = subprocess.Popen([sys.executable, "-m", "mckibben.cli", "rig", "record", "--port", em.port, "--out",
                                 str(out), "--duration", "60s", "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         journal = Path(str(out) + ".journal")
@@ -183,8 +190,8 @@ def test_kill_9_loses_at_most_a_quarter_second_and_the_next_recorder_keeps_nothi
     assert np.all(np.diff(after["time_s"].to_numpy()) > 0)
 
 
-def test_rig_step_metrics_over_the_link(cli):
-    with Emulator() as em:
+def test_rig_step_metrics_over_the_link(cli, engine):
+    with start_device(engine) as em:
         r = cli("rig", "step", "--port", em.port, "--target", "0.4MPa", "--duration", "0.5s", "--json")
     assert r.code == 0, r.err
     m = r.json()
@@ -192,29 +199,31 @@ def test_rig_step_metrics_over_the_link(cli):
     assert 0 < m["rise_time_s"] < 0.3 and np.isfinite(m["time_constant_s"])
 
 
-def test_rig_gains_round_trip_and_the_emulator_applies_them_identically(cli, tmp_path):
+def test_rig_gains_round_trip_and_the_emulator_applies_them_identically(cli, tmp_path, engine):
     design = tmp_path / "design.json"
     r = cli("control", "step", "--target", "0.4MPa", "--duration", "0.2s", "--save-design", str(design), "--json")
     assert r.code == 0, r.err
     params = core.load_design(design)
     assert params.g > 0 and params.sup_g == params.g  # the identified model, for law and supervisor
-    with Emulator() as em:
+    with start_device(engine) as em:
         r = cli("rig", "gains", "--port", em.port, "--from", str(design), "--json")
         assert r.code == 0, r.err
         out = r.json()
         assert out["verified"] is True and out["channels"] == [0, 1, 2]
         want = core.pack_params(params)[1]
         for i in range(3):  # bit for bit what pack_params (the Python API) makes of the design
-            assert out["read_back"][str(i)] == out["gains"]
-            assert np.array_equal(em.bank[i].iparams, want)
+            assert out["read_back"][str(i)] == out["gains"]  # read back by GET_GAIN from the device
+            if engine == "python":
+                assert np.array_equal(em.bank[i].iparams, want)
         r = cli("rig", "gains", "--port", em.port, "--from", str(design), "--channel", "1")
         assert r.code == 0 and "verified" in r.out
 
 
 @pytest.mark.parametrize("kind", ["SIGTERM", "SIGINT"])
-def test_emulate_removes_its_link_on_signals(tmp_path, kind):
+def test_emulate_removes_its_link_on_signals(tmp_path, kind, engine):
     link = tmp_path / "tty"
-    p = subprocess.Popen([sys.executable, "-m", "mckibben.cli", "rig", "emulate", "--link", str(link), "--json"],
+    p = subprocess.Popen([sys.executable, "-m", "mckibben.cli", "rig", "emulate", "--engine", engine, "--link",
+                          str(link), "--json"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert _wait(link.is_symlink, timeout=60)
@@ -222,7 +231,7 @@ def test_emulate_removes_its_link_on_signals(tmp_path, kind):
         while not text.endswith("}\n"):
             text += p.stdout.readline()
         info = json.loads(text)
-        assert os.path.realpath(link) == info["port"] and info["channels"] == 3
+        assert os.path.realpath(link) == info["port"] and info["channels"] == 3 and info["engine"] == engine
         p.send_signal(getattr(signal, kind))
         p.wait(timeout=20)
     finally:
@@ -243,6 +252,9 @@ def test_emulate_removes_its_link_on_signals(tmp_path, kind):
         (["rig", "step", "--port", "{pty}", "--controller", "lqr"], "error: --controller: 'lqr' must be one of smc, pid"),
         (["rig", "emulate", "--link", "/no/such/dir/tty"], "error: --link: cannot create '/no/such/dir/tty'"),
         (["rig", "emulate", "--channels", "4"], "error: --channels: 4 must be 1, 2 or 3"),
+        (["rig", "emulate", "--engine", "qemu"], "error: --engine: 'qemu' must be one of python, avr"),
+        (["rig", "emulate", "--supply", "2MPa"], "error: --supply: '2MPa' must be above 0 and at most 1 MPa"),
+        (["rig", "emulate", "--engine", "avr", "--supply", "fast"], "error: --supply: cannot read 'fast' as a pressure"),
         (["rig", "gains", "--port", "{pty}", "--from", "{tmp}/none.json"], "error: --from: '{tmp}/none.json' does not exist"),
         (["rig", "gains", "--port", "{pty}", "--from", "{tmp}/bad.json"], "error: --from: '{tmp}/bad.json' is not JSON"),
         (["rig", "gains", "--port", "{pty}", "--from", "{tmp}/other.json"], "error: --from: '{tmp}/other.json' is not a controller design"),

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from mckibben.data import read_muscle, read_table
-from mckibben.data.io import RAIL_MIN_ROWS, apply_pressure_zero, find_rails
+from mckibben.data.preprocessing import RAIL_MIN_ROWS, apply_pressure_zero, find_rails
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
 from mckibben.errors import InputError
 from mckibben.fit.isometric import fit_isometric, isometric_points
@@ -63,9 +63,9 @@ def test_every_fit_reports_its_tare_rails_and_pressure_zero(tmp_path, cli):
     d = fit.to_dict()["tare"]
     assert d["method"] == "lowest" and len(d["per_run_N"]) == 12
     assert d["rails"]["rows_at_rail"] > 0 and d["pressure_zero"]["method"] == "column"
-    r = cli("fit", str(path), "--model", "spring", "--muscle", str(MUSCLE), "--tare", "lowest", "--json")
+    r = cli("fit", str(path), "--model", "spring", "--muscle-file", str(MUSCLE), "--tare", "lowest", "--json")
     assert r.code == 0 and "rows at a sensor's rail" in r.err and r.json()["tare"]["rails"]["rows_at_rail"] > 0
-    r = cli("compare", str(path), "--muscle", str(MUSCLE), "--rails", "drop")
+    r = cli("compare", str(path), "--muscle-file", str(MUSCLE), "--rails", "drop")
     assert r.code == 2 and "rails" in r.err and len(r.err.strip().splitlines()) == 1
-    r = cli("fit", str(path), "--model", "spring", "--muscle", str(MUSCLE), "--pressure-zero", "guess")
+    r = cli("fit", str(path), "--model", "spring", "--muscle-file", str(MUSCLE), "--pressure-zero", "guess")
     assert r.code == 2 and "pressure zero" in r.err

@@ -165,7 +165,7 @@ def test_cli_run_and_summarize(cli, tmp_path):
         (["sweep", "run", "{toml}", "--scheduler", "tcp://127.0.0.1:1", "--out", "{tmp}/results"], "error: --scheduler: cannot reach tcp://127.0.0.1:1"),
         (["sweep", "run", "{toml}", "--out", "/proc/forbidden"], "error: --out: cannot write in folder '/proc'"),
         (["sweep", "summarize", "{tmp}"], "error: '{tmp}': no sweep results (chunk-*.parquet) there"),
-        (["sweep", "run", "{toml}"], "error (mckibben sweep run): Missing option '--out'"),
+        (["sweep", "run", "{toml}"], "error: mckibben sweep run: Missing option '--out'"),
     ],
 )
 def test_cli_bad_input(cli, tmp_path, args, message):
@@ -212,7 +212,7 @@ def test_a_chunk_is_packed_as_its_runs_would_be_one_by_one(tmp_path):
     from mckibben.control.core import MODE_PID, CoreParams, core_spec
     from mckibben.datasets import get_muscle
     from mckibben.plant import PlantParams
-    from mckibben.plant.params import _FIELDS
+    from mckibben.plant.packing import _FIELDS
     from mckibben.sweep.run import _controllers, _plants
 
     rows = load_sweep(write(tmp_path, MIXED)).chunk(0)

@@ -55,14 +55,14 @@ scores[["n_parameters", "rmse_m", "cv_rmse_m", "within_20pct"]]"""),
         ("code", """fig, ax = plt.subplots()
 (scores["cv_rmse_m"] * 1e3).sort_values().plot.barh(ax=ax)
 ax.set_xlabel("cross-validated RMSE of the length [mm]");"""),
-        ("md", "## Predict\n\nThe published muscle under 0.6 N, from every static model through one calling convention (`mckibben.models.length`), beside the campaign's measurements."),
-        ("code", """from mckibben.models import LENGTH_MODELS, length
+        ("md", "## Predict\n\nThe published muscle under 0.6 N, from every registered law with a published parameter set through one calling convention (`mckibben.models.length`), beside the campaign's measurements."),
+        ("code", """from mckibben.models import force_laws, length
 
 muscle = mk.get_muscle("mpam97")
 pressure = np.linspace(0.05e6, 0.8e6, 76)
 measured = iso.data[np.isclose(iso.data["load"], 0.6)]
 fig, ax = plt.subplots()
-for name in LENGTH_MODELS:
+for name in force_laws():  # every registered law with a published parameter set
     pred = length(pressure, "0.6N", muscle, model=name)
     ax.plot(pressure / 1e6, pred.length * 1e3, label=name)
 ax.plot(measured["pressure"] / 1e6, measured["length"] * 1e3, ".", label="campaign (synthetic)")

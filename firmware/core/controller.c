@@ -428,7 +428,7 @@ MCK_INLINE void step(mck_state_t *s, const mck_coef_t *k, uint16_t adc, uint8_t 
 {
     int32_t p, pref, e, u, surface, lead;
     uint16_t a;
-    uint8_t inlet = 0, bleed = 0, faults, cut;
+    uint8_t inlet = 0, bleed = 0, faults, cut, cap;
 
     /* supervisor 3: sensor faults */
     if (sample_ok) {
@@ -461,7 +461,10 @@ MCK_INLINE void step(mck_state_t *s, const mck_coef_t *k, uint16_t adc, uint8_t 
     lead += lead;
     lead += lead;
     lead += p;
-    cut = lead > k->p_over; /* a flag, not a 32-bit value, lives across the law */
+    cut = lead > k->p_max; /* a flag and a byte, not 32-bit values, live across the law */
+    lead = k->p_max - p;    /* the headroom */
+    cap = cut || lead <= 0 ? 0u
+        : lead >= (255L << MCK_HEADROOM_SHIFT) ? 255u : (uint8_t)(lead >> MCK_HEADROOM_SHIFT);
     s->p_prev = p;
     e = pref - p;
     surface = e;
@@ -492,8 +495,10 @@ MCK_INLINE void step(mck_state_t *s, const mck_coef_t *k, uint16_t adc, uint8_t 
             bleed = k->ol_bleed;
         }
     }
-    /* supervisor 2b: shut the inlet before the valve's lag carries p past p_max + margin */
-    if (cut) inlet = 0u;
+    /* supervisor 2b: the inlet within the headroom cap, shut and the bleed wide open while the
+     * predicted pressure is past p_max */
+    if (inlet > cap) inlet = cap;
+    if (cut) bleed = 255u;
     faults = (uint8_t)(s->latched | (s->over ? MCK_FAULT_OVERPRESSURE : 0u));
     s->last_inlet = inlet;
     s->last_bleed = bleed;

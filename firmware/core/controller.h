@@ -37,9 +37,13 @@
 #define MCK_FAULT_MISSING 0x08u      /* n_missing consecutive missing samples */
 #define MCK_FAULT_VENT 0x10u         /* vent latched by command (VENT) */
 
-/* Supervisor 2b: the inlet is shut while p + MCK_LEAD_SAMPLES (p - p_prev) > p_max + margin,
- * the pressure extrapolated over the inlet valve's closing time (~3 ms lag + one period). */
+/* Supervisor 2b: the inlet is shut and the bleed opened wide while p + MCK_LEAD_SAMPLES
+ * (p - p_prev) > p_max, the pressure extrapolated over the inlet valve's closing time (~3 ms lag
+ * + one period); below that the inlet is capped at (p_max - p) >> MCK_HEADROOM_SHIFT counts (255
+ * from 65.3 kPa below p_max, 0 at p_max): a valve that opens near the maximum cannot carry the
+ * pressure past it through its lag (docs/controller.md, Safety). */
 #define MCK_LEAD_SAMPLES 4
+#define MCK_HEADROOM_SHIFT 8
 /* Supervisor 3, the response rule: the supervisor's valve model p = G_s (u - u0_s) (gains
  * SUP_G, SUP_U0: the identified model) predicts that the reading must move when
  *   - the bleed is at >= u0_s + MCK_RESP_DU counts (open past any plausible lift-off), the

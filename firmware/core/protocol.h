@@ -1,4 +1,4 @@
-/* mckibben serial protocol, version 2 (docs/protocol.md): COBS frames with CRC-16/CCITT-FALSE.
+/* mckibben serial protocol, version 3 (docs/protocol.md): COBS frames with CRC-16/CCITT-FALSE.
  * Portable C99: built for the ATmega2560 and, in the tests, for the host. */
 #ifndef MCK_PROTOCOL_H
 #define MCK_PROTOCOL_H
@@ -6,7 +6,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define MCK_PROTOCOL_VERSION 2u
+#define MCK_PROTOCOL_VERSION 3u
+#define MCK_PROTOCOL_VERSION_MIN 2u /* commands of version 2 hosts are read too (the same bodies) */
 #define MCK_MAX_CHANNELS_WIRE 3u /* channels a TELEMETRY frame can carry */
 #define MCK_MAX_FRAME 64u  /* largest decoded frame (version..crc) */
 #define MCK_MAX_PACKET (MCK_MAX_FRAME + MCK_MAX_FRAME / 254u + 2u) /* COBS + delimiter */
@@ -43,6 +44,7 @@ typedef struct {
     int32_t encoder;
     uint8_t n;          /* channels 1..MCK_MAX_CHANNELS_WIRE */
     mck_channel_telemetry_t ch[MCK_MAX_CHANNELS_WIRE];
+    uint16_t force_adc; /* the load cell's ADC count (sent by mck_encode_telemetry_force) */
 } mck_telemetry_t;
 
 /* CRC-16/CCITT-FALSE over len bytes. */
@@ -56,15 +58,19 @@ size_t mck_encode_frame(uint8_t type, uint16_t seq, const uint8_t *body, size_t 
 /* Encode a telemetry frame: body 9 + 14 n bytes (n = 3: 51; 59 bytes on the wire). */
 size_t mck_encode_telemetry(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap);
 
+/* The same with the load cell's count t->force_adc after the channels (2 more bytes; version 3,
+ * a device with a load cell). */
+size_t mck_encode_telemetry_force(const mck_telemetry_t *t, uint16_t seq, uint8_t *out, size_t cap);
+
 /* Encode an acknowledgement for the command (cmd_seq, cmd_type) with a status code and a value
  * (GET_GAIN: the gain; otherwise 0). */
 size_t mck_encode_ack(uint16_t seq, uint16_t cmd_seq, uint8_t cmd_type, uint8_t status, int32_t value,
                       uint8_t *out, size_t cap);
 
 /* Encode the HELLO frame the firmware sends once it runs: its channels, control period, baud
- * rate and number of gains. */
+ * rate, number of gains and its load cell's full scale in mN (0: no load cell). */
 size_t mck_encode_hello(uint16_t seq, uint8_t n_channels, uint16_t ts_us, uint32_t baud, uint8_t n_gains,
-                        uint8_t *out, size_t cap);
+                        uint32_t load_cell_mn, uint8_t *out, size_t cap);
 
 /* Incremental receiver: feed bytes one at a time. */
 typedef struct {

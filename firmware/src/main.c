@@ -9,6 +9,7 @@
  *                 Timers 4 and 5: 8-bit fast PWM at 7.8 kHz into the LM358 current drivers
  *   D2, D3        encoder channels A, B (INT4, INT5, any edge: 4x quadrature decoding)
  *   D0, D1        USART0 to the host, 1,000,000 baud 8N1 (docs/protocol.md)
+ *   A3            load cell (optional, MCK_LOAD_CELL_MN > 0): INA125 amplifier, 0-5 V = 0..full scale
  *
  * Timing: Timer1 in CTC mode ticks at 1 kHz. Its compare match B, 400 us before each tick,
  * starts the conversion of A0; the ADC interrupt stores each result and starts the next
@@ -17,9 +18,11 @@
  * mck_bank_run (all channels' supervisors and laws and the shared supply check, <= 4,000 cycles,
  * measured in simavr: make cycles) and writes the six PWM compare registers. The main loop
  * handles commands and streams telemetry; it never blocks the control interrupt for longer than
- * one channel's struct copy. The watchdog (60 ms) is fed by the control interrupt only: if
- * control stops, the MCU resets and the valve pins return to inputs (valves off). After every
- * reset the firmware sends a HELLO frame before anything else. */
+ * one channel's struct copy. With a load cell, the tick starts ADC3's conversion once it has
+ * run (done 104 us later, long before compare B); the next tick streams that count. The
+ * watchdog (60 ms) is fed by the control interrupt only: if control stops, the MCU resets and
+ * the valve pins return to inputs (valves off). After every reset the firmware sends a HELLO
+ * frame before anything else. */
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <avr/wdt.h>
@@ -44,6 +47,13 @@
 #define TIMER1_TOP 1999u      /* 16 MHz / 8 / 2000 = 1 kHz */
 #define ADC_LEAD_COUNTS 800u  /* start the conversions 400 us before the tick */
 
+/* --- the load cell (docs/firmware.md, "Load cell") ------------------------------------------ */
+#ifndef MCK_LOAD_CELL_MN
+#define MCK_LOAD_CELL_MN 0UL /* full scale of the load cell on ADC3 [mN]; 0: none fitted */
+#endif
+#define MCK_LOAD_CELL_ADC 3u
+#define ADC_FORCE_SLOT 0x80u /* adc_next while ADC3 converts */
+
 /* --- state shared with the interrupts ----------------------------------------------------- */
 static volatile int32_t p_ref_pa[MCK_N_CHANNELS];
 static volatile int32_t encoder;
@@ -52,10 +62,13 @@ static volatile uint32_t t_us;
 static volatile mck_telemetry_t latest;
 static volatile uint16_t adc_val[MCK_N_CHANNELS];
 static volatile uint8_t adc_ok, adc_next;
+#if MCK_LOAD_CELL_MN > 0
+static volatile uint16_t force_val; /* the last completed ADC3 count */
+#endif
 static uint8_t enc_prev;
 
 /* --- USART0 with interrupt-driven ring buffers ------------------------------------------ */
-#define RX_SIZE 128u
+#define RX_SIZE 256u /* a host's burst (a USB frame's worth of commands) waits here: 2.5 ms of line */
 #define TX_SIZE 256u
 static volatile uint8_t rx_buf[RX_SIZE];
 static volatile uint8_t rx_head, rx_tail;
@@ -85,13 +98,11 @@ ISR(USART0_UDRE_vect)
 /* Queue a whole packet or nothing. */
 static uint8_t uart_send(const uint8_t *p, size_t n)
 {
-    uint8_t used, i;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { used = (uint8_t)(tx_head - tx_tail); }
+    uint8_t used, i, head = tx_head; /* only this loop writes tx_head: a register copy */
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { used = (uint8_t)(head - tx_tail); }
     if (n > (size_t)(TX_SIZE - 1u - used)) return 0;
-    for (i = 0; i < n; i++) {
-        tx_buf[tx_head] = p[i];
-        tx_head = (uint8_t)(tx_head + 1u);
-    }
+    for (i = 0; i < n; i++) tx_buf[head++] = p[i]; /* wraps at 256 by itself */
+    tx_head = head;
     UCSR0B |= (uint8_t)(1 << UDRIE0);
     return 1;
 }
@@ -137,6 +148,12 @@ ISR(ADC_vect)
             ADCSRA |= (uint8_t)(1 << ADSC);
         }
     }
+#if MCK_LOAD_CELL_MN > 0
+    else if (i == ADC_FORCE_SLOT) {
+        force_val = ADC;
+        adc_next = ADC_FORCE_SLOT + 1u;
+    }
+#endif
 }
 
 /* --- valves ------------------------------------------------------------------------------ */
@@ -182,6 +199,14 @@ ISR(TIMER1_COMPA_vect)
     mck_bank_run(MCK_N_CHANNELS, adc, ok, ref, out);
     set_valves(out);
     wdt_reset();
+#if MCK_LOAD_CELL_MN > 0
+    latest.force_adc = force_val; /* converted after the last tick */
+    if (!(ADCSRA & (1 << ADSC))) { /* a pressure conversion still running (a missing sample) keeps the ADC */
+        adc_next = ADC_FORCE_SLOT;
+        ADMUX = (uint8_t)((1 << REFS0) | MCK_LOAD_CELL_ADC);
+        ADCSRA |= (uint8_t)(1 << ADSC);
+    }
+#endif
 
     t_us += TS_US;
     latest.t_us = t_us;
@@ -202,6 +227,7 @@ ISR(TIMER1_COMPA_vect)
 static uint16_t tx_seq;
 static uint8_t stream_on;
 static uint8_t decimation = 1;
+static uint16_t last_tick; /* the tick of the last telemetry frame (or of the STREAM command) */
 static mck_ctrl_t shadow; /* gain changes are computed here, off the interrupt */
 
 static int32_t get_i32(const uint8_t *b)
@@ -326,6 +352,7 @@ static void handle(const mck_rx_t *rx)
         } else {
             stream_on = b[0] != 0u;
             decimation = b[1];
+            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { last_tick = tick; } /* frames count from now */
         }
         break;
     case MCK_SET_OPEN_LOOP:
@@ -347,9 +374,11 @@ static void handle(const mck_rx_t *rx)
 /* --- setup ---------------------------------------------------------------------------------- */
 static void hw_init(void)
 {
-    /* USART0: 1,000,000 baud = 16 MHz / (8 (UBRR + 1)) with U2X, UBRR = 1 (0 % error) */
-    UBRR0 = UBRR_VALUE;
+    /* USART0: 1,000,000 baud = 16 MHz / (8 (UBRR + 1)) with U2X, UBRR = 1 (0 % error). U2X first:
+     * the Mega does not care about the order, but simavr latches the line rate when UBRR0 is
+     * written, so UBRR0 before U2X0 ran the processor-in-the-loop bench at half the rate. */
     UCSR0A = (uint8_t)(1 << U2X0);
+    UBRR0 = UBRR_VALUE;
     UCSR0C = (uint8_t)(1 << UCSZ01 | 1 << UCSZ00);
     UCSR0B = (uint8_t)(1 << RXEN0 | 1 << TXEN0 | 1 << RXCIE0);
 
@@ -374,6 +403,9 @@ static void hw_init(void)
     /* ADC0..2, AVcc reference, clock 125 kHz (104 us per conversion), interrupt on completion */
     ADMUX = (uint8_t)(1 << REFS0);
     DIDR0 = (uint8_t)((1 << MCK_N_CHANNELS) - 1);
+#if MCK_LOAD_CELL_MN > 0
+    DIDR0 |= (uint8_t)(1 << MCK_LOAD_CELL_ADC);
+#endif
     ADCSRA = (uint8_t)(1 << ADEN | 1 << ADIE | 1 << ADPS2 | 1 << ADPS1 | 1 << ADPS0);
 
     /* Timer1: CTC at 1 kHz; compare B starts the conversions 400 us before the tick */
@@ -387,7 +419,6 @@ static void hw_init(void)
 int main(void)
 {
     static mck_rx_t rx;
-    uint16_t last_tick = 0;
     uint8_t i;
 
     for (i = 0; i < MCK_N_CHANNELS; i++) mck_ctrl_init(&mck_bank[i], TS_US); /* off, valves shut */
@@ -398,7 +429,8 @@ int main(void)
     sei();
     {
         uint8_t pkt[MCK_MAX_PACKET];
-        size_t n = mck_encode_hello(tx_seq++, MCK_N_CHANNELS, TS_US, BAUD, MCK_N_GAINS, pkt, sizeof pkt);
+        size_t n = mck_encode_hello(tx_seq++, MCK_N_CHANNELS, TS_US, BAUD, MCK_N_GAINS, MCK_LOAD_CELL_MN, pkt,
+                                    sizeof pkt);
         if (n) (void)uart_send(pkt, n);
     }
 
@@ -406,17 +438,33 @@ int main(void)
         int c;
         uint16_t now;
         while ((c = uart_recv()) >= 0) {
-            if (mck_rx_feed(&rx, (uint8_t)c)) handle(&rx);
+            if (mck_rx_feed(&rx, (uint8_t)c)) {
+                handle(&rx);
+                break; /* one command, then the telemetry's turn: a burst must not starve it */
+            }
         }
         ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { now = tick; }
         if (stream_on && (uint16_t)(now - last_tick) >= decimation) {
             mck_telemetry_t t;
             uint8_t pkt[MCK_MAX_PACKET];
             size_t n;
-            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { memcpy(&t, (const void *)&latest, sizeof t); }
+            /* the tick read with the copy: a tick between the test above and the copy would
+             * otherwise send its frame under the previous tick's seq, and again at the next */
+            ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
+            {
+                memcpy(&t, (const void *)&latest, sizeof t);
+                now = tick;
+            }
+            /* a frame per decimation period: the periods this loop came too late for (a command's
+             * handling) spend their frames' seqs, as a full queue does, so the host sees the gap */
+            tx_seq = (uint16_t)(tx_seq + (uint16_t)(now - last_tick) / decimation - 1u);
             last_tick = now;
             /* seq advances even when the queue is full, so the host sees the gap */
+#if MCK_LOAD_CELL_MN > 0
+            n = mck_encode_telemetry_force(&t, tx_seq++, pkt, sizeof pkt);
+#else
             n = mck_encode_telemetry(&t, tx_seq++, pkt, sizeof pkt);
+#endif
             if (n) (void)uart_send(pkt, n);
         }
     }

@@ -597,11 +597,31 @@ def _notice() -> None:
     if where is None:
         _cache_warning(cache_problem() or "kernels are compiled in memory")
         return
-    if not _notice_module.enabled:
+    if not _notice_module.shown():
         return
-    sys.stderr.write(f"mckibben: compiling kernels once for this machine (up to a minute); later runs load them "
-                     f"from {where}\n")
+    if _notice_module.in_notebook():  # progress follows on the same line: one dot per kernel (_Progress)
+        sys.stderr.write(f"mckibben: compiling kernels once for this machine (up to a minute; later runs and kernels "
+                         f"load them from {where}) ")
+        _event.register("numba:compile", _Progress())
+    else:
+        sys.stderr.write(f"mckibben: compiling kernels once for this machine (up to a minute); later runs load them "
+                         f"from {where}\n")
     sys.stderr.flush()
+
+
+class _Progress(_event.Listener):
+    """In a notebook: a dot on stderr as each of the package's kernels is compiled, after the notice."""
+
+    def on_start(self, event):
+        disp = event.data.get("dispatcher") if isinstance(event.data, dict) else None
+        py_func = getattr(disp, "py_func", None)
+        path = inspect.getsourcefile(py_func) if py_func is not None else None
+        if path is not None and _ours(path):
+            sys.stderr.write(".")
+            sys.stderr.flush()
+
+    def on_end(self, event):
+        pass
 
 
 on_first_compile(_notice)

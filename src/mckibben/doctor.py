@@ -23,12 +23,17 @@ import numpy as np
 from mckibben import __version__, _kernels, control, experiments, models, plant, tool
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError
+from mckibben.models.laws import LAWS
+from mckibben.models.laws._base import NTH, evaluate_points
+from mckibben.rig import firmware as FW
 
 #: The optional tools: name -> (what it is for, how to install it on Debian/Ubuntu).
 TOOLS = {
-    "avr-gcc": ("builds the firmware (make -C firmware)", "apt-get install gcc-avr avr-libc"),
+    "avr-gcc": ("builds the firmware (mckibben firmware build)", "apt-get install gcc-avr avr-libc"),
     "simavr": ("counts the firmware's cycles (make -C firmware cycles)", "apt-get install simavr"),
-    "avrdude": ("flashes the Arduino Mega (make -C firmware upload)", "apt-get install avrdude"),
+    "libsimavr": ("runs the firmware image as the device (the avr engine of mckibben rig emulate)",
+                  "apt-get install libsimavr-dev libelf-dev"),
+    "avrdude": ("flashes the Arduino Mega (mckibben firmware flash)", "apt-get install avrdude"),
     "arduino-cli": ("an alternative way to build and flash the firmware", "see arduino.github.io/arduino-cli"),
 }
 #: The optional Python packages (the extras of pyproject.toml): name -> (what for, how to install).
@@ -42,8 +47,8 @@ def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
     """The experiments the commands run, each at a size that compiles every kernel it reaches."""
     muscle = get_muscle("mpam97")
     return [
-        ("static models", lambda: (models.predict_length(muscle, 0.8e6, 0.6),
-                                   models.force(0.5e6, 0.09, muscle, model="chou-hannaford"))),
+        ("static models", lambda: (models.predict_length(muscle, 0.8e6, 0.6),  # every law of a catalogue muscle
+                                   [models.force(0.5e6, 0.09, muscle, model=n) for n in models.force_laws()])),
         ("open loop", lambda: experiments.open_loop()),
         ("sliding-mode step", lambda: experiments.step_response("smc", law="paper", beta=150)),
         ("PID step", lambda: experiments.step_response("pid")),
@@ -57,7 +62,23 @@ def _warm_steps() -> list[tuple[str, Callable[[], object]]]:
         ("a sweep's static start", lambda: plant.static_length(  # batches above SMALL_BATCH: the compiled bisection
             plant.PlantParams(load_force=np.full(plant.simulator.SMALL_BATCH + 1, 0.6)))),
         ("linear model", lambda: plant.linearize(pressure=0.4e6)),
+        ("every force law", _every_law),
     ]
+
+
+def _every_law() -> None:
+    """Compile the per-law evaluation loop of every registered force law, not only the bundled sets'.
+
+    A muscle file's law (``simulate --muscle-file``, ``control step --muscle-file``, ``predict
+    force --muscle-file``, a tool of fitted muscles) runs through :func:`~mckibben.models.laws._base.evaluate_points`,
+    whose loop is generated and compiled once per law; the bundled sets reach only their own.
+    """
+    p, ell, col = np.array([0.3e6]), np.array([0.09]), np.zeros(1, dtype=np.int64)
+    for law in LAWS.values():
+        try:
+            evaluate_points(law.kernel, p, ell, np.ones(NTH), col, 1)
+        except (ArithmeticError, IndexError, ValueError):  # placeholder parameters: the loop is compiled before it runs
+            pass
 
 
 def background_kernels() -> list[tuple[str, object, tuple]]:
@@ -257,6 +278,16 @@ def _probe_scheduler(address: str, timeout: float = 3.0) -> dict:
                 "detail": f"{exc.strerror or exc}; start one with: dask scheduler --port {port}"}
 
 
+def _tool(name: str) -> str | None:
+    """Where a tool is: an executable on the PATH, or libsimavr's headers (it is a library)."""
+    if name == "libsimavr":
+        try:
+            return str(FW.simavr_include())
+        except InputError:
+            return None
+    return shutil.which(name)
+
+
 def check(scheduler: str | None = None) -> Report:
     """Report the kernel cache, the compiler, the cores used and the optional tools.
 
@@ -275,7 +306,7 @@ def check(scheduler: str | None = None) -> Report:
     _jit = _kernels.jit()  # loads Numba
     numba = _jit.numba
     where = _jit.cache_dir()
-    tools = {name: {"found": shutil.which(name), "for": what, "install": how} for name, (what, how) in TOOLS.items()}
+    tools = {name: {"found": _tool(name), "for": what, "install": how} for name, (what, how) in TOOLS.items()}
     packages = {}
     for name, (what, how) in PACKAGES.items():  # found, not imported: MuJoCo alone takes a second to load
         spec = importlib.util.find_spec(name)

@@ -11,6 +11,11 @@ Sensor model
 - Pressure: a 0–1 MPa transducer on the ATmega2560's 10-bit ADC. A gauge pressure ``p`` reads
   ``count = floor(p/pa_per_count + adc_zero + 1/2)`` (nearest count, halves up), saturated to
   ``0..ADC_MAX``; a count reads back as ``(count − adc_zero)·pa_per_count``.
+- Force (an optional load cell, in series with channel 0's muscle): a strain-gauge cell through an
+  instrumentation amplifier (INA125) into ADC3, 0–5 V over ``0..full_scale``. A tension ``f`` with
+  the amplifier's zero offset ``offset`` and noise sample ``e`` reads the pressure model's count
+  with ``full_scale/ADC_MAX`` newtons per count and zero 0 (:func:`load_cell_count`): nearest,
+  halves up, and clipped to the rails, so a cell in tension reads 0 below zero force.
 - Length: the pulley's incremental encoder counts the muscle's shortening from its rest length,
   ``count = floor((l0 − l)/resolution + 1/2)``; a count reads back as ``l0 − count·resolution``.
 
@@ -22,10 +27,12 @@ apply the same kernels element-wise.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from mckibben._kernels import kernel, need_speed, register
+from mckibben.errors import InputError
 
 #: Compiled limit of the maximum pressure, the transducer's full scale (``MCK_P_MAX_LIMIT``). [Pa]
 P_MAX_LIMIT = 1_000_000
@@ -46,6 +53,15 @@ CONTROL_PERIOD = CONTROL_PERIOD_US / 1e6
 TS_US_MIN, TS_US_MAX = 100, 10_000
 #: Belt travel per encoder count: 500 counts per pulley turn (§III.B). [m/count]
 ENCODER_RESOLUTION = 0.17e-3
+#: Full scale of the default load cell and amplifier: 0–5 V on ADC3 for 0–5 N, the paper rig's cell
+#: ([mpam-characterization] §III.B: 5 N, 1 mN resolution; on the 10-bit ADC 4.9 mN per count). An
+#: image is built for a cell with ``make LOAD_CELL_MN=5000``. [N]
+LOAD_CELL_FULL_SCALE = 5.0
+#: Largest full scale a load cell may be given: the HELLO frame carries it in mN as 32 bits, and
+#: the Makefile's ``LOAD_CELL_MN``. [N]
+LOAD_CELL_FULL_SCALE_MAX = 10_000.0
+#: The ADC input of the load cell's amplifier (``MCK_LOAD_CELL_ADC`` in ``firmware/src/main.c``).
+LOAD_CELL_ADC = 3
 
 
 @kernel
@@ -125,6 +141,107 @@ def encoder_length(count, nominal_length, resolution):
         Belt travel per count. [m/count]
     """
     return nominal_length - count * resolution
+
+
+@kernel
+def load_cell_count(force, offset, noise, full_scale):
+    """The ADC3 count of the load cell: the pressure sensor's model (:func:`adc_count`) on the force.
+
+    The cell and its amplifier are linear, 0–5 V over ``0..full_scale``; the reading is
+    ``force + offset + noise`` rounded to the nearest count and clipped to ``0..ADC_MAX``: a cell in
+    tension reads 0 below zero force (the rail), ``ADC_MAX`` above its full scale.
+
+    Parameters
+    ----------
+    force : float
+        Tension on the cell. [N]
+    offset : float
+        The amplifier's zero offset, as a force. [N]
+    noise : float
+        This sample's noise. [N]
+    full_scale : float
+        Force at 5 V. [N]
+
+    Returns
+    -------
+    int
+        The count. [count]
+    """
+    return adc_count(force + offset + noise, full_scale / ADC_MAX, 0.0)
+
+
+@dataclass(frozen=True)
+class LoadCell:
+    """A load cell in series with channel 0's muscle, as both device engines model it.
+
+    The reading of a tension ``f`` is :func:`load_cell_count` of ``f``, ``offset`` and a fresh
+    Gaussian sample of standard deviation ``noise``, with ``full_scale``: resolution
+    ``full_scale/ADC_MAX``, the rail at 0 below zero force.
+
+    Parameters
+    ----------
+    full_scale : float, default LOAD_CELL_FULL_SCALE
+        Force at 5 V, above 0 and at most :data:`LOAD_CELL_FULL_SCALE_MAX`. [N]
+    offset : float, default 0.0
+        The amplifier's zero offset as a force, within ±``full_scale``. [N]
+    noise : float, default 0.0
+        Standard deviation of the noise, 0 up to ``full_scale``/10. [N]
+
+    Raises
+    ------
+    InputError
+        A value out of its range, named.
+    """
+
+    full_scale: float = LOAD_CELL_FULL_SCALE
+    offset: float = 0.0
+    noise: float = 0.0
+
+    def __post_init__(self):
+        # errors lead with the names the engines and ``rig emulate`` take these as
+        for name, arg in (("full_scale", "load_cell"), ("offset", "load_cell_offset"), ("noise", "load_cell_noise")):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not math.isfinite(v):
+                raise InputError(f"{arg}: {v!r} is not a finite force (the load cell's {name.replace('_', ' ')}) [N]")
+        if not 0 < self.full_scale <= LOAD_CELL_FULL_SCALE_MAX or round(self.full_scale * 1e3) < 1:
+            raise InputError(f"load_cell: {self.full_scale!r} is not a full scale above 0 and at most "
+                             f"{LOAD_CELL_FULL_SCALE_MAX:g} N")
+        if abs(self.offset) > self.full_scale:
+            raise InputError(f"load_cell_offset: {self.offset!r} is outside ±{self.full_scale:g} N (the load cell's "
+                             "full scale)")
+        if not 0 <= self.noise <= self.full_scale / 10:
+            raise InputError(f"load_cell_noise: {self.noise!r} must be 0..{self.full_scale / 10:g} N (a tenth of the "
+                             "load cell's full scale)")
+
+    @property
+    def resolution(self) -> float:
+        """Force per count. [N/count]"""
+        return self.full_scale / ADC_MAX
+
+    def count(self, force: float, noise_sample: float = 0.0) -> int:
+        """The count of a tension with a noise sample (:func:`load_cell_count`). [count]
+
+        Parameters
+        ----------
+        force : float
+            Tension on the cell. [N]
+        noise_sample : float, default 0.0
+            A draw of the noise, already scaled. [N]
+        """
+        return int(load_cell_count(force, self.offset, noise_sample, self.full_scale))
+
+
+def force_from_count(count, full_scale=LOAD_CELL_FULL_SCALE):
+    """The force that load-cell counts read as (before any tare). [N]
+
+    Parameters
+    ----------
+    count : array_like
+        ADC3 counts. [count]
+    full_scale : float, default LOAD_CELL_FULL_SCALE
+        Force at 5 V. [N]
+    """
+    return np.asarray(count, dtype=float) * (float(full_scale) / ADC_MAX)
 
 
 @kernel
@@ -255,6 +372,7 @@ PIN_MAP = {
     "inlet": ("D6", "D8", "D45"),
     "bleed": ("D7", "D46", "D44"),
     "encoder": ("D2", "D3"),
+    "load_cell": ("A3",),
     "serial": ("D0", "D1"),
 }
 #: The timer output compare unit behind each valve pin (Timers 4 and 5, 8-bit fast PWM).

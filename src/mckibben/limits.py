@@ -262,6 +262,11 @@ PLAUSIBLE_MAX = {
 }
 
 
+#: The shortest muscle length a table may hold: no braided muscle is shorter than a millimetre,
+#: so a length column below it holds metres (or centimetres) under a millimetre heading. [m]
+PLAUSIBLE_MIN_LENGTH = 1e-3
+
+
 def first_implausible(values, dimension: str):
     """The index of the first value whose magnitude is past :data:`PLAUSIBLE_MAX`, or None.
 

@@ -20,6 +20,11 @@ returns a subclass of :class:`Result`, following python-control's response objec
     in their schema metadata (key ``mckibben``).
 ``repr``
     The class name, what was run and the headline metrics, on one line.
+
+Sampled signals live in one type, :class:`TimeResponse` (python-control's ``TimeResponseData`` in
+spirit): the simulator's, the closed loop's, the device's, the tool's and the MuJoCo runs' records
+all give ``time`` [s], ``n_samples``, ``n_instances``, ``signal(name, i)`` and ``frame(i)``, whose
+columns follow :data:`SIGNAL_COLUMNS`; the results' ``to_pandas`` are built from those frames.
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError
+from mckibben.errors import ArgumentTypeError, InputError, unknown_name
 from mckibben import __version__
 from mckibben.atomic import check_input_file, check_output_file
 from mckibben.atomic import atomic_file
@@ -42,7 +47,8 @@ import sys
 import functools
 
 
-__all__ = ["Result", "to_jsonable", "write_table", "read_provenance", "SERIES_SUFFIXES"]
+__all__ = ["Result", "TimeResponse", "SIGNAL_COLUMNS", "to_jsonable", "write_table", "read_provenance",
+           "SERIES_SUFFIXES"]
 
 #: The file formats of :meth:`Result.to_file` and ``--out``.
 SERIES_SUFFIXES = (".csv", ".parquet")
@@ -318,3 +324,143 @@ def _short(v) -> str:
     if isinstance(v, (float, np.floating)):
         return f"{float(v):.4g}"
     return repr(v)
+
+
+#: Column of each sampled signal in a time series' table, ``quantity_unit``: the one naming every
+#: :class:`TimeResponse` (simulation, closed loop, device, tool tracking) writes with.
+SIGNAL_COLUMNS = {
+    "reference": "reference_Pa", "pressure": "pressure_Pa", "pressure_measured": "pressure_measured_Pa",
+    "inlet": "inlet_pwm", "bleed": "bleed_pwm", "command": "command_pwm", "length": "length_m",
+    "force": "force_N", "tension": "tension_N", "faults": "fault_flags", "temperature": "temperature_K", "air_mass": "air_mass_kg",
+    "target": "target_m", "achieved": "achieved_m",
+}
+
+
+#: Channel labels of the signals whose channels are not numbered 1, 2, 3: a tip's coordinates. [-]
+SIGNAL_CHANNELS = {"target": ("x", "y", "z"), "achieved": ("x", "y", "z")}
+
+
+class _Time:
+    """``record.time``: the sample times as floats, read from the record's :attr:`TimeResponse.TIME`.
+
+    A non-data descriptor, so a record whose time field is itself called ``time`` keeps it (the
+    instance's value comes first).
+    """
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        return np.asarray(getattr(obj, obj.TIME), dtype=float)
+
+
+class TimeResponse:
+    """The one time-series type: signals sampled on a time vector (python-control's ``TimeResponseData``).
+
+    Every sampled record of the library builds on it: the batch simulator's
+    :class:`~mckibben.plant.simulator.SimResult`, the closed loop's
+    :class:`~mckibben.control.loop.LoopRecord` (under :class:`StepResult`, :class:`TrackResult`,
+    :class:`Fig13Result`), the device's :class:`~mckibben.rig.device.RigStepResult` and the tool's
+    :class:`~mckibben.tool.tracking.TrackingResult` (under :class:`ToolTrackResult`). A subclass
+    names its time attribute (:attr:`TIME`) and its signals (:attr:`SIGNALS`, attribute names; the
+    column of each is :data:`SIGNAL_COLUMNS`'s), and says how a 2-D signal is laid out
+    (:attr:`CHANNELS`): one row per instance, ``(N, n)``, or one column per channel, ``(n, k)``.
+
+    It gives them one interface: ``time`` (the sample times [s], whatever the record calls them),
+    :attr:`n_samples`, :attr:`n_instances`,
+    :meth:`signal` and :meth:`frame` (one instance as a table with ``time_s`` first).
+    """
+
+    #: The attribute holding the sample times. [-]
+    TIME: str = "t"
+    #: The sampled signals, by attribute name, in table order. [-]
+    SIGNALS: tuple[str, ...] = ()
+    #: True: a 2-D signal is ``(n, k)``, k channels of one run; False: ``(N, n)``, N instances. [-]
+    CHANNELS: bool = False
+    #: Column of channel ``label`` of a signal (``pressure_1_Pa``). [-]
+    CHANNEL_COLUMN: str = "{quantity}_{label}_{unit}"
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.TIME != "time":  # ``record.time`` beside the record's own name for it (``t``)
+            cls.time = _Time()  # type: ignore[attr-defined]
+
+    def _times(self) -> np.ndarray:
+        """Sample times, (n,): ``record.time``. [s]"""
+        return np.asarray(getattr(self, self.TIME), dtype=float)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples n. [-]"""
+        return int(self._times().size)
+
+    def recorded_signals(self) -> tuple[str, ...]:
+        """The signals this record holds (those of :attr:`SIGNALS` not left out of the run). [-]"""
+        held = []
+        for name in self.SIGNALS:
+            try:
+                value = getattr(self, name)
+            except AttributeError:  # a simulation run with record=... leaves series out
+                continue
+            if value is not None:
+                held.append(name)
+        return tuple(held)
+
+    @property
+    def n_instances(self) -> int:
+        """Number of instances N (1 for a single run, whatever its channels). [-]"""
+        if self.CHANNELS:
+            return 1
+        for name in self.recorded_signals():
+            a = np.asarray(getattr(self, name))
+            if a.ndim == 2:
+                return int(a.shape[0])
+        return 1
+
+    def signal(self, name: str, i: int = 0) -> np.ndarray:
+        """One signal of instance ``i``: (n,), or (n, k) for k channels. [its unit: :data:`SIGNAL_COLUMNS`]
+
+        Parameters
+        ----------
+        name : str
+            A signal of :meth:`recorded_signals`. [-]
+        i : int, default 0
+            The instance (records of one row per instance). [-]
+        """
+        if name not in self.recorded_signals():
+            raise unknown_name(f"signal of {type(self).__name__}", name, self.recorded_signals())
+        a = np.asarray(getattr(self, name))
+        if a.ndim == 2 and not self.CHANNELS:
+            if not -a.shape[0] <= i < a.shape[0]:
+                raise InputError(f"i: instance {i} of {a.shape[0]}")
+            return a[i]
+        return a
+
+    def _channel_labels(self, name: str, k: int) -> tuple[str, ...]:
+        """The labels of a signal's k channels: :data:`SIGNAL_CHANNELS`'s, else 1..k. [-]"""
+        return SIGNAL_CHANNELS.get(name, tuple(str(j + 1) for j in range(k)))
+
+    def frame(self, i: int = 0):
+        """Instance ``i`` as a DataFrame: ``time_s``, then each signal's :data:`SIGNAL_COLUMNS` column.
+
+        A signal of k channels gives k columns, ``<quantity>_<k>_<unit>`` (``pressure_1_Pa``; a
+        tip's ``target_x_m``, :data:`SIGNAL_CHANNELS`).
+
+        Parameters
+        ----------
+        i : int, default 0
+            The instance. [-]
+        """
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+        data: dict[str, Any] = {"time_s": self._times()}
+        for name in self.recorded_signals():
+            column = SIGNAL_COLUMNS[name]
+            a = self.signal(name, i)
+            if a.ndim == 2:
+                quantity, _, unit = column.rpartition("_")
+                labels = self._channel_labels(name, a.shape[1])
+                for k in range(a.shape[1]):
+                    data[self.CHANNEL_COLUMN.format(quantity=quantity, label=labels[k], unit=unit)] = a[:, k]
+            else:
+                data[column] = a
+        return pd.DataFrame(data)

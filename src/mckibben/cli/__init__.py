@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import importlib
+import inspect
 import os
 import pkgutil
 import shlex
@@ -75,6 +76,41 @@ def _register_commands() -> None:
 
 _register_commands()
 
+#: Words that end with a period inside a sentence: Click's first-sentence rule would cut the
+#: command list's help there ("The paper's Fig."). [-]
+_ABBREVIATIONS = ("Fig.", "Figs.", "eq.", "Eq.", "e.g.", "i.e.", "Ref.", "No.", "vs.", "cf.")
+
+
+def short_help(doc: str | None) -> str | None:
+    """The first sentence of a command's docstring, for the command list, not cut at an abbreviation.
+
+    Parameters
+    ----------
+    doc : str or None
+        The docstring. [-]
+    """
+    if not doc:
+        return None
+    words = inspect.cleandoc(doc).split("\n\n")[0].split()
+    out = []
+    for w in words:
+        out.append(w)
+        if w.endswith(".") and w not in _ABBREVIATIONS and not (len(w) <= 3 and w[:-1].isdigit()):
+            break
+    return " ".join(out).rstrip(".")
+
+
+def _set_short_helps(typer_app) -> None:
+    """Give every command without one a short help by :func:`short_help` (sub-apps too)."""
+    for info in typer_app.registered_commands:
+        if info.short_help is None and info.callback is not None:
+            info.short_help = short_help(info.help or info.callback.__doc__)
+    for group in typer_app.registered_groups:
+        _set_short_helps(group.typer_instance)
+
+
+_set_short_helps(app)
+
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv`` (default ``sys.argv[1:]``); return the exit status.
@@ -122,31 +158,31 @@ def _empty_value(args: list[str]) -> str | None:
 def _run(args: list[str], debug: bool) -> int:
     empty = _empty_value(args)
     if empty is not None:
-        return _fail(f"error: {empty}: an empty value; give one, or leave the option out for its default", 2)
+        return _fail(f"{empty}: an empty value; give one, or leave the option out for its default", 2)
     try:
         result = app(args=args, prog_name="mckibben", standalone_mode=False)
     except InputError as exc:  # the library names Python arguments: say the flags the user typed
-        return _fail(f"error: {in_flags(str(exc), flag_names(command_of(app, args)))}", 2)
+        return _fail(in_flags(str(exc), flag_names(command_of(app, args))), 2)
     except _NO_ARGS as exc:
         sys.stdout.write(exc.ctx.get_help() + "\n" if exc.ctx is not None else "")
         return 0
     except _USAGE_ERRORS as exc:
-        where = f" ({exc.ctx.command_path})" if exc.ctx is not None else ""
-        return _fail(f"error{where}: {exc.format_message()}", 2)
+        where = f"{exc.ctx.command_path}: " if exc.ctx is not None else ""
+        return _fail(f"{where}{exc.format_message()}", 2)
     except _EXITS as exc:
         return exc.exit_code
     except (_ABORTS + (KeyboardInterrupt,)) as exc:
-        return _fail(f"error: {_signal_name(exc)}", 130 if not isinstance(exc, _Terminated) else 128 + exc.signum)
+        return _fail(_signal_name(exc), 130 if not isinstance(exc, _Terminated) else 128 + exc.signum)
     except BrokenPipeError:
         return 0
     except MemoryError as exc:
         detail = f" ({exc})" if str(exc) else ""
-        return _fail(f"error: not enough memory for the size asked{detail}; ask for a smaller size", 2, debug)
+        return _fail(f"not enough memory for the size asked{detail}; ask for a smaller size", 2, debug)
     except OSError as exc:
         if getattr(exc, "filename", None) is None and exc.errno not in _USER_ERRNOS:
             return _internal(exc, debug)
         what = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-        return _fail(f"error: {what}{exc.strerror or exc}", 2, debug)
+        return _fail(f"{what}{exc.strerror or exc}", 2, debug)
     except RecursionError as exc:
         return _internal(exc, debug)
     except Exception as exc:  # noqa: BLE001 - the boundary: nothing leaves as a bare traceback
@@ -163,10 +199,15 @@ def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
+#: The one prefix of every error line the command line prints (a user's mistake, exit status 2).
+ERROR_PREFIX = "error: "
+
+
 def _fail(message: str, code: int, debug: bool = False) -> int:
+    """Print ``error: MESSAGE`` (:data:`ERROR_PREFIX`, the one place it is written) as one line; return ``code``."""
     if debug:
         traceback.print_exc(file=sys.stderr)
-    sys.stderr.write(_one_line(message) + "\n")
+    sys.stderr.write(_one_line(ERROR_PREFIX + message) + "\n")
     return code
 
 

@@ -15,8 +15,11 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import sys
+import textwrap
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,6 +40,119 @@ JSON_OPTION = typer.Option(False, "--json", help="Print one JSON object on stdou
 DIRECTION_OPTION = typer.Option("inflate", "--direction", help="--muscle-file: the fitted law's inflate or deflate "
                                                                 "branch (a spring law's hysteresis; the other laws "
                                                                 "have one).")
+
+
+#: ``--select`` and ``--columns`` of every command that reads a lab's table (the reader's ``select``, ``columns``).
+SELECT_OPTION = typer.Option(None, "--select", metavar="COLUMN=VALUE",
+                             help="Read only the rows whose COLUMN holds VALUE (repeatable): one muscle or "
+                                  "condition of a table holding several, e.g. --select cut_length_cm=10.")
+COLUMNS_OPTION = typer.Option(None, "--columns", metavar="OLD=NEW",
+                              help="Read the file's column OLD as the schema's NEW (repeatable), e.g. "
+                                   "--columns phase=direction.")
+
+
+def choices(values) -> str:
+    """An option's metavar listing its choices, ``[none|lowest|column]``, instead of ``<str>`` in ``--help``.
+
+    Parameters
+    ----------
+    values : iterable of str
+        The option's choices (the library's tuple of them: one list). [-]
+    """
+    return "[" + "|".join(values) + "]"
+
+
+def parse_pairs(values: list[str] | None, flag: str, example: str) -> dict[str, str] | None:
+    """``["a=1", "b=2"]`` of a repeatable ``NAME=VALUE`` flag as a dict (None if not given).
+
+    Parameters
+    ----------
+    values : list of str or None
+        What the user typed, one item per use of the flag. [-]
+    flag : str
+        The flag, for the message (``--select``). [-]
+    example : str
+        A right value, for the message. [-]
+    """
+    if not values:
+        return None
+    out: dict[str, str] = {}
+    for item in values:
+        key, eq, value = item.partition("=")
+        key, value = key.strip(), value.strip()
+        if not eq or not key or not value:
+            raise InputError(f"{flag}: {item!r} is not NAME=VALUE; give e.g. {flag} {example}")
+        if key in out:
+            raise InputError(f"{flag}: {key} is given twice ({key}={out[key]}, {item}); keep one")
+        out[key] = value
+    return out
+
+
+def print_notes(notes) -> None:
+    """A table reader's notes, one ``note:`` line each on stderr, with the flags that act on them."""
+    for note in notes or ():
+        err_console.print(f"note: {in_flags(note, {'columns': '--columns', 'select': '--select'})}",
+                          markup=False, highlight=False)
+
+
+def _looks_like_file(value: str) -> bool:
+    """Whether a ``--muscle`` value is a file (a ``.toml`` name or a file that exists), not a set's name."""
+    return value.strip().lower().endswith(".toml") or Path(value).is_file()
+
+
+def _published_set(ctx: typer.Context, value: str | None) -> str | None:
+    """``--muscle``'s callback: a published set's name; a file gets the hint of ``--muscle-file``."""
+    if value is not None and _looks_like_file(value):
+        takes_file = any("--muscle-file" in p.opts for p in ctx.command.params)
+        hint = (f"give a muscle file with --muscle-file {value}" if takes_file else
+                "this command runs the published sets only (a command that runs a muscle file lists --muscle-file "
+                "in its --help)")
+        raise InputError(f"--muscle: {value!r} is a file; --muscle names a published parameter set "
+                         f"(mckibben params list); {hint}")
+    return value
+
+
+def muscle_option(default: str | None, help: str):
+    """``--muscle NAME``, a published parameter set, the same in every command (a file is refused with a hint)."""
+    return typer.Option(default, "--muscle", metavar="NAME", help=help, callback=_published_set)
+
+
+#: ``--muscle-file FILE`` of fit and compare (the Python argument is the library's ``muscle``).
+MUSCLE_FILE_ARG_OPTION = typer.Option(None, "--muscle-file", metavar="FILE",
+                                      help="Muscle file (TOML); default muscle.toml beside DATA, else the rest length "
+                                           "the table gives (one muscle).")
+#: The old spelling of ``--muscle-file`` in fit and compare, kept with a deprecation note.
+OLD_MUSCLE_FILE_OPTION = typer.Option(None, "--muscle", metavar="FILE",
+                                      help="Deprecated spelling of --muscle-file here (--muscle names a published set "
+                                           "in every other command).")
+
+
+def muscle_file_of(muscle_file: str | None, old: str | None, command: str) -> str | None:
+    """The muscle file of a command that took it as ``--muscle`` before ``--muscle-file``.
+
+    ``--muscle FILE`` still works, with one deprecation warning on stderr; a published set's name
+    there, or both flags at once, is refused (one line, exit 2).
+
+    Parameters
+    ----------
+    muscle_file : str or None
+        ``--muscle-file``. [-]
+    old : str or None
+        ``--muscle`` (the old spelling). [-]
+    command : str
+        The command, for the messages (``fit``). [-]
+    """
+    if old is None:
+        return muscle_file
+    if muscle_file is not None:
+        raise InputError(f"--muscle: given with --muscle-file; in {command} --muscle is the old spelling of "
+                         "--muscle-file: keep --muscle-file")
+    if not _looks_like_file(old):
+        raise InputError(f"--muscle: {command} reads a muscle file (TOML), not a published parameter set; give "
+                         f"--muscle-file FILE.toml ({old!r} is not a .toml file)")
+    err_console.print(f"warning: {command} --muscle FILE is deprecated: use --muscle-file {old} (--muscle names a "
+                      "published parameter set in every command)", markup=False, highlight=False)
+    return old
 
 
 def check_direction(direction: str) -> str:
@@ -143,27 +259,45 @@ def print_table(title: str, columns: list[str], rows: list[list[Any]]) -> None:
     """
     cells = [[v if isinstance(v, str) else _fmt(v) for v in row] for row in rows]
     if not console.is_terminal:
-        sys.stdout.write(plain_table(title, columns, cells))
+        columns_env = os.environ.get("COLUMNS", "")
+        sys.stdout.write(plain_table(title, columns, cells, int(columns_env) if columns_env.isdigit() else None))
         sys.stdout.flush()
         return
     table = Table(title=title, title_justify="left")
     for col in columns:
-        table.add_column(col, justify="right" if col[:1] != " " else "left")
+        table.add_column(col, justify="right" if col[:1] != " " else "left", overflow="fold")
     for row in cells:
         table.add_row(*row)
-    console.print(table)
+    console.print(table, soft_wrap=False)  # the table fits the terminal: long cells wrap
 
 
-def plain_table(title: str, columns: list[str], cells: list[list[str]]) -> str:
-    """The table as plain text: a title line, a header, one line per row, columns aligned."""
+def plain_table(title: str, columns: list[str], cells: list[list[str]], width: int | None = None) -> str:
+    """The table as plain text: a title line, a header, one line per row, columns aligned.
+
+    Parameters
+    ----------
+    title, columns, cells
+        As :func:`print_table` (a column whose name starts with a space is left-aligned). [-]
+    width : int, optional
+        Fit the lines in this many characters by wrapping the widest column's cells onto
+        continuation lines (``$COLUMNS`` when piped; default: never wrapped, a line per row). [-]
+    """
     head = [c.strip() for c in columns]
     widths = [max([len(h)] + [len(r[i]) for r in cells if i < len(r)]) for i, h in enumerate(head)]
     left = [c[:1] == " " for c in columns]
+    if width is not None and sum(widths) + 2 * (len(widths) - 1) > width and widths:
+        wide = max(range(len(widths)), key=widths.__getitem__)
+        widths[wide] = max(len(head[wide]), 12, width - (sum(widths) - widths[wide]) - 2 * (len(widths) - 1))
 
     def line(values):
         return "  ".join(v.ljust(w) if lft else v.rjust(w) for v, w, lft in zip(values, widths, left)).rstrip()
 
-    return "\n".join([title, line(head), *[line(r) for r in cells]]) + "\n"
+    def lines(values):
+        parts = [textwrap.wrap(v, w, break_long_words=True) or [""] if len(v) > w else [v]
+                 for v, w in zip(values, widths)]
+        return [line([p[k] if k < len(p) else "" for p in parts]) for k in range(max(len(p) for p in parts))]
+
+    return "\n".join([title, line(head), *[x for r in cells for x in lines(r)]]) + "\n"
 
 
 def _fmt(value: Any) -> str:

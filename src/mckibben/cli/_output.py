@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import typer
 
 from mckibben.errors import InputError
@@ -51,3 +53,39 @@ def progress_bar(label: str, json: bool):
     return Progress(TextColumn(label), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                     TimeElapsedColumn(), TimeRemainingColumn(), console=err_console, transient=True,
                     disable=json or not sys.stderr.isatty())
+
+
+#: Labels of the metrics whose name alone does not say what they measure (the rest: the key's words).
+METRIC_LABELS = {"time_constant": "time constant (63 %)", "rise_time": "rise time (10–90 %)",
+                 "settling_time": "settling time (±2 %)"}
+#: A metric key's unit suffix -> (factor from SI, the unit printed): the text output's units, one place.
+METRIC_UNITS = {"_s": (1e3, "ms"), "_m": (1e3, "mm"), "_N": (1.0, "N"), "_pct": (1.0, "%"),
+                "_counts": (1.0, "counts"), "_rad": (180.0 / math.pi, "deg")}
+
+
+def metric_row(key: str, value) -> list[str]:
+    """``["time constant (63 %)", "91.2 ms"]`` from ``("time_constant_s", 0.0912)``: a metric with its unit.
+
+    The same label and unit in every command's text output (``simulate``, ``control step``,
+    ``control track``, ``rig step``); pressures in kPa below 0.1 MPa (errors), else MPa.
+
+    Parameters
+    ----------
+    key : str
+        The metric's JSON key, unit-suffixed (``rise_time_s``, ``steady_state_error_Pa``). [-]
+    value : float, str or None
+        Its value in SI. [SI]
+    """
+    if key.endswith("_Pa"):
+        stem = key[:-3]
+        scale, unit = ((1e-3, "kPa") if isinstance(value, (int, float)) and abs(value) < 1e5 else (1e-6, "MPa"))
+    else:
+        suffix = next((s for s in METRIC_UNITS if key.endswith(s)), None)
+        stem = key[: -len(suffix)] if suffix else key
+        scale, unit = METRIC_UNITS[suffix] if suffix else (1.0, "")
+    label = METRIC_LABELS.get(stem, stem.replace("_", " "))
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return [label, "—" if value is None else str(value)]
+    if not math.isfinite(value):
+        return [label, "—"]
+    return [label, f"{value * scale:.4g}" + (f" {unit}" if unit else "")]

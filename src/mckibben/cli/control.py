@@ -11,8 +11,9 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, err_console, parse_flag, print_table
-from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, progress_bar, write_plot
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, choices, emit_json, err_console, parse_flag, print_table
+from mckibben.cli._output import (DPI_OPTION, OUT_OPTION, check_outputs, metric_row, plot_option, progress_bar,
+                                  write_plot)
 from mckibben.control import registry as R
 from mckibben.limits import check_budget
 from mckibben.units import parse_quantity
@@ -72,7 +73,7 @@ def _finish(res, plot, dpi, out, plot_kw=None) -> None:
 
 @control_app.command("step")
 def step_cmd(
-    controller: str = typer.Option("smc", "--controller", help=_CONTROLLER_HELP),
+    controller: str = typer.Option("smc", "--controller", metavar=choices(R.NAMES), help=_CONTROLLER_HELP),
     target: str = typer.Option("0.55MPa", "--target", help="Step target pressure."),
     start: str = typer.Option("0MPa", "--from", help="Pressure held before the step."),
     beta: float = BETA_OPTION,
@@ -120,7 +121,7 @@ def step_cmd(
     a, m = res.arguments, res.metrics
     print_table(f"{controller} step {a['from_Pa'] / 1e6:g} → {a['target_Pa'] / 1e6:g} MPa under {a['load_N']:g} N"
                 + (" (clamped to --p-max)" if a["reference_clamped"] else ""),
-                ["metric", "value"], [[k, m[k]] for k in STEP_KEYS])
+                [" metric", "value"], [metric_row(k, m[k]) for k in STEP_KEYS])
 
 
 def _warn_outcome(faults: int, unreachable: bool, final_pa: float, target_pa: float) -> None:
@@ -242,7 +243,7 @@ def robustness_cmd(
 def track_cmd(
     reference: str = typer.Option(..., "--reference", help="sine:MEAN,AMPLITUDE,FREQ (e.g. sine:0.4MPa,0.2MPa,2Hz) "
                                                            "or a CSV/Parquet file with time_<unit>, pressure_<unit>."),
-    controller: str = typer.Option("smc", "--controller", help=_CONTROLLER_HELP),
+    controller: str = typer.Option("smc", "--controller", metavar=choices(R.NAMES), help=_CONTROLLER_HELP),
     beta: float = BETA_OPTION,
     law: str = LAW_OPTION,
     eps: str = EPS_OPTION,
@@ -275,7 +276,8 @@ def track_cmd(
     if json:
         emit_json(res.to_dict())
         return
-    print_table(f"{controller} tracking {reference}", ["metric", "value"], [[k, v] for k, v in res.metrics.items()])
+    print_table(f"{controller} tracking {reference}", [" metric", "value"],
+                [metric_row(k, v) for k, v in res.metrics.items()])
 
 
 @control_app.command("hysteresis")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, parse_flag
+from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, muscle_option, parse_flag
 from mckibben.errors import InputError
 from mckibben import control
 from mckibben import export
@@ -16,13 +16,14 @@ app.add_typer(export_app, name="export")
 
 @export_app.command("fmu")
 def fmu_cmd(
-    muscle: str = typer.Option(None, "--muscle", help="Published parameter set (mpam97, mpam117, mpam143; default "
-                                                      "mpam97 unless --muscle-file)."),
+    muscle: str = muscle_option(None, "Published parameter set (mpam97, mpam117, mpam143; default mpam97 unless "
+                                      "--muscle-file)."),
     muscle_file: str = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law "
                                                                 "(mckibben fit … --save)."),
     out: str = typer.Option(..., "--out", help="The FMU to write, e.g. m.fmu."),
     fmi: int = typer.Option(3, "--fmi", help="FMI version: 3 (FMI 3.0) or 2 (FMI 2.0)."),
-    load: str = typer.Option(None, "--load", help="Hanging load, the FMU's load_force start value (default 0.6N)."),
+    load: str = typer.Option(None, "--load", help="Hanging load, the FMU's load_force start value (default 0.6N; with "
+                                                  "--muscle-file a quarter of what it pulls at rest)."),
     supply: str = typer.Option(None, "--supply", help="Supply pressure, the supply_pressure start value (default "
                                                       "0.8MPa; with --muscle-file the top of its fitted pressures)."),
     direction: str = DIRECTION_OPTION,

@@ -8,9 +8,15 @@ import numpy as np
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
+from mckibben.cli._common import (COLUMNS_OPTION, JSON_OPTION, MUSCLE_FILE_ARG_OPTION, OLD_MUSCLE_FILE_OPTION,
+                                  SELECT_OPTION, choices, console, emit_json, err_console, muscle_file_of,
+                                  parse_pairs, print_notes, print_table)
+from mckibben.data.preprocessing import PRESSURE_ZEROS, RAIL_POLICIES, TARES
+from mckibben.data.schema import KINDS
+from mckibben.fit.isometric import CV_METHODS, REST_LENGTHS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
+from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE
 from mckibben.units import parse_quantity
 from mckibben import fit
 
@@ -24,31 +30,46 @@ def warn_flags(what: str, flags) -> None:
 @app.command("fit")
 def fit_cmd(
     data: Path = typer.Argument(..., help="Experiment table (.csv or .parquet)."),
-    model: str = typer.Option(..., "--model", help=f"One of: {', '.join(FIT_MODELS)}."),
-    muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
-    kind: str = typer.Option(None, "--kind", help="Experiment kind, if neither the file name nor its columns tell."),
+    model: str = typer.Option(..., "--model", metavar="MODEL", help=f"One of: {', '.join(FIT_MODELS)}."),
+    muscle: str = MUSCLE_FILE_ARG_OPTION,
+    old_muscle: str = OLD_MUSCLE_FILE_OPTION,
+    kind: str = typer.Option(None, "--kind", metavar=choices(KINDS), help="Experiment kind, if neither the file name nor its columns tell."),
     split_pressure: str = typer.Option(None, "--split-pressure", help="spring: low/high range split (default: median pressure)."),
-    tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest (each run's force at its "
-                                                    "lowest pressure) or column (a tare_N column)."),
+    tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest (each run's force at its "
+                                                    "lowest pressure), column (a tare_N column) or fitted (each "
+                                                    "run's zero fitted with the law, with its interval)."),
     save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law."),
-    rails: str = typer.Option("keep", "--rails", help="isometric: rows at a sensor's rail (a load-cell floor): keep "
-                                                      "(default, counted) or exclude."),
-    pressure_zero: str = typer.Option("none", "--pressure-zero", help="isometric: the pressure transducer's zero: none "
+    rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail (a load-cell floor): keep "
+                                                      "(default, counted), exclude, or censor (a reading at a floor "
+                                                      "says only force <= floor)."),
+    pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: none "
                                                                       "(default), lowest or column (pressure_zero_kPa)."),
     rest_length: str = typer.Option(None, "--rest-length", help="with --save and a family law: the rest length of the "
                                                                 "muscle the file describes (default: the muscle file's)."),
-    plot: str = plot_option("the fit: force curves over the data (isometric), else the residuals"),
+    rest_lengths: str = typer.Option("nominal", "--rest-lengths", metavar=choices(REST_LENGTHS),
+                                     help="isometric family: each muscle's rest length as recorded (nominal, default) "
+                                          "or fitted with its interval (see docs/fit.md)."),
+    select: list[str] = SELECT_OPTION,
+    columns: list[str] = COLUMNS_OPTION,
+    direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: fit the law's direction-aware "
+                                         f"form ({DEFAULT_STRUCTURE}: hysteresis inside the law), law and operator jointly."),
+    plot: str = plot_option("the fit: force curves over the data (isometric; measured and modelled loops with "
+                            "--direction-aware), else the residuals"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit a static model to one experiment table: parameters, standard errors, 95 % intervals, flags."""
     check_outputs(plot, dpi)
-
+    muscle = muscle_file_of(muscle, old_muscle, "fit")
     split = parse_quantity(split_pressure, "pressure", "--split-pressure") if split_pressure else None
 
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
-    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero)
+    picked = parse_pairs(select, "--select", "cut_length_cm=10")
+    names = parse_pairs(columns, "--columns", "phase=direction")
+    res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names,
+                        DEFAULT_STRUCTURE if direction_aware else None, rest_lengths)
     out = res.summary
+    print_notes(out.get("notes"))
     if plot:
         write_plot(res.plot(), plot, dpi, res)
     _sensor_warnings(f"fit {model} on {data}", out.get("tare", {}))
@@ -58,9 +79,14 @@ def fit_cmd(
         return
     if out.get("tare", {}).get("method", "none") != "none":
         t = out["tare"]
-        vals = [r["tare_N"] for r in t.get("per_run_N", [])] or t.get("tare_N_range", [])
-        console.print(f"tare ({t['method']}): {len(t.get('per_run_N', []))} runs, "
-                      f"{min(vals):.3g} to {max(vals):.3g} N subtracted" if vals else f"tare ({t['method']})")
+        if t["method"] == "fitted":  # each run's zero fitted with the law, nothing subtracted
+            z = [r["zero_N"] for r in t.get("per_run_N", [])]
+            console.print(f"tare (fitted): {len(z)} runs, zeros {min(z):.3g} to {max(z):.3g} N fitted (intervals in "
+                          "--json)" if z else "tare (fitted)")
+        else:
+            vals = [r["tare_N"] for r in t.get("per_run_N", [])] or t.get("tare_N_range", [])
+            console.print(f"tare ({t['method']}): {len(t.get('per_run_N', []))} runs, "
+                          f"{min(vals):.3g} to {max(vals):.3g} N subtracted" if vals else f"tare ({t['method']})")
     if out.get("saved"):
         console.print(f"wrote muscle file {out['saved']} with the fitted {model} force law")
     if out["synthetic"]:
@@ -81,21 +107,35 @@ def fit_cmd(
 def compare_cmd(
     data: Path = typer.Argument(..., help="An isometric or isotonic table, or a muscle folder holding isotonic.csv "
                                           "(and braid_angle.csv)."),
-    muscle: str = typer.Option(None, "--muscle", help="Muscle file (TOML); default muscle.toml beside DATA."),
-    cv: str = typer.Option(None, "--cv", help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
+    muscle: str = MUSCLE_FILE_ARG_OPTION,
+    old_muscle: str = OLD_MUSCLE_FILE_OPTION,
+    cv: str = typer.Option(None, "--cv", metavar=choices(CV_METHODS), help="isometric: leave-one-length-out (default), leave-one-trial-out or, on a "
                                               "family table (muscle and rest_length columns), leave-one-muscle-out."),
-    tare: str = typer.Option("none", "--tare", help="isometric: none (default), lowest or column (see docs/data.md)."),
-    rails: str = typer.Option("keep", "--rails", help="isometric: rows at a sensor's rail: keep (default) or exclude."),
-    pressure_zero: str = typer.Option("none", "--pressure-zero", help="isometric: the pressure transducer's zero: "
+    tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest, column or fitted (see docs/data.md)."),
+    rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail: keep (default), exclude or censor "
+                                                      "(a reading at a floor says only force <= floor)."),
+    pressure_zero: str = typer.Option("none", "--pressure-zero", metavar=choices(PRESSURE_ZEROS), help="isometric: the pressure transducer's zero: "
                                                                       "none (default), lowest or column."),
+    rest_lengths: str = typer.Option("nominal", "--rest-lengths", metavar=choices(REST_LENGTHS),
+                                     help="isometric family: each muscle's rest length as recorded (nominal, default) "
+                                          "or fitted with its interval (see docs/fit.md)."),
+    select: list[str] = SELECT_OPTION,
+    columns: list[str] = COLUMNS_OPTION,
+    direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: also score each law beside its "
+                                         "direction-aware form, each trial held out, by the up/down gap."),
     plot: str = plot_option("the held-out error of every model"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
     check_outputs(plot, dpi)
-    res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero)
+    muscle = muscle_file_of(muscle, old_muscle, "compare")
+    res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
+                            parse_pairs(select, "--select", "cut_length_cm=10"),
+                            parse_pairs(columns, "--columns", "phase=direction"),
+                            DEFAULT_STRUCTURE if direction_aware else None, rest_lengths)
     out = res.summary
+    print_notes(out.get("notes"))
     if plot:
         write_plot(res.plot(), plot, dpi, res)
     _sensor_warnings(f"compare on {data}", out.get("tare", {}))
@@ -108,11 +148,21 @@ def compare_cmd(
         if out["synthetic"]:
             console.print("[bold yellow]SYNTHETIC data[/] (generated, not measured)")
         rows = [[s["model"], str(s["n_parameters"]), _g(s["rmse_N"]), _g(s["r2"], ".4f"), _g(s["cv_rmse_N"]),
-                 _g(s["cv_rmse_pct_of_peak"], ".2f"), ", ".join(s["flags"]) or "none"]
+                 _g(s["cv_rmse_pct_of_peak"], ".2f"), f"{s.get('extrapolated_folds', 0)}/{len(s.get('folds', []))}",
+                 ", ".join(s["flags"]) or "none"]
                 for s in sorted(out["models"], key=lambda s: (s["cv_rmse_N"] is None, s["cv_rmse_N"] or 0))]
         print_table(f"Force(P, L) models on {out['file']}, held out: {out['cv']} (peak {out['peak_force_N']:.4g} N)",
-                    [" model", "params", "RMSE N", "R²", "CV RMSE N", "CV % of peak", " flags"], rows)
+                    [" model", "params", "RMSE N", "R²", "CV RMSE N", "CV % of peak", "extrapolated folds",
+                     " flags"], rows)
         console.print(f"best on held-out error: {out['best']}")
+        if "direction_aware" in out:
+            rows = [[s["model"], _g(s.get("measured_gap_rms_N")),
+                     f"{_g(s.get('plain_gap_error_rms_N'))} / {_g(s.get('plain_gap_error_max_N'))}",
+                     f"{_g(s.get('direction_aware_gap_error_rms_N'))} / {_g(s.get('direction_aware_gap_error_max_N'))}",
+                     s["note"][:60] or ", ".join(s.get("flags", [])) or "none"] for s in out["direction_aware"]]
+            print_table(f"Up/down gap, each trial held out ({DEFAULT_STRUCTURE} structure)",
+                        [" law", "measured gap RMS N", "plain error RMS / max N", "direction-aware error RMS / max N",
+                         " flags or note"], rows)
         return
     if json:
         emit_json(out)
@@ -131,7 +181,8 @@ def _sensor_warnings(what: str, report: dict) -> None:
     rails = report.get("rails", {})
     if rails.get("rows_at_rail"):
         where = ", ".join(f"{r['column']} {r['side']} {r['value']:g}" for r in rails["rails"])
-        done = "excluded" if rails.get("excluded") else "kept (--rails exclude to drop them)"
+        done = ("excluded" if rails.get("excluded") else "censored (a reading at a floor: force <= floor)"
+                if rails.get("censored") else "kept (--rails exclude to drop them, --rails censor to censor them)")
         tare = "; tares read at the rail: the load cell's zero is unknown there" if "tare_at_rail" in report.get(
             "flags", []) else ""
         err_console.print(f"warning: {what}: {rails['rows_at_rail']} rows at a sensor's rail ({where}), {done}{tare}",

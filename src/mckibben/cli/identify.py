@@ -5,7 +5,8 @@ from __future__ import annotations
 import typer
 
 from mckibben.cli import app
-from mckibben.cli._common import JSON_OPTION, console, emit_json, err_console, print_table
+from mckibben.cli._common import (COLUMNS_OPTION, JSON_OPTION, SELECT_OPTION, console, emit_json, err_console,
+                                  parse_pairs, print_table)
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
 from mckibben.plotting import check_figure_path
@@ -21,13 +22,15 @@ def identify_cmd(
                                                "inlet_pwm/bleed_pwm, command_pwm or command (fraction), optional "
                                                "trial. Two or more steps to different commands also give the "
                                                "valve's lift-off."),
-    order: str = typer.Option("1", "--order", help="Model: 1, 2, both, fill (orifice into a volume) or all."),
+    order: str = typer.Option("1", "--order", metavar="[1|2|both|fill|all]", help="Model: 1, 2, both, fill (orifice into a volume) or all."),
     t_step: str = typer.Option(None, "--t-step", help="Time of the step, e.g. 0.1s (default: first command change)."),
     supply: str = typer.Option(None, "--supply", help="Nominal supply pressure, e.g. 620kPa: bounds the final "
                                                       "pressure of orders 1 and 2; the fill model estimates its "
                                                       "supply from the measured plateau and uses this one only "
                                                       "when the fill does not settle."),
     plot: str = typer.Option(None, "--plot", help="Write a PNG of data, fit and residuals (the first log)."),
+    select: list[str] = SELECT_OPTION,
+    columns: list[str] = COLUMNS_OPTION,
     json: bool = JSON_OPTION,
 ) -> None:
     """Identify gain, time constant and dead time (with standard errors) from an open-loop step, one fit per
@@ -40,7 +43,8 @@ def identify_cmd(
     p_supply = parse_quantity(supply, "pressure", "--supply", allow_zero=False) if supply is not None else None
     if plot is not None:
         check_figure_path(plot)
-    res = control.identify.identify_logs(logs, orders, ts, p_supply)
+    res = control.identify.identify_logs(logs, orders, ts, p_supply, parse_pairs(select, "--select", "experiment=3"),
+                                         parse_pairs(columns, "--columns", "experiment=trial"))
     results = [(log, r.data, r.meta, r.trials) for log, r in zip(logs, res.logs)]
     lift = res.lift_off
     if plot is not None:

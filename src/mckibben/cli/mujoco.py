@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import typer
 
-from mckibben import export
+from mckibben import experiments
 from mckibben.cli import app
 from mckibben.results import check_table_path
-from mckibben.cli._common import JSON_OPTION, emit_json, parse_flag
+from mckibben.cli._common import JSON_OPTION, emit_json, err_console, muscle_option, parse_flag
 from mckibben.errors import InputError
 from mckibben.units import parse_values
 
@@ -15,15 +15,18 @@ mujoco_app = typer.Typer(help="Calibrated muscles on the tendons of MuJoCo model
                          no_args_is_help=True)
 app.add_typer(mujoco_app, name="mujoco")
 
-MUSCLE = typer.Option("mpam97", "--muscle", help="Published parameter set (mpam97, mpam117, mpam143) or a fitted "
-                                                 "muscle file (.toml).")
+MUSCLE = typer.Option("mpam97", "--muscle", metavar="NAME", help="Published parameter set (mpam97, mpam117, "
+                                                                 "mpam143); a muscle file here is deprecated: use "
+                                                                 "--muscle-file.")
+MUSCLE_FILE = typer.Option(None, "--muscle-file", metavar="FILE", help="A muscle file with a fitted force law "
+                                                                       "(mckibben fit … --save); replaces --muscle.")
 FORCE_MODEL = typer.Option(None, "--force-model", help="A published set's law: calibrated (default) or empirical "
                                                        "(eq. 2+3, the statics of predict length).")
 
 
 @mujoco_app.command("hang")
 def hang_cmd(
-    muscle: str = typer.Option("mpam97", "--muscle", help="Published parameter set (mpam97, mpam117, mpam143)."),
+    muscle: str = muscle_option("mpam97", "Published parameter set (mpam97, mpam117, mpam143)."),
     pressure: str = typer.Option("0.4MPa", "--pressure", help="Pressure the sliding-mode controller holds."),
     load: str = typer.Option("0.6N", "--load", help="Hanging load."),
     force_model: str = FORCE_MODEL,
@@ -34,7 +37,7 @@ def hang_cmd(
 ) -> None:
     """A mass hanging from one muscle in MuJoCo: its static length against predict length."""
 
-    res = export.mujoco.hanging_mass(muscle, parse_flag(pressure, "pressure", "pressure", allow_zero=False),
+    res = experiments.mujoco.hanging_mass(muscle, parse_flag(pressure, "pressure", "pressure", allow_zero=False),
                                      parse_flag(load, "force", "load", allow_zero=False), force_model=force_model,
                                      duration=parse_flag(duration, "time", "duration", allow_zero=False),
                                      friction=not no_friction)
@@ -61,6 +64,7 @@ def run_cmd(
     model: str = typer.Argument(..., help="An MJCF file whose muscle tendons carry <general tendon=\"T\" gear=\"-1\"/>."),
     tendon: str = typer.Option(..., "--tendon", help="The muscles' tendons, comma-separated."),
     muscle: str = MUSCLE,
+    muscle_file: str = MUSCLE_FILE,
     reference: str = typer.Option(None, "--reference", help="Pressure the controllers hold, one or one per muscle "
                                                             "(0.5MPa or 0.3,0.5MPa)."),
     inlet: str = typer.Option(None, "--inlet", help="Instead of --reference: inlet PWM counts held (0..255), one or "
@@ -78,7 +82,12 @@ def run_cmd(
 
     if out:
         check_table_path(out)
-    res = export.mujoco.run_model(
+    if muscle_file is not None:
+        muscle = muscle_file
+    elif muscle.strip().lower().endswith(".toml"):
+        err_console.print(f"warning: mujoco run --muscle FILE is deprecated: use --muscle-file {muscle} (--muscle "
+                          "names a published parameter set in every command)", markup=False, highlight=False)
+    res = experiments.mujoco.run_model(
         model, tendon, muscle, reference=None if reference is None else parse_values(reference, "pressure", "reference"),
         inlet=None if inlet is None else _counts(inlet, "inlet"), bleed=_counts(bleed, "bleed"), controller=controller,
         duration=parse_flag(duration, "time", "duration", allow_zero=False),

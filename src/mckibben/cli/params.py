@@ -9,7 +9,7 @@ import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import JSON_OPTION, emit_json, print_table
-from mckibben.datasets import MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES, get_muscle, parameter_sets
+from mckibben.datasets import LAW_SETS, MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES, get_muscle, parameter_sets
 from mckibben.datasets.references import cited, render
 from mckibben.errors import unknown_name
 from mckibben.models.mpam import MiniatureMuscle
@@ -77,8 +77,18 @@ def show_cmd(name: str = typer.Argument(..., help="A name from `mckibben params 
         print_table("structure", ["field", "value"],
                     [[k, render(v) if k == "citation" else str(v)] for k, v in SPRING_MODEL_STRUCTURE.items()])
         return
+    if key in LAW_SETS:
+        law, m = LAW_SETS[key]
+        fields = {k: v for k, v in m.to_dict().items() if k != "citation"}  # SI, unit-suffixed keys
+        if json:
+            emit_json({"name": key, "kind": law, **fields, "citation": cited(m.citation)[0].to_dict(),
+                       "source": render(m.citation)})
+            return
+        print_table(f"{key} ({law} law)", ["parameter", "value"],
+                    [[k, str(v)] for k, v in fields.items()] + [["citation", render(m.citation)]])
+        return
     if key not in MUSCLES:
-        raise unknown_name("parameter set", name, list(MUSCLES) + list(SPRING_SETS))
+        raise unknown_name("parameter set", name, list(MUSCLES) + list(SPRING_SETS) + list(LAW_SETS))
     m = get_muscle(key)
     if json:
         emit_json(muscle_to_dict(m))

@@ -10,11 +10,15 @@ import typer
 from mckibben.cli import app
 from mckibben import experiments
 from mckibben.cli._common import JSON_OPTION, emit_json, err_console, parse_flag, print_table
+from mckibben.cli._output import metric_row
 from mckibben.atomic import check_output_file
 from mckibben.control import registry as R
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
+from mckibben import hardware as HW
+from mckibben import data as data_pkg
 from mckibben import rig
+from mckibben import report as report_pkg
 from mckibben import control
 from mckibben.cli import tool as T
 import collections
@@ -52,8 +56,9 @@ def record_cmd(
 
     link, hello, _ = rig.device.connect(port)  # the device resets on open: nothing older than this run is kept
     try:
-        rec = rig.Recorder(rec_out, meta={"port": port, "baud": rig.BAUD, "n_channels": hello.n_channels},
-                       nominal_length=l0)
+        rec = rig.Recorder(rec_out, meta={"port": port, "baud": rig.BAUD, "n_channels": hello.n_channels,
+                                          "load_cell_N": hello.load_cell},
+                           nominal_length=l0, parser=rig.protocol.Parser(load_cell=hello.load_cell))
     except BaseException:
         link.close()
         raise
@@ -152,8 +157,8 @@ def step_cmd(
         emit_json(res.to_dict())
         return
     p = res.arguments["target_Pa"]
-    print_table(f"Step to {p / 1e6:g} MPa ({controller})", ["metric", "value"],
-                [[k, f"{v:.4g}"] for k, v in res.metrics.items()])
+    print_table(f"Step to {p / 1e6:g} MPa ({controller})", [" metric", "value"],
+                [metric_row(k, v) for k, v in res.metrics.items()])
 
 
 def _warn_faults(faults: int) -> None:
@@ -200,14 +205,34 @@ def emulate_cmd(
     tool_path: str = typer.Option(None, "--tool-path", help="Emulate the default tool's three muscles, each hanging "
                                                            "its mean tension on this tip path (as tool track "
                                                            "--port steers it), e.g. circle:radius=10mm,period=1s."),
+    engine: str = typer.Option("python", "--engine", help="python: the firmware core's Python mirror; avr: the "
+                                                           "firmware image itself in simavr (libsimavr)."),
+    supply: str = typer.Option(None, "--supply", help="Supply pressure of every channel (default 0.8MPa; up to "
+                                                      "1MPa, above the safe maximum, to prove the supervisor)."),
+    load_cell: str = typer.Option(None, "--load-cell", help="Fit a load cell of this full scale on channel 0's "
+                                                            "muscle (e.g. 5N, the paper rig's; docs/firmware.md)."),
+    load_cell_offset: str = typer.Option(None, "--load-cell-offset", help="The load cell amplifier's zero offset, "
+                                                                          "as a force (default 0N)."),
+    load_cell_noise: str = typer.Option(None, "--load-cell-noise", help="The load cell's noise, standard deviation "
+                                                                        "(default 0N)."),
     json: bool = JSON_OPTION,
 ) -> None:
-    """A virtual device on a pseudo-terminal: the firmware core on N plants, in real time; it resets when opened."""
-
+    """A virtual device on a pseudo-terminal (the firmware core, or its image in simavr) on N plants, in real time;
+    it resets when opened."""
 
     d = _duration(duration) if duration else None
     if not 1 <= channels <= 3:
         raise InputError(f"--channels: {channels} must be 1, 2 or 3")
+    if engine not in rig.engines.ENGINES:
+        raise InputError(f"--engine: {engine!r} must be one of {', '.join(rig.engines.ENGINES)}")
+    sup = parse_flag(supply, "pressure", "supply", allow_zero=False) if supply is not None else None
+    cell = None
+    if load_cell is None and (load_cell_offset is not None or load_cell_noise is not None):
+        raise InputError("--load-cell-offset/--load-cell-noise: give the load cell's full scale with --load-cell")
+    if load_cell is not None:
+        cell = HW.LoadCell(parse_flag(load_cell, "force", "load_cell", allow_zero=False),
+                            parse_flag(load_cell_offset or "0N", "force", "load_cell_offset", allow_negative=True),
+                            parse_flag(load_cell_noise or "0N", "force", "load_cell_noise"))
     boot = parse_quantity(boot_time, "time", "--boot-time")
     if boot > 10:
         raise InputError(f"--boot-time: {boot_time!r} is longer than 10 s")
@@ -218,7 +243,8 @@ def emulate_cmd(
         tool = T.build_tool(*(o.default for o in (T.MUSCLE_OPTION, T.PITCH_OPTION, T.DISCS_OPTION, T.PRELOAD_OPTION,
                                                   T.KB_OPTION, T.KA_OPTION, T.PMAX_OPTION)))  # tool track's defaults
         plants = experiments.link.tool_plants(tool, tool_path)
-    em = rig.Emulator(plant=plants, n_channels=channels, boot_time=boot)
+    em = rig.engines.start_device(engine, plant=plants, n_channels=channels, boot_time=boot, supply=sup,
+                                  load_cell=cell)
     made = False
     try:  # from here on, a Ctrl-C or a SIGTERM at any point stops the device and removes its link
         if link:
@@ -230,9 +256,11 @@ def emulate_cmd(
             except OSError as exc:
                 raise InputError(f"--link: cannot create {link!r} ({exc.strerror})") from None
         if json:
-            emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels})
+            emit_json({"port": em.port, "link": link, "baud": rig.BAUD, "channels": channels, "engine": engine,
+                       "load_cell_N": None if cell is None else cell.full_scale,
+                       "bench": None if em.bench is None else str(em.bench)})
         else:
-            err_console.print(f"emulated device on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
+            err_console.print(f"emulated device ({engine} engine) on {em.port}" + (f" (link {link})" if link else "") + "; Ctrl-C stops")
         em.run(d)
     except KeyboardInterrupt:
         pass
@@ -240,3 +268,102 @@ def emulate_cmd(
         em.stop()
         if made and os.path.islink(link):
             os.unlink(link)
+
+
+@rig_app.command("bench")
+def bench_cmd(
+    port: str = typer.Option(..., "--port", help="Serial port of the emulated device (or a link to it)."),
+    request: str = typer.Argument(..., help="load, hold, release or state."),
+    value: str = typer.Argument(None, help="load: a weight (61g, 0.6N); hold: a length (92mm)."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Change the simulated bench of an emulated device: hang a load, hold a length, release; or show it."""
+    if request in ("load", "hold"):
+        if value is None:
+            raise InputError(f"{request}: give a {'weight (61g, 0.6N)' if request == 'load' else 'length (92mm)'}")
+        v = parse_quantity(value, "force" if request == "load" else "length", request, allow_zero=request == "load")
+        line = f"{request} {v!r}"
+    elif request in ("release", "state"):
+        if value is not None:
+            raise InputError(f"{request}: takes no value (got {value!r})")
+        line = request
+    else:
+        raise InputError(f"request: {request!r} must be one of load, hold, release, state")
+    b = rig.Bench.of_port(port)
+    if request == "state":
+        st = b.state()
+        out = {"load_N": st.load, "length_m": st.length, "pressure_Pa": st.pressure, "held": st.held}
+    else:
+        b.request(line)
+        out = {"request": line, "reply": "ok"}
+    if json:
+        emit_json(out)
+        return
+    print_table(f"Bench of {port}", list(out), [[str(v) for v in out.values()]])
+
+
+@rig_app.command("characterize")
+def characterize_cmd(
+    port: str = typer.Option(..., "--port", help="Serial port of the device or emulator (e.g. /dev/ttyACM0)."),
+    protocol: str = typer.Option(..., "--protocol", help="Protocol file (TOML): mckibben examples copy "
+                                                         "characterize.toml."),
+    out: str = typer.Option(..., "--out", help="Folder of the run: tables, muscle.toml, report/ (empty or new, "
+                                               "or a stopped run's with --resume)."),
+    unattended: bool = typer.Option(False, "--unattended", help="Change the loads through the emulated bench's "
+                                                                "side channel instead of asking the operator."),
+    resume: bool = typer.Option(False, "--resume", help="Go on with a stopped run in --out: its completed load "
+                                                        "steps are kept, the others run."),
+    muscle_file: str = typer.Option(None, "--muscle-file", help="The muscle under test (TOML); with it the run "
+                                                                "fits every law and writes OUT/muscle.toml."),
+    json: bool = JSON_OPTION,
+) -> None:
+    """Run a characterization protocol on the bench: load steps, pressure up and down, tables, fitted muscle file."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn  # deferred: Rich's progress
+
+    proto = rig.read_protocol(protocol)  # a bad protocol or muscle file is refused before the port is touched
+    if muscle_file is not None:
+        data_pkg.read_muscle(muscle_file)
+    show = not json and sys.stderr.isatty()
+    bar = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} steps"),
+                   TimeRemainingColumn(), console=err_console, transient=True, disable=not show)
+    task = bar.add_task("characterize", total=1)
+
+    def progress(event, **info):
+        if event == "start":
+            bar.update(task, total=info["total"], completed=info["done"])
+        elif event == "load":
+            bar.update(task, description=f"load {info['load'] / 9.80665 * 1e3:.0f} g, trial {info['trial']}")
+        else:
+            bar.advance(task)
+
+    def prompt(text: str) -> str:
+        bar.stop()
+        try:
+            return err_console.input(text)
+        finally:
+            bar.start()
+
+    with bar:
+        res = rig.run_characterization(port, proto, out, unattended=unattended, resume=resume, muscle_file=muscle_file,
+                             prompt=prompt, progress=progress)
+    summary = res.to_dict()
+    report = None
+    if muscle_file is not None:
+        try:
+            report = str(report_pkg.run_report(res.summary["out"]))
+        except InputError as exc:  # the run, its tables and muscle file stand without the report
+            summary["report_error"] = str(exc)
+            err_console.print(f"warning: no HTML report: {exc}", markup=False, highlight=False)
+    summary["report"] = report
+    if json:
+        emit_json(summary)
+        return
+    m = res.metrics
+    rows = [["load steps", f"{summary['load_steps']} of {summary['load_steps_expected']}"],
+            ["samples", str(m["samples"])], ["peak pressure", f"{m['peak_pressure_Pa'] / 1e6:.4f} MPa"],
+            *[[k, v] for k, v in summary["tables"].items()]]
+    if summary["fit"]:
+        f = summary["fit"]
+        rows += [["best law (held out)", f"{f['best']} ({f['best_cv_rmse_m'] * 1e3:.3f} mm)"],
+                 ["muscle file", f["muscle_file"]], ["report", str(report)]]
+    print_table(f"Characterization on {port}", [" what", "value"], rows)

@@ -7,7 +7,7 @@ import typer
 
 from mckibben.cli import app
 from mckibben.cli._common import DIRECTION_OPTION, JSON_OPTION, emit_json, parse_flag, print_table
-from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, plot_option, write_plot
+from mckibben.cli._output import DPI_OPTION, OUT_OPTION, check_outputs, metric_row, plot_option, write_plot
 from mckibben import experiments
 from mckibben import plant
 
@@ -48,16 +48,9 @@ def open_loop_cmd(
         emit_json(d)
         return
     m = res.metrics
-    fmt = lambda v, k=1.0, u="": "—" if v is None or not np.isfinite(v) else f"{v * k:.4g}{u}"  # noqa: E731
-    print_table(
-        f"Open-loop step, inlet PWM {d['valve_pwm']}",
-        ["metric", "value"],
-        [["time constant (63 %)", fmt(m["time_constant_s"], 1e3, " ms")],
-         ["rise time (10–90 %)", fmt(m["rise_time_s"], 1e3, " ms")],
-         ["overshoot", fmt(m["overshoot_pct"], 1, " %")],
-         ["final pressure", fmt(m["final_pressure_Pa"], 1e-6, " MPa")],
-         ["final length", fmt(m["final_length_m"], 1e3, " mm")]],
-    )
+    print_table(f"Open-loop step, inlet PWM {d['valve_pwm']}", [" metric", "value"],
+                [metric_row(k, m[k]) for k in ("time_constant_s", "rise_time_s", "overshoot_pct", "final_pressure_Pa",
+                                               "final_length_m")])
 
 
 @simulate_app.command("calibrate")

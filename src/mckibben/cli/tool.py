@@ -14,6 +14,7 @@ from mckibben.cli._common import (
     console,
     emit_json,
     err_console,
+    muscle_option,
     print_table,
 )
 from mckibben.cli._output import check_outputs, plot_option, progress_bar, write_plot
@@ -27,8 +28,8 @@ tool_app = typer.Typer(help="The three-muscle endoscope: kinematics, pressures f
                        no_args_is_help=True)
 app.add_typer(tool_app, name="tool")
 
-MUSCLE_OPTION = typer.Option(None, "--muscle", help="Parameter set of the three muscles (mpam97, mpam117, mpam143; "
-                                                     "default mpam117).")
+MUSCLE_OPTION = muscle_option(None, "Published parameter set of the three muscles (mpam97, mpam117, mpam143; "
+                                    "default mpam117).")
 MUSCLE_FILE_OPTION = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law (mckibben fit … "
                                                                "--save): three of that muscle in the paper's disc "
                                                                "stack scaled to it (docs/tool.md).")

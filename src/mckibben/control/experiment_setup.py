@@ -29,7 +29,7 @@ from mckibben.control.controllers import SMC_LAWS
 from mckibben.control.identify import identify_plant
 from mckibben.control.tuning import tune_gains
 from mckibben.control.references import SineReference, refuse_text
-from mckibben.data.io import read_muscle
+from mckibben.data.muscle_file import read_muscle
 from mckibben.data.steplog import read_step_log
 from mckibben.datasets import get_muscle
 from mckibben.errors import ArgumentTypeError, InputError, unknown_name

@@ -45,6 +45,7 @@ from mckibben.control.core_params import core_spec
 from mckibben.control.controllers import smc_core_params
 from mckibben.control.loop import run_closed_loop
 from mckibben.control.plots import plot_hysteresis
+from mckibben.results import Result, to_jsonable
 
 #: Fraction of the sweep's length span left out at each end of the branch fits (saturation).
 FIT_MARGIN = 0.1
@@ -71,8 +72,8 @@ PI_TURNS = (0.0, 1.0, 0.0, 0.85, 0.35, 0.8, 0.4, 0.75, 0.45, 0.7, 0.5, 0.65, 0.5
 PI_PLAYS, PI_OUTPUT_KNOTS = 6, 8
 
 
-@dataclass(frozen=True)
-class HysteresisBenefit:
+@dataclass(frozen=True, repr=False)
+class HysteresisBenefit(Result):
     """Result of :func:`hysteresis_benefit`: sweep, fits, tracking records and errors.
 
     Parameters
@@ -148,6 +149,31 @@ class HysteresisBenefit:
     pi_rms_error: float = math.nan
     pi_max_error: float = math.nan
     pi_error: str = ""
+    call = "mckibben.experiments.hysteresis_compensation"
+    _repr_keys = ("rms_ratio", "max_ratio")
+
+    @property
+    def arguments(self) -> dict:  # type: ignore[override]
+        """Tracking and sweep periods [s], and the tracked length's mean and amplitude [m]."""
+        return {"period_s": self.period, "sweep_period_s": self.sweep_period, "length_mean_m": self.mean,
+                "length_amplitude_m": self.amplitude}
+
+    def to_dict(self) -> dict:
+        """What ``mckibben control hysteresis --json`` prints: :meth:`summary`."""
+        return to_jsonable(self.summary())
+
+    def _series(self):
+        """The length-tracking runs: target, and each method's pressure reference and length."""
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+        data = {"time_s": self.t, "length_reference_m": self.length_ref}
+        for i, name in enumerate(METHODS):
+            data[f"{name}_pressure_reference_Pa"] = self.pressure_ref[i]
+            data[f"{name}_length_m"] = self.length[i]
+        if self.pi_length is not None and self.pi_pressure_ref is not None:
+            data["prandtl_ishlinskii_pressure_reference_Pa"] = self.pi_pressure_ref
+            data["prandtl_ishlinskii_length_m"] = self.pi_length
+        return pd.DataFrame(data)
 
     @property
     def rms_ratio(self) -> float:

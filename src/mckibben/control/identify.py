@@ -199,7 +199,8 @@ class LogsIdentification(Result):
         return self.logs[0].plot(ax)
 
 
-def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: float | None = None) -> LogsIdentification:
+def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: float | None = None,
+                  select: dict | None = None, columns: dict | None = None) -> LogsIdentification:
     """Identify step-response logs: every model on every trial, pooled across trials, and the lift-off.
 
     Parameters
@@ -212,6 +213,10 @@ def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: floa
         Time of the step (default: the first command change of each trial). [s]
     p_supply : float, optional
         Supply pressure: the bound of the final pressure, the fill model's supply. [Pa]
+    select : dict, optional
+        Column -> value: read only these rows of each log (:func:`read_step_log`). [-]
+    columns : dict, optional
+        Each log's column names -> the log's (:func:`read_step_log`). [-]
 
     Returns
     -------
@@ -225,7 +230,7 @@ def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: floa
     """
     out = []
     for log in logs:
-        data, meta = read_step_log(log)
+        data, meta = read_step_log(log, select, columns)
         if len(logs) > 1 and "command_pwm" not in data:
             raise InputError(f"{meta['path']}: the lift-off needs the valve command (inlet_pwm/bleed_pwm or "
                              "command_pwm) in every log")

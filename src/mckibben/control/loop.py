@@ -17,10 +17,11 @@ from mckibben.control.metrics import step_metrics
 from mckibben.control.plant_sampling import to_plant_params
 from mckibben.limits import check_budget
 from mckibben.plant import simulate
+from mckibben.results import TimeResponse
 
 
 @dataclass(frozen=True)
-class LoopRecord:
+class LoopRecord(TimeResponse):
     """Sampled closed-loop record, one row per instance, one column per control period.
 
     Parameters
@@ -49,6 +50,8 @@ class LoopRecord:
     faults: np.ndarray
     length: np.ndarray
     fstate: np.ndarray | None = None
+
+    SIGNALS = ("reference", "pressure", "inlet", "bleed", "command", "length", "faults")
 
     @cached_property
     def command(self) -> np.ndarray:
@@ -154,14 +157,16 @@ def time_grid(duration: float, ts: float = 1e-3) -> tuple[int, np.ndarray]:
 
 
 #: How far the measured pressure may rise above ``p_max + margin`` on the calibrated plant.
-#: The supervisor shuts the inlet while the pressure extrapolated over the valve's closing time
-#: (:data:`mckibben.control.core.LEAD_SAMPLES`) passes ``p_max + margin`` and vents above it; the
-#: inlet valve's 3 ms lag still lets some air in. Measured with the inlet commanded wide open
+#: The supervisor shuts the inlet and opens the bleed while the pressure extrapolated over the
+#: valve's closing time (:data:`mckibben.control.core.LEAD_SAMPLES`) passes ``p_max``, caps the
+#: inlet at ``(p_max - p) >> HEADROOM_SHIFT`` counts below it, and vents above ``p_max + margin``;
+#: the inlet valve's 3 ms lag still lets some air in. Measured with the inlet commanded wide open
 #: (open-loop mode and both sliding-mode laws at β = 255), p_max 0.3–0.8 MPa, supply 0.6–1.0 MPa,
-#: valves and volumes ±30 %: at most 79 kPa (at p_max = 0.3 MPa, supply 1 MPa, valves 1.3×,
-#: small dead volume); 47 kPa at p_max = 0.5 MPa, 15 kPa at 0.8 MPa. The bound is 90 kPa
-#: (``docs/control.md``, Safety; a property test in ``tests/test_control_plant.py``).
-SAFETY_TRANSIENT_PA = 90e3
+#: valves and volumes ±30 %: at most 47 kPa (67 kPa above p_max, at p_max = 0.4 MPa, supply 1 MPa,
+#: valves 1.3×, small volumes); at p_max = 0.8 MPa the pressure stays below p_max on every such
+#: plant. The bound is 50 kPa (``docs/control.md``, Safety; a property test in
+#: ``tests/test_control_plant.py``).
+SAFETY_TRANSIENT_PA = 50e3
 
 def step_reference(n: int, t_step_index: int, p0: float, p1: float) -> np.ndarray:
     """A pressure step ``p0 → p1`` at sample ``t_step_index``.

@@ -1,8 +1,8 @@
 """The controller core's step, bit-exact with ``firmware/core/controller.c``: the compiled kernels.
 
 :func:`core_step` is one step of one channel (``mck_ctrl_step``): ADC scaling, the supervisor
-(reference clamp, overpressure vent with its lead cut, latched sensor faults and the response
-rule), the dispatch to the controller of the mode (the sliding mode's and the PID's law,
+(reference clamp, overpressure vent, the inlet's lead cut and headroom cap, latched sensor faults
+and the response rule), the dispatch to the controller of the mode (the sliding mode's and the PID's law,
 :mod:`mckibben.control.laws`, and the extension laws' slots, :func:`mckibben.control.registry.extension_law`)
 and the split of the command into inlet and bleed PWM counts. :func:`core_kernel` is it with the
 controller-kernel interface of the plant simulator. The modes, fault flags and status codes of
@@ -56,8 +56,13 @@ TS_US_MIN = HW.TS_US_MIN
 TS_US_MAX = HW.TS_US_MAX
 
 
-#: Supervisor 2b: the inlet is shut while p + LEAD_SAMPLES·(p − p_prev) > p_max + margin.
+#: Supervisor 2b: the inlet is shut and the bleed opened wide while p + LEAD_SAMPLES·(p − p_prev)
+#: > p_max (``firmware/core/controller.h``, ``MCK_LEAD_SAMPLES``).
 LEAD_SAMPLES = 4
+#: Supervisor 2b's headroom: the inlet is capped at (p_max − p) >> HEADROOM_SHIFT counts (255 from
+#: 65.3 kPa below p_max down, 0 at p_max), so a valve opening near the maximum cannot carry the
+#: pressure past it through its lag (``MCK_HEADROOM_SHIFT``).
+HEADROOM_SHIFT = 8
 P_NONE = 2_000_000  #: IS_P_PREV before the first step: a falling 'rate', so no cut on the first sample
 #: Supervisor 3, the response rule (``docs/controller.md``): a valve counts as open from the
 #: supervisor model's lift-off u0_s plus RESP_DU counts; the inlet must raise the pressure while
@@ -128,7 +133,12 @@ def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
             st[IS_OVER] = 0
     elif p > ip[IP_P_OVER]:
         st[IS_OVER] = 1
-    cut = p + (p - st[IS_P_PREV]) * LEAD_SAMPLES > ip[IP_P_OVER]
+    cut = p + (p - st[IS_P_PREV]) * LEAD_SAMPLES > p_max
+    room = p_max - p
+    if cut or room <= 0:
+        cap = 0
+    else:
+        cap = 255 if room >= 255 << HEADROOM_SHIFT else room >> HEADROOM_SHIFT
     st[IS_P_PREV] = p
     e = pref - p
     surface = e
@@ -161,9 +171,12 @@ def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
         if mode == MODE_OPEN_LOOP:
             inlet = ip[IP_OL_INLET]
             bleed = ip[IP_OL_BLEED]
-    # supervisor 2b: shut the inlet before the valve's lag carries p past p_max + margin
+    # supervisor 2b: the inlet within the headroom cap, shut and the bleed wide open while the
+    # predicted pressure is past p_max
+    if inlet > cap:
+        inlet = cap
     if cut:
-        inlet = 0
+        bleed = 255
     faults = st[IS_LATCHED] | (FAULT_OVERPRESSURE if st[IS_OVER] != 0 else 0)
     st[IS_LAST_INLET] = inlet
     st[IS_LAST_BLEED] = bleed

@@ -115,6 +115,30 @@ SCHEMAS: dict[str, Schema] = {
 KINDS = tuple(SCHEMAS)
 
 
+def column_name(name: str) -> str:
+    """How a quantity or bare column is written in a file: ``pressure_<unit>``, ``command``, ``trial``.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`QUANTITIES` or :data:`BARE_COLUMNS`. [-]
+    """
+    return name if name in BARE_COLUMNS or QUANTITIES[name][0] == "dimensionless" else f"{name}_<unit>"
+
+
+def known_columns() -> tuple[str, ...]:
+    """Every column a table may have, as written in a file (the list messages give), from the schema.
+
+    Returns
+    -------
+    tuple of str
+        ``pressure_<unit>``, ..., ``rest_length_<unit>``, ``pressure_zero_<unit>``, ``command``,
+        ``trial``, ``direction``, ``muscle``: every quantity of :data:`QUANTITIES`, then every
+        bare column of :data:`BARE_COLUMNS`.
+    """
+    return tuple(column_name(q) for q in [*QUANTITIES, *BARE_COLUMNS])
+
+
 def schema_markdown() -> str:
     """The two tables of ``docs/data.md`` (kinds, and quantities), generated from the schema.
 
@@ -133,7 +157,7 @@ def schema_markdown() -> str:
     lines += ["", "Quantities and the dimension of their unit:", "",
               "| column | dimension | negative values | meaning |", "| --- | --- | --- | --- |"]
     for q, (dim, no_neg, text) in QUANTITIES.items():
-        col = q if dim == "dimensionless" else f"{q}_<unit>"
+        col = column_name(q)
         lines.append(f"| `{col}` | {dim} | {'refused' if no_neg else 'allowed'} | {text} |")
     for q, text in BARE_COLUMNS.items():
         lines.append(f"| `{q}` | — | — | {text} |")

@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from mckibben.atomic import as_path, check_input_file
-from mckibben.errors import InputError
+from mckibben.data.tables import _select_rows
+from mckibben.errors import ArgumentTypeError, InputError
 from mckibben.limits import PLAUSIBLE_MAX, first_implausible
 from mckibben.units import split_column, to_si
 
@@ -23,7 +24,7 @@ INLET_COLUMN, BLEED_COLUMN, COMMAND_COLUMN = "inlet_pwm", "bleed_pwm", "command_
 FRACTION_COLUMN, TRIAL_COLUMN = "command", "trial"
 
 
-def read_step_log(path) -> tuple[dict, dict]:
+def read_step_log(path, select: dict | None = None, columns: dict | None = None) -> tuple[dict, dict]:
     """Read a step-response log (CSV or Parquet) into SI arrays.
 
     Columns follow the ``quantity_unit`` convention: a time column ``time_<unit>`` (``time_s``,
@@ -39,6 +40,13 @@ def read_step_log(path) -> tuple[dict, dict]:
     ----------
     path : str or pathlib.Path
         ``.csv`` or ``.parquet`` file. [-]
+    select : dict, optional
+        Column -> value: only the rows holding every value are read, e.g. one experiment of a log
+        holding several (``{"experiment": 3}``); as :func:`mckibben.data.read_table`. Rows keep
+        their numbers in the file. [-]
+    columns : dict, optional
+        The file's column name -> the log's, e.g. ``{"experiment": "trial"}`` or
+        ``{"P_kPa": "pressure_kPa"}``. [-]
 
     Returns
     -------
@@ -70,6 +78,23 @@ def read_step_log(path) -> tuple[dict, dict]:
     except Exception as exc:  # parser errors from pandas/pyarrow: one line, no traceback
         raise InputError(f"{p}: cannot be read as {p.suffix[1:]}: {str(exc).splitlines()[0]}") from exc
 
+    df.columns = [str(c).strip() for c in df.columns]
+    if columns is not None:
+        if not isinstance(columns, dict) or not all(isinstance(k, str) and isinstance(v, str)
+                                                    for k, v in columns.items()):
+            raise ArgumentTypeError(f"columns = {columns!r}: not a mapping of the file's column names to the log's "
+                                    f"({type(columns).__name__}); give e.g. {{'experiment': 'trial'}}")
+        for old, new in columns.items():
+            if old not in df.columns:
+                raise InputError(f"columns: {old}={new}: {p} has no column {old!r}; its columns are "
+                                 f"{', '.join(df.columns)}")
+            if new in df.columns and new not in columns:
+                raise InputError(f"columns: {old}={new}: {p} already has a column {new!r}; keep one")
+    renamed = dict(columns or {})
+    keep = _select_rows(str(p), df, select, renamed)
+    df = df.rename(columns=renamed)[keep]
+    rows = df.index.to_numpy() + 1  # 1-based rows of the file, kept through a selection
+
     def pick(quantity, dimension):
         found = [c for c in df.columns if split_column(str(c))[0] == quantity and split_column(str(c))[1]]
         if not found:
@@ -81,7 +106,7 @@ def read_step_log(path) -> tuple[dict, dict]:
         v = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
-            raise InputError(f"{p}:{bad[0] + 1}:{col}: value {df[col].iloc[bad[0]]!r} is not a finite number")
+            raise InputError(f"{p}:{rows[bad[0]]}:{col}: value {df[col].iloc[bad[0]]!r} is not a finite number")
         return v
 
     tcol, t = pick("time", "time")
@@ -90,7 +115,7 @@ def read_step_log(path) -> tuple[dict, dict]:
     for values, col, dim, unit in ((t, tcol, "time", "s"), (pressure, pcol, "pressure", "Pa")):
         bad = first_implausible(values, dim)
         if bad is not None:
-            raise InputError(f"{p}:{bad + 2}:{col}: {values[bad]:g} {unit} is not a plausible {dim} "
+            raise InputError(f"{p}:{rows[bad] + 1}:{col}: {values[bad]:g} {unit} is not a plausible {dim} "
                              f"(more than {PLAUSIBLE_MAX[dim]:g} {unit})")
     data = {"time_s": t, "pressure_Pa": pressure}
     cols = {"time": tcol, "pressure": pcol}
@@ -107,7 +132,7 @@ def read_step_log(path) -> tuple[dict, dict]:
         trial = numeric(TRIAL_COLUMN)
         frac = np.flatnonzero(trial != np.round(trial))
         if frac.size:
-            raise InputError(f"{p}:{frac[0] + 1}:{TRIAL_COLUMN}: {trial[frac[0]]:g} is not a whole number")
+            raise InputError(f"{p}:{rows[frac[0]]}:{TRIAL_COLUMN}: {trial[frac[0]]:g} is not a whole number")
         data["trial"] = trial.astype(int)
         cols["trial"] = TRIAL_COLUMN
     notes = []
@@ -118,7 +143,7 @@ def read_step_log(path) -> tuple[dict, dict]:
             continue
         back = np.flatnonzero(np.diff(t[idx]) < 0)
         if back.size or not np.all(np.diff(idx) == 1):
-            k = int(idx[back[0] + 1]) + 1 if back.size else int(idx[np.flatnonzero(np.diff(idx) != 1)[0] + 1]) + 1
+            k = int(rows[idx[back[0] + 1]]) if back.size else int(rows[idx[np.flatnonzero(np.diff(idx) != 1)[0] + 1]])
             raise InputError(f"{p}:{k}:{tcol}: time goes back within trial {tr} (or the trial's rows are not"
                              " together); time must increase within each trial")
     # repeated time stamps (millisecond clocks): average the samples that share one
@@ -140,7 +165,7 @@ def read_step_log(path) -> tuple[dict, dict]:
                      " samples were averaged")
     if len(data["time_s"]) < 2:
         raise InputError(f"{p}:{tcol}: needs at least two time stamps")
-    return data, {"path": str(p), "columns": cols, "notes": notes}
+    return data, {"path": str(p), "columns": cols, "notes": notes, **({"selected": dict(select)} if select else {})}
 
 
 def split_trials(data: dict) -> dict:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from mckibben import _lazy
 
-from mckibben.datasets.published import MUSCLES, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES, parameter_sets
+from mckibben.datasets.published import LAW_SETS, MUSCLES, law_set_muscle, SPRING_MODEL_STRUCTURE, SPRING_MUSCLE_SIZES, parameter_sets
 from mckibben.datasets.references import REFERENCES, Reference, reference
 from mckibben.errors import ArgumentTypeError, unknown_name
 from mckibben.models.mpam import MiniatureMuscle
@@ -39,7 +39,7 @@ def get_muscle(name: str) -> MiniatureMuscle:
     return MUSCLES[key]
 
 
-__all__ = ["MUSCLES", "REFERENCES", "Reference", "SPRING_MODEL_STRUCTURE", "SPRING_MUSCLE_SIZES", "get_muscle", "list_muscles",
+__all__ = ["LAW_SETS", "MUSCLES", "REFERENCES", "Reference", "SPRING_MODEL_STRUCTURE", "SPRING_MUSCLE_SIZES", "get_muscle", "law_set_muscle", "list_muscles",
            "parameter_sets", "reference"]
 
 

@@ -19,13 +19,34 @@ ID 0.5 mm / OD 0.9 mm, nylon strand ~0.1 mm, braid angle ~20°, outer diameter ~
 The spring model of Wickramatunge & Leephakpreeda (2010) [wickramatunge2010] (Festo muscles PAM-A, -B, -C) is shipped as its
 structure and muscle sizes only: its coefficient tables are unreadable in our copy, and we ship
 no invented numbers; ``mckibben fit`` fits them from data.
+
+The length-effect model of Hunt, Graber-Tilton and Quinn (2017) for Festo DMSP-10 muscles,
+P = c0 + c1·tan(c2·(ε/(c4·F + ε_max) + c3)) + c5·F + c6·S (law ``hunt-quinn``):
+
+==================  ========  ======  ======  ======  ===========  ========  =======  ======  =======
+name                c0        c1      c2      c3      c4           c5        c6       L0      ε_max
+==================  ========  ======  ======  ======  ===========  ========  =======  ======  =======
+festo-dmsp10-189    254.3     192     2.0265  −0.461  −0.331e-3    1.23      15.6     189 mm  0.1667
+                    kPa       kPa                     1/N          kPa/N     kPa
+==================  ========  ======  ======  ======  ===========  ========  =======  ======  =======
+
+The constants are those of the authors' lab code (the paper's text was not available to check them
+against); L0 = 189 mm and the free length 157.5 mm at 620 kPa (ε_max = 0.1667) are its worked
+example's muscle.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from mckibben.datasets.references import cited, render
+from mckibben.errors import ArgumentTypeError, unknown_name
+from mckibben.models import laws
+from mckibben.models.law_statics import LawMuscle
+from mckibben.models.muscle import FILE_BRAID_ANGLE
+from mckibben.models.laws.hunt_quinn import HuntQuinn
 from mckibben.models.mpam import BraidAngleMap, MiniatureGeometry, MiniatureMuscle
 
 MM = 1e-3
@@ -106,6 +127,61 @@ SPRING_MODEL_STRUCTURE = {
     "citation": f"{PAPER_SPRING}, eq. (1)–(2), Tables 1–2, §5",
 }
 
+#: Hunt, Graber-Tilton and Quinn (2017): published constants of their Festo DMSP-10 model, by name
+#: (law ``hunt-quinn``; see the module's table).
+HUNT_QUINN_SETS: dict[str, HuntQuinn] = {
+    "festo-dmsp10-189": HuntQuinn(
+        c0=254.3, c1=192.0, c2=2.0265, c3=-0.461, c4=-0.331e-3, c5=1.23, c6=15.6,
+        max_strain=(189.0 - 157.5) / 189.0, rest_length=189.0 * MM, pressure_range=(0.0, 620e3),
+        citation="[hunt2017]: c0..c6 as in the authors' lab code (BPA pressure model); L0 189 mm, free length "
+                 "157.5 mm at 620 kPa (its worked example)",
+    ),
+}
+
+#: Published parameter sets of registered force laws, by set name: (law name, parameter object).
+#: ``mckibben params list`` and ``params show`` read this.
+LAW_SETS: dict[str, tuple[str, object]] = {name: ("hunt-quinn", m) for name, m in HUNT_QUINN_SETS.items()}
+
+
+def law_set_muscle(name: str) -> LawMuscle:
+    """A published parameter set of a registered law (:data:`LAW_SETS`) as a muscle.
+
+    Its force, length under a load and pressure for a length are the law's with the set's
+    constants (:func:`mckibben.models.force`, :func:`~mckibben.models.length`,
+    :func:`~mckibben.models.pressure`; ``predict force|length|pressure --muscle NAME`` or ``--model
+    LAW``). The rest length is the set's; the pressures are those the set was identified on; the
+    length's end stops are those of an ideal braid of strand ``L0/cos θ0`` with the construction
+    angle :data:`~mckibben.models.muscle.FILE_BRAID_ANGLE` (a published set gives no braid, as a
+    muscle file without one); the outer diameter is not given by the sources (NaN).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`LAW_SETS`, case-insensitive. [-]
+
+    Returns
+    -------
+    LawMuscle
+        Named after the set, with its law and the set's citation.
+
+    Raises
+    ------
+    InputError
+        An unknown name, with the closest sets.
+    """
+    if not isinstance(name, str):
+        raise ArgumentTypeError(f"name = {name!r}: not a parameter set's name ({type(name).__name__}); give one of "
+                                f"{', '.join(LAW_SETS)}")
+    key = name.strip().lower()
+    if key not in LAW_SETS:
+        raise unknown_name("parameter set", name, LAW_SETS)
+    law_name, params = LAW_SETS[key]
+    law = laws.LAWS[law_name]
+    l0 = float(params.rest_length)
+    b = l0 / math.cos(FILE_BRAID_ANGLE)
+    return LawMuscle(key, l0, law_name, law.theta_of(params, "elongation"), b, tuple(params.pressure_range),
+                     (b / math.sqrt(3.0), b), math.nan, citation=params.citation)
+
 
 def parameter_sets() -> list[dict]:
     """Every published parameter set with what it is and whom it cites.
@@ -121,5 +197,6 @@ def parameter_sets() -> list[dict]:
     sets = [(name, "miniature muscle", m.citation) for name, m in MUSCLES.items()]
     sets += [(f"spring-{name}", "spring model (structure and size only)", SPRING_MODEL_STRUCTURE["citation"])
              for name in SPRING_MUSCLE_SIZES]
+    sets += [(name, f"{law} law", m.citation) for name, (law, m) in LAW_SETS.items()]
     return [{"name": name, "kind": kind, "citation": cited(text)[0].to_dict(), "source": render(text)}
             for name, kind, text in sets]

@@ -98,6 +98,12 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
         doi="10.3368/jhr.50.2.317",
     ),
     Reference(
+        key="tobin1958",
+        title="Estimation of Relationships for Limited Dependent Variables",
+        authors=("Tobin",), venue="Econometrica, vol. 26, no. 1, pp. 24–36", year=1958,
+        doi=None, unestablished="DOI: not checked against a record of the journal's",
+    ),
+    Reference(
         key="levant1993",
         title="Sliding order and sliding accuracy in sliding mode control",
         authors=("Levant",), venue="International Journal of Control, vol. 58, no. 6, pp. 1247–1263", year=1993,
@@ -108,6 +114,14 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
         title="Proper implicit discretization of the super-twisting controller — without and with actuator saturation",
         authors=("Seeber", "Andritsch"), venue="Automatica, vol. 173, 112027", year=2025,
         doi="10.1016/j.automatica.2024.112027",
+    ),
+    Reference(
+        key="hunt2017",
+        title="Modeling length effects of braided pneumatic actuators",
+        authors=("Hunt", "Graber-Tilton", "Quinn"),
+        venue="ASME 2017 International Design Engineering Technical Conferences and Computers and Information in "
+              "Engineering Conference (IDETC/CIE), paper V05AT08A008", year=2017, doi=None,
+        unestablished="DOI: we had no copy of the paper; the reference is as the authors' lab code gives it",
     ),
 )}
 

@@ -8,6 +8,9 @@
 :mod:`~mckibben.experiments.link`: the three-muscle tool steered through the device link
 (``mckibben tool track --port``; :func:`~mckibben.experiments.link.track_over_link`). It was
 ``mckibben.rig.track``; it moved here because it uses the tool, which the rig may not import.
+:mod:`~mckibben.experiments.mujoco`: a hanging mass and any model with muscles on its tendons, in
+MuJoCo (:func:`hanging_mass`, :func:`run_model`; ``mckibben mujoco hang|run``), on the bridge of
+:mod:`mckibben.export.mujoco` (``mujoco`` is an optional dependency).
 """
 
 from mckibben import _lazy
@@ -17,6 +20,8 @@ from mckibben import _lazy
 _WHERE = {name: "mckibben.experiments.pressure" for name in (
     "CompareResult", "Fig13Result", "OpenLoopResult", "RobustnessResult", "StepResult", "TrackResult", "compare",
     "fig13", "hysteresis_compensation", "open_loop", "robustness", "step_response", "track_pressure")}
+_WHERE.update({"HangingMassResult": "mckibben.experiments.mujoco", "MuscleRunResult": "mckibben.experiments.mujoco",
+               "hanging_mass": "mckibben.experiments.mujoco", "run_model": "mckibben.experiments.mujoco"})
 _WHERE.update({"track_over_link": "mckibben.experiments.link",
                "ToolTrackResult": "mckibben.experiments.tool", "track_tip": "mckibben.experiments.tool"})
 

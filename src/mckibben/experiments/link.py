@@ -3,8 +3,10 @@
 The host computes the path's pressure references (:func:`mckibben.tool.tracking.tip_reference`),
 sends the three channels' controller design to the device (:meth:`Device.set_gains`, the same
 design :func:`mckibben.tool.tracking.simulate_tracking` runs), holds the first references until
-the chambers settle, then sends one SET_POINTS frame per control period (paced by the host's
-clock) while it records the device's telemetry: the three measured pressures, the references the
+the chambers settle, then sends one SET_POINTS frame every
+:data:`~mckibben.rig.device.PACED_PERIODS` control periods (paced by the host's clock: the
+firmware's measured ceiling, ``docs/firmware.md``) while it records the device's telemetry at that
+decimation: the three measured pressures, the references the
 device applied, and its faults. The achieved tip is the tool's static equilibrium at the
 measured pressures; it is compared with the path's target at the reference the device was
 applying (so the error is the pressure loop's, through the link, as in the simulation).
@@ -21,7 +23,7 @@ import numpy as np
 from mckibben.errors import InputError
 from mckibben.hardware import pressure_from_adc
 from mckibben.rig import protocol as P
-from mckibben.rig.device import command, connect
+from mckibben.rig.device import PACED_PERIODS, command, connect
 from mckibben.tool.paths import parse_path
 from mckibben.tool.tracking import resolve_path, tip_reference
 from mckibben.tool.tracking import muscle_plants
@@ -118,7 +120,7 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
     seq = 0
     try:
         command(link, parser, [(0, P.set_points(0, refs[0])), (1, P.set_mode(1, P.MODES["smc"])),
-                               (2, P.stream(2, True, 1))], on_frame=on_frame)
+                               (2, P.stream(2, True, PACED_PERIODS))], on_frame=on_frame)
         seq = 3
         # hold the first references until the chambers settle (device time)
         deadline = time.monotonic() + 10.0
@@ -142,13 +144,13 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
         thread.start()
         try:
             t0 = time.monotonic()
-            for k in range(1, n):
+            for k in range(PACED_PERIODS, n, PACED_PERIODS):
                 now = time.monotonic()
                 due = t0 + k * 1e-3
                 if due > now:
                     time.sleep(due - now)
-                elif now - due > 1e-3:
-                    continue  # late: this period's reference has passed, send the current one
+                elif now - due > PACED_PERIODS * 1e-3:
+                    continue  # late: this reference has passed, send the current one
                 link.write(P.set_points(seq, refs[k]))
                 seq += 1
             time.sleep(0.1)
@@ -160,13 +162,14 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
         link.write(P.set_mode(seq + 1, P.MODES["off"]))
     finally:
         link.close()
+    last = (n - 1) // PACED_PERIODS * PACED_PERIODS  # the last reference sent
     idx, pressure, applied, faults, t = [], [], [], 0, []
     for f in rows:
         key = tuple(c.reference_pa for c in f.channels[:3])
         k = sent_at.get(key)
         if k is None:
             continue  # a frame before the path's first reference reached the device
-        if idx and idx[-1] == n - 1 and k == n - 1:
+        if idx and idx[-1] == last and k == last:
             break  # the path is over: the device holds its last reference
         idx.append(k)
         t.append(f.t_us * 1e-6)

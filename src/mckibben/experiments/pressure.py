@@ -61,7 +61,7 @@ from mckibben.fit.muscle_file import check_direction
 from mckibben.hardware import P_MAX_DEFAULT
 from mckibben.limits import check_budget, check_p_max, clamp_pressure
 from mckibben.plant import CALIBRATION_PWM, PlantParams, open_loop_step
-from mckibben.results import Result, to_jsonable
+from mckibben.results import Result, TimeResponse, to_jsonable
 from mckibben.units import si
 
 __all__ = [
@@ -81,13 +81,7 @@ def _gains_dict(params: CoreParams, controller: str) -> dict:
 
 
 def _record_frame(rec: LoopRecord, i: int = 0):
-    import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-    return pd.DataFrame({
-        "time_s": rec.t, "reference_Pa": rec.reference[i], "pressure_Pa": rec.pressure[i],
-        "inlet_pwm": rec.inlet[i], "bleed_pwm": rec.bleed[i], "command_pwm": rec.command[i],
-        "length_m": rec.length[i], "fault_flags": rec.faults[i],
-    })
+    return rec.frame(i)
 
 
 @dataclass(frozen=True, repr=False)
@@ -808,7 +802,7 @@ def robustness(n: int = 1000, *, seed: int = 0, beta=None, progress=None, force:
 
 
 @dataclass(frozen=True, repr=False)
-class OpenLoopResult(Result):
+class OpenLoopResult(Result, TimeResponse):
     """An open-loop inlet-valve step from rest on the plant (:func:`open_loop`).
 
     Attributes
@@ -827,6 +821,8 @@ class OpenLoopResult(Result):
     step_metrics: dict
     arguments: dict = field(default_factory=dict)
     call = "mckibben.experiments.open_loop"
+    TIME = "time"
+    SIGNALS = ("pressure", "length")
 
     @property
     def metrics(self) -> dict:
@@ -841,9 +837,7 @@ class OpenLoopResult(Result):
                             "duration_s": a["duration_s"], **extra, **self.metrics})
 
     def _series(self):
-        import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-        return pd.DataFrame({"time_s": self.time, "pressure_Pa": self.pressure, "length_m": self.length})
+        return self.frame()
 
     def plot(self, ax=None):
         """The pressure rise with its 63 % time; return the Figure.

@@ -15,7 +15,7 @@ system C compiler, and its ``modelDescription.xml``:
   commands and the core's fault flags are outputs.
 
 **One physics, the Python side is the source.** The Numba plant (:mod:`mckibben.plant.physics`,
-:func:`mckibben.plant.params.derive`, the static start of :mod:`mckibben.plant.simulator`, the law
+:func:`mckibben.plant.packing.derive`, the static start of :mod:`mckibben.plant.simulator`, the law
 kernels of :mod:`mckibben.models.laws`) is the source of truth; ``c/mk_plant.c`` is a port of it
 and each law's C face (``models/laws/<law>.c``, gathered into a generated ``mk_laws.c``) a port of
 its kernel, the same equations and the same classical RK4 with the same substep (the control period over its
@@ -32,7 +32,6 @@ FMPy's package) before it is renamed into place.
 from __future__ import annotations
 
 import hashlib
-import math
 import os
 import shutil
 import subprocess
@@ -51,12 +50,13 @@ from mckibben.atomic import atomic_file, check_output_file
 from mckibben.control import registry as R
 from mckibben.control.core import MODE_PID, MODE_SMC, CoreParams, gain_values
 from mckibben.control.experiment_setup import (controller_params, identify_file_plant, muscle_file_plant, plant_load,
-                                               tuned_controller)
+                                               rest_pull, tuned_controller)
 from mckibben.datasets import get_muscle
 from mckibben.errors import InputError, check_instance
 from mckibben.models import laws as LW
+from mckibben.plant import c_layout as CL
 from mckibben.plant import params as PP
-from mckibben.plant import physics as ph
+from mckibben.plant import packing as PK
 from mckibben.units import si
 
 #: The FMU's model identifier (the binary's and the functions' name).
@@ -79,7 +79,7 @@ THETA_VR = 100
 #: The compiler's flags for the FMU's binary (C99, position-independent, only the FMI functions exported).
 CFLAGS = ("-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra")
 #: Control period and RK4 substeps of the FMU's integrator: :func:`mckibben.plant.simulate`'s defaults.
-TS, SUBSTEPS = HW.CONTROL_PERIOD, 10
+TS, SUBSTEPS = CL.TS, CL.SUBSTEPS
 
 _UNITS = {"Pa": 'kg="1" m="-1" s="-2"', "m": 'm="1"', "N": 'kg="1" m="1" s="-2"'}
 
@@ -111,7 +111,8 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         open plant. [-]
     load : float, optional
         Hanging load, the FMU's ``load_force`` start value; default 0.6 N (as ``mckibben simulate
-        open-loop``). [N]
+        open-loop``), or for a muscle file :data:`FILE_LOAD_FRACTION` of what its muscle pulls at
+        rest at the supply pressure (0.6 N is nothing to a 400 N muscle). [N]
     supply : float, optional
         Supply pressure (gauge), the ``supply_pressure`` start value; default 0.8 MPa, or a muscle
         file's top fitted pressure. [Pa]
@@ -142,10 +143,10 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
     plant = _plant(muscle, muscle_file, plant, load, supply, direction)
     ctrl = _controller(controller, plant, muscle_file, law, beta)
     prm, law_index, theta, name = plant.prepare(1)
-    if LW.LAWS[name].c_source() is None:
-        have = ", ".join(n for n, lw in LW.LAWS.items() if lw.c_source() is not None)
+    have = CL.c_laws()
+    if name not in have:
         raise InputError(f"force law {name}: it has no C face (models/laws/{LW.LAWS[name].stem}.c), so no FMU "
-                         f"(these laws have one: {have})")
+                         f"(these laws have one: {', '.join(have)})")
     headers = _fmi_headers(fmi)
     cc = _compiler()
     label = _label(plant, muscle, muscle_file)
@@ -160,7 +161,7 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
         pkg = resources.files("mckibben.export") / "c"
         for fname in PLANT_SOURCES + (f"fmi{fmi}_plant.c",):
             (src / fname).write_bytes((pkg / fname).read_bytes())
-        (src / "mk_laws.c").write_text(laws_c())
+        (src / "mk_laws.c").write_text(CL.laws_c())
         sources: tuple[str, ...] = ("mk_plant.c", "mk_laws.c", "mk_loop.c", f"fmi{fmi}_plant.c")
         if core is not None:
             for fname in FIRMWARE_SOURCES:
@@ -187,6 +188,11 @@ def export_fmu(muscle: str | None = None, muscle_file=None, out="plant.fmu", fmi
     return dest
 
 
+#: A muscle file's FMU hangs this fraction of what its muscle pulls at rest (at the supply
+#: pressure) by default: a load it lifts through a quarter of its range. [-]
+FILE_LOAD_FRACTION = 0.25
+
+
 def _plant(muscle, muscle_file, plant, load, supply, direction) -> PP.PlantParams:
     """The one rig to export, from exactly one of a published set, a muscle file, a PlantParams."""
     given = [k for k, v in (("muscle", muscle), ("muscle_file", muscle_file), ("plant", plant)) if v is not None]
@@ -200,7 +206,9 @@ def _plant(muscle, muscle_file, plant, load, supply, direction) -> PP.PlantParam
             raise InputError("load, supply: give them in the PlantParams (load_force, supply_pressure)")
         return plant
     if muscle_file is not None:
-        return muscle_file_plant(muscle_file, 0.6 if load is None else load, supply, direction)
+        if load is None:  # a load scaled to the muscle at hand
+            load = round(FILE_LOAD_FRACTION * rest_pull(muscle_file_plant(muscle_file, 0.0, supply, direction)), 1)
+        return muscle_file_plant(muscle_file, load, supply, direction)
     if direction != "inflate":
         raise InputError(f"direction: {direction!r} applies to a muscle file's law only")
     f = plant_load(0.6 if load is None else load)
@@ -310,15 +318,6 @@ def _validate(path: Path) -> None:
         raise RuntimeError("the written FMU does not validate: " + "; ".join(problems))
 
 
-def _c(x: float) -> str:
-    """A C99 double literal that reads back to the same bits."""
-    x = float(x)
-    if np.isnan(x):
-        return "NAN"
-    if np.isinf(x):
-        return "INFINITY" if x > 0 else "(-INFINITY)"
-    return repr(x)
-
 
 def _xml(x: float) -> str:
     """An xs:double that reads back to the same bits."""
@@ -330,75 +329,10 @@ def _xml(x: float) -> str:
     return repr(x)
 
 
-def law_defines() -> list[str]:
-    """The ``#define`` lines every law's C face reads: ``MK_PI``, ``MK_MPA``, ``MK_NTH`` and each law's θ rows.
-
-    The rows come from each registered law's :attr:`~mckibben.models.laws.Law.c_rows`
-    (``MK_<KEY>``); two laws naming one macro must give it one value.
-
-    Returns
-    -------
-    list of str
-        C preprocessor lines (part of the FMU's ``mk_model.h``). [-]
-    """
-    rows: dict[str, tuple[int, str]] = {}
-    for law in LW.LAWS.values():
-        for key, row in law.c_rows.items():
-            if key in rows and rows[key][0] != int(row):
-                raise RuntimeError(f"law {law.name}: C macro MK_{key} = {int(row)}, but law {rows[key][1]} has "
-                                   f"{rows[key][0]}")
-            rows.setdefault(key, (int(row), law.name))
-    lines = [f"#define MK_PI {_c(math.pi)}", f"#define MK_MPA {_c(LW.MPA)}", f"#define MK_NTH {LW.NTH}"]
-    return lines + [f"#define MK_{k} {v}" for k, (v, _) in rows.items()]
-
-
-def laws_c() -> str:
-    """The FMU's ``mk_laws.c``: every registered law's C face and the dispatch ``mk_law`` by registry index.
-
-    Each law's C face is its file ``models/laws/<stem>.c`` (:meth:`~mckibben.models.laws.Law.c_source`),
-    one function ``mk_law_<stem>(pressure [Pa], length [m], th) -> force [N]``; ``mk_law(law, …)``
-    calls the one of index ``law`` (:data:`~mckibben.models.laws.LAW_INDEX`), NaN for a law with no C
-    face. It includes ``mk_model.h`` (:func:`law_defines`).
-
-    Returns
-    -------
-    str
-        C99 source. [-]
-    """
-    parts = ["/* mk_laws.c: generated by mckibben.export.fmu from the law registry (mckibben.models.laws):",
-             "   every law's C face (models/laws/<law>.c) and the dispatch by registry index. */",
-             "#include <math.h>", "", '#include "mk_model.h"', "",
-             "double mk_law(int law, double pressure, double length, const double *th);", ""]
-    cases = []
-    for name, law in LW.LAWS.items():
-        text = law.c_source()
-        if text is None:
-            continue
-        parts += [f"/* ---- {name}: models/laws/{law.stem}.c ---- */", text.rstrip(), ""]
-        cases.append(f"    case {LW.LAW_INDEX[name]}: return {law.c_function}(pressure, length, th);")
-    parts += ["double mk_law(int law, double pressure, double length, const double *th)", "{", "    switch (law) {",
-              *cases, "    default: return NAN;", "    }", "}"]
-    return "\n".join(parts) + "\n"
-
-
 def _model_header(fields: np.ndarray, theta: np.ndarray, law: int, thermal: str, ctrl: CoreParams | None) -> str:
-    """``mk_model.h``: the Python plant's layout and constants, and this FMU's values."""
-    lines = ["/* mk_model.h: generated by mckibben.export.fmu from the Python plant (the source of truth):",
-             "   its parameter columns, law indices, theta rows and constants, and this FMU's values. */",
-             "#ifndef MK_MODEL_H", "#define MK_MODEL_H", "", "#include <math.h>", ""]
+    """``mk_model.h``: the plant's layout and values (:func:`mckibben.plant.c_layout.plant_header`) and the controller's."""
+    lines = CL.plant_header(fields, theta, law, thermal)
     d = lines.append
-    d(f"#define MK_NP {PP.NP}")
-    d(f"#define MK_NF {len(PP.field_names())}")
-    d(f"#define MK_NTH {LW.NTH}")
-    for col in PP.Col:
-        d(f"#define MK_C_{col.name} {int(col)}")
-    lines += law_defines()
-    consts = {"P_ATM": ph.P_ATM, "R_AIR": ph.R_AIR, "T0": ph.T0, "RHO0": ph.RHO0, "G": PP.G,
-              "GAMMA": PP.GAMMA, "LAMINAR": ph.LAMINAR, "P_MAX_LIMIT": HW.P_MAX_LIMIT, "TS": TS}
-    for k, x in consts.items():
-        d(f"#define MK_{k} {_c(x)}")
-    d(f"#define MK_SUBSTEPS {int(SUBSTEPS)}")
-    d(f"#define MK_ADC_MAX {int(HW.ADC_MAX)}")
     d(f"#define MK_CONTROLLER {0 if ctrl is None else 1}")
     if ctrl is not None:
         gains = gain_values(ctrl)
@@ -409,13 +343,6 @@ def _model_header(fields: np.ndarray, theta: np.ndarray, law: int, thermal: str,
         d(f"#define MK_CTRL_OL_BLEED {int(ctrl.open_loop_bleed)}")
         d(f"#define MK_CTRL_N_GAINS {len(gains)}")
         d("static const long MK_CTRL_GAINS[MK_CTRL_N_GAINS] = {" + ", ".join(f"{int(g)}L" for g in gains) + "};")
-    for load in PP.Load:
-        d(f"#define MK_LOAD_{load.name.upper()} {int(load)}")
-    d(f"#define MK_THERMAL_ENERGY {1 if thermal == 'energy' else 0}")
-    d(f"#define MK_LAW {int(law)}")
-    nf = len(PP.field_names())
-    d("static const double MK_FIELDS[MK_NF] = {" + ", ".join(_c(v) for v in fields[:nf]) + "};")
-    d("static const double MK_THETA[MK_NTH] = {" + ", ".join(_c(v) for v in theta) + "};")
     return "\n".join(lines) + "\n"
 
 
@@ -429,7 +356,7 @@ _PLANT_OUTPUTS = (("pressure", "Pa", "chamber pressure, gauge"), ("length", "m",
 
 def _variables(name: str, theta: np.ndarray, prm: np.ndarray, closed: bool) -> list[dict]:
     """The FMU's variables, in modelDescription order: outputs, inputs, parameters."""
-    c = PP.Col
+    c = PK.Col
     out = [dict(name=v, vr=VR[v], causality="output", variability="continuous", type="real", unit=u, desc=d)
            for v, u, d in _PLANT_OUTPUTS]
     commands = (("inlet", "inlet valve command, PWM counts 0..255 (lift-off near 112)"),

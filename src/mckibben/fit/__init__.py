@@ -3,7 +3,8 @@
 See :mod:`mckibben.fit.core` (engines, :class:`FitResult`, bounded multi-start fits with flags,
 cluster-robust covariance), :mod:`mckibben.fit.static` (one fit per static model),
 :mod:`mckibben.fit.isometric` (force models on isometric tests), :mod:`mckibben.fit.hysteresis`
-(Prandtl–Ishlinskii operators on inflate/deflate data), :mod:`mckibben.fit.compare`
+(Prandtl–Ishlinskii operators on inflate/deflate data), :mod:`mckibben.fit.direction` (a law's
+direction-aware form, hysteresis inside the force law, and the held-out up/down gap), :mod:`mckibben.fit.compare`
 (every model on the same data), :mod:`mckibben.fit.registry` (``fit_table``/``compare_table``:
 what ``mckibben fit``/``compare`` run) and :mod:`mckibben.fit.muscle_file` (fitted laws in
 muscle files).
@@ -20,6 +21,7 @@ _EXPORTS = {
     "linear_fit": "core", "nonlinear_fit": "core",
     "compare_isometric": "isometric", "fit_isometric": "isometric",
     "PIFit": "hysteresis", "fit_prandtl_ishlinskii": "hysteresis",
+    "fit_direction_aware": "direction", "heldout_gap": "direction",
     "compare_table": "registry", "fit_table": "registry",
 }
 
@@ -32,6 +34,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.fit.core import cluster_covariance as cluster_covariance
     from mckibben.fit.core import linear_fit as linear_fit
     from mckibben.fit.core import nonlinear_fit as nonlinear_fit
+    from mckibben.fit.direction import fit_direction_aware as fit_direction_aware
+    from mckibben.fit.direction import heldout_gap as heldout_gap
     from mckibben.fit.hysteresis import PIFit as PIFit
     from mckibben.fit.hysteresis import fit_prandtl_ishlinskii as fit_prandtl_ishlinskii
     from mckibben.fit.isometric import compare_isometric as compare_isometric

@@ -14,11 +14,10 @@ stiffness at zero pressure, so zero-pressure rows are left out for all models al
 - ``cubic per load``: the paper's way on the lengths themselves, one cubic in P per load,
   linear in load between loads.
 - ``surface``: one cubic-in-P, linear-in-load surface (:func:`~mckibben.fit.static.fit_surface`).
-- ``spring``: the spring model of [wickramatunge2010] with the load as the force, solved for the length.
-- ``chou-hannaford``, ``tondu-lopez``: physical models with fitted corrections.
-- every other registered law with a fit spec (:func:`mckibben.models.laws.fit_laws`:
-  ``wall-corrected``, the family laws, any law added), fitted through its force
-  (:func:`~mckibben.fit.isometric.fit_isotonic_law`) and solved for the length by bisection.
+- every registered law with a fit spec (:func:`mckibben.models.laws.fit_laws`: the spring model of
+  [wickramatunge2010], the physical laws, the family laws, any law added), fitted through its
+  force, F(P, L) = load (:func:`~mckibben.fit.isometric.fit_isotonic_law`), and solved for the
+  length (:func:`~mckibben.fit.isometric.law_length`).
 - ``gaussian process``: a data-driven regressor (scikit-learn, RBF + white noise kernel on scaled
   inputs, fitted to the trial means), as [wickramatunge2010] suggests a universal approximator. Its kernel's
   hyperparameters (4 numbers) are optimized once on all the data and kept in the cross-validation
@@ -44,21 +43,18 @@ from functools import partial
 
 import numpy as np
 
-from mckibben.data.io import MuscleSpec, Table
+from mckibben.data.muscle_file import MuscleSpec
+from mckibben.data.tables import Table
 from mckibben.errors import InputError
 from mckibben.fit.static import (
-    fit_chou_hannaford,
     fit_cubics,
     fit_kinematic,
-    fit_spring,
     fit_surface,
-    fit_tondu_lopez,
     fitted_muscle,
 )
 from mckibben.fit.isometric import fit_isotonic_law, law_length
 from mckibben.models import laws
 from mckibben.models.mpam import BraidAngleMap, predict_length
-from mckibben.models.spring import spring_length
 
 #: Contractions smaller than this are left out of the relative measures. [-]
 MIN_CONTRACTION = 0.02
@@ -88,19 +84,6 @@ def _cubic_per_load(train: Table):
 def _surface(train: Table):
     res = fit_surface(train)
     return (lambda p, f: res.predict(pressure=p, load=f)[0]), len(res.values)
-
-
-def _spring(train: Table):
-    sf = fit_spring(train, split_pressure=np.inf)  # hanging loads: one direction, one range
-    return (lambda p, f: spring_length(f, p, sf.model)[0]), len(sf.result.values)
-
-
-def _physical(fitter, muscle):
-    def make(train: Table):
-        res = fitter(train, muscle)
-        return (lambda p, f: res.predict(pressure=p, load=f)[0]), len(res.values)
-
-    return make
 
 
 def _by_force(name, muscle, lo, hi):
@@ -208,14 +191,10 @@ def compare_models(table: Table, muscle: MuscleSpec, braid: Table | None = None)
     makers = {
         "cubic per load": _cubic_per_load,
         "surface": _surface,
-        "spring": _spring,
-        "chou-hannaford": _physical(fit_chou_hannaford, muscle),
-        "tondu-lopez": _physical(fit_tondu_lopez, muscle),
+        # every registered law with a fit spec, fitted through its force (fit_isotonic_law)
+        **{name: _by_force(name, muscle, float(np.min(ell)), float(np.max(ell))) for name in laws.fit_laws()},
         "gaussian process": _gaussian_process,
     }
-    # every other registered law with a fit spec, fitted through its force (fit_isotonic_law)
-    for name in laws.fit_laws():
-        makers.setdefault(name, _by_force(name, muscle, float(np.min(ell)), float(np.max(ell))))
     scores = []
     if braid is not None:
         kin = fit_kinematic(braid, muscle)

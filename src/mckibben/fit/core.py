@@ -49,8 +49,10 @@ AT_BOUND_REL = 1e-3
 
 #: Held-out RMSE above this multiple of the in-sample RMSE flags a compared fit
 #: ``heldout_far_above_insample``: it describes the data it saw much better than data it did not.
-#: Leaving one held length out is an extrapolation at the extreme lengths and costs a law that
-#: generalizes ~1.5–2× (the real Festo campaigns, benchmarks/RESULTS.md); 3× is beyond that. [-]
+#: Both are taken on the points of the folds that interpolate (:func:`interpolated_rms`): leaving
+#: the extreme held length out is an extrapolation that costs every law, counted apart
+#: (``extrapolated_folds``). A law that generalizes loses ~1.5–2× (the real Festo campaigns,
+#: benchmarks/RESULTS.md); 3× is beyond that. [-]
 HELDOUT_RATIO = 3.0
 
 #: Fewest trials (clusters) for a cluster-robust covariance. With fewer, its variance estimate has
@@ -135,6 +137,9 @@ class FitResult:
         (cluster-robust covariance: number of clusters − 1). [-]
     covariance_method : str
         ``"ols"`` (s²·(JᵀJ)⁻¹) or ``"cluster-robust (N trials)"``.
+    priors : dict
+        ``{name: (median, factor)}``: the log-normal priors the fit added to the data
+        (:func:`bounded_fit`); empty when the data alone were fitted. [parameter unit, -]
     """
 
     model: str
@@ -155,6 +160,7 @@ class FitResult:
     t_dof: int | None = None
     covariance_method: str = "ols"
     notes: tuple = ()
+    priors: dict = field(default_factory=dict)
 
     @property
     def stderr(self) -> np.ndarray:
@@ -261,6 +267,7 @@ class FitResult:
             "flags": list(self.flags),
             "notes": list(self.notes),
             "covariance": self.covariance_method,
+            "priors": {n: {"median": float(m), "factor": float(fa)} for n, (m, fa) in self.priors.items()},
             "n_points": self.n_points,
             "dof": self.dof,
             "condition_number": self.condition_number,
@@ -326,7 +333,7 @@ def _check_condition(matrix: np.ndarray, what: str) -> float:
 
 def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_range: dict,
                func: Callable | None = None, condition: dict | None = None, source: str = "",
-               scale=None, clusters=None, nonnegative=None) -> FitResult:
+               scale=None, clusters=None, nonnegative=None, cluster_unit: str = "trials") -> FitResult:
     """Ordinary least squares y ≈ X·β with standard errors (optionally some β ≥ 0).
 
     Parameters
@@ -357,6 +364,8 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
         Trial label per row: with five or more trials (:data:`MIN_CLUSTERS`) the covariance is cluster-robust
         (:func:`cluster_covariance`) and the intervals use t with (trials − 1) degrees of freedom.
         [-]
+    cluster_unit : str, default "trials"
+        What a cluster is, in the covariance's name (``"runs"``: a held length's run of one trial). [-]
     nonnegative : array_like of bool, optional
         Which coefficients are held ≥ 0 (bounded least squares, :func:`scipy.optimize.lsq_linear`
         on the column-scaled design). A coefficient that ends at 0 is held there for the
@@ -375,7 +384,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
     if nonnegative is not None:
         return _nonnegative_fit(x, y, names, np.asarray(nonnegative, dtype=bool), cond, model=model,
                                 response=response, valid_range=valid_range, func=func, condition=condition,
-                                source=source, scale=scale, clusters=clusters)
+                                source=source, scale=scale, clusters=clusters, cluster_unit=cluster_unit)
     norms = np.linalg.norm(x, axis=0)
     beta_s, *_ = np.linalg.lstsq(x / norms, y, rcond=None)
     beta = beta_s / norms
@@ -389,7 +398,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
     if use_clusters(clusters):
         cov = cluster_covariance(x, resid, clusters)
         t_dof = int(np.unique(clusters).size - 1)
-        method = f"cluster-robust ({t_dof + 1} trials)"
+        method = f"cluster-robust ({t_dof + 1} {cluster_unit})"
     if scale is not None:
         sc = np.asarray(scale, dtype=float)
         beta = beta * sc
@@ -401,7 +410,7 @@ def linear_fit(design, y, names, *, model: str, response: str, what: str, valid_
 
 
 def _nonnegative_fit(x, y, names, nonneg, cond, *, model, response, valid_range, func, condition, source, scale,
-                     clusters) -> FitResult:
+                     clusters, cluster_unit: str = "trials") -> FitResult:
     """The bounded branch of :func:`linear_fit`: some coefficients ≥ 0, held at 0 for the covariance."""
     from scipy import optimize  # deferred on purpose: SciPy
     n, p = x.shape
@@ -423,7 +432,7 @@ def _nonnegative_fit(x, y, names, nonneg, cond, *, model, response, valid_range,
         if use_clusters(clusters):
             cf = cluster_covariance(x[:, free], resid, clusters)
             t_dof = int(np.unique(clusters).size - 1)
-            method = f"cluster-robust ({t_dof + 1} trials)"
+            method = f"cluster-robust ({t_dof + 1} {cluster_unit})"
         else:
             s2 = float(resid @ resid) / dof
             xf = xs[:, free]
@@ -530,7 +539,7 @@ def data_range(**arrays) -> dict:
 CR2_MAX_CLUSTER = 600
 
 
-def cluster_covariance(jac, resid, clusters, p_scale=None):
+def cluster_covariance(jac, resid, clusters, p_scale=None, prior_jac=None):
     """Cluster-robust (CR2) covariance of least-squares parameters.
 
     ``C = (JᵀJ)⁻¹·(Σ_g J_gᵀ·A_g·r_g·r_gᵀ·A_g·J_g)·(JᵀJ)⁻¹`` with A_g = (I − H_gg)^(-1/2), H_gg the
@@ -550,6 +559,12 @@ def cluster_covariance(jac, resid, clusters, p_scale=None):
         Cluster label per point, shape (n,). [-]
     p_scale : array_like, optional
         Unused placeholder for symmetry with the OLS path. [-]
+    prior_jac : array_like, optional
+        Rows of priors added to the residuals (:func:`bounded_fit`), shape (m, p), weighted as
+        data rows (one standard deviation of the prior = one of the residuals): their information
+        enters the bread, JᵀJ + J_pᵀJ_p, and the meat as independent rows of the residuals'
+        variance, s²·J_pᵀJ_p; so a direction only the prior sees keeps the prior's variance.
+        [response/parameter]
 
     Returns
     -------
@@ -568,10 +583,11 @@ def cluster_covariance(jac, resid, clusters, p_scale=None):
     n, p = jac.shape
     labels, idx = np.unique(np.asarray(clusters), return_inverse=True)
     g = labels.size
-    norms = np.linalg.norm(jac, axis=0)
+    jp = np.zeros((0, jac.shape[1])) if prior_jac is None else np.asarray(prior_jac, dtype=float)
+    norms = np.linalg.norm(np.vstack([jac, jp]), axis=0)
     norms[norms == 0] = 1.0
     js = jac / norms  # column-scaled: parameters of wildly different units stay invertible
-    bread = np.linalg.pinv(js.T @ js)
+    bread = np.linalg.pinv(js.T @ js + (jp / norms).T @ (jp / norms))
     idx = idx.ravel()
     scores = np.zeros((g, p))
     if np.bincount(idx).max() <= CR2_MAX_CLUSTER:
@@ -589,7 +605,61 @@ def cluster_covariance(jac, resid, clusters, p_scale=None):
         np.add.at(scores, idx, js * resid[:, None])
         c = g / max(g - 1, 1) * (n - 1) / max(n - p, 1)
     meat = scores.T @ scores
-    return c * (bread @ meat @ bread) / np.outer(norms, norms)
+    jps = jp / norms
+    meat_prior = (resid @ resid / max(n - p, 1)) * (jps.T @ jps)  # a prior row's residual has the data's variance
+    return (bread @ (c * meat + meat_prior) @ bread) / np.outer(norms, norms)
+
+
+def censor_hinge(r, cens):
+    """Model − data with a censored point's consistent side zeroed: max(r, 0) at a floor, min(r, 0) at a ceiling.
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        Model − data per point. [response unit]
+    cens : numpy.ndarray of int or None
+        Per point: 0 a reading, −1 at a floor (the response is at most the reading), +1 at a
+        ceiling (at least); None: every point a reading. [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        The error a bound leaves: 0 where the model keeps to it. [response unit]
+    """
+    if cens is None:
+        return r
+    return np.where(cens < 0, np.maximum(r, 0.0), np.where(cens > 0, np.minimum(r, 0.0), r))
+
+
+def _tobit(r, cens, s0):
+    """The censored likelihood as residuals: ±s₀·√(−2 ln Φ(∓r/s₀)), r = model − bound (floor: −, ceiling: +)."""
+    from scipy import special  # deferred on purpose: SciPy
+    z = np.where(cens > 0, r, -r) / s0
+    return np.where(cens > 0, -1.0, 1.0) * s0 * np.sqrt(np.maximum(-2.0 * special.log_ndtr(z), 0.0))
+
+
+def _prior_dominates(jac, jac_prior, free, k, sigma, s0) -> bool:
+    """Whether the data tell less about parameter k than its prior (profiled over the other free parameters).
+
+    Parameters
+    ----------
+    jac, jac_prior : numpy.ndarray
+        The data's and the priors' Jacobian rows in the physical parameters (the priors' weighted by s0). [-]
+    free : numpy.ndarray
+        Parameters not held at a bound. [-]
+    k : int
+        The parameter with a prior. [-]
+    sigma, s0 : float
+        The residual standard error, and the noise the priors' rows were weighted with. [response unit]
+    """
+    a, b = jac[:, free] / sigma, jac_prior[:, free] / s0
+    norms = np.linalg.norm(np.vstack([a, b]), axis=0)
+    norms[norms == 0] = 1.0
+    a, b = a / norms, b / norms
+    j = int(np.flatnonzero(free).tolist().index(k))
+    posterior = float(np.linalg.pinv(a.T @ a + b.T @ b)[j, j])
+    prior = 1.0 / max(float(b[:, j] @ b[:, j]), 1e-300)
+    return posterior > 0.5 * prior  # the data's information, 1/posterior − 1/prior, below the prior's
 
 
 def heldout_flags(cv_rmse: float, rmse: float) -> tuple:
@@ -607,6 +677,39 @@ def heldout_flags(cv_rmse: float, rmse: float) -> tuple:
     tuple of str
     """
     return ("heldout_far_above_insample",) if cv_rmse > HELDOUT_RATIO * rmse else ()
+
+
+def interpolated_rms(heldout_error, residuals, inside) -> tuple[float, float]:
+    """Held-out and in-sample RMS error on the same points: those of the folds that interpolate.
+
+    What :func:`heldout_flags` compares. A fold whose held-out points lie outside the range the
+    other folds were fitted on (the longest or shortest held length, a muscle beyond the family's
+    rest lengths) measures extrapolation, which every law pays and a comparison reports apart; the
+    ratio that says a fit describes the data it saw far better than data it did not is taken where
+    it predicts within its range. With no such point (every fold extrapolates), all points.
+
+    Parameters
+    ----------
+    heldout_error : array_like
+        Per point, the held-out prediction minus the measurement (NaN: not predicted). [N]
+    residuals : array_like
+        Per point, the in-sample residual of the fit on all the data (same order). [N]
+    inside : array_like of bool
+        Per point, True when its fold predicted within the fitted range. [-]
+
+    Returns
+    -------
+    (float, float)
+        Held-out RMS and in-sample RMS over those points. [N]
+    """
+    e = np.asarray(heldout_error, dtype=float)
+    r = np.asarray(residuals, dtype=float)
+    ok = np.isfinite(e) & np.isfinite(r)
+    pick = ok & np.asarray(inside, dtype=bool)
+    pick = pick if pick.any() else ok
+    if not pick.any():
+        return float("nan"), float("nan")
+    return float(np.sqrt(np.mean(e[pick] ** 2))), float(np.sqrt(np.mean(r[pick] ** 2)))
 
 
 def reference_magnitude(values, lo, hi, starts=()) -> np.ndarray:
@@ -710,7 +813,8 @@ def fit_flags(names, values, lo, hi, r2, condition_number, extra=(), *, ref=None
 
 def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str, what: str, valid_range: dict,
                 func: Callable, clusters=None, condition: dict | None = None, source: str = "",
-                physical_flags: Callable | None = None) -> FitResult:
+                physical_flags: Callable | None = None, cluster_unit: str = "trials",
+                priors: dict | None = None, censored=None) -> FitResult:
     """Bounded nonlinear least squares from several starts, with flags and trial-aware intervals.
 
     Every start is run briefly (:func:`scipy.optimize.least_squares`, trust region reflective,
@@ -749,6 +853,31 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
         Data file.
     physical_flags : callable, optional
         ``physical_flags(values) -> list of str``: the model's own non-physical checks.
+    cluster_unit : str, default "trials"
+        What a cluster is, in the covariance's name (``"runs"``: a held length's run of one trial). [-]
+    priors : dict, optional
+        ``{name: (median, factor)}``: log-normal priors on positive parameters (median [parameter
+        unit], one standard deviation a factor ``factor`` [-]). Each adds the row
+        s₀·ln(value/median)/ln(factor) to the residuals of the runs to convergence, s₀ the residual
+        standard error of the best short run (the data's noise, so the prior weighs as one
+        standard deviation of it): the maximum a posteriori fit under Gaussian noise. Its
+        information enters the covariance, the conditional intervals and the condition number
+        (a parameter the prior holds is constrained), and a parameter about which the data tell
+        less than the prior (its data sensitivity ‖J_k‖ below the prior's) carries the note
+        ``<name>_from_prior``. ``None``: the data alone.
+    censored : array_like of int, optional
+        Per point: 0 a reading, −1 a reading at a sensor's floor (the response is at most ``y``),
+        +1 at its ceiling (at least ``y``). A censored point's term is the censored (Tobit)
+        likelihood, −ln Φ((y − f)/s₀) at the floor, written as the residual
+        s₀·√(−2 ln Φ((y − f)/s₀)) (s₀ as for ``priors``; the short runs use its limit s₀ → 0, the
+        hinge max(f − y, 0)): a model below the floor costs nothing, one above it what a reading
+        would. The residuals reported are data − model with the same hinge (0 where the model
+        keeps to the bound). ``None``: every point a reading.
+
+    References
+    ----------
+    [tobin1958] Tobin, J. (1958), Estimation of relationships for limited dependent variables,
+    Econometrica 26(1), 24–36 (the censored likelihood).
 
     Returns
     -------
@@ -761,13 +890,16 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     p = lo.size
     require_points(y.size, p, what)
     best, tried = None, []
+    cens = None if censored is None else np.asarray(censored, dtype=int)
+    if cens is not None and not cens.any():
+        cens = None
     for x0 in starts:
         x0 = np.clip(np.asarray(x0, dtype=float), lo, hi)
         scale = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(x0), 1e-12))
         shift = np.where(np.isfinite(lo), lo, 0.0)
 
         def resid(th, shift=shift, scale=scale):
-            return np.asarray(model_fn(th * scale + shift), dtype=float) - y
+            return censor_hinge(np.asarray(model_fn(th * scale + shift), dtype=float) - y, cens)
 
         th0 = (x0 - shift) / scale
         tlo, thi = (lo - shift) / scale, (hi - shift) / scale
@@ -783,44 +915,62 @@ def bounded_fit(model_fn, y, starts, names, lo, hi, *, model: str, response: str
     if not tried:
         raise InputError(f"{what}: the model cannot be evaluated at any starting point (check the data)")
     tried.sort(key=lambda t: t[0])
+    n = y.size
+    priors = dict(priors or {})
+    pk = np.array([names.index(nm) for nm in priors], dtype=int)
+    median = np.array([float(priors[nm][0]) for nm in priors])
+    width = np.log(np.array([float(priors[nm][1]) for nm in priors]))
+    s0 = float(np.sqrt(2.0 * tried[0][0] / max(n - p, 1))) or 1.0  # the data's noise, from the best short run
     for cost, x, resid, tlo, thi, shift, scale in tried[:2]:
+        if cens is not None:
+            def resid(th, shift=shift, scale=scale):  # noqa: F811 - the censored likelihood's rows
+                r = np.asarray(model_fn(th * scale + shift), dtype=float) - y
+                return np.where(cens == 0, r, _tobit(r, cens, s0))
+        if pk.size:
+            def resid(th, data=resid, shift=shift, scale=scale):  # noqa: F811 - the data's rows, then the priors'
+                v = th[pk] * scale[pk] + shift[pk]
+                return np.concatenate([data(th), s0 * np.log(np.maximum(v, 1e-300) / median) / width])
         res = optimize.least_squares(resid, x, bounds=(tlo, thi), method="trf", x_scale=1.0, max_nfev=100 * (p + 1))
         if np.all(np.isfinite(res.fun)) and (best is None or res.cost < best[0].cost):
             best = (res, shift, scale)
     res, shift, scale = best
     values = res.x * scale + shift
-    resid = -np.asarray(res.fun)  # data - model
-    n = y.size
+    scores = -np.asarray(res.fun)[:n]  # data - model, as the fit weighed it (the censored likelihood's rows)
+    resid = -censor_hinge(np.asarray(model_fn(values), dtype=float) - y, cens) if cens is not None else scores
+    jac_prior = res.jac[n:] / scale  # the priors' rows (none without priors)
     ref = reference_magnitude(values, lo, hi, [np.clip(np.asarray(x0, dtype=float), lo, hi) for x0 in starts])
     side = at_bounds(values, lo, hi, ref, res.active_mask)
     at = side != 0
     free = ~at
-    jac = res.jac / scale  # d prediction / d physical value
+    jac = res.jac[:n] / scale  # d prediction / d physical value
     cov = np.full((p, p), np.nan)
     cond = float("inf")
     t_dof = None
     method = "ols"
     sigma = float(np.sqrt(resid @ resid / max(n - p, 1)))
+    # the fit's information: the data's and the priors' (their rows as data rows of the residuals' σ)
+    jaug = np.vstack([jac, jac_prior * sigma / s0])
     if free.any():
         jf = jac[:, free]
-        norms = np.linalg.norm(jf, axis=0)
+        norms = np.linalg.norm(jaug[:, free], axis=0)
         if np.all(norms > 0):
-            cond = float(np.linalg.cond(jf / norms))
+            cond = float(np.linalg.cond(jaug[:, free] / norms))
             labels = np.unique(clusters) if clusters is not None else np.array([0])
             if use_clusters(clusters):
-                cf = cluster_covariance(jf, resid, clusters)
+                cf = cluster_covariance(jf, scores, clusters, prior_jac=jaug[n:, free])
                 t_dof = int(labels.size - 1)
-                method = f"cluster-robust ({labels.size} trials)"
+                method = f"cluster-robust ({labels.size} {cluster_unit})"
             else:
-                js = jf / norms
+                js = jaug[:, free] / norms
                 cf = sigma**2 * np.linalg.pinv(js.T @ js) / np.outer(norms, norms)
             cov[np.ix_(free, free)] = cf
     from scipy import special  # deferred on purpose: SciPy
     tq = float(special.stdtrit(t_dof if t_dof is not None else max(n - p, 1), 0.975))
     with np.errstate(divide="ignore"):
-        half = np.where(free, tq * sigma / np.linalg.norm(jac, axis=0), np.nan)  # unscaled sensitivity
+        half = np.where(free, tq * sigma / np.linalg.norm(jaug, axis=0), np.nan)  # unscaled sensitivity
     r2 = _r2(y, resid)
     extra = list(physical_flags(values)) if physical_flags is not None else []
     flags, notes = fit_flags(names, values, lo, hi, r2, cond, extra, ref=ref, at=side, conditional_halfwidth=half)
+    held = [f"{names[k]}_from_prior" for k in pk if free[k] and _prior_dominates(jac, jac_prior, free, k, sigma, s0)]
     return FitResult(model, tuple(names), values, cov, n - p, n, resid, response, r2, dict(valid_range), cond,
-                     dict(condition or {}), func, source, flags, t_dof, method, notes)
+                     dict(condition or {}), func, source, flags, t_dof, method, notes + tuple(held), priors)

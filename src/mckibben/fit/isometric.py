@@ -8,7 +8,7 @@ model                       force                                               
 ==========================  ===========================================================  ==========
 ``chou-hannaford``          π·D0²·P/4·(3cos²θ − 1), cos θ = L·cos θ0/L0                 θ0, D0
 ``wall-corrected``          the same + π·P·[D0·t·(2 sin θ − 1/sin θ) − t²]              θ0, D0, t
-``tondu-lopez``             π·r0²·P·[a(1 − kε)² − b], ε = 1 − L/L0                       α0, r0, k
+``tondu-lopez``             π·r0²·(P − P_th)·[a(1 − kε)² − b], ε = 1 − L/L0              α0, r0, k, P_th
 ``spring``                  K(P, Ls)·Ls, Ls = L − Lu(P), K per direction ([wickramatunge2010], eq. 1–2)  h, c
 ``surface``                 Σ a_ij·P^i·ε^j (i ≤ 3, j ≤ 1) + deflate·(b0 + b1·P)         a, b
 ==========================  ===========================================================  ==========
@@ -29,8 +29,11 @@ Physical bounds (``BOUNDS_NOTE``):
   the braid diameter at rest, which is about the outer diameter, and θ0 ≥ 15° keeps D0 below
   4 × that;
 - r0 (the braid radius at rest, an effective value) within [0.25, 1] × the outer diameter;
-- wall thickness t within [0, 0.25] × the outer diameter; Tondu–Lopez k within [0.5, 5];
-- offset within ± the largest measured force, flagged ``large_offset`` beyond 5 % of it;
+- wall thickness t within [0.01, 0.25] × the outer diameter; Tondu–Lopez k within [0.5, 5] and
+  its pressure threshold P_th within [0, 0.5] × the highest measured pressure;
+- offset within ± 10 % of the largest measured force for the physical laws (a load cell's
+  plausible zero error; ± all of it for the others), flagged ``large_offset`` beyond 5 % of it;
+- log-normal priors from the muscle file's outer diameter on θ0, D0, t and r0 (the laws' files);
 - spring stiffness: K ≥ 0 is checked at every data point (``negative_stiffness`` flag), not
   forced by bounds, since single coefficients of K may be negative while K stays positive.
 
@@ -53,17 +56,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mckibben.data.io import RAIL_POLICIES, MuscleSpec, Table, apply_pressure_zero, apply_tare, find_rails
+from mckibben.data.preprocessing import RAIL_POLICIES, apply_pressure_zero, apply_tare, find_rails
+from mckibben.data.muscle_file import MuscleSpec
+from mckibben.data.tables import Table
 from mckibben.errors import InputError, check_instance, unknown_name
-from mckibben.fit.core import FitResult, bounded_fit, data_range, heldout_flags, linear_fit
+from mckibben.fit.core import (FitResult, bounded_fit, censor_hinge, data_range, heldout_flags, interpolated_rms,
+                               linear_fit)
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
+from mckibben.models.law_statics import rising_root
 from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
 from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
-from mckibben.models.laws.spring import CONTRACTION, ELONGATION, NOMINAL_TOL, SPRING_NAMES, spring_force, spring_model_of
+from mckibben.models.laws.spring import NOMINAL_TOL, SPRING_NAMES, spring_model_of
 from mckibben.models.laws.tondu_lopez import K_BOUNDS, R0_FACTOR
 from mckibben.results import Result
-from mckibben.data.io import set_point_groups
+from mckibben.data.setpoints import set_point_groups
 from dataclasses import replace
 
 if TYPE_CHECKING:  # annotations only; the modules are imported where used (deferred)
@@ -75,10 +82,12 @@ if TYPE_CHECKING:
 __all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "MUSCLE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
            "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
-           "WALL_FACTOR", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length", "max_error", "parameter_names"]
+           "WALL_FACTOR", "ZEROS", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length",
+           "max_error", "parameter_names", "run_zeros", "zero_runs"]
 
 BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
-               "wall in [0, 0.25] x outer diameter; k in [0.5, 5]; |offset| <= peak force; spring K >= 0 checked")
+               "wall in [0.01, 0.25] x outer diameter; k in [0.5, 5]; tondu-lopez p_th in [0, 0.5] x top pressure; "
+               "|offset| <= 10 % of peak force (physical laws), peak force (others); spring K >= 0 checked")
 
 #: The data-driven model: no physical law, not in the law registry (the plant cannot run it).
 SURFACE = "surface"
@@ -150,7 +159,7 @@ class IsometricFit(Result):
     muscle : MuscleSpec
         The muscle file the fit used.
     tare : dict
-        The tare applied (:func:`mckibben.data.io.apply_tare`).
+        The tare applied (:func:`mckibben.data.preprocessing.apply_tare`).
     data : pandas.DataFrame
         The fitted points: ``held_length`` [m], ``pressure`` [Pa], ``force`` [N] (after the tare),
         ``direction``, ``trial``.
@@ -226,13 +235,22 @@ class IsometricFit(Result):
                              "force_fit_N": d["force"].to_numpy() - self.result.residuals,
                              "residual_N": self.result.residuals})
 
-    def plot(self, ax=None):
-        """Force against pressure per held length, inflate and deflate, with the fit and its 95 % band.
+    def plot(self, ax=None, kind: str = "fit"):
+        """The fit over the data, its residuals, or measured against fitted force.
+
+        ``kind="fit"``: force against pressure per held length (each at its own length, and for a
+        family at its own muscle's rest length, coloured by muscle), inflate and deflate, the fitted
+        curve and its 95 % band. The band is clipped to the data's force range (±10 % of it); when
+        it reaches beyond (a parameter the data barely constrain), the figure says so.
+        ``"residuals"``: measured − fitted force against pressure, per held length.
+        ``"parity"``: measured against fitted force with the 1:1 line.
 
         Parameters
         ----------
         ax : matplotlib.axes.Axes, optional
             Axes to draw on (default: a new figure).
+        kind : {"fit", "residuals", "parity"}, default "fit"
+            Which figure. [-]
 
         Returns
         -------
@@ -240,29 +258,76 @@ class IsometricFit(Result):
         """
         import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
+        if kind not in PLOT_KINDS:
+            raise unknown_name("fit plot kind", kind, PLOT_KINDS)
         if ax is None:
-            fig, ax = plt.subplots(figsize=(6, 4))
+            _, ax = plt.subplots(figsize=(6.5, 4.5), layout="constrained")
         fig = ax.figure
-        d = self.data
-        lengths = np.unique(d["held_length"])
-        colors = plt.get_cmap("viridis")(np.linspace(0, 0.85, lengths.size))
+        d = self.data.reset_index(drop=True)
+        f = d["force"].to_numpy(dtype=float)
+        fitted = f - self.result.residuals
+        rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.zeros(len(d))
+        ell_all = d["held_length"].to_numpy(dtype=float)
+        runs = np.unique(np.column_stack([np.round(rest, 9), held_length_groups(ell_all)]), axis=0, return_inverse=True)[1]
+        runs = np.asarray(runs).ravel()
+        family = "rest_length" in d
+        shades = np.unique(np.round(rest, 9)) if family else np.unique(held_length_groups(ell_all))
+        colors = plt.get_cmap("viridis")(np.linspace(0, 0.85, max(shades.size, 1)))
+        if kind == "parity":
+            ax.plot(fitted, f, "o", ms=2.5, alpha=0.5)
+            lim = [min(f.min(), fitted.min()), max(f.max(), fitted.max())]
+            ax.plot(lim, lim, "k-", lw=1, label="measured = fitted")
+            ax.set_xlabel("fitted force [N]")
+            ax.set_ylabel("measured force [N]")
+            ax.set_title(f"{self.model}: measured against fitted, RMS {self.result.residual_rms:.3g} N")
+            ax.legend(fontsize="small", loc="upper left")
+            return fig
         pg = np.linspace(0.0, float(d["pressure"].max()), 60)
-        for ell, col in zip(lengths, colors):
-            sel = np.isclose(d["held_length"], ell)
+        span = float(np.ptp(f)) or 1.0
+        ylo, yhi = float(f.min()) - 0.1 * span, float(f.max()) + 0.1 * span
+        wide, labelled = False, set()
+        for k in np.unique(runs):
+            sel = runs == k
+            ell = float(np.median(ell_all[sel]))
+            shade = np.round(rest[sel][0], 9) if family else held_length_groups(ell_all)[sel][0]
+            col = colors[int(np.searchsorted(shades, shade))]
+            if family:
+                who = str(d["muscle"][sel].iloc[0])
+                label = None if who in labelled else f"{who} ({rest[sel][0] * 1e3:g} mm)"
+                labelled.add(who)
+            else:
+                label = f"{ell * 1e3:g} mm"
+            extra = {"rest_length": np.full_like(pg, rest[sel][0])} if family else {}
             for dn, mk, ls in (("inflate", "o", "-"), ("deflate", "v", "--")):
-                s = sel & (d["direction"] == dn).to_numpy()
-                if not s.any():
+                sd = sel & (d["direction"] == dn).to_numpy()
+                if not sd.any():
                     continue
-                ax.plot(d["pressure"][s] / 1e3, d["force"][s], mk, ms=3, color=col, alpha=0.6)
-                f = self.result.func(self.result.values, pressure=pg, length=np.full_like(pg, ell), direction=dn)
-                band = self.result.band(pressure=pg, length=np.full_like(pg, ell), direction=dn)
-                ax.plot(pg / 1e3, f, ls, color=col, lw=1,
-                        label=f"{ell * 1e3:g} mm" if dn == "inflate" else None)
-                ax.fill_between(pg / 1e3, f - band, f + band, color=col, alpha=0.15, lw=0)
+                x = d["pressure"][sd].to_numpy() / 1e3
+                if kind == "residuals":
+                    ax.plot(x, self.result.residuals[sd], mk, ms=2.5, color=col, alpha=0.6, label=label)
+                    label = None
+                    continue
+                ax.plot(x, f[sd], mk, ms=3, color=col, alpha=0.6)
+                fc = self.result.func(self.result.values, pressure=pg, length=np.full_like(pg, ell), direction=dn, **extra)
+                band = self.result.band(pressure=pg, length=np.full_like(pg, ell), direction=dn, **extra)
+                wide |= bool(np.any(~np.isfinite(band)) or np.any(fc - band < ylo) or np.any(fc + band > yhi))
+                ax.plot(pg / 1e3, fc, ls, color=col, lw=1, label=label if dn == "inflate" else None)
+                ax.fill_between(pg / 1e3, np.clip(fc - band, ylo, yhi), np.clip(fc + band, ylo, yhi), color=col,
+                                alpha=0.15, lw=0)
         ax.set_xlabel("pressure [kPa]")
-        ax.set_ylabel("force [N]")
-        ax.set_title(f"{self.model}: o inflate, v deflate, 95 % band")
-        ax.legend(title="held length", fontsize="small")
+        if kind == "residuals":
+            ax.axhline(0.0, color="k", lw=0.8)
+            ax.set_ylabel("measured − fitted force [N]")
+            ax.set_title(f"{self.model}: residuals, o inflate, v deflate")
+        else:
+            ax.set_ylim(ylo, yhi)
+            ax.set_ylabel("force [N]")
+            ax.set_title(f"{self.model}: o inflate, v deflate, 95 % band")
+            if wide:
+                ax.text(0.01, 0.99, "band clipped to the data's range: it is wider (a parameter the data barely "
+                        "constrain)", transform=ax.transAxes, va="top", fontsize="x-small", wrap=True)
+        ax.legend(title="muscle (rest length)" if family else "held length", fontsize="x-small", ncol=2 if family else 1,
+                  loc="upper left")
         return fig
 
 
@@ -270,28 +335,31 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
                      pressure_zero: str = "none") -> tuple[pd.DataFrame, dict]:
     """The tared points of an isometric table (SI), and the sensor report.
 
-    In order: the pressure transducer's zero is removed (:func:`mckibben.data.io.apply_pressure_zero`),
-    rows at a sensor's rail are found on the raw readings (:func:`mckibben.data.io.find_rails`),
-    the load cell is tared (:func:`mckibben.data.io.apply_tare`), and the rows at a rail are kept
-    or excluded. A run whose tare was read at the load cell's floor has an unknown zero: it is
+    In order: the pressure transducer's zero is removed (:func:`mckibben.data.preprocessing.apply_pressure_zero`),
+    rows at a sensor's rail are found on the raw readings (:func:`mckibben.data.preprocessing.find_rails`),
+    the load cell is tared (:func:`mckibben.data.preprocessing.apply_tare`), and the rows at a rail are kept,
+    excluded or censored (``rails="censor"``: a column ``censored``, −1 for a force at the load
+    cell's floor, "at most this", +1 at its ceiling, "at least this", 0 for a reading; the fit's
+    likelihood treats them so, :func:`mckibben.fit.core.bounded_fit`). A run whose tare was read at the load cell's floor has an unknown zero: it is
     marked ``at_rail`` and the report's ``flags`` say ``tare_at_rail``.
 
     Parameters
     ----------
     table : Table
         An ``isometric`` table.
-    tare : {"none", "lowest", "column"}, default "none"
-        See :func:`mckibben.data.io.apply_tare`. [-]
-    rails : {"keep", "exclude"}, default "keep"
-        Rows at a rail: kept (counted, flagged) or excluded from the fit. [-]
+    tare : {"none", "lowest", "column", "fitted"}, default "none"
+        See :func:`mckibben.data.preprocessing.apply_tare`. [-]
+    rails : {"keep", "exclude", "censor"}, default "keep"
+        Rows at a rail: kept (counted, flagged), excluded from the fit, or censored (a force at
+        the rail is a bound on the force, not its value). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
-        See :func:`mckibben.data.io.apply_pressure_zero`. [-]
+        See :func:`mckibben.data.preprocessing.apply_pressure_zero`. [-]
 
     Returns
     -------
     points : pandas.DataFrame
         ``held_length`` [m], ``pressure`` [Pa], ``force`` [N], ``direction``, ``trial`` (and
-        ``rest_length``, ``muscle`` of a family).
+        ``rest_length``, ``muscle`` of a family; ``censored`` with ``rails="censor"``).
     report : dict
         The tare's report (``method``, ``per_run_N``) with ``pressure_zero``, ``rails`` (each rail,
         ``rows_at_rail``, ``excluded``) and ``flags``.
@@ -312,12 +380,20 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
             run["at_rail"] = True
     if any(r.get("at_rail") for r in report.get("per_run_N", [])):
         flags.append("tare_at_rail")
-    report.update(pressure_zero=pz, rails={**rail_report, "excluded": rails == "exclude"}, flags=flags)
+    report.update(pressure_zero=pz, rails={**rail_report, "excluded": rails == "exclude",
+                                           "censored": rails == "censor"}, flags=flags)
     if rails == "exclude":
         tared = Table(tared.kind, tared.path, tared.data[~at_rail], tared.columns)
     cols = ["held_length", "pressure", "force", "direction", "trial"]
     cols += [c for c in ("rest_length", "muscle") if c in tared.data]  # a family table's muscles
     d = tared.data[cols].copy()
+    if rails == "censor":
+        raw = zeroed.data["force"].to_numpy(dtype=float)
+        side = np.zeros(len(d), dtype=int)
+        for r in rail_report["rails"]:
+            if r["column"] == "force":
+                side[raw == r["value"]] = -1 if r["side"] == "low" else 1
+        d["censored"] = side
     return d, report
 
 
@@ -327,7 +403,10 @@ def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
     The law's own fit spec (:attr:`mckibben.models.laws.Law.fit_spec`), as on an isometric table: a
     muscle hanging a load at rest is a muscle held at that length pulling that load (friction
     aside). The residuals are in force [N]; :func:`law_length` solves the fitted law for the length.
-    The spec's load-cell zero is fitted too (it absorbs a bias in the loads' calibration).
+    The spec's load-cell zero is fitted too (it absorbs a bias in the loads' calibration). A
+    ``direction`` column (a hysteresis table's ``inflate``/``deflate``) labels each point's branch,
+    so a two-branch law (:attr:`~mckibben.models.laws.Law.branches`) fits both; without one every
+    point is ``inflate``.
 
     Parameters
     ----------
@@ -350,14 +429,16 @@ def fit_isotonic_law(table: Table, muscle: MuscleSpec, model: str) -> FitResult:
     if table.kind not in ("isotonic", "hysteresis"):
         raise InputError(f"fit {model}: needs an isotonic or hysteresis table; {table.path} is a {table.kind} table")
     d = table.data
+    # a loop's rows keep their branch (a two-branch law fits both); a table without one is inflate
+    direction = d["direction"].to_numpy(dtype=object) if "direction" in d else "inflate"
     pts = pd.DataFrame({"held_length": d["length"].to_numpy(dtype=float), "pressure": d["pressure"].to_numpy(dtype=float),
-                        "force": d["load"].to_numpy(dtype=float), "direction": "inflate",
+                        "force": d["load"].to_numpy(dtype=float), "direction": direction,
                         "trial": d["trial"].to_numpy() if "trial" in d else np.ones(len(d))})
     return fit_points(pts, muscle, model, source=str(table.path))
 
 
 def law_length(res: FitResult, pressure, load, lo: float, hi: float) -> np.ndarray:
-    """Length at which a fitted law pulls a load, by bisection on [lo, hi]; NaN where it does not cross. [m]
+    """Length at which a fitted law pulls a load (:func:`mckibben.models.law_statics.rising_root`); NaN where it does not cross. [m]
 
     Parameters
     ----------
@@ -373,24 +454,11 @@ def law_length(res: FitResult, pressure, load, lo: float, hi: float) -> np.ndarr
     Returns
     -------
     numpy.ndarray
-        Length, broadcast over ``pressure`` and ``load``. [m]
+        Length, broadcast over ``pressure`` and ``load``: the shortest in ``[lo, hi]`` where the law
+        passes the load, NaN where it pulls more at ``lo`` or never reaches it. [m]
     """
-    p, f = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
-    a, b = np.full(p.shape, float(lo)), np.full(p.shape, float(hi))
-
-    def g(ell):
-        with np.errstate(all="ignore"):
-            return np.asarray(res.func(res.values, p, ell, "inflate"), dtype=float) - f
-
-    ga, gb = g(a), g(b)
-    ok = (np.sign(ga) != np.sign(gb)) & np.isfinite(ga) & np.isfinite(gb)
-    for _ in range(60):  # 2^-60 of the bracket
-        m = 0.5 * (a + b)
-        gm = g(m)
-        left = np.sign(gm) == np.sign(ga)
-        a, ga = np.where(left, m, a), np.where(left, gm, ga)
-        b = np.where(left, b, m)
-    return np.where(ok, 0.5 * (a + b), np.nan)
+    length, state = rising_root(lambda p, ell: res.func(res.values, p, ell, "inflate"), pressure, load, lo, hi)
+    return np.where(state == 0, length, np.nan)
 
 
 def max_error(residuals, force) -> tuple[float, float]:
@@ -440,7 +508,104 @@ def _runs(d: pd.DataFrame) -> np.ndarray:
     return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
 
 
-def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "") -> FitResult:
+def zero_runs(d: pd.DataFrame) -> tuple[np.ndarray, list]:
+    """Run label per row and each run's keys, a run being what has one zero of the load cell.
+
+    A run is one held length × trial, of one muscle in a family (the clusters of the covariance and
+    the runs of ``tare="lowest"``): one clamping, its pressure swept up and back down. Its inflate
+    and deflate phases share the zero: nothing re-zeroes the cell between them, and a zero per
+    phase would take the up/down gap (the hysteresis loop, a force the law misses) for a zero; on
+    the real Festo 10 mm muscles per-phase zeros spread with a standard deviation of 20–32 N
+    (benchmarks/RESULTS.md).
+
+    Parameters
+    ----------
+    d : pandas.DataFrame
+        Isometric points: ``held_length`` [m], ``trial`` (``muscle`` of a family).
+
+    Returns
+    -------
+    label : numpy.ndarray
+        Run index per row (0 … R−1). [-]
+    keys : list of dict
+        Per run: ``held_length_m``, ``trial`` (and ``muscle``). [-]
+    """
+    groups, lengths = set_point_groups(d["held_length"].to_numpy(dtype=float), decimals=6)
+    who = d["muscle"].astype(str).to_numpy() if "muscle" in d else np.full(len(d), "")
+    keys_rows = list(zip(who, groups, d["trial"].to_numpy()))
+    uniq = sorted(set(keys_rows), key=lambda t: (t[0], int(t[1]), t[2]))
+    index = {t: i for i, t in enumerate(uniq)}
+    label = np.array([index[t] for t in keys_rows], dtype=int)
+    keys = [{**({"muscle": m} if m else {}), "held_length_m": float(lengths[g]), "trial": int(tr)}
+            for m, g, tr in uniq]
+    return label, keys
+
+
+#: How each run's load-cell zero enters a fit: as the law's one zero, or fitted per run (``tare="fitted"``).
+ZEROS = ("shared", "per-run")
+
+
+def _zero_contrasts(d: pd.DataFrame) -> np.ndarray:
+    """Sum-to-zero contrasts of the runs (:func:`zero_runs`): column i is 1 on run i, −1 on the last run. [-]"""
+    label, keys = zero_runs(d)
+    r = len(keys)
+    c = np.zeros((label.size, max(r - 1, 0)))
+    for i in range(r - 1):
+        c[label == i, i] = 1.0
+    c[label == r - 1, :] = -1.0
+    return c
+
+
+def run_zeros(res: FitResult, d: pd.DataFrame) -> list:
+    """Each run's fitted load-cell zero and its 95 % interval, from a fit with ``zeros="per-run"``.
+
+    A run's zero is the law's ``offset_N`` (0 for a law without one) plus its deviation (the last
+    run's, minus the sum of the others'); its variance is cᵀ·Σ·c over the covariance Σ of the fit.
+
+    Parameters
+    ----------
+    res : FitResult
+        A fit by :func:`fit_points` with ``zeros="per-run"``. [-]
+    d : pandas.DataFrame
+        The points it was fitted on. [-]
+
+    Returns
+    -------
+    list of dict
+        Per run (:func:`zero_runs`'s keys): ``zero_N`` and ``ci95_N`` ([lo, hi], NaN-free only when
+        the zero's deviation is off its bounds). [N]
+    """
+    _, keys = zero_runs(d)
+    names = list(res.names)
+    dev = [names.index(f"zero_dev_{i}_N") for i in range(len(keys) - 1)]
+    base = names.index("offset_N") if "offset_N" in names else None
+    cov = np.asarray(res.covariance, dtype=float)
+    tq = res.t_quantile
+    out = []
+    for r, key in enumerate(keys):
+        c = np.zeros(len(names))
+        if base is not None:
+            c[base] = 1.0
+        if r < len(dev):
+            c[dev[r]] = 1.0
+        else:
+            c[dev] = -1.0
+        z = float(c @ np.asarray(res.values, dtype=float))
+        used = c != 0
+        var = float(c[used] @ cov[np.ix_(used, used)] @ c[used])
+        half = tq * np.sqrt(var) if np.isfinite(var) and var >= 0 else float("nan")
+        out.append({**key, "zero_N": z, "ci95_N": [z - half, z + half]})
+    return out
+
+
+#: How a family's rest lengths enter a fit: as recorded, or each muscle's fitted as a nuisance parameter.
+REST_LENGTHS = ("nominal", "fitted")
+#: Largest fitted rest-length shift, as a fraction of the muscle's recorded rest length. [-]
+REST_SHIFT_MAX = 0.05
+
+
+def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "",
+               rest_lengths: str = "nominal", zeros: str = "shared") -> FitResult:
     """Fit one force model to isometric points (already tared). See :func:`fit_isometric`.
 
     Parameters
@@ -453,11 +618,31 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         A key of :data:`ALL_MODELS`. [-]
     source : str
         The data file, for messages.
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        A family's rest lengths as recorded, or each muscle's own fitted as a nuisance parameter
+        ``rest_shift_<muscle>_m`` (its true rest length less the recorded one, within ±
+        :data:`REST_SHIFT_MAX` of it; a family law on a family table only). A cut muscle's rest
+        length is measured to a millimetre or so, and a family law's end length absorbs the
+        errors otherwise. A muscle the fit did not see (a held-out one) is predicted at its
+        recorded rest length plus the family's mean shift (the recording's bias). [-]
+    zeros : {"shared", "per-run"}, default "shared"
+        The load cell's zero: the law's one ``offset_N`` (or none, for a law without one), or a zero
+        per run (:func:`zero_runs`: held length × trial) as the law's zero plus a
+        deviation ``zero_dev_<i>_N`` per run, the deviations summing to 0 (R − 1 of them fitted; so
+        ``offset_N`` stays the runs' mean zero, which predicts a run the fit did not see). Each
+        run's zero and its interval: :func:`run_zeros`. With a zero per run the runs' offsets are in
+        the model, and a cluster-robust covariance by run would see no scatter in them (a run's own
+        zero absorbs its residuals' mean): the covariance is s²·(JᵀJ)⁻¹, the rows of a run taken as
+        independent about its zero. [-]
 
     Returns
     -------
     FitResult
     """
+    if rest_lengths not in REST_LENGTHS:
+        raise unknown_name("rest_lengths", rest_lengths, REST_LENGTHS)
+    if zeros not in ZEROS:
+        raise unknown_name("zeros", zeros, ZEROS)
     model = model_name(model)
     what = f"fit {model} on {source}"
     p = d["pressure"].to_numpy(dtype=float)
@@ -486,19 +671,83 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
             return sum(v * t for v, t in zip(values, terms))
 
         names = SURFACE_NAMES[: x.shape[1]]
+        if zeros == "per-run":
+            dev = _zero_contrasts(d)
+            x, names = np.column_stack([x, dev]), names + tuple(f"zero_dev_{i}_N" for i in range(dev.shape[1]))
         res = linear_fit(x, f, names, model=model, response="force_N", what=what, valid_range=vr, func=sfunc,
-                         source=source, clusters=clusters)
+                         source=source, clusters=None if zeros == "per-run" else clusters, cluster_unit="runs")
+        if zeros == "per-run":
+            res = _with_zero_spread_flag(res, d, fmax)
         return _with_monotone_flag(res, d)
     spec = _spec(model, muscle, fmax, p, ell, f, direction, rest)
+    k = len(spec.names)
+    names, lo, hi, starts = spec.names, spec.lo, spec.hi, spec.starts
+    recorded = np.zeros(0)
+    m_shift = 0
+    if rest_lengths == "fitted":
+        if not (family and is_family(d)):
+            raise InputError(f"{what}: rest_lengths 'fitted' needs a family law on a family table (a muscle and a "
+                             "rest_length column, two muscles or more)")
+        who = d["muscle"].astype(str).to_numpy()
+        musc, idx = np.unique(who, return_inverse=True)
+        recorded = np.array([rest[who == m][0] for m in musc])
+        m_shift = musc.size
+        names = names + tuple(f"rest_shift_{m}_m" for m in musc)
+        lo = np.concatenate([lo, -REST_SHIFT_MAX * recorded])
+        hi = np.concatenate([hi, REST_SHIFT_MAX * recorded])
+        starts = [np.concatenate([x0, np.zeros(musc.size)]) for x0 in starts]
+        rest_fit = lambda v: rest + v[k:k + m_shift][idx]  # noqa: E731 - each row's muscle's fitted rest length
+    else:
+        rest_fit = lambda v: rest  # noqa: E731
+    dev = np.zeros((p.size, 0))
+    if zeros == "per-run":
+        dev = _zero_contrasts(d)
+        names = names + tuple(f"zero_dev_{i}_N" for i in range(dev.shape[1]))
+        lo = np.concatenate([lo, np.full(dev.shape[1], -fmax)])
+        hi = np.concatenate([hi, np.full(dev.shape[1], fmax)])
+        starts = [np.concatenate([x0, np.zeros(dev.shape[1])]) for x0 in starts]
+    kz = k + m_shift  # the run zeros' deviations start here
 
     def func(values, pressure, length, direction="inflate", rest_length=None):
-        return spec.force(values, pressure, length, direction, rest_length)
+        values = np.asarray(values, dtype=float)
+        if rest_length is not None and m_shift and values.size >= kz:  # the law's values alone: as recorded
+            # the muscles the fit saw at their fitted rest length, any other at the family's mean shift
+            # (the recording's bias: a muscle's own scatter about it is what the fit cannot know)
+            rl = np.asarray(rest_length, dtype=float)
+            shifts = values[k:kz]
+            seen = [np.isclose(rl, r0, rtol=0, atol=1e-9) for r0 in recorded]
+            rest_length = rl + sum(np.where(m, dv, 0.0) for m, dv in zip(seen, shifts)) + np.where(
+                np.any(seen, axis=0), 0.0, float(np.mean(shifts)))
+        return spec.force(values[:k], pressure, length, direction, rest_length)  # a run's zero: the runs' mean
 
-    res = bounded_fit(lambda v: spec.force(v, p, ell, direction, rest), f, spec.starts, spec.names, spec.lo, spec.hi,
-                      model=model, response="force_N", what=what, valid_range=vr, func=func, clusters=clusters,
-                      source=source, physical_flags=spec.physical)
+    res = bounded_fit(lambda v: spec.force(v[:k], p, ell, direction, rest_fit(v)) + dev @ v[kz:], f, starts, names,
+                      lo, hi, model=model, response="force_N", what=what, valid_range=vr, func=func,
+                      clusters=None if zeros == "per-run" else clusters,
+                      source=source, physical_flags=lambda v: spec.physical(v[:k]) if spec.physical else [],
+                      cluster_unit="runs", priors=spec.priors,
+                      censored=d["censored"].to_numpy(dtype=int) if "censored" in d else None)
+    if zeros == "per-run":
+        res = _with_zero_spread_flag(res, d, fmax)
     return _with_monotone_flag(res, d)
 
+
+#: Runs' fitted zeros (``zeros="per-run"``) whose standard deviation exceeds
+#: :data:`~mckibben.models.laws._base.OFFSET_FLAG` × the peak force are flagged ``run_zeros_spread``:
+#: a zero per run can absorb any force that changes from one held length to the next, so zeros that
+#: spread past a load cell's plausible zero error carry force the law misses, and a run the fit did
+#: not see (predicted at the runs' mean zero) is off by that spread.
+ZERO_SPREAD_FLAG = OFFSET_FLAG
+
+
+def _with_zero_spread_flag(res: FitResult, d: pd.DataFrame, fmax: float) -> FitResult:
+    z = np.array([r["zero_N"] for r in run_zeros(res, d)])
+    if z.size > 1 and float(np.std(z)) > ZERO_SPREAD_FLAG * fmax:
+        return replace(res, flags=res.flags + ("run_zeros_spread",))
+    return res
+
+
+#: The figures :meth:`IsometricFit.plot` draws.
+PLOT_KINDS = ("fit", "residuals", "parity")
 
 #: A fitted force that falls with rising pressure at a held length by more than this fraction of the
 #: peak force, inside the fitted range, is flagged ``force_falls_with_pressure``: a muscle pulls
@@ -526,7 +775,7 @@ def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
 
 
 def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none", rails: str = "keep",
-                  pressure_zero: str = "none") -> IsometricFit:
+                  pressure_zero: str = "none", rest_lengths: str = "nominal") -> IsometricFit:
     """Fit a static force model F(P, L) to an isometric table.
 
     Geometry missing from the muscle file (braid angle, wall) is fitted within the bounds of
@@ -548,12 +797,16 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
         The muscle file (nominal length and outer diameter are required).
     model : str, default "spring"
         A key of :data:`ALL_MODELS`. [-]
-    tare : {"none", "lowest", "column"}, default "none"
-        See :func:`mckibben.data.io.apply_tare`. [-]
-    rails : {"keep", "exclude"}, default "keep"
+    tare : {"none", "lowest", "column", "fitted"}, default "none"
+        See :func:`mckibben.data.preprocessing.apply_tare`; ``"fitted"``: the force is left as read (pre-tension
+        kept) and each run's zero is fitted (:func:`fit_points` with ``zeros="per-run"``), reported
+        with its interval in ``tare["per_run_N"]`` (:func:`run_zeros`). [-]
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a sensor's rail (:func:`isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         The pressure transducer's zero (:func:`isometric_points`). [-]
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        A family's rest lengths as recorded or fitted per muscle (:func:`fit_points`). [-]
 
     Returns
     -------
@@ -566,7 +819,10 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     check_instance(table, "table", Table, "a Table (mckibben.read_table)")
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
     d, report = isometric_points(table, tare, rails, pressure_zero)
-    res = fit_points(d, muscle, model, source=table.path)
+    zeros = "per-run" if tare == "fitted" else "shared"
+    res = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths, zeros=zeros)
+    if zeros == "per-run":
+        report["per_run_N"] = run_zeros(res, d)
     return IsometricFit(model, res, muscle, report, d)
 
 
@@ -600,14 +856,6 @@ def force_law(model: str, muscle: MuscleSpec, values) -> Callable:
             return sum(a * t for a, t in zip(v, terms))
 
         return sfunc
-    if model == "spring":  # one pressure range to infinity: the law as saved
-        l0 = muscle.nominal_length
-
-        def spring(pressure, length, direction="inflate"):
-            d = np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
-            return spring_force(length, pressure, spring_model_of(v, l0, np.inf), d)[0]
-
-        return spring
     spec = _spec(model, muscle, 1.0, *_NO_DATA)
     return lambda pressure, length, direction="inflate": spec.force(v, pressure, length, direction)
 
@@ -625,8 +873,6 @@ def parameter_names(model: str, muscle: MuscleSpec) -> tuple:
     model = model_name(model)
     if model == SURFACE:
         return SURFACE_NAMES
-    if model == "spring":
-        return SPRING_NAMES
     return _spec(model, muscle, 1.0, *_NO_DATA).names
 
 
@@ -702,7 +948,13 @@ class ModelComparison(Result):
                 "tare": self.tare, "models": self.scores}
 
     def plot(self, ax=None):
-        """Held-out and in-sample RMSE per model, as % of the peak force (bar chart).
+        """Held-out and in-sample RMSE per model, as % of the peak force, with each fold's error.
+
+        One row per model (names on the vertical axis, never clipped), sorted by held-out error:
+        the in-sample and the pooled held-out RMSE as bars, each held-out fold's RMSE (as % of its
+        muscle's peak) as a dot, so the spread across folds shows. A flagged model's bars are
+        hatched and its label says ``(flagged)``, the recommended one (``best``) is in bold, the
+        legend beside the axes; a model that could not be fitted is listed without bars.
 
         Parameters
         ----------
@@ -715,15 +967,33 @@ class ModelComparison(Result):
         """
         import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
+        df = self.to_pandas().iloc[::-1].reset_index(drop=True)  # the best at the top
         if ax is None:
-            _, ax = plt.subplots(figsize=(6, 3.5))
-        df = self.to_pandas()
-        x = np.arange(len(df))
-        ax.bar(x - 0.2, df["rmse_N"] / self.peak_force * 100, 0.4, label="in-sample")
-        ax.bar(x + 0.2, df["cv_rmse_pct_of_peak"], 0.4, label=f"held out ({self.cv})")
-        ax.set_xticks(x, df["model"], rotation=20, ha="right", fontsize="small")
-        ax.set_ylabel("RMSE [% of peak force]")
-        ax.legend(fontsize="small")
+            _, ax = plt.subplots(figsize=(9.0, 1.6 + 0.45 * max(len(df), 3)), layout="constrained")
+        y = np.arange(len(df))
+        flagged = np.array([bool(f) for f in df["flags"]])
+        ins = np.where(df["rmse_N"].notna(), df["rmse_N"].astype(float) / self.peak_force * 100, np.nan)
+        held = df["cv_rmse_pct_of_peak"].astype(float).to_numpy()
+        for rows, hatch, suffix in ((~flagged, None, ""), (flagged, "//", ", flagged")):
+            ax.barh(y[rows] + 0.2, ins[rows], 0.38, color="C0", hatch=hatch, edgecolor="white" if hatch else None,
+                    label=f"in-sample{suffix}" if rows.any() else None)
+            ax.barh(y[rows] - 0.2, held[rows], 0.38, color="C1", hatch=hatch, edgecolor="white" if hatch else None,
+                    label=f"held out, pooled{suffix}" if rows.any() else None)
+        dots = "held out, one fold"
+        for k, folds in enumerate(df["folds"]):
+            pct = [f["rmse_pct_of_peak"] for f in folds if np.isfinite(f["rmse_pct_of_peak"])]
+            if pct:
+                ax.plot(pct, np.full(len(pct), y[k] - 0.2), "o", color="k", ms=3, alpha=0.7, label=dots)
+                dots = None  # one legend entry
+        labels = [f"{m} (flagged)" if fl else m for m, fl in zip(df["model"], flagged)]
+        ax.set_yticks(y, labels)
+        for tick, m in zip(ax.get_yticklabels(), df["model"]):
+            if m == self.best:
+                tick.set_fontweight("bold")
+        ax.set_xlabel("RMSE [% of peak force]")
+        ax.set_title(f"{self.cv}: held out and in-sample error (best: {self.best})", fontsize="medium")
+        ax.set_xlim(left=0)
+        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside: never over the data
         return ax.figure
 
 
@@ -750,7 +1020,8 @@ def _fold_keys(d: pd.DataFrame, cv: str) -> tuple[np.ndarray, list]:
 
 
 def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
-                      models=None, rails: str = "keep", pressure_zero: str = "none") -> ModelComparison:
+                      models=None, rails: str = "keep", pressure_zero: str = "none",
+                      rest_lengths: str = "nominal") -> ModelComparison:
     """Fit every force model to an isometric table and score it on held-out lengths, trials or muscles.
 
     Every model is fitted on the same folds: ``leave-one-length-out`` leaves each held length out
@@ -769,7 +1040,9 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     **Best.** The model with the smallest held-out RMSE among those whose predictions carry no
     doubt: no flag on its fit on all the data (a bound that binds, a parameter the data do not
     constrain, a non-physical value) and a held-out error at most :data:`~mckibben.fit.core.HELDOUT_RATIO`
-    times its in-sample error (else ``heldout_far_above_insample``). Notes (parameters that only
+    times its in-sample error on the same points, those of the folds that predict within the fitted
+    range (else ``heldout_far_above_insample``; :func:`~mckibben.fit.core.interpolated_rms`: the
+    extrapolated folds are counted apart and still scored in the held-out error). Notes (parameters that only
     trade off) do not discard a model. A flagged model is reported, not recommended;
     when every model is flagged, the smallest held-out RMSE of all, and ``best_flagged`` says so.
 
@@ -784,14 +1057,16 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         The muscle file (for a family: the type's outer diameter and geometry). [-]
     cv : {"leave-one-length-out", "leave-one-trial-out", "leave-one-muscle-out"}
         Cross-validation scheme. [-]
-    tare : {"none", "lowest", "column"}, default "none"
-        See :func:`mckibben.data.io.apply_tare`. [-]
+    tare : {"none", "lowest", "column", "fitted"}, default "none"
+        See :func:`mckibben.data.preprocessing.apply_tare`. [-]
     models : sequence of str, optional
         Models to compare (default: :data:`FAMILY_MODELS` on a family table, else :data:`MUSCLE_MODELS`). [-]
-    rails : {"keep", "exclude"}, default "keep"
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Rows at a sensor's rail (:func:`isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         The pressure transducer's zero (:func:`isometric_points`). [-]
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        A family's rest lengths as recorded or fitted per muscle (:func:`fit_points`). [-]
 
     Returns
     -------
@@ -802,7 +1077,13 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     if cv not in CV_METHODS:
         raise unknown_name("`cv` scheme", cv, CV_METHODS)
     d, report = isometric_points(table, tare, rails, pressure_zero)
+    zeros = "per-run" if tare == "fitted" else "shared"
     family = is_family(d)
+    if rest_lengths not in REST_LENGTHS:
+        raise unknown_name("rest_lengths", rest_lengths, REST_LENGTHS)
+    if rest_lengths == "fitted" and not family:
+        raise InputError(f"compare on {table.path}: rest_lengths 'fitted' needs a family table (a muscle and a "
+                         "rest_length column, two muscles or more)")
     if cv == "leave-one-muscle-out" and not family:
         raise InputError(f"compare on {table.path}: leave-one-muscle-out needs a family table (a muscle and a "
                          "rest_length column, two muscles or more)")
@@ -823,7 +1104,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     scores, fits = [], {}
     for model in models:
         try:
-            full = fit_points(d, muscle, model, source=table.path)
+            full = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths, zeros=zeros)
         except InputError as exc:
             scores.append({"model": model, "n_parameters": 0, "rmse_N": None, "r2": None, "max_error_N": None,
                            "max_error_pct_of_peak": None, "cv_rmse_N": None, "cv_rmse_pct_of_peak": None,
@@ -831,13 +1112,17 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
                            "extrapolated_folds": 0, "flags": [], "folds": [],
                            "note": f"not fitted: {exc}"})
             continue
-        fits[model] = IsometricFit(model, full, muscle, report, d)
+        # each model's own run zeros (tare "fitted") in its fit's report
+        fits[model] = IsometricFit(model, full, muscle, {**report, "per_run_N": run_zeros(full, d)}
+                                   if zeros == "per-run" else report, d)
         pred = np.full(f.size, np.nan)
+        inside = np.zeros(f.size, dtype=bool)  # points of the folds that predict within the fitted range
         extrapolated, notes, folds = 0, [], []
         for g in groups:
             test = key == g
             try:
-                r = fit_points(d[~test], muscle, model, source=table.path)
+                r = fit_points(d[~test], muscle, model, source=table.path,
+                               rest_lengths=rest_lengths if is_family(d[~test]) else "nominal", zeros=zeros)
             except InputError as exc:
                 notes.append(f"fold {fold_names[int(g)]} not fitted: {exc}")
                 continue
@@ -845,8 +1130,11 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
             extra = {"rest_length": sub["rest_length"].to_numpy(dtype=float)} if "rest_length" in sub else {}
             value, fl = r.predict(pressure=sub["pressure"].to_numpy(), length=sub["held_length"].to_numpy(),
                                   direction=sub["direction"].to_numpy(), **extra)
+            if "censored" in sub:  # a prediction that keeps to a rail's bound is no error (``rails="censor"``)
+                value = f[test] + censor_hinge(value - f[test], sub["censored"].to_numpy(dtype=int))
             pred[test] = value
             extrapolated += int(np.any(fl))
+            inside[test] = not np.any(fl)
             ok = np.isfinite(value)
             rm = float(np.sqrt(np.mean((value[ok] - f[test][ok]) ** 2))) if ok.any() else float("nan")
             pk = max(muscle_peak[m] for m in set(who[test]))
@@ -858,7 +1146,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         if not ok.all():
             notes.append(f"{int((~ok).sum())} points not predicted")
         pct = [x["rmse_pct_of_peak"] for x in folds if np.isfinite(x["rmse_pct_of_peak"])]
-        heldout = list(heldout_flags(cv_rmse, full.residual_rms))
+        cv_within, fit_within = interpolated_rms(pred - f, full.residuals, inside)
+        heldout = list(heldout_flags(cv_within, fit_within))
         ins, held = max_error(full.residuals, f), max_error(pred - f, f)
         scores.append({"model": model, "n_parameters": len(full.values), "rmse_N": full.residual_rms,
                        "r2": full.r2, "max_error_N": ins[0], "max_error_pct_of_peak": ins[1],
@@ -866,6 +1155,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
                        "cv_max_error_N": held[0], "cv_max_error_pct_of_peak": held[1],
                        "median_fold_pct_of_peak": float(np.median(pct)) if pct else None,
                        "worst_fold_pct_of_peak": float(np.max(pct)) if pct else None,
+                       "cv_rmse_interpolated_N": cv_within, "rmse_interpolated_N": fit_within,
                        "extrapolated_folds": extrapolated, "flags": list(full.flags) + heldout, "notes": list(full.notes), "note": "; ".join(notes),
                        "folds": folds})
     ranked = [s for s in scores if s["cv_rmse_N"] is not None and np.isfinite(s["cv_rmse_N"])]

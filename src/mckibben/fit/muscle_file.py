@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mckibben.data.io import MuscleSpec, muscle_file_text_of
+from mckibben.data.muscle_file import MuscleSpec, muscle_file_text_of
 from mckibben.errors import InputError
 from mckibben.fit.isometric import ALL_MODELS, force_law, model_name, parameter_names
 from mckibben.models import laws
@@ -57,8 +57,9 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
     note = f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
     fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": flags,
           "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": valid,
-          "parameters": dict(zip(r.names, (float(v) for v in r.values))),
-          "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s)}}
+          # each run's zero (tare "fitted") belongs to the table, not to the muscle: the law keeps the runs' mean
+          "parameters": {n: float(v) for n, v in zip(r.names, r.values) if not n.startswith("zero_dev_")},
+          "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s) and not n.startswith("zero_dev_")}}
     return muscle_file_text_of(spec, fm, note)
 
 
@@ -191,7 +192,7 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     Parameters
     ----------
     spec : MuscleSpec
-        A muscle file read by :func:`mckibben.data.io.read_muscle`.
+        A muscle file read by :func:`mckibben.data.muscle_file.read_muscle`.
 
     Raises
     ------
@@ -210,8 +211,11 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
     names = parameter_names(model, spec)
     params = fm["parameters"]
     optional = laws.LAWS[model].extra.get("optional_names", ()) if model in laws.LAWS else ()
-    if tuple(params) != tuple(names) and tuple(n for n in params if n not in optional) == tuple(names):
-        names = tuple(params)  # a law's optional parameters (a family's end-fitting length) were fitted
+    if tuple(params) != tuple(names) and (tuple(n for n in params if n not in optional)
+                                          == tuple(n for n in names if n not in optional)):
+        # a law's optional parameters: fitted (a family's end-fitting length), or absent from a law
+        # saved before they were (Tondu–Lopez's threshold): the law reads what the file holds
+        names = tuple(params)
     if tuple(params) != tuple(names):
         missing = [n for n in names if n not in params]
         extra = [n for n in params if n not in names]

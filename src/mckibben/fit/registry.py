@@ -18,7 +18,7 @@ import numpy as np
 from mckibben.errors import ArgumentTypeError, InputError, check_real, unknown_name
 from mckibben.models import laws
 from mckibben.results import Result
-from mckibben.data import find_muscle_file, read_muscle
+from mckibben.data import find_muscle_file, muscle_of_table, read_muscle
 from mckibben.datasets.campaign import is_synthetic
 from mckibben.data import check_muscle, read_table
 from mckibben.fit import static
@@ -28,19 +28,33 @@ from mckibben.fit.isometric import compare_isometric
 from mckibben.fit.compare import compare_models
 from mckibben.results import to_jsonable
 from mckibben.fit.isometric import IsometricFit
+from mckibben.fit.direction import DirectionAwareFit, compare_direction_aware, fit_direction_aware
 from mckibben.fit.names import FIT_MODELS, NEEDS_MUSCLE  # noqa: F401  (re-exported)
 
 
 
-def load_muscle(data: Path, muscle: str | None, required: bool, what: str):
-    """The muscle file given with --muscle, else ``muscle.toml`` beside the data (or None)."""
+def load_muscle(data: Path, muscle: str | None, required: bool, what: str, table=None, models=()):
+    """The muscle file given with --muscle, else ``muscle.toml`` beside the data, else the muscle the
+    table itself describes (:func:`mckibben.data.muscle_file.muscle_of_table`), or None. A muscle-file key
+    missing names the laws of ``models`` that need it (:attr:`mckibben.models.laws.Law.needs`)."""
 
     path = Path(muscle) if muscle else find_muscle_file(data)
+    if path is None and table is not None:
+        spec = muscle_of_table(table)
+        if spec is not None:
+            return spec
     if path is None:
         if required:
             raise InputError(f"{what}: needs a muscle file; give `muscle` FILE.toml or put muscle.toml beside {data}")
         return None
-    return read_muscle(path)
+    return read_muscle(path, _needed_by(models))
+
+
+def _needed_by(models) -> dict:
+    """Muscle-file field -> the registered laws among ``models`` that need it (for its message)."""
+    named = [laws.LAWS[n] for n in (laws.ALIASES.get(m, m) for m in models) if n in laws.LAWS]
+    fields = {q for law in named for q in law.needs}
+    return {q: " and ".join(law.name for law in named if q in law.needs) for q in fields}
 
 
 def _synthetic(data: Path, spec) -> bool:
@@ -51,14 +65,16 @@ def _synthetic(data: Path, spec) -> bool:
 
 def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None = None,
              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
-             rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> tuple[dict, list]:
+             rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
+             select: dict | None = None, columns: dict | None = None,
+             direction_aware: str | None = None, rest_lengths: str = "nominal") -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
 
     if model not in FIT_MODELS and model not in laws.ALIASES:  # an old law name is read (deprecated)
         raise unknown_name("model", model, FIT_MODELS)
-    table = read_table(data, kind)
+    table = read_table(data, kind, select, columns)
     isometric = table.kind == "isometric"
-    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}")
+    spec = load_muscle(data, muscle, model in NEEDS_MUSCLE or isometric, f"fit {model}", table, (model,))
     if spec is not None:
         check_muscle(table, spec)
     if tare != "none" and not isometric:
@@ -67,23 +83,44 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError(f"rails/`pressure_zero`: apply to isometric tables; {data} is a {table.kind} table")
     if save is not None and not isometric:
         raise InputError(f"save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
+    if save is not None and spec.outer_diameter is None:  # a table's rest length stood for the muscle file
+        raise InputError(f"save: a muscle file of the {model} force law needs the muscle's outer diameter (its "
+                         f"chamber), which {spec.path or data} does not give; give `muscle` FILE.toml with "
+                         f"outer_diameter_mm")
+    if rest_lengths != "nominal" and save is not None:
+        raise InputError("save: writes a family law at recorded rest lengths; fit with rest_lengths 'nominal' to save")
     if rest_length is not None and save is None:
         raise InputError("rest_length: sets the rest length of the muscle a family law's file describes; give `save`")
+    law = laws.LAWS.get(laws.ALIASES.get(model, model))
+    own = law.own_fit if law is not None and not isometric else None  # the law's own procedure (Law.own_fit)
     if split_pressure is not None:
         check_real(split_pressure, "split_pressure", lo=0.0, unit="Pa")
-        if model != "spring" or isometric:
-            raise InputError(f"split_pressure: splits the data of the spring model on an isotonic or force-length "
-                             f"table; fit {model} on a {table.kind} table has no split")
+        if own is None or not own.split_pressure:
+            splitters = {n: lw.own_fit.tables for n, lw in laws.own_fit_laws().items() if lw.own_fit.split_pressure}
+            kinds = sorted({k.replace("_", "-") for t in splitters.values() for k in t}, reverse=True)
+            raise InputError(f"split_pressure: splits the data of the {' or '.join(splitters)} model on an "
+                             f"{' or '.join(kinds)} table; fit {model} on a {table.kind} table has no split")
     if rest_length is not None:
         check_real(rest_length, "rest_length", lo=0.0, lo_open=True, unit="m")
     extra: dict = {}
+    if direction_aware is not None:  # a law with hysteresis inside it (mckibben.fit.direction)
+        if not isometric:
+            raise InputError(f"direction_aware: fits a law to inflate and deflate rows of an isometric table; {data} is "
+                             f"a {table.kind} table")
+        if save is not None:
+            raise InputError("save: a muscle file holds a static law; fit without direction_aware to save one")
+        fit = fit_direction_aware(table, spec, model, direction_aware, tare, rails, pressure_zero)
+        out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
+               "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
+        _update_keeping_table_notes(out, fit.to_dict())
+        return out, [fit]
     if isometric:
         if model not in ALL_MODELS and model not in laws.ALIASES:
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
-        fit = fit_isometric(table, spec, model, tare, rails, pressure_zero)
+        fit = fit_isometric(table, spec, model, tare, rails, pressure_zero, rest_lengths=rest_lengths)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
-               "synthetic": _synthetic(data, spec), "tare": fit.tare, "fits": [fit.to_dict()]}
-        out.update({k: v for k, v in fit.to_dict().items() if k not in ("model",)})
+               "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
+        _update_keeping_table_notes(out, fit.to_dict())
         if save is not None:
             out["saved"] = str(save_muscle_file(save, spec, fit, rest_length))
         return out, [fit]
@@ -95,53 +132,67 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         fits = [static.fit_surface(table)]
     elif model == "force-contraction":
         fits = list(static.fit_force_contraction(table, spec).values())
-    elif model == "spring":
+    elif own is not None and law is not None:  # the law's own procedure (it checks the table kind)
         if split_pressure is not None:
             p = table.data["pressure"].to_numpy()
             if not float(p.min()) <= split_pressure < float(p.max()):
                 raise InputError(f"split_pressure: {split_pressure / 1e6:g} MPa is outside the pressures of {data} "
                                  f"({p.min() / 1e6:g}..{p.max() / 1e6:g} MPa): one range would get no point")
-        sf = static.fit_spring(table, split_pressure=split_pressure,
-                               nominal_length=spec.nominal_length if spec else None)
-        fits = [sf.result]
-        extra = {"split_pressure_Pa": sf.model.split_pressure, "blocks": [list(b) for b in sf.blocks],
-                 "terms_P_Ls_exponents": [list(t) for t in sf.model.terms]}
-    elif model == "chou-hannaford":
-        fits = [static.fit_chou_hannaford(table, spec)]
-    elif model == "tondu-lopez":
-        fits = [static.fit_tondu_lopez(table, spec)]
-    elif model in laws.fit_laws() or model in laws.ALIASES:  # any other registered law: through its force
+        fits, extra = static.OWN_FITS[law.name](table, spec, split_pressure)
+    elif model in laws.fit_laws() or model in laws.ALIASES:  # every registered law: through its force
         fits = [fit_isotonic_law(table, spec, model)]
     else:
         fits = list(static.fit_first_order(table).values())
     out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id if spec else None,
-           "synthetic": _synthetic(data, spec), **extra, "fits": [f.to_dict() for f in fits]}
+           "synthetic": _synthetic(data, spec), **_table_notes(table), **extra, "fits": [f.to_dict() for f in fits]}
     if len(fits) == 1:
-        out.update({k: v for k, v in fits[0].to_dict().items() if k not in ("model",)})
+        _update_keeping_table_notes(out, fits[0].to_dict())
     else:
         out["flags"] = sorted({fl for f in fits for fl in f.flags})
     return out, fits
 
 
-def _isometric_table(data: Path):
+def _update_keeping_table_notes(out: dict, fit: dict) -> None:
+    """Lift one fit's fields to the top of ``out``; its ``notes`` (what the fit could not tell, e.g.
+    ``correlated_parameters``) follow the table reader's notes (columns kept aside) instead of
+    replacing them."""
+    notes = list(out.get("notes", [])) + list(fit.get("notes", []))
+    out.update({k: v for k, v in fit.items() if k not in ("model", "notes")})
+    if notes:
+        out["notes"] = notes
+
+
+def _table_notes(table) -> dict:
+    """What a result says of how its table was read: ``selected`` rows and ``notes`` (columns kept aside)."""
+    return {**({"selected": dict(table.selected)} if table.selected else {}),
+            **({"notes": list(table.notes)} if table.notes else {})}
+
+
+def _isometric_table(data: Path, select: dict | None = None, columns: dict | None = None):
     """The table if DATA is an isometric table file, else None (a folder or another kind)."""
 
     data = Path(data)
     if data.is_dir():
         return None
-    table = read_table(data)
+    table = read_table(data, None, select, columns)
     return table if table.kind == "isometric" else None
 
 
 def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
-                       pressure_zero: str = "none") -> dict:
+                       pressure_zero: str = "none", direction_aware: str | None = None,
+                       rest_lengths: str = "nominal") -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
 
-    spec = load_muscle(data, muscle, True, "compare")
+    spec = load_muscle(data, muscle, True, "compare", table)
     check_muscle(table, spec)
-    res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero)
-    return {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
-            "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
+    res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero,
+                            rest_lengths=rest_lengths)
+    out = {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
+           **_table_notes(table), "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
+    if direction_aware is not None:  # each law beside its direction-aware form (mckibben.fit.direction)
+        out["direction_aware"] = compare_direction_aware(table, spec, structure=direction_aware, tare=tare,
+                                                         rails=rails, pressure_zero=pressure_zero)
+    return out
 
 
 #: Distinct pressures (above 0) an isotonic table needs for `compare`: a cubic in pressure and a
@@ -149,7 +200,8 @@ def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str
 COMPARE_MIN_PRESSURES = 6
 
 
-def _compare_isotonic(data: Path, muscle: str | None = None) -> dict:
+def _compare_isotonic(data: Path, muscle: str | None = None, select: dict | None = None,
+                      columns: dict | None = None) -> dict:
     """Run the comparison; return the JSON-ready result."""
 
     data = Path(data)
@@ -157,7 +209,7 @@ def _compare_isotonic(data: Path, muscle: str | None = None) -> dict:
     iso_path = folder / "isotonic.csv" if data.is_dir() else data
     if data.is_dir() and not iso_path.is_file():
         raise InputError(f"compare: {data} holds no isotonic.csv")
-    table = read_table(iso_path)
+    table = read_table(iso_path, None, select, columns)
     spec = load_muscle(iso_path, muscle, True, "compare")
     check_muscle(table, spec)
     braid = None
@@ -173,7 +225,7 @@ def _compare_isotonic(data: Path, muscle: str | None = None) -> dict:
         raise InputError(f"compare: {iso_path} has {distinct} distinct pressures above 0; comparing the models "
                          f"(cubics in pressure, cross-validated) needs at least {COMPARE_MIN_PRESSURES}")
     res = compare_models(table, spec, braid)
-    return {"file": str(iso_path), "muscle": spec.id, "synthetic": _synthetic(iso_path, spec),
+    return {"file": str(iso_path), "muscle": spec.id, "synthetic": _synthetic(iso_path, spec), **_table_notes(table),
             "quantity": "length under load at a pressure (rows with P > 0); relative errors on contraction",
             "n_points": res["n_points"], "cv_method": res["cv_method"],
             "models": [s.to_dict() for s in res["scores"]]}
@@ -242,7 +294,7 @@ class TableFit(Result):
         import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
 
 
-        if self.fits and isinstance(self.fits[0], IsometricFit):
+        if self.fits and isinstance(self.fits[0], (IsometricFit, DirectionAwareFit)):
             return self.fits[0].plot(ax)
         if ax is None:
             _, ax = plt.subplots(figsize=(6, 3.5))
@@ -264,7 +316,9 @@ def _data_path(data) -> Path:
 
 def fit_table(data, model: str, muscle: str | None = None, kind: str | None = None,
               split_pressure: float | None = None, tare: str = "none", save: str | None = None,
-              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none") -> TableFit:
+              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
+              select: dict | None = None, columns: dict | None = None,
+              direction_aware: str | None = None, rest_lengths: str = "nominal") -> TableFit:
     """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
 
     Parameters
@@ -280,22 +334,37 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
     split_pressure : float, optional
         Spring model: the low/high range split (default: the median pressure). [Pa]
     tare : {"none", "lowest", "column"}, default "none"
-        Isometric tables: :func:`mckibben.data.io.apply_tare`. [-]
-    rails : {"keep", "exclude"}, default "keep"
+        Isometric tables: :func:`mckibben.data.preprocessing.apply_tare`. [-]
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Isometric tables: rows at a sensor's rail (:func:`mckibben.fit.isometric.isometric_points`). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
-        Isometric tables: the pressure transducer's zero (:func:`mckibben.data.io.apply_pressure_zero`). [-]
+        Isometric tables: the pressure transducer's zero (:func:`mckibben.data.preprocessing.apply_pressure_zero`). [-]
     rest_length : float, optional
         With ``save`` and a family law: the rest length of the muscle the saved file describes
         (default the muscle file's nominal length). [m]
     save : str, optional
         Isometric tables: write a muscle file with the fitted force law here. [-]
+    select : dict, optional
+        Column -> value: fit only the rows holding these values, e.g. one muscle of a table of
+        several (:func:`mckibben.data.read_table`). [-]
+    columns : dict, optional
+        The file's column names -> the schema's, e.g. ``{"phase": "direction"}``. [-]
+    direction_aware : {"play", "friction"}, optional
+        Isometric tables: fit the law's direction-aware form of this structure
+        (:func:`mckibben.fit.direction.fit_direction_aware`); None: the plain law. [-]
+
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        Isometric family tables: each muscle's rest length as recorded or fitted
+        (:func:`mckibben.fit.isometric.fit_points`); not with ``save``. [-]
 
     Returns
     -------
     TableFit
+        With no muscle file, a table giving one muscle's rest length stands for it
+        (:func:`mckibben.data.muscle_file.muscle_of_table`).
     """
-    out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails, pressure_zero)
+    out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails,
+                         pressure_zero, select, columns, direction_aware, rest_lengths)
     return TableFit(out, fits)
 
 
@@ -358,7 +427,9 @@ class TableComparison(Result):
 
 
 def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none", rails: str = "keep",
-                  pressure_zero: str = "none") -> TableComparison:
+                  pressure_zero: str = "none", select: dict | None = None,
+                  columns: dict | None = None, direction_aware: str | None = None,
+                  rest_lengths: str = "nominal") -> TableComparison:
     """Fit every applicable model to the same data and score it on held-out data.
 
     An isometric table: every force model, folds by held length (default) or trial
@@ -376,20 +447,33 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
         Isometric tables only. [-]
     tare : {"none", "lowest", "column"}, default "none"
         Isometric tables only. [-]
-    rails : {"keep", "exclude"}, default "keep"
+    rails : {"keep", "exclude", "censor"}, default "keep"
         Isometric tables: rows at a sensor's rail. [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         Isometric tables: the pressure transducer's zero. [-]
+    select : dict, optional
+        Column -> value: compare on the rows holding these values (one muscle of several). [-]
+    columns : dict, optional
+        The file's column names -> the schema's, e.g. ``{"phase": "direction"}``. [-]
+    direction_aware : {"play", "friction"}, optional
+        Isometric tables: also score each law beside its direction-aware form of this structure,
+        each trial held out in turn, by the up/down gap (RMS and max of the gap error; key
+        ``direction_aware``, :func:`mckibben.fit.direction.compare_direction_aware`). [-]
+    rest_lengths : {"nominal", "fitted"}, default "nominal"
+        Isometric family tables: each muscle's rest length as recorded or fitted
+        (:func:`mckibben.fit.isometric.fit_points`). [-]
 
     Returns
     -------
     TableComparison
     """
     data = _data_path(data)
-    iso = _isometric_table(data)
+    iso = _isometric_table(data, select, columns)
     if iso is not None:
         return TableComparison(_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare, rails,
-                                                  pressure_zero))
-    if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none":
+                                                  pressure_zero, direction_aware, rest_lengths))
+    if direction_aware is not None:
+        raise InputError("direction_aware: scores laws on the inflate and deflate rows of an isometric table")
+    if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none" or rest_lengths != "nominal":
         raise InputError("cv/`tare`: apply to isometric tables; the isotonic comparison chooses its own folds")
-    return TableComparison(_compare_isotonic(data, muscle))
+    return TableComparison(_compare_isotonic(data, muscle, select, columns))

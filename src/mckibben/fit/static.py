@@ -19,9 +19,25 @@ fit_first_order           step_response      p = p0 + (p∞ − p0)(1 − e^{−
 
 Pressure inside the cubics and the surface is in MPa, as the paper prints them (parameter names
 say so: ``c3_per_MPa3``); everything else is SI.
+
+**Why three laws keep an isotonic fit of their own.** Every registered law with a fit spec is fitted
+to an isotonic table through its force (:func:`mckibben.fit.isometric.fit_isotonic_law`: each
+point is F(P, L) = load, residuals in newtons, with the load cell's zero). ``fit_spring``,
+``fit_chou_hannaford`` and ``fit_tondu_lopez`` are different estimators, not copies of those laws:
+their residuals are in *length* (what an isotonic rig measures: the error is in the length, the
+load is a known hanging mass, so there is no load-cell zero to fit), the braid laws solve the law
+for the length (:func:`mckibben.models.physical.length_under_load`, the law's own kernel through
+the one solver :func:`mckibben.models.law_statics.rising_root`; Tondu–Lopez its closed-form
+contraction), and the spring model fits its unstretched length Lu(P) and stiffness per pressure
+range ([wickramatunge2010], eq. 1–2), a structure the isometric fit spec does not have. The laws'
+formulas are not written here: each fit calls the law's own functions. The names under which
+``fit`` and ``compare`` offer them are still listed in :mod:`mckibben.fit.registry`,
+:mod:`mckibben.fit.compare` and :mod:`mckibben.fit.names` (the remaining hand lists of issue 32).
 """
 
 from __future__ import annotations
+
+import warnings
 
 from typing import TYPE_CHECKING
 
@@ -29,7 +45,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben.data.io import GROUP_GAP, MuscleSpec, Table, set_point_groups  # noqa: F401 (re-exported)
+from mckibben.data.setpoints import GROUP_GAP, set_point_groups  # noqa: F401 (re-exported)
+from mckibben.data.muscle_file import MuscleSpec  # noqa: F401 (re-exported)
+from mckibben.data.tables import Table  # noqa: F401 (re-exported)
 from mckibben.errors import InputError
 from mckibben.fit.core import (FitResult, bounded_fit, data_range, linear_fit, nonlinear_fit, require_distinct,
                                require_points)
@@ -40,6 +58,9 @@ from mckibben.models.physical import BraidGeometry, length_under_load, tondu_lop
 if TYPE_CHECKING:
     import pandas as pd
 
+from mckibben.models.laws.chou_hannaford import LAW as _CH_LAW
+from mckibben.models.laws.spring import LAW as _SPRING_LAW
+from mckibben.models.laws.tondu_lopez import LAW as _TL_LAW
 from mckibben.models.spring import DEFAULT_TERMS, DIRECTIONS, ELONGATION, HIGH, LOW, SpringModel, spring_force
 from mckibben.fit.isometric import D0_FACTOR, THETA_MAX, THETA_STARTS_DEG
 from mckibben.fit.isometric import K_BOUNDS, R0_FACTOR
@@ -436,9 +457,10 @@ def fit_spring(table: Table, terms=DEFAULT_TERMS, split_pressure: float | None =
     ----------
     Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], eq. (1)–(2), Tables 1–2, §5.
     """
-    _need(table, ("force_length", "isotonic"), "spring")
+    law = _SPRING_LAW
+    _need(table, law.own_fit.tables, law.name)
     d = table.data
-    what = _what("spring", table)
+    what = _what(law.name, table)
     p = d["pressure"].to_numpy()
     ell = d["length"].to_numpy()
     force = (d["force"] if "force" in d else d["load"]).to_numpy()
@@ -504,13 +526,27 @@ def fit_spring(table: Table, terms=DEFAULT_TERMS, split_pressure: float | None =
     def func(values, length, pressure, direction=ELONGATION):
         return spring_force(length, pressure, model_of(values), direction)[0]
 
-    res = nonlinear_fit(residual, theta0, names, model="spring", response="force_N", what=what, clusters=_clusters(d),
+    res = nonlinear_fit(residual, theta0, names, model=law.name, response="force_N", what=what, clusters=_clusters(d),
                         valid_range=data_range(pressure=p, length=ell), scale=scale, func=func,
                         source=table.path, y=force)
     stretch = ell - np.polyval(res.values[:3], p)
     srange = (0.0, float(np.max(stretch)))
     model = _spring_model_from(res.values, blocks, terms, split, l0, prange, srange, f"fitted to {table.path}")
     return SpringFit(model, res, blocks)
+
+
+def _fit_spring_table(table: Table, spec: MuscleSpec | None, split_pressure: float | None) -> tuple[list, dict]:
+    """``fit --model spring`` on its own tables: the fit and what ``--json`` adds (split, blocks, terms)."""
+    sf = fit_spring(table, split_pressure=split_pressure, nominal_length=spec.nominal_length if spec else None)
+    return [sf.result], {"split_pressure_Pa": sf.model.split_pressure, "blocks": [list(b) for b in sf.blocks],
+                         "terms_P_Ls_exponents": [list(t) for t in sf.model.terms]}
+
+
+#: Each law's own fit procedure on the non-isometric tables of its :attr:`Law.own_fit
+#: <mckibben.models.laws.Law.own_fit>`, by the law's registry name:
+#: ``procedure(table, muscle or None, split_pressure [Pa] or None) -> (fits, extra --json fields)``.
+#: The law conformance suite holds this to :func:`mckibben.models.laws.own_fit_laws`.
+OWN_FITS = {_SPRING_LAW.name: _fit_spring_table}
 
 
 def spring_names_for_terms(terms=DEFAULT_TERMS) -> list[str]:
@@ -539,6 +575,11 @@ def _clusters(d: pd.DataFrame):
 def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     """Chou–Hannaford length under a hanging load with a fitted effective strand length and D0.
 
+    .. deprecated::
+        ``fit chou-hannaford`` and ``compare`` fit every registered law to an isotonic table through its
+        force, F(P, L) = load (:func:`mckibben.fit.isometric.fit_isotonic_law`, the law's own fit
+        spec); this length-residual fit of the old parameters is kept for scripts that call it.
+
     l = b·sqrt((4F/(π·D0²·P) + 1)/3); b and D0 are fitted within physical bounds: b in
     [L0, L0/cos 54.7°] (a strand at least as long as the muscle, a braid angle at rest below
     54.7°), D0 within :data:`~mckibben.fit.isometric.D0_FACTOR` × the outer diameter. The fit starts
@@ -562,29 +603,36 @@ def fit_chou_hannaford(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Chou & Hannaford (1996); :func:`mckibben.models.physical.length_under_load`.
     """
+    warnings.warn("fit_chou_hannaford is deprecated: fit every law through its force, "
+                  "mckibben.fit.isometric.fit_isotonic_law(table, muscle, 'chou-hannaford')", DeprecationWarning, stacklevel=2)
 
-    _need(table, ("isotonic", "hysteresis"), "chou-hannaford")
+    _need(table, ("isotonic", "hysteresis"), _CH_LAW.name)
     d = table.data[_positive(table.data)]
-    what = _what("chou-hannaford", table)
+    what = _what(_CH_LAW.name, table)
     require_distinct(d["pressure"], 3, "pressures above zero", what, "Chou–Hannaford (2 parameters and a check)")
-    od = muscle.need("outer_diameter", "chou-hannaford")
+    od = muscle.need("outer_diameter", _CH_LAW.name)
     l0 = muscle.nominal_length
     p, f, ell = d["pressure"].to_numpy(), d["load"].to_numpy(), d["length"].to_numpy()
 
     def func(values, pressure, load):
         geom = BraidGeometry(float(values[0]), float(values[0] / (np.pi * values[1])))
-        return length_under_load(pressure, load, geom, "chou-hannaford")[0]
+        return length_under_load(pressure, load, geom, _CH_LAW.name)[0]
 
     lo = np.array([l0, D0_FACTOR[0] * od])
     hi = np.array([l0 / np.cos(THETA_MAX), D0_FACTOR[1] * od])
     starts = [np.array([l0 / np.cos(np.deg2rad(t)), fac * od]) for t in THETA_STARTS_DEG for fac in (1.5, 3.0)]
-    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("b_m", "d0_m"), lo, hi, model="chou-hannaford",
+    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("b_m", "d0_m"), lo, hi, model=_CH_LAW.name,
                        response="length_m", what=what, valid_range=data_range(pressure=p, load=f), func=func,
                        clusters=_clusters(d), source=table.path)
 
 
 def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     """Tondu–Lopez length under a hanging load with fitted contraction correction k and radius r0.
+
+    .. deprecated::
+        ``fit tondu-lopez`` and ``compare`` fit every registered law to an isotonic table through its
+        force, F(P, L) = load (:func:`mckibben.fit.isometric.fit_isotonic_law`, the law's own fit
+        spec); this length-residual fit of the old parameters is kept for scripts that call it.
 
     l = L0·(1 − ε), ε from F = π·r0²·P·[a(1 − kε)² − b] (α0 from the muscle file). k within
     :data:`~mckibben.fit.isometric.K_BOUNDS`, r0 within :data:`~mckibben.fit.isometric.R0_FACTOR` ×
@@ -606,14 +654,16 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     ----------
     Tondu & Lopez (2000); :func:`mckibben.models.physical.tondu_lopez_contraction`.
     """
+    warnings.warn("fit_tondu_lopez is deprecated: fit every law through its force, "
+                  "mckibben.fit.isometric.fit_isotonic_law(table, muscle, 'tondu-lopez')", DeprecationWarning, stacklevel=2)
 
-    _need(table, ("isotonic", "hysteresis"), "tondu-lopez")
+    _need(table, ("isotonic", "hysteresis"), _TL_LAW.name)
     d = table.data[_positive(table.data)]
-    what = _what("tondu-lopez", table)
+    what = _what(_TL_LAW.name, table)
     require_distinct(d["pressure"], 3, "pressures above zero", what, "Tondu–Lopez (2 parameters and a check)")
-    od = muscle.need("outer_diameter", "tondu-lopez")
+    od = muscle.need("outer_diameter", _TL_LAW.name)
     p, f, ell = d["pressure"].to_numpy(), d["load"].to_numpy(), d["length"].to_numpy()
-    l0, a0 = muscle.nominal_length, muscle.need("braid_angle", "tondu-lopez on isotonic data")
+    l0, a0 = muscle.nominal_length, muscle.need("braid_angle", f"{_TL_LAW.name} on isotonic data")
 
     def func(values, pressure, load):
         eps, _ = tondu_lopez_contraction(pressure, load, values[1], a0, values[0])
@@ -622,7 +672,7 @@ def fit_tondu_lopez(table: Table, muscle: MuscleSpec) -> FitResult:
     lo = np.array([K_BOUNDS[0], R0_FACTOR[0] * od])
     hi = np.array([K_BOUNDS[1], R0_FACTOR[1] * od])
     starts = [np.array([k, fac * od]) for k in (1.0, 2.0) for fac in (0.4, 0.7)]
-    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("k", "r0_m"), lo, hi, model="tondu-lopez",
+    return bounded_fit(lambda v: func(v, p, f), ell, starts, ("k", "r0_m"), lo, hi, model=_TL_LAW.name,
                        response="length_m", what=what, valid_range=data_range(pressure=p, load=f), func=func,
                        clusters=_clusters(d), source=table.path)
 

@@ -1,8 +1,9 @@
 """Static muscle models: parameters as frozen dataclasses, evaluation as functions of arrays.
 
 One calling convention for every family (:mod:`~mckibben.models.static`):
-``length(pressure, load, muscle, model=...)`` and ``force(pressure, length, muscle, model=...)``
-return a :class:`StaticResult` whatever the model.
+``length(pressure, load, muscle, model=...)``, ``pressure(length, load, muscle, model=...)`` and
+``force(pressure, length, muscle, model=...)`` return a :class:`StaticResult` for any registered law
+with a published parameter set (:func:`force_laws`), or a muscle file's law.
 
 Modules: :mod:`~mckibben.models.kinematic` (eq. 1–2), :mod:`~mckibben.models.mpam` (braid-angle
 cubics, length and its inverse), :mod:`~mckibben.models.spring` (F = K(P, Ls)·Ls),
@@ -33,10 +34,10 @@ from mckibben.models.physical import (
     wall_corrected_force,
 )
 from mckibben.models.spring import SpringModel, spring_force, spring_length, stiffness, unstretched_length
-from mckibben.models.static import LENGTH_MODELS, StaticResult, force, force_laws, length
+from mckibben.models.static import StaticResult, force, force_laws, length, pressure
 
 __all__ = [
-    "LENGTH_MODELS", "StaticResult", "force", "force_laws", "length",
+    "StaticResult", "force", "force_laws", "length", "pressure",
     "BraidAngleMap", "BraidGeometry", "Flag", "ForcePrediction", "LengthPrediction", "MiniatureGeometry",
     "MiniatureMuscle", "SpringModel", "braid_cos_theta", "braid_from_length", "chou_hannaford_force", "flag_names",
     "force_from_length", "length_from_braid", "length_under_load", "miniature_geometry", "predict_length",

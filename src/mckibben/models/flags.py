@@ -59,12 +59,14 @@ FIT_FLAGS = {
     "<name>_unconstrained": "the data do not constrain the parameter: its 95 % interval, even with every other "
                             "parameter held, is wider than its bound span (or its magnitude)",
     "r2_below_0.5": "the model explains less than half the variance",
-    "heldout_far_above_insample": "held-out error more than HELDOUT_RATIO times the in-sample error",
+    "heldout_far_above_insample": "held-out error more than HELDOUT_RATIO times the in-sample error (the interpolating folds)",
 }
 
 #: Notes a fit can carry (strings in ``FitResult.notes``): worth reporting, but no doubt about the
 #: predictions on their own, so a comparison still ranks the fit on its held-out error.
 FIT_NOTES = {
+    "<name>_from_prior": "the parameter's value is held by its stated prior more than by the data "
+                         "(mckibben.fit.core.bounded_fit, priors)",
     "correlated_parameters": "parameters trade off (the column-scaled Jacobian's condition number exceeds "
                              "COND_FLAG): their separate intervals are wide, the predictions are not",
     "negative_area": "a virtual-work law's effective area is negative at a corner of the measured box "

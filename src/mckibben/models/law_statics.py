@@ -23,6 +23,11 @@ twice.
 
 Both flag lengths and pressures outside the range the law was fitted on (``length_out_of_range``,
 ``pressure_out_of_range``): the law is not known there.
+
+:func:`rising_root` is the one length solver: :meth:`LawMuscle.length_for_pressure`, the statics of
+every registered law on a catalogue muscle (:func:`mckibben.models.length`), the braid laws'
+:func:`mckibben.models.physical.length_under_load` and the isotonic fits' lengths
+(:func:`mckibben.fit.isometric.law_length`) all call it with the law's own force.
 """
 
 from __future__ import annotations
@@ -54,6 +59,102 @@ def _root(func, lo, hi, args) -> np.ndarray:
     return np.asarray(find_root(func, (lo, hi), args=args).x, dtype=float)
 
 
+#: Lengths at which :func:`rising_root` first looks for the law's pull to pass the load, and again
+#: around the highest of them where it did not: a law whose pull rises, peaks and falls inside the
+#: bracket (the tube wall's −1/sin θ near the straight braid) is solved on its rising branch unless
+#: its peak above the load is narrower than 1/225 of the bracket (then the load is reported as never
+#: reached). A law whose pull rises with length is found in the first scan. [-]
+SCAN_POINTS = 16
+#: Elements evaluated in one call of the law while scanning (lengths × points). [-]
+SCAN_BLOCK = 1 << 21
+
+
+def _scan(force, p, w, grid):
+    """Per element: index of the first of ``grid`` (rows: points, then the elements' shape) where the
+    pull passes the load (-1: none), and the index of the highest pull."""
+    first = np.full(p.shape, -1, dtype=np.intp)
+    top = np.zeros(p.shape, dtype=np.intp)
+    best = np.full(p.shape, -np.inf)
+    rows = max(1, SCAN_BLOCK // max(p.size, 1))
+    for k0 in range(0, grid.shape[0], rows):
+        with np.errstate(all="ignore"):
+            g = np.asarray(force(p[None], grid[k0:k0 + rows]), dtype=float) - w[None]
+        above = g > 0
+        first = np.where((first < 0) & above.any(axis=0), k0 + np.argmax(above, axis=0), first)
+        g = np.where(np.isnan(g), -np.inf, g)
+        k = np.argmax(g, axis=0)
+        gk = np.take_along_axis(g, k[None], axis=0)[0]
+        top = np.where(gk > best, k0 + k, top)
+        best = np.maximum(best, gk)
+    return first, top
+
+
+def rising_root(force, pressure, load, lo: float, hi: float, exact=None) -> tuple[np.ndarray, np.ndarray]:
+    """The shortest length in ``[lo, hi]`` at which a law pulls a load: its force solved for the length.
+
+    The law's pull ``force(P, l)`` is scanned at :data:`SCAN_POINTS` lengths from ``lo`` to ``hi``
+    (and, where it never passes the load, again between the neighbours of its highest scanned
+    pull); the first interval where it passes the load brackets the root, refined by Chandrupatla's
+    method (:func:`scipy.optimize.elementwise.find_root`, all elements at once). The first crossing
+    is the stable equilibrium of a hanging load (the pull rises with length there), also for a law
+    whose pull falls again before ``hi`` (the wall-corrected braid).
+
+    Parameters
+    ----------
+    force : callable
+        ``force(pressure, length) -> pull`` element-wise, NumPy arrays [Pa, m -> N] (a law's NumPy
+        face, :func:`mckibben.models.laws.evaluate`).
+    pressure : array_like
+        Gauge pressure. [Pa]
+    load : array_like
+        The load to pull. [N]
+    lo, hi : float
+        The bracket: shortest and longest length. [m]
+    exact : callable, optional
+        ``exact(pressure, load) -> length`` [Pa, N -> m]: the law's own closed-form inverse
+        (:attr:`mckibben.models.laws.Law.length_of`; NaN where it never pulls the load), used
+        instead of the scan and the root finder, with the same bracket and states.
+
+    Returns
+    -------
+    length : numpy.ndarray
+        The root, broadcast over ``pressure`` and ``load``; ``lo`` where the law pulls more than the
+        load already at ``lo``, ``hi`` where it never reaches it. [m]
+    state : numpy.ndarray
+        0 where a root was found, -1 where the law pulls more at ``lo``, +1 where it never reaches the
+        load (NaN pulls count as not reaching). [-]
+    """
+    p, w = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    lo, hi = float(lo), float(hi)
+    if exact is not None:
+        ell = np.asarray(exact(p, w), dtype=float)
+        state = np.where(ell < lo, -1, np.where(ell <= hi, 0, 1))  # NaN: never reached
+        return np.where(state < 0, lo, np.where(state > 0, hi, ell)), state
+    grid = np.linspace(lo, hi, SCAN_POINTS)
+    first, top = _scan(force, p, w, grid.reshape((-1,) + (1,) * p.ndim))
+    a = np.where(first > 0, grid[np.maximum(first - 1, 0)], np.nan)
+    b = np.where(first > 0, grid[np.maximum(first, 0)], np.nan)
+    state = np.where(first < 0, 1, np.where(first == 0, -1, 0))
+    missed = np.flatnonzero(state.ravel() > 0)
+    if missed.size:  # a peak between two scanned lengths: look again around the highest
+        step = (hi - lo) / (SCAN_POINTS - 1)
+        centre = grid[top.ravel()[missed]]
+        fine = np.linspace(np.maximum(centre - step, lo), np.minimum(centre + step, hi), SCAN_POINTS)
+        pm, wm = p.ravel()[missed], w.ravel()[missed]
+        f2, _ = _scan(force, pm, wm, fine)
+        hit = f2 > 0  # a crossing at the window's first point would have been seen by the first scan
+        rows = missed[hit]
+        cols = np.flatnonzero(hit)
+        a.ravel()[rows] = fine[f2[hit] - 1, cols]
+        b.ravel()[rows] = fine[f2[hit], cols]
+        state.ravel()[rows] = 0
+    length = np.where(state < 0, lo, hi)
+    inside = state == 0
+    length[inside] = _root(lambda ell, pp, ww: np.asarray(force(pp, ell), dtype=float) - ww, a[inside], b[inside],
+                           (p[inside], w[inside]))
+    return length, state
+
+
 @dataclass(frozen=True, eq=False)
 class LawMuscle:
     """A muscle whose statics come from a registered force law (e.g. a lab's fitted muscle file).
@@ -80,7 +181,7 @@ class LawMuscle:
     direction : str, default "inflate"
         Which branch of the law (a spring law's hysteresis). [-]
     source : object, optional
-        Where the law comes from (the :class:`~mckibben.data.io.MuscleSpec` of a muscle file),
+        Where the law comes from (the :class:`~mckibben.data.muscle_file.MuscleSpec` of a muscle file),
         for building the same muscle's plant. [-]
     citation : str
         Where the law comes from, in words.
@@ -125,6 +226,11 @@ class LawMuscle:
         """
         return laws.evaluate(self.law, pressure, length, self.theta)
 
+    def _exact(self):
+        """The law's closed-form inverse on this θ, if it has one (:attr:`mckibben.models.laws.Law.length_of`)."""
+        length_of = laws.LAWS[self.law].length_of
+        return None if length_of is None else (lambda p, w: length_of(self.theta, p, w))
+
     def _range_flags(self, pressure, length) -> np.ndarray:
         return (outside(pressure, *self.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
                 | outside(length, *self.length_range, Flag.LENGTH_OUT_OF_RANGE)).astype(np.uint16)
@@ -150,14 +256,9 @@ class LawMuscle:
         """
         p, w = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
         lo, hi = self.length_stops
-        taut = np.maximum(w, TAUT_FORCE)
-        g_lo = self.force(p, lo) - taut
-        g_hi = self.force(p, hi) - taut
-        length = np.where(g_lo >= 0, lo, hi)
-        inside = (g_lo < 0) & (g_hi > 0)
-        length[inside] = _root(lambda ell, pp, ww: self.force(pp, ell) - ww, lo, hi, (p[inside], taut[inside]))
-        flags = (self._range_flags(p, length) | flag_where(~inside & (g_lo >= 0), Flag.NEGATIVE_LENGTH)
-                 | flag_where(~inside & (g_lo < 0), Flag.COS_THETA_ABOVE_ONE))
+        length, state = rising_root(self.force, p, np.maximum(w, TAUT_FORCE), lo, hi, self._exact())
+        flags = (self._range_flags(p, length) | flag_where(state < 0, Flag.NEGATIVE_LENGTH)
+                 | flag_where(state > 0, Flag.COS_THETA_ABOVE_ONE))
         return self._prediction(p, w, length, flags)
 
     def pressure_for_length(self, length, load, p_max: float) -> LengthPrediction:

@@ -172,6 +172,12 @@ class MiniatureMuscle:
         """Outer diameter of the braided muscle (its construction's). [m]"""
         return self.geometry.outer_diameter
 
+    @property
+    def length_stops(self) -> tuple[float, float]:
+        """The braid's end stops (:func:`braid_end_stops`): no length outside them is one this muscle takes. [m]"""
+        lo, hi = braid_end_stops(self.strand_length, self.k1, self.k2)
+        return float(lo), float(hi)
+
     def length_for_pressure(self, pressure, load) -> "LengthPrediction":
         """Length at a pressure under a hanging load: :func:`predict_length` (the muscle statics' interface).
 
@@ -211,6 +217,30 @@ class LengthPrediction:
     flags: np.ndarray  #: Flag mask per element (uint16)
 
 
+def braid_end_stops(strand_length, k1, k2):
+    """The braid's end stops through eq. (2): the locking angle (cos θ = 1/√3) and the straight braid (cos θ = 1).
+
+    ``k1·Ls/√3 + k2`` and ``k1·Ls + k2`` ([mpam-characterization], eq. (2)); the one formula the
+    muscle's range and the plant's end stops (:func:`mckibben.plant.packing.derive`) share.
+
+    Parameters
+    ----------
+    strand_length : array_like
+        Strand length Ls. [m]
+    k1 : array_like
+        Eq. (2)'s scale. [-]
+    k2 : array_like
+        Eq. (2)'s offset. [m]
+
+    Returns
+    -------
+    tuple of array_like
+        The locking and the straight length. [m]
+    """
+    k1ls = k1 * strand_length
+    return k1ls / np.sqrt(3.0) + k2, k1ls + k2
+
+
 #: The most elements a static model takes in one call (after broadcasting): the forward maps cost
 #: about 0.2 µs and 120 B per element, so 1e7 elements answer in seconds within a few GiB. [-]
 MAX_POINTS = 10**7
@@ -220,12 +250,18 @@ MAX_POINTS = 10**7
 MAX_SOLVE_POINTS = 10**6
 
 
+#: Arguments of the static models that are physically positive: a length of zero or below is
+#: refused rather than flagged (no muscle has one; flags are for values a muscle could take). [-]
+POSITIVE_ARGUMENTS = ("length",)
+
+
 def check_points(limit: int = MAX_POINTS, **arrays) -> list[np.ndarray]:
     """The named arguments as finite float arrays, broadcast together, refused past ``limit`` elements.
 
     Each argument is checked by :func:`~mckibben.errors.check_array` (None, bool, text, NaN and
     infinity refused, naming it), then their shapes must broadcast and the broadcast size must be
-    at most ``limit``: both checked before anything of that size is allocated.
+    at most ``limit``: both checked before anything of that size is allocated. A length
+    (:data:`POSITIVE_ARGUMENTS`) must be above zero.
 
     Parameters
     ----------
@@ -244,6 +280,10 @@ def check_points(limit: int = MAX_POINTS, **arrays) -> list[np.ndarray]:
     empty = [n for n, a in checked.items() if a.size == 0]
     if empty:
         raise InputError(f"{empty[0]}: an empty array; give at least one value")
+    for name in POSITIVE_ARGUMENTS:
+        if name in checked and checked[name].min() <= 0:
+            raise InputError(f"{name}: {checked[name].min():g} m is not a muscle's length; a length is > 0 "
+                             "(in metres: 97 mm is 0.097)")
     try:
         shape = np.broadcast_shapes(*(a.shape for a in checked.values()))
     except ValueError:

@@ -11,7 +11,12 @@ k2 = 0) of strand length ``b``: the law's own when its parameters carry one (a f
 Chou–Hannaford braid), else the file's ``strand_length_mm``, else ``L0/cos θ0`` with the law's
 fitted braid angle (Tondu–Lopez), the file's ``braid_angle_deg`` or :data:`FILE_BRAID_ANGLE`.
 The stops are the locking angle ``b/√3`` (the shortest, full contraction) and the straight braid
-``b`` (the longest; below the rest length the muscle is slack under no load).
+``b`` (the longest; below the rest length the muscle is slack under no load). A law whose pull
+peaks and then falls as the muscle stretches (:attr:`~mckibben.models.laws.Law.peak_length`: the
+wall-corrected braid, whose wall term −1/sin θ goes to −∞ at the straight braid) shortens that
+braid to its peak when the peak lies beyond the rest length: the muscle's plant and FMU stop the
+muscle there instead of running a negative stiffness no load can rest on (a peak below the rest
+length is inside the data, and the plant refuses the law there by name).
 
 References
 ----------
@@ -28,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from mckibben.atomic import atomic_file
-from mckibben.data.io import MuscleSpec, muscle_file_text_of, read_muscle
+from mckibben.data.muscle_file import MuscleSpec, muscle_file_text_of, read_muscle
 from mckibben.errors import InputError
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
@@ -77,7 +82,7 @@ class Muscle(LawMuscle):
         Parameters
         ----------
         spec : MuscleSpec
-            From :func:`mckibben.data.io.read_muscle`. [-]
+            From :func:`mckibben.data.muscle_file.read_muscle`. [-]
         direction : {"inflate", "deflate"}, default "inflate"
             The branch of a two-branch law (the spring model's hysteresis). [-]
         rest_length : float, optional
@@ -132,7 +137,10 @@ class Muscle(LawMuscle):
             th0 = getattr(params, "initial_angle", None)
             th0 = th0 if th0 is not None else spec.braid_angle
             b = l0 / math.cos(FILE_BRAID_ANGLE if th0 is None else float(th0))
-        od = spec.need("outer_diameter", "a muscle")
+        peak = law.peak_length(theta) if law.peak_length is not None else math.inf
+        if l0 < peak < b:  # the law's pull falls beyond its peak (the wall-corrected braid): the braid ends there
+            b = peak
+        od = spec.need("outer_diameter", f"the muscle of its {law.name} force law (its chamber)")
         stops = (float(b) / math.sqrt(3.0), float(b))
         return cls(name=spec.id, nominal_length=l0, law=kind, theta=np.asarray(theta, dtype=float),
                    strand_length=float(b), pressure_range=valid.get("pressure", (0.0, np.inf)),

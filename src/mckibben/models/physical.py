@@ -13,6 +13,19 @@ Geometry: a braid of strand length ``b`` wound ``n`` turns around the muscle. At
 (from the axis) the muscle is ``l = b·cos θ`` long and ``D = b·sin θ/(n·π)`` across, so
 ``D0 = b/(n·π)`` is the diameter at θ = 90°.
 
+Examples
+--------
+A braid of 100 mm strands wound three turns, at 0.5 MPa, holding 1 N (Chou–Hannaford, closed
+form), and the same muscle unpressurized (slack: flagged):
+
+>>> from mckibben.models.geometry import BraidGeometry
+>>> g = BraidGeometry(strand_length=0.1, turns=3.0)
+>>> length, flags = length_under_load(0.5e6, 1.0, g)
+>>> round(float(length) * 1e3, 2), int(flags)
+(58.38, 0)
+>>> int(length_under_load(0.0, 1.0, g)[1]) != 0
+True
+
 References
 ----------
 Chou, C.-P., Hannaford, B. (1996), Measurement and modeling of McKibben pneumatic artificial
@@ -31,7 +44,9 @@ import numpy as np
 
 from mckibben.errors import ArgumentTypeError, InputError, check_array
 from mckibben.models.flags import Flag, flag_where
+from mckibben.models import laws
 from mckibben.models.geometry import BraidGeometry, miniature_geometry
+from mckibben.models.law_statics import rising_root
 from mckibben.models.laws.chou_hannaford import chou_hannaford_force
 from mckibben.models.laws.tondu_lopez import TonduLopez, tondu_lopez_contraction, tondu_lopez_force
 from mckibben.models.laws.wall_corrected import wall_corrected_force
@@ -41,11 +56,13 @@ __all__ = ["BraidGeometry", "TonduLopez", "chou_hannaford_force", "length_under_
 
 
 def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-hannaford"):
-    """Equilibrium length of a physical model holding a hanging load.
+    """Equilibrium length of a braid law holding a hanging load.
 
-    Solves F(P, l) = load for l: closed form for Chou–Hannaford (cos θ in (1/√3, 1)),
-    bisection (60 halvings) for the wall-corrected force on its rising branch (from θ = 90° to
-    the peak of F/P, beyond which the −1/sin θ term makes it fall).
+    Solves F(P, l) = load for l with the law's own force (:func:`mckibben.models.laws.evaluate`
+    on the θ of ``geom``) by :func:`mckibben.models.law_statics.rising_root` between cos θ = 0 and
+    the straight braid ``b``: the first length where the pull passes the load,
+    so the wall-corrected law (whose −1/sin θ term makes its pull fall again near the straight
+    braid) is solved on its rising branch.
 
     Parameters
     ----------
@@ -55,8 +72,9 @@ def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-ha
         Hanging load. [N]
     geom : BraidGeometry
         Braid geometry.
-    model : {"chou-hannaford", "wall-corrected"}
-        Which force law.
+    model : str, default "chou-hannaford"
+        A registered law whose parameters are a :class:`BraidGeometry` (``chou-hannaford``,
+        ``wall-corrected``; old names read). [-]
 
     Returns
     -------
@@ -65,45 +83,29 @@ def length_under_load(pressure, load, geom: BraidGeometry, model: str = "chou-ha
         braid, flagged). [m]
     flags : numpy.ndarray
         ``length_out_of_range`` where capped; ``slack`` where P = 0.
+
+    References
+    ----------
+    Chou & Hannaford (1996), eq. (6); the wall term: Tsagarakis & Caldwell (2000).
     """
     if not isinstance(geom, BraidGeometry):
         raise ArgumentTypeError(f"geom = {geom!r}: not a BraidGeometry ({type(geom).__name__}); get one from "
                                 "miniature_geometry")
     p, f = np.broadcast_arrays(check_array(pressure, "pressure"), check_array(load, "load", lo=0.0, unit="N"))
-    if model == "chou-hannaford":
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = np.sqrt((4.0 * f / (np.pi * geom.d0**2 * p) + 1.0) / 3.0)
-    elif model == "wall-corrected":
-        # F/P depends on cos θ only and peaks before cos θ = 1 (the −1/sin θ term): the
-        # equilibrium is on the rising branch between the locking angle and that peak.
-        c_peak = _wall_force_peak(geom)
-        # F/P = −π(D0/2 − t)² < 0 at θ = 90° (cos θ = 0), so the branch starts below any load.
-        lo = np.zeros(p.shape)
-        hi = np.full(p.shape, c_peak)
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            above = wall_corrected_force(p, mid * geom.strand_length, geom) > f
-            hi = np.where(above, mid, hi)
-            lo = np.where(above, lo, mid)
-        c = 0.5 * (lo + hi)
-        c = np.where(wall_corrected_force(p, c_peak * geom.strand_length, geom) < f, np.inf, c)
-    else:
-        raise InputError(f"model = {model!r}: unknown; use chou-hannaford or wall-corrected")
+    if not isinstance(model, str):
+        raise InputError(f"model = {model!r}: not a law name")
+    name = laws.resolve(model, "model")
+    law = laws.LAWS[name]
+    if law.params is not BraidGeometry:
+        braid = [n for n, law_ in laws.LAWS.items() if law_.params is BraidGeometry]
+        raise InputError(f"model = {model!r}: its parameters are not a braid's geometry; use {' or '.join(braid)}")
+    theta = law.theta_of(geom, "elongation")
+    # from cos θ = 0: the wall-corrected law still pulls at the locking angle (cos²θ = 1/3)
+    exact = None if law.length_of is None else (lambda pp, ff: law.length_of(theta, pp, ff))
+    length, state = rising_root(lambda pp, ell: laws.evaluate(name, pp, ell, theta), p, f, 0.0, geom.strand_length,
+                                exact)
     slack = ~(p > 0)
-    capped = ~(c <= 1.0) | slack
-    length = np.where(capped, geom.strand_length, c * geom.strand_length)
+    capped = (state > 0) | slack
+    length = np.where(capped, geom.strand_length, length)
     flags = flag_where(capped, Flag.LENGTH_OUT_OF_RANGE) | flag_where(slack, Flag.SLACK)
     return length, flags
-
-
-def _wall_force_peak(geom: BraidGeometry) -> float:
-    """cos θ where the wall-corrected force per unit pressure peaks. [-]"""
-    from scipy.optimize import minimize_scalar  # deferred on purpose: SciPy
-
-    res = minimize_scalar(
-        lambda c: -float(wall_corrected_force(1.0, c * geom.strand_length, geom)),
-        bounds=(1.0 / np.sqrt(3.0), 1.0 - 1e-9),
-        method="bounded",
-        options={"xatol": 1e-12},
-    )
-    return float(res.x)

@@ -13,6 +13,18 @@ The law itself (kernel, :class:`SpringModel`, :func:`spring_force`, fit spec) li
 Everything here is SI: P in Pa, lengths in m, K in N/m, so the coefficients have units
 N/(m·Pa^i·m^j) for the term P^i·Ls^j. The paper's bar and cm are converted at the file edge.
 
+Examples
+--------
+A spring of constant stiffness K = c0 = 1000 N/m whose unstretched length is 100 mm at any
+pressure stretches 10 mm under 10 N:
+
+>>> c = tuple(1000.0 if term == (0, 0) else 0.0 for term in DEFAULT_TERMS)
+>>> m = SpringModel(nominal_length=0.1, h=(0.0, 0.0, 0.1),
+...                 coefficients={(d, r): c for d in DIRECTIONS for r in (LOW, HIGH)})
+>>> length, flags = spring_length(10.0, 2e5, m)
+>>> round(float(length), 6), int(flags)
+(0.11, 0)
+
 References
 ----------
 Wickramatunge & Leephakpreeda (2010) [wickramatunge2010] (Wickramatunge & Leephakpreeda, Int. J. Eng. Sci. 48, 2010), eq. (1)

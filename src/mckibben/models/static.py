@@ -1,19 +1,21 @@
 """One calling convention for the static models, one result type (pvlib's ``calcparams_*`` habit).
 
-Every length model is ``length_<model>(pressure, load, muscle) -> StaticResult`` and every force
-model ``force_<model>(pressure, length, muscle) -> StaticResult``; :func:`length` and
-:func:`force` pick one by name (:data:`LENGTH_MODELS`; for force, any registered law with a published
-parameter set, :func:`force_laws`). Inputs are arrays
+:func:`force`, :func:`length` and :func:`pressure` evaluate any registered law
+(:data:`mckibben.models.laws.LAWS`) with a published parameter set (:func:`force_laws`) on a
+catalogue muscle, or a muscle file's fitted law (a :class:`~mckibben.models.law_statics.LawMuscle`,
+for length and pressure): the force by the law's kernel, the length and the pressure by solving
+that force for them (:class:`~mckibben.models.law_statics.LawMuscle`). Inputs are arrays
 (broadcast together) in SI, or single quantities as text with a unit (``"0.8MPa"``). The result
 carries the inputs, the outputs, the contraction and the flags (:mod:`mckibben.models.flags`)
 of every element, whatever the model.
 
-The models themselves stay where they are written once: :mod:`~mckibben.models.mpam` (eq. 2
-with eq. 3 of [mpam-characterization]) and :mod:`~mckibben.models.physical` (Chou–Hannaford,
-with and without the tube wall, on the muscle's construction, §II).
+The laws themselves stay where they are written once, one file each in :mod:`mckibben.models.laws`;
+:func:`length_mpam` is the braid map's closed-form inverse (eq. 2 with eq. 3 of
+[mpam-characterization], :func:`~mckibben.models.mpam.predict_length`), which ``length(...,
+"braid-map")`` equals to the root finder's tolerance.
 
 >>> from mckibben.datasets import get_muscle
->>> r = length(0.8e6, 0.6, get_muscle("mpam97"), model="mpam")
+>>> r = length(0.8e6, 0.6, get_muscle("mpam97"), model="braid-map")
 >>> round(float(r.length) * 1e3, 1)
 78.1
 """
@@ -21,23 +23,29 @@ with and without the tube wall, on the muscle's construction, §II).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben.errors import ArgumentTypeError, InputError, check_array, unknown_name
+from mckibben.errors import ArgumentTypeError, InputError, check_array
 from mckibben.models import laws
 from mckibben.models.flags import Flag, flag_names, flag_where, outside
 from mckibben.models.mpam import _check_muscle as _check_mpam_muscle
 from mckibben.models.mpam import MAX_POINTS, MAX_SOLVE_POINTS, check_points
 from mckibben.units import quantity
-from mckibben.models.physical import miniature_geometry
+from mckibben.models.geometry import miniature_geometry
+from mckibben.models.law_statics import LawMuscle
 from mckibben.models.mpam import predict_length
-from mckibben.models.physical import length_under_load
+from mckibben.models.laws.chou_hannaford import LAW as _CH_LAW
+from mckibben.models.laws.wall_corrected import LAW as _WALL_LAW
 
-__all__ = ["LENGTH_MODELS", "StaticResult", "force", "force_chou_hannaford", "force_laws", "force_mpam",
-           "force_wall_corrected", "length", "length_chou_hannaford", "length_mpam", "length_wall_corrected"]
+#: The law :func:`force`, :func:`length` and :func:`pressure` use for a catalogue muscle when no
+#: ``model`` is given: its braid-angle map (eq. 2 + 3 of [mpam-characterization]), the one default.
+DEFAULT_LAW = "braid-map"
+
+__all__ = ["StaticResult", "force", "force_chou_hannaford", "force_laws", "force_mpam", "force_wall_corrected",
+           "length", "length_chou_hannaford", "length_mpam", "length_wall_corrected", "pressure"]
 
 
 @dataclass(frozen=True)
@@ -47,7 +55,7 @@ class StaticResult:
     Attributes
     ----------
     model : str
-        The model's name (a key of :data:`LENGTH_MODELS`, or a law's registry name). [-]
+        The law's registry name (``mpam`` for :func:`length_mpam`). [-]
     pressure : numpy.ndarray
         Gauge pressure. [Pa]
     load : numpy.ndarray
@@ -59,6 +67,9 @@ class StaticResult:
         1 − length / nominal length. [-]
     flags : numpy.ndarray
         :class:`~mckibben.models.flags.Flag` mask per element. [-]
+    cos_theta : numpy.ndarray or None
+        cos θ = l/b of the braid the length was solved on (:func:`length`, :func:`pressure`); None
+        for :func:`force`. [-]
     """
 
     model: str
@@ -67,6 +78,7 @@ class StaticResult:
     length: np.ndarray
     contraction: np.ndarray
     flags: np.ndarray
+    cos_theta: np.ndarray | None = None
 
     def to_pandas(self):
         """One row per element: ``pressure_Pa``, ``load_N``, ``length_m``, ``contraction``, ``flags``."""
@@ -99,22 +111,8 @@ def _pair(limit: int, **given) -> list[np.ndarray]:
     return check_points(limit, **{name: _si(v, dims[name], name, limit) for name, v in given.items()})
 
 
-def _model_name(model, kind: str, models) -> str:
-    if not isinstance(model, str):
-        raise ArgumentTypeError(f"model = {model!r}: not a model name ({type(model).__name__}); "
-                                f"give one of: {', '.join(sorted(models))}")
-    if model not in models:
-        raise unknown_name(kind, model, models)
-    return model
-
-
 def _check_muscle(muscle) -> None:
     _check_mpam_muscle(muscle)
-
-
-def _geometry(muscle, wall: bool):
-
-    return miniature_geometry(muscle.nominal_length, muscle.geometry, wall=wall)
 
 
 def length_mpam(pressure, load, muscle) -> StaticResult:
@@ -143,16 +141,11 @@ def length_mpam(pressure, load, muscle) -> StaticResult:
     return StaticResult("mpam", r.pressure, r.load, r.length, r.contraction, r.flags)
 
 
-def _length_physical(pressure, load, muscle, wall: bool, name: str) -> StaticResult:
-
-    _check_muscle(muscle)
-    p, f = _pair(MAX_SOLVE_POINTS, pressure=pressure, load=load)
-    ell, flags = length_under_load(p, f, _geometry(muscle, wall), "wall-corrected" if wall else "chou-hannaford")
-    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)
-
-
 def length_chou_hannaford(pressure, load, muscle) -> StaticResult:
     """Length under a hanging load from the thin-walled Chou–Hannaford force law.
+
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`length` with ``model="chou-hannaford"``.
 
     Parameters
     ----------
@@ -167,11 +160,16 @@ def length_chou_hannaford(pressure, load, muscle) -> StaticResult:
     -------
     StaticResult
     """
-    return _length_physical(pressure, load, muscle, False, "chou-hannaford")
+    warnings.warn("mckibben.models.static.length_chou_hannaford is deprecated; "
+                  "use length(pressure, load, muscle, 'chou-hannaford')", DeprecationWarning, stacklevel=2)
+    return length(pressure, load, muscle, _CH_LAW.name)
 
 
 def length_wall_corrected(pressure, load, muscle) -> StaticResult:
     """Length under a hanging load from the Chou–Hannaford law with the tube wall's thickness.
+
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`length` with ``model="wall-corrected"``.
 
     Parameters
     ----------
@@ -186,11 +184,17 @@ def length_wall_corrected(pressure, load, muscle) -> StaticResult:
     -------
     StaticResult
     """
-    return _length_physical(pressure, load, muscle, True, "wall-corrected")
+    warnings.warn("mckibben.models.static.length_wall_corrected is deprecated; "
+                  "use length(pressure, load, muscle, 'wall-corrected')", DeprecationWarning, stacklevel=2)
+    return length(pressure, load, muscle, _WALL_LAW.name)
 
 
 def force_mpam(pressure, length, muscle) -> StaticResult:
     """Force the muscle pulls with at a pressure and length: the empirical model solved for the load.
+
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`force` with ``model="braid-map"`` (whose result
+        says ``braid-map``, this one ``mpam``).
 
     Parameters
     ----------
@@ -210,16 +214,17 @@ def force_mpam(pressure, length, muscle) -> StaticResult:
     [mpam-characterization], eq. (2) with (3), Tables I and II.
     """
 
-    return dataclasses.replace(force(pressure, length, muscle, "braid-map"), model="mpam")
-
-
-def _force_physical(pressure, length, muscle, wall: bool, name: str) -> StaticResult:
-    return force(pressure, length, muscle, name)
+    warnings.warn("mckibben.models.static.force_mpam is deprecated; "
+                  "use force(pressure, length, muscle, 'braid-map')", DeprecationWarning, stacklevel=2)
+    return dataclasses.replace(force(pressure, length, muscle, DEFAULT_LAW), model="mpam")
 
 
 def force_chou_hannaford(pressure, length, muscle) -> StaticResult:
     """Force from the thin-walled Chou–Hannaford law at a pressure and length.
 
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`force` with ``model="chou-hannaford"``.
+
     Parameters
     ----------
     pressure : array_like or str
@@ -233,12 +238,17 @@ def force_chou_hannaford(pressure, length, muscle) -> StaticResult:
     -------
     StaticResult
     """
-    return _force_physical(pressure, length, muscle, False, "chou-hannaford")
+    warnings.warn("mckibben.models.static.force_chou_hannaford is deprecated; "
+                  "use force(pressure, length, muscle, 'chou-hannaford')", DeprecationWarning, stacklevel=2)
+    return force(pressure, length, muscle, _CH_LAW.name)
 
 
 def force_wall_corrected(pressure, length, muscle) -> StaticResult:
     """Force from the Chou–Hannaford law with the tube wall's thickness at a pressure and length.
 
+    .. deprecated:: 0.1.0
+        A second name of one registered law: use :func:`force` with ``model="wall-corrected"``.
+
     Parameters
     ----------
     pressure : array_like or str
@@ -252,21 +262,76 @@ def force_wall_corrected(pressure, length, muscle) -> StaticResult:
     -------
     StaticResult
     """
-    return _force_physical(pressure, length, muscle, True, "wall-corrected")
-
-
-#: Length models by name: ``f(pressure, load, muscle) -> StaticResult``.
-LENGTH_MODELS: dict[str, Callable[..., StaticResult]] = {
-    "mpam": length_mpam, "chou-hannaford": length_chou_hannaford, "wall-corrected": length_wall_corrected}
+    warnings.warn("mckibben.models.static.force_wall_corrected is deprecated; "
+                  "use force(pressure, length, muscle, 'wall-corrected')", DeprecationWarning, stacklevel=2)
+    return force(pressure, length, muscle, _WALL_LAW.name)
 
 
 def force_laws() -> dict[str, str]:
-    """The registered laws :func:`force` evaluates on a catalogue muscle (those with a published set), with their descriptions."""
+    """The registered laws :func:`force`, :func:`length` and :func:`pressure` evaluate on a catalogue muscle (those with a published set), with their descriptions."""
     return {n: law.description for n, law in laws.LAWS.items() if law.published is not None}
 
 
-def length(pressure, load, muscle, model: str = "mpam") -> StaticResult:
-    """Length under a hanging load from the named model (:data:`LENGTH_MODELS`).
+def _statics(muscle, model: str | None):
+    """``(law name, statics, parameters)`` of a muscle by a registered law.
+
+    The statics are an object with ``length_for_pressure(p, load)`` and ``pressure_for_length(l,
+    load, p_max)``: the law's parameter object itself where it carries its own exact inverse (the
+    braid map: eq. 2 with eq. 3 of [mpam-characterization] solved for the braid angle, its
+    :func:`~mckibben.models.mpam.predict_length`), else a
+    :class:`~mckibben.models.law_statics.LawMuscle` that solves the law's force between the end stops
+    ``b/√3`` and ``b`` of the law's own straight braid or else the muscle's ideal braid (eq. 1). A
+    :class:`~mckibben.models.law_statics.LawMuscle` given as the muscle (a muscle file's) is its own
+    statics, with its own law (``model`` None or that law).
+    """
+    if model is not None and not isinstance(model, str):
+        raise ArgumentTypeError(f"model = {model!r}: not a model name ({type(model).__name__}); "
+                                f"give one of: {', '.join(force_laws())}")
+    if isinstance(muscle, LawMuscle):
+        if model is not None and laws.resolve(model, "model") != muscle.law:
+            raise InputError(f"model: {model!r} is not the {muscle.law} law of muscle {muscle.name!r}; "
+                             "leave it out to use the muscle's own law")
+        return muscle.law, muscle, None
+    name, law, params = _published(DEFAULT_LAW if model is None else model, muscle, "model")
+    if hasattr(params, "length_for_pressure") and hasattr(params, "pressure_for_length"):
+        return name, params, params
+    b = getattr(params, "strand_length", None) or miniature_geometry(muscle.nominal_length, muscle.geometry).strand_length
+    lm = LawMuscle(muscle.name, muscle.nominal_length, name, law.theta_of(params, "elongation"), float(b),
+                   tuple(muscle.braid_map.pressure_range), (b / np.sqrt(3.0), b), muscle.geometry.outer_diameter,
+                   citation=law.citation)
+    return name, lm, params
+
+
+def _published(model: str, muscle, what: str):
+    """``(name, law, params)``: the registered law ``model`` (``what`` names it in errors) with its
+    published parameters for the catalogue ``muscle``; refused where the law has none."""
+    name = laws.resolve(model, what)
+    law = laws.LAWS[name]
+    if law.published is None:
+        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data "
+                         f"with mckibben.fit and use the fitted muscle); these have: {', '.join(force_laws())}")
+    _check_muscle(muscle)
+    return name, law, law.published(muscle)
+
+
+def _law_flags(name: str, params, p, ell, load, flags) -> np.ndarray:
+    """The statics' flags, plus the law's own validity (:attr:`~mckibben.models.laws.Law.static_flags`)."""
+    law = laws.LAWS[name]
+    if law.static_flags is not None and params is not None:
+        flags = flags | law.static_flags(params, p, ell, load)
+    return np.asarray(flags).astype(np.uint16)
+
+
+def length(pressure, load, muscle, model: str | None = None) -> StaticResult:
+    """Length under a hanging load: a registered law's force solved for the length.
+
+    The law's pull at the pressure equals the load at the returned length
+    (:meth:`~mckibben.models.law_statics.LawMuscle.length_for_pressure`: the shortest such length
+    between the braid's end stops; the braid map's own closed-form inverse,
+    :func:`~mckibben.models.mpam.predict_length`, whose flags it keeps). Flagged: ``negative_length`` where the muscle pulls more than
+    the load even at the locking angle (it rests there), ``cos_theta_above_one`` where it never
+    pulls the load before the straight braid, pressures outside the characterized range, and the
+    law's own validity.
 
     Parameters
     ----------
@@ -274,16 +339,67 @@ def length(pressure, load, muscle, model: str = "mpam") -> StaticResult:
         Gauge pressure. [Pa]
     load : array_like or str
         Hanging load. [N]
-    muscle : MiniatureMuscle
-        The muscle. [-]
-    model : str, default "mpam"
-        ``mpam``, ``chou-hannaford`` or ``wall-corrected``. [-]
+    muscle : MiniatureMuscle or LawMuscle
+        A catalogue muscle, or a muscle file's (:class:`~mckibben.models.law_statics.LawMuscle`). [-]
+    model : str, optional
+        A law with a published parameter set (:func:`force_laws`); default ``braid-map`` (a
+        catalogue muscle) or the muscle file's law. Old names (``mpam``) are read, deprecated. [-]
+
+    Returns
+    -------
+    StaticResult
+        With ``model`` the law's registry name.
+
+    References
+    ----------
+    Each law's own file (:mod:`mckibben.models.laws`) cites its paper and equation.
     """
-    _model_name(model, "length model", LENGTH_MODELS)
-    return LENGTH_MODELS[model](pressure, load, muscle)
+    name, statics, params = _statics(muscle, model)
+    p, f = _pair(MAX_SOLVE_POINTS, pressure=pressure, load=load)
+    r = statics.length_for_pressure(p, f)
+    flags = _law_flags(name, params, p, r.length, f, r.flags)
+    return StaticResult(name, p, f, r.length, r.contraction, flags, r.cos_theta)
 
 
-def force(pressure, length, muscle, model: str = "braid-map", **options) -> StaticResult:
+def pressure(length, load, muscle, model: str | None = None, p_max: float = 0.8e6) -> StaticResult:
+    """The pressure that holds a length under a hanging load: a registered law's force solved for the pressure.
+
+    :meth:`~mckibben.models.law_statics.LawMuscle.pressure_for_length`: NaN and flagged
+    ``unreachable`` where no pressure in ``[0, p_max]`` holds the length (or it is past the braid's
+    end stops), plus the law's own validity.
+
+    Parameters
+    ----------
+    length : array_like or str
+        Target length. [m]
+    load : array_like or str
+        Hanging load. [N]
+    muscle : MiniatureMuscle or LawMuscle
+        A catalogue muscle, or a muscle file's (:class:`~mckibben.models.law_statics.LawMuscle`). [-]
+    model : str, optional
+        As :func:`length`. [-]
+    p_max : float, default 0.8e6
+        Highest pressure allowed. [Pa]
+
+    Returns
+    -------
+    StaticResult
+        With ``model`` the law's registry name; ``pressure`` NaN where unreachable.
+    """
+    name, statics, params = _statics(muscle, model)
+    pmax_arr = np.asarray(_si(p_max, "pressure", "p_max"))
+    if pmax_arr.size != 1:
+        raise InputError(f"p_max = {p_max!r}: one pressure, not {pmax_arr.size} values")
+    pmax = float(pmax_arr.reshape(()))
+    if not pmax > 0:
+        raise InputError(f"p_max = {p_max!r}: must be above 0 Pa")
+    ell, f = _pair(MAX_SOLVE_POINTS, length=length, load=load)
+    r = statics.pressure_for_length(ell, f, pmax)
+    flags = _law_flags(name, params, np.where(np.isfinite(r.pressure), r.pressure, 0.0), ell, f, r.flags)
+    return StaticResult(name, r.pressure, f, r.length, r.contraction, flags, r.cos_theta)
+
+
+def force(pressure, length, muscle, model: str | None = None, **options) -> StaticResult:
     """Force at a pressure and length from a registered law's published parameters for a catalogue muscle.
 
     Any law of :data:`mckibben.models.laws.LAWS` with a published parameter set
@@ -299,13 +415,16 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
         Gauge pressure. [Pa]
     length : array_like or str
         Muscle length. [m]
-    muscle : MiniatureMuscle
-        The muscle. [-]
-    model : str, default "braid-map"
-        A law's registry name (old names such as ``mpam`` are read, with a deprecation warning). [-]
+    muscle : MiniatureMuscle or LawMuscle
+        A catalogue muscle, or a muscle with a law of its own
+        (:class:`~mckibben.models.law_statics.LawMuscle`: a muscle file's, or a law's published set,
+        :func:`mckibben.datasets.law_set_muscle`). [-]
+    model : str, optional
+        A law's registry name (old names such as ``mpam`` are read, with a deprecation warning);
+        default ``braid-map`` for a catalogue muscle, the muscle's own law for a LawMuscle. [-]
     options : keyword arguments
         Fields of the law's parameter object to replace (e.g. ``k=1.3`` for Tondu–Lopez's
-        contraction correction). [SI]
+        contraction correction); a catalogue muscle only. [SI]
 
     Returns
     -------
@@ -316,17 +435,13 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
     ----------
     Each law's own file (:mod:`mckibben.models.laws`) cites its paper and equation.
     """
-    if not isinstance(model, str):
+    if model is not None and not isinstance(model, str):
         raise ArgumentTypeError(f"model = {model!r}: not a model name ({type(model).__name__}); "
                                 f"give one of: {', '.join(force_laws())}")
-    name = laws.resolve(model, "force model")
-    law = laws.LAWS[name]
-    if law.published is None:
-        raise InputError(f"model: {name} has no published parameters for a catalogue muscle (fit it to your data: "
-                         f"mckibben fit ... --model {name} --save FILE.toml); these have: {', '.join(force_laws())}")
-    _check_muscle(muscle)
+    if isinstance(muscle, LawMuscle):
+        return _own_force(pressure, length, muscle, model, options)
+    name, law, params = _published(DEFAULT_LAW if model is None else model, muscle, "force model")
     p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
-    params = law.published(muscle)
     for key, value in options.items():
         if not hasattr(params, key) or not dataclasses.is_dataclass(params):
             raise InputError(f"{key}: the {name} law's parameters have no {key!r}")
@@ -334,6 +449,22 @@ def force(pressure, length, muscle, model: str = "braid-map", **options) -> Stat
     f = np.asarray(laws.evaluate(name, p, ell, law.theta_of(params, "elongation")), dtype=float)
     flags = (outside(p, *muscle.braid_map.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
              | flag_where(f < 0.0, Flag.SLACK) | flag_where(np.isnan(f), Flag.UNREACHABLE))
-    if law.static_flags is not None:
-        flags = flags | law.static_flags(params, p, ell, f)
-    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, np.asarray(flags).astype(np.uint16))
+    flags = _law_flags(name, params, p, ell, f, flags)
+    return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)
+
+
+def _own_force(pressure, length, muscle: LawMuscle, model: str | None, options: dict) -> StaticResult:
+    """:func:`force` of a muscle with its own law (a muscle file's or a published set's)."""
+    if model is not None and laws.resolve(model, "model") != muscle.law:
+        raise InputError(f"model: {model!r} is not the {muscle.law} law of muscle {muscle.name!r}; "
+                         "leave it out to use the muscle's own law")
+    if options:
+        raise InputError(f"{next(iter(options))}: muscle {muscle.name!r} carries its own {muscle.law} parameters; "
+                         "options replace a catalogue muscle's")
+    p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
+    f = np.asarray(muscle.force(p, ell), dtype=float)
+    flags = (outside(p, *muscle.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
+             | outside(ell, *muscle.length_range, Flag.LENGTH_OUT_OF_RANGE)
+             | flag_where(f < 0.0, Flag.SLACK) | flag_where(np.isnan(f), Flag.UNREACHABLE))
+    flags = _law_flags(muscle.law, getattr(muscle, "params", None), p, ell, f, flags)
+    return StaticResult(muscle.law, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)

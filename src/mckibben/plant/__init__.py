@@ -13,15 +13,15 @@ from typing import TYPE_CHECKING
 #: submodule loads its heavy packages (Numba, SciPy, pandas...) only when a name of it is used.
 _WHERE = {
     "CALIBRATION_PWM": "mckibben.plant.calibration",
-    "Col": "mckibben.plant.params",
+    "Col": "mckibben.plant.packing",
     "LAW_NAMES": "mckibben.plant.params",
-    "LOADS": "mckibben.plant.params",
+    "LOADS": "mckibben.plant.packing",
     "LinearPlant": "mckibben.plant.linear",
-    "Load": "mckibben.plant.params",
+    "Load": "mckibben.plant.packing",
     "PlantParams": "mckibben.plant.params",
     "PlantStepper": "mckibben.plant.simulator",
     "SimResult": "mckibben.plant.simulator",
-    "THERMAL": "mckibben.plant.params",
+    "THERMAL": "mckibben.plant.packing",
     "calibrate_force_law": "mckibben.plant.params",
     "calibration": "mckibben.plant.calibration",
     "linearize": "mckibben.plant.linear",
@@ -38,15 +38,15 @@ __all__ = [
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
     from mckibben.plant.calibration import CALIBRATION_PWM as CALIBRATION_PWM
-    from mckibben.plant.params import Col as Col
+    from mckibben.plant.packing import Col as Col
     from mckibben.plant.params import LAW_NAMES as LAW_NAMES
-    from mckibben.plant.params import LOADS as LOADS
+    from mckibben.plant.packing import LOADS as LOADS
     from mckibben.plant.linear import LinearPlant as LinearPlant
-    from mckibben.plant.params import Load as Load
+    from mckibben.plant.packing import Load as Load
     from mckibben.plant.params import PlantParams as PlantParams
     from mckibben.plant.simulator import PlantStepper as PlantStepper
     from mckibben.plant.simulator import SimResult as SimResult
-    from mckibben.plant.params import THERMAL as THERMAL
+    from mckibben.plant.packing import THERMAL as THERMAL
     from mckibben.plant.params import calibrate_force_law as calibrate_force_law
     from mckibben.plant.calibration import calibration as calibration
     from mckibben.plant.linear import linearize as linearize

@@ -20,14 +20,14 @@ import numpy as np
 
 from mckibben import hardware as HW
 from mckibben._jit import njit
-from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 
 FLAG_NONFINITE = 1  #: the state became NaN or infinite (simulation of that instance stopped)
 FLAG_ABOVE_SUPPLY = 2  #: the chamber rose above the supply pressure by more than 1 kPa
 FLAG_END_STOP = 4  #: the length reached an end stop of the braid (locking or straight) during the run
 
-_C = PP.Col
+_C = PK.Col
 NS, W = ph.NS, ph.W
 
 

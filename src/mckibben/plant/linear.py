@@ -19,6 +19,7 @@ import numpy as np
 from mckibben._jit import njit
 from mckibben.errors import InputError, check_real
 from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import _check_plant, _prepared, initial_states, static_equilibrium
 
@@ -96,7 +97,16 @@ class LinearPlant:
         """Gauge pressure → length transfer function (the muscle and its load). [m/Pa]"""
         import control  # deferred on purpose: python-control (0.8 s)
 
-        return control.minreal(_tf(self.ss[1, 0]) / _tf(self.ss[0, 0]), verbose=False)
+        quotient = _tf(self.ss[1, 0]) / _tf(self.ss[0, 0])
+        # The two paths share the valve's and the sensor's equal lags: a pole of multiplicity 3 near
+        # -1/tau, which floating point splits by about eps^(1/3)·|s| (2e-3 rad/s at 333 rad/s), in
+        # the numerator and the denominator differently. minreal's default tolerance (1000·sqrt(eps)·|z|,
+        # 5e-3 rad/s there) then cancels two of the three on some BLAS builds and leaves an order-3
+        # path; a tolerance of 10·eps^(1/3) of the largest zero cancels the cluster whole and is still
+        # far below the distance between the model's distinct roots (> 1 rad/s).
+        zeros = np.roots(np.asarray(quotient.num[0][0], dtype=float))
+        scale = max(float(np.max(np.abs(zeros))) if zeros.size else 0.0, 1.0)
+        return control.minreal(quotient, tol=10.0 * np.finfo(float).eps ** (1.0 / 3.0) * scale, verbose=False)
 
     @property
     def metrics(self) -> dict:
@@ -131,7 +141,7 @@ def linearize(plant: PP.PlantParams | None = None, pressure: float = 0.55e6) -> 
         raise InputError("plant: linearize takes one rig (scalar parameters) only")
     pressure = check_real(pressure, "pressure", unit="Pa")
     prm, law, th = _prepared(plant, 1)
-    c = PP.Col
+    c = PK.Col
     supply = float(prm[0, c.supply_pressure])
     if not (math.isfinite(pressure) and 0 < pressure < supply):
         raise InputError(f"pressure = {pressure / 1e6:g} MPa: the operating point must be above 0 and below the supply "

@@ -1,7 +1,7 @@
 """The rig's physics for a block of instances: structure of arrays, instances innermost.
 
 A *block* holds up to :data:`W` instances ("lanes") in one flat float64 array: its parameters
-(rows of :class:`~mckibben.plant.params.Col`), its force law's parameters
+(rows of :class:`~mckibben.plant.packing.Col`), its force law's parameters
 (:mod:`mckibben.models.laws`), its state with the four Runge–Kutta slopes and a scratch area, each
 row W lanes long (:data:`OFF_P`, :data:`OFF_TH`, :data:`OFF_ST`, :data:`OFF_SC`). Every function
 here loops over the lanes innermost with no branch the compiler cannot turn into a select, and
@@ -54,6 +54,9 @@ import math
 from mckibben._jit import generated_module, njit
 from mckibben.models import laws as LW
 from mckibben.plant import params as P
+from mckibben.plant import packing as PK
+from mckibben.models.laws import NTH
+from mckibben.plant.packing import NP, P_ATM, R_AIR, RHO0, T0  # module globals the kernels fold
 
 W = 64  #: lanes per block (instances innermost; 32–64 vectorize, 8 did not; 64 measured 6 % faster than 32)
 NS = 7
@@ -64,8 +67,6 @@ NST = 6
 # rows of the scratch area
 SC_PG, SC_LE, SC_FL, SC_LOLD, SC_XIN, SC_XBL, SC_FORCE, SC_MASS = range(8)
 NSC = 8
-NP = P.NP
-NTH = LW.NTH
 #: Offsets of the areas of a block array (in float64 elements).
 OFF_P = 0
 OFF_TH = OFF_P + NP * W
@@ -73,10 +74,6 @@ OFF_ST = OFF_TH + NTH * W
 OFF_SC = OFF_ST + NST * NS * W
 BLOCK = OFF_SC + NSC * W  #: length of a block array
 
-P_ATM = P.P_ATM
-R_AIR = P.R_AIR
-T0 = P.T0
-RHO0 = P.RHO0
 LAMINAR = 0.999  # pressure ratio above which the subsonic flow is linearised to zero
 
 
@@ -85,7 +82,7 @@ def _row(col) -> int:
 
 
 # parameter rows (IntEnum members as plain int offsets: Numba folds module-level ints)
-_C = P.Col
+_C = PK.Col
 X_SUPPLY = _row(_C.supply_pressure)
 X_DROOP = _row(_C.supply_droop)
 X_CIN = _row(_C.valve_conductance)
@@ -163,8 +160,9 @@ def _dispatch_source() -> str:
         "    return math.nan", ""])
 
 
-#: The index of the default law, which :func:`rhs` runs inline (its loop vectorizes with the rest).
-_TL = LW.LAW_INDEX["tondu-lopez"]
+#: The index of the default law (the plant's ``calibrated`` force model), which :func:`rhs` runs
+#: inline (its loop vectorizes with the rest).
+_TL = LW.LAW_INDEX[P.LAW_NAMES[P.PlantParams.force_model]]
 #: The law dispatchers, generated from the registry and cached per user (:func:`mckibben._jit.generated_module`).
 _DISPATCH = generated_module("law_dispatch", _dispatch_source())
 law_force = _DISPATCH.law_force

@@ -37,10 +37,12 @@ from mckibben import hardware as HW
 from mckibben._jit import njit
 from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_instance, check_int, check_real
 from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
+from mckibben.results import TimeResponse
 from mckibben.models import laws as LW
 from mckibben.models.laws._base import evaluate_points
 from mckibben.plant import _runner
 from mckibben.plant import params as PP
+from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 from mckibben.plant._runner import FLAG_ABOVE_SUPPLY, FLAG_END_STOP, FLAG_NONFINITE  # noqa: F401 (public here)
 
@@ -55,14 +57,14 @@ _OUT_KEYS = ("out_p", "out_pm", "out_l", "out_f", "out_m", "out_t", "out_in", "o
 _SERIES_SET = frozenset(SERIES)
 _INT_SERIES = frozenset(("inlet", "bleed", "faults", "adc", "encoder"))
 
-_C = PP.Col
+_C = PK.Col
 C_L0, C_KP, C_LF, C_KS, C_LFREE = (int(c) for c in (_C.nominal_length, _C.passive_stiffness, _C.load_force,
                                                    _C.spring_rate, _C.spring_free_length))
-NP, NTH, NS, W = PP.NP, LW.NTH, ph.NS, ph.W
+NP, NTH, NS, W = PK.NP, LW.NTH, ph.NS, ph.W
 
 
 @dataclass(frozen=True, repr=False, eq=False)
-class SimResult:
+class SimResult(TimeResponse):
     """Sampled result of a batch simulation (row i is instance i, column k control period k).
 
     Attributes
@@ -117,6 +119,8 @@ class SimResult:
     temperature: np.ndarray | None = None
     recorded: tuple = SERIES
 
+    SIGNALS = ("pressure", "pressure_measured", "length", "force", "inlet", "bleed", "faults", "reference")
+
     def __getattribute__(self, name):
         if name in _SERIES_SET and name not in object.__getattribute__(self, "recorded"):
             raise AttributeError(f"SimResult.{name}: not recorded (this run was simulated with record="
@@ -137,14 +141,7 @@ class SimResult:
 
     def to_pandas(self, i: int = 0):
         """Instance ``i`` as a DataFrame with unit-suffixed columns."""
-        import pandas as pd
-
-        cols = (("pressure_Pa", "pressure"), ("pressure_measured_Pa", "pressure_measured"), ("length_m", "length"),
-                ("force_N", "force"), ("inlet_pwm", "inlet"), ("bleed_pwm", "bleed"), ("faults", "faults"))
-        data = {"time_s": self.t}
-        data.update({col: getattr(self, name)[i] for col, name in cols if name in self.recorded})
-        data["reference_Pa"] = self.reference[i]
-        return pd.DataFrame(data)
+        return self.frame(i)
 
 
 def _runner_of(kernel):
@@ -286,7 +283,7 @@ def static_equilibrium(prm: np.ndarray, law: int, theta: np.ndarray, pressure) -
         muscle pulls even straight), 2 on the locking stop (the muscle pulls more than the load even
         fully contracted), 3 blocked (held at the rest length). [-]
     """
-    c = PP.Col
+    c = PK.Col
     n = prm.shape[0]
     pg = np.array(np.broadcast_to(np.asarray(pressure, dtype=float), (n,)))  # writable: one compiled type
     lo = prm[:, c.l_min].copy()
@@ -333,7 +330,7 @@ def static_length(plant: PP.PlantParams | None = None, pressure=0.0) -> np.ndarr
     bad = np.flatnonzero((status == 1) | (status == 2))
     if bad.size:
         i = bad[0]
-        c = PP.Col
+        c = PK.Col
         p = float(np.broadcast_to(np.asarray(pressure, dtype=float), (prm.shape[0],))[i])
         stop = "straight-braid" if status[i] == 1 else "locking"
         raise UnreachableError(
@@ -359,7 +356,7 @@ def initial_states(prm: np.ndarray, law: int, theta: np.ndarray, p_init, l_init=
         ``"energy"``: the gas at the wall temperature; ``"polytropic"``: at the temperature its
         compression from the atmosphere gives, T = T_s·(p/p_atm)^((n−1)/n).
     """
-    c = PP.Col
+    c = PK.Col
     n = prm.shape[0]
     pg = np.broadcast_to(np.asarray(p_init, dtype=float), (n,))
     s0 = np.zeros((n, NS))
@@ -472,13 +469,13 @@ def simulate(
     # any finite reference: the controller's supervisor holds it in [0, p_max] (and is tested doing so)
     ref = _as_rows(check_array(reference, "reference", unit="Pa"), n_inst, n_steps, "reference")
     p_init = _per_instance(check_array(initial_pressure, "initial_pressure", unit="Pa"), n_inst, "initial_pressure")
-    if np.any(~(p_init >= 0)) or np.any(p_init > prm[:, PP.Col.supply_pressure]):
+    if np.any(~(p_init >= 0)) or np.any(p_init > prm[:, PK.Col.supply_pressure]):
         raise InputError("initial_pressure: must be between 0 and the supply pressure")
     if initial_length is not None:
         l_init = _per_instance(check_array(initial_length, "initial_length", unit="m"), n_inst, "initial_length")
-        if np.any(~(l_init >= prm[:, PP.Col.l_min])) or np.any(~(l_init <= prm[:, PP.Col.l_max])):
+        if np.any(~(l_init >= prm[:, PK.Col.l_min])) or np.any(~(l_init <= prm[:, PK.Col.l_max])):
             raise InputError("initial_length: must lie between the braid's end stops, "
-                             f"{prm[0, PP.Col.l_min] * 1e3:.1f}..{prm[0, PP.Col.l_max] * 1e3:.1f} mm "
+                             f"{prm[0, PK.Col.l_min] * 1e3:.1f}..{prm[0, PK.Col.l_max] * 1e3:.1f} mm "
                              "(locking angle and straight braid, eq. 2)")
     else:
         l_init = None
@@ -563,7 +560,7 @@ def _prepared(plant: PP.PlantParams, n: int):
     prm = plant.pack(n)
     name, th = plant.law(n)
     th = np.ascontiguousarray(th, dtype=float)
-    PP.check_force_law(name, prm, th, plant._law_label())
+    PK.check_force_law(name, prm, th, plant._law_label())
     return prm, LW.LAW_INDEX[name], th
 
 
@@ -679,7 +676,7 @@ class PlantStepper:
         ts = check_real(ts, "ts", lo=0.0, lo_open=True, hi=1.0, unit="s")
         prm, self.law, theta = _prepared(plant, 1)
         initial_pressure = check_real(initial_pressure, "initial_pressure", lo=0.0,
-                                      hi=float(prm[0, PP.Col.supply_pressure]), unit="Pa")
+                                      hi=float(prm[0, PK.Col.supply_pressure]), unit="Pa")
         s0 = initial_states(prm, self.law, theta, float(initial_pressure), None, plant.thermal)
         self.p = prm[0]
         self.bk = np.zeros(ph.BLOCK)
@@ -692,7 +689,7 @@ class PlantStepper:
         HW.encoder_count(0.0, 0.0, 1.0)
         ph.valve_target(0.0, 1.0, 0.5)
         _runner.gauss(np.zeros(1, dtype=np.uint64), 0)
-        self._rng = np.array([np.uint64(int(self.p[PP.Col.seed]) * 2654435761 + 1)], dtype=np.uint64)
+        self._rng = np.array([np.uint64(int(self.p[PK.Col.seed]) * 2654435761 + 1)], dtype=np.uint64)
 
     @property
     def pressure(self) -> float:
@@ -708,10 +705,10 @@ class PlantStepper:
         """The sensors now: ``(adc, encoder)`` counts, with the configured noise."""
         p = self.p
         meas = self.pressure
-        if p[PP.Col.pressure_noise] > 0:
-            meas += p[PP.Col.pressure_noise] * _runner.gauss(self._rng, 0)
-        adc = int(HW.adc_count(meas, p[PP.Col.pa_per_count], p[PP.Col.adc_zero]))
-        enc = int(HW.encoder_count(self.length, p[PP.Col.nominal_length], p[PP.Col.encoder_resolution]))
+        if p[PK.Col.pressure_noise] > 0:
+            meas += p[PK.Col.pressure_noise] * _runner.gauss(self._rng, 0)
+        adc = int(HW.adc_count(meas, p[PK.Col.pa_per_count], p[PK.Col.adc_zero]))
+        enc = int(HW.encoder_count(self.length, p[PK.Col.nominal_length], p[PK.Col.encoder_resolution]))
         return adc, enc
 
     def advance(self, inlet: int, bleed: int) -> None:
@@ -725,8 +722,8 @@ class PlantStepper:
         if not (0 <= inlet <= 255 and 0 <= bleed <= 255):
             raise InputError(f"PlantStepper.advance: PWM counts must be in 0..255, got ({inlet}, {bleed})")
         p = self.p
-        self.bk[ph.Y_XIN] = ph.valve_target(float(inlet), p[PP.Col.driver_gain], p[PP.Col.dead_band])
-        self.bk[ph.Y_XBL] = ph.valve_target(float(bleed), p[PP.Col.driver_gain], p[PP.Col.dead_band])
+        self.bk[ph.Y_XIN] = ph.valve_target(float(inlet), p[PK.Col.driver_gain], p[PK.Col.dead_band])
+        self.bk[ph.Y_XBL] = ph.valve_target(float(bleed), p[PK.Col.driver_gain], p[PK.Col.dead_band])
         ph.advance(1, self.bk, self.law, self.ts / self.substeps, self.substeps)
         self.t += self.ts
 

@@ -18,12 +18,13 @@ _WHERE = {
     "published_length_tables": "mckibben.report.reproduction",
     "render_html": "mckibben.report.html",
     "reproduce": "mckibben.report.reproduction",
+    "run_report": "mckibben.report.run",
     "summarize": "mckibben.report.html",
     "write_report": "mckibben.report.html",
 }
 
 __all__ = ["characterize", "check_report_folder", "published_length_tables", "render_html", "reproduce",
-           "summarize", "write_report"]
+           "run_report", "summarize", "write_report"]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
     from mckibben.report.characterize import characterize as characterize
@@ -31,6 +32,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.report.reproduction import published_length_tables as published_length_tables
     from mckibben.report.html import render_html as render_html
     from mckibben.report.reproduction import reproduce as reproduce
+    from mckibben.report.run import run_report as run_report
     from mckibben.report.html import summarize as summarize
     from mckibben.report.html import write_report as write_report
 

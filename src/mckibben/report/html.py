@@ -7,6 +7,7 @@ place at the end, so a failure leaves nothing half-written.
 from __future__ import annotations
 
 import html
+import inspect
 import os
 from pathlib import Path
 
@@ -18,6 +19,7 @@ from mckibben.report.figures import ALL_FIGURES, ISOMETRIC_FIGURES
 from mckibben.atomic import check_output_dir
 from mckibben.datasets.campaign import campaign_muscle_dirs
 from mckibben.datasets.references import cited, render
+from mckibben.models.laws.spring import LAW as _SPRING_LAW
 from mckibben.results import provenance
 from mckibben.results import to_jsonable
 from mckibben.atomic import atomic_dir
@@ -88,10 +90,12 @@ def summarize(char: dict) -> dict:
                                "models": [s.to_dict() for s in r.comparison["scores"]]}
     iso = [{"muscle": spec.id, **c.to_dict()} for spec, c in char.get("isometric", [])]
     return {"synthetic": char["synthetic"], "data": char["root"], "table_I": t1, "table_II": t2,
-            "blocked_force": bf, "step_response": steps, "spring": spring, "comparison": comp, "isometric": iso,
+            "blocked_force": bf, "step_response": steps, SPRING_KEY: spring, "comparison": comp, "isometric": iso,
             "skipped": [s for r in char["muscles"] for s in r.skipped]}
 
 
+#: The summary's key of the spring model's fits (the law's registry name). [-]
+SPRING_KEY = _SPRING_LAW.name
 #: What the report takes from which work, by bibliography key (mckibben.datasets.references).
 _SPRING = "[wickramatunge2010]"
 _SOURCES = ("[mpam-characterization] (eq. 1–3, Tables I–II, Figs. 3, 5, 6, 9, 10, §IV.A); "
@@ -120,6 +124,37 @@ table{border-collapse:collapse;margin:0.6em 0 1.4em}td,th{border:1px solid #ccc;
 th{background:#f3f3f3}td:first-child{text-align:left}.synthetic{background:#fff0f0;border:2px solid #c00;
 padding:0.6em 1em;font-weight:bold;color:#900}img{max-width:100%;border:1px solid #ddd;margin:0.4em 0}
 .note{color:#555;font-size:0.9em}"""
+
+
+#: The report's closing section: how to run the same on a lab's own tables (docs/data.md, docs/fit.md).
+RUN_ON_YOUR_DATA = (
+    "<h2>Run it on your data</h2>"
+    "<p>This report characterizes the bundled campaign. The same fits run on your own tables, one command each"
+    " (every one takes <code>--json</code>; <code>docs/data.md</code> says what a table holds):</p><pre>"
+    "mckibben fit isometric.csv --model spring --muscle-file my.toml --save mine.toml   # a force law, saved\n"
+    "mckibben compare isometric.csv --muscle-file my.toml                             # every model, held-out error\n"
+    "mckibben fit lab.csv --select cut_length_cm=10 --columns phase=direction --model spring"
+    "   # a lab's table as it is\n"
+    "mckibben fit isotonic.csv --model cubic                                          # Table II's cubics\n"
+    "mckibben simulate open-loop --muscle-file mine.toml --load 100N                  # the fitted muscle on the rig\n"
+    "mckibben control step --muscle-file mine.toml --target 0.4MPa                     # and under control"
+    "</pre><p>A campaign of your own, one sub-folder per muscle, each holding <code>muscle.toml</code> beside its"
+    " tables (isotonic, blocked_force, braid_angle, hysteresis, force_length, isometric), is characterized as a"
+    " whole, as this report was: <code>mckibben reproduce --data FOLDER --out REPORT</code>.</p>")
+
+
+def caption(figure: str) -> str:
+    """A figure's caption: the first paragraph of the docstring of the function that draws it.
+
+    Parameters
+    ----------
+    figure : str
+        The figure's file name, a key of :data:`~mckibben.report.figures.ALL_FIGURES` or
+        :data:`~mckibben.report.figures.ISOMETRIC_FIGURES` (another name is captioned by itself). [-]
+    """
+    func = {**ALL_FIGURES, **ISOMETRIC_FIGURES}.get(figure)
+    doc = inspect.cleandoc(func.__doc__ or "") if func is not None else ""
+    return " ".join(doc.split("\n\n")[0].split()) or figure
 
 
 def render_html(summary: dict, figures: list[str]) -> str:
@@ -189,10 +224,10 @@ def render_html(summary: dict, figures: list[str]) -> str:
                             [[s["muscle"], f"{s['command']:g}", _pm(s["tau_s"], s["tau_stderr_s"], 1e3),
                               f"[{s['tau_ci95_s'][0] * 1e3:.1f}, {s['tau_ci95_s'][1] * 1e3:.1f}]", f"{s['p_final_Pa'] / MPA:.3f}"]
                              for s in summary["step_response"]]))
-    if summary["spring"]:
+    if summary[SPRING_KEY]:
         parts.append(f"<h2>Spring model of {html.escape(render(_SPRING))}: Lu(P) = h2·P² + h1·P + h0,"
                      " K = c3·P + c2·P·Ls + c1·Ls + c0 (SI)</h2>")
-        for s in summary["spring"]:
+        for s in summary[SPRING_KEY]:
             parts.append(f"<p>{html.escape(s['muscle'])}: split {s['split_pressure_Pa'] / MPA:.3g} MPa, R² {s['r2']:.5f},"
                          f" force RMS {s['residual_rms_N'] * 1e3:.1f} mN, n {s['n_points']}</p>")
             parts.append(_table(["parameter", "value ± s.e."], [[k, _pm(v, s["stderr"][k], digits=4)] for k, v in s["parameters"].items()]))
@@ -208,10 +243,13 @@ def render_html(summary: dict, figures: list[str]) -> str:
                               _g(m["rmse_N"]), _g(m["r2"]), _g(m["cv_rmse_N"]), _g(m["cv_rmse_pct_of_peak"], 1, 3),
                               ", ".join(m["flags"]) or "none"] for m in rows]))
     parts.append("<h2>Figures</h2>")
-    for f in figures:
-        parts.append(f"<p><img src='{html.escape(f)}' alt='{html.escape(f)}'></p>")
+    for k, f in enumerate(figures, 1):
+        text = f"Figure {k}. {caption(f)}"
+        parts.append(f"<figure><img src='{html.escape(f)}' alt='{html.escape(text)}'>"
+                     f"<figcaption>{html.escape(text)}</figcaption></figure>")
     if summary["skipped"]:
         parts.append("<p class='note'>Skipped: " + html.escape("; ".join(summary["skipped"])) + "</p>")
+    parts.append(RUN_ON_YOUR_DATA)
     parts.append(f"<p class='note'>Made by <code>mckibben reproduce</code>. Sources: {html.escape(render(_SOURCES))}.</p>")
     parts.append("<h2>References</h2><ul>" + "".join(f"<li>{_reference_html(r)}</li>" for r in cited(_SOURCES)) + "</ul>")
     parts.append("</body></html>")

@@ -13,6 +13,10 @@ from typing import TYPE_CHECKING
 #: submodule loads its heavy packages (Numba, SciPy, pandas...) only when a name of it is used.
 _WHERE = {
     "BAUD": "mckibben.rig.device",
+    "Bench": "mckibben.rig.bench",
+    "CharacterizeResult": "mckibben.rig.characterize",
+    "read_protocol": "mckibben.rig.characterize",
+    "run_characterization": "mckibben.rig.characterize",
     "Device": "mckibben.rig.device",
     "Emulator": "mckibben.rig.emulator",
     "Recorder": "mckibben.rig.recorder",
@@ -22,10 +26,15 @@ _WHERE = {
     "recover": "mckibben.rig.recorder",
 }
 
-__all__ = ["BAUD", "Device", "Emulator", "Recorder", "RigStepResult", "open_port", "read_recording", "recover"]
+__all__ = ["BAUD", "Bench", "CharacterizeResult", "Device", "Emulator", "Recorder", "RigStepResult", "open_port",
+           "read_protocol", "read_recording", "recover", "run_characterization"]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explicit re-exports)
     from mckibben.rig.device import BAUD as BAUD
+    from mckibben.rig.bench import Bench as Bench
+    from mckibben.rig.characterize import CharacterizeResult as CharacterizeResult
+    from mckibben.rig.characterize import read_protocol as read_protocol
+    from mckibben.rig.characterize import run_characterization as run_characterization
     from mckibben.rig.device import Device as Device
     from mckibben.rig.emulator import Emulator as Emulator
     from mckibben.rig.recorder import Recorder as Recorder

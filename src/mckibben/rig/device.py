@@ -15,8 +15,8 @@ import numpy as np
 from mckibben.control import registry as R
 from mckibben.errors import ArgumentTypeError, InputError
 from mckibben.hardware import BAUD as _HW_BAUD
-from mckibben.hardware import P_MAX_DEFAULT, pressure_from_adc
-from mckibben.results import Result
+from mckibben.hardware import ADC_MAX, P_MAX_DEFAULT, pressure_from_adc
+from mckibben.results import Result, TimeResponse
 from mckibben.rig import protocol as P
 from mckibben.control.core import GAINS, gain_values
 from mckibben.control.metrics import step_metrics
@@ -24,7 +24,8 @@ from mckibben.results import to_jsonable
 from mckibben.units import si
 from mckibben.control.core import CoreParams, load_design
 
-__all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "GainsResult", "RigStepResult", "connect", "open_port", "write_gains"]
+__all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "ForceResult", "GainsResult", "RigStepResult", "TareResult",
+           "connect", "open_port", "write_gains"]
 
 #: Baud rate of the serial link (``docs/protocol.md``; :data:`mckibben.hardware.BAUD`).
 BAUD = _HW_BAUD
@@ -35,6 +36,13 @@ HELLO_TIMEOUT_S = 4.0
 SAFE_MAX_PRESSURE_PA = float(P_MAX_DEFAULT)
 #: How long :meth:`Device.step` waits for the first telemetry frame. [s]
 STARTUP_TIMEOUT_S = 10.0
+#: Most load-cell samples :meth:`Device.tare` and :meth:`Device.read_force` take (10 s at 1 kHz). [-]
+MAX_FORCE_SAMPLES = 10_000
+#: Control periods between a streaming host's commands, and the telemetry decimation it asks for
+#: beside them: the firmware image's measured ceiling (``docs/firmware.md``, "Command rate"). With
+#: three channels in closed loop at 1 kHz, SET_POINTS every 2 ms beside telemetry at decimation 2
+#: all arrive and are ACKed; at 1 ms (or at decimation 1) the 16 MHz Mega runs out of cycles.
+PACED_PERIODS = 2
 #: The device's controllers by name (:data:`mckibben.rig.protocol.MODES`).
 CONTROLLERS = R.NAMES
 
@@ -89,7 +97,8 @@ def connect(port: str, hello_timeout: float | None = None, timeout: float = 0.02
         while time.monotonic() < end:
             for f in parser.feed(link.read(4096)):
                 if isinstance(f, P.Hello):
-                    return link, f, P.Parser()  # a fresh parser: counters start at the hello
+                    # a fresh parser: counters start at the hello; it reads force with the device's full scale
+                    return link, f, P.Parser(load_cell=f.load_cell)
     except BaseException:
         link.close()
         raise
@@ -98,7 +107,7 @@ def connect(port: str, hello_timeout: float | None = None, timeout: float = 0.02
                      f"mckibben device running firmware with protocol version {P.VERSION}?")
 
 
-#: Commands in flight at once: the firmware's receive ring holds 128 bytes and SET_GAIN takes it
+#: Commands in flight at once: the firmware's receive ring holds 256 bytes and SET_GAIN takes it
 #: ~1 ms to compute, while the line brings 100 bytes per ms; and its 256-byte transmit queue
 #: drops an ACK that does not fit.
 WINDOW = 4
@@ -186,7 +195,7 @@ class GainsResult(Result):
 
 
 @dataclass(frozen=True, repr=False)
-class RigStepResult(Result):
+class RigStepResult(Result, TimeResponse):
     """A pressure step measured on the device.
 
     Attributes
@@ -202,9 +211,11 @@ class RigStepResult(Result):
     step_time : float
         Time of the step. [s]
     arguments : dict
-        Port, target [Pa], controller, duration [s].
+        Port, target [Pa], controller, duration [s], and with a load cell the tare subtracted [N].
     counters : dict
         Frames received and missing. [-]
+    force : numpy.ndarray or None
+        The load cell's force, tared (:meth:`Device.tare`); None when the device has no load cell. [N]
     """
 
     time: np.ndarray
@@ -214,7 +225,10 @@ class RigStepResult(Result):
     step_time: float
     arguments: dict = field(default_factory=dict)
     counters: dict = field(default_factory=dict)
+    force: np.ndarray | None = None
     call = "mckibben.rig.Device.step"
+    TIME = "time"
+    SIGNALS = ("reference", "pressure", "command", "force")
 
     @property
     def metrics(self) -> dict:
@@ -222,17 +236,25 @@ class RigStepResult(Result):
 
         return step_metrics(self.time, self.pressure, self.reference, self.command, t_step=self.step_time)
 
-    def to_dict(self) -> dict:
-        """The target, controller, metrics and frame counters, JSON-ready."""
+    @property
+    def final_force(self) -> float | None:
+        """Mean tared force over the last 50 ms of the recording; None without a load cell. [N]"""
+        if self.force is None or not len(self.force):
+            return None
+        return float(np.mean(self.force[self.time >= self.time[-1] - 0.05]))
 
-        return to_jsonable({"target_Pa": self.arguments["target_Pa"], "controller": self.arguments["controller"],
-                            **self.metrics, **self.counters})
+    def to_dict(self) -> dict:
+        """The target, controller, metrics and frame counters, JSON-ready; with a load cell the final
+        force (``force_N``, tared) and the tare subtracted (``force_offset_N``)."""
+
+        out = {"target_Pa": self.arguments["target_Pa"], "controller": self.arguments["controller"], **self.metrics,
+               **self.counters}
+        if self.force is not None:
+            out.update(force_N=self.final_force, force_offset_N=self.arguments.get("force_offset_N", 0.0))
+        return to_jsonable(out)
 
     def _series(self):
-        import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-        return pd.DataFrame({"time_s": self.time, "reference_Pa": self.reference, "pressure_Pa": self.pressure,
-                             "command_pwm": self.command})
+        return self.frame()  # force_N only with a load cell (recorded_signals leaves a None out)
 
     def plot(self, ax=None):
         """Pressure and set-point against time; return the Figure.
@@ -254,6 +276,69 @@ class RigStepResult(Result):
         return ax.figure
 
 
+@dataclass(frozen=True, repr=False)
+class ForceResult(Result, TimeResponse):
+    """Load-cell readings taken on the device (:meth:`Device.tare`, :meth:`Device.read_force`).
+
+    Attributes
+    ----------
+    time : numpy.ndarray
+        Device time of each telemetry frame. [s]
+    force : numpy.ndarray
+        The force each frame read, untared (the count times the device's resolution). [N]
+    offset : float
+        The tare subtracted in :attr:`metrics` (after :meth:`Device.tare`: the mean it measured). [N]
+    arguments : dict
+        Port, samples, the device's full scale [N]. [-]
+    """
+
+    time: np.ndarray
+    force: np.ndarray
+    offset: float = 0.0
+    arguments: dict = field(default_factory=dict)
+    call = "mckibben.rig.Device.read_force"
+    _repr_keys = ("force_N", "force_std_N", "offset_N", "samples")
+    TIME = "time"
+    SIGNALS = ("force",)
+
+    @property
+    def metrics(self) -> dict:
+        """``force_N``: the mean force less the tare; ``force_std_N``: the samples' standard deviation;
+        ``offset_N``: the tare; ``resolution_N``: force per count; ``samples``."""
+        fs = float(self.arguments.get("full_scale_N", 0.0))
+        return {"force_N": float(np.mean(self.force)) - self.offset, "force_std_N": float(np.std(self.force)),
+                "offset_N": float(self.offset), "resolution_N": fs / ADC_MAX, "samples": int(len(self.force))}
+
+    def _series(self):
+        df = self.frame()  # the readings as read; the table holds them tared
+        df["force_N"] -= self.offset
+        return df
+
+    def plot(self, ax=None):
+        """The tared force against time; return the Figure.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw; default a new figure. [-]
+        """
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 4))
+        ax.plot(self.time, self.force - self.offset)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("force [N]")
+        return ax.figure
+
+
+@dataclass(frozen=True, repr=False)
+class TareResult(ForceResult):
+    """The readings :meth:`Device.tare` averaged; ``offset`` is the tare it keeps (their mean). [N]"""
+
+    call = "mckibben.rig.Device.tare"
+
+
 class Device:
     """The rig's controller over a serial link.
 
@@ -273,6 +358,83 @@ class Device:
         if not isinstance(port, str) or not port:
             raise ArgumentTypeError(f"port = {port!r}: want the serial port's path (text), e.g. /dev/ttyACM0")
         self.port = port
+        #: The load cell's tare, subtracted from every force this object reports (:meth:`tare`). [N]
+        self.force_offset = 0.0
+
+    def _force_samples(self, samples, name: str = "samples") -> tuple[np.ndarray, np.ndarray, float]:
+        """``samples`` telemetry frames' device times [s] and forces [N], and the full scale [N]."""
+        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) \
+                or not 1 <= int(samples) <= MAX_FORCE_SAMPLES:
+            raise InputError(f"{name}: {samples!r} must be a whole number of samples in 1..{MAX_FORCE_SAMPLES}")
+        n = int(samples)
+        link, hello, parser = connect(self.port)
+        t: list = []
+        f: list = []
+        try:
+            if hello.load_cell is None:
+                raise InputError(f"port: the device on {self.port!r} has no load cell (its HELLO announces none; "
+                                 "build the firmware with LOAD_CELL_MN, docs/firmware.md)")
+            link.write(P.stream(0, True, 1))
+            deadline = time.monotonic() + STARTUP_TIMEOUT_S + 3.0 * n * 1e-3
+            while len(f) < n and time.monotonic() < deadline:
+                for fr in parser.feed(link.read(8192)):
+                    if isinstance(fr, P.Telemetry) and fr.force is not None and len(f) < n:
+                        t.append(fr.t_us * 1e-6)
+                        f.append(fr.force)
+            link.write(P.stream(1, False, 1))
+        finally:
+            link.close()
+        if len(f) < n:
+            raise InputError(f"port: only {len(f)} of {n} load-cell samples arrived from {self.port!r}")
+        return np.asarray(t), np.asarray(f), float(hello.load_cell)
+
+    def tare(self, samples: int = 200) -> ForceResult:
+        """Zero the load cell: the mean of ``samples`` readings at zero load becomes the offset that
+        :meth:`read_force` and :meth:`step` subtract from then on.
+
+        Take it with nothing hanging on the cell and the muscle vented (opening the port resets
+        the device: its controllers start off, valves shut).
+
+        Parameters
+        ----------
+        samples : int, default 200
+            Telemetry frames to average (1 kHz), 1..:data:`MAX_FORCE_SAMPLES`. [-]
+
+        Returns
+        -------
+        TareResult
+            The readings; its ``offset`` (``metrics["offset_N"]``) is the new tare, its
+            ``force_N`` 0 by construction.
+
+        Raises
+        ------
+        InputError
+            A bad ``samples``, a device without a load cell, or one that stops streaming.
+        """
+        t, f, fs = self._force_samples(samples)
+        self.force_offset = float(np.mean(f))
+        return TareResult(t, f, self.force_offset, {"port": self.port, "samples": int(samples), "full_scale_N": fs})
+
+    def read_force(self, samples: int = 50) -> ForceResult:
+        """Read the load cell: ``samples`` readings, less the tare (:meth:`tare`).
+
+        Parameters
+        ----------
+        samples : int, default 50
+            Telemetry frames to average (1 kHz), 1..:data:`MAX_FORCE_SAMPLES`. [-]
+
+        Returns
+        -------
+        ForceResult
+            ``metrics["force_N"]`` is the mean tared force. [N]
+
+        Raises
+        ------
+        InputError
+            A bad ``samples``, a device without a load cell, or one that stops streaming.
+        """
+        t, f, fs = self._force_samples(samples)
+        return ForceResult(t, f, self.force_offset, {"port": self.port, "samples": int(samples), "full_scale_N": fs})
 
     def __repr__(self) -> str:
         return f"Device({self.port!r})"
@@ -320,7 +482,8 @@ class Device:
                 for f in parser.feed(link.read(8192)):
                     if isinstance(f, P.Telemetry):
                         rows.append((f.t_us * 1e-6, pressure_from_adc(f.pressure_adc).item(), f.reference_pa,
-                                     f.inlet_pwm - f.bleed_pwm, f.faults))
+                                     f.inlet_pwm - f.bleed_pwm, f.faults,
+                                     np.nan if f.force is None else f.force - self.force_offset))
                         if t_step is None and sent and f.reference_pa > 0:
                             t_step = rows[-1][0]
                     elif isinstance(f, P.Ack):
@@ -347,9 +510,12 @@ class Device:
             raise InputError(f"port: {self.port!r} stopped streaming before the step to {p:g} Pa took effect "
                              f"({len(rows)} frames, {a[-1, 0] - a[0, 0]:.3f} s of device time)")
         faults = int(np.bitwise_or.reduce(a[:, 4].astype(np.int64)))
-        return RigStepResult(a[:, 0], a[:, 1], a[:, 2], a[:, 3], float(t_step),
-                             {"port": self.port, "target_Pa": p, "controller": controller, "duration_s": d},
-                             {"frames": parser.frames, "missing": parser.missing, "faults": faults})
+        args = {"port": self.port, "target_Pa": p, "controller": controller, "duration_s": d}
+        force = None if np.isnan(a[:, 5]).any() else a[:, 5]
+        if force is not None:
+            args["force_offset_N"] = self.force_offset
+        return RigStepResult(a[:, 0], a[:, 1], a[:, 2], a[:, 3], float(t_step), args,
+                             {"frames": parser.frames, "missing": parser.missing, "faults": faults}, force)
 
     def set_gains(self, design, channels=None) -> GainsResult:
         """Send a controller design to the device's channels, read every gain back and compare.

@@ -1,10 +1,12 @@
-"""The serial protocol, version 2, host side (``docs/protocol.md``; the C side is
+"""The serial protocol, version 3, host side (``docs/protocol.md``; the C side is
 ``firmware/core/protocol.c``).
 
 Frames are ``COBS(version | type | seq | body | crc16) 0x00``, little-endian, CRC-16/CCITT-FALSE.
 :class:`Parser` takes any bytes in any pieces and never raises: it resynchronizes at the next
 delimiter after garbage or a cut frame and counts what it skipped. It reads version 1 frames
-too (one channel: recordings and captures made before the three-channel firmware).
+too (one channel: recordings and captures made before the three-channel firmware), and version 2
+(three channels, no load cell: version 3 adds the load cell's count to TELEMETRY and its full scale
+to HELLO).
 """
 
 from __future__ import annotations
@@ -12,11 +14,12 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass, field
 
+from mckibben import hardware as HW
 from mckibben.control import registry as R
 
-VERSION = 2
-#: Versions the parser reads: 1 (one channel, 500000 baud) and 2.
-VERSIONS_READ = (1, 2)
+VERSION = 3
+#: Versions the parser reads: 1 (one channel, 500000 baud), 2 (no load cell) and 3.
+VERSIONS_READ = (1, 2, 3)
 MAX_FRAME = 64  #: largest decoded frame (version..crc) [bytes]
 MAX_PACKET = MAX_FRAME + MAX_FRAME // 254 + 2  #: largest COBS packet with its delimiter [bytes]
 MAX_CHANNELS = 3  #: channels a TELEMETRY frame carries at most
@@ -33,23 +36,28 @@ _TELEMETRY_HEAD = struct.Struct("<IiB")  # t_us, encoder, n: 9 bytes
 _CHANNEL = struct.Struct("<HBBBBii")  # 14 bytes per channel
 _ACK_V1 = struct.Struct("<HBB")
 _ACK = struct.Struct("<HBBi")  # 8 bytes
-_HELLO = struct.Struct("<BHIB")  # 8 bytes
+_HELLO_V2 = struct.Struct("<BHIB")  # 8 bytes, version 2
+_HELLO = struct.Struct("<BHIBI")  # 12 bytes: version 2's and the load cell's full scale [mN] (0: none)
+_FORCE = struct.Struct("<H")  # the load cell's count after the channels (version 3, when fitted)
 #: Body length of each type (None: variable, checked by the decoder).
-BODY_LENGTH = {TELEMETRY: None, ACK: _ACK.size, HELLO: _HELLO.size, SET_POINT: 5, SET_GAIN: 6, SET_MODE: 2,
+BODY_LENGTH = {TELEMETRY: None, ACK: _ACK.size, HELLO: None, SET_POINT: 5, SET_GAIN: 6, SET_MODE: 2,
                SET_MAX_PRESSURE: 5, VENT: 1, STREAM: 2, SET_OPEN_LOOP: 3, SET_POINTS: None, GET_GAIN: 2}
 BODY_LENGTH_V1 = {TELEMETRY: _TELEMETRY_V1.size, ACK: _ACK_V1.size, SET_POINT: 4, SET_GAIN: 5, SET_MODE: 1,
                   SET_MAX_PRESSURE: 4, VENT: 0, STREAM: 2, SET_OPEN_LOOP: 2}
 
 
-def telemetry_wire_bytes(n_channels: int) -> int:
-    """Bytes on the wire of one TELEMETRY frame: header 4, body 9 + 14 n, CRC 2, COBS 1, delimiter 1.
+def telemetry_wire_bytes(n_channels: int, force: bool = False) -> int:
+    """Bytes on the wire of one TELEMETRY frame: header 4, body 9 + 14 n (+ 2 with a load cell), CRC 2,
+    COBS 1, delimiter 1.
 
     Parameters
     ----------
     n_channels : int
         Channels in the frame, 1..3. [-]
+    force : bool, default False
+        The frame carries the load cell's count. [-]
     """
-    return 4 + _TELEMETRY_HEAD.size + _CHANNEL.size * n_channels + 2 + 1 + 1
+    return 4 + _TELEMETRY_HEAD.size + _CHANNEL.size * n_channels + (_FORCE.size if force else 0) + 2 + 1 + 1
 
 
 FAULT_NAMES = ("overpressure", "adc_out_of_range", "sensor_stuck", "sample_missing", "vent_commanded")
@@ -172,7 +180,10 @@ class Telemetry:
     """One telemetry frame's values (raw counts; SI conversion in the recorder).
 
     The scalar fields are channel 0's (the only one of a version 1 frame); ``channels`` holds
-    every channel of the frame, channel 0 first.
+    every channel of the frame, channel 0 first. ``force_adc`` is the load cell's count and
+    ``force`` the tension it reads as [N] (untared: :func:`mckibben.hardware.force_from_count` with
+    the device's full scale); both None when the device has no load cell (and in frames of
+    versions 1 and 2).
     """
 
     seq: int
@@ -186,6 +197,8 @@ class Telemetry:
     reference_pa: int
     surface_pa: int
     channels: tuple = ()
+    force_adc: int | None = None
+    force: float | None = None
 
     def __post_init__(self):
         if not self.channels:
@@ -194,7 +207,8 @@ class Telemetry:
                                                                    self.surface_pa),))
 
     @classmethod
-    def of_channels(cls, seq: int, t_us: int, encoder: int, channels) -> "Telemetry":
+    def of_channels(cls, seq: int, t_us: int, encoder: int, channels, force_adc: int | None = None,
+                    force: float | None = None) -> "Telemetry":
         """A frame from its channels (channel 0 first).
 
         Parameters
@@ -203,11 +217,15 @@ class Telemetry:
             Sequence number [-], device time [µs], encoder count [count].
         channels : sequence of ChannelTelemetry
             1..3 channels. [-]
+        force_adc : int, optional
+            The load cell's count; None without a load cell. [count]
+        force : float, optional
+            What that count reads as (the parser fills it in). [N]
         """
         chans = tuple(channels)
         c = chans[0]
         return cls(seq, t_us, c.pressure_adc, encoder, c.inlet_pwm, c.bleed_pwm, c.mode, c.faults, c.reference_pa,
-                   c.surface_pa, chans)
+                   c.surface_pa, chans, force_adc, force)
 
 
 @dataclass(frozen=True)
@@ -223,13 +241,17 @@ class Ack:
 
 @dataclass(frozen=True)
 class Hello:
-    """The frame the firmware sends once it runs (after a reset)."""
+    """The frame the firmware sends once it runs (after a reset).
+
+    ``load_cell`` is the full scale of its load cell [N] (a version 3 device that has one), else None.
+    """
 
     seq: int
     n_channels: int
     ts_us: int
     baud: int
     n_gains: int
+    load_cell: float | None = None
 
 
 @dataclass(frozen=True)
@@ -254,7 +276,23 @@ def encode_telemetry(t: Telemetry) -> bytes:
     body = _TELEMETRY_HEAD.pack(t.t_us & 0xFFFFFFFF, t.encoder, len(t.channels))
     for c in t.channels:
         body += _CHANNEL.pack(c.pressure_adc, c.inlet_pwm, c.bleed_pwm, c.mode, c.faults, c.reference_pa, c.surface_pa)
+    if t.force_adc is not None:
+        body += _FORCE.pack(t.force_adc)
     return encode_frame(TELEMETRY, t.seq, body)
+
+
+def encode_telemetry_v2(t: Telemetry) -> bytes:
+    """Packet of a version 2 telemetry frame (no load cell), as the firmware before version 3 sent.
+
+    Parameters
+    ----------
+    t : Telemetry
+        The values; its force, if any, is left out. [-]
+    """
+    body = _TELEMETRY_HEAD.pack(t.t_us & 0xFFFFFFFF, t.encoder, len(t.channels))
+    for c in t.channels:
+        body += _CHANNEL.pack(c.pressure_adc, c.inlet_pwm, c.bleed_pwm, c.mode, c.faults, c.reference_pa, c.surface_pa)
+    return encode_frame(TELEMETRY, t.seq, body, version=2)
 
 
 def encode_telemetry_v1(t: Telemetry) -> bytes:
@@ -283,9 +321,29 @@ def encode_ack(seq: int, cmd_seq: int, cmd_type: int, status: int, value: int = 
     return encode_frame(ACK, seq, _ACK.pack(cmd_seq & 0xFFFF, cmd_type, status, value))
 
 
-def encode_hello(seq: int, n_channels: int, ts_us: int, baud: int, n_gains: int) -> bytes:
-    """Packet of the HELLO frame. Parameters: seq [-], n_channels [-], ts_us [µs], baud [1/s], n_gains [-]."""
-    return encode_frame(HELLO, seq, _HELLO.pack(n_channels, ts_us, baud, n_gains))
+def encode_hello(seq: int, n_channels: int, ts_us: int, baud: int, n_gains: int, load_cell: float | None = None,
+                 version: int = VERSION) -> bytes:
+    """Packet of the HELLO frame.
+
+    Parameters
+    ----------
+    seq, n_channels : int
+        Sequence number and channels. [-]
+    ts_us : int
+        Control period. [µs]
+    baud : int
+        Line rate. [1/s]
+    n_gains : int
+        Gains per channel. [-]
+    load_cell : float, optional
+        The load cell's full scale, sent in mN; None: no load cell. [N]
+    version : int, default VERSION
+        2 to reproduce an older firmware's HELLO (no load cell field). [-]
+    """
+    if version == 2:
+        return encode_frame(HELLO, seq, _HELLO_V2.pack(n_channels, ts_us, baud, n_gains), version=2)
+    mn = 0 if load_cell is None else int(round(load_cell * 1e3))
+    return encode_frame(HELLO, seq, _HELLO.pack(n_channels, ts_us, baud, n_gains, mn))
 
 
 def set_point(seq: int, pressure_pa: float, channel: int = 0) -> bytes:
@@ -341,7 +399,13 @@ class Parser:
     Counters: ``frames`` (valid), ``corrupt`` (COBS or CRC failure, wrong body length,
     oversize), ``bad_version``, ``missing`` (frames lost, from gaps in the sender's ``seq``),
     ``bytes``.
+
+    ``load_cell`` is the device's load cell full scale [N] that turns a frame's ``force_adc`` into
+    its ``force``: given (from the device's HELLO, as :func:`mckibben.rig.device.connect` does), or
+    taken from a HELLO frame the parser reads; :data:`mckibben.hardware.LOAD_CELL_FULL_SCALE` until then.
     """
+
+    load_cell: float | None = None
 
     frames: int = 0
     corrupt: int = 0
@@ -398,10 +462,12 @@ class Parser:
             self.bad_version += 1
             return None
         body = raw[4:-2]
-        frame = _decode_body(version, kind, seq, body)
+        frame = _decode_body(version, kind, seq, body, self.load_cell)
         if frame is None:
             self.corrupt += 1
             return None
+        if isinstance(frame, Hello) and frame.load_cell is not None:
+            self.load_cell = frame.load_cell
         if self._last_seq is not None:
             gap = (seq - self._last_seq - 1) & 0xFFFF
             if gap < 0x8000:
@@ -416,7 +482,7 @@ class Parser:
                 "missing": self.missing, "bytes": self.bytes}
 
 
-def _decode_body(version: int, kind: int, seq: int, body: bytes):
+def _decode_body(version: int, kind: int, seq: int, body: bytes, load_cell: float | None = None):
     """The frame of a checked packet, or None when its body has the wrong length."""
     if version == 1:
         want = BODY_LENGTH_V1.get(kind)
@@ -431,11 +497,24 @@ def _decode_body(version: int, kind: int, seq: int, body: bytes):
         if len(body) < _TELEMETRY_HEAD.size:
             return None
         t_us, enc, n = _TELEMETRY_HEAD.unpack_from(body)
-        if not 1 <= n <= MAX_CHANNELS or len(body) != _TELEMETRY_HEAD.size + n * _CHANNEL.size:
+        size = _TELEMETRY_HEAD.size + n * _CHANNEL.size
+        with_force = version >= 3 and len(body) == size + _FORCE.size
+        if not 1 <= n <= MAX_CHANNELS or (len(body) != size and not with_force):
             return None
         chans = tuple(ChannelTelemetry(*_CHANNEL.unpack_from(body, _TELEMETRY_HEAD.size + i * _CHANNEL.size))
                       for i in range(n))
-        return Telemetry.of_channels(seq, t_us, enc, chans)
+        if not with_force:
+            return Telemetry.of_channels(seq, t_us, enc, chans)
+        count = _FORCE.unpack_from(body, size)[0]
+        scale = HW.LOAD_CELL_FULL_SCALE if load_cell is None else load_cell
+        return Telemetry.of_channels(seq, t_us, enc, chans, count, float(HW.force_from_count(count, scale)))
+    if kind == HELLO:
+        if version == 2 and len(body) == _HELLO_V2.size:
+            return Hello(seq, *_HELLO_V2.unpack(body))
+        if version != 3 or len(body) != _HELLO.size:
+            return None
+        *head, mn = _HELLO.unpack(body)
+        return Hello(seq, *head, mn / 1e3 if mn else None)
     want = BODY_LENGTH.get(kind)
     if want is not None and len(body) != want:
         return None
@@ -443,8 +522,6 @@ def _decode_body(version: int, kind: int, seq: int, body: bytes):
         return None
     if kind == ACK:
         return Ack(seq, *_ACK.unpack(body))
-    if kind == HELLO:
-        return Hello(seq, *_HELLO.unpack(body))
     return Frame(kind, seq, body)
 
 

@@ -10,8 +10,9 @@ the journal; after a crash, ``mckibben rig recover OUT.journal --out OUT`` does 
 Columns (SI, unit-suffixed): ``seq``, ``time_s`` (device clock, wrap-corrected), ``pressure_Pa``,
 ``pressure_adc``, ``encoder_count``, ``length_m``, ``inlet_pwm``, ``bleed_pwm``, ``mode``,
 ``faults``, ``reference_Pa``, ``surface_Pa`` (channel 0), then the same per further channel with
-``ch1_``, ``ch2_`` in front (:func:`channel_columns`); a one-channel recording of protocol
-version 1 reads the same way. The file's metadata holds the port, baud rate,
+``ch1_``, ``ch2_`` in front (:func:`channel_columns`), and ``force_N`` (the load cell's force,
+untared, :func:`mckibben.hardware.force_from_count` with the device's full scale) when the device
+streams one; a one-channel recording of protocol version 1 reads the same way. The file's metadata holds the port, baud rate,
 protocol version, conversion constants and the parser's counters.
 """
 
@@ -43,15 +44,22 @@ CHANNEL_COLUMNS = ["pressure_Pa", "pressure_adc", "inlet_pwm", "bleed_pwm", "mod
                    "surface_Pa"]
 
 
-def channel_columns(n_channels: int) -> list[str]:
+#: The load cell's column, last, when the telemetry carries a force. [N]
+FORCE_COLUMN = "force_N"
+
+
+def channel_columns(n_channels: int, force: bool = False) -> list[str]:
     """The columns of a recording of ``n_channels`` channels (:data:`COLUMNS` first).
 
     Parameters
     ----------
     n_channels : int
         Channels in the telemetry (1..3). [-]
+    force : bool, default False
+        The telemetry carries a load cell's force: :data:`FORCE_COLUMN` comes last. [-]
     """
-    return COLUMNS + [f"ch{i}_{c}" for i in range(1, n_channels) for c in CHANNEL_COLUMNS]
+    return COLUMNS + [f"ch{i}_{c}" for i in range(1, n_channels) for c in CHANNEL_COLUMNS] + (
+        [FORCE_COLUMN] if force else [])
 
 
 def _fsync_dir(path: Path) -> None:
@@ -100,6 +108,7 @@ class Recorder:
     encoder_resolution: float = HW.ENCODER_RESOLUTION
     flush_interval: float = 0.2
     n_channels: int | None = None
+    has_force: bool | None = None
     parser: P.Parser = field(default_factory=P.Parser)
     rows: list = field(default_factory=list)
     part: int = 0
@@ -150,10 +159,13 @@ class Recorder:
                        f.inlet_pwm, f.bleed_pwm, f.mode, f.faults, float(f.reference_pa), float(f.surface_pa)]
                 if self.n_channels is None:
                     self.n_channels = len(f.channels)
+                    self.has_force = f.force is not None
                 for c in f.channels[1:self.n_channels]:
                     row += [HW.adc_pressure(c.pressure_adc, self.pa_per_count, 0.0), c.pressure_adc, c.inlet_pwm,
                             c.bleed_pwm, c.mode, c.faults, float(c.reference_pa), float(c.surface_pa)]
-                if len(row) != len(channel_columns(self.n_channels)):
+                if self.has_force:
+                    row.append(f.force)
+                if len(row) != len(channel_columns(self.n_channels, bool(self.has_force))) or None in row:
                     self.parser.corrupt += 1  # a frame with fewer channels than the recording's
                     continue
                 self.rows.append(tuple(row))
@@ -168,7 +180,7 @@ class Recorder:
         self._flushed_at = time.monotonic()
         if not self.rows:
             return
-        df = pd.DataFrame(self.rows, columns=channel_columns(self.n_channels or 1))
+        df = pd.DataFrame(self.rows, columns=channel_columns(self.n_channels or 1, bool(self.has_force)))
         self.rows = []
         self.part += 1
         table = pa.Table.from_pandas(df, preserve_index=False)

@@ -32,7 +32,7 @@ from mckibben.errors import ArgumentTypeError, InputError, check_callable, check
 from mckibben.sweep.spec import Sweep
 from mckibben.datasets import get_muscle
 from mckibben.plant import PlantParams
-from mckibben.plant.params import _FIELDS
+from mckibben.plant.packing import _FIELDS
 from mckibben.control.core import CoreParams, core_spec
 from mckibben.control.metrics import step_metrics_batch, tracking_metrics_batch
 from mckibben.plant import simulate

@@ -203,7 +203,7 @@ def _check_design(path, params: dict, cols: dict) -> None:
 def _check_ranges(path, cols: dict, controller_kind: str) -> None:
     """Refuse, before any run, a swept value the plant or the controller would refuse in the middle.
 
-    The plant's :func:`~mckibben.plant.params.validate` and the controller's packing
+    The plant's :func:`~mckibben.plant.packing.validate` and the controller's packing
     (:func:`~mckibben.control.core.core_spec`) check each field's range on its own; they are run
     here on two instances holding every swept field's smallest and largest drawn value, so a
     negative conductance or gain is named now, not by a worker after hours."""
@@ -340,6 +340,13 @@ def load_sweep(path: str | Path) -> Sweep:
         if m not in METRICS:
             raise unknown_name(f"metric in {path}", m, METRICS)
 
+    if not doc:
+        raise InputError(f"{path}: the sweep file is empty; it names the parameters to vary (a grid or a "
+                         f"distribution) in [plant] or [controller] (`mckibben examples copy sweep.toml` has one)")
+    if samples == 1 and all(kind_ == "const" for kind_, _ in params.values()):
+        raise InputError(f"{path}: nothing varies (one sample, every parameter fixed); give a [plant] or "
+                         f"[controller] parameter a grid or a distribution ({', '.join(DISTRIBUTIONS)}), or "
+                         f"[sweep] samples > 1")
     grid_names = tuple(k for k, (kind_, _) in params.items() if kind_ == "grid")
     grids = [params[k][1] for k in grid_names]
     points = list(itertools.product(*grids)) if grids else [()]

@@ -270,6 +270,11 @@ def forward(tool: Tool | None = None, *, lengths=None, pressures=None):
         raise InputError("tool fk: give exactly one of `lengths` or `pressures`")
     if lengths is not None:
         ls = _three(lengths, "length", "lengths", allow_zero=False)
+        lo, hi = tool.muscle.length_stops
+        if np.any(ls < lo) or np.any(ls > hi):
+            raise InputError(f"lengths: {[float(f'{v * 1e3:.6g}') for v in ls]} mm leave the muscles' range "
+                             f"{lo * 1e3:.4g}–{hi * 1e3:.4g} mm (the braid's locking angle to its straight strands); "
+                             f"lengths are in metres")
         arc = arc_from_lengths(ls, tool.geometry.pitch_radius, tool.geometry.n_gaps)
         return pressures_for_tip(tip_position(arc), tool)  # the pressures holding them, as `inverse` finds them
     ps = _three(pressures, "pressure", "pressures")

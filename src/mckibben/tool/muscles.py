@@ -20,7 +20,7 @@ from mckibben.models.law_statics import LawMuscle
 from mckibben.models.muscle import Muscle
 from mckibben.tool.geometry import DEFAULT_MUSCLE, StackLoad, ToolGeometry
 from mckibben.datasets import get_muscle
-from mckibben.data.io import MuscleSpec, read_muscle
+from mckibben.data.muscle_file import MuscleSpec, read_muscle
 from mckibben.fit.muscle_file import check_direction, muscle_force_law
 from mckibben.plant import PlantParams
 

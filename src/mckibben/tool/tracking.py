@@ -16,6 +16,7 @@ import numpy as np
 
 from mckibben.control import registry as R
 from mckibben.errors import UnreachableError
+from mckibben.results import TimeResponse
 from mckibben.tool.geometry import Tool
 from mckibben.tool.paths import TipPath
 from mckibben.tool.statics import ToolState, explain_unreachable, pressures_for_tip, tip_from_pressures
@@ -163,7 +164,7 @@ def tip_errors(target, achieved) -> dict:
 
 
 @dataclass(frozen=True)
-class TrackingResult:
+class TrackingResult(TimeResponse):
     """One simulated tracking run: three muscles, target vs achieved tip.
 
     Attributes
@@ -198,6 +199,10 @@ class TrackingResult:
     model_gain: float
     model_tau: float
     faults: int
+
+    TIME = "time"
+    SIGNALS = ("target", "achieved", "reference", "pressure")
+    CHANNELS = True
 
     def summary(self) -> dict:
         """Errors and settings as a JSON-ready dict (SI, unit-suffixed keys)."""

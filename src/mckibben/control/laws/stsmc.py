@@ -11,8 +11,8 @@ v  ← clamp(v + k2·Ts·sign(e), ±255 counts)               (explicit Euler)
 out = u + u0·sign(u)                                      (inverse of the valves' dead zone)
 ```
 
-The square root comes from a 129-entry table over |e|/φ ∈ [0, 8) with linear interpolation,
-which makes the law linear for |e| < φ/16 (where the ADC's 1 kPa steps would otherwise make
+The square root comes from a 129-entry table over ``|e|/φ`` ∈ [0, 8) with linear interpolation,
+which makes the law linear for ``|e| < φ/16`` (where the ADC's 1 kPa steps would otherwise make
 the root's infinite slope chatter), saturated beyond 8φ. The integral v, clamped to the valves'
 range, learns what the model's inverse misses, so the law needs no sliding-surface integral and
 no model of τ. G = 0 switches the feed-forward off (and u0 with it).

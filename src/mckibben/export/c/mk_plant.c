@@ -1,8 +1,8 @@
 /*
  * mk_plant.c: the plant's physics in C99, a line-by-line port of mckibben.plant.physics (the
  * right-hand side, the RK4 step with the end stops and the Dahl friction), of
- * mckibben.plant.params.derive and of the static start (mckibben.plant.simulator.static_equilibrium);
- * the force laws' C faces are in the generated mk_laws.c (mckibben.export.fmu.laws_c, from each
+ * mckibben.plant.packing.derive and of the static start (mckibben.plant.simulator.static_equilibrium);
+ * the force laws' C faces are in the generated mk_laws.c (mckibben.plant.c_layout.laws_c, from each
  * law's models/laws/<law>.c). The Python/Numba plant is the source of truth; tests/test_export_fmu.py holds this port equal to it. Keep the order of the arithmetic
  * the same as the Python's when editing either side.
  */

@@ -1,7 +1,7 @@
 /*
  * mk_plant.h: the McKibben rig's plant in C99, one instance (valves -> chamber -> muscle -> load).
  *
- * A port of the Numba plant, mckibben.plant.physics and mckibben.plant.params.derive, which is the
+ * A port of the Numba plant, mckibben.plant.physics and mckibben.plant.packing.derive, which is the
  * source of truth: the same equations, the same classical RK4 with the same substep, the same
  * force law by index. The layout (parameter columns, law indices, theta rows) and this FMU's
  * values come from the generated mk_model.h, written from the Python objects at export.
@@ -28,7 +28,7 @@ typedef struct {
 
 /* The values of this FMU (mk_model.h) into p; then mk_derive. */
 void mk_defaults(mk_plant *p);
-/* The derived columns from the fields (mckibben.plant.params.derive). */
+/* The derived columns from the fields (mckibben.plant.packing.derive). */
 void mk_derive(mk_plant *p);
 /* 0 when the tunable parameters are runnable, else 1 with a one-line message in msg. */
 int mk_check(const mk_plant *p, char *msg, int size);

@@ -2,7 +2,8 @@
 
 One file per model family: :mod:`~mckibben.models.hysteresis.prandtl_ishlinskii` (the classical
 Prandtl–Ishlinskii operator of play operators, its closed-form inverse, the design matrix its fit
-uses). Fitting lives in :mod:`mckibben.fit.hysteresis`; compensation for length control in
+uses); :mod:`~mckibben.models.hysteresis.direction` (a force law's direction-aware form: the law fed
+through a play on the pressure, or plus a friction term proportional to pressure). Fitting lives in :mod:`mckibben.fit.hysteresis`; compensation for length control in
 :mod:`mckibben.control.length`. The other hysteresis models of the project stay where they act and
 are documented alternatives (docs/hysteresis.md): the plant's Dahl friction (the simulated
 muscle's loop), the spring law's two coefficient sets, and the per-branch cubics of

@@ -42,7 +42,15 @@ plant, the tool, muscle files, ``params``, the MuJoCo bridge, the FMU) and the c
    ``predict force --model <name>`` and :func:`mckibben.models.force` use it; None: the law needs a
    fit or a muscle file), ``static_flags`` (``static_flags(params, pressure, length, force) ->
    Flag mask``: where the law itself does not hold; every law is flagged for the pressure range,
-   slack and NaN without it).
+   slack and NaN without it), ``plant_theta`` (``plant_theta(columns, muscle) -> θ (NTH, N)``: the
+   law's θ from a plant's own fields, so ``PlantParams(force_model="<name>")`` runs it and sweeps
+   over those fields work; None: the plant needs the law's parameter object). A law's statics
+   (length under a load, pressure for a length: ``predict length|pressure --model``,
+   :func:`mckibben.models.length`) are its force solved by
+   :func:`mckibben.models.law_statics.rising_root`; nothing to add for them (a law with a closed-form
+   inverse may give it as ``length_of(theta, pressure, load) -> length``, used instead of the scan;
+   a law whose pull peaks and then falls as the muscle stretches gives ``peak_length(theta) ->
+   length``, where a muscle file's braid ends).
 
 The conformance suite checks a law on its fit to the bundled commercial table when it has a fit
 spec, else on ``published(get_muscle("mpam143"))``; a law with neither fails it (nothing could use
@@ -76,7 +84,7 @@ from mckibben.models.laws import chou_hannaford as _chou_hannaford_file
 from mckibben.models.laws import spring as _spring_file
 from mckibben.models.laws import tondu_lopez as _tondu_lopez_file
 from mckibben.models.laws import wall_corrected as _wall_corrected_file
-from mckibben.models.laws._base import MAP_MAX_LOADS, MPA, NTH, FitSpec, Law, evaluate_kernel
+from mckibben.models.laws._base import MAP_MAX_LOADS, MPA, NTH, FitSpec, Law, OwnFit, evaluate_kernel
 from mckibben.models.laws.braid_map import BM_COEF, BM_K1, BM_K2, BM_LOADS, BM_LS, BM_N, braid_map, braid_map_theta
 from mckibben.models.laws.chou_hannaford import CH_B, CH_C, CH_D0, CH_T, chou_hannaford, chou_hannaford_theta
 from mckibben.models.laws.spring import SP_H0, SP_H1, SP_H2, SP_HIGH, SP_LOW, SP_SPLIT, spring, spring_theta
@@ -84,8 +92,8 @@ from mckibben.models.laws.tondu_lopez import TL_A, TL_B, TL_IL0, TL_K, TL_PTH, T
 from mckibben.models.laws.wall_corrected import wall_corrected
 
 __all__ = [
-    "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "FitSpec", "Law",
-    "evaluate", "fit_laws", "get_law", "law_of", "law_table_markdown", "resolve",
+    "LAWS", "LAW_NAMES", "LAW_INDEX", "ALIASES", "NTH", "MAP_MAX_LOADS", "MPA", "FitSpec", "Law", "OwnFit",
+    "evaluate", "fit_laws", "get_law", "own_fit_laws", "law_of", "law_table_markdown", "resolve",
     "tondu_lopez", "chou_hannaford", "wall_corrected", "braid_map", "spring",
     "tondu_lopez_theta", "chou_hannaford_theta", "braid_map_theta", "spring_theta",
     "TL_R0", "TL_A", "TL_B", "TL_K", "TL_PTH", "TL_IL0", "CH_B", "CH_C", "CH_D0", "CH_T",
@@ -151,6 +159,11 @@ def get_law(name: str) -> Law:
         Law name. [-]
     """
     return LAWS[resolve(name)]
+
+
+def own_fit_laws() -> dict[str, Law]:
+    """The laws with a fit procedure of their own on non-isometric tables (:attr:`Law.own_fit`), in registry order."""
+    return {n: law for n, law in LAWS.items() if law.own_fit is not None}
 
 
 def fit_laws(family: bool | None = None) -> dict[str, Law]:

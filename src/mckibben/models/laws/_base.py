@@ -46,6 +46,11 @@ class FitSpec:
         law's NumPy face with the fitted values, the load cell's zero included.
     physical : callable, optional
         ``physical(values) -> list of flag names`` for non-physical results.
+    priors : dict, optional
+        ``{name: (median, factor)}``: a log-normal prior on a positive parameter the data may not
+        see, median [parameter unit] and the factor one standard deviation spans (ln σ = ln factor)
+        [-]; the fit adds it to the least squares (:func:`mckibben.fit.core.bounded_fit`) and says
+        when the prior, not the data, holds the value.
     """
 
     names: tuple
@@ -54,6 +59,29 @@ class FitSpec:
     starts: list
     force: Callable
     physical: Callable | None = None
+    priors: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class OwnFit:
+    """A law's own fit procedure on tables other than isometric (beside its :class:`FitSpec`).
+
+    The procedure itself lives in :data:`mckibben.fit.static.OWN_FITS` under the law's name (the fits
+    sit above the models); this record is what the command line and the fit registry ask the law.
+
+    Attributes
+    ----------
+    tables : tuple of str
+        The table kinds the procedure reads (``force_length``, ``isotonic``). [-]
+    note : str
+        One line for the ``fit --model`` listing: what the procedure fits, on which tables. [-]
+    split_pressure : bool
+        Whether the procedure splits the data at a pressure (``fit --split-pressure``). [-]
+    """
+
+    tables: tuple
+    note: str
+    split_pressure: bool = False
 
 
 @dataclass(frozen=True)
@@ -102,6 +130,26 @@ class Law:
         ``static_flags(params, pressure [Pa], length [m], force [N]) -> Flag mask``: where the law
         itself is not valid (beyond the pressure range, slack and NaN, which every law is flagged
         for by :func:`mckibben.models.force`). [-]
+    plant_theta : callable, optional
+        ``plant_theta(columns, muscle) -> θ (NTH, N)``: the law's θ from a plant's own parameter
+        columns (``columns``: field name -> array of the N instances, SI, e.g. ``r0``,
+        ``strand_length``; ``muscle()``: the plant's catalogue muscle, for a law read from a
+        published set), so ``PlantParams(force_model="<name>")`` and sweeps over those fields run the
+        law without a parameter object. None: the plant needs the law's parameter object. [SI]
+    length_of : callable, optional
+        ``length_of(theta (NTH,), pressure [Pa], load [N]) -> length [m]``: the law's own closed-form
+        inverse (its force solved for the length on its rising branch; NaN where it never pulls the
+        load), which :func:`mckibben.models.law_statics.rising_root` uses instead of scanning and
+        root finding. Optional: every law is solved without it. [m]
+    peak_length : callable, optional
+        ``peak_length(theta (NTH,)) -> length [m]``: where the law's pull peaks as the muscle is
+        stretched, the same at every pressure, beyond which it falls (the wall-corrected braid); a
+        muscle file's braid ends there (:class:`~mckibben.models.muscle.Muscle`), so its plant and
+        FMU never run the falling branch. None: the law does not fall before the straight braid. [m]
+    own_fit : OwnFit, optional
+        The law's own fit procedure on non-isometric tables (the spring model's on force-length
+        and isotonic tables); None: such tables are fitted through the law's force
+        (:func:`mckibben.fit.isometric.fit_isotonic_law`). [-]
     extra : dict
         Law-specific facts other code may read (``optional_names``). [-]
     """
@@ -123,6 +171,10 @@ class Law:
     c_rows: dict = field(default_factory=dict)
     published: Callable | None = None
     static_flags: Callable | None = None
+    plant_theta: Callable | None = None
+    length_of: Callable | None = None
+    peak_length: Callable | None = None
+    own_fit: OwnFit | None = None
 
     @property
     def stem(self) -> str:

@@ -120,6 +120,9 @@ LAW = Law(
     needs=("nominal_length", "strand_length"), published=lambda muscle: muscle, static_flags=map_flags,
     c_rows={"BM_LS": BM_LS, "BM_K1": BM_K1, "BM_K2": BM_K2, "BM_N": BM_N, "BM_LOADS": BM_LOADS, "BM_COEF": BM_COEF,
             "MAP_MAX_LOADS": MAP_MAX_LOADS},
+    # the plant's catalogue muscle's map, the same for every instance
+    plant_theta=lambda col, muscle: np.repeat(braid_map_theta(muscle())[:, None], np.size(col["nominal_length"]),
+                                              axis=1),
 )
 
 

@@ -104,7 +104,7 @@ class RelativeStrain:
     c1: float
     end_length: float
     rest_length: float
-    citation: str = "Hunt, Graber-Tilton & Quinn (2017), relative strain with an end-fitting length"
+    citation: str = "mckibben's family law after the length effect of Hunt et al. (2017) [hunt2017]"
 
     def __post_init__(self):
         if not (self.rest_length > 0 and 0 <= self.end_length < self.rest_length):
@@ -218,7 +218,7 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
 
 
 LAW = Law(
-    NAME, relative_strain, "Hunt, Graber-Tilton & Quinn (2017), ASME IDETC V05AT08A008: relative strain, length effects",
+    NAME, relative_strain, "mckibben's form, after the length effect of Hunt et al. (2017) [hunt2017] (not their equation)",
     description="family law: blocked force and its fall with relative strain, an end-fitting length across rest lengths",
     params=RelativeStrain, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
     from_values=from_values, needs=("nominal_length",), family=True, extra={"optional_names": OPTIONAL},

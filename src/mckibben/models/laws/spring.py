@@ -24,7 +24,7 @@ from mckibben._kernels import kernel, register
 
 from mckibben.errors import InputError, check_array
 from mckibben.models.flags import Flag, flag_where, outside
-from mckibben.models.laws._base import NTH, FitSpec, Law, evaluate_kernel
+from mckibben.models.laws._base import NTH, FitSpec, Law, OwnFit, evaluate_kernel
 
 # θ: h2, h1, h0 (Lu = h2·P² + h1·P + h0), split pressure, low c3, c2, c1, c0, high c3, c2, c1, c0
 SP_H2, SP_H1, SP_H0, SP_SPLIT, SP_LOW, SP_HIGH = 0, 1, 2, 3, 4, 8
@@ -285,7 +285,9 @@ def fit_spec(muscle, fmax: float, data) -> FitSpec:
     p, ell, f = (np.asarray(data[k], dtype=float) for k in ("pressure", "held_length", "force"))
     direction = np.asarray(data["direction"])
     l0 = muscle.nominal_length
-    pmax = float(np.max(p)) or 1.0
+    # no data (a saved law read back, mckibben.fit.isometric.force_law): names and force only, one
+    # pressure range to infinity and no start
+    pmax = (float(np.max(p)) or 1.0) if p.size else np.inf
     lo = np.array([-np.inf, -np.inf, 0.5 * l0] + [-np.inf] * 8)
     hi = np.array([np.inf, np.inf, 1.5 * l0] + [np.inf] * 8)
     dirs = np.where(direction == "deflate", CONTRACTION, ELONGATION)
@@ -314,7 +316,7 @@ def fit_spec(muscle, fmax: float, data) -> FitSpec:
         return h, np.array(c), r
 
     starts = []
-    for free in (0.15, 0.3):  # free contraction at the top pressure
+    for free in (0.15, 0.3) if p.size else ():  # free contraction at the top pressure
         u = optimize.least_squares(lambda u: linear_c(u)[2], [1.0, 0.0, -free], method="lm", max_nfev=400).x
         h, c, _ = linear_c(u)
         starts.append(np.concatenate([h, c]))
@@ -367,6 +369,9 @@ LAW = Law(
     description="F = K(P, Ls)*Ls of Wickramatunge & Leephakpreeda (2010) (Lu(P) quadratic, K per inflate/deflate)",
     params=SpringModel, theta_of=spring_theta, fit_spec=fit_spec, from_values=from_values,
     needs=("nominal_length",), branches=2,
+    own_fit=OwnFit(("force_length", "isotonic"),
+                   "Lu(P) and K(P, Ls) per direction and pressure range (force_length, isotonic or isometric)",
+                   split_pressure=True),
     c_rows={"SP_H2": SP_H2, "SP_H1": SP_H1, "SP_H0": SP_H0, "SP_SPLIT": SP_SPLIT, "SP_LOW": SP_LOW, "SP_HIGH": SP_HIGH},
 )
 

@@ -20,6 +20,7 @@ from mckibben.errors import check_array
 from mckibben.models.flags import Flag, flag_where
 from mckibben.models.laws._base import (NTH, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec, Law, evaluate_kernel,
                                         geometry_params, offset_flag)
+from mckibben.models.laws.chou_hannaford import BRAID_ANGLE_PRIOR, ZERO_FACTOR
 
 # θ: r0 [m], a = 3/tan²α0, b = 1/sin²α0, k [-], p_th [Pa], 1/l0 [1/m]
 TL_R0, TL_A, TL_B, TL_K, TL_PTH, TL_IL0 = range(6)
@@ -27,6 +28,14 @@ TL_R0, TL_A, TL_B, TL_K, TL_PTH, TL_IL0 = range(6)
 R0_FACTOR = (0.25, 1.0)
 #: Contraction correction bounds. [-]
 K_BOUNDS = (0.5, 5.0)
+#: Log-normal prior on r0: median as a factor of the outer diameter [-] (the braid's radius at rest
+#: is half its diameter, about the muscle's outer diameter) and the factor of one standard
+#: deviation [-] (the strands' thickness and the tube's play: well within 1.5×).
+R0_PRIOR = (0.5, 1.5)
+#: Largest fitted pressure threshold, as a fraction of the highest measured pressure: the tube
+#: takes pressure before the braid moves ([mpam-characterization] Fig. 10: tens of kPa on the
+#: miniature muscle), a threshold past half the range would leave the law no data to pull on. [-]
+PTH_FRACTION = 0.5
 
 
 @kernel(error_model="numpy", inline="always")
@@ -206,10 +215,20 @@ class TonduLopez:
 
 
 def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
-    """Fit spec on isometric data: α0 (unless the muscle file gives the braid angle), r0, k and the load cell's zero.
+    """Fit spec on isometric data: α0 (unless the muscle file gives the braid angle), r0, k, the pressure
+    threshold P_th and the zero.
 
     Bounds: α0 in [1°, 54.7°) (beyond, the ideal braid pushes); r0 within [0.25, 1] × the outer
-    diameter (an effective braid radius at rest); k in [0.5, 5]; the zero within ± the peak force.
+    diameter (an effective braid radius at rest); k in [0.5, 5]; the pressure threshold P_th within
+    [0, :data:`PTH_FRACTION` × the highest measured pressure] (the pressure the tube takes before the
+    braid moves, [mpam-characterization] Fig. 10: a force that starts late is a threshold, not a
+    load-cell zero); the zero within ± :data:`~mckibben.models.laws.chou_hannaford.ZERO_FACTOR` × the
+    peak force (a load cell's plausible zero error). A law saved before the threshold was fitted
+    reads without it (``optional_names``) and has none.
+
+    Priors (log-normal) from the muscle file's geometry: α0 about
+    :data:`~mckibben.models.laws.chou_hannaford.BRAID_ANGLE_PRIOR` (unless known), r0 about
+    :data:`R0_PRIOR` × the outer diameter.
 
     Parameters
     ----------
@@ -218,28 +237,43 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     fmax : float
         Largest |force| of the data. [N]
     data : mapping, optional
-        Unused. [-]
+        ``pressure`` [Pa] sets the threshold's bound (0.6 MPa taken without it or without points). [-]
+
+    References
+    ----------
+    Tondu & Lopez (2000), eq. (4); the threshold: [mpam-characterization] Fig. 10.
     """
     od, l0, alpha_known = geometry_params(muscle, "tondu-lopez")
+    pressure = np.asarray(data["pressure"], dtype=float) if data is not None and "pressure" in data else np.zeros(0)
+    n = pressure.size
+    pmax = float(np.max(pressure)) if n else 0.6e6
     names, lo, hi = [], [], []
+    priors = {}
     if alpha_known is None:
         names.append("alpha0_rad"), lo.append(THETA_MIN), hi.append(THETA_MAX - 1e-6)
-    names += ["r0_m", "k", "offset_N"]
-    lo += [R0_FACTOR[0] * od, K_BOUNDS[0], -fmax]
-    hi += [R0_FACTOR[1] * od, K_BOUNDS[1], fmax]
+        priors["alpha0_rad"] = BRAID_ANGLE_PRIOR
+    names += ["r0_m", "k", "p_threshold_Pa", "offset_N"]
+    lo += [R0_FACTOR[0] * od, K_BOUNDS[0], 0.0, -ZERO_FACTOR * fmax]
+    hi += [R0_FACTOR[1] * od, K_BOUNDS[1], PTH_FRACTION * max(pmax, 1.0), ZERO_FACTOR * fmax]
+    priors["r0_m"] = (R0_PRIOR[0] * od, R0_PRIOR[1])
+    a_known = alpha_known is not None
 
     def force(v, pressure, length, direction=None, rest_length=None):
-        a0 = alpha_known if alpha_known is not None else v[0]
-        r0, k, off = v[-3], v[-2], v[-1]
+        # a law saved before the threshold was fitted has none (optional_names): its length says
+        a0 = alpha_known if a_known else v[0]
+        with_th = len(v) == (4 if a_known else 5)
+        r0, k, off = v[-4 if with_th else -3], v[-3 if with_th else -2], v[-1]
+        dp = np.maximum(np.asarray(pressure, dtype=float) - v[-2], 0.0) if with_th else pressure
         eps = 1.0 - np.asarray(length, dtype=float) / l0
-        return tondu_lopez_force(pressure, eps, r0, a0, k) + off
+        return tondu_lopez_force(dp, eps, r0, a0, k) + off
 
     starts = []
     for tdeg in (THETA_STARTS_DEG if alpha_known is None else (None,)):
-        for kk in (1.0,):
-            x = [] if alpha_known is not None else [np.deg2rad(tdeg)]
-            starts.append(np.array(x + [0.45 * od, kk, 0.0]))
-    return FitSpec(tuple(names), np.array(lo), np.array(hi), starts, force, lambda v: offset_flag(v[-1], fmax))
+        for th in ((0.05 * pmax, 0.4 * pmax) if n else (0.0,)):  # two threshold starts: the fit is not convex in it
+            x = [] if a_known else [np.deg2rad(tdeg)]
+            starts.append(np.array(x + [R0_PRIOR[0] * od, 1.0, th, 0.0]))
+    return FitSpec(tuple(names), np.array(lo), np.array(hi), starts, force, lambda v: offset_flag(v[-1], fmax),
+                   priors=priors)
 
 
 def from_values(values: dict, muscle, direction: str = "inflate", valid_range: dict | None = None) -> TonduLopez:
@@ -248,7 +282,8 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
     Parameters
     ----------
     values : dict
-        ``alpha0_rad`` (unless the muscle gives ``braid_angle``), ``r0_m``, ``k``. [SI]
+        ``alpha0_rad`` (unless the muscle gives ``braid_angle``), ``r0_m``, ``k``, ``p_threshold_Pa``
+        (0 when absent: a law saved before the threshold was fitted). [SI]
     muscle : MuscleSpec
         The muscle the law was fitted for. [-]
     direction : str
@@ -257,7 +292,8 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
         Unused. [-]
     """
     return TonduLopez(float(values["r0_m"]), float(values.get("alpha0_rad", muscle.braid_angle)), float(values["k"]),
-                      0.0, muscle.nominal_length, citation=f"fitted: {muscle.path or muscle.id}")
+                      float(values.get("p_threshold_Pa", 0.0)), muscle.nominal_length,
+                      citation=f"fitted: {muscle.path or muscle.id}")
 
 
 def published(muscle) -> TonduLopez:
@@ -277,10 +313,14 @@ def published(muscle) -> TonduLopez:
 
 LAW = Law(
     "tondu-lopez", tondu_lopez, "Tondu & Lopez (2000) eq. (4), with a pressure threshold",
-    description="Tondu-Lopez with its contraction correction k, fitted alpha0 and r0",
+    description="Tondu-Lopez with its contraction correction k, fitted alpha0, r0 and pressure threshold",
     params=TonduLopez, theta_of=lambda m, direction="elongation": m.theta(), fit_spec=fit_spec,
     from_values=from_values, needs=("nominal_length", "outer_diameter"), published=published,
+    extra={"optional_names": ("p_threshold_Pa",)},
     c_rows={"TL_R0": TL_R0, "TL_A": TL_A, "TL_B": TL_B, "TL_K": TL_K, "TL_PTH": TL_PTH, "TL_IL0": TL_IL0},
+    # the plant's calibrated columns: radius and braid angle at rest, k, threshold pressure
+    plant_theta=lambda col, muscle: tondu_lopez_theta(col["r0"], col["alpha0"], col["k_tl"], col["p_threshold"],
+                                                      col["nominal_length"]),
 )
 
 

@@ -10,6 +10,12 @@ force that stiffens near the rest length and then grows linearly,
     F = s·max((a0 + a1·ε + a2·x)·x − g0·(1 − exp(−ε/e0)) − g1·ε, 0),
     s = 1 − (2λ/L0)·(1 − exp(−L0/(2λ))).
 
+The elastic force g(ε) = g0·(1 − exp(−ε/e0)) + g1·ε rises from 0 at the rest length over a
+contraction scale e0 to a plateau g0, then changes linearly (g1 of either sign: contracting stores
+energy, g ≥ 0, which the fit checks over the measured contractions; a rubber tube's resistance to
+inflation may level off or fall past its plateau). e0 carries a physical prior (:data:`E0_PRIOR`):
+the held lengths of one muscle rarely resolve where the elastic force rises.
+
 The elastic term is what sets the pressure threshold: a muscle held shorter than its rest length is
 slack until the pressure force overcomes it (it pulls only above a threshold that rises with
 contraction), while at the rest length (ε = 0) it pulls from the lowest pressure. For ε < 0 (a
@@ -62,6 +68,17 @@ NAME = "virtual-work"
 END_FRACTION = 0.5
 #: Bounds of the elastic term's strain scale e0. [-]
 E0_BOUNDS = (1e-3, 0.5)
+#: Log-normal prior on e0: median and the factor of one standard deviation. The elastic force is the
+#: rubber's: a contraction ε widens the braid by a hoop strain cot²θ0·ε (Chou & Hannaford 1996,
+#: D = D0·sinθ/sinθ0 at L = L0·cosθ/cosθ0), about 5–8·ε at the rest braid angles of 20–25° of
+#: commercial sleeves, and a thin rubber tube's resistance to a hoop strain rises steeply and levels
+#: off at hoop strains of order 0.1–0.2 (Klute & Hannaford 2000 store the rubber's energy in this
+#: strain), so the contraction scale of its saturating part is e0 ≈ 0.15/cot²θ0 ≈ 0.02, known to a
+#: factor of about 3. A physical order of magnitude, not a number fitted to any campaign: where the
+#: held lengths resolve the rise (a contraction within a few e0) the data decide; where they do not
+#: (one muscle held at contractions ≫ e0, whose elastic force is a step at the rest length for every
+#: e0 below them) the prior holds e0 and the fit notes ``e0_from_prior``. [-]
+E0_PRIOR = (0.02, 3.0)
 #: Starting strain scales of the multi-start (the law is linear in the other parameters). [-]
 E0_STARTS = (0.01, 0.03, 0.1)
 OPTIONAL = ("end_zone_m",)
@@ -198,9 +215,11 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     """Fit spec: a0, a1, a2, g0, e0, g1, the end zone λ (two rest lengths or more) and the load cell's zero.
 
     Bounds: a0 ≥ 0 (the muscle pulls when pressurised at its rest length), a1 ≤ 0 (the effective
-    area shrinks as the braid contracts), g0, g1 ≥ 0 (contracting stores elastic energy),
-    e0 in :data:`E0_BOUNDS`, 0 ≤ λ ≤ 0.5 × the shortest rest length, the zero within ± the peak
-    force. The starts come from a linear least-squares fit of the pulling rows (the law is linear in
+    area shrinks as the braid contracts), g0 ≥ 0, g1 free (contracting stores elastic energy: the
+    elastic force g(ε) ≥ 0, checked at the measured contractions by the physics check, flag
+    ``negative_elastic_force``; a bound g1 ≥ 0 would ask more, an elastic force that never levels
+    off), e0 in :data:`E0_BOUNDS` with the log-normal prior :data:`E0_PRIOR`, 0 ≤ λ ≤ 0.5 × the
+    shortest rest length, the zero within ± the peak force. The starts come from a linear least-squares fit of the pulling rows (the law is linear in
     a0, a1, a2, g0, g1 for given e0 and λ), one per e0 of :data:`E0_STARTS` (and, across rest
     lengths, λ at 0 and at 10 % of the shortest rest length).
 
@@ -220,7 +239,7 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
     names = tuple(nm for nm in FULL_NAMES if family or nm not in OPTIONAL)
     le_max = END_FRACTION * float(rest.min())
     bounds = {"a0_N_per_MPa": (0.0, np.inf), "a1_N_per_MPa": (-np.inf, 0.0), "a2_N_per_MPa2": (-np.inf, np.inf),
-              "g0_N": (0.0, np.inf), "e0": E0_BOUNDS, "g1_N": (0.0, np.inf), "end_zone_m": (0.0, le_max),
+              "g0_N": (0.0, np.inf), "e0": E0_BOUNDS, "g1_N": (-np.inf, np.inf), "end_zone_m": (0.0, le_max),
               "offset_N": (-fmax, fmax)}
     lo = np.array([bounds[nm][0] for nm in names], dtype=float)
     hi = np.array([bounds[nm][1] for nm in names], dtype=float)
@@ -265,9 +284,12 @@ def fit_spec(muscle, fmax: float, data=None) -> FitSpec:
                     for e in (0.0, max(emax, 0.0)) for xx in (0.0, xmax)]
             if min(area) <= 0:
                 out.append("negative_area")
+            held = np.unique(np.maximum(eps, 0.0))
+            if np.any(d["g0_N"] * -np.expm1(-held / d["e0"]) + d["g1_N"] * held < 0):
+                out.append("negative_elastic_force")
         return out
 
-    return FitSpec(names, lo, hi, starts, force, physical)
+    return FitSpec(names, lo, hi, starts, force, physical, priors={"e0": E0_PRIOR})
 
 
 def from_values(values: dict, muscle, direction: str = "inflate", valid_range: dict | None = None) -> VirtualWork:

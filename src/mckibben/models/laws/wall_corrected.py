@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from mckibben._kernels import kernel, register
 
 from mckibben.models.geometry import BraidGeometry, check_geometry, miniature_geometry
@@ -78,6 +79,49 @@ def wall_corrected_force(pressure, length, geom: BraidGeometry):
     return evaluate_kernel(wall_corrected, "wall-corrected", pressure, length, th)
 
 
+#: Bisection steps for :func:`peak_length`: [0, 1] halved to round-off. [-]
+PEAK_STEPS = 64
+
+
+def peak_length(theta) -> float:
+    """The length where the wall-corrected pull peaks as the muscle is stretched, at every pressure. [m]
+
+    At a pressure P the force is P·g(cos θ), g = (π·D0²/4)(3cos²θ − 1) + π·[D0·t·(2 sin θ − 1/sin θ)
+    − t²], cos θ = l/b, and dg/d cos θ = π·D0·cos θ·[1.5·D0 − t·(2 + 1/sin²θ)/sin θ]: the pull rises
+    with length while 1.5·D0·sin³θ > t·(2 sin²θ + 1) and falls beyond, to −∞ at the straight braid
+    (the −1/sin θ term), where a stretched muscle would pull less: a negative stiffness no load rests
+    on, and the thin-wall derivation's end. The cubic 1.5·D0·s³ − 2t·s² − t has one positive root
+    s* (one sign change), found by bisection on [0, 1]; the peak is at l* = b·√(1 − s*²) (0 when
+    the pull falls everywhere, a wall of half D0 or more; b without a wall).
+
+    Parameters
+    ----------
+    theta : array_like
+        The law's θ, shape ``(NTH,)`` (:func:`~mckibben.models.laws.chou_hannaford.chou_hannaford_theta`). [SI]
+
+    Returns
+    -------
+    float
+        l*. [m]
+
+    References
+    ----------
+    Tsagarakis & Caldwell (2000); Davis et al. (2003) (the force; its derivative here is ours).
+    """
+    th = np.asarray(theta, dtype=float)
+    b, d0, t = float(th[CH_B]), float(th[CH_D0]), float(th[CH_T])
+    if not t > 0:
+        return b
+    lo, hi = 0.0, 1.0
+    for _ in range(PEAK_STEPS):
+        mid = 0.5 * (lo + hi)
+        if 1.5 * d0 * mid**3 > t * (2.0 * mid**2 + 1.0):
+            hi = mid
+        else:
+            lo = mid
+    return b * math.sqrt(1.0 - hi * hi)
+
+
 LAW = Law(
     "wall-corrected", wall_corrected, "Tsagarakis & Caldwell (2000); Davis et al. (2003)",
     description="Chou-Hannaford with the tube wall (fitted unless the tube sizes are in the muscle file)",
@@ -86,8 +130,9 @@ LAW = Law(
     from_values=lambda values, muscle, direction="inflate", valid_range=None: braid_from_values(values, muscle, True),
     needs=("nominal_length", "outer_diameter"),
     published=lambda muscle: miniature_geometry(muscle.nominal_length, muscle.geometry, wall=True),
-    static_flags=braid_range_flags,
+    static_flags=braid_range_flags, peak_length=peak_length,
     c_rows={"CH_B": CH_B, "CH_C": CH_C, "CH_D0": CH_D0, "CH_T": CH_T},
+    plant_theta=lambda col, muscle: chou_hannaford_theta(col["strand_length"], col["ch_turns"], col["wall_thickness"]),
 )
 
 

@@ -1,0 +1,758 @@
+"""Direction-aware laws fitted to isometric data, and the up/down gap they predict held out.
+
+:func:`fit_direction_aware` fits a registered law's direction-aware form
+(:mod:`mckibben.models.hysteresis.direction`: the law fed through a play operator on the pressure,
+or the law plus a friction term proportional to pressure) jointly: the law's parameters (its own
+fit spec, read, never copied) and the operator's (the play's threshold r, and the friction
+area A_f), one operator shared by every held length and muscle of the table.
+
+**The pressure history.** An isometric table holds binned points, not a time series: each run
+(one held length of one trial, of one muscle) is rebuilt in the order the protocol applied it,
+its ``inflate`` rows by rising pressure, then its ``deflate`` rows by falling pressure, from the
+state of a muscle just deflated to its first pressure (the play's output P₀ + r). Only this
+order counts: the operator is rate independent.
+
+**Metrics that cannot cancel.** The up/down gap of a run, g(P) = F_deflate(P) − F_inflate(P), at
+every grid pressure both of its branches cover (:func:`loop_gap`, linear interpolation along each
+branch), measured and predicted; the *gap error* is predicted − measured, and it is scored by its
+RMS and its maximum |·| (:func:`gap_scores`), never by a signed mean (which a loop that crosses
+itself cancels). A static law predicts no gap: its gap error is −g.
+
+:func:`heldout_gap` fits the plain law (:func:`mckibben.fit.isometric.fit_points`) and its
+direction-aware form on every trial but one and scores the gap of the held-out trial, each trial
+held out in turn.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from mckibben.data.muscle_file import MuscleSpec
+from mckibben.data.tables import Table
+from mckibben.errors import InputError, check_instance, unknown_name
+from mckibben.fit.core import FitResult, bounded_fit, data_range
+from mckibben.fit.isometric import BOUNDS_NOTE, SURFACE, _runs, fit_points, is_family, isometric_points, model_name
+from mckibben.models import laws
+from mckibben.models.law_statics import rising_root
+from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, DIRECTIONS, STRUCTURES, branch_state, direction_aware_force, play_pressure
+from mckibben.results import Result, to_jsonable
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["DEFAULT_STRUCTURE", "GAP_STEP_PA", "THRESHOLD_MAX_FRACTION", "FRICTION_MAX", "DirectionAwareFit",
+           "HeldoutGap", "compare_direction_aware", "fit_direction_aware", "gap_scores", "heldout_gap", "loop_gap",
+           "run_order"]
+
+#: The play's threshold is bounded by this fraction of the largest pressure of the data. [-]
+THRESHOLD_MAX_FRACTION = 0.25
+#: The smallest play threshold, as a fraction of the largest pressure (a play of 0 is no play). [-]
+THRESHOLD_MIN_FRACTION = 1e-3
+#: The friction area's upper bound, as a share of the data's peak force over peak pressure
+#: (A_f·P at most this share of the largest force at the largest pressure). [-]
+FRICTION_MAX = 0.5
+#: The default grid step of the gap (:func:`loop_gap`). [Pa]
+GAP_STEP_PA = 10e3
+
+
+def run_order(d: pd.DataFrame) -> tuple[np.ndarray, list[slice]]:
+    """The protocol's order of an isometric table's points: per run, inflate rising, then deflate falling.
+
+    Parameters
+    ----------
+    d : pandas.DataFrame
+        ``held_length`` [m], ``pressure`` [Pa], ``direction``, ``trial`` (and ``muscle`` of a family).
+
+    Returns
+    -------
+    order : numpy.ndarray
+        Positional indices of ``d`` in that order. [-]
+    runs : list of slice
+        Each run's span in the ordered points. [-]
+    """
+    label = _runs(d)
+    p = d["pressure"].to_numpy(dtype=float)
+    up = (d["direction"].to_numpy() == "inflate")
+    # one key per row: run, then inflate before deflate, then pressure rising (inflate) / falling (deflate)
+    order = np.lexsort((np.where(up, p, -p), ~up, label))
+    bounds = np.flatnonzero(np.diff(label[order])) + 1
+    edges = np.concatenate([[0], bounds, [label.size]])
+    return order, [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def _play_runs(p: np.ndarray, runs: list[slice], r: float) -> np.ndarray:
+    z = np.empty_like(p)
+    for s in runs:
+        z[s] = play_pressure(p[s], r)[0]
+    return z
+
+
+def loop_gap(pressure, force, direction, grid=None, step: float = GAP_STEP_PA) -> tuple[np.ndarray, np.ndarray]:
+    """A run's up/down gap, deflate − inflate force, where both branches have data.
+
+    Parameters
+    ----------
+    pressure : array_like
+        Gauge pressure of the run's points. [Pa]
+    force : array_like
+        Force at each point (measured or predicted). [N]
+    direction : array_like of str
+        ``"inflate"`` or ``"deflate"`` per point. [-]
+    grid : array_like, optional
+        Pressures to compare at; those outside the range both branches cover are dropped.
+        Default: every ``step`` inside that range. [Pa]
+    step : float, default :data:`GAP_STEP_PA`
+        The default grid's step. [Pa]
+
+    Returns
+    -------
+    pressure : numpy.ndarray
+        The grid pressures used. [Pa]
+    gap : numpy.ndarray
+        F_deflate − F_inflate there (each branch interpolated linearly in pressure); empty when a
+        branch is missing or the branches do not overlap. [N]
+    """
+    p = np.asarray(pressure, dtype=float)
+    f = np.asarray(force, dtype=float)
+    dn = np.asarray(direction)
+    branches = []
+    for name in ("inflate", "deflate"):
+        sel = (dn == name) & np.isfinite(f)
+        if sel.sum() < 2:
+            return np.zeros(0), np.zeros(0)
+        o = np.argsort(p[sel])
+        branches.append((p[sel][o], f[sel][o]))
+    lo = max(branches[0][0][0], branches[1][0][0])
+    hi = min(branches[0][0][-1], branches[1][0][-1])
+    if grid is None:
+        if not np.isfinite(step) or step <= 0:
+            raise InputError(f"step: {step!r} must be a pressure > 0 [Pa]")
+        g = np.arange(np.ceil(lo / step) * step, hi + 1e-9, step) if hi > lo else np.zeros(0)
+    else:
+        g = np.asarray(grid, dtype=float)
+        g = g[(g >= lo) & (g <= hi)]
+    return g, np.interp(g, *branches[1]) - np.interp(g, *branches[0])
+
+
+def gap_scores(measured, predicted) -> dict:
+    """RMS and maximum |·| of the measured gap and of the gap error (predicted − measured).
+
+    Parameters
+    ----------
+    measured : array_like
+        Measured gap at each compared pressure (pooled over runs). [N]
+    predicted : array_like
+        Predicted gap at the same pressures (0 for a static law). [N]
+
+    Returns
+    -------
+    dict
+        ``measured_gap_rms_N``, ``measured_gap_max_N``, ``gap_error_rms_N``, ``gap_error_max_N``,
+        ``gap_error_ratio`` (error RMS / measured RMS), ``n_pressures``. Squares and absolute
+        values only: an error of either sign counts.
+    """
+    m = np.asarray(measured, dtype=float).ravel()
+    e = np.asarray(predicted, dtype=float).ravel() - m
+    if m.size == 0:
+        nan = float("nan")
+        return {"measured_gap_rms_N": nan, "measured_gap_max_N": nan, "gap_error_rms_N": nan, "gap_error_max_N": nan,
+                "gap_error_ratio": nan, "n_pressures": 0}
+    mr, er = float(np.sqrt(np.mean(m**2))), float(np.sqrt(np.mean(e**2)))
+    return {"measured_gap_rms_N": mr, "measured_gap_max_N": float(np.max(np.abs(m))), "gap_error_rms_N": er,
+            "gap_error_max_N": float(np.max(np.abs(e))), "gap_error_ratio": er / mr if mr > 0 else float("nan"),
+            "n_pressures": int(m.size)}
+
+
+@dataclass(repr=False)
+class DirectionAwareFit(Result):
+    """A law's direction-aware form fitted to an isometric table (:func:`fit_direction_aware`).
+
+    Attributes
+    ----------
+    model : str
+        The law's registry name. [-]
+    structure : str
+        ``"play"`` or ``"friction"`` (:data:`~mckibben.models.hysteresis.direction.STRUCTURES`). [-]
+    result : FitResult
+        The law's parameters followed by the operator's (``play_threshold_Pa``, and
+        ``friction_area_m2``), standard errors, flags; ``result.predict(pressure=, length=,
+        direction=)`` evaluates a branch far from a reversal (:meth:`predict_branch`).
+    muscle : MuscleSpec
+        The muscle file the fit used.
+    tare : dict
+        The sensor report (:func:`mckibben.fit.isometric.isometric_points`).
+    data : pandas.DataFrame
+        The points in the protocol's order (:func:`run_order`), with ``fitted`` (False: a row at a
+        rail, in the history but not in the residuals) and ``force_model`` [N].
+    runs : list of slice
+        Each run's span in :attr:`data`.
+    law_force : callable
+        The law's NumPy face with the load cell's zero (its fit spec's ``force``).
+    """
+
+    model: str
+    structure: str
+    result: FitResult
+    muscle: MuscleSpec
+    tare: dict
+    data: pd.DataFrame = field(repr=False)
+    runs: list = field(repr=False)
+    law_force: Callable = field(repr=False)
+
+    call = "mckibben.fit.direction.fit_direction_aware"
+    _repr_keys = ("rmse_N", "play_threshold_Pa", "friction_area_m2", "flags")
+
+    @property
+    def arguments(self) -> dict:
+        """What was fitted: law, structure, data file, muscle and tare."""
+        return {"model": self.model, "structure": self.structure, "source": self.result.source,
+                "muscle": self.muscle.id, "tare": self.tare.get("method", "none")}
+
+    def _force(self, values, pressure, length, z, direction, rest_length=None):
+        return direction_aware_force(self.law_force, self.structure, values, pressure, length, z, direction=direction,
+                                     rest_length=rest_length)
+
+    @property
+    def operator(self) -> dict:
+        """The operator's fitted values: ``play_threshold_Pa`` [Pa] (and ``friction_area_m2`` [m²])."""
+        return {n: self.result[n] for n in STRUCTURES[self.structure][0]}
+
+    @property
+    def metrics(self) -> dict:
+        """``rmse_N``, ``r2``, ``n_points``, the operator's values and ``flags``."""
+        return {"rmse_N": self.result.residual_rms, "r2": self.result.r2, "n_points": self.result.n_points,
+                **self.operator, "flags": list(self.result.flags)}
+
+    def predict(self, pressure, length, state: float | None = None, rest_length=None) -> tuple[np.ndarray, float]:
+        """Force along one pressure sequence at one length, and the play's final state.
+
+        Parameters
+        ----------
+        pressure : array_like
+            Gauge pressure in the order applied, shape (k,). [Pa]
+        length : float or array_like
+            Held length (broadcast). [m]
+        state : float, optional
+            The play's output before the first sample (the last call's state, to continue); default
+            a muscle just deflated to ``pressure[0]``. [Pa]
+        rest_length : float, optional
+            A family law's rest length of the muscle. [m]
+
+        Returns
+        -------
+        force : numpy.ndarray
+            [N]
+        state : float
+            The play's output after the last sample. [Pa]
+        """
+        p = np.asarray(pressure, dtype=float).ravel()
+        if p.size == 0 or not np.all(np.isfinite(p)):
+            raise InputError("pressure: must be a non-empty finite sequence [Pa]")
+        z, zf = play_pressure(p, self.result["play_threshold_Pa"], state)
+        ell = np.broadcast_to(np.asarray(length, dtype=float), p.shape)
+        rest = None if rest_length is None else np.broadcast_to(np.asarray(rest_length, dtype=float), p.shape)
+        # the direction the pressure last moved, for a law with a branch per direction (a repeated value
+        # keeps it); the first sample deflates only when it drags the play down from the given state
+        r = self.result["play_threshold_Pa"]
+        before = np.inf if state is not None and p[0] < state - r else p[0]
+        step = np.sign(np.diff(np.concatenate([[before], p])))
+        idx = np.maximum.accumulate(np.where(step != 0, np.arange(p.size), 0))
+        dirn = np.where(step[idx] < 0, "deflate", "inflate")
+        return self._force(self.result.values, p, ell, z, dirn, rest), zf
+
+    def predict_branch(self, pressure, length, direction="inflate", rest_length=None):
+        """Force on a branch far from a reversal (the play at P ∓ r), with out-of-range flags.
+
+        Parameters
+        ----------
+        pressure : array_like
+            Gauge pressure. [Pa]
+        length : array_like
+            Held length. [m]
+        direction : str or array_like, default "inflate"
+            ``"inflate"`` or ``"deflate"``. [-]
+        rest_length : array_like, optional
+            A family law's rest length. [m]
+
+        Returns
+        -------
+        force : numpy.ndarray
+            [N]
+        flags : numpy.ndarray
+            :class:`~mckibben.models.flags.Flag` masks.
+        """
+        extra = {} if rest_length is None else {"rest_length": rest_length}
+        return self.result.predict(pressure=pressure, length=length, direction=direction, **extra)
+
+    def pressure(self, force, length, direction="inflate", rest_length=None) -> np.ndarray:
+        """The pressure that pulls a force on a branch: the direction-aware form's inverse, for compensation.
+
+        Inflating, a muscle needs more pressure for the same force than deflating (by 2r on a
+        ``"play"`` form): a feed-forward picks the branch by the direction the pressure moves.
+        Solved by :func:`mckibben.models.law_statics.rising_root` in pressure over the fitted range.
+
+        Parameters
+        ----------
+        force : array_like
+            The force wanted. [N]
+        length : array_like
+            Held length (broadcast). [m]
+        direction : {"inflate", "deflate"}, default "inflate"
+            The branch. [-]
+        rest_length : float, optional
+            A family law's rest length. [m]
+
+        Returns
+        -------
+        numpy.ndarray
+            Gauge pressure; NaN where the fitted range does not reach the force. [Pa]
+        """
+        if direction not in DIRECTIONS:
+            raise InputError(f"direction: {direction!r} is not one of {', '.join(DIRECTIONS)}")
+        lo, hi = self.result.valid_range["pressure"]
+        extra = {} if rest_length is None else {"rest_length": rest_length}
+
+        def pull(ell, p):  # rising_root scans its second argument: here the pressure
+            return self.result.func(self.result.values, pressure=p, length=ell, direction=direction, **extra)
+
+        ell, f = np.broadcast_arrays(np.asarray(length, dtype=float), np.asarray(force, dtype=float))
+        p, state = rising_root(pull, ell, f, lo, hi)
+        return np.where(state == 0, p, np.nan)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the fit's parameters, errors, flags, structure and tare."""
+        return to_jsonable({**self.result.to_dict(), "direction_aware": {"structure": self.structure, **self.operator},
+                            "tare": self.tare, "bounds": BOUNDS_NOTE})
+
+    def _series(self) -> pd.DataFrame:
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+        d = self.data.reset_index(drop=True)
+        return pd.DataFrame({"held_length_m": d["held_length"], "pressure_Pa": d["pressure"], "force_N": d["force"],
+                             "direction": d["direction"], "trial": d["trial"], "fitted": d["fitted"],
+                             "force_model_N": d["force_model"]})
+
+    def plot(self, ax=None):
+        """Measured and modelled loops: force against pressure per held length, along each run's history.
+
+        One colour per held length; markers are the measured points (o inflate, v deflate), lines
+        the direction-aware model along the same pressure sequence (the modelled loop).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6.5, 4.2))
+        d = self.data.reset_index(drop=True)
+        lengths = np.unique(np.round(d["held_length"].to_numpy(dtype=float), 6))
+        colors = plt.get_cmap("viridis")(np.linspace(0, 0.85, max(lengths.size, 1)))
+        labelled = set()
+        first_trial = d["trial"].iloc[0] if len(d) else None
+        for s in self.runs:
+            run = d.iloc[s]
+            if run["trial"].iloc[0] != first_trial:
+                continue  # one trial's loops: several trials on one axes hide each other
+            k = int(np.argmin(np.abs(lengths - float(run["held_length"].iloc[0]))))
+            col = colors[k]
+            for dn, mk in (("inflate", "o"), ("deflate", "v")):
+                sel = (run["direction"] == dn).to_numpy() & run["fitted"].to_numpy()
+                ax.plot(run["pressure"][sel] / 1e3, run["force"][sel], mk, ms=3, color=col, alpha=0.6)
+            lab = f"{lengths[k] * 1e3:g} mm" if k not in labelled else None
+            labelled.add(k)
+            ax.plot(run["pressure"] / 1e3, run["force_model"], "-", lw=1, color=col, label=lab)
+        op = f"r = {self.operator['play_threshold_Pa'] / 1e3:.3g} kPa" + (
+            f", A_f = {self.operator['friction_area_m2'] * 1e6:.3g} mm²" if "friction_area_m2" in self.operator else "")
+        ax.set_xlabel("pressure [kPa]")
+        ax.set_ylabel("force [N]")
+        ax.set_title(f"{self.model} ({self.structure}: {op}), trial {first_trial}\n"
+                     "markers measured (o inflate, v deflate), lines modelled", fontsize="small")
+        if labelled:
+            ax.legend(title="held length", fontsize="small")
+        ax.figure.tight_layout()
+        return ax.figure
+
+
+def _law_spec(model: str, muscle: MuscleSpec, fmax: float, d: pd.DataFrame):
+    """The law's own fit spec on these points (read, never copied)."""
+    data = {"pressure": d["pressure"].to_numpy(dtype=float), "held_length": d["held_length"].to_numpy(dtype=float),
+            "force": d["force"].to_numpy(dtype=float), "direction": d["direction"].to_numpy(),
+            "rest_length": _rest(d, muscle)}
+    return laws.LAWS[model].fit_spec(muscle, fmax, data)
+
+
+def _rest(d, muscle: MuscleSpec) -> np.ndarray:
+    return d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else np.full(len(d), muscle.nominal_length)
+
+
+def _law_name(model: str) -> str:
+    name = model_name(model)
+    if name == SURFACE or name not in laws.LAWS:
+        raise InputError(f"model: {model!r} is not a registered force law; the direction-aware form takes one of "
+                         f"{', '.join(laws.fit_laws())}")
+    return name
+
+
+def _no_fitted_tare(tare: str) -> None:
+    """A direction-aware fit has one load-cell zero: ``tare="fitted"`` (a zero per run) is refused by name."""
+    if tare == "fitted":
+        raise InputError("tare: 'fitted' (a zero per run) applies to the plain laws' fit and compare; a direction-aware"
+                         " fit takes none, lowest or column")
+
+
+def _points(table: Table, tare: str, rails: str, pressure_zero: str, trials=None):
+    """All points (the history) and which of them enter the residuals (rails excluded or kept)."""
+    _no_fitted_tare(tare)
+    d, report = isometric_points(table, tare, "keep", pressure_zero)
+    fitted = np.ones(len(d), dtype=bool)
+    if rails == "exclude":
+        kept, _ = isometric_points(table, tare, "exclude", pressure_zero)
+        fitted = d.index.isin(kept.index)
+    elif rails != "keep":
+        isometric_points(table, tare, rails, pressure_zero)  # its error names the policy
+    if trials is not None:
+        sel = np.isin(d["trial"].to_numpy(), np.asarray(list(trials)))
+        if not sel.any():
+            raise InputError(f"trials: none of {sorted(trials)} is in {table.path} "
+                             f"(trials {sorted(np.unique(d['trial']).tolist())})")
+        d, fitted = d[sel], fitted[sel]
+    return d.assign(fitted=fitted), report
+
+
+def _fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, structure: str, source: str):
+    """The joint fit on ordered points: (FitResult, ordered DataFrame with the model's force, runs)."""
+    order, runs = run_order(d)
+    d = d.iloc[order].reset_index(drop=True)
+    fitted = d["fitted"].to_numpy(dtype=bool)
+    p = d["pressure"].to_numpy(dtype=float)
+    ell = d["held_length"].to_numpy(dtype=float)
+    f = d["force"].to_numpy(dtype=float)
+    dirn = d["direction"].to_numpy()
+    rest = _rest(d, muscle)
+    what = f"fit {model} (direction-aware, {structure}) on {source}"
+    if is_family(d) and not laws.LAWS[model].family:
+        raise InputError(f"{what}: the table holds {d['muscle'].astype(str).nunique()} muscles; {model} is fitted on "
+                         f"one muscle (a family law: {', '.join(laws.fit_laws(family=True))})")
+    if not np.any(dirn[fitted] == "inflate") or not np.any(dirn[fitted] == "deflate"):
+        raise InputError(f"{what}: needs both inflate and deflate rows (the direction column); a loop has two branches")
+    fmax = float(np.max(np.abs(f[fitted]))) or 1.0
+    spec = _law_spec(model, muscle, fmax, d[fitted])
+    nth = len(spec.names)
+    pmax = float(np.max(p))
+    if not pmax > 0:
+        raise InputError(f"{what}: no pressure above zero")
+    op_names = STRUCTURES[structure][0]
+    area = fmax / pmax  # [m²]: the scale of the friction area
+    lo = np.r_[spec.lo, THRESHOLD_MIN_FRACTION * pmax, [0.0] * (len(op_names) - 1)]
+    hi = np.r_[spec.hi, THRESHOLD_MAX_FRACTION * pmax, [FRICTION_MAX * area] * (len(op_names) - 1)]
+    starts = [np.r_[s, r0 * pmax, [0.02 * area] * (len(op_names) - 1)] for s in spec.starts for r0 in (0.01, 0.04)]
+
+    def model_fn(v):
+        z = _play_runs(p, runs, float(v[nth]))
+        return direction_aware_force(spec.force, structure, v, p, ell, z, direction=dirn, rest_length=rest)[fitted]
+
+    def func(values, pressure, length, direction="inflate", rest_length=None):
+        z = branch_state(pressure, direction, float(values[nth]))
+        return direction_aware_force(spec.force, structure, values, pressure, length, z, direction=direction,
+                                     rest_length=rest_length)
+
+    physical = (lambda v: spec.physical(v[:nth])) if spec.physical is not None else None
+    vr = data_range(pressure=p[fitted], length=ell[fitted])
+    res = bounded_fit(model_fn, f[fitted], starts, tuple(spec.names) + op_names, lo, hi, model=model,
+                      response="force_N", what=what, valid_range=vr, func=func, clusters=_runs(d[fitted]),
+                      source=source, physical_flags=physical, cluster_unit="runs")
+    z = _play_runs(p, runs, res["play_threshold_Pa"])
+    d["force_model"] = direction_aware_force(spec.force, structure, res.values, p, ell, z, direction=dirn,
+                                             rest_length=rest)
+    return res, d, runs, spec.force
+
+
+def fit_direction_aware(table: Table, muscle: MuscleSpec, model: str, structure: str = DEFAULT_STRUCTURE,
+                        tare: str = "none", rails: str = "exclude", pressure_zero: str = "none",
+                        trials=None) -> DirectionAwareFit:
+    """Fit a law's direction-aware form (law and operator jointly) to an isometric table.
+
+    Parameters
+    ----------
+    table : Table
+        An ``isometric`` table with ``inflate`` and ``deflate`` rows (a family table for a family law).
+    muscle : MuscleSpec
+        The muscle file (nominal length, outer diameter; the law's bounds read it).
+    model : str
+        A registered law with a fit spec (:func:`mckibben.models.laws.fit_laws`). [-]
+    structure : {"play", "friction"}, default :data:`DEFAULT_STRUCTURE`
+        :data:`~mckibben.models.hysteresis.direction.STRUCTURES`. [-]
+    tare : {"none", "lowest", "column"}, default "none"
+        :func:`mckibben.data.preprocessing.apply_tare`. [-]
+    rails : {"keep", "exclude"}, default "exclude"
+        Rows at a sensor's rail: excluded from the residuals (default; they stay in the pressure
+        history) or kept. [-]
+    pressure_zero : {"none", "lowest", "column"}, default "none"
+        :func:`mckibben.data.preprocessing.apply_pressure_zero`. [-]
+    trials : sequence, optional
+        Fit only these trials (the others held out). [-]
+
+    Returns
+    -------
+    DirectionAwareFit
+
+    References
+    ----------
+    :mod:`mckibben.models.hysteresis.direction` (Tondu & Lopez 2000 for the friction form; Kuhnen
+    2003 for the play); the intervals are cluster-robust by run, as :func:`mckibben.fit.isometric.fit_isometric`.
+    """
+    check_instance(table, "table", Table, "a Table (mckibben.read_table)")
+    check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
+    name = _law_name(model)
+    if structure not in STRUCTURES:
+        raise unknown_name("structure", structure, STRUCTURES)
+    d, report = _points(table, tare, rails, pressure_zero, trials)
+    res, d, runs, force = _fit_points(d, muscle, name, structure, str(table.path))
+    return DirectionAwareFit(name, structure, res, muscle, report, d, runs, force)
+
+
+@dataclass(repr=False)
+class HeldoutGap(Result):
+    """The up/down gap of held-out trials: measured, a plain law's and its direction-aware form's.
+
+    Attributes
+    ----------
+    model, structure : str
+        The law and the direction-aware structure. [-]
+    rows : list of dict
+        One per held-out run: ``trial``, ``held_length_m`` (and ``muscle``), ``pressure_Pa`` (the
+        grid), ``measured_N``, ``plain_N``, ``direction_aware_N`` (predicted gaps), and the
+        held-out force errors ``force_error_plain_N``, ``force_error_direction_aware_N`` (per point).
+    fits : list of DirectionAwareFit
+        The direction-aware fit of each fold (the last is drawn by :meth:`plot`).
+    """
+
+    model: str
+    structure: str
+    rows: list = field(repr=False)
+    fits: list = field(repr=False, default_factory=list)
+
+    call = "mckibben.fit.direction.heldout_gap"
+    _repr_keys = ("measured_gap_rms_N", "plain_gap_error_rms_N", "direction_aware_gap_error_rms_N")
+
+    @property
+    def arguments(self) -> dict:
+        """The law, structure and the held-out trials."""
+        return {"model": self.model, "structure": self.structure,
+                "held_out_trials": sorted({r["trial"] for r in self.rows})}
+
+    @property
+    def metrics(self) -> dict:
+        """Pooled over the held-out runs: measured gap RMS/max, each model's gap error RMS/max and ratio, force RMSE."""
+        if not self.rows:
+            meas, plain, da = np.zeros(0), np.zeros(0), np.zeros(0)
+            fp, fd = np.zeros(0), np.zeros(0)
+        else:
+            meas = np.concatenate([r["measured_N"] for r in self.rows])
+            plain = np.concatenate([r["plain_N"] for r in self.rows])
+            da = np.concatenate([r["direction_aware_N"] for r in self.rows])
+            fp = np.concatenate([r["force_error_plain_N"] for r in self.rows])
+            fd = np.concatenate([r["force_error_direction_aware_N"] for r in self.rows])
+        sp, sd = gap_scores(meas, plain), gap_scores(meas, da)
+
+        def rmse(x):
+            return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
+
+        return {"measured_gap_rms_N": sp["measured_gap_rms_N"], "measured_gap_max_N": sp["measured_gap_max_N"],
+                "plain_gap_error_rms_N": sp["gap_error_rms_N"], "plain_gap_error_max_N": sp["gap_error_max_N"],
+                "direction_aware_gap_error_rms_N": sd["gap_error_rms_N"],
+                "direction_aware_gap_error_max_N": sd["gap_error_max_N"],
+                "direction_aware_gap_error_ratio": sd["gap_error_ratio"], "n_pressures": sp["n_pressures"],
+                "n_runs": len(self.rows), "heldout_rmse_plain_N": rmse(fp), "heldout_rmse_direction_aware_N": rmse(fd)}
+
+    def _series(self) -> pd.DataFrame:
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+        parts = [pd.DataFrame({"trial": r["trial"], "held_length_m": r["held_length_m"], "muscle": r.get("muscle", ""),
+                               "pressure_Pa": r["pressure_Pa"], "measured_gap_N": r["measured_N"],
+                               "plain_gap_N": r["plain_N"], "direction_aware_gap_N": r["direction_aware_N"]})
+                 for r in self.rows]
+        return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+
+    def plot(self, ax=None):
+        """Predicted against measured gap at every held-out pressure (the diagonal is a perfect model).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(4.5, 4.2))
+        df = self._series()
+        m = self.metrics
+        ax.plot(df["measured_gap_N"], df["plain_gap_N"], ".", ms=3, alpha=0.5,
+                label=f"plain (error RMS {m['plain_gap_error_rms_N']:.2f} N)")
+        ax.plot(df["measured_gap_N"], df["direction_aware_gap_N"], ".", ms=3, alpha=0.5,
+                label=f"{self.structure} (error RMS {m['direction_aware_gap_error_rms_N']:.2f} N)")
+        lim = [float(np.nanmin(df.iloc[:, 4:].to_numpy())), float(np.nanmax(df.iloc[:, 4:].to_numpy()))] if len(df) else [0, 1]
+        ax.plot(lim, lim, "k-", lw=0.8)
+        ax.set_xlabel("measured gap, deflate − inflate [N]")
+        ax.set_ylabel("predicted gap [N]")
+        ax.set_title(f"{self.model}: held-out up/down gap", fontsize="small")
+        ax.legend(fontsize="small")
+        ax.figure.tight_layout()
+        return ax.figure
+
+
+def _plain_force(res: FitResult, d: pd.DataFrame, muscle: MuscleSpec) -> np.ndarray:
+    extra = {"rest_length": d["rest_length"].to_numpy(dtype=float)} if "rest_length" in d else {}
+    return np.asarray(res.func(res.values, pressure=d["pressure"].to_numpy(dtype=float),
+                               length=d["held_length"].to_numpy(dtype=float), direction=d["direction"].to_numpy(),
+                               **extra), dtype=float)
+
+
+def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = DEFAULT_STRUCTURE,
+                test_trials=None, tare: str = "none", rails: str = "exclude", pressure_zero: str = "none",
+                grid=None) -> HeldoutGap:
+    """Each trial held out in turn: the measured up/down gap and the gap a plain and a direction-aware law predict.
+
+    For each held-out trial, the plain law (:func:`mckibben.fit.isometric.fit_points`) and its
+    direction-aware form (:func:`fit_direction_aware`) are fitted on the other trials; both predict
+    every point of the held-out trial (the direction-aware form along each run's history, from a
+    muscle just deflated), and each run's gap (:func:`loop_gap`, on the rows not at a rail) is
+    compared with the measured one.
+
+    Parameters
+    ----------
+    table : Table
+        An ``isometric`` table with two trials or more.
+    muscle : MuscleSpec
+        The muscle file.
+    model : str
+        A registered law with a fit spec. [-]
+    structure : {"play", "friction"}, default :data:`DEFAULT_STRUCTURE`
+        The direction-aware structure. [-]
+    test_trials : sequence, optional
+        The trials to hold out (each in turn); default every trial. [-]
+    tare, rails, pressure_zero : str
+        As :func:`fit_direction_aware`. [-]
+    grid : array_like, optional
+        The gap's pressures (:func:`loop_gap`); default every 10 kPa both branches cover. [Pa]
+
+    Returns
+    -------
+    HeldoutGap
+    """
+    check_instance(table, "table", Table, "a Table (mckibben.read_table)")
+    check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
+    name = _law_name(model)
+    if structure not in STRUCTURES:
+        raise unknown_name("structure", structure, STRUCTURES)
+    d_all, _ = _points(table, tare, rails, pressure_zero)
+    trials = np.unique(d_all["trial"].to_numpy())
+    if trials.size < 2:
+        raise InputError(f"heldout_gap on {table.path}: needs two trials or more (one to fit, one held out); "
+                         f"it has {trials.size}")
+    tests = trials if test_trials is None else np.asarray(list(test_trials))
+    missing = [t for t in tests if t not in trials]
+    if missing:
+        raise InputError(f"test_trials: {missing} not in {table.path} (trials {trials.tolist()})")
+    rows, fits = [], []
+    for t in tests:
+        train = d_all[d_all["trial"] != t]
+        test = d_all[d_all["trial"] == t]
+        plain = fit_points(train[train["fitted"]].drop(columns="fitted"), muscle, name, source=str(table.path))
+        res, _, _, force = _fit_points(train, muscle, name, structure, str(table.path))
+        fit = DirectionAwareFit(name, structure, res, muscle, {}, *_fit_frame(res, test, force, structure), force)
+        fits.append(fit)
+        td = fit.data
+        fp = _plain_force(plain, td, muscle)
+        for s in fit.runs:
+            run = td.iloc[s]
+            ok = run["fitted"].to_numpy()
+            pr, dn = run["pressure"].to_numpy(dtype=float)[ok], run["direction"].to_numpy()[ok]
+            g, meas = loop_gap(pr, run["force"].to_numpy(dtype=float)[ok], dn, grid)
+            _, gp = loop_gap(pr, fp[s][ok], dn, g if g.size else None)
+            _, gd = loop_gap(pr, run["force_model"].to_numpy(dtype=float)[ok], dn, g if g.size else None)
+            if g.size == 0:
+                continue
+            row = {"trial": t.item() if hasattr(t, "item") else t, "held_length_m": float(run["held_length"].iloc[0]),
+                   "pressure_Pa": g, "measured_N": meas, "plain_N": gp, "direction_aware_N": gd,
+                   "force_error_plain_N": (fp[s] - run["force"].to_numpy(dtype=float))[ok],
+                   "force_error_direction_aware_N": (run["force_model"] - run["force"]).to_numpy(dtype=float)[ok]}
+            if "muscle" in run:
+                row["muscle"] = str(run["muscle"].iloc[0])
+            rows.append(row)
+    return HeldoutGap(name, structure, rows, fits)
+
+
+def _fit_frame(res: FitResult, d: pd.DataFrame, law_force, structure: str):
+    """Held-out points in the protocol's order with the fitted model's force along their history."""
+    order, runs = run_order(d)
+    d = d.iloc[order].reset_index(drop=True)
+    p = d["pressure"].to_numpy(dtype=float)
+    z = _play_runs(p, runs, res["play_threshold_Pa"])
+    rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else None
+    d["force_model"] = direction_aware_force(law_force, structure, res.values, p, d["held_length"].to_numpy(dtype=float),
+                                             z, direction=d["direction"].to_numpy(), rest_length=rest)
+    return d, runs
+
+
+def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, structure: str = DEFAULT_STRUCTURE,
+                            tare: str = "none", rails: str = "exclude", pressure_zero: str = "none",
+                            grid=None) -> list[dict]:
+    """Each law beside its direction-aware form, on held-out trials: what ``compare --direction-aware`` adds.
+
+    Parameters
+    ----------
+    table : Table
+        An ``isometric`` table with inflate and deflate rows and two trials or more.
+    muscle : MuscleSpec
+        The muscle file.
+    models : sequence of str, optional
+        Laws to score; default every law with a fit spec that applies (the family laws on a family
+        table). [-]
+    structure : {"play", "friction"}, default :data:`DEFAULT_STRUCTURE`
+        The direction-aware structure. [-]
+    tare, rails, pressure_zero : str
+        As :func:`fit_direction_aware`. [-]
+    grid : array_like, optional
+        The gap's pressures (:func:`loop_gap`). [Pa]
+
+    Returns
+    -------
+    list of dict
+        Per law: ``model``, ``structure``, ``cv`` (``"leave-one-trial-out"``), the pooled
+        :attr:`HeldoutGap.metrics` (measured gap RMS/max; plain and direction-aware gap error RMS/max;
+        held-out force RMSE of both), the operator's values per fold (``play_threshold_Pa``), and
+        ``note`` (why a law could not be scored).
+    """
+    _no_fitted_tare(tare)
+    if models is None:
+        d, _ = isometric_points(table, tare, "keep", pressure_zero)
+        models = list(laws.fit_laws(family=True) if is_family(d) else laws.fit_laws())
+    out = []
+    for model in models:
+        row: dict = {"model": model, "structure": structure, "cv": "leave-one-trial-out"}
+        try:
+            h = heldout_gap(table, muscle, model, structure, tare=tare, rails=rails, pressure_zero=pressure_zero,
+                            grid=grid)
+        except InputError as exc:
+            out.append({**row, "note": f"not fitted: {exc}"})
+            continue
+        out.append({**row, **h.metrics, "play_threshold_Pa": [f.result["play_threshold_Pa"] for f in h.fits],
+                    "flags": sorted({fl for f in h.fits for fl in f.result.flags}), "note": ""})
+    return out
