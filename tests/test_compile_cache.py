@@ -376,8 +376,8 @@ def test_a_cache_save_failure_never_reaches_the_run(monkeypatch):
     monkeypatch.setitem(_jit._STATE, "warned", False)
     # a kernel no process has cached before: generated source, written to the cache folder like the plant's
     tag = uuid.uuid4().hex
-    mod = _jit.generated_module(f"test_save_{tag}", "from mckibben._jit import njit  # njit-import\n\n\n"
-                                f"@njit\ndef twice(x):\n    return 2.0 * x  # {tag}\n")
+    mod = _jit.generated_module(f"test_save_{tag}", "from mckibben._jit import kernel  # kernel-decorator\n\n\n"
+                                f"@kernel\ndef twice(x):\n    return 2.0 * x  # {tag}\n")
     assert str(_jit.cache_dir()) in mod.twice.stats.cache_path  # cached on disk, not in memory
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -695,3 +695,68 @@ def test_every_kernel_states_its_fast_math_flags():
     assert len(jit.DISPATCHERS) > 50
     unset = [d.py_func.__qualname__ for d in jit.DISPATCHERS if "fastmath" not in d.targetoptions]
     assert unset == []
+
+
+# --- one decorator ------------------------------------------------------------------------------
+
+
+def test_every_compiled_function_of_the_package_is_made_by_the_one_decorator():
+    """``mckibben._kernels.kernel`` (re-exported by ``mckibben._jit``) is the only way the package
+    makes a Numba function: no ``numba.njit``/``jit``/``vectorize`` anywhere else, no second
+    decorator in ``_jit``, and every dispatcher of a simulation is the package's ``Kernel``."""
+    import ast
+
+    from mckibben import _jit, _kernels
+    from mckibben.plant import simulate  # noqa: F401 (loads the plant's kernels)
+
+    assert _jit.kernel is _kernels.kernel
+    assert not hasattr(_jit, "njit")
+    numba_makers = {"njit", "jit", "vectorize", "guvectorize", "cfunc", "generated_jit", "stencil"}
+    found = []
+    for path in sorted((ROOT / "src" / "mckibben").rglob("*.py")):
+        tree = ast.parse(path.read_text(), str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "numba":
+                found += [f"{path.name}:{node.lineno} from {node.module} import {a.name}"
+                          for a in node.names if a.name in numba_makers]
+            elif (isinstance(node, ast.Attribute) and node.attr in numba_makers and isinstance(node.value, ast.Name)
+                  and node.value.id == "numba"):
+                found.append(f"{path.name}:{node.lineno} numba.{node.attr}")
+    assert found == []
+    assert len(_jit.DISPATCHERS) > 50
+    assert {type(d) for d in _jit.DISPATCHERS} == {_jit.Kernel}
+
+
+def test_the_decorator_compiles_at_once_once_numba_is_loaded_and_refuses_a_cache_choice():
+    from mckibben import _jit, _kernels
+
+    def twice(x):
+        return 2.0 * x
+
+    made = _kernels.kernel(error_model="numpy")(twice)
+    assert isinstance(made, _jit.Kernel) and made.targetoptions["fastmath"] is False
+    assert made(4.0) == 8.0 and made.py_func is twice
+    with pytest.raises(TypeError, match="cache"):
+        _kernels.kernel(cache=True)
+    with pytest.raises(TypeError, match="func must be a function"):
+        _kernels.kernel(np.sin)
+
+
+def test_before_numba_is_loaded_the_decorator_marks_and_numba_compiles_the_marked_later(tmp_path):
+    """In a fresh process: a cheap module's kernel is its plain function until ``_kernels.jit()``,
+    then the same name in that module is the compiled dispatcher, with the same result."""
+    code = textwrap.dedent("""
+        import sys
+        from mckibben import hardware as HW, _kernels
+        plain = HW.adc_count
+        assert "numba" not in sys.modules and type(plain).__name__ == "function", type(plain)
+        assert plain.__mckibben_kernel__ is not None
+        before = plain(0.3e6, 500.0, 100)
+        jit = _kernels.jit()
+        assert isinstance(HW.adc_count, jit.Kernel) and HW.adc_count.py_func is plain
+        assert HW.adc_count(0.3e6, 500.0, 100) == before
+        print("ok")
+    """)
+    env = _env(MCKIBBEN_BACKGROUND_WARM="0", MCKIBBEN_CACHE_DIR=str(tmp_path / "cache"))
+    r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr[-2000:]

@@ -1,12 +1,13 @@
 """Compiled kernels, compiled once per machine: where they are cached, and why a cache never breaks a command.
 
-Every Numba function of the package is made with :func:`njit` from here (or marked with
-:func:`mckibben._kernels.kernel`, which compiles through it), never with ``numba.njit`` directly.
-Only Numba's public API is used (a test scans the package for private Numba attributes):
+Every Numba function of the package is decorated with the one decorator
+:func:`mckibben._kernels.kernel` (re-exported here: ``from mckibben._jit import kernel`` in a module
+that loads Numba at import), which compiles through :func:`dispatcher`; never with ``numba.njit``
+directly. Only Numba's public API is used (a test scans the package for private Numba attributes):
 
 - **Where.** Each kernel caches on disk with Numba's own ``cache=True`` under Numba's
-  ``config.CACHE_DIR`` set to :func:`cache_dir` while the dispatcher is made (and put back after,
-  so a user's own Numba functions are not moved): ``$MCKIBBEN_CACHE_DIR`` if set, else
+  ``config.CACHE_DIR`` set to :func:`cache_dir` while the dispatcher is made (:func:`_make`; put
+  back after, so a user's own Numba functions are not moved): ``$MCKIBBEN_CACHE_DIR`` if set, else
   ``$NUMBA_CACHE_DIR/mckibben``, else the platform's user cache folder (``$XDG_CACHE_HOME`` or
   ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows)
   ``/mckibben``; below it ``<package version>/<fingerprint>``. Never inside the installed package.
@@ -70,7 +71,7 @@ _ENV_DIR = "MCKIBBEN_CACHE_DIR"
 PRUNE_AFTER_S = 14 * 24 * 3600.0
 _USED = ".last-used"
 
-#: Every dispatcher made by :func:`njit` in this process (the warm-up and the tests read them).
+#: Every dispatcher made by :func:`dispatcher` in this process (the warm-up and the tests read them).
 DISPATCHERS: list = []
 _LOCK = threading.RLock()
 _STATE: dict = {}
@@ -317,55 +318,76 @@ def _compile_safely(disp: Kernel, sig, args: tuple, entries: tuple[Path, str]):
 
 
 def _make(func, cached: bool, options: dict):
-    """A :class:`Kernel` for ``func`` with Numba's ``njit`` options; caching under :func:`cache_dir` when ``cached``."""
+    """A :class:`Kernel` for ``func`` with Numba's ``njit`` options; caching under :func:`cache_dir` when ``cached``.
+
+    Numba has no public way to give one dispatcher its own cache folder: its cache reads
+    ``numba.config.CACHE_DIR`` (``NUMBA_CACHE_DIR``) once, when ``enable_caching`` builds the
+    dispatcher's cache, and keeps the path. So the folder is set there for that call and put back
+    at once, under this module's lock (:data:`_LOCK`, re-entrant): no two of the package's
+    dispatchers are made at the same time. A user's own ``numba.njit(cache=True)`` made by another
+    thread during that instant would cache in the package's folder (harmless: it is a cache).
+    Setting ``NUMBA_CACHE_DIR`` before Numba is imported is not an option: it would move every
+    user function's cache for the whole process, and a user may have imported Numba first.
+    """
     options = dict(options)
     locals_ = options.pop("locals", {})
     options["nopython"] = True
     options.setdefault("boundscheck", None)
     disp = Kernel(py_func=func, locals=locals_, targetoptions=options)
     if cached:
-        previous = numba.config.CACHE_DIR
-        numba.config.CACHE_DIR = str(cache_dir() / "numba")  # type: ignore[operator]
-        try:
-            disp.enable_caching()
-        finally:
-            numba.config.CACHE_DIR = previous
+        with _LOCK:
+            previous = numba.config.CACHE_DIR
+            numba.config.CACHE_DIR = str(cache_dir() / "numba")  # type: ignore[operator]
+            try:
+                disp.enable_caching()
+            finally:
+                numba.config.CACHE_DIR = previous
     return disp
 
 
-def njit(*args, **options):
-    """``numba.njit`` for the package: cached in :func:`cache_dir`, or compiled in memory when it cannot be.
+def dispatcher(func, options: dict):
+    """The compiled kernel of ``func``: cached in :func:`cache_dir`, or compiled in memory when it cannot be.
 
-    Takes Numba's options (``cache`` is decided here and may not be given). Use as ``@njit`` or
-    ``@njit(error_model="numpy", ...)``. Returns a :class:`Kernel` (the function itself with
-    ``NUMBA_DISABLE_JIT=1``).
+    What :func:`mckibben._kernels.kernel`, the package's one decorator, calls once Numba is loaded.
+
+    Parameters
+    ----------
+    func : function
+        The plain Python function. [-]
+    options : dict
+        Numba's ``njit`` options (``cache`` is decided here and may not be given; ``fastmath``
+        is ``False`` unless given). [-]
+
+    Returns
+    -------
+    Kernel or function
+        The dispatcher (the function itself with ``NUMBA_DISABLE_JIT=1``).
     """
     if "cache" in options:
-        raise TypeError("mckibben._jit.njit decides caching itself; do not pass cache=")
+        raise TypeError("mckibben._kernels.kernel decides caching itself; do not pass cache=")
     # Explicit, never inherited: Numba compiles a callee that leaves ``fastmath`` unset with the
     # flags of the caller that compiles it first. ``law_force`` compiled from the integrator (whose
     # stages contract a·b + c into one FMA) then differed from ``law_force`` compiled from the
     # output stage, so the plant's last bits depended on which command had filled the cache.
-    options.setdefault("fastmath", False)
+    options = {"fastmath": False, **options}
+    if numba.config.DISABLE_JIT:
+        return func
+    if not inspect.isfunction(func):
+        raise TypeError(f"kernel: func must be a function, got {type(func).__name__}")
+    with _LOCK:
+        try:
+            source = inspect.getsourcefile(func)
+        except TypeError:
+            source = None
+        cached = cache_dir() is not None and source is not None and os.path.exists(source) and _ours(source)
+        disp = _make(func, cached, options)
+        DISPATCHERS.append(disp)
+    return disp
 
-    def wrap(func):
-        if numba.config.DISABLE_JIT:
-            return func
-        if not inspect.isfunction(func):
-            raise TypeError(f"njit: func must be a function, got {type(func).__name__}")
-        with _LOCK:
-            try:
-                source = inspect.getsourcefile(func)
-            except TypeError:
-                source = None
-            cached = cache_dir() is not None and source is not None and os.path.exists(source) and _ours(source)
-            disp = _make(func, cached, options)
-            DISPATCHERS.append(disp)
-        return disp
 
-    if args and callable(args[0]):
-        return wrap(args[0])
-    return wrap
+#: The package's one decorator (:func:`mckibben._kernels.kernel`), imported from here by a module
+#: whose kernels compile as it is imported.
+kernel = _kernels.kernel
 
 
 # --- generated modules: one compiled runner per controller kernel ---------------------------------
@@ -479,7 +501,7 @@ def generated_module(stem: str, text: str) -> object:
     """A module of generated source, cached like every kernel: written once into the cache folder.
 
     For code generated from data of the package (the plant's law dispatch, one branch per
-    registered law): its functions are made with :func:`njit`, so, written to the per-user folder
+    registered law): its functions are made with :func:`kernel`, so, written to the per-user folder
     (``runners/<stem>.py``) and imported from there, they are cached and stamped like any other.
     Without a writable cache (or with ``NUMBA_DISABLE_JIT``), the source is executed in memory and
     its functions compile for this process only.
@@ -489,8 +511,9 @@ def generated_module(stem: str, text: str) -> object:
     stem : str
         The generated file's name, without ``.py`` (one per kind of generated code). [-]
     text : str
-        Python source; it makes its compiled functions with ``mckibben._jit.njit``, imported by a
-        line ending with ``# njit-import`` (in memory, that line binds an uncached ``njit``). [-]
+        Python source; it makes its compiled functions with ``mckibben._jit.kernel``, imported by
+        a line ending with ``# kernel-decorator`` (in memory, that line binds an uncached
+        ``kernel``). [-]
 
     Returns
     -------
@@ -510,29 +533,27 @@ def generated_module(stem: str, text: str) -> object:
             module = _import_written(f"{stem}_{key[2][:16]}", text, runners)
         if module is None:
             module = types.ModuleType(f"mckibben._generated.{stem}")
-            module.__dict__["_memory_njit"] = _memory_njit
-            lines = [("njit = _memory_njit\n" if line.rstrip().endswith("# njit-import") else line)
+            module.__dict__["_memory_kernel"] = _memory_kernel
+            lines = [("kernel = _memory_kernel\n" if line.rstrip().endswith("# kernel-decorator") else line)
                      for line in text.splitlines(keepends=True)]
             exec(compile("".join(lines), f"<generated {stem}>", "exec"), module.__dict__)  # noqa: S102 - ours
         _STATE["modules"][key] = (None, module)
         return module
 
 
-def _memory_njit(*args, **options):
-    """:func:`njit` without a disk cache (generated source executed in memory has no file)."""
-    options.setdefault("fastmath", False)
+def _memory_kernel(func=None, /, **options):
+    """:func:`kernel` without a disk cache (generated source executed in memory has no file)."""
+    options = {"fastmath": False, **options}
 
-    def wrap(func):
+    def wrap(f):
         if numba.config.DISABLE_JIT:
-            return func
+            return f
         with _LOCK:
-            disp = _make(func, False, options)
+            disp = _make(f, False, options)
             DISPATCHERS.append(disp)
         return disp
 
-    if args and callable(args[0]):
-        return wrap(args[0])
-    return wrap
+    return wrap if func is None else wrap(func)
 
 
 def _in_memory(template, kernel_name: str, kernel):
@@ -694,11 +715,12 @@ def compile_marked() -> None:
             for value in list(vars(mod).values()):
                 options = getattr(value, "__mckibben_kernel__", None) if _is_plain(value) else None
                 if options is not None and value.__module__ == mod.__name__ and id(value) not in _COMPILED:
-                    _COMPILED[id(value)] = (value, njit(**options)(value))
+                    _COMPILED[id(value)] = (value, dispatcher(value, options))
         for mod in _kernels.modules():
             for name, value in list(vars(mod).items()):
                 if _is_plain(value) and id(value) in _COMPILED:
                     setattr(mod, name, _COMPILED[id(value)][1])
 
 
+_kernels.use_compiler(dispatcher)  # from now on the decorator compiles at once
 compile_marked()
