@@ -274,17 +274,51 @@ class Kernel(CPUDispatcher):
         callable
             The compiled entry point (Numba's).
         """
-        args, _ = sigutils.normalize_signature(sig)
-        entries = None if tuple(args) in self.overloads else _entry_files(self)
-        if entries is None:  # compiled already in this process, or not cached on disk
+        # Lookup, load or compilation run in a fresh stretch of Python's frame stack (_fresh_stack):
+        # see _FRESH_STACK_SLOTS. The failure paths live in _after_failure.
+        args = tuple(sigutils.normalize_signature(sig)[0])
+        if args in self.overloads:  # compiled or loaded already in this process
             return super().compile(sig)
+        entries = _entry_files(self)
+        if entries is None:  # not cached on disk: compiled in memory
+            return _fresh_stack(CPUDispatcher.compile, self, sig)
         lock = _CompileLock(str(entries[0] / f"{entries[1]}.lock"))
         held = lock.acquire()
+        misses = sum(self.stats.cache_misses.values())
         try:
-            return _compile_safely(self, sig, tuple(args), entries)
+            return _fresh_stack(CPUDispatcher.compile, self, sig)
+        except Exception as exc:  # noqa: BLE001 - a cache problem must not reach the run
+            return _after_failure(self, sig, args, entries, misses, exc)
         finally:
             if held:
                 lock.release()
+
+
+#: Local variables of :func:`_fresh_stack`'s frame: 4200 slots of 8 bytes, just over 32 KiB. [-]
+#:
+#: CPython (3.11 on) keeps frames on a stack of chunks, 16 KiB each, and frees a chunk as soon as
+#: its first frame returns. A loop whose calls cross a chunk's edge maps and unmaps a chunk on
+#: every call. Numba compiles a kernel's callees from inside the kernel's own compilation, so
+#: where its typing and lowering loops fall against those edges depends on every frame below
+#: them: one frame more per nesting level (:meth:`Kernel.compile`) put the integrator's chain
+#: (``rhs`` ×4, ``rk4_step``, ``advance``) on an edge, 85,000 mmap/munmap pairs and 1.5–3 s of
+#: CPU in a cold ``control step`` where main's layer made 6,500 (benchmarks/RESULTS.md). A frame
+#: this large does not fit in a 16 KiB chunk: Python gives it a 64 KiB one of its own, so each
+#: compilation starts with about 30 KiB of stack before any edge (1,500 pairs for that chain),
+#: whatever the depth it was called at. One 64 KiB chunk per kernel compiled or loaded.
+_FRESH_STACK_SLOTS = 4200
+
+
+def _fresh_stack_function(slots: int):
+    """``run(f, a, b)`` = ``f(a, b)``, from a frame of ``slots`` local variables (generated: Python has no other way)."""
+    names = " = ".join(f"_{i}" for i in range(slots))
+    namespace: dict = {}
+    exec(compile(f"def run(f, a, b, never=False):\n    if never:\n        {names} = None\n    return f(a, b)\n",  # noqa: S102 - ours
+                 "<mckibben._jit._fresh_stack>", "exec"), namespace)
+    return namespace["run"]
+
+
+_fresh_stack = _fresh_stack_function(_FRESH_STACK_SLOTS)
 
 
 def _entry_files(disp: Kernel) -> tuple[Path, str] | None:
@@ -298,23 +332,23 @@ def _entry_files(disp: Kernel) -> tuple[Path, str] | None:
     return Path(where), f"{name}-{func.__code__.co_firstlineno}.py"
 
 
-def _compile_safely(disp: Kernel, sig, args: tuple, entries: tuple[Path, str]):
-    """Numba's compile (load, or compile and save), where neither a damaged entry nor a failed save is fatal."""
-    misses = sum(disp.stats.cache_misses.values())
-    try:
-        return CPUDispatcher.compile(disp, sig)
-    except Exception as exc:  # noqa: BLE001 - a cache problem must not reach the run
-        done = disp.overloads.get(args)
-        if done is not None:  # compiled and in memory: only the save failed
-            _cache_warning(f"a compiled kernel could not be cached ({type(exc).__name__}: {exc})")
-            return done.entry_point
-        if sum(disp.stats.cache_misses.values()) != misses:
-            raise  # the compilation itself failed: the caller's error, not the cache's
-        _cache_warning(f"a cached kernel could not be read ({type(exc).__name__}: {exc}); compiling it")
-        folder, stem = entries
-        for f in folder.glob(f"{stem}*.nb[ic]"):
-            f.unlink(missing_ok=True)
-        return CPUDispatcher.compile(disp, sig)
+def _after_failure(disp: Kernel, sig, args: tuple, entries: tuple[Path, str], misses: int, exc: Exception):
+    """After Numba's compile (load, or compile and save) raised: neither a damaged entry nor a failed save is fatal.
+
+    A failed save keeps the compiled code; an entry that could not be read is removed and the
+    kernel compiled again; a failed compilation is the caller's error and is raised again.
+    """
+    done = disp.overloads.get(args)
+    if done is not None:  # compiled and in memory: only the save failed
+        _cache_warning(f"a compiled kernel could not be cached ({type(exc).__name__}: {exc})")
+        return done.entry_point
+    if sum(disp.stats.cache_misses.values()) != misses:
+        raise exc  # the compilation itself failed: the caller's error, not the cache's
+    _cache_warning(f"a cached kernel could not be read ({type(exc).__name__}: {exc}); compiling it")
+    folder, stem = entries
+    for f in folder.glob(f"{stem}*.nb[ic]"):
+        f.unlink(missing_ok=True)
+    return CPUDispatcher.compile(disp, sig)
 
 
 def _make(func, cached: bool, options: dict):
