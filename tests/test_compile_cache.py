@@ -294,7 +294,9 @@ def test_kernels_give_the_same_bits_as_plain_python_and_compiled(tmp_path):
     LW, P, L = ns["LW"], ns["P"], ns["L"]
     from mckibben import hardware as HW
 
-    assert type(LW.tondu_lopez).__name__ == "CPUDispatcher" and type(HW.adc_count).__name__ == "CPUDispatcher"
+    from numba.core.registry import CPUDispatcher
+
+    assert isinstance(LW.tondu_lopez, CPUDispatcher) and isinstance(HW.adc_count, CPUDispatcher)
     for name, th in ns["CASES"].items():
         compiled = LW.evaluate(name, np.repeat(P, 2), np.repeat(L, 2), th)  # 120 elements: the compiled path
         np.testing.assert_array_equal(compiled[::2], python[name.replace("-", "_")], err_msg=name)
@@ -357,34 +359,184 @@ def test_a_runner_compiled_in_memory_gives_the_cached_runners_bits(monkeypatch):
     np.testing.assert_array_equal(again.istate, cached.istate)
 
 
-def test_a_cache_save_failure_never_reaches_the_run(monkeypatch, tmp_path):
+def test_a_cache_save_failure_never_reaches_the_run(monkeypatch):
     """Numba's save of a new overload may fail (a foreign index: 'underlying object has vanished',
     a full disk): the compiled code is used all the same, with one warning. (It replaces the
     simulator's old retry of a whole run after such a failure.)"""
+    import uuid
     import warnings
 
     from numba.core import caching
 
     from mckibben import _jit
 
+    if _jit.cache_dir() is None:
+        pytest.skip("this process has no kernel cache folder")
+
     def fails(self, sig, data):
         raise ReferenceError("underlying object has vanished")
 
     monkeypatch.setattr(caching.FunctionCache, "save_overload", fails)
     monkeypatch.setitem(_jit._STATE, "warned", False)
-    src = tmp_path / "kernel_mod.py"
-    src.write_text("def twice(x):\n    return 2.0 * x\n")
-    ns: dict = {}
-    exec(compile(src.read_text(), str(src), "exec"), ns)
-    disp = _jit.numba.njit(cache=False)(ns["twice"])  # a fresh function, compiled here
-    disp._cache = _jit._SafeCache.__new__(_jit._SafeCache)
-    disp._cache._enabled = True
+    # a kernel no process has cached before: generated source, written to the cache folder like the plant's
+    tag = uuid.uuid4().hex
+    mod = _jit.generated_module(f"test_save_{tag}", "from mckibben._jit import kernel  # kernel-decorator\n\n\n"
+                                f"@kernel\ndef twice(x):\n    return 2.0 * x  # {tag}\n")
+    assert str(_jit.cache_dir()) in mod.twice.stats.cache_path  # cached on disk, not in memory
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        _jit._SafeCache.save_overload(disp._cache, None, None)
-        assert disp(21.0) == 42.0
+        assert mod.twice(21.0) == 42.0
+        assert mod.twice(4.0) == 8.0
     assert [str(w.message) for w in caught] == [
         "a compiled kernel could not be cached (ReferenceError: underlying object has vanished)"]
+    assert sum(mod.twice.stats.cache_misses.values()) == 1
+
+
+# --- only Numba's public API -------------------------------------------------------------------
+
+
+def _numba_private_names() -> set[str]:
+    """Private (``_x``, not dunder) members of the Numba objects the package handles: dispatchers,
+    their caches and compile events, read from the installed Numba itself."""
+    import numba
+    from numba.core import caching, event
+    from numba.core.registry import CPUDispatcher
+
+    def twice(x):
+        return 2.0 * x
+
+    previous = numba.config.CACHE_DIR
+    with tempfile.TemporaryDirectory() as where:
+        numba.config.CACHE_DIR = where
+        try:
+            disp = numba.njit(cache=True)(twice)
+        finally:
+            numba.config.CACHE_DIR = previous
+    objects = [CPUDispatcher, disp, caching.FunctionCache, caching.IndexDataCacheFile, event.Event, event.Listener,
+               disp._cache, disp._cache._cache_file, disp._cache._impl, disp._cache._impl.locator,
+               caching, event, numba.core.config,
+               event.Event("numba:compile", event.EventStatus.START)]
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
+    objects += [impl] if impl is not None else []
+    names = set()
+    for obj in objects:
+        names.update(dir(obj))
+        names.update(getattr(obj, "__dict__", {}))
+    return {n for n in names if n.startswith("_") and not (n.startswith("__") and n.endswith("__"))}
+
+
+def _private_numba_uses(tree, private: set[str]) -> list[str]:
+    import ast
+
+    numba_names: set[str] = set()  # names bound to Numba modules or objects by an import
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.split(".")[0] == "numba":
+                    numba_names.add((alias.asname or alias.name).split(".")[0])
+                    if any(part.startswith("_") for part in alias.name.split(".")):
+                        found.append(f"line {node.lineno}: import {alias.name}")
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "numba":
+            for part in (node.module or "").split("."):
+                if part.startswith("_"):
+                    found.append(f"line {node.lineno}: from {node.module}")
+            for alias in node.names:
+                numba_names.add(alias.asname or alias.name)
+                if alias.name.startswith("_"):
+                    found.append(f"line {node.lineno}: from {node.module} import {alias.name}")
+    numba_classes = set()
+    for node in ast.walk(tree):  # classes of the module built on a Numba class: their `self` is a Numba object
+        if isinstance(node, ast.ClassDef) and any(
+                isinstance(b, (ast.Name, ast.Attribute)) and ast.unparse(b).split(".")[0] in numba_names
+                for b in node.bases):
+            numba_classes.add(node.name)
+            for inner in ast.walk(node):
+                if (isinstance(inner, ast.Attribute) and isinstance(inner.value, ast.Name)
+                        and inner.value.id in ("self", "cls") and inner.attr.startswith("_")
+                        and not inner.attr.startswith("__")):
+                    found.append(f"line {inner.lineno}: {ast.unparse(inner)} on a subclass of a Numba class")
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Attribute) or not node.attr.startswith("_") or node.attr.startswith("__"):
+            continue
+        root = node.value
+        while isinstance(root, ast.Attribute):
+            root = root.value
+        on_numba = isinstance(root, ast.Name) and root.id in numba_names
+        if on_numba or node.attr in private:
+            found.append(f"line {node.lineno}: {ast.unparse(node)}")
+    for node in ast.walk(tree):  # getattr(x, "_private") is the same access
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("getattr", "setattr")
+                and len(node.args) >= 2 and isinstance(node.args[1], ast.Constant)
+                and isinstance(node.args[1].value, str) and node.args[1].value in private):
+            found.append(f"line {node.lineno}: {ast.unparse(node)}")
+    return found
+
+
+def test_the_package_uses_no_private_numba_attribute():
+    """No ``caching._X``, ``disp._cache``, ``event._exc_details``: the next Numba release may drop them."""
+    import ast
+
+    private = _numba_private_names()
+    assert {"_cache", "_exc_details", "_CacheLocator"} <= private  # the check knows what it looks for
+    problems = []
+    for path in sorted((ROOT / "src" / "mckibben").rglob("*.py")):
+        for where in _private_numba_uses(ast.parse(path.read_text(), str(path)), private):
+            problems.append(f"{path.relative_to(ROOT)}: {where}")
+    assert problems == []
+
+
+@pytest.mark.parametrize("source", [
+    "from numba.core import caching\nclass L(caching._CacheLocator):\n    pass\n",
+    "from numba.core import caching\nimpl = caching.CacheImpl\nimpl._locator_classes.insert(0, 1)\n",
+    "def f(disp, cls):\n    disp._cache.__class__ = cls\n",
+    "def f(cache):\n    return getattr(getattr(cache, '_cache_file', None), '_index_path', None)\n",
+    "def on_end(event):\n    return getattr(event, '_exc_details', None)\n",
+    "import numba\nx = numba.core.config._readenv\n",
+    "from numba.core.registry import CPUDispatcher\nclass K(CPUDispatcher):\n"
+    "    def f(self):\n        return self._can_compile\n",
+    "from numba.core.caching import _CacheLocator\n",
+])
+def test_the_private_numba_check_finds_each_use_it_replaced(source):
+    import ast
+
+    assert _private_numba_uses(ast.parse(source), _numba_private_names()) != []
+
+
+def test_the_cache_folder_is_named_by_the_package_sources(tmp_path):
+    """An edit anywhere in the package moves its kernels to another folder: a stale entry is never read."""
+    copy = tmp_path / "src"
+    shutil.copytree(ROOT / "src" / "mckibben", copy / "mckibben", ignore=shutil.ignore_patterns("__pycache__"))
+    code = "from mckibben import _jit; print(_jit.cache_dir())"
+    env = _env(MCKIBBEN_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(copy))
+
+    def folder() -> Path:
+        r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+        assert r.returncode == 0, r.stderr[-2000:]
+        return Path(r.stdout.strip())
+
+    first = folder()
+    assert first == folder() and first.is_relative_to(tmp_path / "cache")
+    units = copy / "mckibben" / "units.py"
+    units.write_text(units.read_text() + "\n# an edit\n")
+    second = folder()
+    assert second != first and second.parent == first.parent
+
+
+def test_a_new_cache_folder_removes_only_its_long_unused_siblings(tmp_path):
+    from mckibben import _jit
+
+    version = tmp_path / "0.1.0"
+    old, recent, foreign, new = (version / n for n in ("old", "recent", "not-ours", "new"))
+    for folder in (old, recent, foreign, new):
+        folder.mkdir(parents=True)
+    (old / ".last-used").touch()
+    (recent / ".last-used").touch()
+    long_ago = (old / ".last-used").stat().st_mtime - _jit.PRUNE_AFTER_S - 60
+    os.utime(old / ".last-used", (long_ago, long_ago))
+    _jit._mark_used(new)
+    assert sorted(p.name for p in version.iterdir()) == ["new", "not-ours", "recent"]
+    assert (new / ".last-used").exists()
 
 
 # --- mckibben doctor ----------------------------------------------------------------------------
@@ -549,3 +701,68 @@ def test_every_kernel_states_its_fast_math_flags():
     assert len(jit.DISPATCHERS) > 50
     unset = [d.py_func.__qualname__ for d in jit.DISPATCHERS if "fastmath" not in d.targetoptions]
     assert unset == []
+
+
+# --- one decorator ------------------------------------------------------------------------------
+
+
+def test_every_compiled_function_of_the_package_is_made_by_the_one_decorator():
+    """``mckibben._kernels.kernel`` (re-exported by ``mckibben._jit``) is the only way the package
+    makes a Numba function: no ``numba.njit``/``jit``/``vectorize`` anywhere else, no second
+    decorator in ``_jit``, and every dispatcher of a simulation is the package's ``Kernel``."""
+    import ast
+
+    from mckibben import _jit, _kernels
+    from mckibben.plant import simulate  # noqa: F401 (loads the plant's kernels)
+
+    assert _jit.kernel is _kernels.kernel
+    assert not hasattr(_jit, "njit")
+    numba_makers = {"njit", "jit", "vectorize", "guvectorize", "cfunc", "generated_jit", "stencil"}
+    found = []
+    for path in sorted((ROOT / "src" / "mckibben").rglob("*.py")):
+        tree = ast.parse(path.read_text(), str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "numba":
+                found += [f"{path.name}:{node.lineno} from {node.module} import {a.name}"
+                          for a in node.names if a.name in numba_makers]
+            elif (isinstance(node, ast.Attribute) and node.attr in numba_makers and isinstance(node.value, ast.Name)
+                  and node.value.id == "numba"):
+                found.append(f"{path.name}:{node.lineno} numba.{node.attr}")
+    assert found == []
+    assert len(_jit.DISPATCHERS) > 50
+    assert {type(d) for d in _jit.DISPATCHERS} == {_jit.Kernel}
+
+
+def test_the_decorator_compiles_at_once_once_numba_is_loaded_and_refuses_a_cache_choice():
+    from mckibben import _jit, _kernels
+
+    def twice(x):
+        return 2.0 * x
+
+    made = _kernels.kernel(error_model="numpy")(twice)
+    assert isinstance(made, _jit.Kernel) and made.targetoptions["fastmath"] is False
+    assert made(4.0) == 8.0 and made.py_func is twice
+    with pytest.raises(TypeError, match="cache"):
+        _kernels.kernel(cache=True)
+    with pytest.raises(TypeError, match="func must be a function"):
+        _kernels.kernel(np.sin)
+
+
+def test_before_numba_is_loaded_the_decorator_marks_and_numba_compiles_the_marked_later(tmp_path):
+    """In a fresh process: a cheap module's kernel is its plain function until ``_kernels.jit()``,
+    then the same name in that module is the compiled dispatcher, with the same result."""
+    code = textwrap.dedent("""
+        import sys
+        from mckibben import hardware as HW, _kernels
+        plain = HW.adc_count
+        assert "numba" not in sys.modules and type(plain).__name__ == "function", type(plain)
+        assert plain.__mckibben_kernel__ is not None
+        before = plain(0.3e6, 500.0, 100)
+        jit = _kernels.jit()
+        assert isinstance(HW.adc_count, jit.Kernel) and HW.adc_count.py_func is plain
+        assert HW.adc_count(0.3e6, 500.0, 100) == before
+        print("ok")
+    """)
+    env = _env(MCKIBBEN_BACKGROUND_WARM="0", MCKIBBEN_CACHE_DIR=str(tmp_path / "cache"))
+    r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr[-2000:]

@@ -1,28 +1,34 @@
 """Compiled kernels, compiled once per machine: where they are cached, and why a cache never breaks a command.
 
-Every Numba function of the package is made with :func:`njit` from here, never with
-``numba.njit`` directly. It caches on disk in a per-user folder (:func:`cache_dir`), never inside
-the installed package:
+Every Numba function of the package is decorated with the one decorator
+:func:`mckibben._kernels.kernel` (re-exported here: ``from mckibben._jit import kernel`` in a module
+that loads Numba at import), which compiles through :func:`dispatcher`; never with ``numba.njit``
+directly. Only Numba's public API is used (a test scans the package for private Numba attributes):
 
-- ``$MCKIBBEN_CACHE_DIR`` if set, else ``$NUMBA_CACHE_DIR/mckibben``, else the platform's user
-  cache folder (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS,
-  ``%LOCALAPPDATA%`` on Windows) ``/mckibben``; below it one folder per package version.
-- A cached kernel is fresh while the *package's* sources are unchanged: the stamp Numba keeps in
-  each index is a hash of every source file of the package (:func:`fingerprint`), not of the
-  kernel's own file only, because kernels inline functions and constants from other modules and
-  Numba does not see those change (numba#1833). Content hashes, not times: a reinstall of the same
-  version keeps its cache; an edit anywhere invalidates it, and the next compilation overwrites the
-  stale entries in place (the folder does not grow).
-- When no folder can be written (a system-wide install run by an account without a writable
-  home), kernels compile in memory: one warning line, the command runs.
-- A failure to read or write a cache entry (a foreign, truncated or concurrently replaced file) is
-  never fatal: the entry is compiled in memory instead, with one warning.
+- **Where.** Each kernel caches on disk with Numba's own ``cache=True`` under Numba's
+  ``config.CACHE_DIR`` set to :func:`cache_dir` while the dispatcher is made (:func:`_make`; put
+  back after, so a user's own Numba functions are not moved): ``$MCKIBBEN_CACHE_DIR`` if set, else
+  ``$NUMBA_CACHE_DIR/mckibben``, else the platform's user cache folder (``$XDG_CACHE_HOME`` or
+  ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows)
+  ``/mckibben``; below it ``<package version>/<fingerprint>``. Never inside the installed package.
+- **Fresh.** The fingerprint (:func:`fingerprint`) is a hash of every source file of the package
+  and of the Python, Numba and llvmlite versions. Numba stamps an entry with its own file only,
+  but kernels inline functions and constants from other modules and Numba does not see those
+  change (numba#1833): a folder per package content means a stale entry can never be read. A
+  reinstall of the same sources finds its folder again; folders not used for
+  :data:`PRUNE_AFTER_S` are removed when a new one is made.
+- **No folder.** When no folder can be written (a system-wide install run by an account without a
+  writable home), kernels compile in memory: one warning line, the command runs.
+- **Never fatal.** A failure to read a cache entry (a truncated or damaged file) removes that
+  kernel's entries and compiles it again; a failure to save one keeps the compiled code in memory;
+  one warning either way (:meth:`Kernel.compile`).
+- **Once across processes.** A process takes a lock on a kernel (``flock`` on a file beside its
+  entries) from before it looks the kernel up in the cache to after it saved it; another process
+  that needs the same kernel waits, then loads it (Dask workers, a second terminal, the background
+  warm-up), instead of compiling it too.
 - No cached function takes another compiled function as an argument: such a function cannot be
   cached (its argument type names a dispatcher of one process only), so the simulator's runner is
   generated once per controller kernel, with the kernel as a true global (:func:`module_for`).
-- One process compiles a kernel at a time: a process that finds a kernel missing takes a lock on
-  its index (``flock``) while it compiles; another process that needs the same kernel waits and
-  loads it (Dask workers, a second terminal, the background warm-up), instead of compiling it too.
 - The first compilation of a process starts a background warm-up on the machine's other core
   (:func:`start_background_warm`): it compiles the integrator and the firmware core's mirror,
   the longest kernels every simulation needs, while the command compiles its own start, so a
@@ -33,33 +39,39 @@ See ``../shared/notes/numba-cache.md`` for the facts of Numba's cache this desig
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import importlib.util
 import inspect
 import os
+import shutil
 import sys
 import threading
+import time
 import types
 import warnings
 from pathlib import Path
 
+import llvmlite
 import numba
-from numba.core import caching
+from numba.core import event as _event
+from numba.core import sigutils
+from numba.core.registry import CPUDispatcher
 
 try:
     import fcntl as _fcntl
 except ImportError:  # Windows: no compile lock
     _fcntl = None  # type: ignore[assignment]
-from numba.core import event as _event
 
 from mckibben import _kernels
 from mckibben import compile_notice as _notice_module
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 _ENV_DIR = "MCKIBBEN_CACHE_DIR"
+#: A fingerprint folder unused for this long is removed when a new one is made. [s]
+PRUNE_AFTER_S = 14 * 24 * 3600.0
+_USED = ".last-used"
 
-#: Every dispatcher made by :func:`njit` in this process (the warm-up and the tests read them).
+#: Every dispatcher made by :func:`dispatcher` in this process (the warm-up and the tests read them).
 DISPATCHERS: list = []
 _LOCK = threading.RLock()
 _STATE: dict = {}
@@ -83,12 +95,17 @@ def _user_cache_base() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
 
 
-def _candidate() -> Path:
+def _base() -> Path:
+    """The folder holding one folder per version (what ``MCKIBBEN_CACHE_DIR`` names)."""
     if os.environ.get(_ENV_DIR):
-        return Path(os.environ[_ENV_DIR]).expanduser() / _version()
+        return Path(os.environ[_ENV_DIR]).expanduser()
     if os.environ.get("NUMBA_CACHE_DIR"):
-        return Path(os.environ["NUMBA_CACHE_DIR"]).expanduser() / "mckibben" / _version()
-    return _user_cache_base() / "mckibben" / _version()
+        return Path(os.environ["NUMBA_CACHE_DIR"]).expanduser() / "mckibben"
+    return _user_cache_base() / "mckibben"
+
+
+def _candidate() -> Path:
+    return _base() / _version() / fingerprint()[:16]
 
 
 def _usable(path: Path) -> bool:
@@ -100,6 +117,27 @@ def _usable(path: Path) -> bool:
         return True
     except (OSError, RuntimeError):  # RuntimeError: Path.home() with no home at all
         return False
+
+
+def _mark_used(path: Path) -> None:
+    """Record that ``path`` is in use; when it is new, remove its sibling folders unused for :data:`PRUNE_AFTER_S`."""
+    stamp = path / _USED
+    new = not stamp.exists()
+    try:
+        stamp.touch()
+    except OSError:
+        return
+    if not new:
+        return
+    now = time.time()
+    for sibling in path.parent.iterdir():
+        used = sibling / _USED
+        try:
+            old = sibling != path and used.exists() and now - used.stat().st_mtime > PRUNE_AFTER_S
+        except OSError:
+            continue
+        if old:
+            shutil.rmtree(sibling, ignore_errors=True)
 
 
 def cache_dir() -> Path | None:
@@ -119,6 +157,8 @@ def cache_dir() -> Path | None:
                 _STATE["problem"] = None if ok else (
                     f"cannot write the kernel cache folder {path}; kernels are compiled in memory for this "
                     f"process only (set {_ENV_DIR} to a writable folder to cache them)")
+                if ok:
+                    _mark_used(path)
         return _STATE["dir"]
 
 
@@ -129,22 +169,18 @@ def cache_problem() -> str | None:
 
 
 def fingerprint() -> str:
-    """SHA-256 of every source file of the package, in path order: the stamp of every cached kernel."""
+    """SHA-256 of every source file of the package (in path order) and of the Python, Numba and llvmlite versions.
+
+    Names the cache folder: a kernel cached by other sources or another compiler is never read.
+    """
     with _LOCK:
         if "fingerprint" not in _STATE:
-            h = hashlib.sha256()
+            h = hashlib.sha256(f"{sys.version}|{numba.__version__}|{llvmlite.__version__}".encode())
             for f in sorted(PACKAGE_DIR.rglob("*.py")):
                 h.update(str(f.relative_to(PACKAGE_DIR)).encode())
                 h.update(f.read_bytes())
             _STATE["fingerprint"] = h.hexdigest()
         return _STATE["fingerprint"]
-
-
-@functools.lru_cache(maxsize=None)
-def _file_hash(path: str, mtime_ns: int, size: int) -> str:
-    """SHA-256 of a source file, read once per version of it (one stamp per function of the file)."""
-    with open(path, "rb") as f:
-        return hashlib.sha256(f.read()).hexdigest()
 
 
 def _runner_dir() -> Path | None:
@@ -158,88 +194,12 @@ def _ours(py_file: str) -> bool:
     return path.is_relative_to(PACKAGE_DIR) or (runners is not None and path.is_relative_to(runners))
 
 
-class _Locator(caching._CacheLocator):
-    """Numba cache locator for the package's functions: the per-user folder, the package's stamp."""
-
-    def __init__(self, py_func, py_file):
-        self._py_file = py_file
-        self._lineno = py_func.__code__.co_firstlineno
-        base = cache_dir()
-        assert base is not None  # from_function checked it
-        self._cache_path = str(base / "numba" / self.get_suitable_cache_subpath(py_file))
-
-    def ensure_cache_path(self):
-        os.makedirs(self._cache_path, exist_ok=True)
-
-    def get_cache_path(self):
-        return self._cache_path
-
-    def get_source_stamp(self):
-        # the package's sources and the function's own file (a generated runner is not in the package)
-        st = os.stat(self._py_file)
-        return (fingerprint(), _file_hash(self._py_file, st.st_mtime_ns, st.st_size))
-
-    def get_disambiguator(self):
-        return str(self._lineno)
-
-    @classmethod
-    def from_function(cls, py_func, py_file):
-        if cache_dir() is None or not os.path.exists(py_file) or not _ours(py_file):
-            return None
-        self = cls(py_func, py_file)
-        try:
-            self.ensure_cache_path()
-        except OSError:
-            return None
-        return self
-
-
-def _install_locator() -> None:
-    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")
-    if _Locator not in impl._locator_classes:
-        impl._locator_classes.insert(0, _Locator)
-
-
-class _SafeCache(caching.FunctionCache):
-    """Numba's function cache, where a failure to load or save an entry compiles in memory instead,
-    and where a kernel another process is compiling is waited for and loaded (:class:`_CompileLock`)."""
-
-    def _load(self, sig, target_context):
-        try:
-            return super().load_overload(sig, target_context)
-        except Exception as exc:  # noqa: BLE001 - a foreign/truncated entry: compile instead
-            _cache_warning(f"a cached kernel could not be read ({type(exc).__name__}: {exc}); compiling it")
-            return None
-
-    def load_overload(self, sig, target_context):
-        found = self._load(sig, target_context)
-        if found is not None:
-            return found
-        lock = _CompileLock.of(self)
-        if lock is not None and lock.acquire():  # another process held it: it may have saved the kernel
-            found = self._load(sig, target_context)
-            if found is not None:
-                lock.release()
-        return found  # None: this process compiles, holding the lock until save_overload
-
-    def save_overload(self, sig, data):
-        try:
-            super().save_overload(sig, data)
-        except Exception as exc:  # noqa: BLE001 - the compiled code is in memory; only the save failed
-            _cache_warning(f"a compiled kernel could not be cached ({type(exc).__name__}: {exc})")
-        finally:
-            lock = _CompileLock.held(self)
-            if lock is not None:
-                lock.release()
-
-
 class _CompileLock:
-    """An exclusive ``flock`` on ``<kernel index>.lock`` while this process compiles that kernel.
+    """An exclusive ``flock`` on a kernel's ``.lock`` file, held while this process loads or compiles it.
 
-    Held from the cache miss to the save (or to a failed compilation, see :class:`_LockRelease`);
-    the operating system drops it if the process dies. A process that finds it held waits (at most
-    :data:`WAIT_S`), then loads what the holder saved. Not on Windows (no ``fcntl``): there every
-    process compiles for itself, as before.
+    The operating system drops it if the process dies. A process that finds it held waits (at
+    most :data:`WAIT_S`), then looks the kernel up in the cache, where the holder saved it. Not on
+    Windows (no ``fcntl``): there every process compiles for itself.
     """
 
     WAIT_S = 600.0
@@ -249,53 +209,31 @@ class _CompileLock:
         self.path = path
         self.fd: int | None = None
 
-    @classmethod
-    def of(cls, cache) -> "_CompileLock | None":
-        if _fcntl is None:
-            return None
-        path = cls._path(cache)
-        if path is None or path in cls._held:  # already ours (a nested compile of the same kernel)
-            return None
-        return cls(path)
-
-    @classmethod
-    def held(cls, cache) -> "_CompileLock | None":
-        path = cls._path(cache)
-        return cls._held.get(path) if path is not None else None
-
-    @staticmethod
-    def _path(cache) -> str | None:
-        index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
-        return f"{index}.lock" if index else None
-
     def acquire(self) -> bool:
-        """Take the lock, waiting while another process holds it; True if it had to wait."""
+        """Take the lock, waiting while another process holds it; True if it is held now."""
+        if _fcntl is None or self.path in _CompileLock._held:  # none, or ours already (a recursive kernel)
+            return False
         try:
+            os.makedirs(os.path.dirname(self.path), exist_ok=True)
             self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError:
             return False  # a read-only cache folder: no lock, compile as before
-        waited = False
-        deadline = None
+        deadline = time.monotonic() + self.WAIT_S
         while True:
             try:
                 _fcntl.flock(self.fd, _fcntl.LOCK_EX | _fcntl.LOCK_NB)
-                break
             except BlockingIOError:
-                import time
-
-                deadline = deadline or time.monotonic() + self.WAIT_S
-                if time.monotonic() > deadline:  # a stuck holder: compile anyway
-                    os.close(self.fd)
-                    self.fd = None
-                    return waited
-                waited = True
-                time.sleep(0.05)
+                if time.monotonic() < deadline:
+                    time.sleep(0.05)
+                    continue
             except OSError:
-                os.close(self.fd)
-                self.fd = None
-                return False
-        _CompileLock._held[self.path] = self
-        return waited
+                pass
+            else:
+                _CompileLock._held[self.path] = self
+                return True
+            os.close(self.fd)  # a stuck holder or a folder without locks: compile without it
+            self.fd = None
+            return False
 
     def release(self) -> None:
         if self.fd is not None:
@@ -307,25 +245,6 @@ class _CompileLock:
                 self.fd = None
 
 
-class _LockRelease(_event.Listener):
-    """Drop a kernel's compile lock when its compilation fails (no save follows then)."""
-
-    def on_start(self, event):
-        pass
-
-    def on_end(self, event):
-        # numba's Event.is_failed reads the wrong way round (True when no exception): read the details
-        if getattr(event, "_exc_details", None) is None:
-            return
-        disp = event.data.get("dispatcher") if isinstance(event.data, dict) else None
-        lock = _CompileLock.held(getattr(disp, "_cache", None)) if disp is not None else None
-        if lock is not None:
-            lock.release()
-
-
-_event.register("numba:compile", _LockRelease())
-
-
 def _cache_warning(message: str) -> None:
     with _LOCK:
         if _STATE.get("warned"):
@@ -334,34 +253,175 @@ def _cache_warning(message: str) -> None:
     warnings.warn(message, RuntimeWarning, stacklevel=3)
 
 
-def njit(*args, **options):
-    """``numba.njit`` for the package: cached in :func:`cache_dir`, or compiled in memory when it cannot be.
+class Kernel(CPUDispatcher):
+    """Numba's CPU dispatcher, whose :meth:`compile` makes the disk cache safe to share and never fatal.
 
-    Takes Numba's options (``cache`` is decided here and may not be given). Use as ``@njit`` or
-    ``@njit(error_model="numpy", ...)``.
+    Numba calls ``compile`` for every new signature: a call from Python, and a call from another
+    compiled function while that one is typed. Only public members of the dispatcher are used:
+    ``overloads``, ``stats`` and ``py_func``.
+    """
+
+    def compile(self, sig):
+        """Load the overload for ``sig`` from the cache, or compile and save it, under the kernel's lock.
+
+        Parameters
+        ----------
+        sig : numba signature or tuple of numba types
+            The argument types. [-]
+
+        Returns
+        -------
+        callable
+            The compiled entry point (Numba's).
+        """
+        # Lookup, load or compilation run in a fresh stretch of Python's frame stack (_fresh_stack):
+        # see _FRESH_STACK_SLOTS. The failure paths live in _after_failure.
+        args = tuple(sigutils.normalize_signature(sig)[0])
+        if args in self.overloads:  # compiled or loaded already in this process
+            return super().compile(sig)
+        entries = _entry_files(self)
+        if entries is None:  # not cached on disk: compiled in memory
+            return _fresh_stack(CPUDispatcher.compile, self, sig)
+        lock = _CompileLock(str(entries[0] / f"{entries[1]}.lock"))
+        held = lock.acquire()
+        misses = sum(self.stats.cache_misses.values())
+        try:
+            return _fresh_stack(CPUDispatcher.compile, self, sig)
+        except Exception as exc:  # noqa: BLE001 - a cache problem must not reach the run
+            return _after_failure(self, sig, args, entries, misses, exc)
+        finally:
+            if held:
+                lock.release()
+
+
+#: Local variables of :func:`_fresh_stack`'s frame: 4200 slots of 8 bytes, just over 32 KiB. [-]
+#:
+#: CPython (3.11 on) keeps frames on a stack of chunks, 16 KiB each, and frees a chunk as soon as
+#: its first frame returns. A loop whose calls cross a chunk's edge maps and unmaps a chunk on
+#: every call. Numba compiles a kernel's callees from inside the kernel's own compilation, so
+#: where its typing and lowering loops fall against those edges depends on every frame below
+#: them: one frame more per nesting level (:meth:`Kernel.compile`) put the integrator's chain
+#: (``rhs`` ×4, ``rk4_step``, ``advance``) on an edge, 85,000 mmap/munmap pairs and 1.5–3 s of
+#: CPU in a cold ``control step`` where main's layer made 6,500 (benchmarks/RESULTS.md). A frame
+#: this large does not fit in a 16 KiB chunk: Python gives it a 64 KiB one of its own, so each
+#: compilation starts with about 30 KiB of stack before any edge (1,500 pairs for that chain),
+#: whatever the depth it was called at. One 64 KiB chunk per kernel compiled or loaded.
+_FRESH_STACK_SLOTS = 4200
+
+
+def _fresh_stack_function(slots: int):
+    """``run(f, a, b)`` = ``f(a, b)``, from a frame of ``slots`` local variables (generated: Python has no other way)."""
+    names = " = ".join(f"_{i}" for i in range(slots))
+    namespace: dict = {}
+    exec(compile(f"def run(f, a, b, never=False):\n    if never:\n        {names} = None\n    return f(a, b)\n",  # noqa: S102 - ours
+                 "<mckibben._jit._fresh_stack>", "exec"), namespace)
+    return namespace["run"]
+
+
+_fresh_stack = _fresh_stack_function(_FRESH_STACK_SLOTS)
+
+
+def _entry_files(disp: Kernel) -> tuple[Path, str] | None:
+    """The folder of a kernel's cache entries and the start of their names (as Numba names them), or None."""
+    where = getattr(disp.stats, "cache_path", None)
+    base = cache_dir()
+    if not isinstance(where, str) or base is None or not Path(where).is_relative_to(base):
+        return None
+    func = disp.py_func
+    name = f"{Path(inspect.getfile(func)).stem}.{func.__qualname__}".replace("<", "").replace(">", "")
+    return Path(where), f"{name}-{func.__code__.co_firstlineno}.py"
+
+
+def _after_failure(disp: Kernel, sig, args: tuple, entries: tuple[Path, str], misses: int, exc: Exception):
+    """After Numba's compile (load, or compile and save) raised: neither a damaged entry nor a failed save is fatal.
+
+    A failed save keeps the compiled code; an entry that could not be read is removed and the
+    kernel compiled again; a failed compilation is the caller's error and is raised again.
+    """
+    done = disp.overloads.get(args)
+    if done is not None:  # compiled and in memory: only the save failed
+        _cache_warning(f"a compiled kernel could not be cached ({type(exc).__name__}: {exc})")
+        return done.entry_point
+    if sum(disp.stats.cache_misses.values()) != misses:
+        raise exc  # the compilation itself failed: the caller's error, not the cache's
+    _cache_warning(f"a cached kernel could not be read ({type(exc).__name__}: {exc}); compiling it")
+    folder, stem = entries
+    for f in folder.glob(f"{stem}*.nb[ic]"):
+        f.unlink(missing_ok=True)
+    return CPUDispatcher.compile(disp, sig)
+
+
+def _make(func, cached: bool, options: dict):
+    """A :class:`Kernel` for ``func`` with Numba's ``njit`` options; caching under :func:`cache_dir` when ``cached``.
+
+    Numba has no public way to give one dispatcher its own cache folder: its cache reads
+    ``numba.config.CACHE_DIR`` (``NUMBA_CACHE_DIR``) once, when ``enable_caching`` builds the
+    dispatcher's cache, and keeps the path. So the folder is set there for that call and put back
+    at once, under this module's lock (:data:`_LOCK`, re-entrant): no two of the package's
+    dispatchers are made at the same time. A user's own ``numba.njit(cache=True)`` made by another
+    thread during that instant would cache in the package's folder (harmless: it is a cache).
+    Setting ``NUMBA_CACHE_DIR`` before Numba is imported is not an option: it would move every
+    user function's cache for the whole process, and a user may have imported Numba first.
+    """
+    options = dict(options)
+    locals_ = options.pop("locals", {})
+    options["nopython"] = True
+    options.setdefault("boundscheck", None)
+    disp = Kernel(py_func=func, locals=locals_, targetoptions=options)
+    if cached:
+        with _LOCK:
+            previous = numba.config.CACHE_DIR
+            numba.config.CACHE_DIR = str(cache_dir() / "numba")  # type: ignore[operator]
+            try:
+                disp.enable_caching()
+            finally:
+                numba.config.CACHE_DIR = previous
+    return disp
+
+
+def dispatcher(func, options: dict):
+    """The compiled kernel of ``func``: cached in :func:`cache_dir`, or compiled in memory when it cannot be.
+
+    What :func:`mckibben._kernels.kernel`, the package's one decorator, calls once Numba is loaded.
+
+    Parameters
+    ----------
+    func : function
+        The plain Python function. [-]
+    options : dict
+        Numba's ``njit`` options (``cache`` is decided here and may not be given; ``fastmath``
+        is ``False`` unless given). [-]
+
+    Returns
+    -------
+    Kernel or function
+        The dispatcher (the function itself with ``NUMBA_DISABLE_JIT=1``).
     """
     if "cache" in options:
-        raise TypeError("mckibben._jit.njit decides caching itself; do not pass cache=")
+        raise TypeError("mckibben._kernels.kernel decides caching itself; do not pass cache=")
     # Explicit, never inherited: Numba compiles a callee that leaves ``fastmath`` unset with the
     # flags of the caller that compiles it first. ``law_force`` compiled from the integrator (whose
     # stages contract a·b + c into one FMA) then differed from ``law_force`` compiled from the
     # output stage, so the plant's last bits depended on which command had filled the cache.
-    options.setdefault("fastmath", False)
+    options = {"fastmath": False, **options}
+    if numba.config.DISABLE_JIT:
+        return func
+    if not inspect.isfunction(func):
+        raise TypeError(f"kernel: func must be a function, got {type(func).__name__}")
+    with _LOCK:
+        try:
+            source = inspect.getsourcefile(func)
+        except TypeError:
+            source = None
+        cached = cache_dir() is not None and source is not None and os.path.exists(source) and _ours(source)
+        disp = _make(func, cached, options)
+        DISPATCHERS.append(disp)
+    return disp
 
-    def wrap(func):
-        with _LOCK:
-            cached = cache_dir() is not None
-            if cached:
-                _install_locator()
-            disp = numba.njit(cache=cached, **options)(func)
-            if cached and hasattr(disp, "_cache"):  # not with NUMBA_DISABLE_JIT=1 (a plain function)
-                disp._cache.__class__ = _SafeCache
-            DISPATCHERS.append(disp)
-        return disp
 
-    if args and callable(args[0]):
-        return wrap(args[0])
-    return wrap
+#: The package's one decorator (:func:`mckibben._kernels.kernel`), imported from here by a module
+#: whose kernels compile as it is imported.
+kernel = _kernels.kernel
 
 
 # --- generated modules: one compiled runner per controller kernel ---------------------------------
@@ -475,7 +535,7 @@ def generated_module(stem: str, text: str) -> object:
     """A module of generated source, cached like every kernel: written once into the cache folder.
 
     For code generated from data of the package (the plant's law dispatch, one branch per
-    registered law): its functions are made with :func:`njit`, so, written to the per-user folder
+    registered law): its functions are made with :func:`kernel`, so, written to the per-user folder
     (``runners/<stem>.py``) and imported from there, they are cached and stamped like any other.
     Without a writable cache (or with ``NUMBA_DISABLE_JIT``), the source is executed in memory and
     its functions compile for this process only.
@@ -485,8 +545,9 @@ def generated_module(stem: str, text: str) -> object:
     stem : str
         The generated file's name, without ``.py`` (one per kind of generated code). [-]
     text : str
-        Python source; it makes its compiled functions with ``mckibben._jit.njit``, imported by a
-        line ending with ``# njit-import`` (in memory, that line binds an uncached ``njit``). [-]
+        Python source; it makes its compiled functions with ``mckibben._jit.kernel``, imported by
+        a line ending with ``# kernel-decorator`` (in memory, that line binds an uncached
+        ``kernel``). [-]
 
     Returns
     -------
@@ -506,27 +567,27 @@ def generated_module(stem: str, text: str) -> object:
             module = _import_written(f"{stem}_{key[2][:16]}", text, runners)
         if module is None:
             module = types.ModuleType(f"mckibben._generated.{stem}")
-            module.__dict__["_memory_njit"] = _memory_njit
-            lines = [("njit = _memory_njit\n" if line.rstrip().endswith("# njit-import") else line)
+            module.__dict__["_memory_kernel"] = _memory_kernel
+            lines = [("kernel = _memory_kernel\n" if line.rstrip().endswith("# kernel-decorator") else line)
                      for line in text.splitlines(keepends=True)]
             exec(compile("".join(lines), f"<generated {stem}>", "exec"), module.__dict__)  # noqa: S102 - ours
         _STATE["modules"][key] = (None, module)
         return module
 
 
-def _memory_njit(*args, **options):
-    """:func:`njit` without a disk cache (generated source executed in memory has no file)."""
-    options.setdefault("fastmath", False)
+def _memory_kernel(func=None, /, **options):
+    """:func:`kernel` without a disk cache (generated source executed in memory has no file)."""
+    options = {"fastmath": False, **options}
 
-    def wrap(func):
+    def wrap(f):
+        if numba.config.DISABLE_JIT:
+            return f
         with _LOCK:
-            disp = numba.njit(cache=False, **options)(func)
+            disp = _make(f, False, options)
             DISPATCHERS.append(disp)
         return disp
 
-    if args and callable(args[0]):
-        return wrap(args[0])
-    return wrap
+    return wrap if func is None else wrap(func)
 
 
 def _in_memory(template, kernel_name: str, kernel):
@@ -546,7 +607,7 @@ def _in_memory(template, kernel_name: str, kernel):
         options = getattr(value, "targetoptions", None)
         if options is not None:
             options = {k: v for k, v in options.items() if k not in ("nopython", "cache", "boundscheck")}
-        module.__dict__[name] = clone if options is None else numba.njit(cache=False, **options)(clone)
+        module.__dict__[name] = clone if options is None else _make(clone, False, options)
         if options is not None:
             DISPATCHERS.append(module.__dict__[name])
     return module
@@ -557,18 +618,18 @@ def _in_memory(template, kernel_name: str, kernel):
 
 class _FirstCompile(_event.Listener):
     def __init__(self, callback):
-        self._callback = callback
-        self._done = False
+        self.callback = callback
+        self.done = False
 
     def on_start(self, event):
-        if self._done:
+        if self.done:
             return
         disp = event.data.get("dispatcher") if isinstance(event.data, dict) else None
         py_func = getattr(disp, "py_func", None)
         path = inspect.getsourcefile(py_func) if py_func is not None else None
         if path is not None and _ours(path):
-            self._done = True
-            self._callback()
+            self.done = True
+            self.callback()
 
     def on_end(self, event):
         pass
@@ -643,7 +704,7 @@ def start_background_warm() -> object | None:
     if (os.environ.get(BACKGROUND_ENV, "1") in ("0", "warming") or cache_dir() is None or _fcntl is None
             or (os.cpu_count() or 1) < 2 or numba.config.DISABLE_JIT):
         return None
-    env = {**os.environ, BACKGROUND_ENV: "warming", _ENV_DIR: str(cache_dir().parent)}
+    env = {**os.environ, BACKGROUND_ENV: "warming", _ENV_DIR: str(cache_dir().parent.parent)}  # type: ignore[union-attr]
     try:
         return subprocess.Popen([sys.executable, "-c", "from mckibben.doctor import background_warm; "
                                  f"background_warm({os.getpid()})"],
@@ -688,11 +749,12 @@ def compile_marked() -> None:
             for value in list(vars(mod).values()):
                 options = getattr(value, "__mckibben_kernel__", None) if _is_plain(value) else None
                 if options is not None and value.__module__ == mod.__name__ and id(value) not in _COMPILED:
-                    _COMPILED[id(value)] = (value, njit(**options)(value))
+                    _COMPILED[id(value)] = (value, dispatcher(value, options))
         for mod in _kernels.modules():
             for name, value in list(vars(mod).items()):
                 if _is_plain(value) and id(value) in _COMPILED:
                     setattr(mod, name, _COMPILED[id(value)][1])
 
 
+_kernels.use_compiler(dispatcher)  # from now on the decorator compiles at once
 compile_marked()

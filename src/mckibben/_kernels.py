@@ -1,12 +1,21 @@
-"""Kernels that stay plain Python until the package loads Numba.
+"""The package's one decorator for compiled functions, :func:`kernel`, and the kernels that stay plain Python until the package loads Numba.
 
-A module whose kernels are also needed by quick commands (``mckibben predict``, ``--help``) marks
-them with :func:`kernel` instead of :func:`mckibben._jit.njit` and calls :func:`register` at its
-end. Until the package imports Numba (through :mod:`mckibben._jit`, which the simulator and the
-controllers import), the marked functions are the plain Python functions they are written as;
-from then on each module's marked functions are replaced, in the module, by their compiled
-dispatchers, before any compiled code that calls them is compiled. The same source, the same
-arithmetic: tests hold the two equal to the bit.
+Every compiled function of the package is written as a plain Python function decorated with
+:func:`kernel` (Numba's ``njit`` options as keywords; caching is decided by :mod:`mckibben._jit`).
+What the decorator returns depends only on whether Numba is loaded yet:
+
+- Numba loaded (:mod:`mckibben._jit` imported): the compiled dispatcher
+  (:class:`mckibben._jit.Kernel`), cached on disk. A module that runs compiled code as soon as it
+  is imported (the simulator, the controllers' runners) imports the decorator from
+  :mod:`mckibben._jit` (``from mckibben._jit import kernel``, the same function re-exported), which
+  loads Numba first.
+- Numba not loaded: the function itself, marked. A module whose kernels are also needed by quick
+  commands (``mckibben predict``, ``--help``) imports the decorator from here and calls
+  :func:`register` at its end. Until the package imports Numba (through :mod:`mckibben._jit`, which
+  the simulator and the controllers import), the marked functions are the plain Python functions
+  they are written as; from then on each module's marked functions are replaced, in the module, by
+  their compiled dispatchers, before any compiled code that calls them is compiled. The same
+  source, the same arithmetic: tests hold the two equal to the bit.
 
 Compiled code reaches a marked kernel through its module (``HW.adc_count``), from inside that
 module, or by a name a registered module imported from another (rebound too); a module that is not
@@ -27,12 +36,44 @@ PYTHON_MAX = 64
 
 
 def kernel(func=None, /, **options):
-    """Mark ``func`` as a kernel compiled with Numba's ``options`` once the package loads Numba."""
-    def mark(f):
+    """Compile ``func`` with Numba's ``options``: now if Numba is loaded, else once the package loads it.
+
+    Use as ``@kernel`` or ``@kernel(error_model="numpy", inline="always", ...)``; the options are
+    Numba's ``njit`` options, except ``cache``, which :mod:`mckibben._jit` decides (a per-user
+    folder, or in memory when none can be written). ``fastmath`` is ``False`` unless given.
+
+    Parameters
+    ----------
+    func : function, optional
+        The plain Python function. [-]
+    **options
+        Numba's ``njit`` options. [-]
+
+    Returns
+    -------
+    mckibben._jit.Kernel or function
+        The compiled dispatcher when Numba is loaded; otherwise ``func`` itself, marked, which
+        :func:`register` replaces by its dispatcher in its module once Numba is loaded.
+    """
+    if "cache" in options:
+        raise TypeError("mckibben._kernels.kernel decides caching itself; do not pass cache=")
+
+    def make(f):
+        if _COMPILER:  # Numba is loaded: the dispatcher now
+            return _COMPILER[0](f, options)
         f.__mckibben_kernel__ = options
         return f
 
-    return mark if func is None else mark(func)
+    return make if func is None else make(func)
+
+
+#: ``[compile(func, options)]`` once :mod:`mckibben._jit` has loaded Numba (:func:`use_compiler`).
+_COMPILER: list = []
+
+
+def use_compiler(compile_function) -> None:
+    """From now on :func:`kernel` compiles at once with ``compile_function(func, options)`` (:mod:`mckibben._jit` calls it)."""
+    _COMPILER[:] = [compile_function]
 
 
 def register(module_name: str) -> None:

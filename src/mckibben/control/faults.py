@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mckibben._jit import njit
+from mckibben._jit import kernel
 from mckibben.control.core_params import N_ISTATE, pack_params
 from mckibben.control.layout import IS_SURFACE
 from mckibben.control.step import core_kernel
@@ -31,7 +31,7 @@ IS_K, IS_HELD = N_ISTATE, N_ISTATE + 1
 FP_KIND, FP_ONSET, FP_VALUE = 0, 1, 2
 
 
-@njit
+@kernel
 def instrumented_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
     """The core kernel behind an optional sensor fault, recording S of every step.
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben._jit import njit
+from mckibben._jit import kernel
 from mckibben.control.core_params import N_ISTATE
 from mckibben.control.step import core_kernel
 from mckibben.errors import InputError
@@ -355,7 +355,7 @@ FS_INT, FS_CORR = 0, 1
 IS_STEP = N_ISTATE
 
 
-@njit
+@kernel
 def length_loop_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
     """Feed-forward pressure plus a PI on the encoder's length error, then the core.
 

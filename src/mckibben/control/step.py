@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 
 
-from mckibben._jit import njit
+from mckibben._jit import kernel
 from mckibben.control import registry as R
 from mckibben.control.fixed import clamp as _clamp
 from mckibben.control.laws import pid, smc
@@ -66,7 +66,7 @@ RESP_DU = 24
 RESP_P_MIN = 20_000
 
 
-@njit(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
+@kernel(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
 def _response_expected(st, ip, seen):
     # controller.c response_expected(): must the reading have moved under the last command?
     if ip[IP_GS_PA] == 0:
@@ -80,7 +80,7 @@ def _response_expected(st, ip, seen):
     return (st[IS_LAST_INLET] - ip[IP_RESP_U]) * ip[IP_GS_PA] >= 2 * p + RESP_P_MIN
 
 
-@njit(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
+@kernel(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
 def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
     """One step of one channel; ``shared`` is the istate that holds the supply estimate.
 
@@ -179,7 +179,7 @@ def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
     return inlet, bleed, faults
 
 
-@njit(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
+@kernel(_nrt=False)  # no reference counting: integer code that allocates nothing (halves its cost per step)
 def core_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
     """One control step of the firmware core (``mck_ctrl_step``), bit-exact.
 

@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from mckibben import hardware as HW
-from mckibben._jit import njit
+from mckibben._jit import kernel as compiled  # the one decorator (`kernel` here names a controller kernel)
 from mckibben import control
 from mckibben.control.core import CoreParams, core_spec
 from mckibben.data.muscle_file import MuscleSpec
@@ -168,7 +168,7 @@ def muscle_plant(muscle="mpam97", force_model: str | None = None, **fields) -> P
     return plant
 
 
-@njit(error_model="numpy")
+@compiled(error_model="numpy")
 def _exchange(n, bk, law, length, velocity, inlet, bleed, tension):
     """Lanes 0..n-1 take the tendons' length [m] and velocity [m/s] and the valves' PWM counts; their
     tension [N] goes to ``tension``.

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from mckibben import hardware as HW
-from mckibben._jit import njit
+from mckibben._jit import kernel as compiled  # the one decorator (`kernel` here names a controller kernel)
 from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 from mckibben.plant.physics import NS, W
@@ -31,7 +31,7 @@ FLAG_END_STOP = 4  #: the length reached an end stop of the braid (locking or st
 _C = PK.Col
 
 
-@njit(error_model="numpy")
+@compiled(error_model="numpy")
 def no_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
     """The placeholder controller of open-loop runs (never called: ``use_kernel`` is False)."""
     return 0, 0, 0
@@ -40,7 +40,7 @@ def no_kernel(istate, iparams, fstate, fparams, adc, enc, sample_ok, p_ref_pa):
 controller_kernel = no_kernel  # kernel-import
 
 
-@njit(error_model="numpy")
+@compiled(error_model="numpy")
 def splitmix(state):
     z = (state + np.uint64(0x9E3779B97F4A7C15)) & np.uint64(0xFFFFFFFFFFFFFFFF)
     out = z
@@ -50,7 +50,7 @@ def splitmix(state):
     return z, out
 
 
-@njit(error_model="numpy")
+@compiled(error_model="numpy")
 def gauss(rng, j):
     """Standard normal deviate from lane j's splitmix64 stream (Box–Muller)."""
     rng[j], a = splitmix(rng[j])
@@ -68,7 +68,7 @@ X_PPC, X_ADCZ, X_ENC, X_NOISE, X_SEED = (_x(c) for c in (_C.pa_per_count, _C.adc
                                                         _C.pressure_noise, _C.seed))
 
 
-@njit(error_model="numpy")
+@compiled(error_model="numpy")
 def run_block(use_kernel, b0, nl, istate, iparams, fstate, fparams, schedule, prm, theta, law, s0, ref,
                n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault, out_adc,
                out_enc, flags, rec):
@@ -158,7 +158,7 @@ def run_block(use_kernel, b0, nl, istate, iparams, fstate, fparams, schedule, pr
                 flags[i] |= FLAG_END_STOP
 
 
-@njit(nogil=True, error_model="numpy")
+@compiled(nogil=True, error_model="numpy")
 def run_blocks(use_kernel, blk0, blk1, istate, iparams, fstate, fparams, schedule, prm, theta, law, s0, ref,
                 n_steps, substeps, ts, out_p, out_pm, out_l, out_f, out_m, out_t, out_in, out_bl, out_fault, out_adc,
                 out_enc, flags, rec):

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mckibben._jit import njit
+from mckibben._jit import kernel
 from mckibben.errors import InputError, check_real
 from mckibben.plant import params as PP
 from mckibben.plant import packing as PK
@@ -28,7 +28,7 @@ STATES = ("pressure_Pa", "temperature_K", "inlet_opening", "bleed_opening", "len
 _K1 = ph.st_row(ph.ST_K1, 0)
 
 
-@njit(error_model="numpy")
+@kernel(error_model="numpy")
 def _f(bk, law, x, xin_t, out):
     for r in range(6):
         bk[ph.Z_P + r * ph.W] = x[r]

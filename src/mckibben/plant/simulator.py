@@ -34,7 +34,7 @@ import numpy as np
 
 from mckibben import _jit
 from mckibben import hardware as HW
-from mckibben._jit import njit
+from mckibben._jit import kernel as compiled  # the one decorator (`kernel` here names a controller kernel)
 from mckibben.errors import ArgumentTypeError, InputError, UnreachableError, check_array, check_instance, check_int, check_real
 from mckibben.limits import SECONDS_PER_SAMPLE, check_budget
 from mckibben.results import TimeResponse
@@ -174,7 +174,7 @@ def _run(runner, use_kernel, *args):
 
 
 
-@njit(error_model="numpy", inline="always")
+@compiled(error_model="numpy", inline="always")
 def _balance(law, prm, th, w, i, pg, length):
     """Muscle pull less load pull of instance i at a length (the integrator's forces, no friction). [N]"""
     f = ph.law_value(law, pg, length, th, i, w)
@@ -184,7 +184,7 @@ def _balance(law, prm, th, w, i, pg, length):
     return fm - (prm[i, C_LF] - prm[i, C_KS] * (length - prm[i, C_LFREE]))
 
 
-@njit(error_model="numpy")
+@compiled(error_model="numpy")
 def _bracket_balance(law, prm, th, w, pg, a, b, status):
     """Narrow each instance's bracket [a, b] onto the root of :func:`_balance`, in place; ``status`` as
     :func:`static_equilibrium`'s (0 between the stops, 1 straight stop, 2 locking stop).
@@ -728,7 +728,7 @@ class PlantStepper:
         self.t += self.ts
 
 
-@njit(error_model="numpy")
+@compiled(error_model="numpy")
 def _volumes(bk, n, length, out):
     for j in range(n):
         out[j] = ph.volume(length[j], bk, j)[0]
