@@ -421,7 +421,7 @@ def dispatcher(func, options: dict):
 
 #: The package's one decorator (:func:`mckibben._kernels.kernel`), imported from here by a module
 #: whose kernels compile as it is imported.
-kernel = _kernels.kernel
+from mckibben._kernels import kernel as kernel  # noqa: E402  (a re-export, not a second definition)
 
 
 # --- generated modules: one compiled runner per controller kernel ---------------------------------
