@@ -637,12 +637,14 @@ int main(int argc, char **argv)
         if (bench_sock >= 0) close(bench_sock);
         bench_sock = -1;
     }
+    /* Nobody can have the port open before its name is printed: the first open is always a transition
+       (and a reset), however soon after the line the host opens it. */
+    present = host_present(master);
     printf("{\"port\": \"%s\", \"channels\": %d, \"fields\": %d, \"bench\": \"%s\"}\n", name, n_ch, MK_NF,
            bench_sock >= 0 ? bench_addr.sun_path : "");
     fflush(stdout);
 
     mcu_reset();
-    present = host_present(master);
     t0 = now_s();
     booting_until = boot_time; /* power-on: the bootloader first */
     next_report = 0.2;
