@@ -50,6 +50,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 
 from mckibben._jit import generated_module, kernel
 from mckibben.models import laws as LW
@@ -377,13 +379,13 @@ def rk4_step(n, bk, law, dt):
     the gap z − F_c·sgn v̄ (backward Euler's), and it needs no ``exp``, so the loop vectorizes.
     The end stops project the length back inside [l_min, l_max] and stop any motion outward.
     """
-    rhs(n, bk, ST_S, ST_K1, law)
+    rhs(n, bk, np.int64(ST_S), np.int64(ST_K1), law)
     _stage(n, bk, 0.5 * dt, ST_K1)
-    rhs(n, bk, ST_TMP, ST_K2, law)
+    rhs(n, bk, np.int64(ST_TMP), np.int64(ST_K2), law)
     _stage(n, bk, 0.5 * dt, ST_K2)
-    rhs(n, bk, ST_TMP, ST_K3, law)
+    rhs(n, bk, np.int64(ST_TMP), np.int64(ST_K3), law)
     _stage(n, bk, dt, ST_K3)
-    rhs(n, bk, ST_TMP, ST_K4, law)
+    rhs(n, bk, np.int64(ST_TMP), np.int64(ST_K4), law)
     h6 = dt / 6.0
     k1 = OFF_ST + ST_K1 * NS * W
     k2 = OFF_ST + ST_K2 * NS * W
