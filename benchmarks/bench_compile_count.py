@@ -1,8 +1,9 @@
 """Diagnostic of a cold command's compilations: how many times each kernel is compiled (issue 34).
 
 Numba compiles a kernel once per signature; a constant argument passed from one kernel to another
-(``rhs(n, bk, ST_S, ...)``) is typed as an integer *literal*, so each distinct constant is a
-signature of its own and the callee is compiled again for it. For each command this runs the
+(``clamp(x, -TERM_LIM, TERM_LIM)``) is typed as an integer *literal*, so each distinct constant is
+a signature of its own and the callee is compiled again for it (on purpose only for the plant's
+``rhs``: one copy per Runge-Kutta stage, which LLVM vectorizes). For each command this runs the
 command in a fresh process with an empty cache folder (``MCKIBBEN_CACHE_DIR``) and the background
 warm-up off (so this process compiles everything), then prints, per kernel compiled more than once,
 the number of overloads and how many of them have a literal argument type, and the totals.

@@ -50,8 +50,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 
 from mckibben._jit import generated_module, kernel
 from mckibben.models import laws as LW
@@ -248,7 +246,11 @@ def muscle_force(fl, length, bk, j):
     return (fl if fl > 0.0 else 0.0) + bk[X_KP + j] * (stretch if stretch > 0.0 else 0.0)
 
 
-@kernel(error_model="numpy", fastmath={"contract"})  # not inlined: the four stages call one compiled copy
+# Not inlined. rk4_step passes the stage numbers k, dk as constants, so Numba compiles one copy per
+# stage (four): with the row offsets known, LLVM proves the stage's reads and writes apart and
+# vectorizes the lane loop. Passed typed (np.int64), one copy served all four and the integrator ran
+# 3.7x slower (benchmarks/RESULTS.md, issue #34); tests/test_compile_cache.py holds the four.
+@kernel(error_model="numpy", fastmath={"contract"})
 def rhs(n, bk, k, dk, law):
     """Time derivatives of stage ``k``'s states into stage ``dk`` (friction row held: see :func:`rk4_step`).
 
@@ -379,13 +381,13 @@ def rk4_step(n, bk, law, dt):
     the gap z − F_c·sgn v̄ (backward Euler's), and it needs no ``exp``, so the loop vectorizes.
     The end stops project the length back inside [l_min, l_max] and stop any motion outward.
     """
-    rhs(n, bk, np.int64(ST_S), np.int64(ST_K1), law)
+    rhs(n, bk, ST_S, ST_K1, law)
     _stage(n, bk, 0.5 * dt, ST_K1)
-    rhs(n, bk, np.int64(ST_TMP), np.int64(ST_K2), law)
+    rhs(n, bk, ST_TMP, ST_K2, law)
     _stage(n, bk, 0.5 * dt, ST_K2)
-    rhs(n, bk, np.int64(ST_TMP), np.int64(ST_K3), law)
+    rhs(n, bk, ST_TMP, ST_K3, law)
     _stage(n, bk, dt, ST_K3)
-    rhs(n, bk, np.int64(ST_TMP), np.int64(ST_K4), law)
+    rhs(n, bk, ST_TMP, ST_K4, law)
     h6 = dt / 6.0
     k1 = OFF_ST + ST_K1 * NS * W
     k2 = OFF_ST + ST_K2 * NS * W
