@@ -8,7 +8,8 @@ the controller core's mirror). The C SoA+SIMD+OpenMP loop of ``bench_plant.py`` 
 instance-substeps) runs right after each pass. What is left between the simulator and the whole
 ``mckibben sweep run`` (``bench_cli.py``) is the process start, Parquet and the chunks' Python.
 
-Run: ``python benchmarks/bench_sweep_kernel.py [--passes 2]`` (about a minute on 2 cores, warm cache).
+Run: ``python benchmarks/bench_sweep_kernel.py [--passes 2] [--samples 25000] [--no-c]`` (about a minute on 2
+cores, warm cache; ``--no-c`` skips the C loop, to compare source trees put first on ``PYTHONPATH``).
 """
 
 from __future__ import annotations
@@ -35,10 +36,12 @@ RECORD = ("pressure", "inlet", "bleed")  # what the sweep records
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--passes", type=int, default=2)
+    ap.add_argument("--samples", type=int, default=25_000, help="plants per beta (four betas)")
+    ap.add_argument("--no-c", action="store_true", help="skip the C loop")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         toml = Path(d) / "sweep.toml"
-        toml.write_text(TEMPLATE.format(samples=25_000))
+        toml.write_text(TEMPLATE.format(samples=args.samples))
         sweep = load_sweep(toml)
         scenario = sweep.scenario
         steps = int(round(scenario["duration"] / 1e-3))
@@ -48,7 +51,7 @@ def main() -> None:
         plants, ctrl, n = prepared[0]  # load (or compile) both runners before timing
         r = simulate(plants, steps * 1e-3, controller=ctrl, reference=ref, n=n, record=RECORD)
         simulate(plants, steps * 1e-3, inlet=r.inlet, bleed=r.bleed, n=n, record=("pressure",))
-        exes = build_c(Path(d))
+        exes = None if args.no_c else build_c(Path(d))
         print(f"{sweep.n_runs:,} plants, {steps} periods x 10 RK4 substeps")
         print("| pass | closed loop [s wall / CPU s] | open loop [s wall / CPU s] | C loop [s] | closed / C |")
         print("| --- | --- | --- | --- | --- |")
@@ -62,7 +65,7 @@ def main() -> None:
             for (plants, _, n), (a, b) in zip(prepared, cmds):
                 simulate(plants, steps * 1e-3, inlet=a, bleed=b, n=n, record=("pressure",))
             opened = (time.perf_counter() - w, time.process_time() - c)
-            cw = run_c(exes["exact"], "simd", sweep.n_runs, steps)[0]
+            cw = float("nan") if exes is None else run_c(exes["exact"], "simd", sweep.n_runs, steps)[0]
             print(f"| {k + 1} | {closed[0]:.2f} / {closed[1]:.2f} | {opened[0]:.2f} / {opened[1]:.2f} | {cw:.2f} "
                   f"| {closed[0] / cw:.2f}x |", flush=True)
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 
 from mckibben._jit import kernel
 from mckibben.control import registry as R
@@ -87,7 +88,7 @@ def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
     ``shared`` is ``st`` itself for a lone controller and channel 0's istate in a bank
     (``mck_bank_step``). See :func:`core_kernel` for the other arguments.
     """
-    a_raw = _clamp(adc, 0, 65535)
+    a_raw = _clamp(adc, np.int64(0), np.int64(65535))
     p_max = ip[IP_P_MAX]
     if not (p_ref_pa > 0.0):
         pref = 0
@@ -121,7 +122,7 @@ def core_step(st, ip, adc, sample_ok, p_ref_pa, shared):
     if p > shared[IS_P_SEEN]:
         shared[IS_P_SEEN] = p
     # supervisor 1 and 2
-    pref = _clamp(pref, 0, p_max)
+    pref = _clamp(pref, np.int64(0), p_max)
     if st[IS_OVER] != 0:
         if p < p_max:
             st[IS_OVER] = 0

@@ -246,7 +246,11 @@ def muscle_force(fl, length, bk, j):
     return (fl if fl > 0.0 else 0.0) + bk[X_KP + j] * (stretch if stretch > 0.0 else 0.0)
 
 
-@kernel(error_model="numpy", fastmath={"contract"})  # not inlined: the four stages call one compiled copy
+# Not inlined. rk4_step passes the stage numbers k, dk as constants, so Numba compiles one copy per
+# stage (four): with the row offsets known, LLVM proves the stage's reads and writes apart and
+# vectorizes the lane loop. Passed typed (np.int64), one copy served all four and the integrator ran
+# 3.7x slower (benchmarks/RESULTS.md, issue #34); tests/test_compile_cache.py holds the four.
+@kernel(error_model="numpy", fastmath={"contract"})
 def rhs(n, bk, k, dk, law):
     """Time derivatives of stage ``k``'s states into stage ``dk`` (friction row held: see :func:`rk4_step`).
 

@@ -66,13 +66,13 @@ def law(st, ip, e):
     """
     st[IS_DQ] += mulq16((e - st[IS_E_PREV]) * 16 - st[IS_DQ], ip[IP_ALPHA])
     st[IS_E_PREV] = e
-    tp = clamp(mulq16(e, ip[IP_C_KP]), -TERM_LIM, TERM_LIM)
-    td = clamp(mulq16(st[IS_DQ], ip[IP_C_KD]), -TERM_LIM, TERM_LIM)
+    tp = clamp(mulq16(e, ip[IP_C_KP]), np.int64(-TERM_LIM), np.int64(TERM_LIM))
+    td = clamp(mulq16(st[IS_DQ], ip[IP_C_KD]), np.int64(-TERM_LIM), np.int64(TERM_LIM))
     u = tp + td + (st[IS_IU] >> 8)
     ucnt = (u + 128) >> 8
     if not ((ucnt >= 255 and e > 0) or (ucnt <= -255 and e < 0)):
-        inc = clamp(mulq16(e, ip[IP_C_KIP]), -(1 << 25), 1 << 25)
-        st[IS_IU] = clamp(st[IS_IU] + inc, -(1 << 24), 1 << 24)
+        inc = clamp(mulq16(e, ip[IP_C_KIP]), np.int64(-(1 << 25)), np.int64(1 << 25))
+        st[IS_IU] = clamp(st[IS_IU] + inc, np.int64(-(1 << 24)), np.int64(1 << 24))
         u = tp + td + (st[IS_IU] >> 8)
     return u
 

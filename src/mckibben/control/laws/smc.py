@@ -18,6 +18,8 @@ from __future__ import annotations
 import itertools
 from dataclasses import replace
 
+import numpy as np
+
 from mckibben._kernels import kernel, register
 from mckibben.control.first_order import FirstOrderModel
 from mckibben.control.fixed import TERM_LIM, clamp, mulq16, tanh_q15
@@ -79,9 +81,9 @@ def law(ip, p, dpref, e, isum):
         The command u in PWM counts Q8 (256 = one count) and the surface S. [-], [Pa]
     """
     s = e + (mulq16(isum, ip[IP_C_KI]) >> 8)
-    u = clamp(mulq16(p, ip[IP_C_P]), -TERM_LIM, TERM_LIM)
-    u += clamp(mulq16(dpref, ip[IP_C_DREF]), -TERM_LIM, TERM_LIM)
-    u += clamp(mulq16(e, ip[IP_C_E]), -TERM_LIM, TERM_LIM)
+    u = clamp(mulq16(p, ip[IP_C_P]), np.int64(-TERM_LIM), np.int64(TERM_LIM))
+    u += clamp(mulq16(dpref, ip[IP_C_DREF]), np.int64(-TERM_LIM), np.int64(TERM_LIM))
+    u += clamp(mulq16(e, ip[IP_C_E]), np.int64(-TERM_LIM), np.int64(TERM_LIM))
     sabs = -s if s < 0 else s
     if sabs >= ip[IP_S_SAT]:
         th = 32768

@@ -120,9 +120,9 @@ def law(st, ip, so, io, p, pref, e):
     t = (ip[io + 5] * sq) >> 14
     u += (-t if e < 0 else t) + (st[so] >> 8)
     if e > 0:
-        st[so] = clamp(st[so] + ip[io + 3], -V_MAX, V_MAX)
+        st[so] = clamp(st[so] + ip[io + 3], np.int64(-V_MAX), np.int64(V_MAX))
     if e < 0:
-        st[so] = clamp(st[so] - ip[io + 3], -V_MAX, V_MAX)
+        st[so] = clamp(st[so] - ip[io + 3], np.int64(-V_MAX), np.int64(V_MAX))
     if u > 0:
         return u + ip[io + 4], e
     if u < 0:
