@@ -63,6 +63,8 @@ except ImportError:  # Windows: no compile lock
     _fcntl = None  # type: ignore[assignment]
 
 from mckibben import _kernels
+# the package's one decorator, re-exported for a module whose kernels compile as it is imported
+from mckibben._kernels import kernel as kernel
 from mckibben import compile_notice as _notice_module
 
 PACKAGE_DIR = Path(__file__).resolve().parent
@@ -417,11 +419,6 @@ def dispatcher(func, options: dict):
         disp = _make(func, cached, options)
         DISPATCHERS.append(disp)
     return disp
-
-
-#: The package's one decorator (:func:`mckibben._kernels.kernel`), imported from here by a module
-#: whose kernels compile as it is imported.
-from mckibben._kernels import kernel as kernel  # noqa: E402  (a re-export, not a second definition)
 
 
 # --- generated modules: one compiled runner per controller kernel ---------------------------------
