@@ -30,6 +30,7 @@ from mckibben import hardware as HW
 from mckibben.atomic import as_path, atomic_file, check_input_file
 from mckibben.errors import InputError, unknown_name
 from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
+from mckibben.rig import isometric as ISO
 from mckibben.rig import protocol as P
 from mckibben.rig.bench import Bench
 from mckibben.rig.device import PACED_PERIODS, connect
@@ -57,10 +58,13 @@ SECTIONS = {
     "protocol": ("name", "trials", "max_pressure"),
     "isotonic": ("loads", "pressures", "hold", "ramp"),
     "settling": ("window", "tolerance", "timeout"),
-    "isometric": ("lengths", "pressures", "hold"),
+    "isometric": ("lengths", "pressures", "hold", "tolerance"),
 }
 #: A quantity of each dimension, as a protocol file writes it (for the error messages).
 EXAMPLE = {"pressure": "0.8MPa", "time": "0.5s", "length": "0.2mm", "force": "61g"}
+#: An isometric step's force has settled when the means of its settling window's two halves differ by less
+#: than this, unless ``[isometric] tolerance`` says otherwise (a few counts of a 5 N cell). [N]
+ISO_TOLERANCE = 0.02
 #: Most steps one sweep (up and down) may hold: a protocol is a lab's afternoon, not a typo's week. [-]
 MAX_STEPS = 200
 #: Fastest set-point ramp a protocol may ask for: the full scale in 10 ms (one telemetry frame of a run,
@@ -95,6 +99,11 @@ class Protocol:
         Held lengths of the isometric runs (empty: none). [m]
     iso_pressures : tuple of float
         Pressure steps of the isometric runs (default the isotonic ones). [Pa]
+    iso_hold : float
+        Least time at each isometric step before its settling rule is checked (default ``hold``). [s]
+    iso_tolerance : float
+        Isometric settling rule: the force's means over the two halves of the last ``window`` differ by
+        less than this (:data:`ISO_TOLERANCE` by default). [N]
     source : str
         The file it was read from. [-]
     ramp : float
@@ -116,6 +125,8 @@ class Protocol:
     source: str = ""
     text: str = field(default="", repr=False)
     ramp: float = 0.0
+    iso_hold: float = 0.5
+    iso_tolerance: float = ISO_TOLERANCE
 
     @property
     def sweep(self) -> list[tuple[float, str]]:
@@ -188,8 +199,9 @@ def _protocol(doc: dict, text: str, source: str) -> Protocol:
             if key not in SECTIONS[sec]:
                 raise InputError(f"{source}:{_key_line(text, sec, key)}: [{sec}] "
                                  f"{unknown_name('key', key, SECTIONS[sec])}")
-    if "isotonic" not in doc:
-        raise InputError(f"{source}:1: an [isotonic] section (loads, pressures) is required")
+    if "isotonic" not in doc and "isometric" not in doc:
+        raise InputError(f"{source}:1: an [isotonic] section (loads, pressures) or an [isometric] one (lengths, "
+                         "pressures) is required")
 
     def quantity(sec: str, key: str, dim: str, default=None, *, zero: bool = True) -> float:
         raw = doc.get(sec, {}).get(key, default)
@@ -248,22 +260,28 @@ def _protocol(doc: dict, text: str, source: str) -> Protocol:
     if p_max > P_MAX_LIMIT:
         raise fail("protocol", "max_pressure", f"{p_max / 1e6:g} MPa is above the transducer's full scale "
                                                f"({P_MAX_LIMIT / 1e6:g} MPa)")
-    loads = quantities("isotonic", "loads", "force", zero=False)
+    isotonic = "isotonic" in doc  # an isometric-only protocol has none
+    loads = quantities("isotonic", "loads", "force", zero=False) if isotonic else ()
     if len(set(loads)) != len(loads):
         raise fail("isotonic", "loads", "a load is listed twice (use trials to repeat a load)")
-    pressures = quantities("isotonic", "pressures", "pressure", zero=True)
-    for sec, ps in (("isotonic", pressures),):
+    pressures = quantities("isotonic", "pressures", "pressure", zero=True) if isotonic else ()
+    steps = [("isotonic", pressures)] if isotonic else []
+    if "isometric" in doc and "pressures" in doc["isometric"]:
+        steps.append(("isometric", quantities("isometric", "pressures", "pressure", zero=True)))
+    elif not isotonic:
+        raise fail("isometric", "pressures", "missing (an isometric-only protocol has no isotonic ones to take)")
+    for sec, ps in steps:
         if any(b <= a for a, b in zip(ps, ps[1:])):
             raise fail(sec, "pressures", "the steps must rise (the sweep comes back down the same steps)")
         if max(ps) > p_max:
             raise fail(sec, "pressures", f"the top step {max(ps) / 1e6:g} MPa is above max_pressure "
                                          f"{p_max / 1e6:g} MPa")
-    if len(pressures) < 2:
-        raise fail("isotonic", "pressures", "at least two steps")
+        if len(ps) < 2:
+            raise fail(sec, "pressures", "at least two steps")
     hold = quantity("isotonic", "hold", "time", "0.5s")
     if hold > 600:
         raise fail("isotonic", "hold", f"{hold:g} s is longer than 10 minutes")
-    ramp = _ramp_rate(doc["isotonic"].get("ramp"), lambda reason: fail("isotonic", "ramp", reason))
+    ramp = _ramp_rate(doc.get("isotonic", {}).get("ramp"), lambda reason: fail("isotonic", "ramp", reason))
     if ramp and max(pressures) - min(pressures) > MAX_RAMP_TIME * ramp:
         raise fail("isotonic", "ramp", f"{ramp / 1e6:g} MPa/s takes longer than {MAX_RAMP_TIME / 60:g} minutes "
                                        f"from {min(pressures) / 1e6:g} to {max(pressures) / 1e6:g} MPa")
@@ -274,17 +292,24 @@ def _protocol(doc: dict, text: str, source: str) -> Protocol:
         raise fail("settling", "timeout", f"{timeout:g} s is shorter than the window ({window:g} s)")
     lengths: tuple = ()
     iso_p: tuple = ()
+    iso_hold, iso_tol = hold, ISO_TOLERANCE
     if "isometric" in doc:
         lengths = quantities("isometric", "lengths", "length", zero=False)
-        iso_p = quantities("isometric", "pressures", "pressure", zero=True) if "pressures" in doc["isometric"] \
-            else pressures
-        if max(iso_p) > p_max:
-            raise fail("isometric", "pressures", f"the top step {max(iso_p) / 1e6:g} MPa is above max_pressure")
+        if len(set(lengths)) != len(lengths):
+            raise fail("isometric", "lengths", "a length is listed twice (use trials to repeat a length)")
+        iso_p = steps[-1][1] if steps[-1][0] == "isometric" else pressures
+        iso_hold = quantity("isometric", "hold", "time", f"{hold!r}s")
+        if iso_hold > 600:
+            raise fail("isometric", "hold", f"{iso_hold:g} s is longer than 10 minutes")
+        iso_tol = quantity("isometric", "tolerance", "force", f"{ISO_TOLERANCE!r}N", zero=False)
     n = len(loads) * trials * (2 * len(pressures) - 1)
     if n > 20_000:
         raise fail("isotonic", "loads", f"{n} steps in all: more than 20000")
+    n_iso = len(lengths) * trials * (2 * len(iso_p) - 1)
+    if n_iso > 20_000:
+        raise fail("isometric", "lengths", f"{n_iso} steps in all: more than 20000")
     return Protocol(name, loads, pressures, hold, window, tolerance, timeout, trials, p_max, lengths, iso_p,
-                    source, text, ramp)
+                    source, text, ramp, iso_hold, iso_tol)
 
 
 def _ramp_rate(raw, fail) -> float:
@@ -596,22 +621,21 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
     b = bench if bench is not None else (Bench.of_port(port) if unattended else None)
     ask = prompt if prompt is not None else (lambda text: input(text))
     done = _done_parts(journal) if journal.is_dir() else {}
+    held_done = ISO.done_parts(journal) if journal.is_dir() else {}
     todo = [(i, t, f) for i, t, f in proto.load_steps() if (i, t) not in done]
     tell = progress if progress is not None else (lambda *a, **k: None)
     if b is not None:
         b.state()  # the bench answers before anything moves
     s = _Session(port, limit)
     try:
-        if proto.lengths:
-            # isometric runs need the load cell's force (and its tare); not run here yet
-            why = "streams no force (no load cell)" if not s.has_force else "has a load cell, but"
-            raise InputError(f"{proto.source}: [isometric] lengths: the device on {port} {why}; isometric runs "
-                             "are not run yet: remove the [isometric] section")
+        ISO.check_isometric(proto, port, s.has_force, b, muscle_file)  # no load cell, a length off the travel
         try:
             journal.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise InputError(f"out: cannot write {str(out)!r} ({exc.strerror})") from None
-        tell("start", total=len(proto.load_steps()) * len(proto.sweep), done=len(done) * len(proto.sweep))
+        n_held = len(ISO.held_sweep(proto)) if proto.lengths else 0
+        tell("start", total=len(proto.load_steps()) * len(proto.sweep) + len(ISO.held_steps(proto)) * n_held,
+             done=len(done) * len(proto.sweep) + len(held_done) * n_held)
         meta = {"protocol": proto.source, "protocol_name": proto.name, "protocol_text": proto.text,
                 "port": port, "protocol_version": P.VERSION, "firmware": {
                     "n_channels": s.hello.n_channels, "control_period_us": s.hello.ts_us, "baud": s.hello.baud,
@@ -621,6 +645,7 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
                 "controller": "smc", "unattended": bool(unattended)}
         refs: list[dict] = []
         tares: list[dict] = []
+        held_tares: list[dict] = []
         if not meta_file.is_file():
             tmp = journal / ".run.json.tmp"
             tmp.write_text(json.dumps(meta))
@@ -657,6 +682,8 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
                               (lambda n: tell("step")), tare)
             s.set_point(0.0)
             _write_part(journal, load_index, trial, rows, {"max_pressure_Pa": s.max_pressure, "force_offset_N": tare})
+        if proto.lengths:  # the isometric runs, after the isotonic ones (mckibben.rig.isometric)
+            held_tares = ISO.run_isometric(s, proto, journal, ISO.Tools(_tare, _check_reached, _ramp), b, ask, tell)
     except KeyboardInterrupt:
         s.vent()
         raise CharacterizeStopped(f"port {port}: stopped by the operator; valves vented; "
@@ -669,7 +696,7 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
     finally:
         s.close()
     meta["length_references"] = refs
-    meta["load_cell_tares"] = tares
+    meta["load_cell_tares"] = tares + held_tares
     meta["finished"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     meta["peak_pressure_Pa"] = s.max_pressure
     return meta
@@ -1179,18 +1206,30 @@ def run_characterization(port: str, protocol, out, *, unattended: bool = False, 
                         prompt=prompt, progress=progress, bench=bench)
     out = Path(out)
     steps = collect_steps(out)
-    tables = write_tables(out, steps, meta)
+    held = ISO.collect_isometric(out)
+    tables = write_tables(out, steps, meta) if len(steps) or not len(held) else {}
+    if len(held):
+        tables["isometric"] = ISO.write_isometric_table(out, held, meta)
+        write_table(held, out / "held_steps.parquet", {k: v for k, v in meta.items() if k != "protocol_text"}, "out")
     write_table(steps, out / "steps.parquet", {k: v for k, v in meta.items() if k != "protocol_text"}, "out")
     expected = len(proto.load_steps())
+    peaks = [float(d["pressure_max_Pa"].max()) for d in (steps, held) if len(d)]
     summary = {"out": str(out), "port": port, "protocol": proto.source, "tables": tables,
                "load_steps": int(steps.groupby(["load_index", "trial"]).ngroups),
                "load_steps_expected": expected, "samples": len(steps),
-               "unsettled": int((~steps["settled"].astype(bool)).sum()),
-               "peak_pressure_Pa": float(steps["pressure_max_Pa"].max()) if len(steps) else 0.0,
+               "held_runs": int(held.groupby(["length_index", "trial"]).ngroups) if len(held) else 0,
+               "held_runs_expected": len(ISO.held_steps(proto)), "held_samples": len(held),
+               "unsettled": int((~steps["settled"].astype(bool)).sum()) + int((~held["settled"].astype(bool)).sum()),
+               "peak_pressure_Pa": max(peaks, default=0.0),
                "max_pressure_Pa": meta["max_pressure_Pa"], "firmware": meta["firmware"],
                "muscle_file_used": None if muscle_file is None else str(muscle_file), "fit": None}
     if muscle_file is not None:
-        summary["fit"] = fit_run(out, muscle_file)
+        if len(steps):  # the muscle file comes from the isotonic runs when there are any
+            summary["fit"] = fit_run(out, muscle_file)
+            if len(held):  # and the isometric runs' comparison stands beside it
+                summary["fit"]["isometric"] = ISO.compare_run(out, muscle_file)
+        elif len(held):
+            summary["fit"] = ISO.fit_isometric_only(out, muscle_file)
     tmp = out / ".summary.json.tmp"
     tmp.write_text(json.dumps(to_jsonable(summary), indent=1))
     os.replace(tmp, out / "summary.json")
