@@ -333,6 +333,8 @@ def characterize_cmd(
             bar.update(task, total=info["total"], completed=info["done"])
         elif event == "load":
             bar.update(task, description=f"load {info['load'] / 9.80665 * 1e3:.0f} g, trial {info['trial']}")
+        elif event == "length":
+            bar.update(task, description=f"held at {info['length'] * 1e3:.1f} mm, trial {info['trial']}")
         else:
             bar.advance(task)
 
@@ -362,7 +364,16 @@ def characterize_cmd(
     rows = [["load steps", f"{summary['load_steps']} of {summary['load_steps_expected']}"],
             ["samples", str(m["samples"])], ["peak pressure", f"{m['peak_pressure_Pa'] / 1e6:.4f} MPa"],
             *[[k, v] for k, v in summary["tables"].items()]]
-    if summary["fit"]:
+    if summary["held_runs_expected"]:
+        rows.insert(2, ["held-length runs", f"{summary['held_runs']} of {summary['held_runs_expected']} "
+                                            f"({summary['held_samples']} samples)"])
+    iso_fit = (summary["fit"] or {}).get("isometric")
+    if iso_fit:
+        rows.append(["isometric: best law (held out)", f"{iso_fit['best']}"])
+    if summary["fit"] and summary["fit"].get("source") == "isometric":
+        f = summary["fit"]
+        rows += [["muscle file (from the isometric runs)", f["muscle_file"]], ["report", str(report)]]
+    elif summary["fit"]:
         f = summary["fit"]
         fr = f.get("friction") or {}
         rows += [["best law (held out)", f"{f['best']} ({f['best_cv_rmse_m'] * 1e3:.3f} mm)"],

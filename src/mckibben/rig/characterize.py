@@ -687,12 +687,12 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
     except KeyboardInterrupt:
         s.vent()
         raise CharacterizeStopped(f"port {port}: stopped by the operator; valves vented; "
-                                  f"{len(_done_parts(journal))} load steps kept in {out} (`resume` goes on)") from None
+                                  f"{_kept(journal)} kept in {out} (`resume` goes on)") from None
     except EOFError:  # asked with no one to answer (standard input closed)
         s.vent()
         raise CharacterizeStopped(f"port {port}: stopped: no operator to answer (standard input is closed; on an "
-                                  f"emulated bench give `unattended`); valves vented; {len(_done_parts(journal))} "
-                                  f"load steps kept in {out}") from None
+                                  f"emulated bench give `unattended`); valves vented; {_kept(journal)} "
+                                  f"kept in {out}") from None
     finally:
         s.close()
     meta["length_references"] = refs
@@ -700,6 +700,12 @@ def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: 
     meta["finished"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     meta["peak_pressure_Pa"] = s.max_pressure
     return meta
+
+
+def _kept(journal: Path) -> str:
+    """What a stopped run's journal keeps: its load steps, and its held-length runs when it has any."""
+    held = len(ISO.done_parts(journal))
+    return f"{len(_done_parts(journal))} load steps" + (f" and {held} held-length runs" if held else "")
 
 
 #: Gauge pressure below which the muscle counts as vented. [Pa]
@@ -809,7 +815,8 @@ def write_tables(out, steps, meta: dict) -> dict:
 
 def report_view(out, folder) -> Path:
     """A run as a one-muscle campaign folder for the report package: ``muscle.toml``, ``isotonic.csv`` and
-    ``hysteresis.csv`` in ``folder``, each step at its set-point pressure.
+    ``hysteresis.csv`` in ``folder``, each step at its set-point pressure, and ``isometric.csv`` as measured
+    when the run has isometric runs.
 
     The report's per-pressure fits (its Fig. 5, force against contraction per pressure) group rows
     by pressure; a measured pressure differs from step to step by a count of the transducer, so the
@@ -835,7 +842,11 @@ def report_view(out, folder) -> Path:
     out, muscle = Path(out), Path(folder) / "muscle"
     muscle.mkdir()
     shutil.copyfile(out / "muscle.toml", muscle / "muscle.toml")
+    if (out / "isometric.csv").is_file():  # the isometric runs, as measured: the report's isometric comparison
+        shutil.copyfile(out / "isometric.csv", muscle / "isometric.csv")
     steps = collect_steps(out)
+    if not len(steps):  # an isometric-only run
+        return muscle
     # set-points where no load has moved the muscle off its vented length carry no contraction to fit
     moved = steps.assign(m=_moving(steps)).groupby("set_point_Pa")["m"].any()
     keep = steps["set_point_Pa"].map(moved).to_numpy(bool)
