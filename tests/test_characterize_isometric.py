@@ -268,3 +268,12 @@ def test_kill_9_in_the_isometric_part_then_resume(tmp_path):
     assert summary["peak_pressure_Pa"] <= proto.max_pressure
     steps = pd.read_parquet(out / "held_steps.parquet")
     assert steps["pressure_max_Pa"].max() <= proto.max_pressure and len(steps) == 22
+
+
+def test_the_examples_isometric_section_uncommented_is_a_valid_protocol(tmp_path):
+    text = copy_example("characterize.toml", tmp_path).read_text()
+    commented = text.split("# [isometric]", 1)[1]
+    section = "[isometric]" + "\n".join(line.removeprefix("# ") for line in commented.splitlines())
+    p = read_protocol(_protocol(tmp_path, text + "\n" + section + "\n", "example.toml"))
+    assert p.lengths == pytest.approx((0.088, 0.094)) and len(held_sweep(p)) == 11
+    assert p.iso_tolerance == pytest.approx(0.02) and p.iso_hold == pytest.approx(0.1) and len(p.loads) == 5
