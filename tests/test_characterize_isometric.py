@@ -277,3 +277,18 @@ def test_the_examples_isometric_section_uncommented_is_a_valid_protocol(tmp_path
     p = read_protocol(_protocol(tmp_path, text + "\n" + section + "\n", "example.toml"))
     assert p.lengths == pytest.approx((0.088, 0.094)) and len(held_sweep(p)) == 11
     assert p.iso_tolerance == pytest.approx(0.02) and p.iso_hold == pytest.approx(0.1) and len(p.loads) == 5
+
+
+def test_isotonic_and_isometric_journal_parts_never_collide(tmp_path):
+    # a journal holds both kinds of parts: each reader takes its own; a journal of isotonic parts only (as written
+    # before the isometric runs existed) has no isometric runs done, and its load steps read as before
+    from mckibben.rig.characterize import _done_parts
+    from mckibben.rig.isometric import done_parts
+
+    for name in ("part-load000-trial01.parquet", "part-load001-trial02.parquet", "part-length000-trial01.parquet",
+                 ".part-length001-trial01.parquet.tmp"):
+        (tmp_path / name).write_bytes(b"")
+    assert sorted(_done_parts(tmp_path)) == [(0, 1), (1, 2)]
+    assert sorted(done_parts(tmp_path)) == [(0, 1)]
+    (tmp_path / "part-length000-trial01.parquet").unlink()
+    assert done_parts(tmp_path) == {} and sorted(_done_parts(tmp_path)) == [(0, 1), (1, 2)]
