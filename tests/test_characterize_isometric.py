@@ -9,6 +9,7 @@ hanging load must have for the muscle to rest at the held length), not a copy of
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -228,7 +229,7 @@ def test_a_stuck_sensor_in_an_isometric_run_stops_vented(tmp_path):
     assert st.pressure < 5e3
 
 
-@pytest.mark.slow  # avr, unthrottled: an isotonic part of three loads and the isometric part, killed, resumed: ~40 s
+@pytest.mark.slow  # avr, unthrottled: three loads and the isometric part, killed, resumed: 11-20 s
 def test_kill_9_in_the_isometric_part_then_resume(tmp_path):
     if _avr_engine_missing():
         pytest.skip(_avr_engine_missing())
@@ -253,9 +254,10 @@ def test_kill_9_in_the_isometric_part_then_resume(tmp_path):
         assert kept == sorted([f"part-load{i:03d}-trial01.parquet" for i in range(3)] + ["part-length000-trial01.parquet"])
         assert not (out / "isometric.csv").exists()
         r = run_cli("rig", "characterize", "--port", dev.port, "--protocol", str(proto_file), "--out", str(out),
-                    "--unattended", "--json", "--muscle-file", MUSCLE, "--resume")
+                    "--unattended", "--muscle-file", MUSCLE, "--resume")  # as a user reads it: the table
     assert r.code == 0, r.err
-    summary = r.json()
+    assert "held-length runs" in r.out and "2 of 2 (22 samples)" in r.out and "isometric: best law" in r.out, r.out
+    summary = json.loads((out / "summary.json").read_text())
     held = collect_isometric(out)
     counts = held.groupby(["length_index", "trial"]).size()
     assert sorted(counts.index) == [(0, 1), (1, 1)] and (counts == len(held_sweep(proto))).all()
@@ -265,6 +267,8 @@ def test_kill_9_in_the_isometric_part_then_resume(tmp_path):
     fit = summary["fit"]
     assert "source" not in fit and fit["comparison"] and fit["best"]
     assert fit["isometric"]["best"] and fit["isometric"]["file"].endswith("isometric.csv")
+    # (no HTML report here: its per-pressure cubics need five loads, CI's time allows three; the report's isometric
+    # figure is checked on the isometric-only runs, and the example's five loads make a report in test_characterize_run)
     assert summary["peak_pressure_Pa"] <= proto.max_pressure
     steps = pd.read_parquet(out / "held_steps.parquet")
     assert steps["pressure_max_Pa"].max() <= proto.max_pressure and len(steps) == 22
