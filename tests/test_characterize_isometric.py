@@ -296,3 +296,35 @@ def test_isotonic_and_isometric_journal_parts_never_collide(tmp_path):
     assert sorted(done_parts(tmp_path)) == [(0, 1)]
     (tmp_path / "part-length000-trial01.parquet").unlink()
     assert done_parts(tmp_path) == {} and sorted(_done_parts(tmp_path)) == [(0, 1), (1, 2)]
+
+
+@pytest.mark.slow  # one held length on the Python engine, real time: 3-5 s
+def test_an_operator_clamps_and_a_clamp_that_lets_go_stops_the_run_vented(tmp_path):
+    # attended: the operator is asked to take the weight off and to clamp; here the prompt clamps through the bench,
+    # and half a second later the clamp lets go (the bench releases the end) while the pressure is stepped up
+    import threading
+
+    proto = read_protocol(_protocol(tmp_path, HEAD + ISOMETRIC.replace('"88mm", "94mm"', '"90mm"') + SETTLING))
+    asked = []
+    with _device("python", load_cell=CELL) as dev:
+        bench = Bench.of_port(dev.port)
+
+        def operator(text):
+            asked.append(text)
+            if "weight off" in text:
+                bench.load(0.0)
+            if "clamp" in text:
+                bench.hold(0.09)
+                threading.Timer(0.5, bench.release).start()
+            return ""
+
+        from mckibben.rig.characterize import CharacterizeStopped, run_protocol
+
+        with pytest.raises(CharacterizeStopped, match=r"stopped: the held end moved .* from its clamp at 90.00 mm "
+                                                      r"\(the clamp let go\); valves vented"):
+            run_protocol(dev.port, proto, tmp_path / "run", prompt=operator)
+        time.sleep(1.0)  # the muscle empties through the bleed valve
+        assert bench.state().pressure < 5e3  # vented
+    assert "take the weight off channel 0" in asked[0] and "Ctrl-C" in asked[0]
+    assert "clamp channel 0's end at 90.00 mm for trial 1" in asked[1]
+    assert collect_isometric(tmp_path / "run").empty  # the run did not complete: nothing journaled for it

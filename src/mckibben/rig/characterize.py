@@ -333,6 +333,9 @@ def _ramp_rate(raw, fail) -> float:
 
 # -- the run on the device ------------------------------------------------------------------------
 
+#: How long the last commands of a run (vent, controller off) are given to reach the device before its port is
+#: closed: a few of its 1 ms command polls, and the 1 Mbaud line's time for them. [s]
+CLOSE_WAIT = 0.05
 #: Telemetry decimation during a run: one frame every 10 control periods (100 Hz). [-]
 DECIMATION = 10
 #: A step that ends farther than this from its set-point (and did not move half way there) is a
@@ -424,10 +427,16 @@ class _Session:
             pass
 
     def close(self) -> None:
+        # the controller off, then VENT: the vent is latched until the next SET_MODE, so sent last it keeps the bleed
+        # open after the run (sent before, the SET_MODE cleared it and the mode off shut both valves on the air); and
+        # the device given the time to read them before the port closes (closed at once, they were lost)
         try:
-            self.vent()
+            self.link.write(P.set_point(self._next(), 0, 0))
             self.link.write(P.stream(self._next(), False, 1))
             self.link.write(P.set_mode(self._next(), 0, P.ALL))
+            self.link.write(P.vent(self._next(), P.ALL))
+            self.link.flush()
+            time.sleep(CLOSE_WAIT)
         except Exception:
             pass
         self.link.close()

@@ -32,6 +32,7 @@ from typing import Callable
 
 import numpy as np
 
+from mckibben import hardware as HW
 from mckibben.atomic import atomic_file
 from mckibben.data.muscle_file import read_muscle
 from mckibben.data.tables import read_table
@@ -192,8 +193,12 @@ def _settle_force(s, proto, start: int) -> tuple[bool, np.ndarray]:
 
 
 def _run_held_sweep(s, proto, tools: Tools, index: int, trial: int, length: float, tare: float, progress) -> list:
-    """One held length's sweep, up then down; the rows of its steps (:data:`ISO_COLUMNS`)."""
+    """One held length's sweep, up then down; the rows of its steps (:data:`ISO_COLUMNS`).
+
+    The end must stay where it was clamped: an encoder that moves by more than the settling rule's
+    length ``tolerance`` during a step (the clamp let go) stops the run, vented."""
     rows = []
+    clamped = s.rows[-1][2]  # the encoder's count at the clamp
     p_before = float(np.mean([r[1] for r in s.rows[-10:]]))
     previous = 0.0  # the sweep starts vented
     for k, (target, direction) in enumerate(held_sweep(proto)):
@@ -204,6 +209,10 @@ def _run_held_sweep(s, proto, tools: Tools, index: int, trial: int, length: floa
         s.wait(0.0)
         previous = target
         ok, win = _settle_force(s, proto, start)
+        moved = float(np.max(np.abs(np.array([r[2] for r in s.rows[start:]], dtype=float) - clamped)))
+        if moved * HW.ENCODER_RESOLUTION > proto.tolerance:
+            raise s.stop(f"the held end moved {moved * HW.ENCODER_RESOLUTION * 1e3:.2f} mm from its clamp at "
+                         f"{length * 1e3:.2f} mm (the clamp let go)")
         tools.check_reached(s, target, p_before, win, start)
         p_mean = float(win[:, 1].mean())
         rows.append((index, trial, k, length, target, p_mean, float(win[:, 7].mean()) - tare, direction, bool(ok),
