@@ -124,9 +124,10 @@ def _line(proto, key: str) -> str:
 def check_isometric(proto, port: str, has_force: bool, bench=None, muscle_file=None) -> None:
     """Refuse an isometric protocol the rig cannot run, before anything moves.
 
-    A device without a load cell; a held length longer than the muscle file's strand length (eq. 1,
-    l = Ls·cos θ ≤ Ls) or outside the muscle's travel on an emulated bench (each length clamped once
-    and released, the muscle vented: the bench refuses a length past its end stops).
+    A device without a load cell; a held length longer than the muscle file's strand length
+    ([mpam-characterization] eq. (1): l = Ls·cos θ ≤ Ls) or outside the muscle's travel on an
+    emulated bench (each length clamped once and released, the muscle vented: the bench refuses a
+    length past its end stops).
 
     Parameters
     ----------
