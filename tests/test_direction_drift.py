@@ -8,6 +8,10 @@ the drift, and keep the drift out of what it predicts for the muscle. No real da
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -116,3 +120,31 @@ def test_no_drift_in_the_data_fits_none(tmp_path, truth):
     res = fit_direction_aware(table, muscle, LAW, "play", drift=True).result
     lo, hi = res.ci95[res.names.index(DRIFT_NAME)]
     assert lo <= 0.0 <= hi and hi - lo < 0.05, (lo, hi)
+
+
+def _mckibben(*args, cwd):
+    code = "import sys; from mckibben.cli import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=cwd, timeout=300)
+
+
+def test_cli_fit_run_drift(tmp_path, truth):
+    muscle, theta = truth
+    path = _relaxing(tmp_path, muscle, theta, DRIFT_TRUE, trials=(1, 2))
+    (tmp_path / "muscle.toml").write_text((COMMERCIAL / "muscle.toml").read_text())
+    run = _mckibben("fit", str(path), "--model", LAW, "--direction-aware", "--run-drift", "--json", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    out = json.loads(run.stdout)
+    lo, hi = out["ci95"][DRIFT_NAME]
+    assert lo <= DRIFT_TRUE <= hi
+    assert out["direction_aware"][DRIFT_NAME] == out["parameters"][DRIFT_NAME]
+
+
+@pytest.mark.parametrize("cmd, args", [("fit", ["--model", LAW, "--run-drift"]), ("compare", ["--run-drift"])])
+def test_cli_run_drift_needs_direction_aware(tmp_path, truth, cmd, args):
+    muscle, theta = truth
+    path = _relaxing(tmp_path, muscle, theta, DRIFT_TRUE, trials=(1, 2))
+    (tmp_path / "muscle.toml").write_text((COMMERCIAL / "muscle.toml").read_text())
+    run = _mckibben(cmd, str(path), *args, cwd=tmp_path)
+    assert run.returncode == 2, run.stderr
+    lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: --run-drift:") and "--direction-aware" in lines[0], lines

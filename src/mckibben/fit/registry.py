@@ -68,7 +68,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
              select: dict | None = None, columns: dict | None = None,
              direction_aware: str | None = None, rest_lengths: str = "nominal",
-             min_samples: int = 0) -> tuple[dict, list]:
+             min_samples: int = 0, drift: bool = False) -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
 
     if model not in FIT_MODELS and model not in laws.ALIASES:  # an old law name is read (deprecated)
@@ -82,6 +82,8 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError(f"tare: applies to isometric tables; {data} is a {table.kind} table")
     if (rails != "keep" or pressure_zero != "none") and not isometric:
         raise InputError(f"rails/`pressure_zero`: apply to isometric tables; {data} is a {table.kind} table")
+    if drift and direction_aware is None:
+        raise InputError("drift: the run-drift nuisance is fitted with a direction-aware form; give `direction_aware`")
     if min_samples != 0 and not isometric:
         raise InputError(f"min_samples: selects the binned points of an isometric table; {data} is a {table.kind} table")
     if save is not None and not isometric:
@@ -113,7 +115,7 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         if save is not None:
             raise InputError("save: a muscle file holds a static law; fit without direction_aware to save one")
         fit = fit_direction_aware(table, spec, model, direction_aware, tare, rails, pressure_zero,
-                                  min_samples=min_samples)
+                                  min_samples=min_samples, drift=drift)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
                "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
         _update_keeping_table_notes(out, fit.to_dict())
@@ -185,7 +187,7 @@ def _isometric_table(data: Path, select: dict | None = None, columns: dict | Non
 
 def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
                        pressure_zero: str = "none", direction_aware: str | None = None,
-                       rest_lengths: str = "nominal", min_samples: int = 0) -> dict:
+                       rest_lengths: str = "nominal", min_samples: int = 0, drift: bool = False) -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
 
     spec = load_muscle(data, muscle, True, "compare", table)
@@ -197,7 +199,7 @@ def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str
     if direction_aware is not None:  # each law beside its direction-aware form (mckibben.fit.direction)
         out["direction_aware"] = compare_direction_aware(table, spec, structure=direction_aware, tare=tare,
                                                          rails=rails, pressure_zero=pressure_zero,
-                                                         min_samples=min_samples)
+                                                         min_samples=min_samples, drift=drift)
     return out
 
 
@@ -400,7 +402,8 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
               split_pressure: float | None = None, tare: str = "none", save: str | None = None,
               rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
               select: dict | None = None, columns: dict | None = None,
-              direction_aware: str | None = None, rest_lengths: str = "nominal", min_samples: int = 0) -> TableFit:
+              direction_aware: str | None = None, rest_lengths: str = "nominal", min_samples: int = 0,
+              drift: bool = False) -> TableFit:
     """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
 
     Parameters
@@ -442,6 +445,9 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         Isometric tables binned from a stepped protocol: points of fewer readings than this (the
         column ``n_samples``) are a step passing through, left out of the fit
         (:func:`mckibben.fit.isometric.transition_rows`); 0 keeps every point. [-]
+    drift : bool, default False
+        With ``direction_aware``: fit the run-drift nuisance too
+        (:func:`mckibben.fit.direction.fit_direction_aware`). [-]
 
     Returns
     -------
@@ -450,7 +456,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         (:func:`mckibben.data.muscle_file.muscle_of_table`).
     """
     out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails,
-                         pressure_zero, select, columns, direction_aware, rest_lengths, min_samples)
+                         pressure_zero, select, columns, direction_aware, rest_lengths, min_samples, drift)
     return TableFit(out, fits)
 
 
@@ -515,7 +521,7 @@ class TableComparison(Result):
 def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none", rails: str = "keep",
                   pressure_zero: str = "none", select: dict | None = None,
                   columns: dict | None = None, direction_aware: str | None = None,
-                  rest_lengths: str = "nominal", min_samples: int = 0) -> TableComparison:
+                  rest_lengths: str = "nominal", min_samples: int = 0, drift: bool = False) -> TableComparison:
     """Fit every applicable model to the same data and score it on held-out data.
 
     An isometric table: every force model, folds by held length (default) or trial
@@ -551,16 +557,21 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
     min_samples : int, default 0
         Isometric tables: points of fewer readings than this (the column ``n_samples``) are left
         out of every fit and of the up/down gap (:func:`mckibben.fit.isometric.transition_rows`). [-]
+    drift : bool, default False
+        With ``direction_aware``: the direction-aware forms carry the run-drift nuisance, fitted on
+        the training trials (:func:`mckibben.fit.direction.heldout_gap`). [-]
 
     Returns
     -------
     TableComparison
     """
     data = _data_path(data)
+    if drift and direction_aware is None:
+        raise InputError("drift: the run-drift nuisance is fitted with a direction-aware form; give `direction_aware`")
     iso = _isometric_table(data, select, columns)
     if iso is not None:
         return TableComparison(_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare, rails,
-                                                  pressure_zero, direction_aware, rest_lengths, min_samples))
+                                                  pressure_zero, direction_aware, rest_lengths, min_samples, drift))
     if direction_aware is not None:
         raise InputError("direction_aware: scores laws on the inflate and deflate rows of an isometric table")
     if min_samples != 0:
