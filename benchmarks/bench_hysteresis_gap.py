@@ -106,14 +106,15 @@ def direction_aware(law_names, structures, min_samples: int = 0, drift: bool = F
     return out
 
 
-def family(law: str = "virtual-work", structure: str = "play") -> None:
+def family(law: str = "virtual-work", structure: str = "play", min_samples: int = 0, drift: bool = False) -> None:
     """One operator across the six muscles: a family law's direction-aware form on the family table."""
     table = read_table(SOURCE, "isometric", None, {"phase": "direction", "cut_length_cm": "muscle"})
     rest = pd.read_csv(SOURCE)["rest_length_mm"]
     muscle = MuscleSpec(id="festo10", nominal_length=float(rest.median()) / 1e3, outer_diameter=OUTER_DIAMETER_MM / 1e3)
-    h = heldout_gap(table, muscle, law, structure, grid=GRID_KPA * 1e3)
+    h = heldout_gap(table, muscle, law, structure, grid=GRID_KPA * 1e3, min_samples=min_samples, drift=drift)
     thr = ", ".join(f"{f.operator['play_threshold_Pa'] / 1e3:.1f}" for f in h.fits)
-    print(f"\nfamily ({law}, {structure}; one operator for six muscles; thresholds {thr} kPa per fold):")
+    dr = (", drift " + ", ".join(f"{f.operator['run_drift_ratio']:+.3f}" for f in h.fits)) if drift else ""
+    print(f"\nfamily ({law}, {structure}; one operator for six muscles; thresholds {thr} kPa per fold{dr}):")
     for t in sorted({r["trial"] for r in h.rows}):
         sel = [r for r in h.rows if r["trial"] == t]
         m, pe, pm = _pooled(sel, "plain_N")
@@ -198,7 +199,7 @@ def main(argv: list[str]) -> int:
     if "--replay-only" in argv:
         return 0
     if "--family" in argv:
-        family()
+        family(min_samples=min_samples, drift="--drift" in argv)
         return 0
     res = direction_aware(law_names, structures, min_samples, "--drift" in argv)
     print(f"\ndirection-aware laws, per muscle (law and operator fitted on two trials, the third held out){sel}:")

@@ -79,6 +79,7 @@ def test_drift_is_recovered_and_left_out_of_the_muscle(tmp_path, truth):
     lo, hi = res.ci95[res.names.index(DRIFT_NAME)]
     assert lo <= DRIFT_TRUE <= hi and hi < 0, (res[DRIFT_NAME], lo, hi)
     assert fit.operator[DRIFT_NAME] == res[DRIFT_NAME]
+    assert "run drift -" in fit.plot().axes[0].get_title()  # the modelled loops are drawn along the drifting run
     assert res.residual_rms == pytest.approx(NOISE_N, rel=0.25)
     # the muscle's prediction carries no drift: it is the law through the play alone
     p = np.linspace(50e3, 600e3, 12)

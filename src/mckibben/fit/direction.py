@@ -433,7 +433,8 @@ class DirectionAwareFit(FitBase):
             labelled.add(k)
             ax.plot(run["pressure"] / 1e3, run["force_model"], "-", lw=1, color=col, label=lab)
         op = f"r = {self.operator['play_threshold_Pa'] / 1e3:.3g} kPa" + (
-            f", A_f = {self.operator['friction_area_m2'] * 1e6:.3g} mm²" if "friction_area_m2" in self.operator else "")
+            f", A_f = {self.operator['friction_area_m2'] * 1e6:.3g} mm²" if "friction_area_m2" in self.operator else "") + (
+            f", run drift {self.operator[DRIFT_NAME]:+.1%}" if DRIFT_NAME in self.operator else "")
         ax.set_xlabel("pressure [kPa]")
         ax.set_ylabel("force [N]")
         ax.set_title(f"{self.model} ({self.structure}: {op}), trial {first_trial}\n"
