@@ -203,3 +203,19 @@ def test_cli_min_samples_needs_the_column_and_an_isometric_table(tmp_path, truth
     folder = BUNDLED_ISOMETRIC.parent / "campaign" / "mpam97"
     run = _mckibben("fit", str(folder / "isotonic.csv"), "--model", "cubic", "--min-samples", "30", cwd=tmp_path)
     assert run.returncode == 2 and "isometric" in run.stderr and "Traceback" not in run.stderr, run.stderr
+
+
+def test_rails_and_steps_compose_and_the_report_says_what_was_excluded(tmp_path, truth):
+    muscle, theta = truth
+    d = pd.read_csv(_stepped(tmp_path, muscle, theta, trials=(1, 2)))
+    floor = float(np.sort(d["force_N"])[9])  # a load cell that reads nothing below its tenth-lowest force
+    d["force_N"] = np.maximum(d["force_N"], floor)
+    d.to_csv(tmp_path / "floor.csv", index=False)
+    table = read_table(tmp_path / "floor.csv")
+    at_floor = (d["force_N"] == floor).to_numpy()
+    steps = (d[SAMPLES_COLUMN] < 30).to_numpy()
+    fit = fit_direction_aware(table, muscle, LAW, "play", rails="exclude", min_samples=30)
+    assert fit.tare["rails"]["excluded"] and fit.tare["rails"]["rows_at_rail"] == int(at_floor.sum())
+    assert fit.tare["transitions"]["rows_excluded"] == int(steps.sum())
+    assert fit.result.n_points == int((~at_floor & ~steps).sum())
+    assert len(fit.data) == len(d)  # both stay in the history
