@@ -149,3 +149,14 @@ def test_cli_run_drift_needs_direction_aware(tmp_path, truth, cmd, args):
     assert run.returncode == 2, run.stderr
     lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: --run-drift:") and "--direction-aware" in lines[0], lines
+
+
+def test_compare_reports_the_drift_of_each_fold(tmp_path, truth):
+    from mckibben.fit.direction import compare_direction_aware
+
+    muscle, theta = truth
+    table = read_table(_relaxing(tmp_path, muscle, theta, DRIFT_TRUE))
+    row = compare_direction_aware(table, muscle, models=[LAW], drift=True)[0]
+    # within 0.02 of the truth: each fold's 95 % interval is about ± 0.004 on this campaign
+    assert len(row[DRIFT_NAME]) == 3 and all(abs(c - DRIFT_TRUE) < 0.02 for c in row[DRIFT_NAME]), row[DRIFT_NAME]
+    assert DRIFT_NAME not in compare_direction_aware(table, muscle, models=[LAW])[0]

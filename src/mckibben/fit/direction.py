@@ -834,8 +834,8 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
     list of dict
         Per law: ``model``, ``structure``, ``cv`` (``"leave-one-trial-out"``), the pooled
         :attr:`HeldoutGap.metrics` (measured gap RMS/max; plain and direction-aware gap error RMS/max;
-        held-out force RMSE of both), the operator's values per fold (``play_threshold_Pa``), and
-        ``note`` (why a law could not be scored).
+        held-out force RMSE of both), the operator's values per fold (``play_threshold_Pa``; and
+        ``run_drift_ratio`` with ``drift``), and ``note`` (why a law could not be scored).
     """
     _no_fitted_tare(tare)
     transition_rows(table, min_samples)  # a bad threshold or a missing column: one error, not one note per law
@@ -851,7 +851,8 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
         except InputError as exc:
             out.append({**row, "note": f"not fitted: {exc}"})
             continue
-        out.append({**row, **h.metrics, "play_threshold_Pa": [f.result["play_threshold_Pa"] for f in h.fits],
+        drifts = {DRIFT_NAME: [f.result[DRIFT_NAME] for f in h.fits]} if drift else {}
+        out.append({**row, **h.metrics, "play_threshold_Pa": [f.result["play_threshold_Pa"] for f in h.fits], **drifts,
                     "flags": sorted({fl for f in h.fits for fl in f.result.flags}), "note": ""})
     return out
 
