@@ -21,6 +21,11 @@ itself cancels). A static law predicts no gap: its gap error is −g.
 :func:`heldout_gap` fits the plain law (:func:`mckibben.fit.isometric.fit_points`) and its
 direction-aware form on every trial but one and scores the gap of the held-out trial, each trial
 held out in turn.
+
+**Settled points and the run's drift.** ``min_samples`` leaves a stepped protocol's steps (points
+binned from few readings, :func:`mckibben.fit.isometric.transition_rows`) out of the residuals and
+the gap while they stay in the history; ``drift=True`` fits a nuisance force × (1 + c·s) along each
+run's order (:func:`run_position`, :data:`DRIFT_NAME`), which the muscle's predictions leave out.
 """
 
 from __future__ import annotations
@@ -233,7 +238,8 @@ class DirectionAwareFit(FitBase):
         The sensor report (:func:`mckibben.fit.isometric.isometric_points`).
     data : pandas.DataFrame
         The points in the protocol's order (:func:`run_order`), with ``fitted`` (False: a row at a
-        rail, in the history but not in the residuals) and ``force_model`` [N].
+        rail or a step of fewer than ``min_samples`` readings, in the history but not in the
+        residuals) and ``force_model`` [N] (with the run drift, when fitted).
     runs : list of slice
         Each run's span in :attr:`data`.
     law_force : callable
