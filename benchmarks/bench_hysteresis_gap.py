@@ -22,7 +22,12 @@ on the held-out trial.
 Reads ``../shared/data/real/festo10_isometric.csv`` (not bundled); skips when it is absent.
 
 Run: python benchmarks/bench_hysteresis_gap.py [--laws=a,b] [--structures=play,friction] [--pi-only | --da-only]
-     [--replay-only | --family | --synthetic]
+     [--replay-only | --family | --synthetic] [--min-samples=N] [--drift]
+
+``--min-samples=N``: the settled points only (the table is binned from a stepped protocol; a
+point of fewer than N readings is the pressure passing through a bin during a step), for the
+replay and the direction-aware fits alike (not the PI table, which keeps its own selection).
+``--drift``: the direction-aware fits with the run-drift nuisance (``heldout_gap(drift=True)``).
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ from bench_hysteresis import FIT_TRIALS, GRID_KPA, KNOTS, N_PLAYS, RAIL_N, SOURC
 from mckibben.data import read_table
 from mckibben.data.muscle_file import MuscleSpec
 from mckibben.fit.direction import heldout_gap, loop_gap
+from mckibben.fit.isometric import SAMPLES_COLUMN
 from mckibben.fit.hysteresis import fit_prandtl_ishlinskii
 from mckibben.models.hysteresis.direction import STRUCTURES
 from mckibben.models.hysteresis import apply, descended_state, thresholds_uniform
@@ -77,8 +83,13 @@ def gaps() -> list[dict]:
     return rows
 
 
-def direction_aware(law_names, structures) -> dict:
-    """Per (law, structure): the held-out gap pooled over the six muscles, per held-out trial."""
+def direction_aware(law_names, structures, min_samples: int = 0, drift: bool = False) -> dict:
+    """Per (law, structure): the held-out gap pooled over the six muscles, per held-out trial.
+
+    ``min_samples``: points binned from fewer readings (a step passing through, not a hold) are left
+    out of the fits and the gaps, kept in each run's history (:func:`mckibben.fit.isometric.transition_rows`).
+    ``drift``: the run-drift nuisance fitted with the law (``heldout_gap(drift=True)``).
+    """
     data = pd.read_csv(SOURCE)
     out: dict = {}
     for cut, g in data.groupby("cut_length_cm"):
@@ -87,21 +98,23 @@ def direction_aware(law_names, structures) -> dict:
                             outer_diameter=OUTER_DIAMETER_MM / 1e3)
         for law in law_names:
             for st in structures:
-                h = heldout_gap(table, muscle, law, st, grid=GRID_KPA * 1e3)
+                h = heldout_gap(table, muscle, law, st, grid=GRID_KPA * 1e3, min_samples=min_samples, drift=drift)
                 out.setdefault((law, st), []).extend(h.rows)
                 thr = ", ".join(f"{f.operator['play_threshold_Pa'] / 1e3:.1f}" for f in h.fits)
-                print(f"  {cut} cm {law} {st}: r = {thr} kPa per fold", file=sys.stderr, flush=True)
+                dr = (", drift " + ", ".join(f"{f.operator['run_drift_ratio']:+.3f}" for f in h.fits)) if drift else ""
+                print(f"  {cut} cm {law} {st}: r = {thr} kPa per fold{dr}", file=sys.stderr, flush=True)
     return out
 
 
-def family(law: str = "virtual-work", structure: str = "play") -> None:
+def family(law: str = "virtual-work", structure: str = "play", min_samples: int = 0, drift: bool = False) -> None:
     """One operator across the six muscles: a family law's direction-aware form on the family table."""
     table = read_table(SOURCE, "isometric", None, {"phase": "direction", "cut_length_cm": "muscle"})
     rest = pd.read_csv(SOURCE)["rest_length_mm"]
     muscle = MuscleSpec(id="festo10", nominal_length=float(rest.median()) / 1e3, outer_diameter=OUTER_DIAMETER_MM / 1e3)
-    h = heldout_gap(table, muscle, law, structure, grid=GRID_KPA * 1e3)
+    h = heldout_gap(table, muscle, law, structure, grid=GRID_KPA * 1e3, min_samples=min_samples, drift=drift)
     thr = ", ".join(f"{f.operator['play_threshold_Pa'] / 1e3:.1f}" for f in h.fits)
-    print(f"\nfamily ({law}, {structure}; one operator for six muscles; thresholds {thr} kPa per fold):")
+    dr = (", drift " + ", ".join(f"{f.operator['run_drift_ratio']:+.3f}" for f in h.fits)) if drift else ""
+    print(f"\nfamily ({law}, {structure}; one operator for six muscles; thresholds {thr} kPa per fold{dr}):")
     for t in sorted({r["trial"] for r in h.rows}):
         sel = [r for r in h.rows if r["trial"] == t]
         m, pe, pm = _pooled(sel, "plain_N")
@@ -128,13 +141,15 @@ def synthetic(law_names, structures) -> None:
                   f"{m['heldout_rmse_plain_N']:.2f} / {m['heldout_rmse_direction_aware_N']:.2f} |", flush=True)
 
 
-def replay() -> dict:
+def replay(min_samples: int = 0) -> dict:
     """The other trials' own measured gap as the prediction of the held-out trial's (per pair).
 
     Not a model: the reference any model fitted on those trials is up against. Per held-out
-    trial: (measured gap RMS, error RMS, error max) pooled over the 24 pairs, on the same grid.
+    trial: (measured gap RMS, error RMS, error max) pooled over the 24 pairs, on the same grid,
+    on the points binned from ``min_samples`` readings or more (the models' selection).
     """
     data = pd.read_csv(SOURCE)
+    data = data[data[SAMPLES_COLUMN] >= min_samples]
     grid = GRID_KPA * 1e3
     out: dict = {}
     for _, g in data.groupby(["cut_length_cm", "held_length_mm"]):
@@ -164,6 +179,7 @@ def main(argv: list[str]) -> int:
     opts = dict(a.split("=", 1) for a in argv if a.startswith("--") and "=" in a)
     law_names = tuple(opts.get("--laws", ",".join(LAWS)).split(","))
     structures = tuple(opts.get("--structures", ",".join(STRUCTURES)).split(","))
+    min_samples = int(opts.get("--min-samples", "0"))
     if "--synthetic" in argv:
         synthetic(law_names, structures)
         return 0
@@ -174,18 +190,19 @@ def main(argv: list[str]) -> int:
         _pi_table()
     if "--pi-only" in argv:
         return 0
-    print("\nthe other two trials' measured gap (per pair, their mean) as the held-out trial's prediction:")
+    sel = f" (points of {min_samples} readings or more)" if min_samples else ""
+    print(f"\nthe other two trials' measured gap (per pair, their mean) as the held-out trial's prediction{sel}:")
     print("| held-out trial | measured gap RMS N | error RMS / max N | ratio |")
     print("| --- | --- | --- | --- |")
-    for t, (m, e, mx) in replay().items():
+    for t, (m, e, mx) in replay(min_samples).items():
         print(f"| {t} | {m:.2f} | {e:.2f} / {mx:.2f} | {e / m:.2f} |")
     if "--replay-only" in argv:
         return 0
     if "--family" in argv:
-        family()
+        family(min_samples=min_samples, drift="--drift" in argv)
         return 0
-    res = direction_aware(law_names, structures)
-    print("\ndirection-aware laws, per muscle (law and operator fitted on two trials, the third held out):")
+    res = direction_aware(law_names, structures, min_samples, "--drift" in argv)
+    print(f"\ndirection-aware laws, per muscle (law and operator fitted on two trials, the third held out){sel}:")
     print("| law | structure | held-out trial | measured gap RMS N | plain gap error RMS / max N | "
           "direction-aware gap error RMS / max N | ratio (direction-aware / measured) |")
     print("| --- | --- | --- | --- | --- | --- | --- |")

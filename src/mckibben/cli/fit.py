@@ -22,6 +22,14 @@ from mckibben.units import parse_quantity
 from mckibben import fit
 
 
+MIN_SAMPLES_HELP = ("isometric, a table binned from a stepped protocol: leave out points of fewer readings than N "
+                    "(its n_samples column: a step passing through, not a hold; see docs/data.md). Default 0: every point.")
+
+RUN_DRIFT_HELP = ("with --direction-aware: fit a run-drift nuisance too, force x (1 + c.s), s the place along each "
+                  "run (the rubber relaxing, the load cell creeping); the muscle's predictions leave it out "
+                  "(see docs/hysteresis.md).")
+
+
 def warn_flags(what: str, flags) -> None:
     """One warning line on stderr when a fit carries flags (the JSON keeps them too)."""
     if flags:
@@ -54,6 +62,8 @@ def fit_cmd(
     columns: list[str] = COLUMNS_OPTION,
     direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: fit the law's direction-aware "
                                          f"form ({DEFAULT_STRUCTURE}: hysteresis inside the law), law and operator jointly."),
+    min_samples: int = typer.Option(0, "--min-samples", metavar="N", help=MIN_SAMPLES_HELP),
+    drift: bool = typer.Option(False, "--run-drift", help=RUN_DRIFT_HELP),
     plot: str = plot_option("the fit: force curves over the data (isometric; measured and modelled loops with "
                             "--direction-aware), else the residuals"),
     dpi: int = DPI_OPTION,
@@ -68,7 +78,7 @@ def fit_cmd(
     picked = parse_pairs(select, "--select", "cut_length_cm=10")
     names = parse_pairs(columns, "--columns", "phase=direction")
     res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names,
-                        DEFAULT_STRUCTURE if direction_aware else None, rest_lengths)
+                        DEFAULT_STRUCTURE if direction_aware else None, rest_lengths, min_samples, drift)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
@@ -124,6 +134,8 @@ def compare_cmd(
     columns: list[str] = COLUMNS_OPTION,
     direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: also score each law beside its "
                                          "direction-aware form, each trial held out, by the up/down gap."),
+    min_samples: int = typer.Option(0, "--min-samples", metavar="N", help=MIN_SAMPLES_HELP),
+    drift: bool = typer.Option(False, "--run-drift", help=RUN_DRIFT_HELP),
     nested: bool = typer.Option(False, "--nested", help="isometric: nested cross-validation: each fold's error of "
                                 "the model chosen on the other folds alone (the non-nested best's error is "
                                 "optimistic; see docs/fit.md). With --rest-lengths nominal,fitted both are candidates."),
@@ -135,13 +147,16 @@ def compare_cmd(
     check_outputs(plot, dpi)
     muscle = muscle_file_of(muscle, old_muscle, "compare")
     if nested:
+        if min_samples:
+            raise InputError("--min-samples: not with --nested (its folds take every point); fit or compare without "
+                             "--nested to leave the steps out")
         _compare_nested(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, select, columns, direction_aware,
                         plot, dpi, json)
         return
     res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
                             parse_pairs(select, "--select", "cut_length_cm=10"),
                             parse_pairs(columns, "--columns", "phase=direction"),
-                            DEFAULT_STRUCTURE if direction_aware else None, rest_lengths)
+                            DEFAULT_STRUCTURE if direction_aware else None, rest_lengths, min_samples, drift)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:

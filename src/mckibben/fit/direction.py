@@ -21,6 +21,11 @@ itself cancels). A static law predicts no gap: its gap error is −g.
 :func:`heldout_gap` fits the plain law (:func:`mckibben.fit.isometric.fit_points`) and its
 direction-aware form on every trial but one and scores the gap of the held-out trial, each trial
 held out in turn.
+
+**Settled points and the run's drift.** ``min_samples`` leaves a stepped protocol's steps (points
+binned from few readings, :func:`mckibben.fit.isometric.transition_rows`) out of the residuals and
+the gap while they stay in the history; ``drift=True`` fits a nuisance force × (1 + c·s) along each
+run's order (:func:`run_position`, :data:`DRIFT_NAME`), which the muscle's predictions leave out.
 """
 
 from __future__ import annotations
@@ -35,7 +40,8 @@ from mckibben.data.muscle_file import MuscleSpec
 from mckibben.data.tables import Table
 from mckibben.errors import InputError, check_instance, unknown_name
 from mckibben.fit.core import FitResult, bounded_fit, data_range
-from mckibben.fit.isometric import BOUNDS_NOTE, SURFACE, _runs, fit_points, is_family, isometric_points, model_name
+from mckibben.fit.isometric import (BOUNDS_NOTE, SURFACE, _runs, fit_points, is_family, isometric_points, model_name,
+                                   transition_rows)
 from mckibben.models import laws
 from mckibben.models.law_statics import rising_root
 from mckibben.models.hysteresis.direction import (DEFAULT_STRUCTURE, DIRECTIONS, FRICTION_NAME, STRUCTURES, branch_force,
@@ -46,9 +52,9 @@ from mckibben.results import FitBase, Result, provenance, to_jsonable
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["DEFAULT_STRUCTURE", "GAP_STEP_PA", "THRESHOLD_MAX_FRACTION", "FRICTION_MAX", "DirectionAwareFit",
+__all__ = ["DEFAULT_STRUCTURE", "DRIFT_NAME", "GAP_STEP_PA", "THRESHOLD_MAX_FRACTION", "FRICTION_MAX", "DirectionAwareFit",
            "HeldoutGap", "compare_direction_aware", "fit_direction_aware", "fit_isotonic_friction", "gap_scores",
-           "heldout_gap", "loop_gap", "run_order"]
+           "heldout_gap", "loop_gap", "run_order", "run_position"]
 
 #: The play's threshold is bounded by this fraction of the largest pressure of the data. [-]
 THRESHOLD_MAX_FRACTION = 0.25
@@ -59,6 +65,12 @@ THRESHOLD_MIN_FRACTION = 1e-3
 FRICTION_MAX = 0.5
 #: The default grid step of the gap (:func:`loop_gap`). [Pa]
 GAP_STEP_PA = 10e3
+#: The run-drift nuisance's name among a fit's parameters (``drift=True``): the share of its force a
+#: run gains from its first point to its last (:func:`run_position`), negative for a force that
+#: relaxes. [-]
+DRIFT_NAME = "run_drift_ratio"
+#: The run drift's bound, either sign: half the force over a run is no drift any more. [-]
+DRIFT_MAX = 0.5
 
 
 def run_order(d: pd.DataFrame) -> tuple[np.ndarray, list[slice]]:
@@ -84,6 +96,41 @@ def run_order(d: pd.DataFrame) -> tuple[np.ndarray, list[slice]]:
     bounds = np.flatnonzero(np.diff(label[order])) + 1
     edges = np.concatenate([[0], bounds, [label.size]])
     return order, [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def run_position(n: int, runs: list[slice]) -> np.ndarray:
+    """Each point's place along its run's history: 0 at the run's first point, 1 at its last.
+
+    The clock of the run-drift nuisance (``drift=True`` of :func:`fit_direction_aware`): a binned
+    table has no time, only the protocol's order (:func:`run_order`), so the drift is linear in
+    that order.
+
+    Parameters
+    ----------
+    n : int
+        Number of ordered points. [-]
+    runs : list of slice
+        Each run's span (:func:`run_order`). [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        Position in [0, 1] per point (0 for a run of one point). [-]
+    """
+    s = np.zeros(n)
+    for r in runs:
+        k = r.stop - r.start
+        if k > 1:
+            s[r] = np.linspace(0.0, 1.0, k)
+    return s
+
+
+def _drift(values, names) -> tuple[np.ndarray, float]:
+    """The law's and operator's values, and the run drift (0 without one). [SI], [-]"""
+    v = np.asarray(values, dtype=float)
+    if DRIFT_NAME in names:
+        return v[:-1], float(v[-1])
+    return v, 0.0
 
 
 def _play_runs(p: np.ndarray, runs: list[slice], r: float) -> np.ndarray:
@@ -191,7 +238,8 @@ class DirectionAwareFit(FitBase):
         The sensor report (:func:`mckibben.fit.isometric.isometric_points`).
     data : pandas.DataFrame
         The points in the protocol's order (:func:`run_order`), with ``fitted`` (False: a row at a
-        rail, in the history but not in the residuals) and ``force_model`` [N].
+        rail or a step of fewer than ``min_samples`` readings, in the history but not in the
+        residuals) and ``force_model`` [N] (with the run drift, when fitted).
     runs : list of slice
         Each run's span in :attr:`data`.
     law_force : callable
@@ -218,13 +266,16 @@ class DirectionAwareFit(FitBase):
                 "muscle": self.muscle.id, "tare": self.tare.get("method", "none")}
 
     def _force(self, values, pressure, length, z, direction, rest_length=None):
-        return direction_aware_force(self.law_force, self.structure, values, pressure, length, z, direction=direction,
+        v, _ = _drift(values, self.result.names)  # the drift is the test's, not the muscle's: never predicted
+        return direction_aware_force(self.law_force, self.structure, v, pressure, length, z, direction=direction,
                                      rest_length=rest_length)
 
     @property
     def operator(self) -> dict:
-        """The operator's fitted values: ``play_threshold_Pa`` [Pa] (and ``friction_area_m2`` [m²])."""
-        return {n: self.result[n] for n in STRUCTURES[self.structure][0]}
+        """The operator's fitted values: ``play_threshold_Pa`` [Pa] (and ``friction_area_m2`` [m²]);
+        ``run_drift_ratio`` [-] when the fit had the run-drift nuisance."""
+        names = STRUCTURES[self.structure][0] + ((DRIFT_NAME,) if DRIFT_NAME in self.result.names else ())
+        return {n: self.result[n] for n in names}
 
     @property
     def metrics(self) -> dict:
@@ -388,7 +439,8 @@ class DirectionAwareFit(FitBase):
             labelled.add(k)
             ax.plot(run["pressure"] / 1e3, run["force_model"], "-", lw=1, color=col, label=lab)
         op = f"r = {self.operator['play_threshold_Pa'] / 1e3:.3g} kPa" + (
-            f", A_f = {self.operator['friction_area_m2'] * 1e6:.3g} mm²" if "friction_area_m2" in self.operator else "")
+            f", A_f = {self.operator['friction_area_m2'] * 1e6:.3g} mm²" if "friction_area_m2" in self.operator else "") + (
+            f", run drift {self.operator[DRIFT_NAME]:+.1%}" if DRIFT_NAME in self.operator else "")
         ax.set_xlabel("pressure [kPa]")
         ax.set_ylabel("force [N]")
         ax.set_title(f"{self.model} ({self.structure}: {op}), trial {first_trial}\n"
@@ -426,16 +478,17 @@ def _no_fitted_tare(tare: str) -> None:
                          " fit takes none, lowest or column")
 
 
-def _points(table: Table, tare: str, rails: str, pressure_zero: str, trials=None):
-    """All points (the history) and which of them enter the residuals (rails excluded or kept)."""
+def _points(table: Table, tare: str, rails: str, pressure_zero: str, trials=None, min_samples: int = 0):
+    """All points (the history) and which of them enter the residuals and the gap (rails and transitions excluded)."""
     _no_fitted_tare(tare)
     d, report = isometric_points(table, tare, "keep", pressure_zero)
     fitted = np.ones(len(d), dtype=bool)
-    if rails == "exclude":
-        kept, _ = isometric_points(table, tare, "exclude", pressure_zero)
-        fitted = d.index.isin(kept.index)
-    elif rails != "keep":
+    if rails not in ("keep", "exclude"):
         isometric_points(table, tare, rails, pressure_zero)  # its error names the policy
+    if rails == "exclude" or min_samples:
+        kept, sel_report = isometric_points(table, tare, rails, pressure_zero, min_samples)
+        fitted = d.index.isin(kept.index)
+        report = {**report, **{k: sel_report[k] for k in ("rails", "transitions") if k in sel_report}}
     if trials is not None:
         sel = np.isin(d["trial"].to_numpy(), np.asarray(list(trials)))
         if not sel.any():
@@ -445,7 +498,7 @@ def _points(table: Table, tare: str, rails: str, pressure_zero: str, trials=None
     return d.assign(fitted=fitted), report
 
 
-def _fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, structure: str, source: str):
+def _fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, structure: str, source: str, drift: bool = False):
     """The joint fit on ordered points: (FitResult, ordered DataFrame with the model's force, runs)."""
     order, runs = run_order(d)
     d = d.iloc[order].reset_index(drop=True)
@@ -472,30 +525,39 @@ def _fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, structure: str,
     lo = np.r_[spec.lo, THRESHOLD_MIN_FRACTION * pmax, [0.0] * (len(op_names) - 1)]
     hi = np.r_[spec.hi, THRESHOLD_MAX_FRACTION * pmax, [FRICTION_MAX * area] * (len(op_names) - 1)]
     starts = [np.r_[s, r0 * pmax, [0.02 * area] * (len(op_names) - 1)] for s in spec.starts for r0 in (0.01, 0.04)]
+    names = tuple(spec.names) + op_names
+    if drift:  # the run-drift nuisance, one for every run, either sign
+        names += (DRIFT_NAME,)
+        lo, hi = np.r_[lo, -DRIFT_MAX], np.r_[hi, DRIFT_MAX]
+        starts = [np.r_[x0, 0.0] for x0 in starts]
+    pos = run_position(len(d), runs)
+
+    def along(values, z):
+        v, c = _drift(values, names)
+        return direction_aware_force(spec.force, structure, v, p, ell, z, direction=dirn, rest_length=rest) * (
+            1.0 + c * pos)
 
     def model_fn(v):
-        z = _play_runs(p, runs, float(v[nth]))
-        return direction_aware_force(spec.force, structure, v, p, ell, z, direction=dirn, rest_length=rest)[fitted]
+        return along(v, _play_runs(p, runs, float(v[nth])))[fitted]
 
     def func(values, pressure, length, direction="inflate", rest_length=None):
-        z = branch_state(pressure, direction, float(values[nth]))
-        return direction_aware_force(spec.force, structure, values, pressure, length, z, direction=direction,
+        v, _ = _drift(values, names)  # a branch of the muscle: the test's drift is not in it
+        z = branch_state(pressure, direction, float(v[nth]))
+        return direction_aware_force(spec.force, structure, v, pressure, length, z, direction=direction,
                                      rest_length=rest_length)
 
     physical = (lambda v: spec.physical(v[:nth])) if spec.physical is not None else None
     vr = data_range(pressure=p[fitted], length=ell[fitted])
-    res = bounded_fit(model_fn, f[fitted], starts, tuple(spec.names) + op_names, lo, hi, model=model,
+    res = bounded_fit(model_fn, f[fitted], starts, names, lo, hi, model=model,
                       response="force_N", what=what, valid_range=vr, func=func, clusters=_runs(d[fitted]),
                       source=source, physical_flags=physical, cluster_unit="runs")
-    z = _play_runs(p, runs, res["play_threshold_Pa"])
-    d["force_model"] = direction_aware_force(spec.force, structure, res.values, p, ell, z, direction=dirn,
-                                             rest_length=rest)
+    d["force_model"] = along(res.values, _play_runs(p, runs, res["play_threshold_Pa"]))
     return res, d, runs, spec.force
 
 
 def fit_direction_aware(table: Table, muscle: MuscleSpec, model: str, structure: str = DEFAULT_STRUCTURE,
                         tare: str = "none", rails: str = "exclude", pressure_zero: str = "none",
-                        trials=None) -> DirectionAwareFit:
+                        trials=None, min_samples: int = 0, drift: bool = False) -> DirectionAwareFit:
     """Fit a law's direction-aware form (law and operator jointly) to an isometric table.
 
     Parameters
@@ -517,6 +579,20 @@ def fit_direction_aware(table: Table, muscle: MuscleSpec, model: str, structure:
         :func:`mckibben.data.preprocessing.apply_pressure_zero`. [-]
     trials : sequence, optional
         Fit only these trials (the others held out). [-]
+    min_samples : int, default 0
+        Points binned from fewer readings than this (a column ``n_samples``) are a pressure step
+        passing through, not a hold (:func:`mckibben.fit.isometric.transition_rows`): excluded from
+        the residuals, kept in the pressure history (the play needs the order); 0 fits every point. [-]
+    drift : bool, default False
+        Fit the run-drift nuisance too: force × (1 + c·s), s the point's place along its run's
+        history (:func:`run_position`, 0 at the run's first point, 1 at its last), c
+        (``run_drift_ratio``, within ± :data:`DRIFT_MAX`) one for every run of the table, either
+        sign. A force that relaxes over a run in proportion to itself (the rubber's stress
+        relaxation at a held length, a load cell's creep under load) makes a gap of its own,
+        negative where the deflating pass comes long after the inflating one (low pressure). The
+        drift belongs to the test, not the muscle: the fit's branches, :meth:`DirectionAwareFit.predict`
+        and the inverse leave it out; the bounds and the ``run_drift_ratio_unconstrained`` flag of
+        :func:`mckibben.fit.core.bounded_fit` say when the data do not pin it. [-]
 
     Returns
     -------
@@ -532,8 +608,8 @@ def fit_direction_aware(table: Table, muscle: MuscleSpec, model: str, structure:
     name = _law_name(model)
     if structure not in STRUCTURES:
         raise unknown_name("structure", structure, STRUCTURES)
-    d, report = _points(table, tare, rails, pressure_zero, trials)
-    res, d, runs, force = _fit_points(d, muscle, name, structure, str(table.path))
+    d, report = _points(table, tare, rails, pressure_zero, trials, min_samples)
+    res, d, runs, force = _fit_points(d, muscle, name, structure, str(table.path), drift)
     return DirectionAwareFit(name, structure, res, muscle, report, d, runs, force)
 
 
@@ -641,7 +717,7 @@ def _plain_force(res: FitResult, d: pd.DataFrame, muscle: MuscleSpec) -> np.ndar
 
 def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = DEFAULT_STRUCTURE,
                 test_trials=None, tare: str = "none", rails: str = "exclude", pressure_zero: str = "none",
-                grid=None) -> HeldoutGap:
+                grid=None, min_samples: int = 0, drift: bool = False) -> HeldoutGap:
     """Each trial held out in turn: the measured up/down gap and the gap a plain and a direction-aware law predict.
 
     For each held-out trial, the plain law (:func:`mckibben.fit.isometric.fit_points`) and its
@@ -666,6 +742,12 @@ def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = D
         As :func:`fit_direction_aware`. [-]
     grid : array_like, optional
         The gap's pressures (:func:`loop_gap`); default every 10 kPa both branches cover. [Pa]
+    min_samples : int, default 0
+        As :func:`fit_direction_aware`: points from fewer readings are left out of both fits and
+        of the measured and predicted gaps, and kept in each run's history. [-]
+    drift : bool, default False
+        As :func:`fit_direction_aware`: the drift fitted on the other trials, applied along each
+        held-out run's own order (a prediction: the held-out trial gives it no value). [-]
 
     Returns
     -------
@@ -676,7 +758,7 @@ def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = D
     name = _law_name(model)
     if structure not in STRUCTURES:
         raise unknown_name("structure", structure, STRUCTURES)
-    d_all, _ = _points(table, tare, rails, pressure_zero)
+    d_all, _ = _points(table, tare, rails, pressure_zero, min_samples=min_samples)
     trials = np.unique(d_all["trial"].to_numpy())
     if trials.size < 2:
         raise InputError(f"heldout_gap on {table.path}: needs two trials or more (one to fit, one held out); "
@@ -690,7 +772,7 @@ def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = D
         train = d_all[d_all["trial"] != t]
         test = d_all[d_all["trial"] == t]
         plain = fit_points(train[train["fitted"]].drop(columns="fitted"), muscle, name, source=str(table.path))
-        res, _, _, force = _fit_points(train, muscle, name, structure, str(table.path))
+        res, _, _, force = _fit_points(train, muscle, name, structure, str(table.path), drift)
         fit = DirectionAwareFit(name, structure, res, muscle, {}, *_fit_frame(res, test, force, structure), force)
         fits.append(fit)
         td = fit.data
@@ -721,14 +803,16 @@ def _fit_frame(res: FitResult, d: pd.DataFrame, law_force, structure: str):
     p = d["pressure"].to_numpy(dtype=float)
     z = _play_runs(p, runs, res["play_threshold_Pa"])
     rest = d["rest_length"].to_numpy(dtype=float) if "rest_length" in d else None
-    d["force_model"] = direction_aware_force(law_force, structure, res.values, p, d["held_length"].to_numpy(dtype=float),
-                                             z, direction=d["direction"].to_numpy(), rest_length=rest)
+    v, c = _drift(res.values, res.names)  # the fitted drift, on the held-out run's own order (no value of its own)
+    d["force_model"] = direction_aware_force(law_force, structure, v, p, d["held_length"].to_numpy(dtype=float), z,
+                                             direction=d["direction"].to_numpy(), rest_length=rest) * (
+        1.0 + c * run_position(len(d), runs))
     return d, runs
 
 
 def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, structure: str = DEFAULT_STRUCTURE,
                             tare: str = "none", rails: str = "exclude", pressure_zero: str = "none",
-                            grid=None) -> list[dict]:
+                            grid=None, min_samples: int = 0, drift: bool = False) -> list[dict]:
     """Each law beside its direction-aware form, on held-out trials: what ``compare --direction-aware`` adds.
 
     Parameters
@@ -746,16 +830,21 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
         As :func:`fit_direction_aware`. [-]
     grid : array_like, optional
         The gap's pressures (:func:`loop_gap`). [Pa]
+    min_samples : int, default 0
+        As :func:`heldout_gap`. [-]
+    drift : bool, default False
+        As :func:`heldout_gap`. [-]
 
     Returns
     -------
     list of dict
         Per law: ``model``, ``structure``, ``cv`` (``"leave-one-trial-out"``), the pooled
         :attr:`HeldoutGap.metrics` (measured gap RMS/max; plain and direction-aware gap error RMS/max;
-        held-out force RMSE of both), the operator's values per fold (``play_threshold_Pa``), and
-        ``note`` (why a law could not be scored).
+        held-out force RMSE of both), the operator's values per fold (``play_threshold_Pa``; and
+        ``run_drift_ratio`` with ``drift``), and ``note`` (why a law could not be scored).
     """
     _no_fitted_tare(tare)
+    transition_rows(table, min_samples)  # a bad threshold or a missing column: one error, not one note per law
     if models is None:
         d, _ = isometric_points(table, tare, "keep", pressure_zero)
         models = list(laws.fit_laws(family=True) if is_family(d) else laws.fit_laws())
@@ -764,11 +853,12 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
         row: dict = {"model": model, "structure": structure, "cv": "leave-one-trial-out"}
         try:
             h = heldout_gap(table, muscle, model, structure, tare=tare, rails=rails, pressure_zero=pressure_zero,
-                            grid=grid)
+                            grid=grid, min_samples=min_samples, drift=drift)
         except InputError as exc:
             out.append({**row, "note": f"not fitted: {exc}"})
             continue
-        out.append({**row, **h.metrics, "play_threshold_Pa": [f.result["play_threshold_Pa"] for f in h.fits],
+        drifts = {DRIFT_NAME: [f.result[DRIFT_NAME] for f in h.fits]} if drift else {}
+        out.append({**row, **h.metrics, "play_threshold_Pa": [f.result["play_threshold_Pa"] for f in h.fits], **drifts,
                     "flags": sorted({fl for f in h.fits for fl in f.result.flags}), "note": ""})
     return out
 

@@ -83,7 +83,7 @@ if TYPE_CHECKING:
 __all__ = ["ALL_MODELS", "FAMILY_MODELS", "BOUNDS_NOTE", "CV_METHODS", "D0_FACTOR", "MUSCLE_MODELS", "IsometricFit",
            "K_BOUNDS", "ModelComparison",
            "NOMINAL_TOL", "OFFSET_FLAG", "R0_FACTOR", "SPRING_NAMES", "THETA_MAX", "THETA_MIN", "THETA_STARTS_DEG",
-           "WALL_FACTOR", "ZEROS", "best_of", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length",
+           "SAMPLES_COLUMN", "WALL_FACTOR", "ZEROS", "best_of", "compare_isometric", "fit_isometric", "fit_points", "fit_isotonic_law", "force_law", "law_length",
            "max_error", "parameter_names", "run_zeros", "zero_runs"]
 
 BOUNDS_NOTE = ("theta0 in [1, 54.7) deg; D0 in [0.5, 4] x outer diameter; r0 in [0.25, 1] x outer diameter; "
@@ -339,8 +339,56 @@ class IsometricFit(FitBase):
         return fig
 
 
+#: The column of a binned table that counts the readings behind each point (``Table.extra``). [-]
+SAMPLES_COLUMN = "n_samples"
+
+
+def transition_rows(table: Table, min_samples: int) -> np.ndarray:
+    """Which points of a binned table are a pressure step passing through, not a hold: fewer than ``min_samples`` readings.
+
+    A table binned from a stepped protocol (a lab's readings grouped into pressure bins, each point
+    their median) counts the readings of each bin in a column :data:`SAMPLES_COLUMN`. A hold fills
+    its bin with every reading taken while it lasts (hundreds); a step crosses the bins on its
+    way in a few readings, while the force is still moving (rate dependent, not repeatable:
+    ``docs/data.md``). The threshold is a count of readings, unit free.
+
+    Parameters
+    ----------
+    table : Table
+        A table read by :func:`mckibben.data.read_table`. [-]
+    min_samples : int
+        Points with fewer readings than this are transitions; 0 marks none (and needs no column). [-]
+
+    Returns
+    -------
+    numpy.ndarray
+        True where a point is a transition, aligned with ``table.data``. [-]
+    """
+    if isinstance(min_samples, bool) or not isinstance(min_samples, (int, np.integer)) or min_samples < 0:
+        raise InputError(f"min_samples: {min_samples!r} must be a whole number of readings >= 0 (0: keep every point)")
+    if min_samples == 0:
+        return np.zeros(len(table.data), dtype=bool)
+    extra = table.extra
+    if extra is None or SAMPLES_COLUMN not in extra:
+        raise InputError(f"min_samples: {min_samples} needs a column {SAMPLES_COLUMN} (readings per binned point); "
+                         f"{table.path} has none")
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    raw = extra[SAMPLES_COLUMN].reindex(table.data.index)
+    n = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float)
+    bad = ~(np.isfinite(n) & (n >= 0) & (n == np.round(n)))
+    if bad.any():
+        r = int(table.data.index[np.flatnonzero(bad)[0]])
+        raise InputError(f"{table.path}: row {r}, column {SAMPLES_COLUMN}: {raw.loc[r]!r} is not a count of readings "
+                         "(a whole number >= 0)")
+    if not np.any(n >= min_samples):
+        raise InputError(f"min_samples: {min_samples} leaves no point of {table.path} (most readings in a point: "
+                         f"{int(np.max(n)) if n.size else 0})")
+    return n < min_samples
+
+
 def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
-                     pressure_zero: str = "none") -> tuple[pd.DataFrame, dict]:
+                     pressure_zero: str = "none", min_samples: int = 0) -> tuple[pd.DataFrame, dict]:
     """The tared points of an isometric table (SI), and the sensor report.
 
     In order: the pressure transducer's zero is removed (:func:`mckibben.data.preprocessing.apply_pressure_zero`),
@@ -362,6 +410,10 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
         the rail is a bound on the force, not its value). [-]
     pressure_zero : {"none", "lowest", "column"}, default "none"
         See :func:`mckibben.data.preprocessing.apply_pressure_zero`. [-]
+    min_samples : int, default 0
+        Points binned from fewer readings than this (the column :data:`SAMPLES_COLUMN`) are a
+        pressure step passing through, not a hold, and are left out (:func:`transition_rows`);
+        0 keeps every point. [-]
 
     Returns
     -------
@@ -370,13 +422,14 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
         ``rest_length``, ``muscle`` of a family; ``censored`` with ``rails="censor"``).
     report : dict
         The tare's report (``method``, ``per_run_N``) with ``pressure_zero``, ``rails`` (each rail,
-        ``rows_at_rail``, ``excluded``) and ``flags``.
+        ``rows_at_rail``, ``excluded``), ``transitions`` (``min_samples``, ``rows_excluded``) and ``flags``.
     """
     if table.kind != "isometric":
         raise InputError(f"fit: needs an isometric table (held_length, pressure, force, direction, trial);"
                          f" {table.path} is a {table.kind} table")
     if rails not in RAIL_POLICIES:
         raise unknown_name("rails policy", rails, RAIL_POLICIES)
+    transit = transition_rows(table, min_samples)
     zeroed, pz = apply_pressure_zero(table, pressure_zero)
     at_rail, rail_report = find_rails(zeroed, ("force",))
     tared, report = apply_tare(zeroed, tare)
@@ -390,13 +443,16 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
         flags.append("tare_at_rail")
     report.update(pressure_zero=pz, rails={**rail_report, "excluded": rails == "exclude",
                                            "censored": rails == "censor"}, flags=flags)
-    if rails == "exclude":
-        tared = Table(tared.kind, tared.path, tared.data[~at_rail], tared.columns)
+    if min_samples:
+        report["transitions"] = {"min_samples": int(min_samples), "rows_excluded": int(transit.sum())}
+    keep = ~(at_rail if rails == "exclude" else np.zeros_like(at_rail)) & ~transit
+    if not keep.all():
+        tared = Table(tared.kind, tared.path, tared.data[keep], tared.columns)
     cols = ["held_length", "pressure", "force", "direction", "trial"]
     cols += [c for c in ("rest_length", "muscle") if c in tared.data]  # a family table's muscles
     d = tared.data[cols].copy()
     if rails == "censor":
-        raw = zeroed.data["force"].to_numpy(dtype=float)
+        raw = zeroed.data["force"].to_numpy(dtype=float)[keep]
         side = np.zeros(len(d), dtype=int)
         for r in rail_report["rails"]:
             if r["column"] == "force":
@@ -809,7 +865,7 @@ def _with_monotone_flag(res: FitResult, d: pd.DataFrame) -> FitResult:
 
 
 def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare: str = "none", rails: str = "keep",
-                  pressure_zero: str = "none", rest_lengths: str = "nominal") -> IsometricFit:
+                  pressure_zero: str = "none", rest_lengths: str = "nominal", min_samples: int = 0) -> IsometricFit:
     """Fit a static force model F(P, L) to an isometric table.
 
     Geometry missing from the muscle file (braid angle, wall) is fitted within the bounds of
@@ -841,6 +897,9 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
         The pressure transducer's zero (:func:`isometric_points`). [-]
     rest_lengths : {"nominal", "fitted"}, default "nominal"
         A family's rest lengths as recorded or fitted per muscle (:func:`fit_points`). [-]
+    min_samples : int, default 0
+        Points binned from fewer readings than this are left out (a pressure step passing
+        through, not a hold: :func:`isometric_points`). [-]
 
     Returns
     -------
@@ -852,7 +911,7 @@ def fit_isometric(table: Table, muscle: MuscleSpec, model: str = "spring", tare:
     """
     check_instance(table, "table", Table, "a Table (mckibben.read_table)")
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
-    d, report = isometric_points(table, tare, rails, pressure_zero)
+    d, report = isometric_points(table, tare, rails, pressure_zero, min_samples)
     zeros = "per-run" if tare == "fitted" else "shared"
     res = fit_points(d, muscle, model, source=table.path, rest_lengths=rest_lengths, zeros=zeros)
     if zeros == "per-run":
@@ -1055,7 +1114,7 @@ def _fold_keys(d: pd.DataFrame, cv: str) -> tuple[np.ndarray, list]:
 
 def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
                       models=None, rails: str = "keep", pressure_zero: str = "none",
-                      rest_lengths: str = "nominal") -> ModelComparison:
+                      rest_lengths: str = "nominal", min_samples: int = 0) -> ModelComparison:
     """Fit every force model to an isometric table and score it on held-out lengths, trials or muscles.
 
     Every model is fitted on the same folds: ``leave-one-length-out`` leaves each held length out
@@ -1101,6 +1160,9 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         The pressure transducer's zero (:func:`isometric_points`). [-]
     rest_lengths : {"nominal", "fitted"}, default "nominal"
         A family's rest lengths as recorded or fitted per muscle (:func:`fit_points`). [-]
+    min_samples : int, default 0
+        Points binned from fewer readings than this are left out (a pressure step passing
+        through, not a hold: :func:`isometric_points`). [-]
 
     Returns
     -------
@@ -1110,7 +1172,7 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
     if cv not in CV_METHODS:
         raise unknown_name("`cv` scheme", cv, CV_METHODS)
-    d, report = isometric_points(table, tare, rails, pressure_zero)
+    d, report = isometric_points(table, tare, rails, pressure_zero, min_samples)
     zeros = "per-run" if tare == "fitted" else "shared"
     family = is_family(d)
     if rest_lengths not in REST_LENGTHS:

@@ -67,7 +67,8 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
              split_pressure: float | None = None, tare: str = "none", save: str | None = None,
              rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
              select: dict | None = None, columns: dict | None = None,
-             direction_aware: str | None = None, rest_lengths: str = "nominal") -> tuple[dict, list]:
+             direction_aware: str | None = None, rest_lengths: str = "nominal",
+             min_samples: int = 0, drift: bool = False) -> tuple[dict, list]:
     """One fit: the JSON-ready dict and the fit objects."""
 
     if model not in FIT_MODELS and model not in laws.ALIASES:  # an old law name is read (deprecated)
@@ -81,6 +82,10 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         raise InputError(f"tare: applies to isometric tables; {data} is a {table.kind} table")
     if (rails != "keep" or pressure_zero != "none") and not isometric:
         raise InputError(f"rails/`pressure_zero`: apply to isometric tables; {data} is a {table.kind} table")
+    if drift and direction_aware is None:
+        raise InputError("drift: the run-drift nuisance is fitted with a direction-aware form; give `direction_aware`")
+    if min_samples != 0 and not isometric:
+        raise InputError(f"min_samples: selects the binned points of an isometric table; {data} is a {table.kind} table")
     if save is not None and not isometric:
         raise InputError(f"save: writes a force law fitted to an isometric table; {data} is a {table.kind} table")
     if save is not None and spec.outer_diameter is None:  # a table's rest length stood for the muscle file
@@ -109,7 +114,8 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
                              f"a {table.kind} table")
         if save is not None:
             raise InputError("save: a muscle file holds a static law; fit without direction_aware to save one")
-        fit = fit_direction_aware(table, spec, model, direction_aware, tare, rails, pressure_zero)
+        fit = fit_direction_aware(table, spec, model, direction_aware, tare, rails, pressure_zero,
+                                  min_samples=min_samples, drift=drift)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
                "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
         _update_keeping_table_notes(out, fit.to_dict())
@@ -117,7 +123,8 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
     if isometric:
         if model not in ALL_MODELS and model not in laws.ALIASES:
             raise InputError(f"fit {model}: not a force model for an isometric table; use one of {', '.join(ALL_MODELS)}")
-        fit = fit_isometric(table, spec, model, tare, rails, pressure_zero, rest_lengths=rest_lengths)
+        fit = fit_isometric(table, spec, model, tare, rails, pressure_zero, rest_lengths=rest_lengths,
+                            min_samples=min_samples)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
                "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
         _update_keeping_table_notes(out, fit.to_dict())
@@ -180,18 +187,19 @@ def _isometric_table(data: Path, select: dict | None = None, columns: dict | Non
 
 def _compare_isometric(table, data: Path, muscle: str | None, cv: str, tare: str, rails: str = "keep",
                        pressure_zero: str = "none", direction_aware: str | None = None,
-                       rest_lengths: str = "nominal") -> dict:
+                       rest_lengths: str = "nominal", min_samples: int = 0, drift: bool = False) -> dict:
     """Compare every force model on an isometric table; return the JSON-ready result."""
 
     spec = load_muscle(data, muscle, True, "compare", table)
     check_muscle(table, spec)
     res = compare_isometric(table, spec, cv, tare, rails=rails, pressure_zero=pressure_zero,
-                            rest_lengths=rest_lengths)
+                            rest_lengths=rest_lengths, min_samples=min_samples)
     out = {"file": str(data), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(data, spec),
            **_table_notes(table), "quantity": "force at held lengths and pressures (all rows)", **res.to_dict()}
     if direction_aware is not None:  # each law beside its direction-aware form (mckibben.fit.direction)
         out["direction_aware"] = compare_direction_aware(table, spec, structure=direction_aware, tare=tare,
-                                                         rails=rails, pressure_zero=pressure_zero)
+                                                         rails=rails, pressure_zero=pressure_zero,
+                                                         min_samples=min_samples, drift=drift)
     return out
 
 
@@ -394,7 +402,8 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
               split_pressure: float | None = None, tare: str = "none", save: str | None = None,
               rest_length: float | None = None, rails: str = "keep", pressure_zero: str = "none",
               select: dict | None = None, columns: dict | None = None,
-              direction_aware: str | None = None, rest_lengths: str = "nominal") -> TableFit:
+              direction_aware: str | None = None, rest_lengths: str = "nominal", min_samples: int = 0,
+              drift: bool = False) -> TableFit:
     """Fit one model to one experiment table: parameters, standard errors, 95 % intervals, flags.
 
     Parameters
@@ -432,6 +441,13 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
     rest_lengths : {"nominal", "fitted"}, default "nominal"
         Isometric family tables: each muscle's rest length as recorded or fitted
         (:func:`mckibben.fit.isometric.fit_points`); not with ``save``. [-]
+    min_samples : int, default 0
+        Isometric tables binned from a stepped protocol: points of fewer readings than this (the
+        column ``n_samples``) are a step passing through, left out of the fit
+        (:func:`mckibben.fit.isometric.transition_rows`); 0 keeps every point. [-]
+    drift : bool, default False
+        With ``direction_aware``: fit the run-drift nuisance too
+        (:func:`mckibben.fit.direction.fit_direction_aware`). [-]
 
     Returns
     -------
@@ -440,7 +456,7 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         (:func:`mckibben.data.muscle_file.muscle_of_table`).
     """
     out, fits = _run_fit(_data_path(data), model, muscle, kind, split_pressure, tare, save, rest_length, rails,
-                         pressure_zero, select, columns, direction_aware, rest_lengths)
+                         pressure_zero, select, columns, direction_aware, rest_lengths, min_samples, drift)
     return TableFit(out, fits)
 
 
@@ -505,7 +521,7 @@ class TableComparison(Result):
 def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none", rails: str = "keep",
                   pressure_zero: str = "none", select: dict | None = None,
                   columns: dict | None = None, direction_aware: str | None = None,
-                  rest_lengths: str = "nominal") -> TableComparison:
+                  rest_lengths: str = "nominal", min_samples: int = 0, drift: bool = False) -> TableComparison:
     """Fit every applicable model to the same data and score it on held-out data.
 
     An isometric table: every force model, folds by held length (default) or trial
@@ -538,18 +554,29 @@ def compare_table(data, muscle: str | None = None, cv: str | None = None, tare: 
     rest_lengths : {"nominal", "fitted"}, default "nominal"
         Isometric family tables: each muscle's rest length as recorded or fitted
         (:func:`mckibben.fit.isometric.fit_points`). [-]
+    min_samples : int, default 0
+        Isometric tables: points of fewer readings than this (the column ``n_samples``) are left
+        out of every fit and of the up/down gap (:func:`mckibben.fit.isometric.transition_rows`). [-]
+    drift : bool, default False
+        With ``direction_aware``: the direction-aware forms carry the run-drift nuisance, fitted on
+        the training trials (:func:`mckibben.fit.direction.heldout_gap`). [-]
 
     Returns
     -------
     TableComparison
     """
     data = _data_path(data)
+    if drift and direction_aware is None:
+        raise InputError("drift: the run-drift nuisance is fitted with a direction-aware form; give `direction_aware`")
     iso = _isometric_table(data, select, columns)
     if iso is not None:
         return TableComparison(_compare_isometric(iso, data, muscle, cv or "leave-one-length-out", tare, rails,
-                                                  pressure_zero, direction_aware, rest_lengths))
+                                                  pressure_zero, direction_aware, rest_lengths, min_samples, drift))
     if direction_aware is not None:
         raise InputError("direction_aware: scores laws on the inflate and deflate rows of an isometric table")
+    if min_samples != 0:
+        raise InputError("min_samples: selects the binned points of an isometric table; the isotonic comparison "
+                         "takes every point")
     if cv is not None or tare != "none" or rails != "keep" or pressure_zero != "none" or rest_lengths != "nominal":
         raise InputError("cv/`tare`: apply to isometric tables; the isotonic comparison chooses its own folds")
     return TableComparison(_compare_isotonic(data, muscle, select, columns))

@@ -46,7 +46,8 @@ STRUCTURES = {
     "friction": (("play_threshold_Pa", FRICTION_NAME), "law(P, L) + A_f·P·(z − P)/r (Tondu–Lopez friction)"),
 }
 #: The structure ``mckibben fit --direction-aware`` fits, chosen on held-out evidence
-#: (docs/hysteresis.md, ``benchmarks/bench_hysteresis_gap.py``). [-]
+#: (docs/hysteresis.md, ``benchmarks/bench_hysteresis_gap.py``): best for the best model on every
+#: point and on the settled ones (``--min-samples``), with and without the run drift. [-]
 DEFAULT_STRUCTURE = "play"
 #: The branch names of an isometric table and the sign of the pressure's change on each. [-]
 DIRECTIONS = {"inflate": -1.0, "deflate": 1.0}
