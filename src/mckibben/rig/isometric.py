@@ -151,7 +151,7 @@ def check_isometric(proto, port: str, has_force: bool, bench=None, muscle_file=N
         return
     if not has_force:
         raise InputError(f"{_line(proto, 'lengths')}: the device on {port} streams no force (no load cell): "
-                         "isometric runs need one (mckibben firmware build --load-cell, docs/rig.md), or remove "
+                         "isometric runs need one (a firmware built for a load cell, docs/rig.md), or remove "
                          "the [isometric] section")
     if muscle_file is not None:
         ls = read_muscle(muscle_file).strand_length
