@@ -299,3 +299,23 @@ def _telemetry(link, parser, n, timeout=20.0):
     while len(out) < n and time.monotonic() < end:
         out += [f for f in parser.feed(link.read(65536)) if isinstance(f, P.Telemetry)]
     return out
+
+
+def test_rig_step_leaves_the_muscle_vented_when_it_exits(engine):
+    """A step pressurizes the muscle; the command, run as a user runs it, must not leave it so: after it
+    exits the controller is off and the bleed latched open (it used to leave 0.5 MPa in the muscle: the
+    mode-off command, sent as the port closed, was lost, and the controller held its set-point)."""
+    from mckibben.rig.bench import Bench
+
+    with start_device(engine, n_channels=1, boot_time=0.1, **({"unthrottled": True} if engine == "avr" else {})) as em:
+        r = subprocess.run([sys.executable, "-m", "mckibben.cli", "rig", "step", "--port", em.port, "--target", "0.5MPa",
+                            "--duration", "0.3s", "--json"], capture_output=True, text=True, timeout=120)
+        assert r.returncode == 0, r.stderr
+        bench = Bench.of_port(em.port)
+        pressures = []
+        for _ in range(40):  # the bleed empties the muscle in tens of ms; the deadline is only for a loaded host
+            pressures.append(bench.state().pressure)
+            if pressures[-1] < 5e3:
+                break
+            time.sleep(0.05)
+    assert pressures[-1] < 5e3, f"{engine}: {pressures[-1] / 1e3:.0f} kPa left in the muscle after rig step exited"

@@ -23,7 +23,7 @@ import numpy as np
 from mckibben.errors import InputError
 from mckibben.hardware import pressure_from_adc
 from mckibben.rig import protocol as P
-from mckibben.rig.device import PACED_PERIODS, command, connect
+from mckibben.rig.device import PACED_PERIODS, command, connect, end_session
 from mckibben.tool.paths import parse_path
 from mckibben.tool.tracking import resolve_path, tip_reference
 from mckibben.tool.tracking import muscle_plants
@@ -158,9 +158,8 @@ def track_over_link(port: str, tool, path, ref=None, *, beta: float | None = Non
             stop.set()
             thread.join(timeout=5)
             sys.setswitchinterval(switch)
-        link.write(P.stream(seq, False, 1))
-        link.write(P.set_mode(seq + 1, P.MODES["off"]))
     finally:
+        end_session(link, seq)
         link.close()
     last = (n - 1) // PACED_PERIODS * PACED_PERIODS  # the last reference sent
     idx, pressure, applied, faults, t = [], [], [], 0, []

@@ -33,7 +33,7 @@ from mckibben.hardware import P_MAX_DEFAULT, P_MAX_LIMIT
 from mckibben.rig import isometric as ISO
 from mckibben.rig import protocol as P
 from mckibben.rig.bench import Bench
-from mckibben.rig.device import PACED_PERIODS, connect
+from mckibben.rig.device import PACED_PERIODS, connect, end_session
 from mckibben.results import Result, to_jsonable, write_table
 from mckibben.data.muscle_file import read_muscle
 from mckibben.data.tables import read_table
@@ -333,9 +333,6 @@ def _ramp_rate(raw, fail) -> float:
 
 # -- the run on the device ------------------------------------------------------------------------
 
-#: How long the last commands of a run (vent, controller off) are given to reach the device before its port is
-#: closed: a few of its 1 ms command polls, and the 1 Mbaud line's time for them. [s]
-CLOSE_WAIT = 0.05
 #: Telemetry decimation during a run: one frame every 10 control periods (100 Hz). [-]
 DECIMATION = 10
 #: A step that ends farther than this from its set-point (and did not move half way there) is a
@@ -427,18 +424,7 @@ class _Session:
             pass
 
     def close(self) -> None:
-        # the controller off, then VENT: the vent is latched until the next SET_MODE, so sent last it keeps the bleed
-        # open after the run (sent before, the SET_MODE cleared it and the mode off shut both valves on the air); and
-        # the device given the time to read them before the port closes (closed at once, they were lost)
-        try:
-            self.link.write(P.set_point(self._next(), 0, 0))
-            self.link.write(P.stream(self._next(), False, 1))
-            self.link.write(P.set_mode(self._next(), 0, P.ALL))
-            self.link.write(P.vent(self._next(), P.ALL))
-            self.link.flush()
-            time.sleep(CLOSE_WAIT)
-        except Exception:
-            pass
+        end_session(self.link, self._next())
         self.link.close()
 
 

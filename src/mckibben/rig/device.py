@@ -25,7 +25,7 @@ from mckibben.units import si
 from mckibben.control.core import CoreParams, load_design
 
 __all__ = ["BAUD", "SAFE_MAX_PRESSURE_PA", "Device", "ForceResult", "GainsResult", "RigStepResult", "TareResult",
-           "connect", "open_port", "write_gains"]
+           "connect", "end_session", "open_port", "write_gains"]
 
 #: How long :func:`connect` waits for the firmware's HELLO after opening the port: a Mega resets
 #: on open and its bootloader listens for 1-2 s before the firmware starts. [s]
@@ -41,6 +41,9 @@ MAX_FORCE_SAMPLES = 10_000
 #: three channels in closed loop at 1 kHz, SET_POINTS every 2 ms beside telemetry at decimation 2
 #: all arrive and are ACKed; at 1 ms (or at decimation 1) the 16 MHz Mega runs out of cycles.
 PACED_PERIODS = 2
+#: How long a session's last commands (:func:`end_session`) are given to reach the device before its port is
+#: closed: a few of the firmware's 1 ms command polls and the line's time for them. [s]
+CLOSE_WAIT = 0.05
 
 
 def open_port(port: str, timeout: float = 0.02):
@@ -107,6 +110,32 @@ def connect(port: str, hello_timeout: float | None = None, timeout: float = 0.02
 #: ~1 ms to compute, while the line brings 100 bytes per ms; and its 256-byte transmit queue
 #: drops an ACK that does not fit.
 WINDOW = 4
+
+
+def end_session(link, seq: int) -> None:
+    """Leave the device safe at the end of a session that pressurized it: set-points 0, controllers off, vented.
+
+    Sends streaming off, the controller off on every channel, then VENT on every channel (the vent is
+    latched until the next SET_MODE, so it is sent last: sent before, the mode change clears it and
+    "off" shuts both valves on the air, the muscle stays pressurized), flushes the link and waits
+    :data:`CLOSE_WAIT` for the firmware to read them (a port closed at once loses them, and the
+    controller goes on holding its last set-point). Best effort: a link already gone is left alone.
+
+    Parameters
+    ----------
+    link : serial.Serial
+        The open link (the caller closes it). [-]
+    seq : int
+        The first sequence number to use (three are used). [-]
+    """
+    try:
+        seqs = [(seq + k) & 0xFFFF for k in range(3)]
+        for pkt in (P.stream(seqs[0], False, 1), P.set_mode(seqs[1], P.MODES["off"], P.ALL), P.vent(seqs[2], P.ALL)):
+            link.write(pkt)
+        link.flush()
+        time.sleep(CLOSE_WAIT)
+    except Exception:  # the link may be gone (a device unplugged): nothing more can be sent
+        pass
 
 
 def command(link, parser: P.Parser, packets, timeout: float = 2.0, on_frame=None) -> list:
@@ -491,9 +520,8 @@ class Device:
                     sent = True
                 elif t_step is not None and rows[-1][0] - t_step >= d:
                     break
-            link.write(P.stream(4, False, 1))
-            link.write(P.set_mode(5, 0))
         finally:
+            end_session(link, 4)
             link.close()
         bad = [a for a in acks if a.status != 0]
         if bad:
