@@ -576,7 +576,7 @@ def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0, volume_gr
         dr/dt = φ(r) / (τ_fill·h(r)),   h = d(r·V/V0)/dr = V/V0 + r·V'/V0,
 
     φ = 1 while choked (r ≤ b) and φ = (1 − x²)^m above, x = (r − b)/(1 − b), m the subsonic index
-    (ISO 6358-1:2013; 0.5, the ellipse of ISO 6358:1989, by default). The growth S is 0 up to the
+    ([iso6358]; 0.5, the ellipse of its 1989 edition, by default). The growth S is 0 up to the
     onset ratio r_on and rises to 1 at the supply: linearly, S = u with u = (r − r_on)/(1 − r_on)
     (the default; r_on = r0 without an onset: the volume grows from V0 at the start to V0·(1 + γ) at
     the supply, linearly in the pressure), or saturating, S = (1 − e^(−u/κ))/(1 − e^(−1/κ)) with κ
@@ -612,7 +612,7 @@ def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0, volume_gr
     growth_onset : float, optional
         Gauge pressure at which the volume starts to grow; None (or ≤ ``p0``): from the start. [Pa]
     subsonic_index : float, default 0.5
-        m > 0, the exponent of the subsonic flow function (ISO 6358-1:2013); 0.5 is the ellipse. [-]
+        m > 0, the exponent of the subsonic flow function ([iso6358]); 0.5 is the ellipse. [-]
     growth_span : float, optional
         Pressure above the onset over which the growth e-folds (κ·(p_s − p_on)); None: linear growth. [Pa]
 
@@ -623,10 +623,9 @@ def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0, volume_gr
 
     References
     ----------
-    ISO 6358 (sonic conductance C, critical ratio b); ISO 6358-1:2013, Pneumatic fluid power —
-    Determination of flow-rate characteristics of components using compressible fluids — Part 1
-    (the subsonic index m); the chamber's d(p·V)/dt = R·T·ṁ (NOTES.md, "Higher marks");
-    notes/lab-data.md (fills are S-shaped or ramp-then-exponential).
+    [iso6358] (sonic conductance C, critical ratio b, the subsonic index m and the flow function
+    φ); the chamber's d(p·V)/dt = R·T·ṁ (NOTES.md, "Higher marks"); notes/lab-data.md (fills are
+    S-shaped or ramp-then-exponential).
     """
 
     ps = p_supply + P_ATM
@@ -749,7 +748,7 @@ VOLUME_GROWTH_BOUNDS = (0.0, 20.0)
 #: The fill model's growth onset is fitted from the start to this fraction of the way to the highest
 #: sample: an onset beyond it leaves too few samples of growth to tell it from the supply's approach. [-]
 ONSET_MAX = 0.9
-#: Bounds of the fill model's subsonic index m (ISO 6358-1:2013): 0.5 is the ellipse of an orifice;
+#: Bounds of the fill model's subsonic index m ([iso6358]): 0.5 is the ellipse of an orifice;
 #: a flow that falls linearly with the pressure difference near the supply (a laminar path: tubing,
 #: a regulator's seat) is m ≈ 1; the Festo 20 mm fills give 0.6–1.2. A fit at either bound says the
 #: shape is wrong. [-]
