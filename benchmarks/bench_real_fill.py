@@ -16,9 +16,10 @@ the runs test's z, the flags, and the groups the trials were pooled in. Then, fr
   j's time constant and dead time refitted (the valve's opening differs run to run), p0 from j's
   first sample and the supply from j's plateau (median and worst RMS over the pairs; pairs where
   the shape beats ``linear``);
-- the noise at each plateau (its last 10 %, a straight line removed): standard deviation and
-  lag-1 autocorrelation, against the lag-1 autocorrelation of the whole residual of ``onset``:
-  white noise at the plateau means the runs test's rejection is the shape, not the sensor.
+- the noise at each plateau (its last 10 %, a straight line removed: ``plateau_noise_Pa`` and
+  ``plateau_noise_lag1`` in identify's JSON) against the lag-1 autocorrelation of the whole
+  residual of ``onset`` (``residual_lag1``): white noise at the plateau means the runs test's
+  rejection is the shape, not the sensor.
 
 Run: python benchmarks/bench_real_fill.py (about 2 min on the shared 2-core machine).
 """
@@ -69,18 +70,6 @@ def _held_out(fit, t, y) -> float:
     r = optimize.least_squares(res, [p["tau_fill_s"], p["dead_time_s"]], bounds=([1e-4, 0.0], [100.0, 1.0]),
                                x_scale=[p["tau_fill_s"], 0.01])
     return float(np.sqrt(np.mean(r.fun ** 2)))
-
-
-def _plateau_noise(y) -> tuple[float, float]:
-    tail = y[-max(int(round(0.1 * y.size)), 5):]
-    k = np.arange(tail.size)
-    x = tail - np.polyval(np.polyfit(k, tail, 1), k)
-    return float(np.std(x)), _lag1(x)
-
-
-def _lag1(x) -> float:
-    x = np.asarray(x, dtype=float) - np.mean(x)
-    return float(np.sum(x[1:] * x[:-1]) / np.sum(x * x))
 
 
 def main_bench() -> int:
@@ -134,12 +123,13 @@ def main_bench() -> int:
         print(f" {s:<10} median {np.median(held[s]) / 1e3:5.2f} kPa, worst {held[s].max() / 1e3:5.2f} kPa;"
               f" better than linear on {wins} of {len(pairs)} pairs")
 
-    print("\n noise at the plateau (last 10 %, line removed) against the whole residual of onset")
-    print(" trial  samples  sd kPa  lag-1 ACF   residual lag-1 ACF")
-    for tr, (t, y) in fills.items():
-        sd, a1 = _plateau_noise(y)
-        print(f" {tr:>5}  {max(int(round(0.1 * y.size)), 5):7d}  {sd / 1e3:6.2f}  {a1:9.2f}"
-              f"   {_lag1(fits['onset'][tr].residuals):18.2f}")
+    print("\n noise at the plateau (last 10 %, line removed) against the whole residual of onset (identify's JSON)")
+    print(" trial  sd kPa  lag-1 ACF   residual lag-1 ACF")
+    for tr in res["trials"]:
+        m = tr["models"][0]
+        sd, a1 = m["plateau_noise_Pa"], m["plateau_noise_lag1"]
+        print(f" {tr['trial']:>5}  " + (f"{sd / 1e3:6.2f}  {a1:9.2f}" if sd is not None else f"{'(not settled)':>17}")
+              + f"   {m['residual_lag1']:18.2f}")
     return 0
 
 

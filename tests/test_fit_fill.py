@@ -19,7 +19,7 @@ import pandas as pd
 import pytest
 
 from mckibben.fit.step import (FILL_SHAPES, fill_response, fit_fill, half_rise_time, measured_plateau,
-                                pooled_step_parameters, runs_z)
+                                plateau_noise, pooled_step_parameters, runs_z)
 from mckibben.units import P_ATM
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
@@ -137,11 +137,16 @@ def test_identify_reports_groups_apart_in_a_real_cli_run(tmp_path):
     for tr in d["trials"]:
         m = tr["models"][0]
         assert m["supply_source"] == "plateau" and m["p_supply_Pa"] == pytest.approx(640e3, abs=3e3)
+        assert m["fill_shape"] == "onset"  # identify's default
+        # the generated noise is white: at the plateau and in the residuals of a right shape
+        assert m["plateau_noise_Pa"] == pytest.approx(NOISE, rel=0.3) and abs(m["plateau_noise_lag1"]) < 0.35
+        assert abs(m["residual_lag1"]) < 0.2
     text = subprocess.run(run, env=env, capture_output=True, text=True, timeout=300)
     assert text.returncode == 0, text.stderr
     assert "pooled over trials 1, 2 (group 1 of 2" in text.stdout
     assert "trial 3 differs from the others" in text.stdout
     assert "the measured plateau" in text.stdout and "--supply (nominal) Pa" in text.stdout
+    assert "shape" in text.stdout and "onset" in text.stdout
 
 
 # --- a volume held to an onset, the valve's subsonic index (issue 33, item 6) ---------------------
@@ -244,7 +249,7 @@ def _real_fills():
 
 def test_on_real_fills_the_onset_shape_fits_better_and_every_shape_is_still_flagged():
     """Real Festo 20 mm fills 5 and 7: the onset shape has under half the RMS of the linear growth;
-    the runs test rejects both (the residuals keep ±1–3 kPa lobes against 0.35 kPa of noise)."""
+    the runs test rejects both (the residuals keep ±1–3 kPa lobes against 0.35 kPa of white noise)."""
     fills = _real_fills()
     for trial in (5, 7):
         t, y = fills[trial]
@@ -253,6 +258,10 @@ def test_on_real_fills_the_onset_shape_fits_better_and_every_shape_is_still_flag
         assert onset.rmse < 0.5 * linear.rmse
         assert 80e3 < onset.params["growth_onset_Pa"] < 160e3  # where the measured fill rate drops
         assert "residual_runs" in linear.flags and "residual_runs" in onset.flags
+        # and the flag is the shape, not the sensor: white noise at the plateau (24–40 samples, the
+        # estimate's sd ~0.2), residuals smooth far beyond it
+        d = onset.to_dict()
+        assert abs(d["plateau_noise_lag1"]) < 0.4 and d["residual_lag1"] > 0.6
 
 
 def test_a_bad_fill_shape_exits_2_in_a_real_cli_run(tmp_path):
@@ -266,3 +275,30 @@ def test_a_bad_fill_shape_exits_2_in_a_real_cli_run(tmp_path):
     assert done.returncode == 2 and done.stdout == ""
     assert "--fill-shape" in done.stderr and "'cubic'" in done.stderr and done.stderr.count("\n") == 1
     assert "Traceback" not in done.stderr
+
+
+def test_the_plateau_noise_reads_the_runs_test():
+    """White noise at the plateau, and residuals of a wrong shape correlated far beyond it; a right
+    shape leaves residuals as white as the plateau (generated fills)."""
+    t, y = _onset_fill()
+    right = fit_fill(t, y, p_supply=620e3, **FILL_SHAPES["onset"]).to_dict()
+    wrong = fit_fill(t, y, p_supply=620e3, **FILL_SHAPES["linear"]).to_dict()
+    assert right["plateau_noise_Pa"] == wrong["plateau_noise_Pa"]  # the data's, not the model's
+    # 0.35 kPa read in 0.76 kPa steps: the rounding adds 0.22 kPa; 25 samples: within 30 %
+    assert right["plateau_noise_Pa"] == pytest.approx(np.hypot(NOISE_REAL, STEP_REAL / np.sqrt(12)), rel=0.3)
+    assert abs(right["plateau_noise_lag1"]) < 0.4  # 25 samples of white noise: sd of the estimate 0.2
+    assert abs(right["residual_lag1"]) < 0.2 and wrong["residual_lag1"] > 0.8
+    # a fill that never settles has no plateau to read
+    t, y = _fill(t_end=0.6)
+    assert fit_fill(t, y, p_supply=TRUE["supply"]).to_dict()["plateau_noise_Pa"] is None
+    # a correlated sensor (a first-order filter of 5 samples on the noise) shows at the plateau; a
+    # 12 s record gives it 100 samples (the estimate's sd ~ 1/sqrt(100) = 0.1), white noise stays near 0
+    from scipy.signal import lfilter
+
+    t = np.arange(0.0, 12.0, 0.012)
+    clean = fill_response(t, ONSET["p0"], ONSET["supply"], ONSET["tau"], ONSET["b"], ONSET["dead"], 0.0,
+                          ONSET["growth"], ONSET["onset"], ONSET["m"])
+    white = np.random.default_rng(4).normal(0, 1e3, t.size)
+    assert abs(plateau_noise(t, clean + white, 0.0, ONSET["p0"])[1]) < 0.3
+    filtered = plateau_noise(t, clean + lfilter([0.2], [1.0, -0.8], white), 0.0, ONSET["p0"])
+    assert filtered is not None and filtered[1] > 0.5

@@ -75,6 +75,7 @@ def identify_cmd(
                 for k, v in f.params.items():
                     rows.append([f"order {f.order}", k, v, f.se(k)])
                 if f.order == "fill":
+                    rows.append(["order fill", "shape", f.shape, ""])
                     src = f.supply.get("source")
                     rows.append(["order fill", "supply from", {"plateau": "the measured plateau",
                                                                "fitted": "the fit (no plateau)",

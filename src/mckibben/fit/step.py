@@ -720,7 +720,10 @@ class FillFit(ResponseFit):
                              p.get("growth_span_Pa"))
 
     def to_dict(self, output_unit: str = "Pa", input_unit: str = "") -> dict:
-        """Plain dict for JSON.
+        """Plain dict for JSON: the parameters and their errors, the supply's source, the fit's
+        statistics, and beside the runs test's z what reads it (:func:`plateau_noise`):
+        ``plateau_noise_Pa`` and ``plateau_noise_lag1`` (None when the fill has not settled) and
+        ``residual_lag1``, the residuals' lag-1 autocorrelation.
 
         Parameters
         ----------
@@ -735,6 +738,9 @@ class FillFit(ResponseFit):
             out[f"{k}_stderr"] = float(se)
         out.update({"supply_source": self.supply.get("source"), "plateau_Pa": self.supply.get("plateau_Pa"),
                     "p_supply_nominal_Pa": self.supply.get("nominal_Pa")})
+        noise = plateau_noise(self.t, self.predict(self.t) + self.residuals, self.t_step, self.params["p0_Pa"])
+        out.update({"plateau_noise_Pa": noise[0] if noise else None, "plateau_noise_lag1": noise[1] if noise else None,
+                    "residual_lag1": lag1_autocorrelation(self.residuals)})
         out.update({"rmse_Pa": self.rmse, "r2": self.r2, **self._common_dict()})
         return out
 
@@ -808,6 +814,63 @@ def measured_plateau(t, y, t_step: float, p0: float) -> tuple[float, float, floa
     if not rise > 0 or drift > SETTLED_SPREAD * rise:
         return None
     return med, float(np.min(tail)), float(np.max(tail))
+
+
+def lag1_autocorrelation(x) -> float:
+    """Lag-1 autocorrelation of a series about its mean: ≈ 0 for white noise, → 1 for a smooth one.
+
+    Parameters
+    ----------
+    x : array_like
+        Values in time order. [any]
+
+    Returns
+    -------
+    float
+        Σ(x_k·x_(k+1))/Σx_k² of the centred series (NaN with fewer than 3 values or none varying). [-]
+    """
+    x = np.asarray(x, dtype=float)
+    x = x - np.mean(x) if x.size else x
+    den = float(np.sum(x * x))
+    return float(np.sum(x[1:] * x[:-1]) / den) if x.size >= 3 and den > 0 else math.nan
+
+
+def plateau_noise(t, y, t_step: float, p0: float) -> tuple[float, float] | None:
+    """The sensor's noise where a fill has settled: its plateau (:func:`measured_plateau`'s samples)
+    with a straight line removed.
+
+    What the runs test of a fill's residuals needs to be read: white noise here (lag-1
+    autocorrelation near 0) and long runs in the residuals mean the model's shape, not the
+    sensor's filtering; correlated noise here would make a runs test on every sample reject any
+    model.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times. [s]
+    y : array_like
+        Gauge pressure. [Pa]
+    t_step : float
+        Time of the step. [s]
+    p0 : float
+        Pressure before the step. [Pa]
+
+    Returns
+    -------
+    tuple of float or None
+        ``(standard deviation [Pa], lag-1 autocorrelation [-])``, or None when the fill has not
+        settled or its plateau has fewer than 8 samples.
+    """
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    if measured_plateau(t, y, t_step, p0) is None:
+        return None
+    after = y[t >= t_step]
+    tail = after[-max(int(round(PLATEAU_FRACTION * after.size)), 5):]
+    if tail.size < 8:
+        return None
+    k = np.arange(tail.size, dtype=float)
+    x = tail - np.polyval(np.polyfit(k, tail, 1), k)
+    return float(np.std(x)), lag1_autocorrelation(x)
 
 
 def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | None = None,
