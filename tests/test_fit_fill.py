@@ -302,3 +302,15 @@ def test_the_plateau_noise_reads_the_runs_test():
     assert abs(plateau_noise(t, clean + white, 0.0, ONSET["p0"])[1]) < 0.3
     filtered = plateau_noise(t, clean + lfilter([0.2], [1.0, -0.8], white), 0.0, ONSET["p0"])
     assert filtered is not None and filtered[1] > 0.5
+
+
+def test_a_new_parameter_at_its_bound_is_flagged():
+    """A volume that steps (growth over 5 kPa, below the span's bound of 1 % of the rise): the
+    saturating shape's span sits at its lower bound and says so; an onset at the start is a value."""
+    t = np.arange(0.0, 4.0, 0.012)
+    y = fill_response(t, 15e3, 632e3, 0.4, 0.65, 0.01, 0.0, 1.4, 120e3, 1.0, 5e3)
+    f = fit_fill(t, y + np.random.default_rng(1).normal(0, NOISE_REAL, t.size), **FILL_SHAPES["saturating"])
+    assert "growth_span_Pa_at_lower_bound" in f.flags
+    t, y = _fill()  # a linear growth from the start: the onset at its lower bound, no flag for it
+    g = fit_fill(t, y, **FILL_SHAPES["onset"])
+    assert not any(fl.startswith("growth_onset") for fl in g.flags)
