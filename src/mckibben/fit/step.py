@@ -684,8 +684,8 @@ class FillFit(ResponseFit):
 
     :class:`ResponseFit`'s fields, the parameters (:attr:`params`, :attr:`stderr`) ``p0_Pa``,
     ``tau_fill_s``, ``b``, ``dead_time_s``, ``volume_growth``, ``growth_onset_Pa``,
-    ``growth_span_Pa`` and ``subsonic_index`` (each of these three only when it was fitted), ``p_supply_Pa`` (``p_supply_Pa``'s error is 0 when the supply was taken as given),
-    residuals in Pa, and:
+    ``growth_span_Pa`` and ``subsonic_index`` (each of these three only when it was fitted),
+    ``p_supply_Pa`` (its error is 0 when the supply was taken as given), residuals in Pa, and:
 
     Parameters
     ----------
@@ -877,6 +877,11 @@ def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | Non
              volume_growth: bool = True, growth_onset: bool = False, growth_span: bool = False,
              subsonic_index: bool = False) -> FillFit:
     """Fit the orifice fill of a growing volume (:func:`fill_response`) to a rising pressure step.
+
+    **Shape.** By default the volume grows linearly from the start and the flow is the ellipse
+    (``linear`` in :data:`FILL_SHAPES`); the options fit a fixed volume, an onset of the growth, a
+    growth that saturates and the valve's subsonic index m ([iso6358]). :data:`FILL_SHAPES` names
+    the combinations; ``identify`` fits ``onset`` by default.
 
     **Supply.** When the fill settles (:func:`measured_plateau`) the supply is estimated within
     the range of the measured plateau, whatever the nominal ``p_supply`` says (a regulator set to
