@@ -77,7 +77,7 @@ def test_step_and_fill_share_their_fields_through_one_base():
     assert {"names", "values", "stderr", "t_step", "t", "residuals", "rmse", "r2", "aic", "flags"} <= shared
     for cls in (StepFit, FillFit):
         own = set(cls.__dataclass_fields__) - shared
-        assert own <= {"order", "input_step", "supply"}, (cls.__name__, own)
+        assert own <= {"order", "input_step", "supply", "shape"}, (cls.__name__, own)
         assert not shared & set(vars(cls).get("__annotations__", {})), cls.__name__
 
 

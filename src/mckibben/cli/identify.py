@@ -28,6 +28,11 @@ def identify_cmd(
                                                       "pressure of orders 1 and 2; the fill model estimates its "
                                                       "supply from the measured plateau and uses this one only "
                                                       "when the fill does not settle."),
+    fill_shape: str = typer.Option("onset", "--fill-shape", metavar="[fixed|linear|onset|saturating]",
+                                   help="The fill model's volume and flow: fixed (a fixed volume), linear (growing "
+                                        "from the start), onset (held to an onset pressure, then growing; the "
+                                        "valve's subsonic index fitted) or saturating (onset, growth that "
+                                        "saturates)."),
     plot: str = typer.Option(None, "--plot", help="Write a PNG of data, fit and residuals (the first log)."),
     select: list[str] = SELECT_OPTION,
     columns: list[str] = COLUMNS_OPTION,
@@ -43,8 +48,10 @@ def identify_cmd(
     p_supply = parse_quantity(supply, "pressure", "--supply", allow_zero=False) if supply is not None else None
     if plot is not None:
         check_figure_path(plot)
+    if fill_shape not in control.identify.FILL_SHAPES:
+        raise InputError(f"--fill-shape: {fill_shape!r} must be one of {', '.join(control.identify.FILL_SHAPES)}")
     res = control.identify.identify_logs(logs, orders, ts, p_supply, parse_pairs(select, "--select", "experiment=3"),
-                                         parse_pairs(columns, "--columns", "experiment=trial"))
+                                         parse_pairs(columns, "--columns", "experiment=trial"), fill_shape)
     results = [(log, r.data, r.meta, r.trials) for log, r in zip(logs, res.logs)]
     lift = res.lift_off
     if plot is not None:
@@ -68,6 +75,7 @@ def identify_cmd(
                 for k, v in f.params.items():
                     rows.append([f"order {f.order}", k, v, f.se(k)])
                 if f.order == "fill":
+                    rows.append(["order fill", "shape", f.shape, ""])
                     src = f.supply.get("source")
                     rows.append(["order fill", "supply from", {"plateau": "the measured plateau",
                                                                "fitted": "the fit (no plateau)",

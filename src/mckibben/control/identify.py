@@ -30,6 +30,7 @@ from mckibben.data.steplog import (  # noqa: F401 (re-exported)
 from mckibben.errors import InputError, check_real
 from mckibben.fit.step import (  # noqa: F401
     B_BOUNDS,
+    FILL_SHAPES,
     R2_POOR,
     RUNS_Z,
     ZETA_BOUNDS,
@@ -200,7 +201,8 @@ class LogsIdentification(Result):
 
 
 def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: float | None = None,
-                  select: dict | None = None, columns: dict | None = None) -> LogsIdentification:
+                  select: dict | None = None, columns: dict | None = None,
+                  fill_shape: str = "onset") -> LogsIdentification:
     """Identify step-response logs: every model on every trial, pooled across trials, and the lift-off.
 
     Parameters
@@ -217,6 +219,9 @@ def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: floa
         Column -> value: read only these rows of each log (:func:`read_step_log`). [-]
     columns : dict, optional
         Each log's column names -> the log's (:func:`read_step_log`). [-]
+    fill_shape : str, default "onset"
+        The fill model's shape, a name in :data:`~mckibben.fit.step.FILL_SHAPES` (``fixed``,
+        ``linear``, ``onset``, ``saturating``). [-]
 
     Returns
     -------
@@ -226,8 +231,11 @@ def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: floa
     Raises
     ------
     InputError
-        A bad log, a fit that cannot converge on it, or logs that cannot give a lift-off.
+        A bad log, a fit that cannot converge on it, logs that cannot give a lift-off, or an unknown
+        ``fill_shape``.
     """
+    if fill_shape not in FILL_SHAPES:
+        raise InputError(f"fill_shape: {fill_shape!r} is not a fill shape; use one of {', '.join(FILL_SHAPES)}")
     out = []
     for log in logs:
         data, meta = read_step_log(log, select, columns)
@@ -244,7 +252,8 @@ def identify_logs(logs, orders=(1,), t_step: float | None = None, p_supply: floa
                 fits: list = []
                 for o in orders:
                     if o == "fill":
-                        fits.append(fit_fill(d["time_s"], d["pressure_Pa"], u, t_step=t_step, p_supply=p_supply))
+                        fits.append(fit_fill(d["time_s"], d["pressure_Pa"], u, t_step=t_step, p_supply=p_supply,
+                                             **FILL_SHAPES[fill_shape]))
                     else:
                         fits.append(fit_step_response(d["time_s"], d["pressure_Pa"], u, order=o, t_step=t_step,
                                                       p_max=p_supply))

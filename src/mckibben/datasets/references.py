@@ -134,6 +134,15 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
         doi=None, unestablished="DOI: the journal gives its papers none",
     ),
     Reference(
+        key="iso6358",
+        title="Pneumatic fluid power — Determination of flow-rate characteristics of components using "
+              "compressible fluids — Part 1: General rules and test methods for steady-state flow",
+        authors=(), venue="International Organization for Standardization, ISO 6358-1:2013, first edition",
+        year=2013, doi=None,
+        unestablished="authors: a standard of ISO/TC 131/SC 5, with no personal authors; DOI: ISO gives its "
+                      "standards none",
+    ),
+    Reference(
         key="hunt2017",
         title="Modeling length effects of braided pneumatic actuators",
         authors=("Hunt", "Graber-Tilton", "Quinn"),

@@ -25,6 +25,7 @@ re-exports the names it had) to stand beside the other fits.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -539,7 +540,9 @@ def runs_z(residuals) -> float:
     return float((runs - mu) / math.sqrt(var)) if var > 0 else math.nan
 
 
-def _bound_flags(names, values, lo, hi, skip=(), lower_ok=()) -> tuple:
+def _bound_flags(names, values, lo, hi, skip=(), lower_ok=(), upper_ok=()) -> tuple:
+    """``<name>_at_lower_bound`` / ``_upper_bound`` within 0.1 % of a bound; ``skip`` names neither
+    (unless also in ``lower_ok``: then only the upper is tested), ``lower_ok`` / ``upper_ok`` one side."""
     out = []
     for n_, v, a, b in zip(names, values, lo, hi):
         if n_ in skip and n_ not in lower_ok:
@@ -548,7 +551,7 @@ def _bound_flags(names, values, lo, hi, skip=(), lower_ok=()) -> tuple:
         span = (b - a) if np.isfinite(a) and np.isfinite(b) else np.inf
         if np.isfinite(a) and v - a <= 1e-3 * min(span, max(abs(a), 1e-12)) and n_ not in lower_ok:
             out.append(f"{n_}_at_lower_bound")
-        elif np.isfinite(b) and b - v <= 1e-3 * min(span, max(abs(b), 1e-12)) and n_ not in skip:
+        elif np.isfinite(b) and b - v <= 1e-3 * min(span, max(abs(b), 1e-12)) and n_ not in skip + upper_ok:
             out.append(f"{n_}_at_upper_bound")
     return tuple(out)
 
@@ -563,21 +566,30 @@ def _shape_flags(res, r2) -> tuple:
     return tuple(out)
 
 
-def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0, volume_growth=0.0):
+def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0, volume_growth=0.0, growth_onset=None,
+                  subsonic_index=0.5, growth_span=None):
     """Pressure of a muscle filled from a supply through an orifice: the volume grows as it fills.
 
-    With the ISO 6358 flow of the orifice, isothermal air and a volume that grows linearly with the
-    pressure from V0 at the start to V0·(1 + γ) at the supply, V = V0·(1 + γ·(r − r0)/(1 − r0)),
-    the absolute pressure ratio r = p/p_s obeys d(p·V)/dt = R·T·ṁ, i.e.
+    With the ISO 6358 flow of the orifice, isothermal air and a volume V = V0·(1 + γ·S(r)) of the
+    absolute pressure ratio r = p/p_s, d(p·V)/dt = R·T·ṁ gives
 
-        dr/dt = φ(r) / (τ_fill·(1 + g·(2r − r0))),   g = γ/(1 − r0),
+        dr/dt = φ(r) / (τ_fill·h(r)),   h = d(r·V/V0)/dr = V/V0 + r·V'/V0,
 
-    with φ = 1 while choked (r ≤ b) and φ = sqrt(1 − ((r − b)/(1 − b))²) above. Separable: the time
-    to reach r is, choked, τ·((1 − g·r0)(r − r0) + g·(r² − r0²)) (inverted as a quadratic) and, above
-    b with x = (r − b)/(1 − b), τ·(1 − b)·((1 − g·r0 + 2g·b)·arcsin x − 2g·(1 − b)·sqrt(1 − x²)) plus
-    a constant (inverted on a grid of 4097 angles; exact when γ = 0). γ = 0 is the fixed volume: a
-    straight ramp bending into the supply; γ > 0 (a McKibben muscle swelling as it contracts) fills
-    fast first and slower as the volume grows. The supply is reached in finite time.
+    φ = 1 while choked (r ≤ b) and φ = (1 − x²)^m above, x = (r − b)/(1 − b), m the subsonic index
+    ([iso6358]; 0.5, the ellipse of its 1989 edition, by default). The growth S is 0 up to the
+    onset ratio r_on and rises to 1 at the supply: linearly, S = u with u = (r − r_on)/(1 − r_on)
+    (the default; r_on = r0 without an onset: the volume grows from V0 at the start to V0·(1 + γ) at
+    the supply, linearly in the pressure), or saturating, S = (1 − e^(−u/κ))/(1 − e^(−1/κ)) with κ
+    the growth span over (p_s − p_on) (a muscle that reaches its full contraction: its volume stops
+    growing). Separable: the time to reach r is τ·∫h/φ dr, choked τ·[r·V/V0] exactly and, above b,
+    τ·(1 − b)·∫h/(1 − x²)^m dx, with y = 1 − x the integrand h·y^(1 − m)/(2 − y)^m per d(−ln y),
+    smooth, summed by trapezoids on x even to 0.9 and ln y even down to y = 1e−13 (m ≥ 1 never
+    reaches the supply: a flow falling linearly with the pressure difference approaches it
+    exponentially), the onset a node with h on each side of it. The times at 4097 ratios below b
+    and 8193 above are inverted by interpolation; γ = 0 with m = 0.5 is inverted exactly (a
+    straight ramp bending into the supply along a sine). An onset above p0 is a muscle that keeps
+    its volume until its pressure overcomes the bladder and braid (the Festo 20 mm fills keep it to
+    ~85–130 kPa: benchmarks/RESULTS.md).
 
     Parameters
     ----------
@@ -597,6 +609,12 @@ def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0, volume_gr
         Time of the valve step. [s]
     volume_growth : float, default 0.0
         γ ≥ 0, relative growth of the volume from the start to the supply pressure. [-]
+    growth_onset : float, optional
+        Gauge pressure at which the volume starts to grow; None (or ≤ ``p0``): from the start. [Pa]
+    subsonic_index : float, default 0.5
+        m > 0, the exponent of the subsonic flow function ([iso6358]); 0.5 is the ellipse. [-]
+    growth_span : float, optional
+        Pressure above the onset over which the growth e-folds (κ·(p_s − p_on)); None: linear growth. [Pa]
 
     Returns
     -------
@@ -605,8 +623,9 @@ def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0, volume_gr
 
     References
     ----------
-    ISO 6358 (sonic conductance C, critical ratio b); the chamber's d(p·V)/dt = R·T·ṁ (NOTES.md,
-    "Higher marks"); notes/lab-data.md (fills are S-shaped or ramp-then-exponential).
+    [iso6358] (sonic conductance C, critical ratio b, the subsonic index m and the flow function
+    φ); the chamber's d(p·V)/dt = R·T·ṁ (NOTES.md, "Higher marks"); notes/lab-data.md (fills are
+    S-shaped or ramp-then-exponential).
     """
 
     ps = p_supply + P_ATM
@@ -614,22 +633,48 @@ def fill_response(t, p0, p_supply, tau_fill, b, dead_time, t_step=0.0, volume_gr
     s = np.maximum(np.asarray(t, dtype=float) - t_step - dead_time, 0.0)
     if r0 >= 1.0:
         return np.full(s.shape, p_supply, dtype=float)
-    g = volume_growth / (1.0 - r0)
-    lin = 1.0 - g * r0
+    x0 = min(max((r0 - b) / (1.0 - b), 0.0), 1.0 - 1e-13)
+    if volume_growth == 0 and subsonic_index == 0.5:  # a fixed volume: the ramp and the sine, inverted exactly
+        t1 = tau_fill * max(b - r0, 0.0)
+        arg = np.minimum(math.asin(x0) + np.maximum(s - t1, 0.0) / (tau_fill * (1.0 - b)), np.pi / 2)
+        r = np.where(s < t1, r0 + s / tau_fill, b + (1.0 - b) * np.sin(arg))
+        return r * ps - P_ATM
+    r_on = r0 if growth_onset is None else min(max((growth_onset + P_ATM) / ps, r0), 1.0 - 1e-9)
+    kappa = None if growth_span is None else max(growth_span / ps / (1.0 - r_on), 1e-6)
+
+    def rv_h(r, above):
+        """r·V/V0 and h = d(r·V/V0)/dr at ratios r, on the growing side of the onset where ``above``."""
+        u = np.maximum(r - r_on, 0.0) / (1.0 - r_on)
+        if kappa is None:
+            grow, slope = u, np.ones_like(u)
+        else:
+            den = -math.expm1(-1.0 / kappa)
+            grow, slope = -np.expm1(-u / kappa) / den, np.exp(-u / kappa) / (kappa * den)
+        v = 1.0 + volume_growth * np.where(above, grow, 0.0)
+        return r * v, v + r * volume_growth * np.where(above, slope, 0.0) / (1.0 - r_on)
+
     rb = max(r0, b)
-    t1 = tau_fill * (lin * (rb - r0) + g * (rb * rb - r0 * r0))  # end of the choked part
-    c = lin * r0 + g * r0 * r0 + s / tau_fill
-    r_choked = 2.0 * c / (lin + np.sqrt(lin * lin + 4.0 * g * c))  # the quadratic's root, stable as g -> 0
-    x0 = min(max((r0 - b) / (1.0 - b), 0.0), 1.0)
-    phi0 = math.asin(x0)
-    a_coef, b_coef = lin + 2.0 * g * b, 2.0 * g * (1.0 - b)
-    if g > 0:
-        phi = np.linspace(phi0, np.pi / 2, 4097)
-        since = tau_fill * (1.0 - b) * (a_coef * (phi - phi0) - b_coef * (np.cos(phi) - math.cos(phi0)))
-        arg = np.interp(s - t1, since, phi, right=np.pi / 2)
-    else:
-        arg = np.minimum(phi0 + np.maximum(s - t1, 0.0) / (tau_fill * (1.0 - b)), np.pi / 2)
-    r = np.where(s < t1, r_choked, b + (1.0 - b) * np.sin(arg))
+    rc = np.linspace(r0, rb, 4097)
+    if r0 < r_on < rb:
+        rc = np.sort(np.append(rc, r_on))
+    rv, _ = rv_h(rc, rc > r_on)
+    t_choked = tau_fill * (rv - rv[0])  # ∫h dr = [r·V/V0], exact
+    # x even to 0.9, then ln(1 − x) even down to 1e−13, where the flow vanishes
+    xm = max(x0, 0.9)
+    y = np.concatenate([1.0 - np.linspace(x0, xm, 4097),
+                        np.exp(np.linspace(math.log(1.0 - xm), math.log(1e-13), 4097))[1:]])
+    x_on = (r_on - b) / (1.0 - b)
+    if x0 < x_on < 1.0 - 1e-13:
+        y = np.sort(np.append(y, 1.0 - x_on))[::-1]
+    ln_y = np.log(y)
+    rs = b + (1.0 - b) * (1.0 - y)
+    w = y ** (1.0 - subsonic_index) / (2.0 - y) ** subsonic_index
+    above = 0.5 * (rs[1:] + rs[:-1]) > r_on  # each segment's side of the onset, at both its ends
+    _, h_left = rv_h(rs[:-1], above)
+    _, h_right = rv_h(rs[1:], above)
+    d_sub = (1.0 - b) * 0.5 * (h_left * w[:-1] + h_right * w[1:]) * -np.diff(ln_y)
+    since = np.concatenate([t_choked, t_choked[-1] + tau_fill * np.cumsum(d_sub)])
+    r = np.interp(s, since, np.concatenate([rc, rs[1:]]), right=1.0)
     return r * ps - P_ATM
 
 
@@ -638,8 +683,9 @@ class FillFit(ResponseFit):
     """The orifice fill of a growing volume fitted to a rising step (see :func:`fill_response`).
 
     :class:`ResponseFit`'s fields, the parameters (:attr:`params`, :attr:`stderr`) ``p0_Pa``,
-    ``tau_fill_s``, ``b``, ``dead_time_s``, ``volume_growth``, ``p_supply_Pa`` (``p_supply_Pa``'s
-    error is 0 when the supply was taken as given), residuals in Pa, and:
+    ``tau_fill_s``, ``b``, ``dead_time_s``, ``volume_growth``, ``growth_onset_Pa``,
+    ``growth_span_Pa`` and ``subsonic_index`` (each of these three only when it was fitted),
+    ``p_supply_Pa`` (its error is 0 when the supply was taken as given), residuals in Pa, and:
 
     Parameters
     ----------
@@ -650,10 +696,13 @@ class FillFit(ResponseFit):
         plateau; ``"fitted"``: estimated above the highest sample, the fill did not settle;
         ``"nominal"``: the given supply, the fill did not settle), ``plateau_Pa`` (median of the
         plateau, or None), ``nominal_Pa`` (the given supply, or None). [Pa]
+    shape : str, default "linear"
+        The name of the shape fitted in :data:`FILL_SHAPES` (``"custom"`` for another set of options). [-]
     """
 
     order: str = "fill"
     supply: dict = field(default_factory=dict)
+    shape: str = "linear"
 
     call = "mckibben.fit.step.fit_fill"
 
@@ -667,10 +716,14 @@ class FillFit(ResponseFit):
         """
         p = self.params
         return fill_response(t, p["p0_Pa"], p["p_supply_Pa"], p["tau_fill_s"], p["b"], p["dead_time_s"], self.t_step,
-                             p.get("volume_growth", 0.0))
+                             p.get("volume_growth", 0.0), p.get("growth_onset_Pa"), p.get("subsonic_index", 0.5),
+                             p.get("growth_span_Pa"))
 
     def to_dict(self, output_unit: str = "Pa", input_unit: str = "") -> dict:
-        """Plain dict for JSON.
+        """Plain dict for JSON: the parameters and their errors, the supply's source, the fit's
+        statistics, and beside the runs test's z what reads it (:func:`plateau_noise`):
+        ``plateau_noise_Pa`` and ``plateau_noise_lag1`` (None when the fill has not settled) and
+        ``residual_lag1``, the residuals' lag-1 autocorrelation.
 
         Parameters
         ----------
@@ -679,12 +732,15 @@ class FillFit(ResponseFit):
         input_unit : str, default ""
             Unused. [-]
         """
-        out = {"order": "fill", "t_step_s": self.t_step}
+        out = {"order": "fill", "fill_shape": self.shape, "t_step_s": self.t_step}
         for (k, v), se in zip(self.params.items(), self.stderr):
             out[k] = v
             out[f"{k}_stderr"] = float(se)
         out.update({"supply_source": self.supply.get("source"), "plateau_Pa": self.supply.get("plateau_Pa"),
                     "p_supply_nominal_Pa": self.supply.get("nominal_Pa")})
+        noise = plateau_noise(self.t, self.predict(self.t) + self.residuals, self.t_step, self.params["p0_Pa"])
+        out.update({"plateau_noise_Pa": noise[0] if noise else None, "plateau_noise_lag1": noise[1] if noise else None,
+                    "residual_lag1": lag1_autocorrelation(self.residuals)})
         out.update({"rmse_Pa": self.rmse, "r2": self.r2, **self._common_dict()})
         return out
 
@@ -695,6 +751,28 @@ B_BOUNDS = (0.01, 0.99)
 #: braided muscle's volume grows a few times over its stroke (its diameter ~1.5–2× at full
 #: contraction), so 20 is far beyond it and a fit there says the shape is wrong. [-]
 VOLUME_GROWTH_BOUNDS = (0.0, 20.0)
+#: The fill model's growth onset is fitted from the start to this fraction of the way to the highest
+#: sample: an onset beyond it leaves too few samples of growth to tell it from the supply's approach. [-]
+ONSET_MAX = 0.9
+#: Bounds of the fill model's subsonic index m ([iso6358]): 0.5 is the ellipse of an orifice;
+#: a flow that falls linearly with the pressure difference near the supply (a laminar path: tubing,
+#: a regulator's seat) is m ≈ 1; the Festo 20 mm fills give 0.6–1.2. A fit at either bound says the
+#: shape is wrong. [-]
+SUBSONIC_INDEX_BOUNDS = (0.2, 2.0)
+#: Bounds of the fill model's growth span, in rises of the fill: a hundredth of the rise is a step
+#: in the volume (flagged); five rises is a growth no fill can tell from linear (no flag). [-]
+SPAN_BOUNDS = (0.01, 5.0)
+#: The fill model's shapes by name: :func:`fit_fill`'s options for each. ``onset`` is what
+#: ``mckibben identify --order fill`` fits by default: on the Festo 20 mm fills it predicts a held-out
+#: trial's shape better than ``linear`` (median RMS 4.5 against 6.2 kPa, 17 of 22 pairs) and as well
+#: as ``saturating`` (4.4 kPa), which fits better in-sample with one parameter more
+#: (benchmarks/RESULTS.md, "Fill identification on real fills"). [-]
+FILL_SHAPES = {
+    "fixed": {"volume_growth": False},  # a fixed volume, the ellipse
+    "linear": {},  # a volume growing linearly from the start, the ellipse
+    "onset": {"growth_onset": True, "subsonic_index": True},  # held to an onset, then linear; m fitted
+    "saturating": {"growth_onset": True, "growth_span": True, "subsonic_index": True},  # ... saturating
+}
 #: The plateau is the last this fraction of the samples after the step. [-]
 PLATEAU_FRACTION = 0.1
 #: A fill has settled when its plateau drifts (median of its second half minus its first) by at
@@ -738,9 +816,72 @@ def measured_plateau(t, y, t_step: float, p0: float) -> tuple[float, float, floa
     return med, float(np.min(tail)), float(np.max(tail))
 
 
+def lag1_autocorrelation(x) -> float:
+    """Lag-1 autocorrelation of a series about its mean: ≈ 0 for white noise, → 1 for a smooth one.
+
+    Parameters
+    ----------
+    x : array_like
+        Values in time order. [any]
+
+    Returns
+    -------
+    float
+        Σ(x_k·x_(k+1))/Σx_k² of the centred series (NaN with fewer than 3 values or none varying). [-]
+    """
+    x = np.asarray(x, dtype=float)
+    x = x - np.mean(x) if x.size else x
+    den = float(np.sum(x * x))
+    return float(np.sum(x[1:] * x[:-1]) / den) if x.size >= 3 and den > 0 else math.nan
+
+
+def plateau_noise(t, y, t_step: float, p0: float) -> tuple[float, float] | None:
+    """The sensor's noise where a fill has settled: its plateau (:func:`measured_plateau`'s samples)
+    with a straight line removed.
+
+    What the runs test of a fill's residuals needs to be read: white noise here (lag-1
+    autocorrelation near 0) and long runs in the residuals mean the model's shape, not the
+    sensor's filtering; correlated noise here would make a runs test on every sample reject any
+    model.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times. [s]
+    y : array_like
+        Gauge pressure. [Pa]
+    t_step : float
+        Time of the step. [s]
+    p0 : float
+        Pressure before the step. [Pa]
+
+    Returns
+    -------
+    tuple of float or None
+        ``(standard deviation [Pa], lag-1 autocorrelation [-])``, or None when the fill has not
+        settled or its plateau has fewer than 8 samples.
+    """
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    if measured_plateau(t, y, t_step, p0) is None:
+        return None
+    after = y[t >= t_step]
+    tail = after[-max(int(round(PLATEAU_FRACTION * after.size)), 5):]
+    if tail.size < 8:
+        return None
+    k = np.arange(tail.size, dtype=float)
+    x = tail - np.polyval(np.polyfit(k, tail, 1), k)
+    return float(np.std(x)), lag1_autocorrelation(x)
+
+
 def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | None = None,
-             volume_growth: bool = True) -> FillFit:
+             volume_growth: bool = True, growth_onset: bool = False, growth_span: bool = False,
+             subsonic_index: bool = False) -> FillFit:
     """Fit the orifice fill of a growing volume (:func:`fill_response`) to a rising pressure step.
+
+    **Shape.** By default the volume grows linearly from the start and the flow is the ellipse
+    (``linear`` in :data:`FILL_SHAPES`); the options fit a fixed volume, an onset of the growth, a
+    growth that saturates and the valve's subsonic index m ([iso6358]). :data:`FILL_SHAPES` names
+    the combinations; ``identify`` fits ``onset`` by default.
 
     **Supply.** When the fill settles (:func:`measured_plateau`) the supply is estimated within
     the range of the measured plateau, whatever the nominal ``p_supply`` says (a regulator set to
@@ -763,6 +904,17 @@ def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | Non
         Nominal supply gauge pressure (see above). [Pa]
     volume_growth : bool, default True
         Fit the volume's growth γ (else a fixed volume, γ = 0). [-]
+    growth_onset : bool, default False
+        Fit the pressure at which the volume starts to grow (``growth_onset_Pa``, :func:`fill_response`;
+        else it grows from the start). Needs ``volume_growth``. Its lower bound, the start, is a
+        value (no flag); its upper bound, 90 % of the way to the highest sample, is flagged. [-]
+    growth_span : bool, default False
+        Fit the pressure span over which the growth saturates (``growth_span_Pa``,
+        :func:`fill_response`; else it is linear). Needs ``volume_growth``. Its upper bound, five
+        rises, is a growth indistinguishable from linear (no flag); its lower bound is flagged. [-]
+    subsonic_index : bool, default False
+        Fit the orifice's subsonic index m (``subsonic_index``, :func:`fill_response`, within
+        :data:`SUBSONIC_INDEX_BOUNDS`; else m = 0.5, the ellipse). [-]
 
     Returns
     -------
@@ -786,32 +938,56 @@ def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | Non
     else:
         source, (ps_lo, ps_hi) = "fitted", (ymax, 3.0 * ymax + 1e6)
     fit_ps = source != "nominal"
-    names = ["p0_Pa", "tau_fill_s", "b", "dead_time_s"] + (["volume_growth"] if volume_growth else []) + (
-        ["p_supply_Pa"] if fit_ps else [])
-    k_ps = len(names) - 1
+    if (growth_onset or growth_span) and not volume_growth:
+        raise InputError("fit_fill: growth_onset and growth_span need volume_growth (a fixed volume does not grow)")
+    rise = max(abs(ymax - p0), 1.0)
+    # name, bounds, scale; the start values per multistart below
+    spec = [("p0_Pa", p0 - rise, p0 + rise, rise), ("tau_fill_s", dt * 1e-2, 100 * span, span),
+            ("b", *B_BOUNDS, 1.0), ("dead_time_s", 0.0, span, span)]
+    if volume_growth:
+        spec.append(("volume_growth", *VOLUME_GROWTH_BOUNDS, 1.0))
+    if growth_onset:
+        spec.append(("growth_onset_Pa", p0, p0 + ONSET_MAX * (ymax - p0), rise))
+    if growth_span:
+        spec.append(("growth_span_Pa", SPAN_BOUNDS[0] * rise, SPAN_BOUNDS[1] * rise, rise))
+    if subsonic_index:
+        spec.append(("subsonic_index", *SUBSONIC_INDEX_BOUNDS, 1.0))
+    if fit_ps:
+        spec.append(("p_supply_Pa", ps_lo, ps_hi, max(ymax, 1.0)))
+    names = [n_ for n_, *_ in spec]
+    col = {n_: i for i, n_ in enumerate(names)}
+    lo = [x[1] for x in spec]
+    hi = [x[2] for x in spec]
+    scale = np.array([x[3] for x in spec])
 
     def model(v):
-        ps = v[k_ps] if fit_ps else max(float(p_supply), ymax)  # type: ignore[arg-type]
-        return fill_response(t, v[0], ps, v[1], v[2], v[3], t_step, v[4] if volume_growth else 0.0)
+        ps = v[col["p_supply_Pa"]] if fit_ps else max(float(p_supply), ymax)  # type: ignore[arg-type]
+        return fill_response(t, v[0], ps, v[1], v[2], v[3], t_step, v[4] if volume_growth else 0.0,
+                             v[col["growth_onset_Pa"]] if growth_onset else None,
+                             v[col["subsonic_index"]] if subsonic_index else 0.5,
+                             v[col["growth_span_Pa"]] if growth_span else None)
 
-    lo = [p0 - abs(ymax - p0), dt * 1e-2, B_BOUNDS[0], 0.0] + ([VOLUME_GROWTH_BOUNDS[0]] if volume_growth else []) + (
-        [ps_lo] if fit_ps else [])
-    hi = [p0 + abs(ymax - p0), 100 * span, B_BOUNDS[1], span] + ([VOLUME_GROWTH_BOUNDS[1]] if volume_growth else []) + (
-        [ps_hi] if fit_ps else [])
-    scale = np.array([max(abs(ymax - p0), 1.0), span, 1.0, span] + ([1.0] if volume_growth else []) + (
-        [max(ymax, 1.0)] if fit_ps else []))
     lo_a, hi_a = np.array(lo), np.array(hi)
+    ps0 = plateau[0] if plateau is not None else (1.05 * ymax if p_supply is None else p_supply)
+    # several starts: b; a volume that grows from the start (γ 0 or 2) or holds to an onset (a
+    # fraction of the rise), linearly or saturating over a tenth of the rise; the ellipse, or a flow
+    # that falls linearly with the pressure difference
+    extra = growth_onset or growth_span or subsonic_index
+    starts = itertools.product((0.3, 0.7) if extra else (0.2, 0.5, 0.8),
+                               (0.1, 0.2) if growth_onset else (0.0,),
+                               (1.5,) if (growth_onset or growth_span) else (0.0, 2.0) if volume_growth else (0.0,),
+                               (0.1, 1.0) if growth_span else (0.0,),
+                               (1.0,) if subsonic_index else (0.5,))
     best = None
-    for b0 in (0.2, 0.5, 0.8):
-        for g0 in ((0.0, 2.0) if volume_growth else (0.0,)):
-            ps0 = plateau[0] if plateau is not None else (1.05 * ymax if p_supply is None else p_supply)
-            x0 = np.array([p0, max(span / 3, 2 * dt), b0, 0.0] + ([g0] if volume_growth else []) + (
-                [ps0] if fit_ps else []))
-            x0 = np.clip(x0, lo_a + 1e-9 * scale, hi_a - 1e-9 * scale)
-            r = optimize.least_squares(lambda th: model(th * scale) - y, x0 / scale, bounds=(lo_a / scale, hi_a / scale),
-                                       method="trf", max_nfev=2000)
-            if best is None or r.cost < best.cost:
-                best = r
+    for b0, f0, g0, k0, m0 in starts:
+        x0 = np.array([p0, max(span / 3, 2 * dt), b0, 0.0] + ([g0] if volume_growth else [])
+                      + ([p0 + f0 * (ymax - p0)] if growth_onset else []) + ([k0 * rise] if growth_span else [])
+                      + ([m0] if subsonic_index else []) + ([ps0] if fit_ps else []))
+        x0 = np.clip(x0, lo_a + 1e-9 * scale, hi_a - 1e-9 * scale)
+        r = optimize.least_squares(lambda th: model(th * scale) - y, x0 / scale, bounds=(lo_a / scale, hi_a / scale),
+                                   method="trf", max_nfev=2000)
+        if best is None or r.cost < best.cost:
+            best = r
     v = best.x * scale
     res = -best.fun
     n, k = len(y), len(names)
@@ -824,8 +1000,8 @@ def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | Non
     tss = float(np.sum((y - np.mean(y)) ** 2))
     r2 = 1.0 - rss / tss if tss > 0 else math.nan
     # the supply's bounds are the plateau's noise band: the supply at either edge is no doubt
-    flags = _bound_flags(names, v, lo, hi, skip=("p0_Pa", "p_supply_Pa"),
-                         lower_ok=("dead_time_s", "volume_growth", "p_supply_Pa")) + _shape_flags(res, r2)
+    flags = _bound_flags(names, v, lo, hi, skip=("p0_Pa", "p_supply_Pa"), upper_ok=("growth_span_Pa",),
+                         lower_ok=("dead_time_s", "volume_growth", "growth_onset_Pa", "p_supply_Pa")) + _shape_flags(res, r2)
     params = {nm: float(x) for nm, x in zip(names, v)}
     errors = {nm: float(e) for nm, e in zip(names, se)}
     if not volume_growth:
@@ -834,7 +1010,10 @@ def fit_fill(t, y, u=None, *, t_step: float | None = None, p_supply: float | Non
         params["p_supply_Pa"], errors["p_supply_Pa"] = max(float(p_supply), ymax), 0.0  # type: ignore[arg-type]
     supply = {"source": source, "plateau_Pa": plateau[0] if plateau is not None else None,
               "nominal_Pa": float(p_supply) if p_supply is not None else None}
-    return FillFit(**_named(params, errors), t_step=t_step, t=t, residuals=res, rmse=math.sqrt(rss / n), r2=r2,
+    given = {k: v_ for k, v_ in (("volume_growth", volume_growth), ("growth_onset", growth_onset),
+                                 ("growth_span", growth_span), ("subsonic_index", subsonic_index)) if v_ != (k == "volume_growth")}
+    shape = next((k for k, kw in FILL_SHAPES.items() if kw == given), "custom")
+    return FillFit(shape=shape, **_named(params, errors), t_step=t_step, t=t, residuals=res, rmse=math.sqrt(rss / n), r2=r2,
                    aic=n * math.log(max(rss, 1e-300) / n) + 2 * k, flags=flags, supply=supply)
 
 
