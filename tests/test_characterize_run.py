@@ -24,9 +24,11 @@ from mckibben.examples import copy_example
 from mckibben.models.muscle import Muscle
 from mckibben.models.static import length as static_length
 from mckibben.plant import params as PP
+from mckibben.plant.simulator import static_branch_lengths as plant_branch_lengths
 from mckibben.plant.simulator import static_length as plant_static_length
 from mckibben.rig.bench import Bench
-from mckibben.rig.characterize import CharacterizeStopped, collect_steps, read_protocol, run_characterization, run_protocol
+from mckibben.rig.characterize import (CharacterizeStopped, _moving, collect_steps, read_protocol, run_characterization,
+                                      run_protocol)
 from mckibben.errors import UnreachableError
 
 from conftest import DEVICE_ENGINES, _avr_engine_missing, run_cli, start_device
@@ -124,33 +126,56 @@ def test_bar_unattended_run_fits_a_muscle_file_that_matches_the_plant(bar_run):
     assert np.all(err <= 0.02), worst
 
 
+def _gaps(out):
+    """Per load, at the run's set-points where both branches moved off the vented length and the plant's both branches
+    are off its stops: the set-points and the up/down gaps (inflating less deflating length) of the plant (its Dahl
+    slip limit, from its own parameters), of the muscle file (``--branch``) and measured (trials' mean). [Pa], [m]"""
+    steps = collect_steps(out)
+    steps = steps.assign(moved=_moving(steps))
+    m = Muscle.from_spec(read_muscle(out / "muscle.toml"))
+    gaps = {}
+    for f, g in steps.groupby("load_N"):
+        rows = []
+        for p, h in g.groupby("set_point_Pa"):
+            if p == 0 or not h["moved"].all() or set(h["direction"]) != {"inflate", "deflate"}:
+                continue
+            try:
+                up, down = plant_branch_lengths(PP.PlantParams(load_force=f), p)
+            except UnreachableError:  # a branch rests on a stop: the plant has no loop there to compare
+                continue
+            file_up, file_down = (float(m.length_for_pressure(p, f, b).length) for b in ("inflate", "deflate"))
+            meas = h.groupby("direction")["length_m"].mean()
+            rows.append((p, float(up[0] - down[0]), file_up - file_down, meas["inflate"] - meas["deflate"]))
+        if rows:
+            gaps[float(f)] = np.array(rows)
+    return gaps
+
+
 @pytest.mark.slow
 def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
-    engine, _, summary, _ = bar_run
+    engine, out, summary, _ = bar_run
     fit = summary["fit"]
-    hyst = fit["hysteresis"]
-    # the model that holds across loads: the muscle file's law with its friction, law -/+ A_f.P = load, one A_f
-    if "error" in fit["friction"] and "friction_area_m2" in fit["friction"]:
-        # fitted but not written (its law gave the static lengths back too loosely: six ramped runs in twelve,
-        # docs/rig.md): the file has no gap to compare, the bar is missed
-        pytest.xfail(f"{engine}: the friction law was not written to the muscle file: {fit['friction']['error']}")
+    # the model that holds across loads: the muscle file's law with its friction, law -/+ A_f.P = load, one A_f,
+    # fitted with the law held at the branches' mean, each branch point where its braid slipped
     assert "error" not in fit["friction"] and fit["friction"]["friction_area_m2"] > 0, fit["friction"]
-    gaps = {h["load_N"]: (h["gap_measured_m"], h["gap_model_m"], h["prandtl_ishlinskii"].get("gap_model_m", np.nan))
-            for h in hyst.values() if "error" not in h}
-    assert gaps, hyst
-    rel = {f: abs(m - g) / g for f, (g, m, _) in gaps.items()}
-    print(f"{engine}: A_f = {fit['friction']['friction_area_m2']:.3g} m2 ({fit['best']}); up/down gap per load [mm]: "
-          + ", ".join(f"{f:.2f} N: measured {g * 1e3:.3f}, file {m * 1e3:.3f}, PI of the load {pi * 1e3:.3f}"
-                      for f, (g, m, pi) in gaps.items()))
+    gaps = _gaps(out)
+    assert len(gaps) == 5 and all(len(a) >= 4 for a in gaps.values()), gaps
+    # the issue's bar: per load, the mean gap of the muscle file within 20 % of the plant's over those set-points
+    rel = {f: abs(a[:, 2].mean() - a[:, 1].mean()) / a[:, 1].mean() for f, a in gaps.items()}
+    pi = {h["load_N"]: h["prandtl_ishlinskii"].get("gap_model_m", np.nan) for h in fit["hysteresis"].values()
+          if "error" not in h}
+    print(f"{engine}: A_f = {fit['friction']['friction_area_m2']:.3g} m2 ({fit['best']}); up/down gap per load [mm] "
+          f"over its set-points: " + ", ".join(
+              f"{f:.2f} N ({len(a)}): plant {a[:, 1].mean() * 1e3:.2f}, file {a[:, 2].mean() * 1e3:.2f} "
+              f"({rel[f] * 100:.0f} %), measured {a[:, 3].mean() * 1e3:.2f}, PI of the load "
+              f"{pi.get(f, np.nan) * 1e3:.2f}" for f, a in gaps.items()))
     if max(rel.values()) > 0.20:
-        # measured (docs/rig.md), the example stepped: off by 1-224 % (Python) and 6-167 % (avr) per load, four runs
-        # each: the controller overshoots each inflating step (78-89 kPa mean) and the muscle slips partly back, so
-        # the measured loop narrows with load and moves between runs. Ramped at 0.25 MPa/s (`ramp`), twelve runs: met
-        # in three, missed in the others (the friction law not written in six, a load's loop wider than a friction of
-        # pressure gives, the measured gap moving 35-40 % between runs); and the files less repeatable than the
-        # resume bar allows (1.21 % once in three), so the example steps
-        pytest.xfail(f"the muscle file's friction gap is off by up to {max(rel.values()) * 100:.0f} % (bar: 20 %): "
-                     + ", ".join(f"{f:.2f} N {r * 100:.0f} %" for f, r in rel.items()))
+        # measured (docs/rig.md, benchmarks/RESULTS.md), the example ramped at 0.25 MPa/s: Python 2-17 % per load over
+        # three runs (met); avr 24-40 % over five (the file's loop too wide): the avr engine's controller ripples
+        # faster and wider (its steps' extremes 14-17 kPa from the hold's mean, Python's 6-9 kPa) than the hung
+        # muscle follows, so a braid that slipped at the step's highest (lowest) pressure over-reaches there
+        pytest.xfail(f"{engine}: the muscle file's up/down gap is off the plant's by up to {max(rel.values()) * 100:.0f} % "
+                     "(bar: 20 %): " + ", ".join(f"{f:.2f} N {r * 100:.0f} %" for f, r in rel.items()))
 
 
 @pytest.mark.slow
@@ -171,10 +196,11 @@ def test_kill_9_then_resume_keeps_every_load_step_once(bar_run, tmp_path):
         end = time.monotonic() + 240
         while time.monotonic() < end and len(list(journal.glob("part-*.parquet"))) < 2 and proc.poll() is None:
             time.sleep(0.05)
+        code = proc.poll()  # None: still running, as it should be
         proc.send_signal(signal.SIGKILL)  # halfway: two load steps done, the third under way
-        proc.communicate()
+        _, err = proc.communicate()
         kept = sorted(p.name for p in journal.glob("part-*.parquet"))
-        assert 2 <= len(kept) < len(proto.loads), kept
+        assert 2 <= len(kept) < len(proto.loads), (kept, code, err.decode(errors="replace")[-2000:])
         assert not (out / "muscle.toml").exists()
         r = run_cli("rig", "characterize", "--port", dev.port, "--protocol", str(copy), "--out", str(out),
                     "--unattended", "--json", "--muscle-file", MUSCLE, "--resume")
