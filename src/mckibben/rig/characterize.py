@@ -870,7 +870,7 @@ def static_points(steps, moving, columns):
     return d[[c for c in columns if c in d.columns]]
 
 
-def fit_run(out, muscle_file) -> dict:
+def fit_run(out, muscle_file, ramped: bool = False) -> dict:
     """Fit the run's tables: compare every applicable law held out, write the best to ``OUT/muscle.toml``
     with the braid's friction fitted on the up/down branches, and give each load's up/down gap.
 
@@ -883,7 +883,7 @@ def fit_run(out, muscle_file) -> dict:
     inflating/deflating branches of every load with that law held, law ∓ A_f·P = load, one A_f
     (:func:`mckibben.fit.direction.fit_isotonic_friction` with ``held``: two stages, so the law
     and its intervals are the static fit's and the file's static length is the one compared),
-    each branch point at the pressure where its braid last slipped (:func:`slip_pressure`); that
+    each branch point, in a ramped run, at the pressure where its braid last slipped (:func:`slip_pressure`); that
     law, its tube and A_f are written (A_f is left out, and why said, when its file does not give
     the static lengths back as the compared fit did). Each load's gap
     is the measured one and the muscle file's (its law with the friction solved for the length on
@@ -896,6 +896,11 @@ def fit_run(out, muscle_file) -> dict:
         The run's folder, holding ``isotonic.csv`` and ``hysteresis.csv`` (:func:`write_tables`). [-]
     muscle_file : str or os.PathLike
         The muscle under test (its geometry, for the laws that need it). [-]
+    ramped : bool, default False
+        Whether the run approached each step by a ramp (the protocol's ``ramp``): then each branch
+        point is fitted at the pressure where its braid last slipped (:func:`slip_pressure`); stepped,
+        the controller overshoots and the muscle slips partly back, the pressure did not move one
+        way, and each point is fitted at the hold's mean pressure. [-]
 
     Returns
     -------
@@ -963,7 +968,8 @@ def fit_run(out, muscle_file) -> dict:
     branches = dataclasses.replace(hyst_table, data=hyst_table.data[moving])
     friction: dict = {"law": best.name}
     try:
-        fr = fit_isotonic_friction(branches, spec, name, tube=tube, held=res, slip_pressure=slip_pressure(steps)[moving])
+        slip = slip_pressure(steps)[moving] if ramped else None  # stepped: the hold's mean (see above)
+        fr = fit_isotonic_friction(branches, spec, name, tube=tube, held=res, slip_pressure=slip)
     except InputError as exc:
         friction["error"] = str(exc)
     else:
@@ -1030,7 +1036,8 @@ def slip_pressure(steps) -> np.ndarray:
 
     The muscle ends a step where the friction last let it move (:func:`mckibben.fit.direction.fit_isotonic_friction`):
     contracting at the highest pressure an inflating step reached, lengthening at the lowest a deflating one did.
-    A run recorded before the lowest was kept gives its mean pressure there.
+    That holds where each step is approached from one side (a ramped run): a stepped one overshoots and slips
+    partly back. A run recorded before the lowest was kept gives its mean pressure there.
 
     Parameters
     ----------
@@ -1211,7 +1218,7 @@ def run_characterization(port: str, protocol, out, *, unattended: bool = False, 
                "max_pressure_Pa": meta["max_pressure_Pa"], "firmware": meta["firmware"],
                "muscle_file_used": None if muscle_file is None else str(muscle_file), "fit": None}
     if muscle_file is not None:
-        summary["fit"] = fit_run(out, muscle_file)
+        summary["fit"] = fit_run(out, muscle_file, ramped=proto.ramp > 0)
     tmp = out / ".summary.json.tmp"
     tmp.write_text(json.dumps(to_jsonable(summary), indent=1))
     os.replace(tmp, out / "summary.json")
