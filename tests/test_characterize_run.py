@@ -120,8 +120,9 @@ def test_bar_unattended_run_fits_a_muscle_file_that_matches_the_plant(bar_run):
           f"{err.max() * 100:.2f} %; everywhere the muscle moved: {len(everywhere)} points, worst (%, (MPa, N)) "
           f"{worst[:5]}")
     # the bar: 2 % of the plant's static length everywhere the muscle moved. Met since the laws carry the
-    # tube's stretch past the rest length (models/tube.py; 1.02-1.05 % Python, 0.78-0.80 % avr, two runs each): the plant pulls with
-    # it, and a quarter of the protocol hangs the muscle past its rest length
+    # tube's stretch past the rest length (models/tube.py): the plant pulls with it, and a quarter of the protocol
+    # hangs the muscle past its rest length. Ramped (the example): 1.30-1.44 % Python, 1.21-1.28 % avr, three runs
+    # each, worst at the top of the sweep (0.759 MPa, 0.6 N: visited once, on its inflating branch); stepped 0.8 %
     assert err_all.max() <= 0.02, worst
     assert np.all(err <= 0.02), worst
 
@@ -171,8 +172,8 @@ def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
               f"{pi.get(f, np.nan) * 1e3:.2f}" for f, a in gaps.items()))
     if max(rel.values()) > 0.20:
         # measured (docs/rig.md, benchmarks/RESULTS.md), the example ramped at 0.25 MPa/s: Python 0-17 % per load in
-        # six runs on a quiet machine (met), 19-30 % in two on a loaded one (real time beside the host: the
-        # controller's excursions grow); avr 24-40 % in five (the file's loop too wide), 34-50 % loaded: the avr
+        # seven runs on a quiet machine (met), 19-30 % in two on a loaded one (real time beside the host: the
+        # controller's excursions grow); avr 24-40 % in five (the file's loop too wide), 33-50 % loaded: the avr
         # engine's controller ripples faster and wider (a step's extremes 14-17 kPa from the hold's mean, Python's
         # 6-9 kPa) than the hung muscle follows, so the slip pressures (the step's extremes) over-reach
         pytest.xfail(f"{engine}: the muscle file's up/down gap is off the plant's by up to {max(rel.values()) * 100:.0f} % "
@@ -216,7 +217,8 @@ def test_kill_9_then_resume_keeps_every_load_step_once(bar_run, tmp_path):
     rel = float(np.max(np.abs(a - b) / b))
     print(f"{engine}: resumed vs uninterrupted: max {rel * 100:.3f} %")
     # the bar: 1 %. Two sessions of one bench now read one length alike (both engines count the encoder
-    # from the reset, the avr harness no longer drops counts after it): 0.10 % measured on the avr engine
+    # from the reset, the avr harness no longer drops counts after it): 0.13-0.51 % measured on the avr engine
+    # (ramped, the law held at the static fit; 0.10-0.35 % stepped)
     assert rel <= 0.01
 
 
