@@ -340,3 +340,13 @@ def test_a_ramped_step_does_not_overshoot_where_a_stepped_one_does(tmp_path):
     print({k: np.round(v / 1e3, 1).tolist() for k, v in over.items()})
     assert over["ramp"].max() <= 25e3, over
     assert over["step"].max() >= 40e3, over
+
+
+def test_slip_pressure_is_the_step_extreme_on_its_branch_and_the_mean_for_an_older_journal():
+    from mckibben.rig.characterize import slip_pressure
+
+    steps = pd.DataFrame({"direction": ["inflate", "inflate", "deflate"], "pressure_Pa": [1e5, 2e5, 1e5],
+                          "pressure_max_Pa": [1.1e5, 2.2e5, 1.5e5], "pressure_min_Pa": [0.5e5, 1.8e5, 0.9e5]})
+    np.testing.assert_array_equal(slip_pressure(steps), [1.1e5, 2.2e5, 0.9e5])
+    # a journal written before the lowest was kept: the deflating step at its mean
+    np.testing.assert_array_equal(slip_pressure(steps.drop(columns="pressure_min_Pa")), [1.1e5, 2.2e5, 1e5])
