@@ -7,7 +7,10 @@ prints per run
 
 - each inflating step's excursion past its set-point, ``pressure_max_Pa − set_point_Pa`` (mean, max);
 - the run's wall time (the device's boot not counted) and the sweeps' device time;
-- per load the measured up/down gap and the muscle file's (``fit.hysteresis``), and how far apart.
+- per load the measured up/down gap and the muscle file's (``fit.hysteresis``), and how far apart;
+- per load, at the set-points where both branches moved and the plant's loop is off its stops, the
+  plant's own gap (its Dahl slip limit, ``mckibben.plant.simulator.static_branch_lengths``) against
+  the muscle file's (``--branch``): the issue's gap bar (20 %).
 
 Run: python benchmarks/bench_characterize_ramp.py [--engine=python|avr] [--ramps=step,0.25MPa/s] [--repeat=N]
 """
@@ -20,8 +23,15 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
+from mckibben.data.io import read_muscle
+from mckibben.errors import UnreachableError
 from mckibben.examples import copy_example
-from mckibben.rig.characterize import collect_steps, run_characterization
+from mckibben.models.muscle import Muscle
+from mckibben.plant import params as PP
+from mckibben.plant.simulator import static_branch_lengths
+from mckibben.rig.characterize import _moving, collect_steps, run_characterization
 from mckibben.rig.engines import start_device
 
 MUSCLE = Path(__file__).resolve().parents[1] / "src" / "mckibben" / "datasets" / "campaign" / "mpam97" / "muscle.toml"
@@ -48,6 +58,32 @@ def run(engine: str, ramp: str, folder: Path) -> None:
         f"{h['load_N']:.2f} N {h['gap_measured_m'] * 1e3:.3f} / {h['gap_model_m'] * 1e3:.3f} "
         f"({abs(h['gap_model_m'] - h['gap_measured_m']) / h['gap_measured_m'] * 100:.1f} %)"
         for h in fit["hysteresis"].values() if "error" not in h), flush=True)
+    print("  gap plant / file at the set-points [mm] (off by): " + ", ".join(
+        f"{f:.2f} N {a[:, 0].mean() * 1e3:.2f} / {a[:, 1].mean() * 1e3:.2f} "
+        f"({abs(a[:, 1].mean() - a[:, 0].mean()) / a[:, 0].mean() * 100:.0f} %)"
+        for f, a in plant_gaps(folder / "run", st).items()), flush=True)
+
+
+def plant_gaps(out: Path, steps) -> dict:
+    """Per load: (plant's gap, muscle file's gap) at each set-point where both branches moved off the vented length
+    and the plant's both branches are off its stops. [m]"""
+    steps = steps.assign(moved=_moving(steps))
+    m = Muscle.from_spec(read_muscle(out / "muscle.toml"))
+    gaps = {}
+    for f, g in steps.groupby("load_N"):
+        rows = []
+        for p, h in g.groupby("set_point_Pa"):
+            if p == 0 or not h["moved"].all() or set(h["direction"]) != {"inflate", "deflate"}:
+                continue
+            try:
+                up, down = static_branch_lengths(PP.PlantParams(load_force=f), p)
+            except UnreachableError:
+                continue
+            rows.append((float(up[0] - down[0]), float(m.length_for_pressure(p, f, "inflate").length)
+                         - float(m.length_for_pressure(p, f, "deflate").length)))
+        if rows:
+            gaps[float(f)] = np.array(rows)
+    return gaps
 
 
 def main(argv: list[str]) -> None:

@@ -24,9 +24,11 @@ from mckibben.examples import copy_example
 from mckibben.models.muscle import Muscle
 from mckibben.models.static import length as static_length
 from mckibben.plant import params as PP
+from mckibben.plant.simulator import static_branch_lengths as plant_branch_lengths
 from mckibben.plant.simulator import static_length as plant_static_length
 from mckibben.rig.bench import Bench
-from mckibben.rig.characterize import CharacterizeStopped, collect_steps, read_protocol, run_characterization, run_protocol
+from mckibben.rig.characterize import (CharacterizeStopped, _moving, collect_steps, read_protocol, run_characterization,
+                                      run_protocol)
 from mckibben.errors import UnreachableError
 
 from conftest import DEVICE_ENGINES, _avr_engine_missing, run_cli, start_device
@@ -118,39 +120,64 @@ def test_bar_unattended_run_fits_a_muscle_file_that_matches_the_plant(bar_run):
           f"{err.max() * 100:.2f} %; everywhere the muscle moved: {len(everywhere)} points, worst (%, (MPa, N)) "
           f"{worst[:5]}")
     # the issue's bar: 2 % of the plant's static length everywhere the muscle moved. Met since the laws carry the
-    # tube's stretch past the rest length (models/tube.py; 1.02-1.05 % Python, 0.78-0.80 % avr, two runs each): the plant pulls with
-    # it, and a quarter of the protocol hangs the muscle past its rest length
+    # tube's stretch past the rest length (models/tube.py): the plant pulls with it, and a quarter of the protocol
+    # hangs the muscle past its rest length. Ramped (the example): 1.30-1.44 % Python, 1.21-1.28 % avr, three runs
+    # each, worst at the top of the sweep (0.759 MPa, 0.6 N: visited once, on its inflating branch); stepped 0.8 %
     assert err_all.max() <= 0.02, worst
     assert np.all(err <= 0.02), worst
 
 
+def _gaps(out):
+    """Per load, at the run's set-points where both branches moved off the vented length and the plant's both branches
+    are off its stops: the set-points and the up/down gaps (inflating less deflating length) of the plant (its Dahl
+    slip limit, from its own parameters), of the muscle file (``--branch``) and measured (trials' mean). [Pa], [m]"""
+    steps = collect_steps(out)
+    steps = steps.assign(moved=_moving(steps))
+    m = Muscle.from_spec(read_muscle(out / "muscle.toml"))
+    gaps = {}
+    for f, g in steps.groupby("load_N"):
+        rows = []
+        for p, h in g.groupby("set_point_Pa"):
+            if p == 0 or not h["moved"].all() or set(h["direction"]) != {"inflate", "deflate"}:
+                continue
+            try:
+                up, down = plant_branch_lengths(PP.PlantParams(load_force=f), p)
+            except UnreachableError:  # a branch rests on a stop: the plant has no loop there to compare
+                continue
+            file_up, file_down = (float(m.length_for_pressure(p, f, b).length) for b in ("inflate", "deflate"))
+            meas = h.groupby("direction")["length_m"].mean()
+            rows.append((p, float(up[0] - down[0]), file_up - file_down, meas["inflate"] - meas["deflate"]))
+        if rows:
+            gaps[float(f)] = np.array(rows)
+    return gaps
+
+
 @pytest.mark.slow
 def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
-    engine, _, summary, _ = bar_run
+    engine, out, summary, _ = bar_run
     fit = summary["fit"]
-    hyst = fit["hysteresis"]
-    # the model that holds across loads: the muscle file's law with its friction, law -/+ A_f.P = load, one A_f
-    if "error" in fit["friction"] and "friction_area_m2" in fit["friction"]:
-        # fitted but not written (its law gave the static lengths back too loosely: six ramped runs in twelve,
-        # docs/rig.md): the file has no gap to compare, the bar is missed
-        pytest.xfail(f"{engine}: the friction law was not written to the muscle file: {fit['friction']['error']}")
+    # the model that holds across loads: the muscle file's law with its friction, law -/+ A_f.P = load, one A_f,
+    # fitted with the law held at the branches' mean, each branch point where its braid slipped
     assert "error" not in fit["friction"] and fit["friction"]["friction_area_m2"] > 0, fit["friction"]
-    gaps = {h["load_N"]: (h["gap_measured_m"], h["gap_model_m"], h["prandtl_ishlinskii"].get("gap_model_m", np.nan))
-            for h in hyst.values() if "error" not in h}
-    assert gaps, hyst
-    rel = {f: abs(m - g) / g for f, (g, m, _) in gaps.items()}
-    print(f"{engine}: A_f = {fit['friction']['friction_area_m2']:.3g} m2 ({fit['best']}); up/down gap per load [mm]: "
-          + ", ".join(f"{f:.2f} N: measured {g * 1e3:.3f}, file {m * 1e3:.3f}, PI of the load {pi * 1e3:.3f}"
-                      for f, (g, m, pi) in gaps.items()))
+    gaps = _gaps(out)
+    assert len(gaps) == 5 and all(len(a) >= 4 for a in gaps.values()), gaps
+    # the issue's bar: per load, the mean gap of the muscle file within 20 % of the plant's over those set-points
+    rel = {f: abs(a[:, 2].mean() - a[:, 1].mean()) / a[:, 1].mean() for f, a in gaps.items()}
+    pi = {h["load_N"]: h["prandtl_ishlinskii"].get("gap_model_m", np.nan) for h in fit["hysteresis"].values()
+          if "error" not in h}
+    print(f"{engine}: A_f = {fit['friction']['friction_area_m2']:.3g} m2 ({fit['best']}); up/down gap per load [mm] "
+          f"over its set-points: " + ", ".join(
+              f"{f:.2f} N ({len(a)}): plant {a[:, 1].mean() * 1e3:.2f}, file {a[:, 2].mean() * 1e3:.2f} "
+              f"({rel[f] * 100:.0f} %), measured {a[:, 3].mean() * 1e3:.2f}, PI of the load "
+              f"{pi.get(f, np.nan) * 1e3:.2f}" for f, a in gaps.items()))
     if max(rel.values()) > 0.20:
-        # measured (docs/rig.md), the example stepped: off by 1-224 % (Python) and 6-167 % (avr) per load, four runs
-        # each: the controller overshoots each inflating step (78-89 kPa mean) and the muscle slips partly back, so
-        # the measured loop narrows with load and moves between runs. Ramped at 0.25 MPa/s (`ramp`), twelve runs: met
-        # in three, missed in the others (the friction law not written in six, a load's loop wider than a friction of
-        # pressure gives, the measured gap moving 35-40 % between runs); and the files less repeatable than the
-        # resume bar allows (1.21 % once in three), so the example steps
-        pytest.xfail(f"the muscle file's friction gap is off by up to {max(rel.values()) * 100:.0f} % (bar: 20 %): "
-                     + ", ".join(f"{f:.2f} N {r * 100:.0f} %" for f, r in rel.items()))
+        # measured (docs/rig.md, benchmarks/RESULTS.md), the example ramped at 0.25 MPa/s: Python 0-17 % per load in
+        # seven runs on a quiet machine (met), 19-30 % in two on a loaded one (real time beside the host: the
+        # controller's excursions grow); avr 24-40 % in five (the file's loop too wide), 33-50 % loaded: the avr
+        # engine's controller ripples faster and wider (a step's extremes 14-17 kPa from the hold's mean, Python's
+        # 6-9 kPa) than the hung muscle follows, so the slip pressures (the step's extremes) over-reach
+        pytest.xfail(f"{engine}: the muscle file's up/down gap is off the plant's by up to {max(rel.values()) * 100:.0f} % "
+                     "(bar: 20 %): " + ", ".join(f"{f:.2f} N {r * 100:.0f} %" for f, r in rel.items()))
 
 
 @pytest.mark.slow
@@ -171,10 +198,11 @@ def test_kill_9_then_resume_keeps_every_load_step_once(bar_run, tmp_path):
         end = time.monotonic() + 240
         while time.monotonic() < end and len(list(journal.glob("part-*.parquet"))) < 2 and proc.poll() is None:
             time.sleep(0.05)
+        code = proc.poll()  # None: still running, as it should be
         proc.send_signal(signal.SIGKILL)  # halfway: two load steps done, the third under way
-        proc.communicate()
+        _, err = proc.communicate()
         kept = sorted(p.name for p in journal.glob("part-*.parquet"))
-        assert 2 <= len(kept) < len(proto.loads), kept
+        assert 2 <= len(kept) < len(proto.loads), (kept, code, err.decode(errors="replace")[-2000:])
         assert not (out / "muscle.toml").exists()
         r = run_cli("rig", "characterize", "--port", dev.port, "--protocol", str(copy), "--out", str(out),
                     "--unattended", "--json", "--muscle-file", MUSCLE, "--resume")
@@ -189,7 +217,8 @@ def test_kill_9_then_resume_keeps_every_load_step_once(bar_run, tmp_path):
     rel = float(np.max(np.abs(a - b) / b))
     print(f"{engine}: resumed vs uninterrupted: max {rel * 100:.3f} %")
     # the issue's bar: 1 %. Two sessions of one bench now read one length alike (both engines count the encoder
-    # from the reset, the avr harness no longer drops counts after it): 0.10 % measured on the avr engine
+    # from the reset, the avr harness no longer drops counts after it): 0.13-0.51 % measured on the avr engine
+    # (ramped, the law held at the static fit; 0.10-0.35 % stepped)
     assert rel <= 0.01
 
 
@@ -311,3 +340,13 @@ def test_a_ramped_step_does_not_overshoot_where_a_stepped_one_does(tmp_path):
     print({k: np.round(v / 1e3, 1).tolist() for k, v in over.items()})
     assert over["ramp"].max() <= 25e3, over
     assert over["step"].max() >= 40e3, over
+
+
+def test_slip_pressure_is_the_step_extreme_on_its_branch_and_the_mean_for_an_older_journal():
+    from mckibben.rig.characterize import slip_pressure
+
+    steps = pd.DataFrame({"direction": ["inflate", "inflate", "deflate"], "pressure_Pa": [1e5, 2e5, 1e5],
+                          "pressure_max_Pa": [1.1e5, 2.2e5, 1.5e5], "pressure_min_Pa": [0.5e5, 1.8e5, 0.9e5]})
+    np.testing.assert_array_equal(slip_pressure(steps), [1.1e5, 2.2e5, 0.9e5])
+    # a journal written before the lowest was kept: the deflating step at its mean
+    np.testing.assert_array_equal(slip_pressure(steps.drop(columns="pressure_min_Pa")), [1.1e5, 2.2e5, 1e5])

@@ -31,7 +31,7 @@ run's order (:func:`run_position`, :data:`DRIFT_NAME`), which the muscle's predi
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -864,7 +864,7 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
 
 
 def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube: bool = False,
-                          start=None) -> FitResult:
+                          start=None, held: FitResult | None = None, slip_pressure=None) -> FitResult:
     """A law's ``"friction"`` form fitted to the up/down branches of isotonic sweeps: law ∓ A_f·P = load.
 
     Each point (P, load, L, direction) of a hysteresis table (an isotonic sweep's rows with their
@@ -876,7 +876,20 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
     its branch state; a Dahl element's slip limit proportional to pressure). The law's parameters
     (its own fit spec, read, never copied; the law's inflate branch for every point: the friction,
     not a second branch of the law, makes the loop), the tube's stiffness with ``tube``
-    (:mod:`mckibben.models.tube`) and A_f, one for every load, are fitted jointly.
+    (:mod:`mckibben.models.tube`) and A_f, one for every load, are fitted jointly; or, given
+    ``held`` (the same law fitted to the branches' mean, the friction-free length), the law is held
+    there and A_f alone is fitted on the branches (two stages: the law keeps its fit and its
+    intervals, A_f gets its own).
+
+    **Where the braid slipped.** A branch's point sits where the friction last slipped, at the
+    pressure of that moment, not at the mean pressure of the hold: a pressure controller's ripple
+    at a held set-point (or its overshoot) contracts an inflating muscle at each peak, and the
+    friction then holds it there while the pressure falls back by less than the friction's width
+    (the Dahl element, ``docs/plant.md``); likewise a deflating muscle at each trough. So the
+    loop measured at the mean pressure is narrower than the braid's by about twice the ripple's
+    reach. ``slip_pressure`` gives that pressure per point (the highest of the step on an
+    inflating one, the lowest on a deflating one: ``mckibben rig characterize`` records both), and
+    the branch's force is evaluated there.
 
     Parameters
     ----------
@@ -891,7 +904,16 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
         Fit the tube's stretch past the rest length with the law. [-]
     start : array_like, optional
         A start for the law's parameters (and the tube's, with ``tube``), e.g. a static fit's values
-        (:func:`mckibben.fit.isometric.fit_isotonic_law`); default the law's own starts. [SI]
+        (:func:`mckibben.fit.isometric.fit_isotonic_law`); default the law's own starts. Ignored
+        with ``held``. [SI]
+    held : FitResult, optional
+        The law (with its tube's stiffness, with ``tube``) already fitted to the friction-free
+        lengths (:func:`mckibben.fit.isometric.fit_isotonic_law` on the branches' mean): its values
+        are held, and only A_f is fitted. The result carries the law's values, standard errors and
+        valid range as ``held`` has them, and A_f's own. Default: law and A_f fitted jointly. [-]
+    slip_pressure : array_like, optional
+        Per row, the gauge pressure at which the braid last slipped (see above); default the
+        table's pressure. [Pa]
 
     Returns
     -------
@@ -925,6 +947,11 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
     if not np.any(dirn == "inflate") or not np.any(dirn == "deflate"):
         raise InputError(f"{what}: needs both inflate and deflate rows; a loop has two branches")
     p = d["pressure"].to_numpy(dtype=float)
+    if slip_pressure is not None:
+        p = np.asarray(slip_pressure, dtype=float).ravel()
+        if p.size != len(d) or not np.all(np.isfinite(p)):
+            raise InputError(f"slip_pressure: {p.size} values, {np.count_nonzero(~np.isfinite(p))} not finite; "
+                             f"want one finite pressure [Pa] per row of {table.path} ({len(d)})")
     ell = d["held_length"].to_numpy(dtype=float)
     f = d["force"].to_numpy(dtype=float)
     pmax = float(np.max(p))
@@ -939,6 +966,9 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
         names, lo, hi = names + (TUBE_NAME,), np.r_[lo, 0.0], np.r_[hi, k_max]
         starts = [np.r_[x0, 0.05 * k_max] for x0 in starts]
     n_law = len(names)
+    if held is not None:
+        return _fit_friction_held(held, law_force, names, p, ell, f, dirn, d["trial"].to_numpy(), fmax / pmax,
+                                  what=what, model=name, source=str(table.path))
     if start is not None:
         x0 = np.clip(np.asarray(start, dtype=float).ravel()[:n_law], lo, hi)
         if x0.size != n_law:
@@ -959,3 +989,33 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
                        what=what, valid_range=data_range(pressure=p, length=ell), func=func,
                        clusters=d["trial"].to_numpy(), source=str(table.path), physical_flags=physical,
                        priors=spec.priors)
+
+
+def _fit_friction_held(held: FitResult, law_force, names, p, ell, f, dirn, trials, area: float, *, what: str,
+                       model: str, source: str) -> FitResult:
+    """A_f alone on the branches, the law held at ``held``'s values: :func:`fit_isotonic_friction`'s second stage.
+
+    ``area`` is the scale of the friction area (peak load over peak pressure) [m²]; the rest as there.
+    """
+    check_instance(held, "held", FitResult, "a FitResult (mckibben.fit.isometric.fit_isotonic_law)")
+    if tuple(held.names) != tuple(names):
+        raise InputError(f"held: its parameters {', '.join(held.names)} are not the law's {', '.join(names)} "
+                         f"(fit the same law{' with the tube' if TUBE_NAME in names else ''} first)")
+    law = np.asarray(held.values, dtype=float)
+
+    def func(values, pressure, length, direction="inflate", rest_length=None):
+        v = np.asarray(values, dtype=float)
+        return branch_force(law_force, v[:-1], v[-1], pressure, length, direction, direction="inflate",
+                            rest_length=rest_length)
+
+    fr = bounded_fit(lambda v: func(np.r_[law, v], p, ell, dirn), f, [np.r_[a0 * area] for a0 in (0.02, 0.1)],
+                     (FRICTION_NAME,), np.r_[0.0], np.r_[FRICTION_MAX * area], model=model, response="force_N",
+                     what=f"{what}, the law held", valid_range=data_range(pressure=p, length=ell), func=func,
+                     clusters=trials, source=source)
+    n = len(law)
+    cov = np.zeros((n + 1, n + 1))
+    cov[:n, :n] = held.covariance
+    cov[n, n] = fr.covariance[0, 0]
+    return replace(fr, names=tuple(names) + (FRICTION_NAME,), values=np.r_[law, fr.values], covariance=cov,
+                               valid_range=dict(held.valid_range), flags=tuple(dict.fromkeys((*held.flags, *fr.flags))),
+                               notes=tuple(dict.fromkeys((*held.notes, *fr.notes))), priors=dict(held.priors))

@@ -27,12 +27,13 @@ _WHERE = {
     "linearize": "mckibben.plant.linear",
     "open_loop_step": "mckibben.plant.calibration",
     "simulate": "mckibben.plant.simulator",
+    "static_branch_lengths": "mckibben.plant.simulator",
     "static_length": "mckibben.plant.simulator",
 }
 
 __all__ = [
     "CALIBRATION_PWM", "LAW_NAMES", "LOADS", "PlantParams", "PlantStepper", "SimResult", "calibrate_force_law",
-    "calibration", "open_loop_step", "simulate", "static_length", "Col", "Load", "THERMAL",
+    "calibration", "open_loop_step", "simulate", "static_branch_lengths", "static_length", "Col", "Load", "THERMAL",
     "LinearPlant", "linearize",
 ]
 
@@ -52,6 +53,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.plant.linear import linearize as linearize
     from mckibben.plant.calibration import open_loop_step as open_loop_step
     from mckibben.plant.simulator import simulate as simulate
+    from mckibben.plant.simulator import static_branch_lengths as static_branch_lengths
     from mckibben.plant.simulator import static_length as static_length
 
 

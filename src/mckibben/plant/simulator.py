@@ -321,11 +321,65 @@ def static_length(plant: PP.PlantParams | None = None, pressure=0.0) -> np.ndarr
         Where no length between the braid's end stops balances the load ("no solution"): the
         message names the instance, the pressure, the load and the stop the muscle would rest on.
     """
+    prm, law, th, pressure = _static_inputs(plant, pressure)
+    return _balanced(prm, law, th, pressure)
+
+
+def static_branch_lengths(plant: PP.PlantParams | None = None, pressure=0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The lengths at the ends of the braid friction's slip: the inflating and deflating branches of the loop.
+
+    Far along a branch the Dahl element is at its slip limit F_c = ``friction_force`` +
+    ``friction_per_pa``·P against the motion (``docs/plant.md``): contracting (inflating), the muscle
+    pulls the load plus F_c; lengthening (deflating), the load less F_c. Each branch's length is the
+    plant's static balance (:func:`static_equilibrium`, the same law and tube) with the load so
+    shifted; their difference is the plant's own up/down gap at that pressure and load.
+
+    Parameters
+    ----------
+    plant : PlantParams, optional
+        The rig(s); default the calibrated one.
+    pressure : array_like, default 0.0
+        Gauge pressure, scalar or (N,). [Pa]
+
+    Returns
+    -------
+    inflate, deflate : numpy.ndarray
+        (N,) lengths on the inflating branch (the longer: the muscle pulls F_c more) and on the
+        deflating one. [m]
+
+    Raises
+    ------
+    UnreachableError
+        Where a branch's balance has no length between the end stops, as :func:`static_length`.
+
+    References
+    ----------
+    Dahl, P. R. (1968), the slip limit; [mpam-characterization] §IV (the measured loop).
+    """
+    prm, law, th, pressure = _static_inputs(plant, pressure)
+    c = PK.Col
+    pg = np.broadcast_to(np.asarray(pressure, dtype=float), (prm.shape[0],))
+    slip = prm[:, c.friction_force] + prm[:, c.friction_per_pa] * np.maximum(pg, 0.0)  # physics._after_step's F_c
+    branches = []
+    for sign in (1.0, -1.0):
+        shifted = prm.copy()
+        shifted[:, c.load_force] = prm[:, c.load_force] + sign * slip
+        branches.append(_balanced(shifted, law, th, pressure))
+    return branches[0], branches[1]
+
+
+def _static_inputs(plant, pressure):
+    """The checked plant, packed, and the checked pressure of :func:`static_length` and its branches."""
     plant = PP.PlantParams() if plant is None else check_instance(plant, "plant", PP.PlantParams, "a PlantParams")
     pressure = check_array(pressure, "pressure", lo=-ph.P_ATM, unit="Pa")  # gauge: down to vacuum
     prm, law, th, _ = plant.prepare()
     if pressure.ndim > 1 or pressure.size not in (1, prm.shape[0]):
         raise InputError(f"pressure: shape {pressure.shape}; want a scalar or ({prm.shape[0]},), one per instance")
+    return prm, law, th, pressure
+
+
+def _balanced(prm, law, th, pressure) -> np.ndarray:
+    """:func:`static_equilibrium`'s lengths, or the :class:`UnreachableError` of the first instance on a stop."""
     length, status = static_equilibrium(prm, law, th, pressure)
     bad = np.flatnonzero((status == 1) | (status == 2))
     if bad.size:

@@ -340,7 +340,7 @@ DECIMATION = 10
 REACH_TOLERANCE = 50e3
 #: The columns of a step journal part and of ``steps.parquet``.
 STEP_COLUMNS = ["load_index", "trial", "step", "load_N", "set_point_Pa", "pressure_Pa", "length_m", "direction",
-                "settled", "time_s", "pressure_max_Pa", "force_N"]
+                "settled", "time_s", "pressure_max_Pa", "force_N", "pressure_min_Pa"]
 
 
 class CharacterizeStopped(InputError):
@@ -523,9 +523,9 @@ def _run_sweep(s: _Session, proto: Protocol, length_of, ref_len: float, load_ind
         if lengths.min() <= 0 or lengths.max() > 2 * ref_len:  # the belt ran off the pulley's travel
             raise s.stop(f"length {lengths.min() * 1e3:.2f} mm left the encoder's range")
         p_mean = float(win[:, 1].mean())
+        p_step = np.array(s.rows[start:], dtype=float)[:, 1]  # every frame of the step: its extremes
         rows.append((load_index, trial, k, load, target, p_mean, float(lengths.mean()), direction, bool(ok),
-                     float(win[-1, 0]), float(np.array(s.rows[start:], dtype=float)[:, 1].max()),
-                     float(win[:, 7].mean()) - tare))
+                     float(win[-1, 0]), float(p_step.max()), float(win[:, 7].mean()) - tare, float(p_step.min())))
         p_before = p_mean
         if progress is not None:
             progress(1)
@@ -903,7 +903,7 @@ def static_points(steps, moving, columns):
     return d[[c for c in columns if c in d.columns]]
 
 
-def fit_run(out, muscle_file) -> dict:
+def fit_run(out, muscle_file, ramped: bool = False) -> dict:
     """Fit the run's tables: compare every applicable law held out, write the best to ``OUT/muscle.toml``
     with the braid's friction fitted on the up/down branches, and give each load's up/down gap.
 
@@ -912,10 +912,13 @@ def fit_run(out, muscle_file) -> dict:
     :func:`mckibben.fit.compare.compare_models` with ``tube=True``): the term is kept only when the
     law with it predicts the held-out loads better (the held-out error decides, not the in-sample
     fit or its flags: the term only acts on the points hung past the rest length, and a held-out
-    load is the test a lab's next load puts it to). The chosen law is then fitted again with the
-    friction, law ∓ A_f·P = load on the inflating/deflating branches of every load, one A_f
-    (:func:`mckibben.fit.direction.fit_isotonic_friction`); that law, its tube and A_f are written
-    when its static lengths still match the branches' mean as the compared fit did. Each load's gap
+    load is the test a lab's next load puts it to). The braid's friction is then fitted on the
+    inflating/deflating branches of every load with that law held, law ∓ A_f·P = load, one A_f
+    (:func:`mckibben.fit.direction.fit_isotonic_friction` with ``held``: two stages, so the law
+    and its intervals are the static fit's and the file's static length is the one compared),
+    each branch point, in a ramped run, at the pressure where its braid last slipped (:func:`slip_pressure`); that
+    law, its tube and A_f are written (A_f is left out, and why said, when its file does not give
+    the static lengths back as the compared fit did). Each load's gap
     is the measured one and the muscle file's (its law with the friction solved for the length on
     each branch at each step's pressure: what ``predict length --branch`` gives), and, beside it,
     a Prandtl–Ishlinskii loop fitted to that load alone.
@@ -926,6 +929,11 @@ def fit_run(out, muscle_file) -> dict:
         The run's folder, holding ``isotonic.csv`` and ``hysteresis.csv`` (:func:`write_tables`). [-]
     muscle_file : str or os.PathLike
         The muscle under test (its geometry, for the laws that need it). [-]
+    ramped : bool, default False
+        Whether the run approached each step by a ramp (the protocol's ``ramp``): then each branch
+        point is fitted at the pressure where its braid last slipped (:func:`slip_pressure`); stepped,
+        the controller overshoots and the muscle slips partly back, the pressure did not move one
+        way, and each point is fitted at the hold's mean pressure. [-]
 
     Returns
     -------
@@ -993,7 +1001,8 @@ def fit_run(out, muscle_file) -> dict:
     branches = dataclasses.replace(hyst_table, data=hyst_table.data[moving])
     friction: dict = {"law": best.name}
     try:
-        fr = fit_isotonic_friction(branches, spec, name, tube=tube, start=res.values)
+        slip = slip_pressure(steps)[moving] if ramped else None  # stepped: the hold's mean (see above)
+        fr = fit_isotonic_friction(branches, spec, name, tube=tube, held=res, slip_pressure=slip)
     except InputError as exc:
         friction["error"] = str(exc)
     else:
@@ -1053,6 +1062,25 @@ def fit_run(out, muscle_file) -> dict:
             "stderr": {n: float(v) for n, v in zip(res.names, res.stderr)},
             "valid_range": {k: [float(a), float(b)] for k, (a, b) in res.valid_range.items()},
             "passed_over": rejected, "friction": friction, "hysteresis": hyst}
+
+
+def slip_pressure(steps) -> np.ndarray:
+    """Per step, the pressure at which the braid last slipped: the step's highest inflating, its lowest deflating. [Pa]
+
+    The muscle ends a step where the friction last let it move (:func:`mckibben.fit.direction.fit_isotonic_friction`):
+    contracting at the highest pressure an inflating step reached, lengthening at the lowest a deflating one did.
+    That holds where each step is approached from one side (a ramped run): a stepped one overshoots and slips
+    partly back. A run recorded before the lowest was kept gives its mean pressure there.
+
+    Parameters
+    ----------
+    steps : pandas.DataFrame
+        :func:`collect_steps`. [-]
+    """
+    inflate = steps["direction"].to_numpy() == "inflate"
+    mean = steps["pressure_Pa"].to_numpy(float)
+    low = steps["pressure_min_Pa"].to_numpy(float) if "pressure_min_Pa" in steps else np.full(len(steps), np.nan)
+    return np.where(inflate, steps["pressure_max_Pa"].to_numpy(float), np.where(np.isfinite(low), low, mean))
 
 
 def _law_of_score(name: str) -> tuple[str, bool]:
@@ -1231,7 +1259,7 @@ def run_characterization(port: str, protocol, out, *, unattended: bool = False, 
                "muscle_file_used": None if muscle_file is None else str(muscle_file), "fit": None}
     if muscle_file is not None:
         if len(steps):  # the muscle file comes from the isotonic runs when there are any
-            summary["fit"] = fit_run(out, muscle_file)
+            summary["fit"] = fit_run(out, muscle_file, ramped=proto.ramp > 0)
             if len(held):  # and the isometric runs' comparison stands beside it
                 summary["fit"]["isometric"] = ISO.compare_run(out, muscle_file)
         elif len(held):
