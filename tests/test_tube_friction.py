@@ -21,13 +21,14 @@ from mckibben.fit.direction import fit_isotonic_friction
 from mckibben.errors import InputError
 from mckibben.fit.isometric import IsometricFit, fit_isotonic_law, fit_points
 from mckibben.fit.muscle_file import muscle_file_text, muscle_force_law
-from mckibben.models.hysteresis.direction import FRICTION_NAME, branch_force
+from mckibben.models.hysteresis.direction import FRICTION_FORCE_NAME, FRICTION_NAME, branch_force
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.muscle import Muscle
 from mckibben.models.tube import TUBE_NAME, tube_force
 from mckibben.plant import params as PP
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import PlantStepper
+from mckibben.plant.simulator import static_branch_lengths as plant_branch_lengths
 from mckibben.plant.simulator import static_length as plant_static_length
 
 from conftest import run_cli
@@ -147,9 +148,9 @@ def test_a_muscle_file_without_the_terms_reads_as_before_and_a_negative_one_is_r
     path = _saved(tmp_path, res, spec, "old.toml")
     assert TUBE_NAME not in path.read_text()
     m = Muscle.from_muscle_file(path)
-    assert m.tube_stiffness == 0.0 and m.friction_area == 0.0
+    assert m.tube_stiffness == 0.0 and m.friction_area == 0.0 and m.friction_force == 0.0 and not m.has_friction
     plant = PP.PlantParams.from_muscle_file(path)
-    assert plant.passive_stiffness == 0.0 and plant.friction_per_pa == 0.0
+    assert plant.passive_stiffness == 0.0 and plant.friction_per_pa == 0.0 and plant.friction_force == 0.0
     bad = tmp_path / "bad.toml"
     bad.write_text(path.read_text().replace("[force_model.parameters]\n",
                                             f"[force_model.parameters]\n{TUBE_NAME} = -5.0\n"))
@@ -253,6 +254,90 @@ def test_branch_force_is_the_friction_structure_far_along_a_branch():
     assert np.allclose(branch_force(law, [2.0], 1e-7, p, ell, "inflate"), static - 1e-7 * p, rtol=1e-12)
     assert np.allclose(branch_force(law, [2.0], 1e-7, p, ell, "deflate"), static + 1e-7 * p, rtol=1e-12)
     assert np.allclose(branch_force(law, [2.0], 1e-7, p, ell, None), static, rtol=1e-12)
+    # the slip limit's constant part beside A_f.P (the plant's friction_force): law -/+ (F_0 + A_f.P)
+    for b, sign in (("inflate", -1.0), ("deflate", 1.0)):
+        got = branch_force(law, [2.0], 1e-7, p, ell, b, friction_force=0.03)
+        assert np.allclose(got, static + sign * (0.03 + 1e-7 * p), rtol=1e-12)
+    assert np.allclose(branch_force(law, [2.0], 1e-7, p, ell, None, friction_force=0.03), static, rtol=1e-12)
+
+
+#: A constant friction (the plant's ``friction_force``) for the tests of F_0: a third of A_f.P's range here. [N]
+F_0 = 0.04
+
+
+def _branch_rows(f0: float, pressures=PRESSURES) -> list[dict]:
+    """The branches of a sweep of each load: the plant's static length under load + (F_0 + A_f.P) inflating, less
+    deflating (its Dahl slip limit with a constant part)."""
+    rows = []
+    for f in LOADS:
+        for dn, sign in (("inflate", 1.0), ("deflate", -1.0)):
+            ell = _lengths(f + sign * (f0 + A_F * pressures), pressures)
+            rows += [{"pressure": p, "load": f, "length": x, "direction": dn}
+                     for p, x in zip(pressures, ell) if np.isfinite(x)]
+    return rows
+
+
+def test_a_constant_friction_is_found_back_with_its_interval_and_reaches_predict_and_the_plant(tmp_path):
+    rows = _branch_rows(F_0, np.linspace(0.1e6, 0.76e6, 12))
+    table = _table(tmp_path, rows, "hysteresis")
+    spec = read_muscle(MUSCLE)
+    fr = fit_isotonic_friction(table, spec, "tondu-lopez", tube=True, constant=True)
+    k, c = fr.names.index(FRICTION_NAME), fr.names.index(FRICTION_FORCE_NAME)
+    # exact branch lengths of the plant's law: both terms within 3 %, each inside its interval
+    assert fr[FRICTION_FORCE_NAME] == pytest.approx(F_0, rel=0.03), (fr.values, fr.flags)
+    assert fr[FRICTION_NAME] == pytest.approx(A_F, rel=0.03), (fr.values, fr.flags)
+    for i, want in ((k, A_F), (c, F_0)):
+        assert fr.ci95[i][0] <= want <= fr.ci95[i][1] and fr.ci95[i][0] > 0, (fr.names[i], fr.ci95[i])
+    assert not [x for x in fr.flags if x.startswith(FRICTION_FORCE_NAME)], fr.flags
+    path = tmp_path / "constant.toml"
+    path.write_text(muscle_file_text(dataclasses.replace(spec, path=str(path)),
+                                     IsometricFit("tondu-lopez", fr, spec, {"method": "none"}, pd.DataFrame())))
+    assert f"{FRICTION_FORCE_NAME} = " in path.read_text()
+    m = Muscle.from_muscle_file(path)
+    plant = PP.PlantParams.from_muscle_file(path)
+    assert m.friction_force == pytest.approx(fr[FRICTION_FORCE_NAME], rel=1e-12)
+    assert plant.friction_force == pytest.approx(fr[FRICTION_FORCE_NAME], rel=1e-12)
+    assert plant.friction_per_pa == pytest.approx(fr[FRICTION_NAME], rel=1e-12)
+    for r in rows[::5]:
+        got = float(m.length_for_pressure(r["pressure"], r["load"], r["direction"]).length)
+        assert got == pytest.approx(r["length"], abs=0.1e-3), r  # m: the branch's length within 0.1 mm
+    # one formula: the file's branches (predict length --branch) are its plant's own slip-limit branches
+    for load, p in ((0.9, 0.3e6), (1.2, 0.6e6)):
+        want_up, want_down = (float(x[0]) for x in plant_branch_lengths(plant.replace(load_force=load), p))
+        for b, want in (("inflate", want_up), ("deflate", want_down)):
+            r = run_cli("predict", "length", "--muscle-file", str(path), "--pressure", f"{p}Pa", "--load", f"{load}N",
+                        "--branch", b, "--json")
+            # both solve the same balance to their root finders' tolerance
+            assert r.code == 0 and r.json()["length_m"] == pytest.approx(want, abs=1e-7), (b, r.err)
+
+
+def test_a_constant_friction_the_data_do_not_show_is_flagged_and_left_out_by_default(tmp_path):
+    table = _table(tmp_path, _branch_rows(0.0), "hysteresis")
+    spec = read_muscle(MUSCLE)
+    fr = fit_isotonic_friction(table, spec, "tondu-lopez", tube=True, constant=True)
+    # no constant in the data: F_0 at its bound of 0, or an interval that reaches it, is flagged
+    assert [x for x in fr.flags if x.startswith(FRICTION_FORCE_NAME)], (fr[FRICTION_FORCE_NAME], fr.flags)
+    plain = fit_isotonic_friction(table, spec, "tondu-lopez", tube=True)
+    assert FRICTION_FORCE_NAME not in plain.names and plain[FRICTION_NAME] == pytest.approx(A_F, rel=0.02)
+
+
+def test_a_muscle_file_with_a_constant_friction_alone_has_branches_and_a_negative_one_is_refused(tmp_path,
+                                                                                                 isotonic_points):
+    spec = read_muscle(MUSCLE)
+    res = fit_isotonic_law(_table(tmp_path, isotonic_points, "isotonic"), spec, "tondu-lopez", tube=True)
+    text = _saved(tmp_path, res, spec).read_text()
+    path = tmp_path / "f0.toml"
+    path.write_text(text.replace("[force_model.parameters]\n", f"[force_model.parameters]\n{FRICTION_FORCE_NAME} = 0.05\n"))
+    m = Muscle.from_muscle_file(path)
+    assert m.friction_force == 0.05 and m.friction_area == 0.0 and m.has_friction
+    up, down, mid = (float(m.length_for_pressure(0.5e6, 1.2, b).length) for b in ("inflate", "deflate", None))
+    assert up > mid > down
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("[force_model.parameters]\n", f"[force_model.parameters]\n{FRICTION_FORCE_NAME} = -0.05\n"))
+    r = run_cli("predict", "length", "--muscle-file", str(bad), "--pressure", "0.5MPa", "--load", "1N",
+                "--branch", "inflate")
+    assert r.code == 2 and "bad.toml" in r.err and FRICTION_FORCE_NAME in r.err and "Traceback" not in r.err, r.err
+    assert len(r.err.strip().splitlines()) == 1
 
 
 def test_a_two_branch_law_on_one_branch_keeps_the_tube_interval(tmp_path, isotonic_points):

@@ -44,8 +44,9 @@ from mckibben.fit.isometric import (BOUNDS_NOTE, SURFACE, _runs, fit_points, is_
                                    transition_rows)
 from mckibben.models import laws
 from mckibben.models.law_statics import rising_root
-from mckibben.models.hysteresis.direction import (DEFAULT_STRUCTURE, DIRECTIONS, FRICTION_NAME, STRUCTURES, branch_force,
-                                                  branch_state, direction_aware_force, play_pressure)
+from mckibben.models.hysteresis.direction import (DEFAULT_STRUCTURE, DIRECTIONS, FRICTION_FORCE_NAME, FRICTION_NAME,
+                                                  STRUCTURES, branch_force, branch_state, direction_aware_force,
+                                                  play_pressure)
 from mckibben.models.tube import TUBE_MAX_STRAIN, TUBE_NAME, with_tube
 from mckibben.results import FitBase, Result, provenance, to_jsonable
 
@@ -864,22 +865,27 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
 
 
 def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube: bool = False,
-                          start=None, held: FitResult | None = None, slip_pressure=None) -> FitResult:
-    """A law's ``"friction"`` form fitted to the up/down branches of isotonic sweeps: law ∓ A_f·P = load.
+                          start=None, held: FitResult | None = None, slip_pressure=None,
+                          constant: bool = False) -> FitResult:
+    """A law's ``"friction"`` form fitted to the up/down branches of isotonic sweeps: law ∓ (F_0 + A_f·P) = load.
 
     Each point (P, load, L, direction) of a hysteresis table (an isotonic sweep's rows with their
     branch) is a muscle far along a branch of its loop: the pressure has moved one way since the
     last step and the braid slipped, so its friction is at its limit, against the motion. Inflating
     (contracting) the muscle pulls the load plus the friction, deflating the load less it:
-    F_law(P, L) − A_f·P = load on the inflating branch, F_law(P, L) + A_f·P = load on the deflating
-    one (:func:`mckibben.models.hysteresis.direction.branch_force`, the ``"friction"`` structure at
-    its branch state; a Dahl element's slip limit proportional to pressure). The law's parameters
-    (its own fit spec, read, never copied; the law's inflate branch for every point: the friction,
-    not a second branch of the law, makes the loop), the tube's stiffness with ``tube``
-    (:mod:`mckibben.models.tube`) and A_f, one for every load, are fitted jointly; or, given
-    ``held`` (the same law fitted to the branches' mean, the friction-free length), the law is held
-    there and A_f alone is fitted on the branches (two stages: the law keeps its fit and its
-    intervals, A_f gets its own).
+    F_law(P, L) − (F_0 + A_f·P) = load on the inflating branch, F_law(P, L) + (F_0 + A_f·P) = load on
+    the deflating one (:func:`mckibben.models.hysteresis.direction.branch_force`, the ``"friction"``
+    structure at its branch state; a Dahl element's slip limit, a constant (Coulomb) part F_0 and a
+    part proportional to pressure). The law's parameters (its own fit spec, read, never copied; the
+    law's inflate branch for every point: the friction, not a second branch of the law, makes the
+    loop), the tube's stiffness with ``tube`` (:mod:`mckibben.models.tube`) and A_f (with ``constant``
+    F_0 too), one each for every load, are fitted jointly; or, given ``held`` (the same law fitted to
+    the branches' mean, the friction-free length), the law is held there and the friction alone is
+    fitted on the branches (two stages: the law keeps its fit and its intervals, the friction gets its
+    own). F_0 is told from A_f·P by the pressures' spread only: where the data do not tell them apart
+    (F_0's 95 % interval reaches zero) it is flagged ``friction_force_N_unconstrained``, and a law
+    that misses the branches' force by more than the friction trades one for the other (measured on
+    ``mckibben rig characterize``'s example: ``docs/rig.md``), so F_0 is fitted only when asked.
 
     **Where the braid slipped.** A branch's point sits where the friction last slipped, at the
     pressure of that moment, not at the mean pressure of the hold: a pressure controller's ripple
@@ -914,18 +920,21 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
     slip_pressure : array_like, optional
         Per row, the gauge pressure at which the braid last slipped (see above); default the
         table's pressure. [Pa]
+    constant : bool, default False
+        Fit the friction's constant part F_0 beside A_f·P; default A_f alone (F_0 = 0). [-]
 
     Returns
     -------
     FitResult
-        The law's parameters (the tube's stiffness with ``tube``), then ``friction_area_m2`` A_f [m²];
+        The law's parameters (the tube's stiffness with ``tube``), then (with ``constant``)
+        ``friction_force_N`` F_0 [N], and ``friction_area_m2`` A_f [m²];
         ``result.predict(pressure=, length=, direction=)`` gives the branch's force (``direction``
         "inflate" or "deflate"). Residuals in force [N].
 
     References
     ----------
     Tondu & Lopez (2000), their friction force proportional to pressure (the form); Dahl (1968)
-    for the slip limit (the plant's braid friction, ``docs/plant.md``).
+    for the slip limit and its constant part (the plant's braid friction, ``docs/plant.md``).
     """
     check_instance(table, "table", Table, "a Table (mckibben.read_table)")
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
@@ -967,35 +976,67 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
         starts = [np.r_[x0, 0.05 * k_max] for x0 in starts]
     n_law = len(names)
     if held is not None:
-        return _fit_friction_held(held, law_force, names, p, ell, f, dirn, d["trial"].to_numpy(), fmax / pmax,
-                                  what=what, model=name, source=str(table.path))
+        return _fit_friction_held(held, law_force, names, p, ell, f, dirn, d["trial"].to_numpy(), fmax, pmax,
+                                  constant, what=what, model=name, source=str(table.path))
     if start is not None:
         x0 = np.clip(np.asarray(start, dtype=float).ravel()[:n_law], lo, hi)
         if x0.size != n_law:
             raise InputError(f"start: {x0.size} values, the law has {n_law}")
         starts = [x0]
-    area = fmax / pmax  # [m²]: the scale of the friction area
-    lo, hi = np.r_[lo, 0.0], np.r_[hi, FRICTION_MAX * area]
-    starts = [np.r_[x0, a0 * area] for x0 in starts for a0 in (0.02, 0.1)]
-    names = names + (FRICTION_NAME,)
-
-    def func(values, pressure, length, direction="inflate", rest_length=None):
-        v = np.asarray(values, dtype=float)
-        return branch_force(law_force, v[:-1], v[-1], pressure, length, direction, direction="inflate",
-                            rest_length=rest_length)
+    terms, f_lo, f_hi, f_starts = _friction_terms(fmax, pmax, constant)
+    lo, hi = np.r_[lo, f_lo], np.r_[hi, f_hi]
+    starts = [np.r_[x0, s0] for x0 in starts for s0 in f_starts]
+    names = names + terms
+    func = _friction_func(law_force, len(terms))
 
     physical = (lambda v: spec.physical(v[:len(spec.names)])) if spec.physical is not None else None
-    return bounded_fit(lambda v: func(v, p, ell, dirn), f, starts, names, lo, hi, model=name, response="force_N",
-                       what=what, valid_range=data_range(pressure=p, length=ell), func=func,
-                       clusters=d["trial"].to_numpy(), source=str(table.path), physical_flags=physical,
-                       priors=spec.priors)
+    res = bounded_fit(lambda v: func(v, p, ell, dirn), f, starts, names, lo, hi, model=name, response="force_N",
+                      what=what, valid_range=data_range(pressure=p, length=ell), func=func,
+                      clusters=d["trial"].to_numpy(), source=str(table.path), physical_flags=physical,
+                      priors=spec.priors)
+    return _flag_friction_force(res)
 
 
-def _fit_friction_held(held: FitResult, law_force, names, p, ell, f, dirn, trials, area: float, *, what: str,
-                       model: str, source: str) -> FitResult:
-    """A_f alone on the branches, the law held at ``held``'s values: :func:`fit_isotonic_friction`'s second stage.
+def _friction_terms(fmax: float, pmax: float, constant: bool) -> tuple[tuple, np.ndarray, np.ndarray, list]:
+    """The friction's terms as a fit names them ((F_0 [N],) A_f [m²]), their bounds and starts: each at most
+    :data:`FRICTION_MAX` of the peak load (A_f·P at the peak pressure), from small starts."""
+    area = fmax / pmax  # [m²]: the scale of the friction area
+    if not constant:
+        return (FRICTION_NAME,), np.zeros(1), np.r_[FRICTION_MAX * area], [np.r_[a0 * area] for a0 in (0.02, 0.1)]
+    starts = [np.r_[c0 * fmax, a0 * area] for c0 in (0.005, 0.05) for a0 in (0.02, 0.1)]
+    return ((FRICTION_FORCE_NAME, FRICTION_NAME), np.zeros(2), np.r_[FRICTION_MAX * fmax, FRICTION_MAX * area],
+            starts)
 
-    ``area`` is the scale of the friction area (peak load over peak pressure) [m²]; the rest as there.
+
+def _friction_func(law_force, n_terms: int):
+    """``func(values, pressure, length, direction)``: the law's values, then the friction's ``n_terms`` ((F_0,) A_f),
+    far along each point's branch (:func:`~mckibben.models.hysteresis.direction.branch_force`)."""
+    def func(values, pressure, length, direction="inflate", rest_length=None):
+        v = np.asarray(values, dtype=float)
+        f0 = v[-2] if n_terms == 2 else 0.0
+        return branch_force(law_force, v[:-n_terms], v[-1], pressure, length, direction, friction_force=f0,
+                            direction="inflate", rest_length=rest_length)
+    return func
+
+
+def _flag_friction_force(res: FitResult) -> FitResult:
+    """Flag F_0 ``friction_force_N_unconstrained`` when its 95 % interval reaches zero (the data do not tell a
+    constant friction from none), unless a bound flag already says so; a fit without F_0 as it is."""
+    if FRICTION_FORCE_NAME not in res.names:
+        return res
+    k = res.names.index(FRICTION_FORCE_NAME)
+    lo95 = float(res.ci95[k][0])
+    if any(fl.startswith(FRICTION_FORCE_NAME) for fl in res.flags) or (np.isfinite(lo95) and lo95 > 0):
+        return res
+    return replace(res, flags=res.flags + (f"{FRICTION_FORCE_NAME}_unconstrained",))
+
+
+def _fit_friction_held(held: FitResult, law_force, names, p, ell, f, dirn, trials, fmax: float, pmax: float,
+                       constant: bool, *, what: str, model: str, source: str) -> FitResult:
+    """The friction alone on the branches, the law held at ``held``'s values: :func:`fit_isotonic_friction`'s second
+    stage.
+
+    ``fmax``, ``pmax`` are the data's peak load [N] and pressure [Pa] (the friction's scales); the rest as there.
     """
     check_instance(held, "held", FitResult, "a FitResult (mckibben.fit.isometric.fit_isotonic_law)")
     if tuple(held.names) != tuple(names):
@@ -1003,19 +1044,16 @@ def _fit_friction_held(held: FitResult, law_force, names, p, ell, f, dirn, trial
                          f"(fit the same law{' with the tube' if TUBE_NAME in names else ''} first)")
     law = np.asarray(held.values, dtype=float)
 
-    def func(values, pressure, length, direction="inflate", rest_length=None):
-        v = np.asarray(values, dtype=float)
-        return branch_force(law_force, v[:-1], v[-1], pressure, length, direction, direction="inflate",
-                            rest_length=rest_length)
-
-    fr = bounded_fit(lambda v: func(np.r_[law, v], p, ell, dirn), f, [np.r_[a0 * area] for a0 in (0.02, 0.1)],
-                     (FRICTION_NAME,), np.r_[0.0], np.r_[FRICTION_MAX * area], model=model, response="force_N",
-                     what=f"{what}, the law held", valid_range=data_range(pressure=p, length=ell), func=func,
-                     clusters=trials, source=source)
-    n = len(law)
-    cov = np.zeros((n + 1, n + 1))
+    terms, f_lo, f_hi, f_starts = _friction_terms(fmax, pmax, constant)
+    func = _friction_func(law_force, len(terms))
+    fr = _flag_friction_force(bounded_fit(lambda v: func(np.r_[law, v], p, ell, dirn), f, f_starts, terms,
+                                          f_lo, f_hi, model=model, response="force_N", what=f"{what}, the law held",
+                                          valid_range=data_range(pressure=p, length=ell), func=func, clusters=trials,
+                                          source=source))
+    n, k = len(law), len(terms)
+    cov = np.zeros((n + k, n + k))
     cov[:n, :n] = held.covariance
-    cov[n, n] = fr.covariance[0, 0]
-    return replace(fr, names=tuple(names) + (FRICTION_NAME,), values=np.r_[law, fr.values], covariance=cov,
-                               valid_range=dict(held.valid_range), flags=tuple(dict.fromkeys((*held.flags, *fr.flags))),
-                               notes=tuple(dict.fromkeys((*held.notes, *fr.notes))), priors=dict(held.priors))
+    cov[n:, n:] = fr.covariance
+    return replace(fr, names=tuple(names) + terms, values=np.r_[law, fr.values], covariance=cov,
+                   valid_range=dict(held.valid_range), flags=tuple(dict.fromkeys((*held.flags, *fr.flags))),
+                   notes=tuple(dict.fromkeys((*held.notes, *fr.notes))), priors=dict(held.priors))

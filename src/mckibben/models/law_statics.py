@@ -194,6 +194,8 @@ class LawMuscle:
         The braid's friction area A_f (:func:`mckibben.models.hysteresis.direction.branch_force`):
         inflating the muscle pulls A_f·P less than its static force, deflating A_f·P more (the
         ``branch`` of :meth:`force` and the solvers; without one, the static force). [m²]
+    friction_force : float, default 0.0
+        The friction's constant part F_0 beside A_f·P (the slip limit F_0 + A_f·P). [N]
     """
 
     name: str
@@ -209,6 +211,7 @@ class LawMuscle:
     citation: str = ""
     tube_stiffness: float = 0.0
     friction_area: float = 0.0
+    friction_force: float = 0.0
 
     def __post_init__(self):
         if self.law not in laws.LAWS:
@@ -219,10 +222,15 @@ class LawMuscle:
         if not (math.isfinite(b) and math.isfinite(l0) and b / math.sqrt(3.0) < l0 < b):
             raise InputError(f"strand length: {b * 1e3:.4g} mm must hold the nominal {l0 * 1e3:.4g} mm between the"
                              " braid's end stops b/√3 and b")
-        for name in ("tube_stiffness", "friction_area"):
+        for name in ("tube_stiffness", "friction_area", "friction_force"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise InputError(f"{name}: {value!r} must be a finite number >= 0")
+
+    @property
+    def has_friction(self) -> bool:
+        """Whether the muscle has a fitted friction (a ``branch`` of its loop to give). [-]"""
+        return bool(self.friction_area or self.friction_force)
 
     @property
     def length_stops(self) -> tuple[float, float]:
@@ -238,8 +246,8 @@ class LawMuscle:
         """The muscle's pull at pressures and lengths (negative where the law would push). [N]
 
         The law's pull, plus the tube's past the rest length (:attr:`tube_stiffness`); on a
-        ``branch``, less (inflating) or more (deflating) by the friction A_f·P
-        (:attr:`friction_area`, :func:`mckibben.models.hysteresis.direction.branch_force`).
+        ``branch``, less (inflating) or more (deflating) by the friction F_0 + A_f·P
+        (:attr:`friction_force`, :attr:`friction_area`, :func:`mckibben.models.hysteresis.direction.branch_force`).
 
         Parameters
         ----------
@@ -252,9 +260,10 @@ class LawMuscle:
         """
         if branch is not None and branch not in DIRECTIONS:
             raise InputError(f"branch: {branch!r} must be inflate or deflate (or None: the static pull)")
-        if branch is None or not self.friction_area:
+        if branch is None or not self.has_friction:
             return self._static(self.theta, pressure, length)
-        return branch_force(self._static, self.theta, self.friction_area, pressure, length, branch)
+        return branch_force(self._static, self.theta, self.friction_area, pressure, length, branch,
+                            friction_force=self.friction_force)
 
     def _exact(self):
         """The law's closed-form inverse on this θ, if it has one (:attr:`mckibben.models.laws.Law.length_of`)
@@ -290,7 +299,7 @@ class LawMuscle:
         """
         p, w = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
         lo, hi = self.length_stops
-        exact = self._exact() if branch is None or not self.friction_area else None
+        exact = self._exact() if branch is None or not self.has_friction else None
         length, state = rising_root(lambda pp, ell: self.force(pp, ell, branch), p, np.maximum(w, TAUT_FORCE), lo, hi,
                                     exact)
         flags = (self._range_flags(p, length) | flag_where(state < 0, Flag.NEGATIVE_LENGTH)

@@ -37,7 +37,7 @@ from mckibben.data.muscle_file import MuscleSpec, muscle_file_text_of, read_musc
 from mckibben.errors import InputError
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
-from mckibben.models.hysteresis.direction import FRICTION_NAME
+from mckibben.models.hysteresis.direction import FRICTION_FORCE_NAME, FRICTION_NAME
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.tube import TUBE_NAME
 
@@ -45,8 +45,9 @@ __all__ = ["FILE_BRAID_ANGLE", "MUSCLE_TERMS", "Muscle", "law_values"]
 
 #: The terms any law of a muscle file may carry beside its own parameters (in ``[force_model.parameters]``,
 #: optional; a file without them has none): the tube's stiffness past the rest length
-#: (:mod:`mckibben.models.tube`) and the braid's friction area (:func:`~mckibben.models.hysteresis.direction.branch_force`). [-]
-MUSCLE_TERMS = (TUBE_NAME, FRICTION_NAME)
+#: (:mod:`mckibben.models.tube`) and the braid's friction, its area and its constant part
+#: (:func:`~mckibben.models.hysteresis.direction.branch_force`; a file without the constant has none). [-]
+MUSCLE_TERMS = (TUBE_NAME, FRICTION_NAME, FRICTION_FORCE_NAME)
 
 
 def law_values(parameters: dict) -> dict:
@@ -170,7 +171,8 @@ class Muscle(LawMuscle):
                    source=spec, citation=f"{law.name} force law fitted to {fm.get('source', 'data')} ({where})",
                    values=dict(fm["parameters"]), params=params, flags=fit_flags,
                    tube_stiffness=float(fm["parameters"].get(TUBE_NAME, 0.0)),
-                   friction_area=float(fm["parameters"].get(FRICTION_NAME, 0.0)))
+                   friction_area=float(fm["parameters"].get(FRICTION_NAME, 0.0)),
+                   friction_force=float(fm["parameters"].get(FRICTION_FORCE_NAME, 0.0)))
 
     @classmethod
     def from_muscle_file(cls, path, direction: str = "inflate", rest_length: float | None = None) -> "Muscle":

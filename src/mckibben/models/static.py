@@ -328,7 +328,7 @@ def _check_branch(branch, muscle) -> None:
         return
     if branch not in ("inflate", "deflate"):
         raise InputError(f"branch: {branch!r} must be inflate or deflate (or none: the static length)")
-    if not isinstance(muscle, LawMuscle) or not muscle.friction_area:
+    if not isinstance(muscle, LawMuscle) or not muscle.has_friction:
         who = f"muscle {muscle.name!r}" if isinstance(muscle, LawMuscle) else "a catalogue muscle"
         raise InputError(f"branch: {who} has no fitted friction (friction_area_m2 in its muscle file: "
                          "mckibben rig characterize fits it); leave the branch out for the static length")
@@ -358,7 +358,7 @@ def length(pressure, load, muscle, model: str | None = None, branch: str | None 
         catalogue muscle) or the muscle file's law. Old names (``mpam``) are read, deprecated. [-]
     branch : {"inflate", "deflate"}, optional
         A muscle file with a fitted friction: the length on the inflating or deflating branch of
-        its loop (law ∓ A_f·P = load, :meth:`~mckibben.models.law_statics.LawMuscle.length_for_pressure`);
+        its loop (law ∓ (F_0 + A_f·P) = load, :meth:`~mckibben.models.law_statics.LawMuscle.length_for_pressure`);
         None: the static length. [-]
 
     Returns

@@ -338,7 +338,7 @@ class PlantParams:
           measured force, the tube's elasticity included);
         - friction: ``friction_per_pa`` the file's friction area (``friction_area_m2``, A_f·P fitted
           on the up/down branches, :func:`mckibben.fit.direction.fit_isotonic_friction`) and
-          ``friction_force`` 0, else none (the fitted law is one branch of the measured force:
+          ``friction_force`` its constant part (``friction_force_N``, F_0; 0 in a file without it), else none (the fitted law is one branch of the measured force:
           the spring model's inflate or deflate, or the branches' mean);
         - moving mass :data:`FILE_MOVING_MASS`; damping critical for that mass and a hanging
           load's (``load_force``/g) on the law's steepest stiffness at the supply pressure;
@@ -406,7 +406,8 @@ class PlantParams:
             alpha0=float(np.arccos(min(l0 / b, 1.0))) or base.alpha0, k_tl=1.0, p_threshold=0.0,
             dead_volume=dead, tube_diameter=FILE_TUBE_BORE, valve_conductance=base.valve_conductance * scale,
             bleed_conductance=base.bleed_conductance * scale, leak_conductance=base.leak_conductance * scale,
-            passive_stiffness=float(m.tube_stiffness), friction_force=0.0, friction_per_pa=float(m.friction_area),
+            passive_stiffness=float(m.tube_stiffness), friction_force=float(m.friction_force),
+            friction_per_pa=float(m.friction_area),
             moving_mass=FILE_MOVING_MASS,
             supply_pressure=supply if supply > 0 else base.supply_pressure, spring_free_length=l0,
             load_force=0.0, force_model=obj, muscle_name="", muscle=None,

@@ -35,11 +35,13 @@ import numpy as np
 from mckibben.errors import InputError, unknown_name
 from mckibben.models.hysteresis.prandtl_ishlinskii import play_matrix
 
-__all__ = ["DEFAULT_STRUCTURE", "DIRECTIONS", "FRICTION_NAME", "STRUCTURES", "branch_force", "branch_state",
-           "direction_aware_force", "play_pressure"]
+__all__ = ["DEFAULT_STRUCTURE", "DIRECTIONS", "FRICTION_FORCE_NAME", "FRICTION_NAME", "STRUCTURES", "branch_force",
+           "branch_state", "direction_aware_force", "play_pressure"]
 
 #: The friction area A_f's name among a fitted law's parameters (and in a muscle file). [m²] (= N/Pa)
 FRICTION_NAME = "friction_area_m2"
+#: The friction's constant part F_0's name (a Coulomb force beside A_f·P; :func:`branch_force`). [N]
+FRICTION_FORCE_NAME = "friction_force_N"
 #: The direction-aware structures: name -> its extra parameters (names with units), one line.
 STRUCTURES = {
     "play": (("play_threshold_Pa",), "law(z, L), z = play of threshold r on the pressure (Hammerstein)"),
@@ -125,8 +127,12 @@ def branch_state(pressure, direction, threshold: float) -> np.ndarray:
     return np.asarray(pressure, dtype=float) + sign * r
 
 
-def direction_aware_force(law_force, structure: str, values, pressure, length, z, **law_inputs) -> np.ndarray:
+def direction_aware_force(law_force, structure: str, values, pressure, length, z, *, friction_force: float = 0.0,
+                          **law_inputs) -> np.ndarray:
     """A law's direction-aware force, given the play's output z (the state) at each point.
+
+    The ``"friction"`` structure's friction is (F_0 + A_f·P)·(z − P)/r: a constant (Coulomb) part F_0
+    (``friction_force``, default none) beside the part proportional to pressure.
 
     Parameters
     ----------
@@ -138,6 +144,8 @@ def direction_aware_force(law_force, structure: str, values, pressure, length, z
     values : array_like
         The law's parameters followed by the structure's (:data:`STRUCTURES`): the play's
         threshold r [Pa], and for ``"friction"`` the friction area A_f [m²]. [SI]
+    friction_force : float, default 0.0
+        ``"friction"``: the friction's constant part F_0 (≥ 0). [N]
     pressure : array_like
         Gauge pressure supplied. [Pa]
     length : array_like
@@ -165,11 +173,13 @@ def direction_aware_force(law_force, structure: str, values, pressure, length, z
     z = np.asarray(z, dtype=float)
     if structure == "play":
         return np.asarray(law_force(law_v, z, length, **law_inputs), dtype=float)
-    return np.asarray(law_force(law_v, p, length, **law_inputs), dtype=float) + op[1] * p * np.clip((z - p) / r, -1, 1)
+    return (np.asarray(law_force(law_v, p, length, **law_inputs), dtype=float)
+            + (float(friction_force) + op[1] * p) * np.clip((z - p) / r, -1, 1))
 
 
-def branch_force(law_force, law_values, friction_area: float, pressure, length, branch, **law_inputs) -> np.ndarray:
-    """A law's force far along a branch of its ``"friction"`` form: law ∓ A_f·P (inflating −, deflating +).
+def branch_force(law_force, law_values, friction_area: float, pressure, length, branch, *, friction_force: float = 0.0,
+                 **law_inputs) -> np.ndarray:
+    """A law's force far along a branch of its ``"friction"`` form: law ∓ (F_0 + A_f·P) (inflating −, deflating +).
 
     The ``"friction"`` structure (:func:`direction_aware_force`) at the play's branch state
     (:func:`branch_state`), where its factor (z − P)/r is −1 inflating and +1 deflating whatever the
@@ -191,6 +201,9 @@ def branch_force(law_force, law_values, friction_area: float, pressure, length, 
         Muscle length. [m]
     branch : str, array_like of str, or None
         ``"inflate"`` or ``"deflate"`` per element (broadcast), or None. [-]
+    friction_force : float, default 0.0
+        The friction's constant part F_0 (≥ 0): the slip limit is F_0 + A_f·P, a Coulomb force
+        beside the part proportional to pressure (the plant's Dahl limit has both). [N]
     law_inputs : dict
         Passed to ``law_force`` (``direction`` for a law with a branch per direction). [-]
 
@@ -201,11 +214,12 @@ def branch_force(law_force, law_values, friction_area: float, pressure, length, 
 
     References
     ----------
-    Tondu & Lopez (2000): a dry-friction force proportional to pressure, opposing the motion.
+    Tondu & Lopez (2000): a dry-friction force proportional to pressure, opposing the motion; Dahl
+    (1968) for a slip limit with a constant part.
     """
     if branch is None:
         return np.asarray(law_force(np.asarray(law_values, dtype=float), pressure, length, **law_inputs), dtype=float)
     r = 1.0  # any threshold: far along a branch (z − P)/r = ∓1 [Pa]
     values = np.concatenate([np.asarray(law_values, dtype=float).ravel(), [r, float(friction_area)]])
     return direction_aware_force(law_force, "friction", values, pressure, length,
-                                 branch_state(pressure, branch, r), **law_inputs)
+                                 branch_state(pressure, branch, r), friction_force=friction_force, **law_inputs)
