@@ -157,27 +157,27 @@ def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
     engine, out, summary, _ = bar_run
     fit = summary["fit"]
     # the model that holds across loads: the muscle file's law with its friction, law -/+ A_f.P = load, one A_f,
-    # fitted with the law held at the branches' mean, each branch point where its braid slipped
+    # fitted with the law held at the branches' mean, each branch point where its braid slipped; the constant part
+    # F_0 fitted beside it is reported, not written
     assert "error" not in fit["friction"] and fit["friction"]["friction_area_m2"] > 0, fit["friction"]
+    assert np.isfinite(fit["friction"]["with_constant"]["friction_force_N"]), fit["friction"]
     gaps = _gaps(out)
     assert len(gaps) == 5 and all(len(a) >= 4 for a in gaps.values()), gaps
     # the issue's bar: per load, the mean gap of the muscle file within 20 % of the plant's over those set-points
     rel = {f: abs(a[:, 2].mean() - a[:, 1].mean()) / a[:, 1].mean() for f, a in gaps.items()}
     pi = {h["load_N"]: h["prandtl_ishlinskii"].get("gap_model_m", np.nan) for h in fit["hysteresis"].values()
           if "error" not in h}
-    print(f"{engine}: A_f = {fit['friction']['friction_area_m2']:.3g} m2 ({fit['best']}); up/down gap per load [mm] "
+    wc = fit["friction"]["with_constant"]
+    print(f"{engine}: A_f = {fit['friction']['friction_area_m2']:.3g} m2 ({fit['best']}; fitted with F_0: F_0 "
+          f"{wc['friction_force_N'] * 1e3:.0f} mN, A_f {wc['friction_area_m2']:.3g} m2); up/down gap per load [mm] "
           f"over its set-points: " + ", ".join(
               f"{f:.2f} N ({len(a)}): plant {a[:, 1].mean() * 1e3:.2f}, file {a[:, 2].mean() * 1e3:.2f} "
               f"({rel[f] * 100:.0f} %), measured {a[:, 3].mean() * 1e3:.2f}, PI of the load "
               f"{pi.get(f, np.nan) * 1e3:.2f}" for f, a in gaps.items()))
-    if max(rel.values()) > 0.20:
-        # measured (docs/rig.md, benchmarks/RESULTS.md), the example ramped at 0.25 MPa/s: Python 0-17 % per load in
-        # seven runs on a quiet machine (met), 19-30 % in two on a loaded one (real time beside the host: the
-        # controller's excursions grow); avr 24-40 % in five (the file's loop too wide), 33-50 % loaded: the avr
-        # engine's controller ripples faster and wider (a step's extremes 14-17 kPa from the hold's mean, Python's
-        # 6-9 kPa) than the hung muscle follows, so the slip pressures (the step's extremes) over-reach
-        pytest.xfail(f"{engine}: the muscle file's up/down gap is off the plant's by up to {max(rel.values()) * 100:.0f} % "
-                     "(bar: 20 %): " + ", ".join(f"{f:.2f} N {r * 100:.0f} %" for f, r in rel.items()))
+    # measured (docs/rig.md, benchmarks/RESULTS.md), the example ramped at 0.25 MPa/s, each branch point at the extreme
+    # of the pressure averaged over 20 ms (slip_pressure): Python 1-12 % per load, avr 0-13 %; before (the extreme of
+    # single frames, which the avr controller's ripple over-reaches) avr 24-50 %
+    assert max(rel.values()) <= 0.20, ", ".join(f"{f:.2f} N {r * 100:.0f} %" for f, r in rel.items())
 
 
 @pytest.mark.slow
@@ -342,11 +342,29 @@ def test_a_ramped_step_does_not_overshoot_where_a_stepped_one_does(tmp_path):
     assert over["step"].max() >= 40e3, over
 
 
-def test_slip_pressure_is_the_step_extreme_on_its_branch_and_the_mean_for_an_older_journal():
-    from mckibben.rig.characterize import slip_pressure
+def test_slip_pressure_is_the_extreme_of_the_pressure_averaged_over_the_muscles_response():
+    from mckibben.rig.characterize import SLIP_SMOOTHING, _slip_pressures, slip_pressure
 
+    # a held set-point rippling +/-15 kPa every other frame at 100 Hz (the avr controller's): one frame's extreme is
+    # 15 kPa past the hold, the average over the muscle's response is not
+    t = np.arange(40) * 0.01
+    p = 0.4e6 + 15e3 * np.where(np.arange(40) % 2, 1.0, -1.0)
+    assert SLIP_SMOOTHING >= 0.02  # two frames or more at 100 Hz
+    assert abs(slip_pressure(t, p, "inflate") - 0.4e6) < 15e3 / 2
+    assert abs(slip_pressure(t, p, "deflate") - 0.4e6) < 15e3 / 2
+    # a ramp up to a hold: inflating the braid slipped at the top, the hold
+    ramp = np.r_[np.linspace(0.3e6, 0.4e6, 50), np.full(10, 0.4e6)]
+    t_r = np.r_[np.arange(50) * 0.002, 0.1 + np.arange(1, 11) * 0.01]
+    assert slip_pressure(t_r, ramp, "inflate") == pytest.approx(0.4e6, rel=1e-12)
+    down = np.r_[np.linspace(0.4e6, 0.3e6, 50), np.full(10, 0.3e6)]
+    assert slip_pressure(t_r, down, "deflate") == pytest.approx(0.3e6, rel=1e-12)
+    for args, words in (((t, p, "sideways"), "direction"), ((t[:3], p, "inflate"), "pressure")):
+        with pytest.raises(ValueError, match=words):
+            slip_pressure(*args)
+    # a journal recorded before the slip pressure was kept: the step's extreme on its branch, else its mean
     steps = pd.DataFrame({"direction": ["inflate", "inflate", "deflate"], "pressure_Pa": [1e5, 2e5, 1e5],
-                          "pressure_max_Pa": [1.1e5, 2.2e5, 1.5e5], "pressure_min_Pa": [0.5e5, 1.8e5, 0.9e5]})
-    np.testing.assert_array_equal(slip_pressure(steps), [1.1e5, 2.2e5, 0.9e5])
-    # a journal written before the lowest was kept: the deflating step at its mean
-    np.testing.assert_array_equal(slip_pressure(steps.drop(columns="pressure_min_Pa")), [1.1e5, 2.2e5, 1e5])
+                          "pressure_max_Pa": [1.1e5, 2.2e5, 1.5e5], "pressure_min_Pa": [0.5e5, 1.8e5, 0.9e5],
+                          "pressure_slip_Pa": [1.05e5, np.nan, 0.95e5]})
+    np.testing.assert_array_equal(_slip_pressures(steps), [1.05e5, 2.2e5, 0.95e5])
+    old = steps.drop(columns=["pressure_slip_Pa", "pressure_min_Pa"])
+    np.testing.assert_array_equal(_slip_pressures(old), [1.1e5, 2.2e5, 1e5])

@@ -44,7 +44,7 @@ from mckibben.fit.isometric import IsometricFit, fit_isotonic_law
 from mckibben.fit.muscle_file import muscle_file_text
 from mckibben.models import laws
 from mckibben.models.hysteresis import thresholds_uniform
-from mckibben.models.hysteresis.direction import FRICTION_NAME
+from mckibben.models.hysteresis.direction import FRICTION_FORCE_NAME, FRICTION_NAME
 from mckibben.models.muscle import Muscle
 from mckibben.models.static import length as static_length
 from mckibben.rig.recorder import _atomic_parquet, _fsync_dir
@@ -340,7 +340,11 @@ DECIMATION = 10
 REACH_TOLERANCE = 50e3
 #: The columns of a step journal part and of ``steps.parquet``.
 STEP_COLUMNS = ["load_index", "trial", "step", "load_N", "set_point_Pa", "pressure_Pa", "length_m", "direction",
-                "settled", "time_s", "pressure_max_Pa", "force_N", "pressure_min_Pa"]
+                "settled", "time_s", "pressure_max_Pa", "force_N", "pressure_min_Pa", "pressure_slip_Pa"]
+#: The span of the step's pressure averaged before its extreme is taken as the pressure where the braid
+#: slipped (:func:`slip_pressure`): the hung muscle follows the controller's ripple no faster. Chosen on
+#: measured runs of the example on both engines (docs/rig.md, benchmarks/RESULTS.md). [s]
+SLIP_SMOOTHING = 0.02
 
 
 class CharacterizeStopped(InputError):
@@ -523,9 +527,11 @@ def _run_sweep(s: _Session, proto: Protocol, length_of, ref_len: float, load_ind
         if lengths.min() <= 0 or lengths.max() > 2 * ref_len:  # the belt ran off the pulley's travel
             raise s.stop(f"length {lengths.min() * 1e3:.2f} mm left the encoder's range")
         p_mean = float(win[:, 1].mean())
-        p_step = np.array(s.rows[start:], dtype=float)[:, 1]  # every frame of the step: its extremes
+        frames = np.array(s.rows[start:], dtype=float)  # every frame of the step: its extremes
+        p_step = frames[:, 1]
         rows.append((load_index, trial, k, load, target, p_mean, float(lengths.mean()), direction, bool(ok),
-                     float(win[-1, 0]), float(p_step.max()), float(win[:, 7].mean()) - tare, float(p_step.min())))
+                     float(win[-1, 0]), float(p_step.max()), float(win[:, 7].mean()) - tare, float(p_step.min()),
+                     slip_pressure(frames[:, 0], p_step, direction)))
         p_before = p_mean
         if progress is not None:
             progress(1)
@@ -918,7 +924,10 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
     and its intervals are the static fit's and the file's static length is the one compared),
     each branch point, in a ramped run, at the pressure where its braid last slipped (:func:`slip_pressure`); that
     law, its tube and A_f are written (A_f is left out, and why said, when its file does not give
-    the static lengths back as the compared fit did). Each load's gap
+    the static lengths back as the compared fit did). The friction's constant part F_0 is fitted beside
+    (``constant=True``) and reported, not written: on the example's runs the held law's own miss trades F_0
+    for A_f (A_f at its lower bound, F_0 ten times the plant's) and the file's gap is the worse for it
+    (docs/rig.md). Each load's gap
     is the measured one and the muscle file's (its law with the friction solved for the length on
     each branch at each step's pressure: what ``predict length --branch`` gives), and, beside it,
     a Prandtl–Ishlinskii loop fitted to that load alone.
@@ -941,7 +950,8 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
         ``comparison`` (every model's held-out scores; ``<law>+tube`` with the tube's term), ``best``
         (the law written), ``muscle_file``, ``parameters``/``stderr``/``valid_range`` (of the law
         written), ``friction`` (``friction_area_m2``, its standard error and interval, or why it was
-        not written), ``hysteresis`` (per load: ``gap_measured_m``, ``gap_model_m`` of the muscle
+        not written; ``with_constant``: the friction fitted with its constant part F_0 too,
+        ``friction_force_N`` and its interval, reported, not written), ``hysteresis`` (per load: ``gap_measured_m``, ``gap_model_m`` of the muscle
         file's friction, ``rmse_m`` of its branch lengths, and ``prandtl_ishlinskii``: that load's own
         loop and its gap). SI.
     """
@@ -995,13 +1005,13 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
     else:
         res, text = tried[-1][2], tried[-1][3]
     name, tube = _law_of_score(best.name)
-    # the same law with the braid's friction, law ∓ A_f·P, on both branches of every load (one A_f for all):
+    # the same law with the braid's friction, law ∓ A_f·P, on both branches of every load (one A_f for all; F_0 = 0):
     # its file gives the static length (the law) and each branch's, and the plant of the file runs the friction
     hyst_table = read_table(out / "hysteresis.csv", "hysteresis")
     branches = dataclasses.replace(hyst_table, data=hyst_table.data[moving])
     friction: dict = {"law": best.name}
     try:
-        slip = slip_pressure(steps)[moving] if ramped else None  # stepped: the hold's mean (see above)
+        slip = _slip_pressures(steps)[moving] if ramped else None  # stepped: the hold's mean (see above)
         fr = fit_isotonic_friction(branches, spec, name, tube=tube, held=res, slip_pressure=slip)
     except InputError as exc:
         friction["error"] = str(exc)
@@ -1014,6 +1024,14 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
         friction.update({"friction_area_m2": float(fr.values[k]), "stderr_m2": float(fr.stderr[k]),
                          "ci95_m2": [float(x) for x in fr.ci95[k]], "rmse_N": float(fr.residual_rms),
                          "flags": list(fr.flags), "static_rmse_m": float(np.sqrt(np.mean(miss ** 2)))})
+        # beside it, reported and not written: the friction with its constant part F_0 fitted too (docs/rig.md: on
+        # the example the law's own miss trades F_0 for A_f, and the file's gap is the worse for it)
+        fc = fit_isotonic_friction(branches, spec, name, tube=tube, held=res, slip_pressure=slip, constant=True)
+        c, k = fc.names.index(FRICTION_FORCE_NAME), fc.names.index(FRICTION_NAME)
+        friction["with_constant"] = {"friction_force_N": float(fc.values[c]), "stderr_N": float(fc.stderr[c]),
+                                     "ci95_N": [float(x) for x in fc.ci95[c]], "friction_area_m2": float(fc.values[k]),
+                                     "rmse_N": float(fc.residual_rms),
+                                     "flags": [x for x in fc.flags if x.startswith(("friction_", FRICTION_NAME))]}
         if friction["static_rmse_m"] <= 1.5 * best.rmse_m + 2e-4:  # its law still gives the lengths back
             res, text = fr, fr_text
         else:
@@ -1064,23 +1082,49 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
             "passed_over": rejected, "friction": friction, "hysteresis": hyst}
 
 
-def slip_pressure(steps) -> np.ndarray:
-    """Per step, the pressure at which the braid last slipped: the step's highest inflating, its lowest deflating. [Pa]
+def slip_pressure(time, pressure, direction: str) -> float:
+    """A step's pressure where its braid last slipped: the extreme of its pressure averaged over :data:`SLIP_SMOOTHING`. [Pa]
 
     The muscle ends a step where the friction last let it move (:func:`mckibben.fit.direction.fit_isotonic_friction`):
     contracting at the highest pressure an inflating step reached, lengthening at the lowest a deflating one did.
     That holds where each step is approached from one side (a ramped run): a stepped one overshoots and slips
-    partly back. A run recorded before the lowest was kept gives its mean pressure there.
+    partly back. The pressure controller ripples about a held set-point faster than the hung muscle follows
+    (its mass and the load's, critically damped), so a single frame's extreme over-reaches the slip: the
+    extreme is taken of the pressure averaged over the trailing :data:`SLIP_SMOOTHING` of each frame.
 
     Parameters
     ----------
-    steps : pandas.DataFrame
-        :func:`collect_steps`. [-]
+    time : array_like
+        The step's telemetry frames' device time, rising. [s]
+    pressure : array_like
+        Their gauge pressure. [Pa]
+    direction : {"inflate", "deflate"}
+        The step's branch. [-]
     """
+    t, p = np.asarray(time, dtype=float), np.asarray(pressure, dtype=float)
+    if t.shape != p.shape or p.size == 0:
+        raise InputError(f"pressure: {p.size} frames for {t.size} times; want one pressure [Pa] per time, at least one")
+    if direction not in ("inflate", "deflate"):
+        raise InputError(f"direction: {direction!r} must be inflate or deflate")
+    total = np.concatenate([[0.0], np.cumsum(p)])
+    first = np.searchsorted(t, t - SLIP_SMOOTHING, side="left")  # each frame's trailing window, itself included
+    mean = (total[1:] - total[first]) / (np.arange(1, p.size + 1) - first)
+    full = t - t[0] >= SLIP_SMOOTHING  # the frames whose window the step fills (all of a shorter step)
+    mean = mean[full] if full.any() else mean
+    return float(mean.max() if direction == "inflate" else mean.min())
+
+
+def _slip_pressures(steps) -> np.ndarray:
+    """Per step, the recorded :func:`slip_pressure`; a journal recorded before it was kept gives the step's extreme on
+    its branch (the highest inflating, the lowest deflating, else the hold's mean). [Pa]"""
+    def col(c):
+        return steps[c].to_numpy(float) if c in steps else np.full(len(steps), np.nan)
+
     inflate = steps["direction"].to_numpy() == "inflate"
-    mean = steps["pressure_Pa"].to_numpy(float)
-    low = steps["pressure_min_Pa"].to_numpy(float) if "pressure_min_Pa" in steps else np.full(len(steps), np.nan)
-    return np.where(inflate, steps["pressure_max_Pa"].to_numpy(float), np.where(np.isfinite(low), low, mean))
+    old = np.where(inflate, col("pressure_max_Pa"), col("pressure_min_Pa"))
+    old = np.where(np.isfinite(old), old, steps["pressure_Pa"].to_numpy(float))
+    slip = col("pressure_slip_Pa")
+    return np.where(np.isfinite(slip), slip, old)
 
 
 def _law_of_score(name: str) -> tuple[str, bool]:
