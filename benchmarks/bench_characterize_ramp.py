@@ -53,6 +53,8 @@ def run(engine: str, ramp: str, folder: Path) -> None:
     print(f"{engine} ramp={ramp}: run {wall:.1f} s wall, sweeps {device:.1f} s device time; inflating overshoot "
           f"mean {over.mean() / 1e3:.1f} kPa, max {over.max() / 1e3:.1f} kPa ({len(over)} steps); peak "
           f"{r.summary['peak_pressure_Pa'] / 1e6:.4f} MPa; friction A_f {fit['friction'].get('friction_area_m2', 0):.3g} m2"
+          + (f" (fitted with F_0: F_0 {wc['friction_force_N'] * 1e3:.0f} mN, A_f {wc['friction_area_m2']:.3g} m2)"
+             if (wc := fit["friction"].get("with_constant")) else "")
           + (f" NOT WRITTEN ({fit['friction']['error']})" if "error" in fit["friction"] else ""))
     print("  gap measured / file [mm] (off by): " + ", ".join(
         f"{h['load_N']:.2f} N {h['gap_measured_m'] * 1e3:.3f} / {h['gap_model_m'] * 1e3:.3f} "
