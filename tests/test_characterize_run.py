@@ -176,8 +176,8 @@ def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
               f"{pi.get(f, np.nan) * 1e3:.2f}" for f, a in gaps.items()))
     if max(rel.values()) > 0.20:
         # measured (docs/rig.md, benchmarks/RESULTS.md), the example ramped at 0.25 MPa/s, each branch point at the
-        # extreme of the pressure averaged over 20 ms (slip_pressure), worst load per run: Python 7-12 % in five runs,
-        # avr 6-16 % in nine and 21 % in one (the file's loop too narrow, worst at 0.6 N, whose set-points are the
+        # extreme of the pressure averaged over 20 ms (slip_pressure), worst load per run: Python 7-19 % in six runs,
+        # avr 6-16 % in ten and 21 % in one (the file's loop too narrow, worst at 0.6 N, whose set-points are the
         # lowest: there the plant's constant 0.01 N is a fifth of its slip limit, which A_f.P alone leaves out; F_0
         # fitted beside trades with A_f on the held law's miss and is not written). Before (single-frame extremes,
         # which the avr controller's faster ripple over-reaches) avr 24-50 %
