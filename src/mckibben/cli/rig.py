@@ -377,8 +377,7 @@ def characterize_cmd(
         f = summary["fit"]
         fr = f.get("friction") or {}
         rows += [["best law (held out)", f"{f['best']} ({f['best_cv_rmse_m'] * 1e3:.3f} mm)"],
-                 ["friction F_0 + A_f·P", f"{fr.get('friction_force_N', 0.0) * 1e3:.3g} mN + "
-                  f"{fr['friction_area_m2'] * 1e6:.4g} mm² (N/MPa)" if "friction_area_m2" in fr
+                 ["friction A_f", f"{fr['friction_area_m2'] * 1e6:.4g} mm² (N/MPa)" if "friction_area_m2" in fr
                   and "error" not in fr else fr.get("error", "not fitted")],
                  ["muscle file", f["muscle_file"]], ["report", str(report)]]
     print_table(f"Characterization on {port}", [" what", "value"], rows)
