@@ -174,6 +174,9 @@ def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
               f"{f:.2f} N ({len(a)}): plant {a[:, 1].mean() * 1e3:.2f}, file {a[:, 2].mean() * 1e3:.2f} "
               f"({rel[f] * 100:.0f} %), measured {a[:, 3].mean() * 1e3:.2f}, PI of the load "
               f"{pi.get(f, np.nan) * 1e3:.2f}" for f, a in gaps.items()))
+    # a regression guard the bar's own xfail cannot give: never seen above 21 % since the slip pressure is smoothed,
+    # 24-50 % on avr before (below)
+    assert max(rel.values()) <= 0.30, rel
     if max(rel.values()) > 0.20:
         # measured (docs/rig.md, benchmarks/RESULTS.md), the example ramped at 0.25 MPa/s, each branch point at the
         # extreme of the pressure averaged over 20 ms (slip_pressure), worst load per run: Python 7-19 % in six runs,
