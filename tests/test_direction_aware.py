@@ -232,7 +232,7 @@ def test_cli_fit_direction_aware(tmp_path, truth):
 
 @pytest.mark.parametrize("args, words", [
     (["--model", "surface", "--direction-aware"], "not a registered force law"),
-    (["--model", LAW, "--direction-aware", "--save", "out.toml"], "save"),
+    (["--model", LAW, "--direction-aware", "--save", "out.txt"], "save"),  # saved since #33; a .toml only
     (["--model", LAW, "--direction-aware", "--rails", "sideways"], "rails"),
 ])
 def test_cli_bad_input(tmp_path, truth, args, words):
@@ -243,7 +243,7 @@ def test_cli_bad_input(tmp_path, truth, args, words):
     assert run.returncode == 2, run.stderr
     lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
     assert len(lines) == 1 and words in lines[0] and "Traceback" not in run.stderr
-    assert not (tmp_path / "out.toml").exists()
+    assert not (tmp_path / "out.toml").exists() and not (tmp_path / "out.txt").exists()
 
 
 def test_compare_scores_each_law_beside_its_direction_aware_form(tmp_path, truth):

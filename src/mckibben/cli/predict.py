@@ -43,6 +43,9 @@ def catalogue_laws() -> list[str]:
 LENGTH_MODEL_OPTION = typer.Option(None, "--model", help="A registered force law with a published parameter set, "
                                    f"solved for the length: {', '.join(catalogue_laws())} (default: braid-map, eq. 2 + 3,"
                                    " or the law of a --muscle set; old names read).")
+BRANCH_HELP = ("inflate or deflate: the {what} far along that branch of the loop of a --muscle-file with a fitted "
+               "friction (mckibben rig characterize, fit --direction-aware --save) or play (fit --direction-aware "
+               "--save); default the static {what}.")
 STATICS_FILE_OPTION = typer.Option(None, "--muscle-file", help="A muscle file with a fitted force law (mckibben fit "
                                    "ISO.csv --save FILE.toml), solved for the length; replaces --model and --muscle.")
 
@@ -107,9 +110,7 @@ def length_cmd(
     load: str = LOAD_OPTION,
     model: str = LENGTH_MODEL_OPTION,
     muscle_file: str = STATICS_FILE_OPTION,
-    branch: str = typer.Option(None, "--branch", help="inflate or deflate: the length on that branch of the loop "
-                               "of a --muscle-file with a fitted friction (mckibben rig characterize); default the "
-                               "static length."),
+    branch: str = typer.Option(None, "--branch", help=BRANCH_HELP.format(what="length")),
     json: bool = JSON_OPTION,
 ) -> None:
     """Length and contraction at a pressure under a hanging load (eq. 2 + 3, or a registered law solved for the length)."""
@@ -122,6 +123,7 @@ def length_cmd(
             "model": r.model,
             "muscle": m.name,
             "load_N": f,
+            "branch": branch,
             "pressure_Pa": r.pressure.tolist(),
             "length_m": r.length.tolist(),
             "contraction": r.contraction.tolist(),
@@ -135,7 +137,7 @@ def length_cmd(
         [f"{pp / 1e6:.4g}", f"{ll * 1e3:.2f}", f"{cc * 100:.1f}", f"{ct:.4f}", ", ".join(fl) or "ok"]
         for pp, ll, cc, ct, fl in zip(r.pressure, r.length, r.contraction, r.cos_theta, flags)
     ]
-    print_table(f"{m.name} under {f:g} N ({r.model})", ["pressure MPa", "length mm", "contraction %", "cos θ", "flags"], rows)
+    print_table(f"{m.name} under {f:g} N ({r.model}{', ' + branch if branch else ''})", ["pressure MPa", "length mm", "contraction %", "cos θ", "flags"], rows)
 
 
 @predict_app.command("pressure")
@@ -146,19 +148,21 @@ def pressure_cmd(
     p_max: str = PMAX_OPTION,
     model: str = LENGTH_MODEL_OPTION,
     muscle_file: str = STATICS_FILE_OPTION,
+    branch: str = typer.Option(None, "--branch", help=BRANCH_HELP.format(what="pressure")),
     json: bool = JSON_OPTION,
 ) -> None:
     """The pressure that holds a target length under a load (the inverse of eq. 2 + 3, or of a registered law)."""
     m, name, f = _statics_muscle(muscle, muscle_file, model, load)
     lengths = parse_values(length, "length", "--length", allow_zero=False)
     pmax = check_p_max(parse_quantity(p_max, "pressure", "--p-max", allow_zero=False))
-    r = static_pressure(lengths, f, m, name, pmax)
+    r = static_pressure(lengths, f, m, name, pmax, branch)
     flags = [flag_names(x) for x in r.flags]
     if json:
         out = {
             "model": r.model,
             "muscle": m.name,
             "load_N": f,
+            "branch": branch,
             "p_max_Pa": pmax,
             "length_m": r.length.tolist(),
             "pressure_Pa": r.pressure.tolist(),
@@ -173,7 +177,7 @@ def pressure_cmd(
         [f"{ll * 1e3:.2f}", "unreachable" if not np.isfinite(pp) else f"{pp / 1e6:.4f}", f"{cc * 100:.1f}", ", ".join(fl) or "ok"]
         for ll, pp, cc, fl in zip(r.length, r.pressure, r.contraction, flags)
     ]
-    print_table(f"{m.name} under {f:g} N, p ≤ {pmax / 1e6:g} MPa ({r.model})", ["length mm", "pressure MPa", "contraction %", "flags"], rows)
+    print_table(f"{m.name} under {f:g} N, p ≤ {pmax / 1e6:g} MPa ({r.model}{', ' + branch if branch else ''})", ["length mm", "pressure MPa", "contraction %", "flags"], rows)
 
 
 @predict_app.command("force")
@@ -193,12 +197,16 @@ def force_cmd(
                                                                 "(mckibben fit ISO.csv --save FILE.toml); "
                                                                 "replaces --model and --muscle."),
     direction: str = DIRECTION_OPTION,
+    branch: str = typer.Option(None, "--branch", help=BRANCH_HELP.format(what="force")),
     json: bool = JSON_OPTION,
 ) -> None:
     """Pulling force from pressure and length: empirical map, a physical model, or a muscle file's fitted law."""
     if muscle_file is not None:
-        _force_from_muscle_file(muscle_file, pressure, length, direction, json)
+        _force_from_muscle_file(muscle_file, pressure, length, direction, json, branch)
         return
+    if branch is not None:
+        raise InputError(f"--branch: {branch!r} takes the loop of a --muscle-file with a fitted friction or play; "
+                         "a published law has none")
 
     if model is not None and model not in laws.LAWS and model not in laws.ALIASES:
         raise unknown_name("force model", model, catalogue_laws())
@@ -282,15 +290,16 @@ def _force_of_set(m, pressure: str, length: str | None, json: bool, **geometry) 
                 rows)
 
 
-def _force_from_muscle_file(path: str, pressure: str, length: str | None, direction: str, json: bool) -> None:
-    """``predict force --muscle-file``: the file's fitted force law at the given pressures."""
+def _force_from_muscle_file(path: str, pressure: str, length: str | None, direction: str, json: bool,
+                            branch: str | None = None) -> None:
+    """``predict force --muscle-file``: the file's fitted force law at the given pressures (on a ``branch`` of its loop)."""
 
     fit.muscle_file.check_direction(direction)
     law = fit.muscle_file.muscle_force_law(data.read_muscle(path))
     fit.muscle_file.check_direction(direction, law)
     p = parse_values(pressure, "pressure", "--pressure")
     ell = parse_quantity(length, "length", "--length", allow_zero=False) if length else law.spec.nominal_length
-    force, flags = law.force(p, ell, direction)
+    force, flags = law.force(p, ell, direction, branch)
     names = [flag_names(x) for x in flags]
     # the uncertainty the file stores: the fit's RMS residual (the scatter of a prediction about the
     # data) and the parameters' standard errors
@@ -298,7 +307,7 @@ def _force_from_muscle_file(path: str, pressure: str, length: str | None, direct
     rmse = stored.get("rmse_N")
     rmse = float(rmse) if isinstance(rmse, (int, float)) and not isinstance(rmse, bool) else None
     if json:
-        out = {"model": law.model, "muscle": law.spec.id, "muscle_file": path, "direction": direction,
+        out = {"model": law.model, "muscle": law.spec.id, "muscle_file": path, "direction": direction, "branch": branch,
                "length_m": ell, "pressure_Pa": p.tolist(), "force_N": force.tolist(), "flags": names}
         scalar = len(p) == 1 and "," not in pressure and ":" not in pressure
         emit_json(_rows_or_scalars(out, scalar) | {"fit_flags": list(law.flags), "fit_rmse_N": rmse,
@@ -308,5 +317,6 @@ def _force_from_muscle_file(path: str, pressure: str, length: str | None, direct
     pm = f" ± {rmse:.3g}" if rmse is not None else ""
     rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}{pm}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
     print_table(f"{law.model} force fitted for {law.spec.id} ({path}), length {ell * 1e3:.2f} mm, {direction}"
+                + (f", {branch} branch" if branch else "")
                 + (f"; ± the fit's RMS residual {rmse:.3g} N" if rmse is not None else ""),
                 ["pressure MPa", "force N", "flags"], rows)

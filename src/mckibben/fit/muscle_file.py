@@ -21,9 +21,11 @@ from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
 # the branches of a fitted force law (inflate, deflate): the spring model has one per direction of travel (its
 # hysteresis); every other model has one, the same for both
-from mckibben.models.hysteresis.direction import DIRECTIONS
+from mckibben.models.hysteresis.direction import (DIRECTIONS, FRICTION_FORCE_NAME, FRICTION_NAME, PLAY_NAME,
+                                                  STRUCTURES, branch_force)
+from mckibben.fit.direction import DRIFT_NAME, DirectionAwareFit
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION
-from mckibben.models.muscle import MUSCLE_TERMS, law_values
+from mckibben.models.muscle import MUSCLE_TERMS, check_terms, law_values
 from mckibben.models.tube import TUBE_NAME, tube_force
 from mckibben.atomic import atomic_file
 
@@ -34,8 +36,14 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
     ----------
     spec : MuscleSpec
         The muscle file the fit used (its known geometry is kept as is).
-    fit : IsometricFit
-        From :func:`mckibben.fit.isometric.fit_isometric`.
+    fit : IsometricFit or DirectionAwareFit
+        From :func:`mckibben.fit.isometric.fit_isometric`, or a one-branch law's direction-aware
+        form (:func:`mckibben.fit.direction.fit_direction_aware`): its operator is written with the
+        law, ``"play"`` as ``play_threshold_Pa`` r, ``"friction"`` as ``friction_area_m2`` A_f (far
+        along a branch the friction form is law ± A_f·P whatever r, the isotonic friction's form,
+        :func:`~mckibben.models.hysteresis.direction.branch_force`), with the operator's 95 %
+        interval (``ci95_<name>``) and ``direction_aware`` the structure; the run drift (a nuisance
+        of the test) is left out.
     rest_length : float, optional
         A family law's file: the rest length of the muscle it describes (its nominal length),
         default the muscle file's; the valid lengths are the fitted ones relative to the rest
@@ -44,6 +52,18 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
     """
     r = fit.result
     law = laws.LAWS.get(fit.model)
+    left_out = {DRIFT_NAME}  # the test's, not the muscle's
+    operator: dict = {}
+    if isinstance(fit, DirectionAwareFit):
+        if law is not None and law.branches > 1:
+            raise InputError(f"save: the {fit.model} law has an inflate and a deflate branch of its own; a muscle file "
+                             "holds one operator on a one-branch law: save the plain fit, or a direction-aware fit of "
+                             f"one of {', '.join(n for n, lw in laws.fit_laws().items() if lw.branches == 1)}")
+        if fit.structure == "friction":
+            left_out.add(PLAY_NAME)  # at a branch state the friction form does not depend on r
+        terms = [n for n in STRUCTURES[fit.structure][0] if n not in left_out]
+        operator = {"direction_aware": fit.structure,
+                    **{f"ci95_{n}": [float(x) for x in r.ci95[r.names.index(n)]] for n in terms}}
     valid = dict(r.valid_range)
     flags = list(r.flags)
     if rest_length is not None or (law is not None and law.family):
@@ -60,11 +80,18 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
         if "rest_length" in valid and outside(l0, *valid["rest_length"], Flag.REST_LENGTH_OUT_OF_RANGE):
             flags.append("rest_length_out_of_range")  # the family law extrapolated to this muscle: said in the file
     note = f"Force law fitted by mckibben fit --model {fit.model} to {r.source}."
+    if operator:  # a flag of a term the file leaves out (the friction form's r) says nothing of the file's law
+        flags = [fl for fl in flags if not fl.startswith(tuple(left_out))]
+        note = (f"Force law fitted by mckibben fit --model {fit.model} --direction-aware ({fit.structure}) to "
+                f"{r.source}.")
+
+    def kept(n: str) -> bool:  # each run's zero (tare "fitted") belongs to the table, not to the muscle
+        return not n.startswith("zero_dev_") and n not in left_out
+
     fm = {"model": fit.model, "source": r.source, "tare": fit.tare.get("method", "none"), "flags": flags,
-          "rmse_N": r.residual_rms, "r2": r.r2, "valid_range": valid,
-          # each run's zero (tare "fitted") belongs to the table, not to the muscle: the law keeps the runs' mean
-          "parameters": {n: float(v) for n, v in zip(r.names, r.values) if not n.startswith("zero_dev_")},
-          "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s) and not n.startswith("zero_dev_")}}
+          "rmse_N": r.residual_rms, "r2": r.r2, **operator, "valid_range": valid,
+          "parameters": {n: float(v) for n, v in zip(r.names, r.values) if kept(n)},
+          "stderr": {n: float(s) for n, s in zip(r.names, r.stderr) if np.isfinite(s) and kept(n)}}
     return muscle_file_text_of(spec, fm, note)
 
 
@@ -122,7 +149,13 @@ class MuscleForceLaw:
     valid_range: dict
     flags: tuple
 
-    def force(self, pressure, length, direction="inflate"):
+    @property
+    def has_operator(self) -> bool:
+        """Whether the file's law carries a hysteresis operator (``friction_area_m2``, ``friction_force_N`` or
+        ``play_threshold_Pa`` above 0): a ``branch`` of its loop to give. [-]"""
+        return any(self.parameters.get(n, 0.0) for n in (FRICTION_NAME, FRICTION_FORCE_NAME, PLAY_NAME))
+
+    def force(self, pressure, length, direction="inflate", branch: str | None = None):
         """Force at pressures and lengths, flagged outside the fitted range.
 
         Parameters
@@ -132,7 +165,11 @@ class MuscleForceLaw:
         length : array_like
             Muscle length. [m]
         direction : str, default "inflate"
-            ``"inflate"`` or ``"deflate"`` branch. [-]
+            ``"inflate"`` or ``"deflate"`` branch of a two-branch law (the spring model's). [-]
+        branch : {"inflate", "deflate"}, optional
+            A file with an operator (:attr:`has_operator`): the force far along that branch of its
+            loop, law ∓ (F_0 + A_f·P) or the law at the play's output P ∓ r
+            (:func:`mckibben.models.hysteresis.direction.branch_force`); None: the law alone. [-]
 
         Returns
         -------
@@ -142,10 +179,23 @@ class MuscleForceLaw:
             :class:`~mckibben.models.flags.Flag` masks.
         """
         p, ell = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
-        f = np.broadcast_to(force_law(self.model, self.spec, list(law_values(self.parameters).values()))(p, ell, direction),
-                            p.shape)
-        if self.parameters.get(TUBE_NAME):  # the tube's pull past the rest length (models/tube.py)
-            f = f + tube_force(ell, self.spec.nominal_length, self.parameters[TUBE_NAME])
+        if branch is not None and branch not in DIRECTIONS:
+            raise InputError(f"branch: {branch!r} must be inflate or deflate (or None: the law alone)")
+        if branch is not None and not self.has_operator:
+            raise InputError(f"branch: the {self.model} force law of {self.spec.path or self.spec.id} has no fitted "
+                             f"friction or play ({FRICTION_NAME} or {PLAY_NAME}: fit --direction-aware --save, or rig "
+                             "characterize); leave the branch out for the law alone")
+
+        def law_force(values, pp, el, direction="inflate"):
+            f = force_law(self.model, self.spec, values)(pp, el, direction)
+            if self.parameters.get(TUBE_NAME):  # the tube's pull past the rest length (models/tube.py)
+                f = f + tube_force(el, self.spec.nominal_length, self.parameters[TUBE_NAME])
+            return f
+
+        prm = self.parameters
+        f = np.broadcast_to(branch_force(law_force, list(law_values(prm).values()), prm.get(FRICTION_NAME, 0.0), p, ell,
+                                         branch, friction_force=prm.get(FRICTION_FORCE_NAME, 0.0),
+                                         play_threshold=prm.get(PLAY_NAME, 0.0), direction=direction), p.shape)
         flags = np.zeros(p.shape, dtype=np.uint16)
         if "pressure" in self.valid_range:
             flags |= outside(p, *self.valid_range["pressure"], Flag.PRESSURE_OUT_OF_RANGE)
@@ -223,9 +273,7 @@ def muscle_force_law(spec: MuscleSpec) -> MuscleForceLaw:
         extra = ", ".join(n for n in fm["parameters"] if n in MUSCLE_TERMS)
         raise InputError(f"{where}: key force_model.parameters: {extra} is a term of a registered force law; the "
                          f"data-driven {model} model has none")
-    for term in MUSCLE_TERMS:
-        if fm["parameters"].get(term, 0.0) < 0:
-            raise InputError(f"{where}: key force_model.parameters.{term}: {fm['parameters'][term]!r} must be >= 0")
+    check_terms(fm["parameters"], where)
     optional = laws.LAWS[model].extra.get("optional_names", ()) if model in laws.LAWS else ()
     if tuple(params) != tuple(names) and (tuple(n for n in params if n not in optional)
                                           == tuple(n for n in names if n not in optional)):

@@ -112,13 +112,13 @@ def _run_fit(data: Path, model: str, muscle: str | None = None, kind: str | None
         if not isometric:
             raise InputError(f"direction_aware: fits a law to inflate and deflate rows of an isometric table; {data} is "
                              f"a {table.kind} table")
-        if save is not None:
-            raise InputError("save: a muscle file holds a static law; fit without direction_aware to save one")
         fit = fit_direction_aware(table, spec, model, direction_aware, tare, rails, pressure_zero,
                                   min_samples=min_samples, drift=drift)
         out = {"file": str(data), "kind": table.kind, "model": model, "muscle": spec.id,
                "synthetic": _synthetic(data, spec), **_table_notes(table), "tare": fit.tare, "fits": [fit.to_dict()]}
         _update_keeping_table_notes(out, fit.to_dict())
+        if save is not None:  # the law with its operator (save_muscle_file)
+            out["saved"] = str(save_muscle_file(save, spec, fit, rest_length))
         return out, [fit]
     if isometric:
         if model not in ALL_MODELS and model not in laws.ALIASES:
@@ -428,7 +428,8 @@ def fit_table(data, model: str, muscle: str | None = None, kind: str | None = No
         With ``save`` and a family law: the rest length of the muscle the saved file describes
         (default the muscle file's nominal length). [m]
     save : str, optional
-        Isometric tables: write a muscle file with the fitted force law here. [-]
+        Isometric tables: write a muscle file with the fitted force law here; with
+        ``direction_aware``, the law and its operator (:func:`mckibben.fit.muscle_file.save_muscle_file`). [-]
     select : dict, optional
         Column -> value: fit only the rows holding these values, e.g. one muscle of a table of
         several (:func:`mckibben.data.read_table`). [-]

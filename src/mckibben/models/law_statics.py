@@ -196,6 +196,10 @@ class LawMuscle:
         ``branch`` of :meth:`force` and the solvers; without one, the static force). [m²]
     friction_force : float, default 0.0
         The friction's constant part F_0 beside A_f·P (the slip limit F_0 + A_f·P). [N]
+    play_threshold : float, default 0.0
+        The threshold r of a play on the pressure feeding the law (the ``"play"`` direction-aware
+        form, :func:`mckibben.models.hysteresis.direction.branch_force`): on a ``branch`` the law
+        sees z = P − r inflating, P + r deflating; 0: no play. One operator: not with a friction. [Pa]
     """
 
     name: str
@@ -212,6 +216,7 @@ class LawMuscle:
     tube_stiffness: float = 0.0
     friction_area: float = 0.0
     friction_force: float = 0.0
+    play_threshold: float = 0.0
 
     def __post_init__(self):
         if self.law not in laws.LAWS:
@@ -222,15 +227,25 @@ class LawMuscle:
         if not (math.isfinite(b) and math.isfinite(l0) and b / math.sqrt(3.0) < l0 < b):
             raise InputError(f"strand length: {b * 1e3:.4g} mm must hold the nominal {l0 * 1e3:.4g} mm between the"
                              " braid's end stops b/√3 and b")
-        for name in ("tube_stiffness", "friction_area", "friction_force"):
+        for name in ("tube_stiffness", "friction_area", "friction_force", "play_threshold"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise InputError(f"{name}: {value!r} must be a finite number >= 0")
+        if self.play_threshold and self.has_friction:
+            raise InputError(f"play_threshold: {self.play_threshold!r} Pa with a friction (friction_area "
+                             f"{self.friction_area!r}, friction_force {self.friction_force!r}); a muscle's law has one "
+                             "operator, give one of them")
 
     @property
     def has_friction(self) -> bool:
         """Whether the muscle has a fitted friction (a ``branch`` of its loop to give). [-]"""
         return bool(self.friction_area or self.friction_force)
+
+    @property
+    def has_operator(self) -> bool:
+        """Whether the muscle's law has a hysteresis operator (a fitted friction or a play): a ``branch`` of its
+        loop to give. [-]"""
+        return self.has_friction or bool(self.play_threshold)
 
     @property
     def length_stops(self) -> tuple[float, float]:
@@ -247,7 +262,8 @@ class LawMuscle:
 
         The law's pull, plus the tube's past the rest length (:attr:`tube_stiffness`); on a
         ``branch``, less (inflating) or more (deflating) by the friction F_0 + A_f·P
-        (:attr:`friction_force`, :attr:`friction_area`, :func:`mckibben.models.hysteresis.direction.branch_force`).
+        (:attr:`friction_force`, :attr:`friction_area`), or the law at the play's output P ∓ r
+        (:attr:`play_threshold`): :func:`mckibben.models.hysteresis.direction.branch_force`.
 
         Parameters
         ----------
@@ -260,10 +276,10 @@ class LawMuscle:
         """
         if branch is not None and branch not in DIRECTIONS:
             raise InputError(f"branch: {branch!r} must be inflate or deflate (or None: the static pull)")
-        if branch is None or not self.has_friction:
+        if branch is None or not self.has_operator:
             return self._static(self.theta, pressure, length)
         return branch_force(self._static, self.theta, self.friction_area, pressure, length, branch,
-                            friction_force=self.friction_force)
+                            friction_force=self.friction_force, play_threshold=self.play_threshold)
 
     def _exact(self):
         """The law's closed-form inverse on this θ, if it has one (:attr:`mckibben.models.laws.Law.length_of`)
@@ -289,7 +305,7 @@ class LawMuscle:
         load : array_like
             Tension (hanging load). [N]
         branch : {"inflate", "deflate"}, optional
-            The length on the inflating or deflating branch of the friction's loop (:meth:`force`);
+            The length on the inflating or deflating branch of the operator's loop (:meth:`force`);
             None: the static length. [-]
 
         Returns
@@ -299,7 +315,7 @@ class LawMuscle:
         """
         p, w = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
         lo, hi = self.length_stops
-        exact = self._exact() if branch is None or not self.has_friction else None
+        exact = self._exact() if branch is None or not self.has_operator else None
         length, state = rising_root(lambda pp, ell: self.force(pp, ell, branch), p, np.maximum(w, TAUT_FORCE), lo, hi,
                                     exact)
         flags = (self._range_flags(p, length) | flag_where(state < 0, Flag.NEGATIVE_LENGTH)
@@ -318,7 +334,7 @@ class LawMuscle:
         p_max : float
             Highest pressure allowed. [Pa]
         branch : {"inflate", "deflate"}, optional
-            The pressure on the inflating or deflating branch of the friction's loop (:meth:`force`);
+            The pressure on the inflating or deflating branch of the operator's loop (:meth:`force`);
             None: the static pressure. [-]
 
         Returns

@@ -37,17 +37,19 @@ from mckibben.data.muscle_file import MuscleSpec, muscle_file_text_of, read_musc
 from mckibben.errors import InputError
 from mckibben.models import laws
 from mckibben.models.flags import Flag, outside
-from mckibben.models.hysteresis.direction import FRICTION_FORCE_NAME, FRICTION_NAME
+from mckibben.models.hysteresis.direction import FRICTION_FORCE_NAME, FRICTION_NAME, PLAY_NAME
 from mckibben.models.law_statics import LawMuscle
 from mckibben.models.tube import TUBE_NAME
 
-__all__ = ["FILE_BRAID_ANGLE", "MUSCLE_TERMS", "Muscle", "law_values"]
+__all__ = ["FILE_BRAID_ANGLE", "MUSCLE_TERMS", "Muscle", "check_terms", "law_values"]
 
 #: The terms any law of a muscle file may carry beside its own parameters (in ``[force_model.parameters]``,
 #: optional; a file without them has none): the tube's stiffness past the rest length
-#: (:mod:`mckibben.models.tube`) and the braid's friction, its area and its constant part
-#: (:func:`~mckibben.models.hysteresis.direction.branch_force`; a file without the constant has none). [-]
-MUSCLE_TERMS = (TUBE_NAME, FRICTION_NAME, FRICTION_FORCE_NAME)
+#: (:mod:`mckibben.models.tube`), the braid's friction, its area and its constant part
+#: (:func:`~mckibben.models.hysteresis.direction.branch_force`; a file without the constant has none),
+#: and the threshold of a play on the pressure feeding the law (a ``"play"`` direction-aware fit; one
+#: operator: not with a friction). [-]
+MUSCLE_TERMS = (TUBE_NAME, FRICTION_NAME, FRICTION_FORCE_NAME, PLAY_NAME)
 
 
 def law_values(parameters: dict) -> dict:
@@ -59,6 +61,29 @@ def law_values(parameters: dict) -> dict:
         Name -> value, as saved. [SI]
     """
     return {n: v for n, v in parameters.items() if n not in MUSCLE_TERMS}
+
+
+def check_terms(parameters: dict, where: str) -> None:
+    """Check a saved law's :data:`MUSCLE_TERMS`: each ≥ 0, and one hysteresis operator (a play or a friction).
+
+    Parameters
+    ----------
+    parameters : dict
+        Name -> value, as saved. [SI]
+    where : str
+        The file, for the message. [-]
+
+    Raises
+    ------
+    InputError
+        One line naming the file and the key.
+    """
+    for term in MUSCLE_TERMS:
+        if parameters.get(term, 0.0) < 0:
+            raise InputError(f"{where}: key force_model.parameters.{term}: {parameters[term]!r} must be >= 0")
+    if parameters.get(PLAY_NAME, 0.0) and (parameters.get(FRICTION_NAME, 0.0) or parameters.get(FRICTION_FORCE_NAME, 0.0)):
+        raise InputError(f"{where}: key force_model.parameters.{PLAY_NAME}: a play beside a friction ({FRICTION_NAME}, "
+                         f"{FRICTION_FORCE_NAME}); a muscle's law has one hysteresis operator, keep one")
 
 #: Rest braid angle assumed when neither the file nor its fitted law gives one: the project's
 #: construction angle. It only shapes the chamber volume's change with length and the end stops;
@@ -144,9 +169,7 @@ class Muscle(LawMuscle):
             lo, hi = valid.get("rest_length", (-np.inf, np.inf))
             if outside(rest_length, lo, hi, Flag.REST_LENGTH_OUT_OF_RANGE) and "rest_length_out_of_range" not in fit_flags:
                 fit_flags += ("rest_length_out_of_range",)  # extrapolated beyond the family's rest lengths
-        for term in MUSCLE_TERMS:
-            if fm["parameters"].get(term, 0.0) < 0:
-                raise InputError(f"{where}: key force_model.parameters.{term}: {fm['parameters'][term]!r} must be >= 0")
+        check_terms(fm["parameters"], where)
         try:
             params = law.from_values(law_values(fm["parameters"]), spec, direction, valid)
         except KeyError as exc:
@@ -172,7 +195,8 @@ class Muscle(LawMuscle):
                    values=dict(fm["parameters"]), params=params, flags=fit_flags,
                    tube_stiffness=float(fm["parameters"].get(TUBE_NAME, 0.0)),
                    friction_area=float(fm["parameters"].get(FRICTION_NAME, 0.0)),
-                   friction_force=float(fm["parameters"].get(FRICTION_FORCE_NAME, 0.0)))
+                   friction_force=float(fm["parameters"].get(FRICTION_FORCE_NAME, 0.0)),
+                   play_threshold=float(fm["parameters"].get(PLAY_NAME, 0.0)))
 
     @classmethod
     def from_muscle_file(cls, path, direction: str = "inflate", rest_length: float | None = None) -> "Muscle":

@@ -322,16 +322,18 @@ def _law_flags(name: str, params, p, ell, load, flags) -> np.ndarray:
     return np.asarray(flags).astype(np.uint16)
 
 
-def _check_branch(branch, muscle) -> None:
-    """A friction ``branch`` is a muscle file's (a :class:`~mckibben.models.law_statics.LawMuscle` with a fitted friction)."""
+def _check_branch(branch, muscle, what: str = "length") -> None:
+    """A ``branch`` is a muscle file's (a :class:`~mckibben.models.law_statics.LawMuscle` with a fitted hysteresis
+    operator: a friction or a play); ``what`` names the static value for the message."""
     if branch is None:
         return
     if branch not in ("inflate", "deflate"):
-        raise InputError(f"branch: {branch!r} must be inflate or deflate (or none: the static length)")
-    if not isinstance(muscle, LawMuscle) or not muscle.has_friction:
+        raise InputError(f"branch: {branch!r} must be inflate or deflate (or none: the static {what})")
+    if not isinstance(muscle, LawMuscle) or not muscle.has_operator:
         who = f"muscle {muscle.name!r}" if isinstance(muscle, LawMuscle) else "a catalogue muscle"
-        raise InputError(f"branch: {who} has no fitted friction (friction_area_m2 in its muscle file: "
-                         "mckibben rig characterize fits it); leave the branch out for the static length")
+        raise InputError(f"branch: {who} has no fitted friction or play (friction_area_m2 or play_threshold_Pa in "
+                         "its muscle file: mckibben rig characterize, or fit --direction-aware --save); leave the "
+                         f"branch out for the static {what}")
 
 
 def length(pressure, load, muscle, model: str | None = None, branch: str | None = None) -> StaticResult:
@@ -357,9 +359,9 @@ def length(pressure, load, muscle, model: str | None = None, branch: str | None 
         A law with a published parameter set (:func:`force_laws`); default ``braid-map`` (a
         catalogue muscle) or the muscle file's law. Old names (``mpam``) are read, deprecated. [-]
     branch : {"inflate", "deflate"}, optional
-        A muscle file with a fitted friction: the length on the inflating or deflating branch of
-        its loop (law ∓ (F_0 + A_f·P) = load, :meth:`~mckibben.models.law_statics.LawMuscle.length_for_pressure`);
-        None: the static length. [-]
+        A muscle file with a fitted hysteresis operator: the length on the inflating or deflating
+        branch of its loop (law ∓ (F_0 + A_f·P) = load, or the law at the play's output P ∓ r = load,
+        :meth:`~mckibben.models.law_statics.LawMuscle.length_for_pressure`); None: the static length. [-]
 
     Returns
     -------
@@ -378,7 +380,8 @@ def length(pressure, load, muscle, model: str | None = None, branch: str | None 
     return StaticResult(name, p, f, r.length, r.contraction, flags, r.cos_theta)
 
 
-def pressure(length, load, muscle, model: str | None = None, p_max: float = 0.8e6) -> StaticResult:
+def pressure(length, load, muscle, model: str | None = None, p_max: float = 0.8e6,
+             branch: str | None = None) -> StaticResult:
     """The pressure that holds a length under a hanging load: a registered law's force solved for the pressure.
 
     :meth:`~mckibben.models.law_statics.LawMuscle.pressure_for_length`: NaN and flagged
@@ -397,12 +400,17 @@ def pressure(length, load, muscle, model: str | None = None, p_max: float = 0.8e
         As :func:`length`. [-]
     p_max : float, default 0.8e6
         Highest pressure allowed. [Pa]
+    branch : {"inflate", "deflate"}, optional
+        A muscle file with a fitted hysteresis operator: the pressure on the inflating or deflating
+        branch of its loop (:meth:`~mckibben.models.law_statics.LawMuscle.pressure_for_length`);
+        None: the static pressure. [-]
 
     Returns
     -------
     StaticResult
         With ``model`` the law's registry name; ``pressure`` NaN where unreachable.
     """
+    _check_branch(branch, muscle, "pressure")
     name, statics, params = _statics(muscle, model)
     pmax_arr = np.asarray(_si(p_max, "pressure", "p_max"))
     if pmax_arr.size != 1:
@@ -411,12 +419,12 @@ def pressure(length, load, muscle, model: str | None = None, p_max: float = 0.8e
     if not pmax > 0:
         raise InputError(f"p_max = {p_max!r}: must be above 0 Pa")
     ell, f = _pair(MAX_SOLVE_POINTS, length=length, load=load)
-    r = statics.pressure_for_length(ell, f, pmax)
+    r = statics.pressure_for_length(ell, f, pmax, branch) if branch is not None else statics.pressure_for_length(ell, f, pmax)
     flags = _law_flags(name, params, np.where(np.isfinite(r.pressure), r.pressure, 0.0), ell, f, r.flags)
     return StaticResult(name, r.pressure, f, r.length, r.contraction, flags, r.cos_theta)
 
 
-def force(pressure, length, muscle, model: str | None = None, **options) -> StaticResult:
+def force(pressure, length, muscle, model: str | None = None, branch: str | None = None, **options) -> StaticResult:
     """Force at a pressure and length from a registered law's published parameters for a catalogue muscle.
 
     Any law of :data:`mckibben.models.laws.LAWS` with a published parameter set
@@ -439,6 +447,10 @@ def force(pressure, length, muscle, model: str | None = None, **options) -> Stat
     model : str, optional
         A law's registry name (old names such as ``mpam`` are read, with a deprecation warning);
         default ``braid-map`` for a catalogue muscle, the muscle's own law for a LawMuscle. [-]
+    branch : {"inflate", "deflate"}, optional
+        A muscle file with a fitted hysteresis operator: the force far along the inflating or
+        deflating branch of its loop (:meth:`~mckibben.models.law_statics.LawMuscle.force`); None:
+        the static force. [-]
     options : keyword arguments
         Fields of the law's parameter object to replace (e.g. ``k=1.3`` for Tondu–Lopez's
         contraction correction); a catalogue muscle only. [SI]
@@ -455,8 +467,9 @@ def force(pressure, length, muscle, model: str | None = None, **options) -> Stat
     if model is not None and not isinstance(model, str):
         raise ArgumentTypeError(f"model = {model!r}: not a model name ({type(model).__name__}); "
                                 f"give one of: {', '.join(force_laws())}")
+    _check_branch(branch, muscle, "force")
     if isinstance(muscle, LawMuscle):
-        return _own_force(pressure, length, muscle, model, options)
+        return _own_force(pressure, length, muscle, model, options, branch)
     name, law, params = _published(DEFAULT_LAW if model is None else model, muscle, "force model")
     p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
     for key, value in options.items():
@@ -470,7 +483,8 @@ def force(pressure, length, muscle, model: str | None = None, **options) -> Stat
     return StaticResult(name, p, f, ell, 1.0 - ell / muscle.nominal_length, flags)
 
 
-def _own_force(pressure, length, muscle: LawMuscle, model: str | None, options: dict) -> StaticResult:
+def _own_force(pressure, length, muscle: LawMuscle, model: str | None, options: dict,
+               branch: str | None = None) -> StaticResult:
     """:func:`force` of a muscle with its own law (a muscle file's or a published set's)."""
     if model is not None and laws.resolve(model, "model") != muscle.law:
         raise InputError(f"model: {model!r} is not the {muscle.law} law of muscle {muscle.name!r}; "
@@ -479,7 +493,7 @@ def _own_force(pressure, length, muscle: LawMuscle, model: str | None, options: 
         raise InputError(f"{next(iter(options))}: muscle {muscle.name!r} carries its own {muscle.law} parameters; "
                          "options replace a catalogue muscle's")
     p, ell = _pair(MAX_SOLVE_POINTS, pressure=pressure, length=length)
-    f = np.asarray(muscle.force(p, ell), dtype=float)
+    f = np.asarray(muscle.force(p, ell, branch), dtype=float)
     flags = (outside(p, *muscle.pressure_range, Flag.PRESSURE_OUT_OF_RANGE)
              | outside(ell, *muscle.length_range, Flag.LENGTH_OUT_OF_RANGE)
              | flag_where(f < 0.0, Flag.SLACK) | flag_where(np.isnan(f), Flag.UNREACHABLE))

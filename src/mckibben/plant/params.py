@@ -339,7 +339,10 @@ class PlantParams:
         - friction: ``friction_per_pa`` the file's friction area (``friction_area_m2``, A_f·P fitted
           on the up/down branches, :func:`mckibben.fit.direction.fit_isotonic_friction`) and
           ``friction_force`` its constant part (``friction_force_N``, F_0; 0 in a file without it), else none (the fitted law is one branch of the measured force:
-          the spring model's inflate or deflate, or the branches' mean);
+          the spring model's inflate or deflate, or the branches' mean); a direction-aware fit's
+          ``"friction"`` form saved (``fit_table(..., direction_aware="friction", save=...)``) is such
+          an A_f; a ``"play"`` form's file (``play_threshold_Pa``) is refused: the compiled plant has
+          no play state on the pressure;
         - moving mass :data:`FILE_MOVING_MASS`; damping critical for that mass and a hanging
           load's (``load_force``/g) on the law's steepest stiffness at the supply pressure;
         - supply: the top of the fitted pressure range (the law is not known above it), ≤ 1 MPa.
@@ -365,7 +368,7 @@ class PlantParams:
         InputError
             One line naming the file and what is wrong: no ``[force_model]``, a missing geometry
             key, a law the plant cannot run (the surface model; a law that pulls less when
-            stretched inside the operating range).
+            stretched inside the operating range; a play on the pressure).
         """
 
         if direction not in ("inflate", "deflate"):
@@ -378,6 +381,10 @@ class PlantParams:
             m = Muscle.from_spec(spec, direction)
         spec = m.spec
         where = spec.path or spec.id
+        if m.play_threshold:  # a play's state would have to be compiled into the integrator: not done (docs/plant.md)
+            raise InputError(f"{where}: key force_model.parameters.play_threshold_Pa: the plant runs no play on the "
+                             "pressure (its hysteresis is the braid's Dahl friction); save the law's friction form "
+                             "(fit_table(..., direction_aware='friction', save=...)) or the plain law for the plant")
         obj = m.params
         l0 = float(m.nominal_length)
         od = spec.need("outer_diameter", "the plant's chamber volume")

@@ -35,17 +35,20 @@ import numpy as np
 from mckibben.errors import InputError, unknown_name
 from mckibben.models.hysteresis.prandtl_ishlinskii import play_matrix
 
-__all__ = ["DEFAULT_STRUCTURE", "DIRECTIONS", "FRICTION_FORCE_NAME", "FRICTION_NAME", "STRUCTURES", "branch_force",
-           "branch_state", "direction_aware_force", "play_pressure"]
+__all__ = ["DEFAULT_STRUCTURE", "DIRECTIONS", "FRICTION_FORCE_NAME", "FRICTION_NAME", "PLAY_NAME", "STRUCTURES",
+           "branch_force", "branch_state", "direction_aware_force", "play_pressure"]
 
 #: The friction area A_f's name among a fitted law's parameters (and in a muscle file). [m²] (= N/Pa)
 FRICTION_NAME = "friction_area_m2"
 #: The friction's constant part F_0's name (a Coulomb force beside A_f·P; :func:`branch_force`). [N]
 FRICTION_FORCE_NAME = "friction_force_N"
+#: The play's threshold r's name among a fitted law's parameters (and, for the ``"play"`` structure, in a
+#: muscle file). [Pa]
+PLAY_NAME = "play_threshold_Pa"
 #: The direction-aware structures: name -> its extra parameters (names with units), one line.
 STRUCTURES = {
-    "play": (("play_threshold_Pa",), "law(z, L), z = play of threshold r on the pressure (Hammerstein)"),
-    "friction": (("play_threshold_Pa", FRICTION_NAME), "law(P, L) + A_f·P·(z − P)/r (Tondu–Lopez friction)"),
+    "play": ((PLAY_NAME,), "law(z, L), z = play of threshold r on the pressure (Hammerstein)"),
+    "friction": ((PLAY_NAME, FRICTION_NAME), "law(P, L) + A_f·P·(z − P)/r (Tondu–Lopez friction)"),
 }
 #: The structure ``mckibben fit --direction-aware`` fits, chosen on held-out evidence
 #: (docs/hysteresis.md, ``benchmarks/bench_hysteresis_gap.py``): best for the best model on every
@@ -178,14 +181,16 @@ def direction_aware_force(law_force, structure: str, values, pressure, length, z
 
 
 def branch_force(law_force, law_values, friction_area: float, pressure, length, branch, *, friction_force: float = 0.0,
-                 **law_inputs) -> np.ndarray:
-    """A law's force far along a branch of its ``"friction"`` form: law ∓ (F_0 + A_f·P) (inflating −, deflating +).
+                 play_threshold: float = 0.0, **law_inputs) -> np.ndarray:
+    """A law's force far along a branch of its direction-aware form: the ``"friction"`` form's law ∓ (F_0 + A_f·P)
+    (inflating −, deflating +), or the ``"play"`` form's law at z = P ∓ r.
 
-    The ``"friction"`` structure (:func:`direction_aware_force`) at the play's branch state
-    (:func:`branch_state`), where its factor (z − P)/r is −1 inflating and +1 deflating whatever the
-    threshold r: the steady force of a muscle whose pressure has moved one way for a while (each
-    step of an isotonic sweep, the braid slipping). With ``branch`` None, the law alone (the
-    friction-free middle of the loop).
+    The structure (:func:`direction_aware_force`) at the play's branch state (:func:`branch_state`):
+    the steady force of a muscle whose pressure has moved one way for a while (each step of an
+    isotonic sweep, the braid slipping). The ``"friction"`` form's factor (z − P)/r is −1 inflating
+    and +1 deflating there whatever the threshold r; the ``"play"`` form (``play_threshold`` r > 0)
+    is the law at the play's output z = P − r inflating, P + r deflating. With ``branch`` None, the
+    law alone (the middle of the loop).
 
     Parameters
     ----------
@@ -204,6 +209,9 @@ def branch_force(law_force, law_values, friction_area: float, pressure, length, 
     friction_force : float, default 0.0
         The friction's constant part F_0 (≥ 0): the slip limit is F_0 + A_f·P, a Coulomb force
         beside the part proportional to pressure (the plant's Dahl limit has both). [N]
+    play_threshold : float, default 0.0
+        The ``"play"`` form's threshold r (> 0), or 0: no play. A law has one operator, so a play
+        with a friction (``friction_area`` or ``friction_force`` above 0) is refused. [Pa]
     law_inputs : dict
         Passed to ``law_force`` (``direction`` for a law with a branch per direction). [-]
 
@@ -215,10 +223,18 @@ def branch_force(law_force, law_values, friction_area: float, pressure, length, 
     References
     ----------
     Tondu & Lopez (2000): a dry-friction force proportional to pressure, opposing the motion; Dahl
-    (1968) for a slip limit with a constant part.
+    (1968) for a slip limit with a constant part; Kuhnen (2003) for the play operator.
     """
     if branch is None:
         return np.asarray(law_force(np.asarray(law_values, dtype=float), pressure, length, **law_inputs), dtype=float)
+    if play_threshold:
+        if friction_area or friction_force:
+            raise InputError(f"{PLAY_NAME}: a play ({play_threshold!r} Pa) and a friction ({FRICTION_NAME} "
+                             f"{friction_area!r}, {FRICTION_FORCE_NAME} {friction_force!r}) together; a law has one "
+                             "operator, give one of them")
+        values = np.concatenate([np.asarray(law_values, dtype=float).ravel(), [_threshold(play_threshold)]])
+        return direction_aware_force(law_force, "play", values, pressure, length,
+                                     branch_state(pressure, branch, play_threshold), **law_inputs)
     r = 1.0  # any threshold: far along a branch (z − P)/r = ∓1 [Pa]
     values = np.concatenate([np.asarray(law_values, dtype=float).ravel(), [r, float(friction_area)]])
     return direction_aware_force(law_force, "friction", values, pressure, length,
