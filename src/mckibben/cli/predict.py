@@ -316,7 +316,7 @@ def _force_from_muscle_file(path: str, pressure: str, length: str | None, direct
         return
     pm = f" ± {rmse:.3g}" if rmse is not None else ""
     rows = [[f"{pp / 1e6:.4g}", f"{ff:.3f}{pm}", ", ".join(fl) or "ok"] for pp, ff, fl in zip(p, force, names)]
-    print_table(f"{law.model} force fitted for {law.spec.id} ({path}), length {ell * 1e3:.2f} mm, {direction}"
-                + (f", {branch} branch" if branch else "")
+    print_table(f"{law.model} force fitted for {law.spec.id} ({path}), length {ell * 1e3:.2f} mm, "
+                + (f"{branch} branch" if branch else direction)
                 + (f"; ± the fit's RMS residual {rmse:.3g} N" if rmse is not None else ""),
                 ["pressure MPa", "force N", "flags"], rows)
