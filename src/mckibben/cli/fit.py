@@ -47,7 +47,8 @@ def fit_cmd(
     tare: str = typer.Option("none", "--tare", metavar=choices(TARES), help="isometric: none (default), lowest (each run's force at its "
                                                     "lowest pressure), column (a tare_N column) or fitted (each "
                                                     "run's zero fitted with the law, with its interval)."),
-    save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law."),
+    save: str = typer.Option(None, "--save", help="isometric: write a muscle file (TOML) with this fitted force law "
+                                                 "(with --direction-aware, the law and its play: predict ... --branch)."),
     rails: str = typer.Option("keep", "--rails", metavar=choices(RAIL_POLICIES), help="isometric: rows at a sensor's rail (a load-cell floor): keep "
                                                       "(default, counted), exclude, or censor (a reading at a floor "
                                                       "says only force <= floor)."),
@@ -99,7 +100,9 @@ def fit_cmd(
             console.print(f"tare ({t['method']}): {len(t.get('per_run_N', []))} runs, "
                           f"{min(vals):.3g} to {max(vals):.3g} N subtracted" if vals else f"tare ({t['method']})")
     if out.get("saved"):
-        console.print(f"wrote muscle file {out['saved']} with the fitted {model} force law")
+        console.print(f"wrote muscle file {out['saved']} with the fitted {model} force law"
+                      + (f" and its {DEFAULT_STRUCTURE} operator (predict ... --branch inflate|deflate)"
+                         if direction_aware else ""))
     if out["synthetic"]:
         console.print("[bold yellow]SYNTHETIC data[/] (generated, not measured)")
     for f in out["fits"]:
