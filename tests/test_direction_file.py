@@ -121,6 +121,8 @@ def test_length_and_pressure_on_a_branch_solve_the_fits_branch(saved, structure)
         lengths[branch] = r.length
         q = static.pressure(r.length, load, muscle, p_max=0.62e6, branch=branch)
         np.testing.assert_allclose(q.pressure, p, rtol=1e-6)  # the inverse of the same branch
+        # the compensation's feed-forward from the file is the fit's own (.pressure, its inverse on a branch)
+        np.testing.assert_allclose(q.pressure, fit.pressure(load + offset, r.length, branch), rtol=1e-6)
     # inflating, the muscle pulls less: it hangs longer under the same load
     assert np.all(lengths["inflate"] > lengths["deflate"])
 

@@ -2,7 +2,8 @@
 
 ``mckibben fit ISO.csv --model spring --muscle my.toml --save mine.toml`` writes the muscle file
 again with a ``[force_model]`` table: the model's name, its parameters in SI (with standard
-errors), the range of data it was fitted on and its flags. :func:`muscle_force_law` turns such a
+errors), the range of data it was fitted on and its flags; with ``--direction-aware``, the law's
+hysteresis operator too (:func:`muscle_file_text`). :func:`muscle_force_law` turns such a
 file back into F(P, L) for ``mckibben predict force --muscle-file mine.toml``; evaluating outside
 the fitted range is flagged.
 """
@@ -136,7 +137,7 @@ class MuscleForceLaw:
         The fitted model's name.
     parameters : dict
         Parameter name -> value, with the terms of :data:`~mckibben.models.muscle.MUSCLE_TERMS` the
-        file carries (the tube's stiffness, the friction area). [SI]
+        file carries (the tube's stiffness, the friction area and force, a play's threshold). [SI]
     valid_range : dict
         ``pressure`` and ``length`` -> (min, max) of the data it was fitted on. [Pa, m]
     flags : tuple of str
