@@ -221,6 +221,10 @@ def test_cli_bad_input(saved, tmp_path):
         (["simulate", "open-loop", "--muscle-file", play, "--load", "100N"], "plant runs no play"),
         (["fit", str(COMMERCIAL / "isometric.csv"), "--model", "spring", "--muscle-file",
           str(COMMERCIAL / "muscle.toml"), "--direction-aware", "--save", "spring.toml"], "save"),
+        (["fit", str(COMMERCIAL / "isometric.csv"), "--model", LAW, "--muscle-file", str(COMMERCIAL / "muscle.toml"),
+          "--direction-aware", "--structure", "sideways"], "--structure: 'sideways' is not one of play, friction"),
+        (["compare", str(COMMERCIAL / "isometric.csv"), "--muscle-file", str(COMMERCIAL / "muscle.toml"),
+          "--structure", "friction"], "--structure: 'friction' needs --direction-aware"),
     ]
     for args, words in cases:
         run = _mckibben(*args, cwd=tmp_path)
@@ -228,3 +232,19 @@ def test_cli_bad_input(saved, tmp_path):
         lines = [ln for ln in run.stderr.strip().splitlines() if ln.strip()]
         assert len(lines) == 1 and words in lines[0] and "Traceback" not in run.stderr, (args, run.stderr)
     assert not (tmp_path / "spring.toml").exists()
+
+
+@pytest.mark.slow  # two real CLI runs, ~3 s
+def test_cli_saves_the_friction_form_the_plant_runs(tmp_path):
+    """``--structure friction``: the form that also reaches the plant, saved from the command line."""
+    run = _mckibben("fit", str(COMMERCIAL / "isometric.csv"), "--model", LAW, "--muscle-file",
+                    str(COMMERCIAL / "muscle.toml"), "--direction-aware", "--structure", "friction", "--save",
+                    "friction.toml", "--json", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    out = json.loads(run.stdout)
+    assert out["direction_aware"]["structure"] == "friction"
+    fm = _doc(tmp_path / "friction.toml")
+    assert fm["parameters"]["friction_area_m2"] == out["parameters"]["friction_area_m2"] > 0
+    assert "play_threshold_Pa" not in fm["parameters"]
+    plant = PlantParams.from_muscle_file(tmp_path / "friction.toml")
+    assert plant.friction_per_pa == pytest.approx(out["parameters"]["friction_area_m2"], rel=1e-12)

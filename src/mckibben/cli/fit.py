@@ -16,7 +16,7 @@ from mckibben.data.schema import KINDS
 from mckibben.fit.isometric import CV_METHODS, REST_LENGTHS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
-from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE
+from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, STRUCTURES
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
 from mckibben import fit
@@ -28,6 +28,21 @@ MIN_SAMPLES_HELP = ("isometric, a table binned from a stepped protocol: leave ou
 RUN_DRIFT_HELP = ("with --direction-aware: fit a run-drift nuisance too, force x (1 + c.s), s the place along each "
                   "run (the rubber relaxing, the load cell creeping); the muscle's predictions leave it out "
                   "(see docs/hysteresis.md).")
+STRUCTURE_HELP = ("with --direction-aware: the operator, play (the law fed through a play on the pressure; default, "
+                  "chosen on held-out evidence) or friction (law plus a friction proportional to pressure: the form "
+                  "the plant also runs). See docs/hysteresis.md.")
+STRUCTURE_OPTION = typer.Option(DEFAULT_STRUCTURE, "--structure", metavar=choices(STRUCTURES), help=STRUCTURE_HELP)
+
+
+def _structure(direction_aware: bool, structure: str) -> str | None:
+    """The direction-aware structure a command asked for (None without --direction-aware)."""
+    if not direction_aware:
+        if structure != DEFAULT_STRUCTURE:
+            raise InputError(f"--structure: {structure!r} needs --direction-aware (the operator of a direction-aware law)")
+        return None
+    if structure not in STRUCTURES:
+        raise InputError(f"--structure: {structure!r} is not one of {', '.join(STRUCTURES)}")
+    return structure
 
 
 def warn_flags(what: str, flags) -> None:
@@ -62,7 +77,8 @@ def fit_cmd(
     select: list[str] = SELECT_OPTION,
     columns: list[str] = COLUMNS_OPTION,
     direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: fit the law's direction-aware "
-                                         f"form ({DEFAULT_STRUCTURE}: hysteresis inside the law), law and operator jointly."),
+                                         "form (hysteresis inside the law: --structure), law and operator jointly."),
+    structure: str = STRUCTURE_OPTION,
     min_samples: int = typer.Option(0, "--min-samples", metavar="N", help=MIN_SAMPLES_HELP),
     drift: bool = typer.Option(False, "--run-drift", help=RUN_DRIFT_HELP),
     plot: str = plot_option("the fit: force curves over the data (isometric; measured and modelled loops with "
@@ -78,8 +94,9 @@ def fit_cmd(
     rest = parse_quantity(rest_length, "length", "--rest-length", allow_zero=False) if rest_length else None
     picked = parse_pairs(select, "--select", "cut_length_cm=10")
     names = parse_pairs(columns, "--columns", "phase=direction")
+    op = _structure(direction_aware, structure)
     res = fit.fit_table(data, model, muscle, kind, split, tare, save, rest, rails, pressure_zero, picked, names,
-                        DEFAULT_STRUCTURE if direction_aware else None, rest_lengths, min_samples, drift)
+                        op, rest_lengths, min_samples, drift)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
@@ -101,8 +118,7 @@ def fit_cmd(
                           f"{min(vals):.3g} to {max(vals):.3g} N subtracted" if vals else f"tare ({t['method']})")
     if out.get("saved"):
         console.print(f"wrote muscle file {out['saved']} with the fitted {model} force law"
-                      + (f" and its {DEFAULT_STRUCTURE} operator (predict ... --branch inflate|deflate)"
-                         if direction_aware else ""))
+                      + (f" and its {op} operator (predict ... --branch inflate|deflate)" if op else ""))
     if out["synthetic"]:
         console.print("[bold yellow]SYNTHETIC data[/] (generated, not measured)")
     for f in out["fits"]:
@@ -137,6 +153,7 @@ def compare_cmd(
     columns: list[str] = COLUMNS_OPTION,
     direction_aware: bool = typer.Option(False, "--direction-aware", help="isometric: also score each law beside its "
                                          "direction-aware form, each trial held out, by the up/down gap."),
+    structure: str = STRUCTURE_OPTION,
     min_samples: int = typer.Option(0, "--min-samples", metavar="N", help=MIN_SAMPLES_HELP),
     drift: bool = typer.Option(False, "--run-drift", help=RUN_DRIFT_HELP),
     nested: bool = typer.Option(False, "--nested", help="isometric: nested cross-validation: each fold's error of "
@@ -149,6 +166,7 @@ def compare_cmd(
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
     check_outputs(plot, dpi)
     muscle = muscle_file_of(muscle, old_muscle, "compare")
+    op = _structure(direction_aware, structure)
     if nested:
         if min_samples:
             raise InputError("--min-samples: not with --nested (its folds take every point); fit or compare without "
@@ -159,7 +177,7 @@ def compare_cmd(
     res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
                             parse_pairs(select, "--select", "cut_length_cm=10"),
                             parse_pairs(columns, "--columns", "phase=direction"),
-                            DEFAULT_STRUCTURE if direction_aware else None, rest_lengths, min_samples, drift)
+                            op, rest_lengths, min_samples, drift)
     out = res.summary
     print_notes(out.get("notes"))
     if plot:
@@ -186,7 +204,7 @@ def compare_cmd(
                      f"{_g(s.get('plain_gap_error_rms_N'))} / {_g(s.get('plain_gap_error_max_N'))}",
                      f"{_g(s.get('direction_aware_gap_error_rms_N'))} / {_g(s.get('direction_aware_gap_error_max_N'))}",
                      s["note"][:60] or ", ".join(s.get("flags", [])) or "none"] for s in out["direction_aware"]]
-            print_table(f"Up/down gap, each trial held out ({DEFAULT_STRUCTURE} structure)",
+            print_table(f"Up/down gap, each trial held out ({op} structure)",
                         [" law", "measured gap RMS N", "plain error RMS / max N", "direction-aware error RMS / max N",
                          " flags or note"], rows)
         return
