@@ -781,6 +781,13 @@ PLATEAU_FRACTION = 0.1
 SETTLED_SPREAD = 0.01
 
 
+def _plateau_tail(t, y, t_step: float) -> tuple[np.ndarray, np.ndarray]:
+    """The samples after the step and its plateau: their last :data:`PLATEAU_FRACTION` (at least 5). [Pa]"""
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    after = y[t >= t_step]
+    return after, after[-max(int(round(PLATEAU_FRACTION * after.size)), 5):]
+
+
 def measured_plateau(t, y, t_step: float, p0: float) -> tuple[float, float, float] | None:
     """The pressure a fill settled at: median and range of its last :data:`PLATEAU_FRACTION` of samples (at least 5).
 
@@ -801,15 +808,12 @@ def measured_plateau(t, y, t_step: float, p0: float) -> tuple[float, float, floa
         ``(median, low, high)`` of the plateau [Pa], or None when the fill has not settled
         (:data:`SETTLED_SPREAD`) or the plateau has fewer than 5 samples.
     """
-    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
-    after = y[t >= t_step]
-    n = max(int(round(PLATEAU_FRACTION * after.size)), 5)
-    if after.size < 2 * n:
+    after, tail = _plateau_tail(t, y, t_step)
+    if tail.size < 5 or after.size < 2 * tail.size:
         return None
-    tail = after[-n:]
     med = float(np.median(tail))
     rise = med - p0
-    half = n // 2
+    half = tail.size // 2
     drift = abs(float(np.median(tail[half:]) - np.median(tail[:half])))
     if not rise > 0 or drift > SETTLED_SPREAD * rise:
         return None
@@ -861,11 +865,9 @@ def plateau_noise(t, y, t_step: float, p0: float) -> tuple[float, float] | None:
         ``(standard deviation [Pa], lag-1 autocorrelation [-])``, or None when the fill has not
         settled or its plateau has fewer than 8 samples.
     """
-    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
     if measured_plateau(t, y, t_step, p0) is None:
         return None
-    after = y[t >= t_step]
-    tail = after[-max(int(round(PLATEAU_FRACTION * after.size)), 5):]
+    _, tail = _plateau_tail(t, y, t_step)
     if tail.size < 8:
         return None
     k = np.arange(tail.size, dtype=float)
