@@ -866,7 +866,7 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
 
 def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube: bool = False,
                           start=None, held: FitResult | None = None, slip_pressure=None,
-                          constant: bool = False) -> FitResult:
+                          constant: bool = False, width=None) -> FitResult:
     """A law's ``"friction"`` form fitted to the up/down branches of isotonic sweeps: law ∓ (F_0 + A_f·P) = load.
 
     Each point (P, load, L, direction) of a hysteresis table (an isotonic sweep's rows with their
@@ -897,6 +897,15 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
     inflating one, the lowest on a deflating one: ``mckibben rig characterize`` records both), and
     the branch's force is evaluated there.
 
+    **On the loop's width.** Given ``held`` and ``width`` (per row, the label of its set-point: one
+    load, one trial, one commanded pressure), the friction is fitted on the difference of the two
+    branch equations at each set-point both branches visited instead of on each branch:
+    F_law(P_u, L_u) − F_law(P_d, L_d) = 2·F_0 + A_f·(P_u + P_d) (P_u, L_u and P_d, L_d the
+    inflating and deflating points' slip pressures and lengths, the rows of one branch averaged).
+    The held law's systematic miss, nearly the same on both branches at nearby (P, L), cancels
+    there, so it no longer trades F_0 for A_f (measured on ``mckibben rig characterize``'s example:
+    ``docs/rig.md``). The residuals are then the widths' misses [N], one per set-point.
+
     Parameters
     ----------
     table : Table
@@ -922,6 +931,10 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
         table's pressure. [Pa]
     constant : bool, default False
         Fit the friction's constant part F_0 beside A_f·P; default A_f alone (F_0 = 0). [-]
+    width : array_like, optional
+        Per row, a label of its set-point (rows of one load, one trial and one commanded pressure
+        share it); with ``held``, the friction is fitted on the loop's width at each label that has
+        both branches (see above); default on each branch point. [-]
 
     Returns
     -------
@@ -975,9 +988,12 @@ def fit_isotonic_friction(table: Table, muscle: MuscleSpec, model: str, *, tube:
         names, lo, hi = names + (TUBE_NAME,), np.r_[lo, 0.0], np.r_[hi, k_max]
         starts = [np.r_[x0, 0.05 * k_max] for x0 in starts]
     n_law = len(names)
+    if width is not None and held is None:
+        raise InputError("width: fitting the friction on the loop's width needs the law held (held=, the law fitted "
+                         "to the branches' mean)")
     if held is not None:
         return _fit_friction_held(held, law_force, names, p, ell, f, dirn, d["trial"].to_numpy(), fmax, pmax,
-                                  constant, what=what, model=name, source=str(table.path))
+                                  constant, what=what, model=name, source=str(table.path), width=width)
     if start is not None:
         x0 = np.clip(np.asarray(start, dtype=float).ravel()[:n_law], lo, hi)
         if x0.size != n_law:
@@ -1020,21 +1036,40 @@ def _friction_func(law_force, n_terms: int):
 
 
 def _flag_friction_force(res: FitResult) -> FitResult:
-    """Flag F_0 ``friction_force_N_unconstrained`` when its 95 % interval reaches zero (the data do not tell a
-    constant friction from none), unless a bound flag already says so; a fit without F_0 as it is."""
+    """With F_0 fitted, flag each friction term ``<name>_unconstrained`` (F_0's, A_f's) when its 95 % interval
+    reaches zero (the data do not tell that part of the friction from none), unless a bound flag already says so;
+    a fit without F_0 as it is."""
     if FRICTION_FORCE_NAME not in res.names:
         return res
-    k = res.names.index(FRICTION_FORCE_NAME)
-    lo95 = float(res.ci95[k][0])
-    if any(fl.startswith(FRICTION_FORCE_NAME) for fl in res.flags) or (np.isfinite(lo95) and lo95 > 0):
-        return res
-    return replace(res, flags=res.flags + (f"{FRICTION_FORCE_NAME}_unconstrained",))
+    flags = res.flags
+    for name in (FRICTION_FORCE_NAME, FRICTION_NAME):
+        lo95 = float(res.ci95[res.names.index(name)][0])
+        if not (any(fl.startswith(name) for fl in flags) or (np.isfinite(lo95) and lo95 > 0)):
+            flags = flags + (f"{name}_unconstrained",)
+    return replace(res, flags=flags)
+
+
+def _width_pairs(width, dirn: np.ndarray, trials: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The loop's width at each set-point label that has both branches, as a matrix W (one row per such label:
+    +1/n over its inflating rows, −1/n over its deflating ones), and each row's trial: W·(branch force − load) is
+    each width's miss. [-]"""
+    lab = np.asarray(width, dtype=object).ravel()
+    if lab.size != dirn.size:
+        raise InputError(f"width: {lab.size} labels; want one set-point label per row ({dirn.size})")
+    _, inv = np.unique(lab.astype(str), return_inverse=True)
+    rows, clusters = [], []
+    for g in range(int(inv.max()) + 1):
+        up, down = (inv == g) & (dirn == "inflate"), (inv == g) & (dirn == "deflate")
+        if up.any() and down.any():
+            rows.append(up / up.sum() - down / down.sum())
+            clusters.append(trials[up][0])
+    return (np.array(rows, dtype=float).reshape(-1, dirn.size), np.array(clusters))
 
 
 def _fit_friction_held(held: FitResult, law_force, names, p, ell, f, dirn, trials, fmax: float, pmax: float,
-                       constant: bool, *, what: str, model: str, source: str) -> FitResult:
-    """The friction alone on the branches, the law held at ``held``'s values: :func:`fit_isotonic_friction`'s second
-    stage.
+                       constant: bool, *, what: str, model: str, source: str, width=None) -> FitResult:
+    """The friction alone on the branches (or, with ``width``, on the loop's width at each set-point), the law held
+    at ``held``'s values: :func:`fit_isotonic_friction`'s second stage.
 
     ``fmax``, ``pmax`` are the data's peak load [N] and pressure [Pa] (the friction's scales); the rest as there.
     """
@@ -1046,10 +1081,24 @@ def _fit_friction_held(held: FitResult, law_force, names, p, ell, f, dirn, trial
 
     terms, f_lo, f_hi, f_starts = _friction_terms(fmax, pmax, constant)
     func = _friction_func(law_force, len(terms))
-    fr = _flag_friction_force(bounded_fit(lambda v: func(np.r_[law, v], p, ell, dirn), f, f_starts, terms,
-                                          f_lo, f_hi, model=model, response="force_N", what=f"{what}, the law held",
-                                          valid_range=data_range(pressure=p, length=ell), func=func, clusters=trials,
-                                          source=source))
+    if width is None:
+        fr = _flag_friction_force(bounded_fit(lambda v: func(np.r_[law, v], p, ell, dirn), f, f_starts, terms,
+                                              f_lo, f_hi, model=model, response="force_N", what=f"{what}, the law held",
+                                              valid_range=data_range(pressure=p, length=ell), func=func,
+                                              clusters=trials, source=source))
+    else:
+        w, clusters = _width_pairs(width, dirn, trials)
+        if len(w) <= len(terms):
+            raise InputError(f"width: {len(w)} set-points with both branches; the loop's width needs more than "
+                             f"{len(terms)} to fit {', '.join(terms)}")
+        # each width's miss, W·(branch force − load): the same branch form as above, differenced per set-point
+        fr = _flag_friction_force(bounded_fit(lambda v: w @ (func(np.r_[law, v], p, ell, dirn) - f), np.zeros(len(w)),
+                                              f_starts, terms, f_lo, f_hi, model=model, response="force_N",
+                                              what=f"{what}, the law held, on the loop's width",
+                                              valid_range=data_range(pressure=p, length=ell), func=func,
+                                              clusters=clusters, source=source))
+        # every width's target is 0 (the same load on both branches): R² has nothing to explain, its flag no meaning
+        fr = replace(fr, flags=tuple(x for x in fr.flags if not x.startswith("r2_")))
     n, k = len(law), len(terms)
     cov = np.zeros((n + k, n + k))
     cov[:n, :n] = held.covariance
