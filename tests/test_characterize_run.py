@@ -157,8 +157,9 @@ def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
     engine, out, summary, _ = bar_run
     fit = summary["fit"]
     # the model that holds across loads: the muscle file's law with its friction, law -/+ A_f.P = load, one A_f,
-    # fitted with the law held at the branches' mean, each branch point where its braid slipped; the constant part
-    # F_0 fitted beside it is reported, not written
+    # fitted with the law held at the branches' mean on the loop's width at each set-point, each branch point where
+    # its braid slipped; the constant part F_0 fitted beside it (on the branches and on the width) is reported, not
+    # written
     assert "error" not in fit["friction"] and fit["friction"]["friction_area_m2"] > 0, fit["friction"]
     assert np.isfinite(fit["friction"]["with_constant"]["friction_force_N"]), fit["friction"]
     gaps = _gaps(out)
@@ -167,9 +168,12 @@ def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
     rel = {f: abs(a[:, 2].mean() - a[:, 1].mean()) / a[:, 1].mean() for f, a in gaps.items()}
     pi = {h["load_N"]: h["prandtl_ishlinskii"].get("gap_model_m", np.nan) for h in fit["hysteresis"].values()
           if "error" not in h}
-    wc = fit["friction"]["with_constant"]
+    wc, ow = fit["friction"]["with_constant"], fit["friction"]["on_width"]
+    # F_0 and A_f on the loop's width, reported: both terms finite, one width per set-point both branches visited
+    assert np.isfinite([ow["friction_force_N"], ow["friction_area_m2"]]).all() and ow["n_widths"] >= 20, ow
     print(f"{engine}: A_f = {fit['friction']['friction_area_m2']:.3g} m2 ({fit['best']}; fitted with F_0: F_0 "
-          f"{wc['friction_force_N'] * 1e3:.0f} mN, A_f {wc['friction_area_m2']:.3g} m2); up/down gap per load [mm] "
+          f"{wc['friction_force_N'] * 1e3:.0f} mN, A_f {wc['friction_area_m2']:.3g} m2; on the loop's width: F_0 "
+          f"{ow['friction_force_N'] * 1e3:.0f} mN, A_f {ow['friction_area_m2']:.3g} m2); up/down gap per load [mm] "
           f"over its set-points: " + ", ".join(
               f"{f:.2f} N ({len(a)}): plant {a[:, 1].mean() * 1e3:.2f}, file {a[:, 2].mean() * 1e3:.2f} "
               f"({rel[f] * 100:.0f} %), measured {a[:, 3].mean() * 1e3:.2f}, PI of the load "

@@ -918,16 +918,18 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
     :func:`mckibben.fit.compare.compare_models` with ``tube=True``): the term is kept only when the
     law with it predicts the held-out loads better (the held-out error decides, not the in-sample
     fit or its flags: the term only acts on the points hung past the rest length, and a held-out
-    load is the test a lab's next load puts it to). The braid's friction is then fitted on the
-    inflating/deflating branches of every load with that law held, law ∓ A_f·P = load, one A_f
-    (:func:`mckibben.fit.direction.fit_isotonic_friction` with ``held``: two stages, so the law
-    and its intervals are the static fit's and the file's static length is the one compared),
-    each branch point, in a ramped run, at the pressure where its braid last slipped (:func:`slip_pressure`); that
-    law, its tube and A_f are written (A_f is left out, and why said, when its file does not give
-    the static lengths back as the compared fit did). The friction's constant part F_0 is fitted beside
-    (``constant=True``) and reported, not written: on the example's runs the held law's own miss trades F_0
-    for A_f (A_f at its lower bound, F_0 ten times the plant's) and the file's gap is the worse for it
-    (docs/rig.md). Each load's gap
+    load is the test a lab's next load puts it to). The braid's friction is then fitted with that
+    law held, law ∓ A_f·P = load, one A_f, on the loop's width at each set-point both branches
+    visited (law(P_u, L_u) − law(P_d, L_d) = A_f·(P_u + P_d);
+    :func:`mckibben.fit.direction.fit_isotonic_friction` with ``held`` and ``width``: two stages,
+    so the law and its intervals are the static fit's and the file's static length is the one
+    compared), each branch point, in a ramped run, at the pressure where its braid last slipped
+    (:func:`slip_pressure`); that law, its tube and A_f are written (A_f is left out, and why said,
+    when its file does not give the static lengths back as the compared fit did). The friction's
+    constant part F_0 is fitted beside and reported, not written, on the branches (``with_constant``)
+    and on the widths (``on_width``): on the example's runs the first trades F_0 for A_f (A_f at its
+    lower bound), the second gives F_0 six to ten times the plant's with A_f's interval reaching
+    zero (docs/rig.md). Each load's gap
     is the measured one and the muscle file's (its law with the friction solved for the length on
     each branch at each step's pressure: what ``predict length --branch`` gives), and, beside it,
     a Prandtl–Ishlinskii loop fitted to that load alone.
@@ -951,7 +953,8 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
         (the law written), ``muscle_file``, ``parameters``/``stderr``/``valid_range`` (of the law
         written), ``friction`` (``friction_area_m2``, its standard error and interval, or why it was
         not written; ``with_constant``: the friction fitted with its constant part F_0 too,
-        ``friction_force_N`` and its interval, reported, not written), ``hysteresis`` (per load: ``gap_measured_m``, ``gap_model_m`` of the muscle
+        ``friction_force_N`` and its interval, reported, not written; ``on_width``: F_0 and A_f fitted on
+        the loop's width at each set-point, their intervals, reported, not written), ``hysteresis`` (per load: ``gap_measured_m``, ``gap_model_m`` of the muscle
         file's friction, ``rmse_m`` of its branch lengths, and ``prandtl_ishlinskii``: that load's own
         loop and its gap). SI.
     """
@@ -1012,7 +1015,10 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
     friction: dict = {"law": best.name}
     try:
         slip = _slip_pressures(steps)[moving] if ramped else None  # stepped: the hold's mean (see above)
-        fr = fit_isotonic_friction(branches, spec, name, tube=tube, held=res, slip_pressure=slip)
+        widths = _set_point_labels(steps)[moving]
+        # on the loop's width at each set-point both branches visited (docs/rig.md: on each branch, the rows without
+        # a partner, the sweep's top and a branch on its stop, pulled A_f and left the file's loop narrow at 0.6 N)
+        fr = fit_isotonic_friction(branches, spec, name, tube=tube, held=res, slip_pressure=slip, width=widths)
     except InputError as exc:
         friction["error"] = str(exc)
     else:
@@ -1032,6 +1038,16 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
                                      "ci95_N": [float(x) for x in fc.ci95[c]], "friction_area_m2": float(fc.values[k]),
                                      "rmse_N": float(fc.residual_rms),
                                      "flags": [x for x in fc.flags if x.startswith(("friction_", FRICTION_NAME))]}
+        # and F_0 with A_f on the loop's width: reported, not written (docs/rig.md: the gap closer still, but F_0 six
+        # to ten times the plant's and A_f's interval reaching 0: the widths do not tell the two parts apart)
+        fw = fit_isotonic_friction(branches, spec, name, tube=tube, held=res, slip_pressure=slip, constant=True,
+                                   width=widths)
+        c, k = fw.names.index(FRICTION_FORCE_NAME), fw.names.index(FRICTION_NAME)
+        friction["on_width"] = {"friction_force_N": float(fw.values[c]), "stderr_N": float(fw.stderr[c]),
+                                "ci95_N": [float(x) for x in fw.ci95[c]], "friction_area_m2": float(fw.values[k]),
+                                "stderr_m2": float(fw.stderr[k]), "ci95_m2": [float(x) for x in fw.ci95[k]],
+                                "rmse_N": float(fw.residual_rms), "n_widths": int(fw.residuals.size),
+                                "flags": [x for x in fw.flags if x.startswith(("friction_", FRICTION_NAME))]}
         if friction["static_rmse_m"] <= 1.5 * best.rmse_m + 2e-4:  # its law still gives the lengths back
             res, text = fr, fr_text
         else:
@@ -1112,6 +1128,11 @@ def slip_pressure(time, pressure, direction: str) -> float:
     full = t - t[0] >= SLIP_SMOOTHING  # the frames whose window the step fills (all of a shorter step)
     mean = mean[full] if full.any() else mean
     return float(mean.max() if direction == "inflate" else mean.min())
+
+
+def _set_point_labels(steps) -> np.ndarray:
+    """Per step, the label of its set-point (load, trial, commanded pressure): the rows of one loop width. [-]"""
+    return steps.groupby(["load_index", "trial", "set_point_Pa"], sort=False).ngroup().to_numpy()
 
 
 def _slip_pressures(steps) -> np.ndarray:
