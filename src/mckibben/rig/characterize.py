@@ -928,7 +928,7 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
     when its file does not give the static lengths back as the compared fit did). The friction's
     constant part F_0 is fitted beside and reported, not written, on the branches (``with_constant``)
     and on the widths (``on_width``): on the example's runs the first trades F_0 for A_f (A_f at its
-    lower bound), the second gives F_0 six to ten times the plant's with A_f's interval reaching
+    lower bound), the second gives F_0 six to thirteen times the plant's with A_f's interval reaching
     zero (docs/rig.md). Each load's gap
     is the measured one and the muscle file's (its law with the friction solved for the length on
     each branch at each step's pressure: what ``predict length --branch`` gives), and, beside it,
@@ -1039,7 +1039,7 @@ def fit_run(out, muscle_file, ramped: bool = False) -> dict:
                                      "rmse_N": float(fc.residual_rms),
                                      "flags": [x for x in fc.flags if x.startswith(("friction_", FRICTION_NAME))]}
         # and F_0 with A_f on the loop's width: reported, not written (docs/rig.md: the gap closer still, but F_0 six
-        # to ten times the plant's and A_f's interval reaching 0: the widths do not tell the two parts apart)
+        # to thirteen times the plant's and A_f's interval reaching 0: the widths do not tell the two parts apart)
         fw = fit_isotonic_friction(branches, spec, name, tube=tube, held=res, slip_pressure=slip, constant=True,
                                    width=widths)
         c, k = fw.names.index(FRICTION_FORCE_NAME), fw.names.index(FRICTION_NAME)
