@@ -183,7 +183,7 @@ def test_bar_hysteresis_model_reproduces_the_gap(bar_run):
     assert max(rel.values()) <= 0.30, rel
     # the bar. Measured (docs/rig.md, benchmarks/RESULTS.md), the example ramped at 0.25 MPa/s, each branch
     # point at the extreme of the pressure averaged over 20 ms (slip_pressure), A_f fitted on the loop's width,
-    # worst load per run: avr 5-9 % in seven runs, Python 5-7 % in five runs (before, A_f on each branch: avr 6-21 %, Python 7-19 %)
+    # worst load per run: avr 5-9 % in eight runs, Python 4-7 % in six runs (before, A_f on each branch: avr 6-21 %, Python 7-19 %)
     assert max(rel.values()) <= 0.20, (f"{engine}: the muscle file's up/down gap is off the plant's by "
                                        + ", ".join(f"{f:.2f} N {r * 100:.0f} %" for f, r in rel.items()))
 
