@@ -55,7 +55,7 @@ def run(engine: str, ramp: str, folder: Path) -> None:
           f"{r.summary['peak_pressure_Pa'] / 1e6:.4f} MPa; friction A_f {fit['friction'].get('friction_area_m2', 0):.3g} m2"
           + (f" (fitted with F_0: F_0 {wc['friction_force_N'] * 1e3:.0f} mN, A_f {wc['friction_area_m2']:.3g} m2)"
              if (wc := fit["friction"].get("with_constant")) else "")
-          + (f" (on the loop's width: F_0 {ow['friction_force_N'] * 1e3:.0f} mN {[round(x * 1e3) for x in ow['ci95_N']]}, "
+          + (f" (on the loop's width: F_0 {ow['friction_force_N'] * 1e3:.0f} mN [{ow['ci95_N'][0] * 1e3:.0f}, {ow['ci95_N'][1] * 1e3:.0f}], "
              f"A_f {ow['friction_area_m2']:.3g} m2 [{ow['ci95_m2'][0]:.2g}, {ow['ci95_m2'][1]:.2g}], "
              f"{ow['n_widths']} widths, flags {ow['flags'] or 'none'})" if (ow := fit["friction"].get("on_width")) else "")
           + (f" NOT WRITTEN ({fit['friction']['error']})" if "error" in fit["friction"] else ""))
