@@ -35,6 +35,7 @@ KNOWN = {
     ("datasets/isometric.py", "mckibben fit isometric.csv --model spring --json"): "the generated data's README",
     ("datasets/published.py", "unreadable in our copy: fit them with `mckibben fit --model spring`"): "a data note",
     ("fit/muscle_file.py", "Force law fitted by mckibben fit --model "): "provenance note written into the file",
+    ("fit/muscle_file.py", " --direction-aware ("): "the same provenance note, of a direction-aware fit",
     # the report's closing section: the command lines that run the same on a lab's own data
     ("report/html.py", "<h2>Run it on your data</h2>"): "the report shows the commands to type",
 }

@@ -184,8 +184,8 @@ class MuscleForceLaw:
             raise InputError(f"branch: {branch!r} must be inflate or deflate (or None: the law alone)")
         if branch is not None and not self.has_operator:
             raise InputError(f"branch: the {self.model} force law of {self.spec.path or self.spec.id} has no fitted "
-                             f"friction or play ({FRICTION_NAME} or {PLAY_NAME}: fit --direction-aware --save, or rig "
-                             "characterize); leave the branch out for the law alone")
+                             f"friction or play ({FRICTION_NAME} or {PLAY_NAME}: a direction-aware fit saved to it, or a bench "
+                             "characterization); leave the branch out for the law alone")
 
         def law_force(values, pp, el, direction="inflate"):
             f = force_law(self.model, self.spec, values)(pp, el, direction)

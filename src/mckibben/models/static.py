@@ -332,7 +332,7 @@ def _check_branch(branch, muscle, what: str = "length") -> None:
     if not isinstance(muscle, LawMuscle) or not muscle.has_operator:
         who = f"muscle {muscle.name!r}" if isinstance(muscle, LawMuscle) else "a catalogue muscle"
         raise InputError(f"branch: {who} has no fitted friction or play (friction_area_m2 or play_threshold_Pa in "
-                         "its muscle file: mckibben rig characterize, or fit --direction-aware --save); leave the "
+                         "its muscle file: a bench characterization, or a direction-aware fit saved to it); leave the "
                          f"branch out for the static {what}")
 
 
