@@ -47,7 +47,8 @@ from mckibben.models.hysteresis import thresholds_uniform
 from mckibben.models.hysteresis.direction import FRICTION_FORCE_NAME, FRICTION_NAME
 from mckibben.models.muscle import Muscle
 from mckibben.models.static import length as static_length
-from mckibben.rig.recorder import _atomic_parquet, _fsync_dir
+from mckibben.rig import recorder as REC
+from mckibben.rig.recorder import _fsync_dir
 from mckibben.units import G_N, parse_quantity
 
 __all__ = ["CharacterizeResult", "CharacterizeStopped", "Protocol", "collect_steps", "fit_run", "read_protocol",
@@ -540,23 +541,12 @@ def _run_sweep(s: _Session, proto: Protocol, length_of, ref_len: float, load_ind
 
 def _write_part(journal: Path, load_index: int, trial: int, rows: list, meta: dict) -> None:
     """One completed load step, atomically: complete or absent (the recorder's journal discipline)."""
-    import pandas as pd  # deferred on purpose: pandas (0.25 s)
-    import pyarrow as pa  # deferred on purpose: pyarrow
-
-    df = pd.DataFrame(rows, columns=STEP_COLUMNS)
-    table = pa.Table.from_pandas(df, preserve_index=False)
-    table = table.replace_schema_metadata({b"mckibben": json.dumps(meta).encode()})
-    _atomic_parquet(table, journal / f"part-load{load_index:03d}-trial{trial:02d}.parquet")
+    REC._write_part(journal, "load", load_index, trial, STEP_COLUMNS, rows, meta)
 
 
 def _done_parts(journal: Path) -> dict:
     """(load index, trial) → path of the completed load steps in a journal."""
-    out = {}
-    for f in sorted(journal.glob("part-load*-trial*.parquet")):
-        m = re.fullmatch(r"part-load(\d+)-trial(\d+)\.parquet", f.name)
-        if m:
-            out[(int(m.group(1)), int(m.group(2)))] = f
-    return out
+    return REC._done_parts(journal, "load")
 
 
 def run_protocol(port: str, protocol, out, *, unattended: bool = False, resume: bool = False,
@@ -772,13 +762,7 @@ def collect_steps(out):
     out : str or os.PathLike
         The run's folder. [-]
     """
-    import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-    parts = _done_parts(Path(out) / "steps.journal")
-    if not parts:
-        return pd.DataFrame(columns=STEP_COLUMNS)
-    df = pd.concat([pd.read_parquet(parts[k]) for k in sorted(parts)], ignore_index=True)
-    return df.sort_values(["load_index", "trial", "step"], kind="stable").reset_index(drop=True)
+    return REC._read_parts(Path(out) / "steps.journal", "load", STEP_COLUMNS, "load_index")
 
 
 def write_tables(out, steps, meta: dict) -> dict:

@@ -24,7 +24,6 @@ lives in one place.
 from __future__ import annotations
 
 import dataclasses
-import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,7 +40,7 @@ from mckibben.fit.isometric import fit_isometric
 from mckibben.fit.muscle_file import muscle_file_text
 from mckibben.fit.registry import compare_table
 from mckibben.results import write_table
-from mckibben.rig.recorder import _atomic_parquet
+from mckibben.rig import recorder as REC
 
 __all__ = ["ISO_COLUMNS", "Tools", "check_isometric", "collect_isometric", "compare_run", "fit_isometric_only",
            "held_steps", "held_sweep", "run_isometric", "write_isometric_table"]
@@ -50,8 +49,6 @@ __all__ = ["ISO_COLUMNS", "Tools", "check_isometric", "collect_isometric", "comp
 #: the settling window less the run's tare ``force_offset_N``; ``length_m`` the held length.
 ISO_COLUMNS = ["length_index", "trial", "step", "length_m", "set_point_Pa", "pressure_Pa", "force_N", "direction",
                "settled", "time_s", "pressure_max_Pa", "force_offset_N"]
-#: An isometric journal part's name: its held length's index and trial.
-PART = re.compile(r"part-length(\d+)-trial(\d+)\.parquet")
 
 
 @dataclass(frozen=True)
@@ -105,12 +102,7 @@ def done_parts(journal: Path) -> dict:
     journal : pathlib.Path
         The run's ``steps.journal`` folder. [-]
     """
-    out = {}
-    for f in sorted(Path(journal).glob("part-length*-trial*.parquet")):
-        m = PART.fullmatch(f.name)
-        if m:
-            out[(int(m.group(1)), int(m.group(2)))] = f
-    return out
+    return REC._done_parts(journal, "length")
 
 
 def _line(proto, key: str) -> str:
@@ -225,12 +217,7 @@ def _run_held_sweep(s, proto, tools: Tools, index: int, trial: int, length: floa
 
 def _write_part(journal: Path, index: int, trial: int, rows: list, meta: dict) -> None:
     """One completed isometric run, atomically: complete or absent (the recorder's journal discipline)."""
-    import pandas as pd  # deferred on purpose: pandas (0.25 s)
-    import pyarrow as pa  # deferred on purpose: pyarrow
-
-    table = pa.Table.from_pandas(pd.DataFrame(rows, columns=ISO_COLUMNS), preserve_index=False)
-    table = table.replace_schema_metadata({b"mckibben": json.dumps(meta).encode()})
-    _atomic_parquet(table, journal / f"part-length{index:03d}-trial{trial:02d}.parquet")
+    REC._write_part(journal, "length", index, trial, ISO_COLUMNS, rows, meta)
 
 
 def run_isometric(s, proto, journal, tools: Tools, bench=None, ask=None, tell=None) -> list[dict]:
@@ -308,13 +295,7 @@ def collect_isometric(out):
     pandas.DataFrame
         :data:`ISO_COLUMNS`. [-]
     """
-    import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-    parts = done_parts(Path(out) / "steps.journal")
-    if not parts:
-        return pd.DataFrame(columns=ISO_COLUMNS)
-    df = pd.concat([pd.read_parquet(parts[k]) for k in sorted(parts)], ignore_index=True)
-    return df.sort_values(["length_index", "trial", "step"], kind="stable").reset_index(drop=True)
+    return REC._read_parts(Path(out) / "steps.journal", "length", ISO_COLUMNS, "length_index")
 
 
 def write_isometric_table(out, steps, meta: dict) -> str | None:

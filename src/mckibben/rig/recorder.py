@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 import json
 import os
+import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -79,6 +80,43 @@ def _atomic_parquet(table: pa.Table, path: Path) -> None:
         os.fsync(fh.fileno())
     os.replace(tmp, path)
     _fsync_dir(path.parent)
+
+
+
+def _write_part(journal: Path, stem: str, index: int, trial: int, columns: list, rows: list, meta: dict) -> None:
+    """One completed run of a characterization, atomically (:func:`_atomic_parquet`): complete or absent.
+
+    Written as ``part-<stem><index>-trial<trial>.parquet`` in ``journal``, ``meta`` in the file's metadata; the
+    stem tells the runs apart (``load``: an isotonic load step, ``length``: an isometric held length).
+    """
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+    import pyarrow as pa  # deferred on purpose: pyarrow
+
+    table = pa.Table.from_pandas(pd.DataFrame(rows, columns=columns), preserve_index=False)
+    table = table.replace_schema_metadata({b"mckibben": json.dumps(meta).encode()})
+    _atomic_parquet(table, Path(journal) / f"part-{stem}{index:03d}-trial{trial:02d}.parquet")
+
+
+def _done_parts(journal: Path, stem: str) -> dict:
+    """(index, trial) → path of the completed runs of one stem (:func:`_write_part`) in a journal."""
+    pat = re.compile(rf"part-{re.escape(stem)}(\d+)-trial(\d+)\.parquet")
+    out = {}
+    for f in sorted(Path(journal).glob(f"part-{stem}*-trial*.parquet")):
+        m = pat.fullmatch(f.name)
+        if m:
+            out[(int(m.group(1)), int(m.group(2)))] = f
+    return out
+
+
+def _read_parts(journal: Path, stem: str, columns: list, index_column: str):
+    """Every completed run of one stem in a journal, in protocol order (index, trial, step): one DataFrame."""
+    import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+    parts = _done_parts(journal, stem)
+    if not parts:
+        return pd.DataFrame(columns=columns)
+    df = pd.concat([pd.read_parquet(parts[k]) for k in sorted(parts)], ignore_index=True)
+    return df.sort_values([index_column, "trial", "step"], kind="stable").reset_index(drop=True)
 
 
 @dataclass
