@@ -361,14 +361,14 @@ def characterize_cmd(
         emit_json(summary)
         return
     m = res.metrics
-    rows = [["load steps", f"{summary['load_steps']} of {summary['load_steps_expected']}"],
-            ["samples", str(m["samples"])], ["peak pressure", f"{m['peak_pressure_Pa'] / 1e6:.4f} MPa"],
-            *[[k, v] for k, v in summary["tables"].items()]]
-    if not summary["load_steps_expected"]:  # an isometric-only protocol: no load steps to count
-        rows = rows[2:]
+    rows = []
+    if summary["load_steps_expected"]:  # an isometric-only protocol has no load steps to count
+        rows += [["load steps", f"{summary['load_steps']} of {summary['load_steps_expected']}"],
+                 ["samples", str(m["samples"])]]
     if summary["held_runs_expected"]:
-        rows.insert(0 if not summary["load_steps_expected"] else 2, ["held-length runs", f"{summary['held_runs']} of {summary['held_runs_expected']} "
-                                            f"({summary['held_samples']} samples)"])
+        rows.append(["held-length runs", f"{summary['held_runs']} of {summary['held_runs_expected']} "
+                                         f"({summary['held_samples']} samples)"])
+    rows += [["peak pressure", f"{m['peak_pressure_Pa'] / 1e6:.4f} MPa"], *[[k, v] for k, v in summary["tables"].items()]]
     iso_fit = (summary["fit"] or {}).get("isometric")
     if iso_fit:
         rows.append(["isometric: best law (held out)", f"{iso_fit['best']}"])
