@@ -65,6 +65,8 @@ from mckibben.fit.core import (FitResult, bounded_fit, censor_hinge, data_range,
 from mckibben.models import laws
 from mckibben.models.flags import flag_names
 from mckibben.models.law_statics import rising_root
+from mckibben.models.threshold import (THRESHOLD_FRACTION, THRESHOLD_NAME, THRESHOLD_SUFFIX, split_threshold,
+                                      with_threshold)
 from mckibben.models.tube import TUBE_MAX_STRAIN, TUBE_NAME, with_tube
 from mckibben.models.laws._base import OFFSET_FLAG, THETA_MAX, THETA_MIN, THETA_STARTS_DEG, FitSpec
 from mckibben.models.laws.chou_hannaford import D0_FACTOR, WALL_FACTOR
@@ -115,6 +117,20 @@ def model_name(model: str) -> str:
     if model in laws.ALIASES and laws.ALIASES[model] in ALL_MODELS:
         return laws.resolve(model)
     raise unknown_name("force model", model, ALL_MODELS)
+
+
+def threshold_law(model: str, muscle: MuscleSpec) -> bool:
+    """Whether a model may carry the threshold pressure (:mod:`mckibben.models.threshold`): a registered
+    law without a threshold of its own (Tondu–Lopez's ``p_threshold_Pa``).
+
+    Parameters
+    ----------
+    model : str
+        A key of :data:`ALL_MODELS`. [-]
+    muscle : MuscleSpec
+        The muscle (the law's parameters for its geometry). [-]
+    """
+    return model_name(model) in laws.LAWS and not any(n.startswith("p_threshold") for n in parameter_names(model, muscle))
 
 
 def _direction_flag(direction) -> np.ndarray:
@@ -671,7 +687,8 @@ REST_SHIFT_MAX = 0.05
 
 
 def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str = "",
-               rest_lengths: str = "nominal", zeros: str = "shared", tube: bool = False) -> FitResult:
+               rest_lengths: str = "nominal", zeros: str = "shared", tube: bool = False,
+               threshold: bool = False) -> FitResult:
     """Fit one force model to isometric points (already tared). See :func:`fit_isometric`.
 
     Parameters
@@ -707,6 +724,13 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         fitted one with ``rest_lengths="fitted"``). The last parameter; flagged
         ``tube_stiffness_N_per_m_unconstrained`` when no point stretches the muscle past its rest
         length (the data then say nothing of it). A registered law only. [-]
+    threshold : bool, default False
+        Fit a threshold pressure with the law (:mod:`mckibben.models.threshold`): the law pulls at
+        max(P − P_th, 0), ``threshold_pressure_Pa`` P_th in [0, :data:`~mckibben.models.threshold.THRESHOLD_FRACTION`
+        × the highest measured pressure]. Before the tube's stiffness when both are fitted (the
+        tube's stays last). Flagged ``threshold_pressure_Pa_at_lower_bound`` at 0 (the data show no
+        threshold: the plain law is the same fit) and ``_unconstrained`` when no point tells it. A
+        registered law without a threshold of its own only. [-]
 
     Returns
     -------
@@ -716,6 +740,8 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         raise unknown_name("rest_lengths", rest_lengths, REST_LENGTHS)
     if zeros not in ZEROS:
         raise unknown_name("zeros", zeros, ZEROS)
+    model, suffixed = split_threshold(model)  # ``<law>+threshold``: the law with its threshold
+    threshold = threshold or suffixed
     model = model_name(model)
     what = f"fit {model} on {source}"
     p = d["pressure"].to_numpy(dtype=float)
@@ -735,6 +761,9 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         vr["rest_length"] = (float(rest.min()), float(rest.max()))
     if tube and law is None:
         raise InputError(f"{what}: tube: the tube's stretch is a term of a registered force law; {model} is not one")
+    if threshold and law is None:
+        raise InputError(f"{what}: threshold: the threshold pressure is a term of a registered force law; {model} is "
+                         "not one")
     if model == "surface":
         l0 = muscle.nominal_length
         x = np.column_stack(_surface_terms(p, ell, direction, l0))
@@ -782,21 +811,29 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
         hi = np.concatenate([hi, np.full(dev.shape[1], fmax)])
         starts = [np.concatenate([x0, np.zeros(dev.shape[1])]) for x0 in starts]
     kz = k + m_shift  # the run zeros' deviations start here
-    kt = kz + dev.shape[1]  # the tube's stiffness (tube=True): the last parameter
-    tube_fn = None
+    kt = kz + dev.shape[1]  # the extra terms' values start here: P_th (threshold=True), then k_t (tube=True)
+    extra_fn = spec.force
+    if threshold:
+        if not threshold_law(model, muscle):
+            raise InputError(f"{what}: threshold: {model} has a threshold pressure of its own")
+        names = names + (THRESHOLD_NAME,)
+        p_top = THRESHOLD_FRACTION * max(float(np.max(p)), 0.0)
+        lo, hi = np.concatenate([lo, [0.0]]), np.concatenate([hi, [p_top]])
+        starts = [np.concatenate([x0, [0.1 * p_top]]) for x0 in starts]
+        extra_fn = with_threshold(extra_fn)
     if tube:
         names = names + (TUBE_NAME,)
         k_max = fmax / (TUBE_MAX_STRAIN * float(np.min(rest)))
         lo, hi = np.concatenate([lo, [0.0]]), np.concatenate([hi, [k_max]])
         starts = [np.concatenate([x0, [0.05 * k_max]]) for x0 in starts]
-        tube_fn = with_tube(spec.force, float(muscle.nominal_length))
+        extra_fn = with_tube(extra_fn, float(muscle.nominal_length))
 
     def law_force(v, pressure, length, direction=None, rest_length=None):
-        """The law's force (its values first) and, with ``tube``, the tube's (k_t the last value)."""
+        """The law's force (its values first) with its extra terms (their values last: P_th, then k_t)."""
         v = np.asarray(v, dtype=float)
-        if tube_fn is None:
+        if not (tube or threshold):
             return spec.force(v[:k], pressure, length, direction, rest_length)
-        return tube_fn(np.concatenate([v[:k], v[-1:]]), pressure, length, direction, rest_length)
+        return extra_fn(np.concatenate([v[:k], v[kt:]]), pressure, length, direction, rest_length)
 
     def func(values, pressure, length, direction="inflate", rest_length=None):
         values = np.asarray(values, dtype=float)
@@ -818,7 +855,29 @@ def fit_points(d: pd.DataFrame, muscle: MuscleSpec, model: str, *, source: str =
                       censored=d["censored"].to_numpy(dtype=int) if "censored" in d else None)
     if zeros == "per-run":
         res = _with_zero_spread_flag(res, d, fmax)
+    if threshold:  # the profile at P_th = 0 is the law without it, fitted on the same points
+        res = _with_threshold_profile(res, fit_points(d, muscle, model, source=source, rest_lengths=rest_lengths,
+                                                      zeros=zeros, tube=tube))
     return _with_monotone_flag(res, d)
+
+
+def _with_threshold_profile(res: FitResult, plain: FitResult) -> FitResult:
+    """Flag ``threshold_pressure_Pa_unconstrained`` when the threshold's profile likelihood reaches 0.
+
+    The threshold is told from none when fitting it lowers the sum of squares by more than t²·s²
+    (s² the threshold fit's residual variance, t its 95 % quantile): a likelihood-ratio test on the
+    profile at P_th = 0, which is the law fitted without the term. A law whose other parameters
+    absorb a shift of pressure (one polynomial in P: the spring model, Hunt–Quinn) gains nothing from
+    it, and the conditional interval of :func:`~mckibben.fit.core.fit_flags` (the others held) would
+    not see that. A threshold already at its bound is flagged there.
+    """
+    if any(f.startswith(THRESHOLD_NAME) for f in res.flags):
+        return res
+    ssr, ssr0 = float(np.sum(res.residuals**2)), float(np.sum(plain.residuals**2))
+    s2 = ssr / max(res.dof, 1)
+    if ssr0 - ssr <= res.t_quantile**2 * s2:
+        return replace(res, flags=res.flags + (f"{THRESHOLD_NAME}_unconstrained",))
+    return res
 
 
 #: Runs' fitted zeros (``zeros="per-run"``) whose standard deviation exceeds
@@ -1114,7 +1173,7 @@ def _fold_keys(d: pd.DataFrame, cv: str) -> tuple[np.ndarray, list]:
 
 def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
                       models=None, rails: str = "keep", pressure_zero: str = "none",
-                      rest_lengths: str = "nominal", min_samples: int = 0) -> ModelComparison:
+                      rest_lengths: str = "nominal", min_samples: int = 0, threshold: bool = False) -> ModelComparison:
     """Fit every force model to an isometric table and score it on held-out lengths, trials or muscles.
 
     Every model is fitted on the same folds: ``leave-one-length-out`` leaves each held length out
@@ -1163,6 +1222,12 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
     min_samples : int, default 0
         Points binned from fewer readings than this are left out (a pressure step passing
         through, not a hold: :func:`isometric_points`). [-]
+    threshold : bool, default False
+        Also score every registered law without a threshold of its own with a threshold pressure
+        fitted with it (:func:`fit_points`, :mod:`mckibben.models.threshold`), named
+        ``<law>+threshold`` beside ``<law>``: the held-out error and the flags say whether the term
+        earns its place (a threshold at 0 is flagged at its bound: the plain law is the same fit).
+        ``models`` may name ``<law>+threshold`` itself. [-]
 
     Returns
     -------
@@ -1197,6 +1262,8 @@ def compare_isometric(table: Table, muscle: MuscleSpec, cv: str = "leave-one-len
         fold_names = _fold_keys(d, cv)[1]
     if models is None:  # a family's laws on a family table, every law on one muscle
         models = list(FAMILY_MODELS if family else ALL_MODELS)
+    if threshold:  # each law with its threshold beside it (not a law with a threshold of its own)
+        models = [x for m in models for x in ((m, m + THRESHOLD_SUFFIX) if threshold_law(m, muscle) else (m,))]
     scores, fits = [], {}
     for model in models:
         try:

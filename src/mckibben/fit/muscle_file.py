@@ -27,6 +27,7 @@ from mckibben.models.hysteresis.direction import (DIRECTIONS, FRICTION_FORCE_NAM
 from mckibben.fit.direction import DRIFT_NAME, DirectionAwareFit
 from mckibben.models.laws.spring import CONTRACTION, ELONGATION
 from mckibben.models.muscle import MUSCLE_TERMS, check_terms, law_values
+from mckibben.models.threshold import THRESHOLD_NAME
 from mckibben.models.tube import TUBE_NAME, tube_force
 from mckibben.atomic import atomic_file
 
@@ -52,6 +53,9 @@ def muscle_file_text(spec: MuscleSpec, fit, rest_length: float | None = None) ->
         ``flags`` say ``rest_length_out_of_range``. [m]
     """
     r = fit.result
+    if THRESHOLD_NAME in r.names:  # a term scored by compare (issue 33's offset test), not a muscle's law yet
+        raise InputError(f"save: the {fit.model} fit carries a threshold pressure ({THRESHOLD_NAME}), which a muscle "
+                         "file does not store; save the plain law's fit")
     law = laws.LAWS.get(fit.model)
     left_out = {DRIFT_NAME}  # the test's, not the muscle's
     operator: dict = {}
