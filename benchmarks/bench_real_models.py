@@ -32,7 +32,14 @@ then ``--rest-lengths nominal,fitted`` (each law with either rest-length option 
 each outer fold's choice made on the other folds alone (:func:`mckibben.fit.nested.compare_nested`),
 and the non-nested best's figure beside it.
 
-Run: python benchmarks/bench_real_models.py [--quick | --sensors | --nested | --physical [TARE [MODELS]]]   (--quick: the family only)
+With ``--threshold`` it runs virtual-work beside virtual-work with a threshold pressure
+(``virtual-work+threshold``, :mod:`mckibben.models.threshold`; issue 33, item 3) by the library
+(``compare_isometric(..., models=[...])``, ``--tare lowest``): per muscle leave-one-length-out, and on
+the family leave-one-muscle-out and leave-one-length-out; held out % of peak, folds' median and worst,
+the fitted threshold, flags.
+
+Run: python benchmarks/bench_real_models.py [--quick | --sensors | --nested | --physical [TARE [MODELS]] | --threshold]
+(--quick: the family only)
 """
 
 from __future__ import annotations
@@ -219,6 +226,42 @@ def physical_bench(tare: str = "lowest", models=PHYSICAL) -> int:
     return 0
 
 
+THRESHOLD = ("virtual-work", "virtual-work+threshold")
+
+
+def threshold_bench() -> int:
+    """Virtual-work with and without a threshold pressure, per muscle and on the family (issue 33, item 3)."""
+    from mckibben.data import read_muscle, read_table
+    from mckibben.fit.isometric import compare_isometric
+
+    if not SOURCE.is_file():
+        print(f"skipped: {SOURCE} is absent (real third-party data, not shipped)")
+        return 0
+
+    def lines(c) -> None:
+        for s in c.scores:
+            r = c.fits[s["model"]].result
+            v = dict(zip(r.names, r.values))
+            pth = v.get("threshold_pressure_Pa", float("nan")) / 1e3
+            print(f"    {s['model']:<24} held out {s['cv_rmse_pct_of_peak']:5.2f} % of peak (folds: median "
+                  f"{s['median_fold_pct_of_peak']:5.2f} %, worst {s['worst_fold_pct_of_peak']:5.2f} %), in-sample "
+                  f"{s['rmse_N']:.3g} N, max {s['max_error_pct_of_peak']:.2f} %; P_th {pth:.1f} kPa; zero "
+                  f"{v.get('offset_N', 0.0):.1f} N; flags: {', '.join(s['flags']) or 'none'}")
+
+    with tempfile.TemporaryDirectory() as tmp:
+        per, fam, fam_toml = lab_tables(Path(tmp))
+        print(f"per muscle, leave-one-length-out, tare lowest: {', '.join(THRESHOLD)}")
+        for m, rest, iso, toml in per:
+            print(f"  {m} (rest {rest:g} mm)")
+            lines(compare_isometric(read_table(str(iso)), read_muscle(str(toml)), "leave-one-length-out",
+                                    tare="lowest", models=list(THRESHOLD)))
+        for cv in ("leave-one-muscle-out", "leave-one-length-out"):
+            print(f"family ({len(per)} muscles), {cv}, tare lowest")
+            lines(compare_isometric(read_table(str(fam)), read_muscle(str(fam_toml)), cv, tare="lowest",
+                                    models=list(THRESHOLD)))
+    return 0
+
+
 def main_bench(quick: bool = False) -> int:
     if not SOURCE.is_file():
         print(f"skipped: {SOURCE} is absent (real third-party data, not shipped)")
@@ -259,4 +302,6 @@ if __name__ == "__main__":
         sys.exit(physical_bench(rest[0] if rest else "lowest", tuple(rest[1].split(",")) if len(rest) > 1 else PHYSICAL))
     if "--nested" in sys.argv:
         sys.exit(nested_bench())
+    if "--threshold" in sys.argv:
+        sys.exit(threshold_bench())
     sys.exit(sensors_bench() if "--sensors" in sys.argv else main_bench("--quick" in sys.argv))
