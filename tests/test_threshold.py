@@ -1,5 +1,8 @@
 """The threshold pressure term (mckibben.models.threshold): fitted with a law, found back, flagged when the data do not tell it."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -98,3 +101,18 @@ def test_a_muscle_file_refuses_a_threshold_fit_in_one_line(muscle):
     with pytest.raises(InputError, match=f"save: .*{THRESHOLD_NAME}") as exc:
         muscle_file_text(muscle, fit)
     assert "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize("value", ["30000.0", "-5.0", '"abc"'])
+def test_predict_refuses_a_muscle_file_with_a_threshold_in_one_line(tmp_path, muscle, value):
+    # the term is not stored in muscle files: a hand-edited one (a threshold, negative or not a number) is
+    # refused by the command naming the key, exit 2, no traceback
+    d = _points(muscle, P_TH)
+    res = fit_points(d, muscle, "chou-hannaford")
+    text = muscle_file_text(muscle, IsometricFit("chou-hannaford", res, muscle, {"method": "none"}, d))
+    path = tmp_path / "m.toml"
+    path.write_text(text.replace("[force_model.parameters]\n", f"[force_model.parameters]\n{THRESHOLD_NAME} = {value}\n"))
+    r = subprocess.run([sys.executable, "-m", "mckibben.cli", "predict", "force", "--muscle-file", str(path),
+                        "--pressure", "0.3MPa", "--length", "240mm"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and THRESHOLD_NAME in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1, r.stderr
