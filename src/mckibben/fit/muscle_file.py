@@ -185,7 +185,7 @@ class MuscleForceLaw:
         """
         p, ell = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(length, dtype=float))
         if branch is not None and branch not in DIRECTIONS:
-            raise InputError(f"branch: {branch!r} must be inflate or deflate (or None: the law alone)")
+            raise InputError(f"branch: {branch!r} must be inflate or deflate (or left out: the law alone)")
         if branch is not None and not self.has_operator:
             raise InputError(f"branch: the {self.model} force law of {self.spec.path or self.spec.id} has no fitted "
                              f"friction or play ({FRICTION_NAME} or {PLAY_NAME}: a direction-aware fit saved to it, or a bench "
