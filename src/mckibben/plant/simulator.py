@@ -396,7 +396,8 @@ def _balanced(prm, law, th, pressure) -> np.ndarray:
 
 def initial_states(prm: np.ndarray, law: int, theta: np.ndarray, p_init, l_init=None,
                    thermal: str = "energy") -> np.ndarray:
-    """``(N, NS)`` states at rest: pressure, gas temperature, shut valves, the static length (or ``l_init``).
+    """``(N, NS)`` states at rest: pressure, gas temperature, shut valves, the static length (or ``l_init``),
+    the play's output at the gauge pressure.
 
     Parameters
     ----------
@@ -415,6 +416,7 @@ def initial_states(prm: np.ndarray, law: int, theta: np.ndarray, p_init, l_init=
     pg = np.broadcast_to(np.asarray(p_init, dtype=float), (n,))
     s0 = np.zeros((n, NS))
     s0[:, ph.S_P] = pg + ph.P_ATM
+    s0[:, ph.S_PLAY] = s0[:, ph.S_P] - ph.P_ATM  # the play's output at rest: the gauge pressure (as the kernels see it)
     if thermal == "energy":
         s0[:, ph.S_T] = prm[:, c.temperature]
     else:
