@@ -12,6 +12,7 @@ compiled plant, the real ``mckibben`` command in a subprocess.
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 
@@ -22,6 +23,7 @@ import pytest
 from mckibben.data import read_muscle, read_table
 from mckibben.datasets.isometric import BUNDLED_ISOMETRIC
 from mckibben.errors import InputError
+from mckibben.export import export_fmu
 from mckibben.fit import fit_table
 from mckibben.fit.isometric import fit_isometric
 from mckibben.models import laws
@@ -225,3 +227,35 @@ def test_cli_runs_a_play_file_and_refuses_a_negative_play(play_file, tmp_path):
     lines = [ln for ln in run.stderr.splitlines() if ln.strip()]
     assert run.returncode == 2 and len(lines) == 1 and "play_threshold_Pa" in lines[0], run.stderr
     assert "Traceback" not in run.stderr
+
+
+def test_the_fmus_c_plant_runs_the_play_as_the_python_plant(play_file, tmp_path):
+    """The FMU's C plant (export/c/mk_plant.c) with a play file: filled and vented through FMPy, equal to
+    simulate() to round-off, and its force on the vent is the deflate branch's, not the law at the pressure."""
+    fmpy = pytest.importorskip("fmpy", reason="the FMU export needs FMPy (pip install 'mckibben[fmu]')")
+    if shutil.which("gcc") is None:
+        pytest.skip("the FMU export needs the system C compiler (gcc)")
+    r, path = play_file
+    fmu = export_fmu(muscle_file=path, load=100.0, out=tmp_path / "play.fmu")
+    half, n = 0.25, 500  # [s], [periods]
+    inp = np.array([(0.0, 121, 0), (half, 121, 0), (half, 0, 113), (2 * half, 0, 113)],
+                   dtype=[("time", float), ("inlet", np.int32), ("bleed", np.int32)])
+    res = fmpy.simulate_fmu(str(fmu), stop_time=2 * half, step_size=1e-3, output_interval=1e-3, input=inp,
+                            output=["pressure", "length", "force"])
+    plant = PlantParams.from_muscle_file(path, load_force=100.0)
+    sim = simulate(plant, 2 * half, inlet=np.r_[np.full(n // 2, 121), np.zeros(n // 2)].astype(int),
+                   bleed=np.r_[np.zeros(n // 2), np.full(n // 2, 113)].astype(int))
+    np.testing.assert_allclose(res["time"][:n], sim.t, atol=1e-12)
+    # round-off (FMA or not), as tests/test_export_fmu.py holds the port without a play
+    assert np.max(np.abs(res["pressure"][:n] - sim.pressure[0])) < 1e-3
+    assert np.max(np.abs(res["length"][:n] / sim.length[0] - 1.0)) < 1e-9
+    assert np.max(np.abs(res["force"][:n] - sim.force[0])) < 1e-6
+    # and the play is in it: while venting, the force is the law's at P + r, not at P
+    p, ell, f = sim.pressure[0], sim.length[0], sim.force[0]
+    _, falling = _branches(p, n // 2, r)
+    muscle = Muscle.from_muscle_file(path)
+    k = falling & (p > 200e3)
+    assert k.sum() > 20
+    np.testing.assert_allclose(res["force"][:n][k], np.maximum(muscle.force(p[k], ell[k], branch="deflate"), 0),
+                               rtol=1e-9)
+    assert np.all(res["force"][:n][k] > muscle.force(p[k], ell[k]) + 1.0)
