@@ -31,7 +31,7 @@ from mckibben.models.hysteresis.direction import direction_aware_force, play_pre
 from mckibben.models.muscle import Muscle
 from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
-from mckibben.plant import simulate
+from mckibben.plant import simulate, static_branch_lengths
 from mckibben.plant.params import PlantParams
 from mckibben.plant.simulator import initial_states
 
@@ -189,6 +189,18 @@ def test_hanging_muscle_rests_where_the_library_puts_it(play_file):
     # volume changes with the length), and the law at the pressure itself would put the muscle mm away
     plain = muscle.length_for_pressure(p[rest], load).length
     assert np.median(np.abs(ell[rest][free] - plain[free])) > 5e-4
+
+
+def test_static_branch_lengths_are_the_files_branch_lengths(play_file):
+    """plant.static_branch_lengths of a play file's plant: predict length --branch inflate|deflate's (the library's)."""
+    r, path = play_file
+    load, p = 100.0, np.array([0.25e6, 0.4e6, 0.55e6])
+    plant = PlantParams.from_muscle_file(path, load_force=np.full(p.size, load))  # one rig per pressure
+    up, down = static_branch_lengths(plant, p)
+    muscle = Muscle.from_muscle_file(path)
+    for got, branch in ((up, "inflate"), (down, "deflate")):
+        np.testing.assert_allclose(got, muscle.length_for_pressure(p, load, branch=branch).length, atol=1e-6)
+    assert np.all(up - down > 1e-3)  # the loop: inflating, the muscle hangs longer
 
 
 def test_threshold_zero_is_the_plant_without_a_play(play_file):
