@@ -37,7 +37,8 @@ Components (``docs/plant.md`` gives the parameters and why):
 - muscle force: a registered law of :mod:`mckibben.models.laws` (the static models' own kernel),
   evaluated at the output of a play of threshold ``play_threshold`` on the gauge pressure (a
   direction-aware law's ``"play"`` form, :mod:`mckibben.models.hysteresis.direction`; threshold 0:
-  at the pressure itself), never pushing; passive tube stiffness beyond the rest length; braid friction as a Dahl element;
+  at the pressure itself), never pushing; passive tube stiffness beyond the rest length; braid
+  friction as a Dahl element;
   *end stops*: the length stays between the braid's locking length (cos θ = 1/√3) and its
   straight length (cos θ = 1), where the load rests on the braid instead of stretching it;
 - load: hanging mass over the pulley (gravity, damping), a blocked end, or a spring.
