@@ -3,8 +3,7 @@
 ``fit --direction-aware --save`` writes the law with its operator (``play``: ``play_threshold_Pa``;
 ``friction``: ``friction_area_m2``, the key the isotonic friction already uses); the file's branch
 forces are the fit's own (``.predict_branch``), through ``predict force|length|pressure --branch``
-and the muscle (:class:`~mckibben.models.muscle.Muscle`); the plant takes the friction form and
-refuses a play by name. Real parts: the bundled synthetic isometric table (its truth has a friction
+and the muscle (:class:`~mckibben.models.muscle.Muscle`); the plant takes both forms. Real parts: the bundled synthetic isometric table (its truth has a friction
 loop), the real ``mckibben`` command in a subprocess.
 """
 
@@ -127,14 +126,13 @@ def test_length_and_pressure_on_a_branch_solve_the_fits_branch(saved, structure)
     assert np.all(lengths["inflate"] > lengths["deflate"])
 
 
-def test_the_plant_takes_the_friction_form_and_refuses_a_play(saved):
+def test_the_plant_takes_both_forms(saved):
     fit, path = saved["friction"]
     plant = PlantParams.from_muscle_file(path)
-    assert plant.friction_per_pa == fit.result["friction_area_m2"]
-    _, path = saved["play"]
-    with pytest.raises(InputError, match="play_threshold_Pa: the plant runs no play") as exc:
-        PlantParams.from_muscle_file(path)
-    assert "\n" not in str(exc.value)
+    assert plant.friction_per_pa == fit.result["friction_area_m2"] and plant.play_threshold == 0.0
+    fit, path = saved["play"]  # the play in the compiled plant: tests/test_plant_play.py runs it
+    plant = PlantParams.from_muscle_file(path)
+    assert plant.play_threshold == fit.result["play_threshold_Pa"] and plant.friction_per_pa == 0.0
 
 
 def test_old_files_read_as_before(saved):
@@ -218,7 +216,6 @@ def test_cli_bad_input(saved, tmp_path):
          "no fitted friction or play"),
         (["predict", "force", "--muscle-file", play, "--branch", "sideways", "--pressure", "0.3MPa"], "sideways"),
         (["predict", "force", "--model", "chou-hannaford", "--branch", "inflate", "--pressure", "0.3MPa"], "--branch"),
-        (["simulate", "open-loop", "--muscle-file", play, "--load", "100N"], "plant runs no play"),
         (["fit", str(COMMERCIAL / "isometric.csv"), "--model", "spring", "--muscle-file",
           str(COMMERCIAL / "muscle.toml"), "--direction-aware", "--save", "spring.toml"], "save"),
         (["fit", str(COMMERCIAL / "isometric.csv"), "--model", LAW, "--muscle-file", str(COMMERCIAL / "muscle.toml"),

@@ -351,6 +351,7 @@ class MuscleBank:
         th = np.column_stack([thetas[k] for k in lanes])
         s0 = np.zeros((lanes.size, ph.NS))
         s0[:, ph.S_P] = p0[lanes] + ph.P_ATM
+        s0[:, ph.S_PLAY] = s0[:, ph.S_P] - ph.P_ATM  # a play on the pressure starts at the pressure
         s0[:, ph.S_T] = prm[:, _COL['temperature']]
         s0[:, ph.S_LEN] = prm[:, _COL['nominal_length']]
         bk = np.zeros(ph.BLOCK)

@@ -23,7 +23,7 @@ from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
 from mckibben.plant.simulator import _check_plant, _prepared, initial_states, static_equilibrium
 
-#: The states kept in the linear model (the friction row is left out).
+#: The states kept in the linear model (the friction and play rows are left out).
 STATES = ("pressure_Pa", "temperature_K", "inlet_opening", "bleed_opening", "length_m", "velocity_m_per_s")
 _K1 = ph.st_row(ph.ST_K1, 0)
 
@@ -33,6 +33,7 @@ def _f(bk, law, x, xin_t, out):
     for r in range(6):
         bk[ph.Z_P + r * ph.W] = x[r]
     bk[ph.Z_FRIC] = 0.0
+    bk[ph.Z_PLAY] = x[0] - ph.P_ATM  # the play at rest at the operating point: the law sees the pressure
     bk[ph.Y_XIN] = xin_t
     bk[ph.Y_XBL] = 0.0
     ph.rhs(1, bk, ph.ST_S, ph.ST_K1, law)

@@ -67,7 +67,7 @@ _FIELDS = [
     # muscle geometry (volume) and force law parameters
     "nominal_length", "strand_length", "k1", "k2", "outer_diameter", "inner_diameter", "wall_thickness",
     "r0", "alpha0", "k_tl", "p_threshold", "ch_turns",
-    "passive_stiffness", "friction_force", "friction_per_pa", "friction_stiffness",
+    "passive_stiffness", "friction_force", "friction_per_pa", "friction_stiffness", "play_threshold",
     # load
     "load_kind", "load_force", "moving_mass", "damping", "spring_stiffness", "spring_free_length",
     # sensors
@@ -154,8 +154,10 @@ def validate(p: np.ndarray, law_fields: bool = True) -> None:
     check((col["supply_droop"] >= 0) & (col["supply_droop"] < 1), "supply_droop", "must be in [0, 1)")
     for name in ("valve_conductance", "bleed_conductance", "leak_conductance", "friction_force", "friction_per_pa",
                  "passive_stiffness", "damping", "spring_stiffness", "pressure_noise", "p_threshold",
-                 "heat_transfer_coefficient", "wall_thickness"):
+                 "heat_transfer_coefficient", "wall_thickness", "play_threshold"):
         check(col[name] >= 0, name, "must be >= 0")
+    check(col["play_threshold"] < HW.P_MAX_LIMIT, "play_threshold",
+          "a play on the pressure must be narrower than the compressor's 1 MPa (a unit slip?)")
     check((col["critical_ratio"] > 0) & (col["critical_ratio"] < 1), "critical_ratio", "must be in (0, 1)")
     check(col["valve_tau"] > 0, "valve_tau", "must be > 0")
     check((col["dead_band"] >= 0) & (col["dead_band"] < 1), "dead_band", "must be in [0, 1)")

@@ -175,6 +175,11 @@ class PlantParams:
         Braid friction (Dahl model) limit: F_c = friction_force + friction_per_pa·P (0: none). [N], [N/Pa]
     friction_stiffness : float
         Dahl model rest stiffness σ. [N/m]
+    play_threshold : float
+        Threshold r of a play (backlash) operator on the gauge pressure that the force law sees
+        instead of the pressure (a direction-aware law's ``"play"`` form,
+        :mod:`mckibben.models.hysteresis.direction`; Kuhnen 2003); 0: no play, the law sees the
+        pressure. [Pa]
     load_kind : float
         0 hanging mass, 1 blocked (isometric), 2 spring (:class:`Load`). [-]
     load_force : float
@@ -234,6 +239,7 @@ class PlantParams:
     friction_force: Value = 0.01
     friction_per_pa: Value = 0.2e-6
     friction_stiffness: Value = 2000.0
+    play_threshold: Value = 0.0
     load_kind: Value = 0.0
     load_force: Value = 0.6
     moving_mass: Value = 0.005
@@ -341,8 +347,11 @@ class PlantParams:
           ``friction_force`` its constant part (``friction_force_N``, F_0; 0 in a file without it), else none (the fitted law is one branch of the measured force:
           the spring model's inflate or deflate, or the branches' mean); a direction-aware fit's
           ``"friction"`` form saved (``fit_table(..., direction_aware="friction", save=...)``) is such
-          an A_f; a ``"play"`` form's file (``play_threshold_Pa``) is refused: the compiled plant has
-          no play state on the pressure;
+          an A_f;
+        - play: ``play_threshold`` the file's play on the pressure (``play_threshold_Pa``, a
+          direction-aware fit's ``"play"`` form saved, ``fit_table(..., direction_aware="play",
+          save=...)``): the law sees the play's output instead of the pressure, and the file's law is
+          the one the play feeds (one operator: a file has a play or a friction, never both); else 0;
         - moving mass :data:`FILE_MOVING_MASS`; damping critical for that mass and a hanging
           load's (``load_force``/g) on the law's steepest stiffness at the supply pressure;
         - supply: the top of the fitted pressure range (the law is not known above it), ≤ 1 MPa.
@@ -368,7 +377,7 @@ class PlantParams:
         InputError
             One line naming the file and what is wrong: no ``[force_model]``, a missing geometry
             key, a law the plant cannot run (the surface model; a law that pulls less when
-            stretched inside the operating range; a play on the pressure).
+            stretched inside the operating range).
         """
 
         if direction not in ("inflate", "deflate"):
@@ -381,10 +390,6 @@ class PlantParams:
             m = Muscle.from_spec(spec, direction)
         spec = m.spec
         where = spec.path or spec.id
-        if m.play_threshold:  # a play's state would have to be compiled into the integrator: not done (docs/plant.md)
-            raise InputError(f"{where}: key force_model.parameters.play_threshold_Pa: the plant runs no play on the "
-                             "pressure (its hysteresis is the braid's Dahl friction); save the law's friction form "
-                             "(fit_table(..., direction_aware='friction', save=...)) or the plain law for the plant")
         obj = m.params
         l0 = float(m.nominal_length)
         od = spec.need("outer_diameter", "the plant's chamber volume")
@@ -414,7 +419,7 @@ class PlantParams:
             dead_volume=dead, tube_diameter=FILE_TUBE_BORE, valve_conductance=base.valve_conductance * scale,
             bleed_conductance=base.bleed_conductance * scale, leak_conductance=base.leak_conductance * scale,
             passive_stiffness=float(m.tube_stiffness), friction_force=float(m.friction_force),
-            friction_per_pa=float(m.friction_area),
+            friction_per_pa=float(m.friction_area), play_threshold=float(m.play_threshold),
             moving_mass=FILE_MOVING_MASS,
             supply_pressure=supply if supply > 0 else base.supply_pressure, spring_free_length=l0,
             load_force=0.0, force_model=obj, muscle_name="", muscle=None,

@@ -11,7 +11,8 @@ rows independent without run-time alias checks and vectorizes each loop across i
 
 State of one lane (``NS`` rows): absolute chamber pressure p [Pa], gas temperature T [K], inlet
 and bleed valve openings x_in, x_bl [-], muscle length l [m], its rate v [m/s], braid friction
-force z [N].
+force z [N], and the output of the play on the pressure z_p (gauge) [Pa] that the force law sees
+(equal to the gauge pressure without a play).
 
 Components (``docs/plant.md`` gives the parameters and why):
 
@@ -34,7 +35,10 @@ Components (``docs/plant.md`` gives the parameters and why):
 - volume: tubing dead volume plus the tube lumen of the braid's diameter at the actual braid
   angle (eq. 2 gives θ from l); optional leak;
 - muscle force: a registered law of :mod:`mckibben.models.laws` (the static models' own kernel),
-  never pushing; passive tube stiffness beyond the rest length; braid friction as a Dahl element;
+  evaluated at the output of a play of threshold ``play_threshold`` on the gauge pressure (a
+  direction-aware law's ``"play"`` form, :mod:`mckibben.models.hysteresis.direction`; threshold 0:
+  at the pressure itself), never pushing; passive tube stiffness beyond the rest length; braid
+  friction as a Dahl element;
   *end stops*: the length stays between the braid's locking length (cos θ = 1/√3) and its
   straight length (cos θ = 1), where the load rests on the braid instead of stretching it;
 - load: hanging mass over the pulley (gravity, damping), a blocked end, or a spring.
@@ -59,8 +63,8 @@ from mckibben.models.laws import NTH
 from mckibben.plant.packing import NP, P_ATM, R_AIR, RHO0, T0  # module globals the kernels fold
 
 W = 64  #: lanes per block (instances innermost; 32–64 vectorize, 8 did not; 64 measured 6 % faster than 32)
-NS = 7
-S_P, S_T, S_XIN, S_XBL, S_LEN, S_VEL, S_FRIC = range(NS)
+NS = 8
+S_P, S_T, S_XIN, S_XBL, S_LEN, S_VEL, S_FRIC, S_PLAY = range(NS)
 # stages of the block's state area: the state, the four RK4 slopes, the stage state
 ST_S, ST_K1, ST_K2, ST_K3, ST_K4, ST_TMP = range(6)
 NST = 6
@@ -98,6 +102,7 @@ X_KP = _row(_C.passive_stiffness)
 X_F0 = _row(_C.friction_force)
 X_F1 = _row(_C.friction_per_pa)
 X_SIG = _row(_C.friction_stiffness)
+X_PLAY = _row(_C.play_threshold)
 X_LF = _row(_C.load_force)
 X_DAMP = _row(_C.damping)
 X_LFREE = _row(_C.spring_free_length)
@@ -131,7 +136,7 @@ def sc_row(r: int) -> int:
 
 
 Y_PG, Y_LE, Y_FL, Y_LOLD, Y_XIN, Y_XBL, Y_FORCE, Y_MASS = (sc_row(r) for r in range(NSC))
-Z_P, Z_T, Z_XIN, Z_XBL, Z_LEN, Z_VEL, Z_FRIC = (st_row(ST_S, r) for r in range(NS))
+Z_P, Z_T, Z_XIN, Z_XBL, Z_LEN, Z_VEL, Z_FRIC, Z_PLAY = (st_row(ST_S, r) for r in range(NS))
 
 def _dispatch_source() -> str:
     """The source of the law dispatchers: one branch per registered law (:data:`~mckibben.models.laws.LAW_NAMES`).
@@ -227,16 +232,37 @@ def volume(length, bk, j):
 
 
 @kernel(error_model="numpy", inline="always")
+def play_step(z, pressure, r):
+    """The play operator at one sample: its output after ``pressure`` from the output ``z`` before. [Pa]
+
+    z ← min(max(z, P − r), P + r), the operator of :mod:`mckibben.models.hysteresis.direction`
+    (:func:`~mckibben.models.hysteresis.direction.play_pressure`, whose ``play_matrix`` runs it over
+    a sequence in NumPy) in the compiled kernels' scalar form; ``tests/test_plant_play.py`` holds
+    the two equal on a pressure history. Written as two selects so a NaN pressure stays NaN, and
+    r = 0 gives P exactly (bit for bit: no play). z, P gauge [Pa], r ≥ 0 [Pa].
+    """
+    lo = pressure - r
+    hi = pressure + r
+    y = z if z > lo else lo
+    return y if y < hi else hi
+
+
+@kernel(error_model="numpy", inline="always")
 def clamp_length(n, bk, k):
-    """Gauge pressure and the length the force law sees (inside the end stops) of stage k, per lane."""
+    """The pressure and the length the force law sees, of stage k, per lane.
+
+    The length inside the end stops; the pressure the play's output on stage k's gauge pressure
+    from the play's state (:func:`play_step`; the gauge pressure itself without a play).
+    """
     zp = OFF_ST + (k * NS + S_P) * W
     zl = OFF_ST + (k * NS + S_LEN) * W
+    zz = OFF_ST + (k * NS + S_PLAY) * W
     for j in range(n):
         x = bk[zl + j]
         lo = bk[X_LMIN + j]
         hi = bk[X_LMAX + j]
         bk[Y_LE + j] = lo if x < lo else (hi if x > hi else x)
-        bk[Y_PG + j] = bk[zp + j] - P_ATM
+        bk[Y_PG + j] = play_step(bk[zz + j], bk[zp + j] - P_ATM, bk[X_PLAY + j])
 
 
 @kernel(error_model="numpy", inline="always")
@@ -252,7 +278,7 @@ def muscle_force(fl, length, bk, j):
 # 3.7x slower (benchmarks/RESULTS.md, issue #34); tests/test_compile_cache.py holds the four.
 @kernel(error_model="numpy", fastmath={"contract"})
 def rhs(n, bk, k, dk, law):
-    """Time derivatives of stage ``k``'s states into stage ``dk`` (friction row held: see :func:`rk4_step`).
+    """Time derivatives of stage ``k``'s states into stage ``dk`` (friction and play rows held: see :func:`rk4_step`).
 
     Valve targets come from scratch rows ``SC_XIN``, ``SC_XBL``.
     """
@@ -313,6 +339,7 @@ def rhs(n, bk, k, dk, law):
         bk[o + S_LEN * W + j] = mob * v
         bk[o + S_VEL * W + j] = mob * acc
         bk[o + S_FRIC * W + j] = 0.0
+        bk[o + S_PLAY * W + j] = 0.0
 
 
 #: Blocks of more lanes than this run the RK4 stage and update loops over all W lanes (see :func:`_stage`).
@@ -347,7 +374,7 @@ def _stage(n, bk, h, dk):
 
 @kernel(error_model="numpy", inline="always")
 def _after_step(bk, j, dt):
-    """End stops and the Dahl friction update of lane j after a step (see :func:`rk4_step`)."""
+    """End stops, the Dahl friction and the play's update of lane j after a step (see :func:`rk4_step`)."""
     x = bk[Z_LEN + j]
     v = bk[Z_VEL + j]
     lo = bk[X_LMIN + j]
@@ -366,6 +393,7 @@ def _after_step(bk, j, dt):
     den = fc + sv * abs(vbar)
     z = fc * (bk[Z_FRIC + j] + sv * vbar) / den if den > 0.0 else 0.0
     bk[Z_FRIC + j] = z * bk[X_MOB + j]
+    bk[Z_PLAY + j] = play_step(bk[Z_PLAY + j], pg, bk[X_PLAY + j])
 
 
 @kernel(error_model="numpy", fastmath={"contract"})
@@ -380,6 +408,19 @@ def rk4_step(n, bk, law, dt):
     friction). Its local error against the exact exponential solution is (σ|v̄|dt/F_c)²/2 of
     the gap z − F_c·sgn v̄ (backward Euler's), and it needs no ``exp``, so the loop vectorizes.
     The end stops project the length back inside [l_min, l_max] and stop any motion outward.
+
+    The play on the pressure (threshold r, ``play_threshold``; its output z_p the law's pressure)
+    is split off the same way: its row is held through the stages, each stage's law sees
+    clamp(z_p, P_stage − r, P_stage + r) (:func:`play_step` from the step's starting state), and
+    after the step z_p ← clamp(z_p, P − r, P + r) at the step's end pressure. Why: the operator is
+    rate independent and not differentiable (its output has no time derivative of its own, only
+    a switch between following the pressure and holding), so it has no place among the
+    Runge–Kutta slopes; the update at the step's end is the operator sampled at every step,
+    exactly (the library's :func:`~mckibben.models.hysteresis.direction.play_pressure` over the
+    step pressures gives the same z_p), and each stage sees the play's output as it would be at
+    that stage's pressure, so the law's force stays continuous within the step. A pressure that
+    reverses inside one step (0.1 ms) and returns is missed, as by any sampled operator. r = 0
+    gives z_p = P bit for bit: the plant without a play.
     """
     rhs(n, bk, ST_S, ST_K1, law)
     _stage(n, bk, 0.5 * dt, ST_K1)

@@ -326,13 +326,15 @@ def static_length(plant: PP.PlantParams | None = None, pressure=0.0) -> np.ndarr
 
 
 def static_branch_lengths(plant: PP.PlantParams | None = None, pressure=0.0) -> tuple[np.ndarray, np.ndarray]:
-    """The lengths at the ends of the braid friction's slip: the inflating and deflating branches of the loop.
+    """The lengths far along the inflating and deflating branches of the loop: the braid friction's slip, the play.
 
     Far along a branch the Dahl element is at its slip limit F_c = ``friction_force`` +
     ``friction_per_pa``·P against the motion (``docs/plant.md``): contracting (inflating), the muscle
-    pulls the load plus F_c; lengthening (deflating), the load less F_c. Each branch's length is the
-    plant's static balance (:func:`static_equilibrium`, the same law and tube) with the load so
-    shifted; their difference is the plant's own up/down gap at that pressure and load.
+    pulls the load plus F_c; lengthening (deflating), the load less F_c. A play on the pressure
+    (``play_threshold`` r) is at its branch state there: the law sees P − r inflating, P + r
+    deflating (:func:`mckibben.models.hysteresis.direction.branch_state`). Each branch's length is the
+    plant's static balance (:func:`static_equilibrium`, the same law and tube) with the load and the
+    law's pressure so shifted; their difference is the plant's own up/down gap at that pressure and load.
 
     Parameters
     ----------
@@ -354,7 +356,8 @@ def static_branch_lengths(plant: PP.PlantParams | None = None, pressure=0.0) -> 
 
     References
     ----------
-    Dahl, P. R. (1968), the slip limit; [mpam-characterization] §IV (the measured loop).
+    Dahl, P. R. (1968), the slip limit; [mpam-characterization] §IV (the measured loop); Kuhnen (2003),
+    the play operator.
     """
     prm, law, th, pressure = _static_inputs(plant, pressure)
     c = PK.Col
@@ -364,7 +367,7 @@ def static_branch_lengths(plant: PP.PlantParams | None = None, pressure=0.0) -> 
     for sign in (1.0, -1.0):
         shifted = prm.copy()
         shifted[:, c.load_force] = prm[:, c.load_force] + sign * slip
-        branches.append(_balanced(shifted, law, th, pressure))
+        branches.append(_balanced(shifted, law, th, pg - sign * prm[:, c.play_threshold]))  # the play: P ∓ r
     return branches[0], branches[1]
 
 
@@ -396,7 +399,8 @@ def _balanced(prm, law, th, pressure) -> np.ndarray:
 
 def initial_states(prm: np.ndarray, law: int, theta: np.ndarray, p_init, l_init=None,
                    thermal: str = "energy") -> np.ndarray:
-    """``(N, NS)`` states at rest: pressure, gas temperature, shut valves, the static length (or ``l_init``).
+    """``(N, NS)`` states at rest: pressure, gas temperature, shut valves, the static length (or ``l_init``),
+    the play's output at the gauge pressure.
 
     Parameters
     ----------
@@ -415,6 +419,7 @@ def initial_states(prm: np.ndarray, law: int, theta: np.ndarray, p_init, l_init=
     pg = np.broadcast_to(np.asarray(p_init, dtype=float), (n,))
     s0 = np.zeros((n, NS))
     s0[:, ph.S_P] = pg + ph.P_ATM
+    s0[:, ph.S_PLAY] = s0[:, ph.S_P] - ph.P_ATM  # the play's output at rest: the gauge pressure (as the kernels see it)
     if thermal == "energy":
         s0[:, ph.S_T] = prm[:, c.temperature]
     else:

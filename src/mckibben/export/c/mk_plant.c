@@ -1,6 +1,6 @@
 /*
  * mk_plant.c: the plant's physics in C99, a line-by-line port of mckibben.plant.physics (the
- * right-hand side, the RK4 step with the end stops and the Dahl friction), of
+ * right-hand side, the RK4 step with the end stops, the Dahl friction and the play on the pressure), of
  * mckibben.plant.packing.derive_columns and of the static start (mckibben.plant.simulator.static_equilibrium);
  * the force laws' C faces are in the generated mk_laws.c (mckibben.plant.c_layout.laws_c, from each
  * law's models/laws/<law>.c). The Python/Numba plant is the source of truth; tests/test_export_fmu.py holds this port equal to it. Keep the order of the arithmetic
@@ -117,17 +117,25 @@ static double muscle_force(const mk_plant *p, double fl, double length)
     return (fl > 0.0 ? fl : 0.0) + PR(passive_stiffness) * (stretch > 0.0 ? stretch : 0.0);
 }
 
+/* The play operator at one sample (mckibben.plant.physics.play_step): its output after pressure from z. */
+static double play_step(double z, double pressure, double r)
+{
+    double lo = pressure - r, hi = pressure + r;
+    double y = z > lo ? z : lo;
+    return y < hi ? y : hi;
+}
+
 static double clamped_length(const mk_plant *p, double x)
 {
     double lo = PR(l_min), hi = PR(l_max);
     return x < lo ? lo : (x > hi ? hi : x);
 }
 
-/* Time derivatives of state y into dy (the friction row held: see rk4_step). */
+/* Time derivatives of state y into dy (the friction and play rows held: see rk4_step). */
 static void rhs(const mk_plant *p, const double *y, double *dy)
 {
     double le = clamped_length(p, y[MK_S_LEN]);
-    double pg = y[MK_S_P] - MK_P_ATM;
+    double pg = play_step(y[MK_S_PLAY], y[MK_S_P] - MK_P_ATM, PR(play_threshold));
     double fl = mk_law(p->law, pg, le, p->th);
     double pa = y[MK_S_P], t = y[MK_S_T], xin = y[MK_S_XIN], xbl = y[MK_S_XBL];
     double length = y[MK_S_LEN], v = y[MK_S_VEL];
@@ -176,9 +184,10 @@ static void rhs(const mk_plant *p, const double *y, double *dy)
     dy[MK_S_LEN] = mob * v;
     dy[MK_S_VEL] = mob * acc;
     dy[MK_S_FRIC] = 0.0;
+    dy[MK_S_PLAY] = 0.0;
 }
 
-/* End stops and the Dahl friction update after a step (mckibben.plant.physics._after_step). */
+/* End stops, the Dahl friction and the play's update after a step (mckibben.plant.physics._after_step). */
 static void after_step(mk_plant *p, double l_old, double dt)
 {
     double x = p->s[MK_S_LEN], v = p->s[MK_S_VEL];
@@ -197,6 +206,7 @@ static void after_step(mk_plant *p, double l_old, double dt)
     den = fc + sv * fabs(vbar);
     z = den > 0.0 ? fc * (p->s[MK_S_FRIC] + sv * vbar) / den : 0.0;
     p->s[MK_S_FRIC] = z * PR(mobile);
+    p->s[MK_S_PLAY] = play_step(p->s[MK_S_PLAY], pg, PR(play_threshold));
 }
 
 /* One classical Runge-Kutta step of dt, then the end stops and the friction (rk4_step). */
@@ -251,7 +261,8 @@ void mk_outputs(const mk_plant *p, double *pressure, double *length, double *for
     double pg = p->s[MK_S_P] - MK_P_ATM;
     *pressure = pg;
     *length = p->s[MK_S_LEN];
-    *force = muscle_force(p, mk_law(p->law, pg, le, p->th), p->s[MK_S_LEN]);
+    *force = muscle_force(p, mk_law(p->law, play_step(p->s[MK_S_PLAY], pg, PR(play_threshold)), le, p->th),
+                          p->s[MK_S_LEN]);
 }
 
 /* ---- the static start (mckibben.plant.simulator._balance, _bracket_balance) ------------------- */
@@ -299,6 +310,7 @@ void mk_initial_state(mk_plant *p)
     int r;
     for (r = 0; r < MK_NS; r++) p->s[r] = 0.0;
     p->s[MK_S_P] = MK_P_ATM;
+    p->s[MK_S_PLAY] = p->s[MK_S_P] - MK_P_ATM; /* the play's output at rest: the gauge pressure */
     p->s[MK_S_T] = PR(temperature); /* gauge 0: the polytropic T_s·(p/p_atm)^((n-1)/n) is T_s too */
     p->s[MK_S_LEN] = static_length(p, 0.0);
     p->time = 0.0;

@@ -12,14 +12,14 @@
 
 #include "mk_model.h"
 
-#define MK_NS 7
-enum { MK_S_P, MK_S_T, MK_S_XIN, MK_S_XBL, MK_S_LEN, MK_S_VEL, MK_S_FRIC };
+#define MK_NS 8
+enum { MK_S_P, MK_S_T, MK_S_XIN, MK_S_XBL, MK_S_LEN, MK_S_VEL, MK_S_FRIC, MK_S_PLAY };
 
 typedef struct {
     double prm[MK_NP];   /* packed parameters: the fields, then the derived columns (mk_derive) */
     double th[MK_NTH];   /* the force law's parameters (theta) */
     int law;             /* the law's index in mckibben.models.laws.LAW_NAMES */
-    double s[MK_NS];     /* state: p [Pa abs], T [K], x_in, x_bl [-], l [m], v [m/s], z [N] */
+    double s[MK_NS];     /* state: p [Pa abs], T [K], x_in, x_bl [-], l [m], v [m/s], z [N], play output [Pa gauge] */
     double x_in_target;  /* valve openings commanded (held over a step) [-] */
     double x_bl_target;
     int inlet, bleed;    /* PWM commands [counts] */
@@ -32,7 +32,7 @@ void mk_defaults(mk_plant *p);
 void mk_derive(mk_plant *p);
 /* 0 when the tunable parameters are runnable, else 1 with a one-line message in msg. */
 int mk_check(const mk_plant *p, char *msg, int size);
-/* The state at rest: gauge 0, the gas at the wall temperature, valves shut, the static length. */
+/* The state at rest: gauge 0, the gas at the wall temperature, valves shut, the static length, the play at 0. */
 void mk_initial_state(mk_plant *p);
 /* Valve targets of the current commands (call before mk_advance). */
 void mk_set_commands(mk_plant *p, int inlet, int bleed);
