@@ -52,11 +52,12 @@ def test_select_and_columns_read_one_muscle_and_keep_the_rest_aside(table):
     t = read_table(table, select={"cut_length_cm": "15"}, columns={"phase": "direction"})
     assert t.kind == "isometric" and set(t.data["direction"]) == {"inflate", "deflate"}
     assert np.allclose(t.data["rest_length"], 0.133)
-    assert list(t.extra.columns) == ["free_length_620kPa_mm", "n_samples"]  # kept aside, on the same rows
+    assert list(t.extra.columns) == ["free_length_620kPa_mm"]  # kept aside, on the same rows
+    assert t.data["n_samples"].dtype == float  # readings per binned point: a column of the isometric kind
     assert (t.extra.index == t.data.index).all() and t.selected == {"cut_length_cm": "15"}
     # rows keep their numbers in the file: the first row of muscle 15 follows muscle 10's rows
     assert t.data.index[0] == len(read_table(table, select={"cut_length_cm": 10}, columns={"phase": "direction"})) + 1
-    assert len(t.notes) == 1 and "free_length_620kPa_mm, n_samples are unknown: kept aside" in t.notes[0]
+    assert len(t.notes) == 1 and "column free_length_620kPa_mm is unknown: kept aside" in t.notes[0]
     spec = muscle_of_table(t)
     assert spec.nominal_length == pytest.approx(0.133) and spec.id == "festo_like (cut_length_cm=15)"
 
@@ -84,7 +85,7 @@ def test_phase_is_offered_as_direction_by_its_values_and_cut_length_not_as_rest_
         in str(exc.value)
     # picked by a known column, cut_length_cm is kept aside: a length, but not a rest length (no suggestion)
     t = read_table(table, select={"rest_length_mm": "83"}, columns={"phase": "direction"})
-    assert t.notes[0].startswith(f"{table}: columns cut_length_cm, free_length_620kPa_mm, n_samples are unknown: ")
+    assert t.notes[0].startswith(f"{table}: columns cut_length_cm, free_length_620kPa_mm are unknown: ")
     assert len(t) == 4 * 2 * 32
 
 
@@ -153,7 +154,7 @@ def test_fit_on_one_muscle_of_a_lab_table_as_a_user_runs_it(table):
     assert out["kind"] == "isometric" and out["muscle"] == "festo_like (cut_length_cm=10)"
     assert out["selected"] == {"cut_length_cm": "10"} and out["n_points"] == 4 * 2 * 32
     assert out["r2"] > 0.9  # the table's force is a smooth law of pressure and contraction
-    assert "note: " + str(table) + ": columns free_length_620kPa_mm, n_samples are unknown: kept aside" in r.stderr
+    assert "note: " + str(table) + ": column free_length_620kPa_mm is unknown: kept aside" in r.stderr
 
 
 @pytest.mark.slow

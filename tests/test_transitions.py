@@ -74,7 +74,7 @@ def _stepped(tmp_path, muscle, theta, trials=(1, 2, 3), seed=0, name="stepped.cs
 def test_transition_rows_are_the_steps(tmp_path, truth):
     muscle, theta = truth
     table = read_table(_stepped(tmp_path, muscle, theta))
-    steps = pd.to_numeric(table.extra[SAMPLES_COLUMN]).to_numpy() == STEP_N  # kept aside as read
+    steps = table.data[SAMPLES_COLUMN].to_numpy() == STEP_N  # a column of the isometric kind
     assert np.array_equal(transition_rows(table, 30), steps)
     assert not transition_rows(table, 0).any()
     kept, report = isometric_points(table, min_samples=30)
@@ -144,10 +144,14 @@ def test_bad_min_samples_is_named(tmp_path, truth):
     d[SAMPLES_COLUMN] = d[SAMPLES_COLUMN].astype(object)
     d.loc[d.index[4], SAMPLES_COLUMN] = "many"
     d.to_csv(tmp_path / "text.csv", index=False)
-    with pytest.raises(InputError, match=rf"row \d+, column {SAMPLES_COLUMN}: 'many'"):
-        fit_isometric(read_table(tmp_path / "text.csv"), muscle, LAW, min_samples=30)
-    # without the selection the column is not read
-    fit_isometric(read_table(tmp_path / "text.csv"), muscle, LAW)
+    with pytest.raises(InputError, match=rf"row \d+ \(line \d+\), column {SAMPLES_COLUMN}: 'many' is not a number"):
+        read_table(tmp_path / "text.csv")  # a column of the isometric kind: read and checked like any other
+    d.loc[d.index[4], SAMPLES_COLUMN] = 2.5
+    d.to_csv(tmp_path / "half.csv", index=False)
+    with pytest.raises(InputError, match=rf"row \d+, column {SAMPLES_COLUMN}: 2.5 is not a count of readings"):
+        fit_isometric(read_table(tmp_path / "half.csv"), muscle, LAW, min_samples=30)
+    # without the selection the counts are not used
+    fit_isometric(read_table(tmp_path / "half.csv"), muscle, LAW)
 
 
 def _mckibben(*args, cwd):

@@ -18,8 +18,8 @@ braid_angle        braid_angle, length                         pressure, load, t
 force_length       pressure, length, force, direction          trial, muscle
                    (elongation/contraction)
 isometric          held_length, pressure, force, direction,    tare, muscle, rest_length,
-                   trial (inflate/deflate)                     pressure_zero (muscle + rest_length:
-                                                               a family)
+                   trial (inflate/deflate)                     pressure_zero, n_samples (muscle +
+                                                               rest_length: a family)
 step_response      time, pressure, command                     trial, muscle
 =================  ==========================================  ===============================
 """
@@ -41,6 +41,7 @@ QUANTITIES: dict[str, tuple[str, bool, str]] = {
     "braid_angle": ("angle", True, "braid angle from the muscle axis"),
     "time": ("time", False, "time"),
     "command": ("dimensionless", False, "valve command, as a fraction of full scale"),
+    "n_samples": ("dimensionless", True, "count of readings behind a binned point (a table binned from a stepped protocol)"),
 }
 
 #: Quantities that describe a muscle, not a row: a family table repeats them on each of its rows. [-]
@@ -103,7 +104,8 @@ SCHEMAS: dict[str, Schema] = {
         Schema("force_length", ("pressure", "length", "force", "direction"), ("trial", "muscle"),
                ELONGATION_CONTRACTION,
                description="force-length loops at constant pressure (Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], Fig. 5)"),
-        Schema("isometric", ("held_length", "pressure", "force", "direction", "trial"), ("tare", "muscle", "rest_length", "pressure_zero"),
+        Schema("isometric", ("held_length", "pressure", "force", "direction", "trial"), ("tare", "muscle", "rest_length", "pressure_zero",
+                                                                                    "n_samples"),
                INFLATE_DEFLATE,
                description="force at held lengths while the pressure is stepped up (inflate) and back"
                            " down (deflate); one run per held length and trial (commercial muscles)"),

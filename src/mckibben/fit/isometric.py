@@ -355,7 +355,8 @@ class IsometricFit(FitBase):
         return fig
 
 
-#: The column of a binned table that counts the readings behind each point (``Table.extra``). [-]
+#: The column of a binned table that counts the readings behind each point (an optional column of the
+#: isometric kind, :data:`mckibben.data.schema.SCHEMAS`). [-]
 SAMPLES_COLUMN = "n_samples"
 
 
@@ -384,18 +385,15 @@ def transition_rows(table: Table, min_samples: int) -> np.ndarray:
         raise InputError(f"min_samples: {min_samples!r} must be a whole number of readings >= 0 (0: keep every point)")
     if min_samples == 0:
         return np.zeros(len(table.data), dtype=bool)
-    extra = table.extra
-    if extra is None or SAMPLES_COLUMN not in extra:
+    if SAMPLES_COLUMN not in table.data:
         raise InputError(f"min_samples: {min_samples} needs a column {SAMPLES_COLUMN} (readings per binned point); "
                          f"{table.path} has none")
-    import pandas as pd  # deferred on purpose: pandas (0.25 s)
-
-    raw = extra[SAMPLES_COLUMN].reindex(table.data.index)
-    n = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float)
-    bad = ~(np.isfinite(n) & (n >= 0) & (n == np.round(n)))
+    raw = table.data[SAMPLES_COLUMN]  # numbers >= 0 (the reader refuses text and negatives): whole ones here
+    n = raw.to_numpy(dtype=float)
+    bad = ~(np.isfinite(n) & (n == np.round(n)))
     if bad.any():
         r = int(table.data.index[np.flatnonzero(bad)[0]])
-        raise InputError(f"{table.path}: row {r}, column {SAMPLES_COLUMN}: {raw.loc[r]!r} is not a count of readings "
+        raise InputError(f"{table.path}: row {r}, column {SAMPLES_COLUMN}: {float(raw.loc[r]):g} is not a count of readings "
                          "(a whole number >= 0)")
     if not np.any(n >= min_samples):
         raise InputError(f"min_samples: {min_samples} leaves no point of {table.path} (most readings in a point: "
