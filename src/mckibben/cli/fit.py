@@ -28,10 +28,10 @@ MIN_SAMPLES_HELP = ("isometric, a table binned from a stepped protocol: leave ou
 
 RUN_DRIFT_HELP = ("with --direction-aware: fit a run-drift nuisance too, force x (1 + c.s), s the place along each "
                   "run (the rubber relaxing, the load cell creeping); the muscle's predictions leave it out "
-                  "(see docs/hysteresis.md).")
+                  "(see docs/hysteresis.md). compare --nested: each form with and without it is a candidate.")
 STRUCTURE_HELP = ("with --direction-aware: the operator, play (the law fed through a play on the pressure; default, "
                   "chosen on held-out evidence) or friction (law plus a friction proportional to pressure: the form "
-                  "the plant also runs). See docs/hysteresis.md.")
+                  "the plant also runs). compare --nested: a comma list, each a candidate. See docs/hysteresis.md.")
 STRUCTURE_OPTION = typer.Option(DEFAULT_STRUCTURE, "--structure", metavar=choices(STRUCTURES), help=STRUCTURE_HELP)
 
 
