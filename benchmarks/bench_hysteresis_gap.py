@@ -266,12 +266,14 @@ def nested(law_names, structures, drifts, min_samples: int, jobs: int) -> None:
         r_best, r_low, r_nlow = table[best["candidate"]][t][2], table[lowest][t][2], table[low["candidate"]][t][2]
         for k, v in zip(summary, (r_per, r_one, r_best, r_low, r_nlow)):
             summary[k].append(v)
-        print(f"| {t} | {mr:.2f} | **{r_per:.2f}** | **{r_one:.2f}** ({one['candidate'] if one else '—'}) | "
-              f"{r_nlow:.2f} ({low['candidate']}) | {r_best:.2f} ({best['candidate']}) | {r_low:.2f} ({lowest}) |")
+        print(f"| {t} | {mr:.2f} | **{r_per:.3f}** | **{r_one:.3f}** ({one['candidate'] if one else '—'}) | "
+              f"{r_nlow:.3f} ({low['candidate']}) | {r_best:.3f} ({best['candidate']}) | {r_low:.3f} ({lowest}) |")
     for k, what in (("per", "nested, chosen per muscle"), ("one", "nested, one choice for the six muscles"),
                     ("nlow", "nested, one choice, lowest inner error (flags not read)")):
         met = [t for t, r in zip(trials, summary[k]) if r <= 0.5]
-        print(f"{what}: {' · '.join(f'{r:.2f}' for r in summary[k])}; bar of 0.5 met on trials {met or 'none'}")
+        print(f"{what}: {' · '.join(f'{r:.3f}' for r in summary[k])}; bar of 0.5 met on trials {met or 'none'}")
+    print(f"optimism (nested, chosen per muscle − non-nested, best's rule): "
+          f"{' · '.join(f'{a - b:+.3f}' for a, b in zip(summary['per'], summary['best']))}")
 
 
 def _pooled(rows, key):

@@ -655,7 +655,7 @@ class NestedGapComparison(Result):
         ax.set_yticks(y, [f"trial {h}" for h in df["held_out"]])
         ax.set_xlabel("held-out gap error RMS / measured gap RMS [-]")
         m = self.metrics
-        ax.set_title(f"direction-aware form chosen by nested leave-one-trial-out: pooled {m['nested_gap_error_ratio']:.2f}"
+        ax.set_title(f"direction-aware form chosen by nested leave-one-trial-out\npooled {m['nested_gap_error_ratio']:.2f}"
                      f" vs non-nested {m['non_nested_gap_error_ratio']:.2f} (optimism {m['optimism']:+.2f})",
                      fontsize="medium")
         ax.set_xlim(left=0, right=1.35 * max(float(np.nanmax(np.r_[nested, plain, 0.5])), 1e-9))
