@@ -124,7 +124,6 @@ def _mckibben(*args, cwd):
     return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=cwd, timeout=300)
 
 
-@pytest.mark.slow  # two candidates, nine fits each, in a fresh interpreter (about 10 s on a busy core)
 def test_cli_direction_aware_nested_json_and_plot(tmp_path, truth):
     muscle, theta = truth
     path = _campaign(tmp_path, muscle, theta, "friction", [R_TRUE, AREA_TRUE], trials=(1, 2, 3))
@@ -201,7 +200,6 @@ def test_plain_nested_takes_the_settled_points_only(tmp_path):
     assert settled.selection == {"virtual-work": 3} and settled.to_dict()["min_samples"] == 100
 
 
-@pytest.mark.slow  # a nested comparison of the family laws in a fresh interpreter (about 6 s on an idle core)
 def test_cli_plain_nested_min_samples(tmp_path):
     path, toml = _binned(tmp_path)
     run = _mckibben("compare", str(path), "--muscle-file", str(toml), "--nested", "--cv", "leave-one-trial-out",

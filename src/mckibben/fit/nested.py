@@ -34,6 +34,13 @@ their points) and the largest |error|, as % of the table's peak; the median and 
 The same pooling for the non-nested best (its own folds), and the *optimism*: nested minus
 non-nested, in points of % of peak (positive: the non-nested figure flattered the choice).
 
+**The direction-aware form** (:func:`compare_direction_aware_nested`, ``compare --direction-aware
+--nested``): the same idea on the up/down gap, each trial held out. Candidates are
+:class:`GapCandidate` (law × structure × run drift); the fold loop is
+:func:`~mckibben.fit.direction.heldout_gap`'s at both levels (outer: every trial of the table;
+inner: every outer training trial, on those trials alone), the score its gap error RMS pooled over
+every held-out run (never a signed mean), the choice ``best``'s rule on it.
+
 References
 ----------
 Varma & Simon (2006) [varma2006]: nested cross-validation against the optimism of the chosen
