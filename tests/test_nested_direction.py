@@ -142,6 +142,9 @@ def test_cli_direction_aware_nested_json_and_plot(tmp_path, truth):
         assert {"held_out", "inner_folds", "chosen", "inner", "gap_error_ratio", "non_nested_gap_error_ratio",
                 "optimism"} <= set(f)
     assert (tmp_path / "nested.png").stat().st_size > 0
+    run = _mckibben("compare", str(path), "--direction-aware", "--nested", "--laws", LAW, cwd=tmp_path)  # the table
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.count(f"{LAW} (play)") >= 3 and "pooled gap error / measured gap RMS: nested" in run.stdout
 
 
 @pytest.mark.parametrize("args, said", [
