@@ -165,7 +165,7 @@ def test_compare_nested_command_prints_both_figures_and_its_json(cli, tmp_path):
 
 
 @pytest.mark.parametrize("args, said", [
-    (["--nested", "--direction-aware"], "--direction-aware"),
+    (["--nested", "--direction-aware"], "needs 3 trials or more, found 1"),  # each trial held out: one is none
     (["--nested", "--rest-lengths", "nominal,measured"], "rest"),
     (["--nested", "--cv", "leave-one-trial-out"], "cv"),  # one trial
 ])

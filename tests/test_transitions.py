@@ -187,7 +187,7 @@ def test_cli_compare_direction_aware_leaves_the_steps_out(tmp_path, truth):
     ("fit", ["--model", LAW, "--min-samples", "-1"], "--min-samples: -1 must be a whole number"),
     ("fit", ["--model", LAW, "--min-samples", "many"], "--min-samples"),
     ("fit", ["--model", LAW, "--min-samples", "100000"], "--min-samples: 100000 leaves no point"),
-    ("compare", ["--min-samples", "30", "--nested"], "--min-samples: not with --nested"),
+    ("compare", ["--min-samples", "-3", "--nested"], "--min-samples: -3 must be a whole number"),  # taken since #33
     ("compare", ["--min-samples", "-2", "--direction-aware"], "--min-samples: -2"),
 ])
 def test_cli_bad_min_samples(tmp_path, truth, cmd, args, words):

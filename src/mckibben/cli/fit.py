@@ -16,6 +16,7 @@ from mckibben.data.schema import KINDS
 from mckibben.fit.isometric import CV_METHODS, REST_LENGTHS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
+from mckibben.fit.nested import GAP_LAWS
 from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, STRUCTURES
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
@@ -27,10 +28,10 @@ MIN_SAMPLES_HELP = ("isometric, a table binned from a stepped protocol: leave ou
 
 RUN_DRIFT_HELP = ("with --direction-aware: fit a run-drift nuisance too, force x (1 + c.s), s the place along each "
                   "run (the rubber relaxing, the load cell creeping); the muscle's predictions leave it out "
-                  "(see docs/hysteresis.md).")
+                  "(see docs/hysteresis.md). compare --nested: each form with and without it is a candidate.")
 STRUCTURE_HELP = ("with --direction-aware: the operator, play (the law fed through a play on the pressure; default, "
                   "chosen on held-out evidence) or friction (law plus a friction proportional to pressure: the form "
-                  "the plant also runs). See docs/hysteresis.md.")
+                  "the plant also runs). compare --nested: a comma list, each a candidate. See docs/hysteresis.md.")
 STRUCTURE_OPTION = typer.Option(DEFAULT_STRUCTURE, "--structure", metavar=choices(STRUCTURES), help=STRUCTURE_HELP)
 
 
@@ -158,7 +159,12 @@ def compare_cmd(
     drift: bool = typer.Option(False, "--run-drift", help=RUN_DRIFT_HELP),
     nested: bool = typer.Option(False, "--nested", help="isometric: nested cross-validation: each fold's error of "
                                 "the model chosen on the other folds alone (the non-nested best's error is "
-                                "optimistic; see docs/fit.md). With --rest-lengths nominal,fitted both are candidates."),
+                                "optimistic; see docs/fit.md). With --rest-lengths nominal,fitted both are candidates; "
+                                "with --direction-aware, each trial held out, the direction-aware form (--laws x "
+                                "--structure play,friction x --run-drift off,on) chosen on the other trials by the "
+                                "up/down gap (see docs/hysteresis.md)."),
+    models: str = typer.Option(None, "--laws", metavar="LAW,LAW", help="with --direction-aware --nested: the laws "
+                               f"tried (default {','.join(GAP_LAWS)})."),
     plot: str = plot_option("the held-out error of every model (--nested: each fold's, nested and not)"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
@@ -166,12 +172,17 @@ def compare_cmd(
     """Fit every applicable model to the same data and score it on held-out data (the best is picked there)."""
     check_outputs(plot, dpi)
     muscle = muscle_file_of(muscle, old_muscle, "compare")
+    if models is not None and not (nested and direction_aware):
+        raise InputError("--laws: the candidates of --direction-aware --nested; without both, compare scores every law")
+    if nested and direction_aware:
+        _compare_nested_direction_aware(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, select, columns,
+                                        models, structure, drift, min_samples, plot, dpi, json)
+        return
     op = _structure(direction_aware, structure)
     if nested:
-        if min_samples:
-            raise InputError("--min-samples: not with --nested (its folds take every point); fit or compare without "
-                             "--nested to leave the steps out")
-        _compare_nested(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, select, columns, direction_aware,
+        if drift:
+            raise InputError("--run-drift: a nuisance of the direction-aware forms; give --direction-aware")
+        _compare_nested(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, select, columns, min_samples,
                         plot, dpi, json)
         return
     res = fit.compare_table(data, muscle, cv, tare, rails, pressure_zero,
@@ -220,16 +231,13 @@ def compare_cmd(
                 rows)
 
 
-def _compare_nested(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, select, columns, direction_aware,
+def _compare_nested(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, select, columns, min_samples,
                     plot, dpi, json) -> None:
     """``compare --nested``: parse, call :func:`mckibben.fit.nested.compare_nested_table`, print."""
-    if direction_aware:
-        raise InputError("--direction-aware: scores the up/down gap of each law apart, each trial held out; --nested "
-                         "chooses among the plain laws by held-out force: give one of them")
     res = fit.compare_nested_table(data, muscle, cv, tare, rails, pressure_zero,
                                    parse_pairs(select, "--select", "cut_length_cm=10"),
                                    parse_pairs(columns, "--columns", "phase=direction"),
-                                   tuple(x.strip() for x in rest_lengths.split(",")))
+                                   tuple(x.strip() for x in rest_lengths.split(",")), min_samples)
     out = res.to_dict()
     print_notes(out.get("notes"))
     if plot:
@@ -252,6 +260,47 @@ def _compare_nested(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, 
     choices = ", ".join(f"{k} {v}/{out['n_folds']}" for k, v in out["selection"].items())
     console.print(f"optimism of the non-nested figure: {_g(out['optimism_pct_of_peak'], '+.2f')} points of % of peak; "
                   f"choices: {choices}")
+
+
+def _compare_nested_direction_aware(data, muscle, cv, tare, rails, pressure_zero, rest_lengths, select, columns,
+                                    models, structure, drift, min_samples, plot, dpi, json) -> None:
+    """``compare --direction-aware --nested``: parse, call
+    :func:`mckibben.fit.nested.compare_direction_aware_nested_table`, print."""
+    if cv is not None and cv != "leave-one-trial-out":
+        raise InputError(f"--cv: {cv} with --direction-aware --nested; the up/down gap is scored each trial held out "
+                         "(leave-one-trial-out, the default here)")
+    if rest_lengths != "nominal":
+        raise InputError(f"--rest-lengths: {rest_lengths} with --direction-aware; the direction-aware forms are fitted "
+                         "at the recorded rest lengths (nominal)")
+    structures = tuple(x.strip() for x in structure.split(","))
+    for st in structures:
+        if st not in STRUCTURES:
+            raise InputError(f"--structure: {st!r} is not one of {', '.join(STRUCTURES)} (a comma list with --nested)")
+    laws = GAP_LAWS if models is None else tuple(x.strip() for x in models.split(","))
+    res = fit.compare_direction_aware_nested_table(data, muscle, tare, rails, pressure_zero,
+                                                   parse_pairs(select, "--select", "cut_length_cm=10"),
+                                                   parse_pairs(columns, "--columns", "phase=direction"), laws,
+                                                   structures, (False, True) if drift else (False,), min_samples)
+    out = res.to_dict()
+    print_notes(out.get("notes"))
+    if plot:
+        write_plot(res.plot(), plot, dpi, res)
+    if json:
+        emit_json(out)
+        return
+    if out["synthetic"]:
+        console.print("[bold yellow]SYNTHETIC data[/] (generated, not measured)")
+    rows = [[str(f["held_out"]), f"{f['chosen'] or '—'}{' (flagged)' if f['chosen_flagged'] else ''}",
+             _g(f["measured_gap_rms_N"]), _g(f["gap_error_rms_N"]), _g(f["gap_error_ratio"], ".2f"),
+             _g(f["non_nested_gap_error_ratio"], ".2f"), f["note"][:50]] for f in out["folds"]]
+    print_table(f"Nested leave-one-trial-out on {out['file']}: each trial's up/down gap predicted by the direction-aware "
+                "form chosen without it", [" held-out trial", " chosen", "measured gap RMS N", "gap error RMS N",
+                                           "ratio", f"non-nested best ({out['non_nested_best']}) ratio", " note"], rows)
+    console.print(f"pooled gap error / measured gap RMS: nested {_g(out['nested_gap_error_ratio'], '.2f')}, non-nested "
+                  f"{_g(out['non_nested_gap_error_ratio'], '.2f')} (optimism {_g(out['optimism'], '+.2f')}); "
+                  f"held-out trials at or below 0.5: {out['folds_at_most_half']}/{out['n_folds']}")
+    choices = ", ".join(f"{k} {v}/{out['n_folds']}" for k, v in out["selection"].items())
+    console.print(f"choices: {choices}")
 
 
 def _sensor_warnings(what: str, report: dict) -> None:

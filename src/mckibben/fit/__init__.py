@@ -25,6 +25,8 @@ _EXPORTS = {
     "fit_direction_aware": "direction", "heldout_gap": "direction",
     "compare_table": "registry", "fit_table": "registry",
     "NestedComparison": "nested", "compare_nested": "nested", "compare_nested_table": "nested",
+    "NestedGapComparison": "nested", "compare_direction_aware_nested": "nested",
+    "compare_direction_aware_nested_table": "nested",
 }
 
 __all__ = sorted(_EXPORTS)
@@ -47,6 +49,9 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only (explici
     from mckibben.fit.nested import NestedComparison as NestedComparison
     from mckibben.fit.nested import compare_nested as compare_nested
     from mckibben.fit.nested import compare_nested_table as compare_nested_table
+    from mckibben.fit.nested import NestedGapComparison as NestedGapComparison
+    from mckibben.fit.nested import compare_direction_aware_nested as compare_direction_aware_nested
+    from mckibben.fit.nested import compare_direction_aware_nested_table as compare_direction_aware_nested_table
 
 
 def __getattr__(name: str):
