@@ -16,7 +16,6 @@ from mckibben.data.schema import KINDS
 from mckibben.fit.isometric import CV_METHODS, REST_LENGTHS
 from mckibben.cli._output import DPI_OPTION, check_outputs, plot_option, write_plot
 from mckibben.fit.names import FIT_MODELS
-from mckibben.fit.nested import GAP_LAWS
 from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, STRUCTURES
 from mckibben.errors import InputError
 from mckibben.units import parse_quantity
@@ -164,7 +163,7 @@ def compare_cmd(
                                 "--structure play,friction x --run-drift off,on) chosen on the other trials by the "
                                 "up/down gap (see docs/hysteresis.md)."),
     models: str = typer.Option(None, "--laws", metavar="LAW,LAW", help="with --direction-aware --nested: the laws "
-                               f"tried (default {','.join(GAP_LAWS)})."),
+                               "tried (default every law with a fit; each adds its structures x drifts candidates)."),
     plot: str = plot_option("the held-out error of every model (--nested: each fold's, nested and not)"),
     dpi: int = DPI_OPTION,
     json: bool = JSON_OPTION,
@@ -276,7 +275,7 @@ def _compare_nested_direction_aware(data, muscle, cv, tare, rails, pressure_zero
     for st in structures:
         if st not in STRUCTURES:
             raise InputError(f"--structure: {st!r} is not one of {', '.join(STRUCTURES)} (a comma list with --nested)")
-    laws = GAP_LAWS if models is None else tuple(x.strip() for x in models.split(","))
+    laws = None if models is None else tuple(x.strip() for x in models.split(","))
     res = fit.compare_direction_aware_nested_table(data, muscle, tare, rails, pressure_zero,
                                                    parse_pairs(select, "--select", "cut_length_cm=10"),
                                                    parse_pairs(columns, "--columns", "phase=direction"), laws,

@@ -811,6 +811,18 @@ def _fit_frame(res: FitResult, d: pd.DataFrame, law_force, structure: str):
     return d, runs
 
 
+def gap_laws(d: pd.DataFrame) -> list[str]:
+    """The laws a direction-aware comparison tries when none are named: every registered law with a
+    fit, the family laws on a family table (:func:`mckibben.models.laws.fit_laws`).
+
+    Parameters
+    ----------
+    d : pandas.DataFrame
+        The table's points (:func:`~mckibben.fit.isometric.isometric_points`). [-]
+    """
+    return list(laws.fit_laws(family=True) if is_family(d) else laws.fit_laws())
+
+
 def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, structure: str = DEFAULT_STRUCTURE,
                             tare: str = "none", rails: str = "exclude", pressure_zero: str = "none",
                             grid=None, min_samples: int = 0, drift: bool = False) -> list[dict]:
@@ -847,8 +859,7 @@ def compare_direction_aware(table: Table, muscle: MuscleSpec, models=None, struc
     _no_fitted_tare(tare)
     transition_rows(table, min_samples)  # a bad threshold or a missing column: one error, not one note per law
     if models is None:
-        d, _ = isometric_points(table, tare, "keep", pressure_zero)
-        models = list(laws.fit_laws(family=True) if is_family(d) else laws.fit_laws())
+        models = gap_laws(isometric_points(table, tare, "keep", pressure_zero)[0])
     out = []
     for model in models:
         row: dict = {"model": model, "structure": structure, "cv": "leave-one-trial-out"}

@@ -60,7 +60,7 @@ from mckibben.data import check_muscle
 from mckibben.data.muscle_file import MuscleSpec
 from mckibben.data.tables import Table
 from mckibben.errors import InputError, check_instance, unknown_name
-from mckibben.fit.direction import HeldoutGap, _no_fitted_tare, gap_scores, heldout_gap
+from mckibben.fit.direction import HeldoutGap, _no_fitted_tare, gap_laws, gap_scores, heldout_gap
 from mckibben.fit.isometric import (CV_METHODS, REST_LENGTHS, ModelComparison, _fold_keys, best_of,
                                     compare_isometric, isometric_points, transition_rows)
 from mckibben.models.hysteresis.direction import DEFAULT_STRUCTURE, STRUCTURES
@@ -70,7 +70,7 @@ from mckibben.results import Result, to_jsonable
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["GAP_DRIFTS", "GAP_LAWS", "NESTED_MIN_FOLDS", "Candidate", "GapCandidate", "NestedComparison",
+__all__ = ["GAP_DRIFTS", "NESTED_MIN_FOLDS", "Candidate", "GapCandidate", "NestedComparison",
            "NestedGapComparison", "compare_direction_aware_nested", "compare_direction_aware_nested_table",
            "compare_nested", "compare_nested_table"]
 
@@ -438,11 +438,6 @@ def compare_nested_table(data, muscle: str | None = None, cv: str | None = None,
 
 # --- the direction-aware form, chosen by nested leave-one-trial-out on the up/down gap -------------------------
 
-#: The laws a nested direction-aware selection tries by default: the two that led the held-out gap
-#: on the real Festo 10 mm campaign (benchmarks/RESULTS.md, "On settled points": virtual-work with
-#: the drift, spring without). Each is tried under every structure and drift option given; every
-#: candidate costs about 3 fits per trial, so the default stays small. [-]
-GAP_LAWS = ("virtual-work", "spring")
 #: The drift options a nested direction-aware selection tries by default: without and with the
 #: run-drift nuisance (:data:`mckibben.fit.direction.DRIFT_NAME`). [-]
 GAP_DRIFTS = (False, True)
@@ -670,7 +665,7 @@ class NestedGapComparison(Result):
         return ax.figure
 
 
-def compare_direction_aware_nested(table: Table, muscle: MuscleSpec, models=GAP_LAWS, structures=STRUCTURES,
+def compare_direction_aware_nested(table: Table, muscle: MuscleSpec, models=None, structures=STRUCTURES,
                                    drifts=GAP_DRIFTS, tare: str = "none", rails: str = "exclude",
                                    pressure_zero: str = "none", grid=None, min_samples: int = 0) -> NestedGapComparison:
     """The direction-aware form (law × structure × drift) chosen by nested leave-one-trial-out on the up/down gap.
@@ -696,8 +691,10 @@ def compare_direction_aware_nested(table: Table, muscle: MuscleSpec, models=GAP_
         An ``isometric`` table with inflate and deflate rows and :data:`NESTED_MIN_FOLDS` trials or more.
     muscle : MuscleSpec
         The muscle file. [-]
-    models : str or sequence of str, default :data:`GAP_LAWS`
-        The laws tried (registered laws with a fit spec; a family law on a family table). [-]
+    models : str or sequence of str, optional
+        The laws tried (registered laws with a fit spec; a family law on a family table); default
+        every such law (:func:`~mckibben.fit.direction.gap_laws`, as the non-nested comparison).
+        Each costs its structures × drifts candidates: name a few on a large campaign. [-]
     structures : str or sequence of str, default every structure ("play", "friction")
         The operators tried (:data:`~mckibben.models.hysteresis.direction.STRUCTURES`). [-]
     drifts : bool or sequence of bool, default :data:`GAP_DRIFTS` (without and with)
@@ -723,10 +720,10 @@ def compare_direction_aware_nested(table: Table, muscle: MuscleSpec, models=GAP_
     """
     check_instance(table, "table", Table, "a Table (mckibben.read_table)")
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
-    candidates = _gap_candidates(models, structures, drifts)
     _no_fitted_tare(tare)
     transition_rows(table, min_samples)  # a bad threshold or a missing column: one error, not one note per candidate
     d, _ = isometric_points(table, tare, "keep", pressure_zero, min_samples)
+    candidates = _gap_candidates(gap_laws(d) if models is None else models, structures, drifts)
     trials = np.unique(d["trial"].to_numpy()) if "trial" in d else np.zeros(0)
     if trials.size < NESTED_MIN_FOLDS:
         raise InputError(f"table: nested leave-one-trial-out on {table.path} needs {NESTED_MIN_FOLDS} trials or more, "
@@ -781,7 +778,7 @@ def compare_direction_aware_nested(table: Table, muscle: MuscleSpec, models=GAP_
 
 def compare_direction_aware_nested_table(data, muscle: str | None = None, tare: str = "none", rails: str = "exclude",
                                          pressure_zero: str = "none", select: dict | None = None,
-                                         columns: dict | None = None, models=GAP_LAWS, structures=STRUCTURES,
+                                         columns: dict | None = None, models=None, structures=STRUCTURES,
                                          drifts=GAP_DRIFTS, min_samples: int = 0) -> NestedGapComparison:
     """``mckibben compare DATA --direction-aware --nested``: :func:`compare_direction_aware_nested` on a table file.
 
