@@ -653,7 +653,7 @@ class NestedGapComparison(Result):
             if who is not None:
                 ax.text(0.0 if not np.isfinite(v) else v, y[k] - 0.2, f" {who}{' (flagged)' if fl else ''}",
                         va="center", fontsize="x-small")
-        ax.axvline(0.5, color="k", lw=0.8, ls="--", label="bar: 0.5")
+        ax.axvline(0.5, color="k", lw=0.8, ls="--", label="0.5: half the measured gap")
         ax.set_yticks(y, [f"trial {h}" for h in df["held_out"]])
         ax.set_xlabel("held-out gap error RMS / measured gap RMS [-]")
         m = self.metrics
