@@ -258,29 +258,44 @@ class NestedComparison(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
-
-        df = self._series().iloc[::-1].reset_index(drop=True)
-        if ax is None:
-            _, ax = plt.subplots(figsize=(9.0, 1.6 + 0.45 * max(len(df), 3)), layout="constrained")
-        y = np.arange(len(df))
-        nested = df["nested_rmse_pct_of_peak"].astype(float).to_numpy()
-        plain = df["non_nested_rmse_pct_of_peak"].astype(float).to_numpy()
-        ax.barh(y + 0.2, plain, 0.38, color="C0", label=f"non-nested best ({self.non_nested['best']})")
-        ax.barh(y - 0.2, nested, 0.38, color="C1", label="nested: the fold's own choice")
-        for k, (v, who, fl) in enumerate(zip(nested, df["chosen"], df["chosen_flagged"])):
-            if who is not None:
-                ax.text(0.0 if not np.isfinite(v) else v, y[k] - 0.2, f" {who}{' (flagged)' if fl else ''}",
-                        va="center", fontsize="x-small")
-        ax.set_yticks(y, [str(h) for h in df["held_out"]])
+        series = self._series()
+        ax, df = _paired_bars(ax, series, "nested_rmse_pct_of_peak", "non_nested_rmse_pct_of_peak",
+                              self.non_nested["best"], [str(h) for h in series["held_out"]][::-1])
         ax.set_xlabel("held-out RMSE [% of peak force]")
         m = self.metrics
         ax.set_title(f"{self.cv}, nested: pooled {m['nested_rmse_pct_of_peak']:.2f} % vs non-nested "
                      f"{m['non_nested_rmse_pct_of_peak']:.2f} % (optimism {m['optimism_pct_of_peak']:+.2f} points)",
                      fontsize="medium")
-        ax.set_xlim(left=0, right=1.35 * max(float(np.nanmax(np.r_[nested, plain, 0.0])), 1e-9))
-        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-        return ax.figure
+        return _finish(ax, df, "nested_rmse_pct_of_peak", "non_nested_rmse_pct_of_peak", 0.0)
+
+
+def _paired_bars(ax, series, nested_col: str, plain_col: str, best: str, labels: list[str]):
+    """Both nested figures' bars: per outer fold (one row each, the first at the top) the non-nested
+    best's error above the fold's own choice's, the choice written at its bar's end (``flagged``
+    when every inner candidate was). Returns the axes and the rows in drawing order."""
+    import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
+
+    df = series.iloc[::-1].reset_index(drop=True)
+    if ax is None:
+        _, ax = plt.subplots(figsize=(9.0, 1.6 + 0.45 * max(len(df), 3)), layout="constrained")
+    y = np.arange(len(df))
+    nested = df[nested_col].astype(float).to_numpy()
+    ax.barh(y + 0.2, df[plain_col].astype(float).to_numpy(), 0.38, color="C0", label=f"non-nested best ({best})")
+    ax.barh(y - 0.2, nested, 0.38, color="C1", label="nested: the fold's own choice")
+    for k, (v, who, fl) in enumerate(zip(nested, df["chosen"], df["chosen_flagged"])):
+        if who is not None:
+            ax.text(0.0 if not np.isfinite(v) else v, y[k] - 0.2, f" {who}{' (flagged)' if fl else ''}",
+                    va="center", fontsize="x-small")
+    ax.set_yticks(y, labels)
+    return ax, df
+
+
+def _finish(ax, df, nested_col: str, plain_col: str, floor: float):
+    """The x range (room for the choices' names right of the longest bar, ``floor`` always shown) and the legend."""
+    top = np.nanmax(np.r_[df[nested_col].astype(float), df[plain_col].astype(float), floor])
+    ax.set_xlim(left=0, right=1.35 * max(float(top), 1e-9))
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    return ax.figure
 
 
 def compare_nested(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length-out", tare: str = "none",
@@ -639,30 +654,16 @@ class NestedGapComparison(Result):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt  # deferred on purpose: Matplotlib
-
-        df = self._series().iloc[::-1].reset_index(drop=True)
-        if ax is None:
-            _, ax = plt.subplots(figsize=(9.0, 1.6 + 0.45 * max(len(df), 3)), layout="constrained")
-        y = np.arange(len(df))
-        nested = df["nested_gap_error_ratio"].astype(float).to_numpy()
-        plain = df["non_nested_gap_error_ratio"].astype(float).to_numpy()
-        ax.barh(y + 0.2, plain, 0.38, color="C0", label=f"non-nested best ({self.non_nested['best']})")
-        ax.barh(y - 0.2, nested, 0.38, color="C1", label="nested: the fold's own choice")
-        for k, (v, who, fl) in enumerate(zip(nested, df["chosen"], df["chosen_flagged"])):
-            if who is not None:
-                ax.text(0.0 if not np.isfinite(v) else v, y[k] - 0.2, f" {who}{' (flagged)' if fl else ''}",
-                        va="center", fontsize="x-small")
+        series = self._series()
+        ax, df = _paired_bars(ax, series, "nested_gap_error_ratio", "non_nested_gap_error_ratio",
+                              self.non_nested["best"], [f"trial {h}" for h in series["held_out"]][::-1])
         ax.axvline(0.5, color="k", lw=0.8, ls="--", label="0.5: half the measured gap")
-        ax.set_yticks(y, [f"trial {h}" for h in df["held_out"]])
         ax.set_xlabel("held-out gap error RMS / measured gap RMS [-]")
         m = self.metrics
         ax.set_title(f"direction-aware form chosen by nested leave-one-trial-out\npooled {m['nested_gap_error_ratio']:.2f}"
                      f" vs non-nested {m['non_nested_gap_error_ratio']:.2f} (optimism {m['optimism']:+.2f})",
                      fontsize="medium")
-        ax.set_xlim(left=0, right=1.35 * max(float(np.nanmax(np.r_[nested, plain, 0.5])), 1e-9))
-        ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-        return ax.figure
+        return _finish(ax, df, "nested_gap_error_ratio", "non_nested_gap_error_ratio", 0.5)
 
 
 def compare_direction_aware_nested(table: Table, muscle: MuscleSpec, models=None, structures=STRUCTURES,
