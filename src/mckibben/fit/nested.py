@@ -403,6 +403,24 @@ def compare_nested(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length
                             min_samples=int(min_samples))
 
 
+def _isometric_file(data, muscle, select, columns, not_isometric: str):
+    """A table file and its muscle for a nested comparison: (path, table, spec); ``not_isometric``
+    (with ``{path}``) is the error when the file is no isometric table."""
+    path: Path = _data_path(data)
+    table = _isometric_table(path, select, columns)
+    if table is None:
+        raise InputError(not_isometric.format(path=path))
+    spec = load_muscle(path, muscle, True, "compare", table)
+    check_muscle(table, spec)
+    return path, table, spec
+
+
+def _file_info(path: Path, table: Table, spec: MuscleSpec) -> dict:
+    """What a nested comparison's JSON says of its file: ``file``, ``kind``, ``muscle``, ``synthetic``, the reader's notes."""
+    return {"file": str(path), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(path, spec),
+            **_table_notes(table)}
+
+
 def compare_nested_table(data, muscle: str | None = None, cv: str | None = None, tare: str = "none",
                          rails: str = "keep", pressure_zero: str = "none", select: dict | None = None,
                          columns: dict | None = None, rest_lengths=("nominal",),
@@ -437,17 +455,11 @@ def compare_nested_table(data, muscle: str | None = None, cv: str | None = None,
     NestedComparison
         Its JSON also gives ``file``, ``kind``, ``muscle``, ``synthetic`` and the reader's notes.
     """
-    path: Path = _data_path(data)
-    table = _isometric_table(path, select, columns)
-    if table is None:
-        raise InputError(f"nested: selects among force laws held out on an isometric table; {path} is not one "
-                         "(the isotonic comparison picks no best)")
-    spec = load_muscle(path, muscle, True, "compare", table)
-    check_muscle(table, spec)
+    path, table, spec = _isometric_file(data, muscle, select, columns, "nested: selects among force laws held out on "
+                                        "an isometric table; {path} is not one (the isotonic comparison picks no best)")
     res = compare_nested(table, spec, cv or "leave-one-length-out", tare, None, rails, pressure_zero, rest_lengths,
                          min_samples)
-    res.info = {"file": str(path), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(path, spec),
-                **_table_notes(table)}
+    res.info = _file_info(path, table, spec)
     return res
 
 
@@ -809,15 +821,9 @@ def compare_direction_aware_nested_table(data, muscle: str | None = None, tare: 
     NestedGapComparison
         Its JSON also gives ``file``, ``kind``, ``muscle``, ``synthetic`` and the reader's notes.
     """
-    path: Path = _data_path(data)
-    table = _isometric_table(path, select, columns)
-    if table is None:
-        raise InputError(f"direction_aware: scores laws on the inflate and deflate rows of an isometric table; {path} "
-                         "is not one")
-    spec = load_muscle(path, muscle, True, "compare", table)
-    check_muscle(table, spec)
+    path, table, spec = _isometric_file(data, muscle, select, columns, "direction_aware: scores laws on the inflate "
+                                        "and deflate rows of an isometric table; {path} is not one")
     res = compare_direction_aware_nested(table, spec, models, structures, drifts, tare, rails, pressure_zero,
                                          min_samples=min_samples)
-    res.info = {"file": str(path), "kind": "isometric", "muscle": spec.id, "synthetic": _synthetic(path, spec),
-                **_table_notes(table)}
+    res.info = _file_info(path, table, spec)
     return res
