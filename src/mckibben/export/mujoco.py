@@ -60,6 +60,7 @@ from mckibben.models.mpam import MiniatureMuscle
 from mckibben.plant import params as PP
 from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
+from mckibben.plant.simulator import initial_states
 
 __all__ = ["MuscleBank", "hanging_mass_mjcf", "load_model", "muscle_plant", "MUJOCO_HINT"]
 
@@ -349,11 +350,8 @@ class MuscleBank:
     def _block(self, law: int, lanes: np.ndarray, thetas, p0) -> _Block:
         prm = self.prm[lanes]
         th = np.column_stack([thetas[k] for k in lanes])
-        s0 = np.zeros((lanes.size, ph.NS))
-        s0[:, ph.S_P] = p0[lanes] + ph.P_ATM
-        s0[:, ph.S_PLAY] = s0[:, ph.S_P] - ph.P_ATM  # a play on the pressure starts at the pressure
-        s0[:, ph.S_T] = prm[:, _COL['temperature']]
-        s0[:, ph.S_LEN] = prm[:, _COL['nominal_length']]
+        # the plant's rest state (gas at the wall temperature, the play at the pressure), at the tendon's length
+        s0 = initial_states(prm, law, th, p0[lanes], l_init=prm[:, _COL['nominal_length']])
         bk = np.zeros(ph.BLOCK)
         ph.load_block(0, lanes.size, np.ascontiguousarray(prm), np.ascontiguousarray(th), s0, bk)
         nl = lanes.size
