@@ -13,8 +13,9 @@ an optional fitted term (:data:`THRESHOLD_NAME`, :func:`mckibben.fit.isometric.f
 virtual-work law, whose elastic term sets a threshold only for a contracted muscle) buys a negative
 load-cell zero to meet a map that reads 0 N there: the threshold *explains* that offset (a
 pressure the muscle spends on itself) where the zero would *absorb* it (a sensor error on a tared
-map). The muscle file stores it among the law's parameters; the statics
-(:class:`~mckibben.models.law_statics.LawMuscle`) evaluate the law at the shifted pressure.
+map). It is scored by the comparison on request only (it did not hold held out on the real
+campaign: benchmarks/RESULTS.md): a muscle file does not store it, and saving a fit that carries it
+is refused (:func:`mckibben.fit.muscle_file.muscle_file_text`).
 
 Its bound is the one of Tondu–Lopez's own threshold
 (:data:`~mckibben.models.laws.tondu_lopez.PTH_FRACTION` of the highest measured pressure, one
