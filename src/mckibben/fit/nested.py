@@ -113,6 +113,12 @@ def _options(rest_lengths) -> tuple[str, ...]:
     return opts
 
 
+def _rows(table: Table, keep) -> Table:
+    """The table on the rows ``keep`` marks (boolean, aligned with ``table.data``), its kept-aside columns too."""
+    extra = table.extra
+    return replace(table, data=table.data[keep], extra=extra[keep] if extra is not None else None)
+
+
 def _select(table: Table, muscle: MuscleSpec, cv: str, tare: str, models, rails: str, pressure_zero: str,
             options: tuple[str, ...], min_samples: int = 0
             ) -> tuple[dict[str, ModelComparison], list[dict], dict | None, bool]:
@@ -366,9 +372,7 @@ def compare_nested(table: Table, muscle: MuscleSpec, cv: str = "leave-one-length
     for g in groups:
         held = names[int(g)]
         test_rows = d.index[key == g]
-        keep = ~table.data.index.isin(test_rows)
-        extra = table.extra
-        inner_table = replace(table, data=table.data[keep], extra=extra[keep] if extra is not None else None)
+        inner_table = _rows(table, ~table.data.index.isin(test_rows))
         note, who, inner_rmse, flagged = "", None, float("nan"), False
         try:
             _, _, pick, flagged = _select(inner_table, muscle, cv, tare, models, rails, pressure_zero, options,
@@ -650,12 +654,12 @@ class NestedGapComparison(Result):
                                   "gap_error_ratio": "nested_gap_error_ratio"})
 
     def plot(self, ax=None):
-        """Per held-out trial, the nested and the non-nested gap error ratio, the 0.5 bar, each fold's choice named.
+        """Per held-out trial, the nested and the non-nested gap error ratio, a line at 0.5, each fold's choice named.
 
         One row per held-out trial: the gap error RMS over the measured gap's RMS of the
         candidate chosen on the other trials alone (nested), beside the non-nested best's on the
         same trial; the chosen candidate written at the bar's end (``flagged`` when every inner
-        candidate was); a line at 0.5 (issue 33's bar); the pooled figures in the title.
+        candidate was); a line at 0.5 (the error half the measured gap); the pooled figures in the title.
 
         Parameters
         ----------
@@ -746,15 +750,16 @@ def compare_direction_aware_nested(table: Table, muscle: MuscleSpec, models=None
     if best is None:
         notes = "; ".join(s["note"] for s in scores if s["note"])
         raise InputError(f"compare on {table.path}: no direction-aware candidate could be scored held out ({notes})")
-    by_trial = {name: {t: [r for r in h.rows if r["trial"] == t] for t in (r["trial"] for r in h.rows)}
-                for name, h in gaps.items()}
+    by_trial: dict[str, dict] = {}  # candidate -> held-out trial -> its held-out runs
+    for name, h in gaps.items():
+        for r in h.rows:
+            by_trial.setdefault(name, {}).setdefault(r["trial"], []).append(r)
     for s in scores:
         s["by_trial"] = {str(t): _trial_gap(rows)["gap_error_ratio"] for t, rows in by_trial.get(s["candidate"], {}).items()}
     folds, nested_rows, plain_rows = [], [], []
     for t in trials:
         held = t.item() if hasattr(t, "item") else t
-        inner_table = replace(table, data=table.data[table.data["trial"] != t],
-                              extra=table.extra[(table.data["trial"] != t).to_numpy()] if table.extra is not None else None)
+        inner_table = _rows(table, (table.data["trial"] != t).to_numpy())
         note, pick, flagged, inner = "", None, False, []
         try:
             inner, _ = _gap_select(inner_table, muscle, candidates, tare, rails, pressure_zero, grid, min_samples)
