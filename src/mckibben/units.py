@@ -63,6 +63,7 @@ UNITS: dict[str, tuple[str, float]] = {
     "s": ("time", 1.0),
     "ms": ("time", 1e-3),
     "us": ("time", 1e-6),
+    "min": ("time", 60.0),
     # frequency [Hz]
     "Hz": ("frequency", 1.0),
     "kHz": ("frequency", 1e3),

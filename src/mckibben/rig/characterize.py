@@ -322,7 +322,7 @@ def _ramp_rate(raw, fail) -> float:
     num, _, per = raw.rpartition("/")
     try:
         rate = parse_quantity(num, "pressure", "ramp", allow_zero=False)
-        seconds = 60.0 if per.strip() == "min" else parse_quantity("1" + per.strip(), "time", "ramp")
+        seconds = parse_quantity("1" + per.strip(), "time", "ramp")
     except InputError as exc:
         raise fail(str(exc)) from None
     rate /= seconds
