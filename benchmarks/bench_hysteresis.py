@@ -7,32 +7,48 @@
 2. **Real data** (``../shared/data/real/festo10_isometric.csv``, not bundled; skipped when absent):
    force against pressure at a held length, inflate then deflate, three trials per (muscle,
    length). Per (muscle, length) a modified PI operator (pressure [Pa] → force [N], 2 plays at 0
-   and 10 kPa, weights ≥ 0, a monotone output map of 8 knots) is fitted on trials 8 and 9 and
-   scored on trial 10, held out (other configurations: benchmarks/RESULTS.md). Loop width
-   = mean over a pressure grid of (deflate − inflate) force, on trial 10: *before* on the measured
-   force (the width any static map leaves), *after* on the residual force − PI prediction.
-   Samples at the load cell's floor (−8.735 N, slack muscle) are left out of fit and width.
+   and 10 kPa, weights ≥ 0, a monotone output map of 8 knots) is fitted on every trial but the
+   last (8 and 9) and scored on the last (10), held out (other configurations: benchmarks/RESULTS.md).
+   Loop width = mean over a pressure grid of (deflate − inflate) force, on the held-out trial:
+   *before* on the measured force (the width any static map leaves), *after* on the residual
+   force − PI prediction. Samples at the load cell's floor (the campaign's lowest force when it is
+   a rail, :func:`real_campaign.rail_floor`: −8.735 N, slack muscle) are left out of fit and width.
 
-Run: python benchmarks/bench_hysteresis.py [--real-only]
+Run: python benchmarks/bench_hysteresis.py [--real-only] [--data PATH] [--outer-diameter-mm D]
+(--data: another campaign in the same format, e.g. a Festo 20 mm one; --outer-diameter-mm: its
+muscles' outer diameter, read from a name like ``festo20_isometric.csv`` when not given.)
 """
 
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+import real_campaign
+
 from mckibben.fit.hysteresis import fit_prandtl_ishlinskii
 from mckibben.models.hysteresis import apply, descended_state, thresholds_uniform
 
-REAL = Path(__file__).resolve().parents[2] / "shared/data/real"
-SOURCE = REAL / "festo10_isometric.csv"
-RAIL_N = -8.735 + 0.01  # the load cell's floor (PROVENANCE.md, RESULTS.md "sensor realities")
 N_PLAYS, SPAN_PA, KNOTS = 2, 40e3, 8
 GRID_KPA = np.arange(100.0, 560.0, 10.0)
-FIT_TRIALS, TEST_TRIAL = (8, 9), 10
+# The campaign and what is read from it, set by use() (main; bench_hysteresis_gap.py reads them here).
+CAMPAIGN = real_campaign.parse([])[1]
+SOURCE = CAMPAIGN.path
+RAIL_N = -np.inf  # the load cell's floor + 0.01 N: rows at or below are at the rail (PROVENANCE.md,
+# RESULTS.md "sensor realities"); -inf: the campaign has no rail, every row kept
+FIT_TRIALS: tuple[int, ...] = ()
+TEST_TRIAL = -1
+
+
+def use(campaign: real_campaign.Campaign) -> None:
+    """Set the module's campaign, its rail and its trials (the file must exist)."""
+    global CAMPAIGN, SOURCE, RAIL_N, FIT_TRIALS, TEST_TRIAL
+    CAMPAIGN, SOURCE = campaign, campaign.path
+    floor = real_campaign.rail_floor(campaign.path)
+    RAIL_N = -np.inf if floor is None else floor + 0.01
+    FIT_TRIALS, TEST_TRIAL = real_campaign.trials(pd.read_csv(campaign.path))
 
 
 def _sequence(run: pd.DataFrame) -> pd.DataFrame:
@@ -105,6 +121,7 @@ def simulator() -> dict:
 
 
 def main(argv: list[str]) -> int:
+    argv, campaign = real_campaign.parse(argv)
     if "--real-only" not in argv:
         s = simulator()
         pi = s["prandtl_ishlinskii"]
@@ -113,9 +130,10 @@ def main(argv: list[str]) -> int:
         print(f"| branches | {s['branches']['rms_error_m'] * 1e3:.2f} | {s['branches']['max_error_m'] * 1e3:.2f} |")
         print(f"| Prandtl–Ishlinskii inverse | {pi['rms_error_m'] * 1e3:.2f} | {pi['max_error_m'] * 1e3:.2f} |")
         print(f"PI fit residual {pi['fit_rmse_Pa'] / 1e3:.1f} kPa, weights {np.round(pi['weights'], 3).tolist()}")
-    if not SOURCE.exists():
-        print(f"skipped: {SOURCE} is absent (real data are not bundled)")
+    if not campaign.path.exists():
+        print(f"skipped: {campaign.path} is absent (real data are not bundled)")
         return 0
+    use(campaign)
     rows = real_data()
     print("\n| muscle | held mm | peak N | loop width before N | after N | held-out RMSE static N | PI N |")
     print("| --- | --- | --- | --- | --- | --- | --- |")

@@ -4,8 +4,8 @@
 mean over 100–550 kPa of deflate − inflate force: a signed mean, so a loop that crosses itself
 (wider at low pressure one way, at high pressure the other) reads near zero. This script fits the
 same operator the same way (its constants and helpers are imported, not copied: 2 plays at 0 and
-10 kPa, 8 knots, trials 8–9 fitted, trial 10 held out, rows at the load cell's floor left out) and
-scores, at every grid pressure where both branches of trial 10 have data,
+10 kPa, 8 knots, every trial but the last fitted (8–9), the last (10) held out, rows at the load
+cell's floor left out) and scores, at every grid pressure where both branches of the held-out trial have data,
 
 - the measured gap g(P) = F_deflate(P) − F_inflate(P);
 - the gap error e(P) = predicted gap − measured gap: −g(P) for a static map (no gap), and
@@ -19,10 +19,15 @@ registered law and its direction-aware form (``play``: the law fed through a pla
 held out, each trial in turn (:func:`mckibben.fit.direction.heldout_gap`, the same grid and rail
 rows). The bar: the best direction-aware model's gap error RMS at most half the measured gap's RMS
 on the held-out trial.
-Reads ``../shared/data/real/festo10_isometric.csv`` (not bundled); skips when it is absent.
+Reads ``../shared/data/real/festo10_isometric.csv`` by default (not bundled); skips when it is absent.
 
 Run: python benchmarks/bench_hysteresis_gap.py [--laws=a,b] [--structures=play,friction] [--pi-only | --da-only]
      [--replay-only | --family | --synthetic | --nested] [--min-samples=N] [--drift | --drifts=off,on] [--jobs=N]
+     [--data PATH] [--outer-diameter-mm D]
+
+``--data PATH``: another campaign in the same format (e.g. a Festo 20 mm one) instead of the default;
+``--outer-diameter-mm D``: its muscles' outer diameter, read from a name like ``festo20_isometric.csv``
+when not given (:mod:`real_campaign`; its rail and trials are read from the data).
 
 ``--min-samples=N``: the settled points only (the table is binned from a stepped protocol; a
 point of fewer than N readings is the pressure passing through a bin during a step), for the
@@ -48,7 +53,9 @@ import sys
 import numpy as np
 import pandas as pd
 
-from bench_hysteresis import FIT_TRIALS, GRID_KPA, KNOTS, N_PLAYS, RAIL_N, SOURCE, SPAN_PA, TEST_TRIAL, _sequence
+import bench_hysteresis as bh
+import real_campaign
+from bench_hysteresis import GRID_KPA, KNOTS, N_PLAYS, SPAN_PA, _sequence
 
 from mckibben.data import read_table
 from mckibben.data.muscle_file import MuscleSpec
@@ -68,7 +75,6 @@ NESTED_LAWS = ("virtual-work", "spring")
 
 #: The laws scored by default (the registry's fitted laws that fit these muscles best, RESULTS.md).
 LAWS = ("virtual-work", "spring", "hunt-quinn", "relative-strain")
-OUTER_DIAMETER_MM = 10.0  # as bench_real_models.py: the muscle file needs one; only the physical laws' bounds read it
 
 
 def _branch_gap(p_kpa, value, phase) -> np.ndarray:
@@ -78,22 +84,22 @@ def _branch_gap(p_kpa, value, phase) -> np.ndarray:
 
 def gaps() -> list[dict]:
     """Per (muscle, held length) on the held-out trial: measured gap, PI gap error, mean width."""
-    data = pd.read_csv(SOURCE)
+    data = pd.read_csv(bh.SOURCE)
     r = thresholds_uniform(N_PLAYS, SPAN_PA)
     rows = []
     for (cut, held), g in data.groupby(["cut_length_cm", "held_length_mm"]):
         seqs = {t: _sequence(g[g.trial == t]) for t in sorted(g.trial.unique())}
-        fit_runs = [seqs[t] for t in FIT_TRIALS if t in seqs]
-        if TEST_TRIAL not in seqs or not fit_runs:
+        fit_runs = [seqs[t] for t in bh.FIT_TRIALS if t in seqs]
+        if bh.TEST_TRIAL not in seqs or not fit_runs:
             continue
         tr = pd.concat(fit_runs)
         u, y = tr.pressure_kPa.to_numpy() * 1e3, tr.force_N.to_numpy()
-        res = fit_prandtl_ishlinskii(u, y, r, run=tr.trial.to_numpy(), start="descended", mask=y > RAIL_N,
-                                     input_unit="Pa", output_unit="N", source=SOURCE.name, output_knots=KNOTS)
-        te = seqs[TEST_TRIAL]
+        res = fit_prandtl_ishlinskii(u, y, r, run=tr.trial.to_numpy(), start="descended", mask=y > bh.RAIL_N,
+                                     input_unit="Pa", output_unit="N", source=bh.SOURCE.name, output_knots=KNOTS)
+        te = seqs[bh.TEST_TRIAL]
         ut, yt = te.pressure_kPa.to_numpy() * 1e3, te.force_N.to_numpy()
         pred, _ = apply(res.model, ut, descended_state(r, float(ut[0])))
-        ok = yt > RAIL_N
+        ok = yt > bh.RAIL_N
         p_k, ph = te.pressure_kPa.to_numpy()[ok], te.phase.to_numpy()[ok]
         measured = _branch_gap(p_k, yt[ok], ph)
         error = _branch_gap(p_k, pred[ok], ph) - measured
@@ -109,12 +115,13 @@ def direction_aware(law_names, structures, min_samples: int = 0, drift: bool = F
     out of the fits and the gaps, kept in each run's history (:func:`mckibben.fit.isometric.transition_rows`).
     ``drift``: the run-drift nuisance fitted with the law (``heldout_gap(drift=True)``).
     """
-    data = pd.read_csv(SOURCE)
+    c = bh.CAMPAIGN
+    data = pd.read_csv(c.path)
     out: dict = {}
     for cut, g in data.groupby("cut_length_cm"):
-        table = read_table(SOURCE, "isometric", {"cut_length_cm": int(cut)}, {"phase": "direction"})
-        muscle = MuscleSpec(id=f"festo10-{cut}cm", nominal_length=float(g["rest_length_mm"].iloc[0]) / 1e3,
-                            outer_diameter=OUTER_DIAMETER_MM / 1e3)
+        table = read_table(c.path, "isometric", {"cut_length_cm": int(cut)}, {"phase": "direction"})
+        muscle = MuscleSpec(id=f"{c.name}-{cut}cm", nominal_length=float(g["rest_length_mm"].iloc[0]) / 1e3,
+                            outer_diameter=c.outer_diameter_mm / 1e3)
         for law in law_names:
             for st in structures:
                 h = heldout_gap(table, muscle, law, st, grid=GRID_KPA * 1e3, min_samples=min_samples, drift=drift)
@@ -127,9 +134,10 @@ def direction_aware(law_names, structures, min_samples: int = 0, drift: bool = F
 
 def family(law: str = "virtual-work", structure: str = "play", min_samples: int = 0, drift: bool = False) -> None:
     """One operator across the six muscles: a family law's direction-aware form on the family table."""
-    table = read_table(SOURCE, "isometric", None, {"phase": "direction", "cut_length_cm": "muscle"})
-    rest = pd.read_csv(SOURCE)["rest_length_mm"]
-    muscle = MuscleSpec(id="festo10", nominal_length=float(rest.median()) / 1e3, outer_diameter=OUTER_DIAMETER_MM / 1e3)
+    c = bh.CAMPAIGN
+    table = read_table(c.path, "isometric", None, {"phase": "direction", "cut_length_cm": "muscle"})
+    rest = pd.read_csv(c.path)["rest_length_mm"]
+    muscle = MuscleSpec(id=c.name, nominal_length=float(rest.median()) / 1e3, outer_diameter=c.outer_diameter_mm / 1e3)
     h = heldout_gap(table, muscle, law, structure, grid=GRID_KPA * 1e3, min_samples=min_samples, drift=drift)
     thr = ", ".join(f"{f.operator['play_threshold_Pa'] / 1e3:.1f}" for f in h.fits)
     dr = (", drift " + ", ".join(f"{f.operator['run_drift_ratio']:+.3f}" for f in h.fits)) if drift else ""
@@ -167,14 +175,14 @@ def replay(min_samples: int = 0) -> dict:
     trial: (measured gap RMS, error RMS, error max) pooled over the 24 pairs, on the same grid,
     on the points binned from ``min_samples`` readings or more (the models' selection).
     """
-    data = pd.read_csv(SOURCE)
+    data = pd.read_csv(bh.SOURCE)
     data = data[data[SAMPLES_COLUMN] >= min_samples]
     grid = GRID_KPA * 1e3
     out: dict = {}
     for _, g in data.groupby(["cut_length_cm", "held_length_mm"]):
         runs = {}
         for t, r in g.groupby("trial"):
-            ok = r.force_N.to_numpy() > RAIL_N
+            ok = r.force_N.to_numpy() > bh.RAIL_N
             runs[t] = loop_gap(r.pressure_kPa.to_numpy()[ok] * 1e3, r.force_N.to_numpy()[ok], r.phase.to_numpy()[ok], grid)
         for t, (gt, meas) in runs.items():
             others = [np.interp(gt, *runs[o]) for o in runs if o != t and runs[o][0].size]
@@ -190,10 +198,10 @@ def replay(min_samples: int = 0) -> dict:
 
 def _nested_muscle(args) -> dict:
     """One muscle's nested selection, reduced to what pools across muscles (picklable for ``--jobs``)."""
-    cut, laws_, structures, drifts, min_samples = args
-    table = read_table(SOURCE, "isometric", {"cut_length_cm": int(cut)}, {"phase": "direction"})
-    rest = pd.read_csv(SOURCE).query("cut_length_cm == @cut")["rest_length_mm"].iloc[0]
-    muscle = MuscleSpec(id=f"festo10-{cut}cm", nominal_length=float(rest) / 1e3, outer_diameter=OUTER_DIAMETER_MM / 1e3)
+    cut, laws_, structures, drifts, min_samples, c = args  # the campaign passed, not read from bh (any start method)
+    table = read_table(c.path, "isometric", {"cut_length_cm": int(cut)}, {"phase": "direction"})
+    rest = pd.read_csv(c.path).query("cut_length_cm == @cut")["rest_length_mm"].iloc[0]
+    muscle = MuscleSpec(id=f"{c.name}-{cut}cm", nominal_length=float(rest) / 1e3, outer_diameter=c.outer_diameter_mm / 1e3)
     res = compare_direction_aware_nested(table, muscle, laws_, structures, drifts, grid=GRID_KPA * 1e3,
                                          min_samples=min_samples)
     rows = {name: {t: (np.concatenate([r["measured_N"] for r in h.rows if r["trial"] == t]),
@@ -218,8 +226,8 @@ def nested(law_names, structures, drifts, min_samples: int, jobs: int) -> None:
     import time
     from concurrent.futures import ProcessPoolExecutor
 
-    cuts = sorted(pd.read_csv(SOURCE)["cut_length_cm"].unique().tolist())
-    work = [(c, law_names, structures, drifts, min_samples) for c in cuts]
+    cuts = sorted(pd.read_csv(bh.SOURCE)["cut_length_cm"].unique().tolist())
+    work = [(c, law_names, structures, drifts, min_samples, bh.CAMPAIGN) for c in cuts]
     t0 = time.perf_counter()
     if jobs > 1:
         with ProcessPoolExecutor(jobs) as ex:
@@ -290,6 +298,7 @@ def _pooled(rows, key):
 
 
 def main(argv: list[str]) -> int:
+    argv, campaign = real_campaign.parse(argv)
     opts = dict(a.split("=", 1) for a in argv if a.startswith("--") and "=" in a)
     law_names = tuple(opts.get("--laws", ",".join(LAWS)).split(","))
     structures = tuple(opts.get("--structures", ",".join(STRUCTURES)).split(","))
@@ -297,9 +306,10 @@ def main(argv: list[str]) -> int:
     if "--synthetic" in argv:
         synthetic(law_names, structures)
         return 0
-    if not SOURCE.exists():
-        print(f"skipped: {SOURCE} is absent (real data are not bundled)")
+    if not campaign.path.exists():
+        print(f"skipped: {campaign.path} is absent (real data are not bundled)")
         return 0
+    bh.use(campaign)
     if "--da-only" not in argv:
         _pi_table()
     if "--pi-only" in argv:
@@ -354,7 +364,7 @@ def _pi_table() -> None:
         m, e = r["measured"], r["error"]
         print(f"| {r['muscle']} | {r['held_mm']:.2f} | {rms(m):.2f} / {np.max(np.abs(m)):.2f} | "
               f"{rms(e):.2f} / {np.max(np.abs(e)):.2f} | {np.mean(m):.2f} / {np.mean(-e):.2f} |")
-    print(f"\npooled over {len(rows)} pairs, {meas.size} grid pressures (held-out trial {TEST_TRIAL}):")
+    print(f"\npooled over {len(rows)} pairs, {meas.size} grid pressures (held-out trial {bh.TEST_TRIAL}):")
     print(f"  static map (no gap):  RMS {rms(meas):.2f} N, max {np.max(np.abs(meas)):.2f} N")
     print(f"  Prandtl–Ishlinskii:   RMS {rms(err):.2f} N, max {np.max(np.abs(err)):.2f} N")
     print(f"  median per-pair RMS:  {np.median([rms(r['measured']) for r in rows]):.2f} N before, "

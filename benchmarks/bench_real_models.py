@@ -1,8 +1,8 @@
 """Held-out errors of every force model on real isometric measurements (not bundled, not shipped).
 
-Reads ``../shared/data/real/festo10_isometric.csv`` beside the repository (Festo 10 mm muscles cut
-to six lengths; PROVENANCE.md there says what the rig got wrong) and skips cleanly when it is
-absent. It writes the lab's shapes of the data into a temporary folder: one isometric table and a
+Reads ``../shared/data/real/festo10_isometric.csv`` beside the repository by default (Festo 10 mm
+muscles cut to six lengths; PROVENANCE.md there says what the rig got wrong) and skips cleanly when
+it is absent. It writes the lab's shapes of the data into a temporary folder: one isometric table and a
 muscle file of only ``id``, ``nominal_length_mm``, ``outer_diameter_mm`` per muscle, and one family
 table (``muscle``, ``rest_length_mm``) with a muscle file of the type; then it runs, as a lab would,
 
@@ -39,7 +39,10 @@ the family leave-one-muscle-out and leave-one-length-out; held out % of peak, fo
 the fitted threshold, flags.
 
 Run: python benchmarks/bench_real_models.py [--quick | --sensors | --nested | --physical [TARE [MODELS]] | --threshold]
-(--quick: the family only)
+     [--data PATH] [--outer-diameter-mm D]
+(--quick: the family only; --data: another campaign in the same format, e.g. a Festo 20 mm one, its
+muscles named after the file, ``festo20_isometric.csv`` -> ``festo20-10cm``; --outer-diameter-mm: their
+outer diameter, read from such a name when not given; :mod:`real_campaign`.)
 """
 
 from __future__ import annotations
@@ -52,12 +55,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+import real_campaign
+
 from mckibben.cli import main
 
-REAL = Path(__file__).resolve().parents[2] / "shared/data/real"
-SOURCE = REAL / "festo10_isometric.csv"
-OUTER_DIAMETER_MM = 10.0  # Festo DMSP-10: nominal inner diameter 10 mm (the muscle file needs one; no model reads it
-# but the physical laws' bounds)
+# The campaign (real_campaign.parse; set from the command line before any bench runs): its file, its
+# muscles' outer diameter (the muscle file needs one; no model reads it but the physical laws' bounds;
+# Festo DMSP-10: the nominal inner diameter 10 mm, from the file's name) and its name (the ids' prefix).
+CAMPAIGN = real_campaign.parse([])[1]
+SOURCE = CAMPAIGN.path
 
 
 def run(*args: str) -> dict:
@@ -76,7 +82,7 @@ def run(*args: str) -> dict:
 def lab_tables(folder: Path) -> tuple[list, Path, Path]:
     """Write per-muscle tables and muscle files, and the family table and its muscle file."""
     d = pd.read_csv(SOURCE)
-    d["muscle"] = "festo10-" + d["cut_length_cm"].astype(str) + "cm"
+    d["muscle"] = f"{CAMPAIGN.name}-" + d["cut_length_cm"].astype(str) + "cm"
     d = d.rename(columns={"phase": "direction"})
     cols = ["held_length_mm", "pressure_kPa", "force_N", "direction", "trial", "muscle"]
     per = []
@@ -85,13 +91,13 @@ def lab_tables(folder: Path) -> tuple[list, Path, Path]:
         g[cols].to_csv(iso, index=False)
         toml = folder / f"{m}.toml"
         toml.write_text(f'id = "{m}"\nnominal_length_mm = {g["rest_length_mm"].iloc[0]:g}\n'
-                        f"outer_diameter_mm = {OUTER_DIAMETER_MM:g}\n")
+                        f"outer_diameter_mm = {CAMPAIGN.outer_diameter_mm:g}\n")
         per.append((m, float(g["rest_length_mm"].iloc[0]), iso, toml))
     fam = folder / "family.csv"
     d[cols + ["rest_length_mm"]].to_csv(fam, index=False)
-    fam_toml = folder / "festo10.toml"
-    fam_toml.write_text(f'id = "festo10"\nnominal_length_mm = {d["rest_length_mm"].median():g}\n'
-                        f"outer_diameter_mm = {OUTER_DIAMETER_MM:g}\n")
+    fam_toml = folder / f"{CAMPAIGN.name}.toml"
+    fam_toml.write_text(f'id = "{CAMPAIGN.name}"\nnominal_length_mm = {d["rest_length_mm"].median():g}\n'
+                        f"outer_diameter_mm = {CAMPAIGN.outer_diameter_mm:g}\n")
     return per, fam, fam_toml
 
 
@@ -296,12 +302,14 @@ def main_bench(quick: bool = False) -> int:
 
 
 if __name__ == "__main__":
-    if "--physical" in sys.argv:
-        i = sys.argv.index("--physical")
-        rest = sys.argv[i + 1:]
+    argv, CAMPAIGN = real_campaign.parse(sys.argv[1:])
+    SOURCE = CAMPAIGN.path
+    if "--physical" in argv:
+        i = argv.index("--physical")
+        rest = argv[i + 1:]
         sys.exit(physical_bench(rest[0] if rest else "lowest", tuple(rest[1].split(",")) if len(rest) > 1 else PHYSICAL))
-    if "--nested" in sys.argv:
+    if "--nested" in argv:
         sys.exit(nested_bench())
-    if "--threshold" in sys.argv:
+    if "--threshold" in argv:
         sys.exit(threshold_bench())
-    sys.exit(sensors_bench() if "--sensors" in sys.argv else main_bench("--quick" in sys.argv))
+    sys.exit(sensors_bench() if "--sensors" in argv else main_bench("--quick" in argv))
