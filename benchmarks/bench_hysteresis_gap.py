@@ -59,6 +59,7 @@ from bench_hysteresis import GRID_KPA, KNOTS, N_PLAYS, SPAN_PA, _sequence
 
 from mckibben.data import read_table
 from mckibben.data.muscle_file import MuscleSpec
+from mckibben.errors import InputError
 from mckibben.fit.direction import heldout_gap, loop_gap
 from mckibben.fit.isometric import SAMPLES_COLUMN
 from mckibben.fit.nested import _gap_best, compare_direction_aware_nested
@@ -75,6 +76,12 @@ NESTED_LAWS = ("virtual-work", "spring")
 
 #: The laws scored by default (the registry's fitted laws that fit these muscles best, RESULTS.md).
 LAWS = ("virtual-work", "spring", "hunt-quinn", "relative-strain")
+
+
+def _count(n: int) -> str:
+    """A count as the tables' text writes it (two, six; a numeral beyond ten)."""
+    words = ("no", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten")
+    return words[n] if 0 <= n < len(words) else str(n)
 
 
 def _branch_gap(p_kpa, value, phase) -> np.ndarray:
@@ -141,7 +148,8 @@ def family(law: str = "virtual-work", structure: str = "play", min_samples: int 
     h = heldout_gap(table, muscle, law, structure, grid=GRID_KPA * 1e3, min_samples=min_samples, drift=drift)
     thr = ", ".join(f"{f.operator['play_threshold_Pa'] / 1e3:.1f}" for f in h.fits)
     dr = (", drift " + ", ".join(f"{f.operator['run_drift_ratio']:+.3f}" for f in h.fits)) if drift else ""
-    print(f"\nfamily ({law}, {structure}; one operator for six muscles; thresholds {thr} kPa per fold{dr}):")
+    n = pd.read_csv(c.path)["cut_length_cm"].nunique()
+    print(f"\nfamily ({law}, {structure}; one operator for {_count(n)} muscles; thresholds {thr} kPa per fold{dr}):")
     for t in sorted({r["trial"] for r in h.rows}):
         sel = [r for r in h.rows if r["trial"] == t]
         m, pe, pm = _pooled(sel, "plain_N")
@@ -202,8 +210,11 @@ def _nested_muscle(args) -> dict:
     table = read_table(c.path, "isometric", {"cut_length_cm": int(cut)}, {"phase": "direction"})
     rest = pd.read_csv(c.path).query("cut_length_cm == @cut")["rest_length_mm"].iloc[0]
     muscle = MuscleSpec(id=f"{c.name}-{cut}cm", nominal_length=float(rest) / 1e3, outer_diameter=c.outer_diameter_mm / 1e3)
-    res = compare_direction_aware_nested(table, muscle, laws_, structures, drifts, grid=GRID_KPA * 1e3,
-                                         min_samples=min_samples)
+    try:
+        res = compare_direction_aware_nested(table, muscle, laws_, structures, drifts, grid=GRID_KPA * 1e3,
+                                             min_samples=min_samples)
+    except InputError as exc:  # a muscle the nesting cannot score (too few trials): said, and the others go on
+        return {"cut": cut, "skipped": str(exc)}
     rows = {name: {t: (np.concatenate([r["measured_N"] for r in h.rows if r["trial"] == t]),
                        np.concatenate([r["direction_aware_N"] for r in h.rows if r["trial"] == t]))
                    for t in sorted({r["trial"] for r in h.rows})} for name, h in res.heldout.items()}
@@ -235,11 +246,16 @@ def nested(law_names, structures, drifts, min_samples: int, jobs: int) -> None:
     else:
         per = [_nested_muscle(w) for w in work]
     wall = time.perf_counter() - t0
+    for m in per:
+        if "skipped" in m:
+            print(f"{m['cut']} cm: not scored: {m['skipped']}")
+    per = [m for m in per if "skipped" not in m]
     cands = list(per[0]["rows"]) if per else []
     trials = sorted({f["held_out"] for m in per for f in m["folds"]})
     print(f"\nnested leave-one-trial-out, {len(cands)} candidates per muscle, min-samples {min_samples} "
           f"({wall / 60:.1f} min, {jobs} job(s)):")
-    print("| muscle | held-out trial | chosen on the other two trials | nested ratio | non-nested best (muscle) ratio |")
+    others = _count(len(trials) - 1)
+    print(f"| muscle | held-out trial | chosen on the other {others} trials | nested ratio | non-nested best (muscle) ratio |")
     print("| --- | --- | --- | --- | --- |")
     for m in per:
         for f in m["folds"]:
@@ -250,7 +266,7 @@ def nested(law_names, structures, drifts, min_samples: int, jobs: int) -> None:
              for c in cands}
     pooled = {c: _ratio([m["rows"][c][t] for m in per if c in m["rows"] for t in m["rows"][c]]) for c in cands}
     flags = {c: sorted({fl for m in per for fl in m["flags"].get(c, [])}) for c in cands}
-    print("\nevery candidate, pooled over the six muscles (non-nested: each trial held out, no choice):")
+    print(f"\nevery candidate, pooled over the {_count(len(per))} muscles (non-nested: each trial held out, no choice):")
     print("| candidate | ratio, held-out trial " + " · ".join(map(str, trials)) + " | pooled | flags |")
     print("| --- | --- | --- | --- |")
     for c in cands:
@@ -258,8 +274,9 @@ def nested(law_names, structures, drifts, min_samples: int, jobs: int) -> None:
               f"{', '.join(flags[c]) or 'none'} |")
     best, _ = _gap_best([{"candidate": c, "gap_error_rms_N": pooled[c][1], "flags": flags[c]} for c in cands])
     lowest = min(cands, key=lambda c: pooled[c][2])
-    print("\nper held-out trial, pooled over the six muscles (gap error RMS / measured gap RMS):")
-    print("| held-out trial | measured gap RMS N | nested, chosen per muscle | nested, one choice for the six muscles "
+    six = _count(len(per))
+    print(f"\nper held-out trial, pooled over the {six} muscles (gap error RMS / measured gap RMS):")
+    print(f"| held-out trial | measured gap RMS N | nested, chosen per muscle | nested, one choice for the {six} muscles "
           "(chosen) | nested, one choice, lowest inner error, flags not read (chosen) | non-nested, best's rule | "
           "non-nested, lowest |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
@@ -283,7 +300,7 @@ def nested(law_names, structures, drifts, min_samples: int, jobs: int) -> None:
             summary[k].append(v)
         print(f"| {t} | {mr:.2f} | **{r_per:.3f}** | **{r_one:.3f}** ({one['candidate'] if one else '—'}) | "
               f"{r_nlow:.3f} ({low['candidate']}) | {r_best:.3f} ({best['candidate']}) | {r_low:.3f} ({lowest}) |")
-    for k, what in (("per", "nested, chosen per muscle"), ("one", "nested, one choice for the six muscles"),
+    for k, what in (("per", "nested, chosen per muscle"), ("one", f"nested, one choice for the {six} muscles"),
                     ("nlow", "nested, one choice, lowest inner error (flags not read)")):
         met = [t for t, r in zip(trials, summary[k]) if r <= 0.5]
         print(f"{what}: {' · '.join(f'{r:.3f}' for r in summary[k])}; bar of 0.5 met on trials {met or 'none'}")
@@ -315,7 +332,8 @@ def main(argv: list[str]) -> int:
     if "--pi-only" in argv:
         return 0
     sel = f" (points of {min_samples} readings or more)" if min_samples else ""
-    print(f"\nthe other two trials' measured gap (per pair, their mean) as the held-out trial's prediction{sel}:")
+    others = _count(pd.read_csv(bh.SOURCE)["trial"].nunique() - 1)
+    print(f"\nthe other {others} trials' measured gap (per pair, their mean) as the held-out trial's prediction{sel}:")
     print("| held-out trial | measured gap RMS N | error RMS / max N | ratio |")
     print("| --- | --- | --- | --- |")
     for t, (m, e, mx) in replay(min_samples).items():
