@@ -101,6 +101,29 @@ def test_each_folds_score_is_the_chosen_candidates_fit_on_the_other_trials(tmp_p
     assert json.loads(json.dumps(res.to_dict()))["selection"] == res.selection
 
 
+def test_fits_on_the_same_points_are_made_once_and_equal_fitting_again(tmp_path, truth, monkeypatch):
+    """Three trials: the outer folds fit on three pairs, the inner folds on single trials, each single
+    trial in two outer folds; with the shared cache each training set is fitted once (6 fits, not 9)."""
+    import mckibben.fit.direction as direction
+
+    muscle, theta = truth
+    table = read_table(_campaign(tmp_path, muscle, theta, "play", [R_TRUE], trials=(1, 2, 3)))
+    fresh = heldout_gap(table, muscle, LAW, "play").metrics
+    made = []
+    real = direction._fit_points
+    monkeypatch.setattr(direction, "_fit_points", lambda d, *a, **k: made.append(tuple(sorted(set(d["trial"])))) or
+                        real(d, *a, **k))
+    res = compare_direction_aware_nested(table, muscle, models=[LAW], structures=("play",), drifts=False)
+    assert sorted(made) == [(1,), (1, 2), (1, 3), (2,), (2, 3), (3,)]
+    cache: dict = {}
+    made.clear()
+    first = heldout_gap(table, muscle, LAW, "play", cache=cache).metrics
+    again = heldout_gap(table, muscle, LAW, "play", cache=cache).metrics
+    assert len(made) == 3 and first == again == fresh  # the second call fits nothing; the numbers are fitting's own
+    assert res.folds[0]["non_nested_gap_error_rms_N"] == pytest.approx(
+        heldout_gap(table, muscle, LAW, "play", test_trials=[1]).metrics["direction_aware_gap_error_rms_N"], rel=1e-12)
+
+
 def test_bad_input_is_named(tmp_path, truth):
     muscle, theta = truth
     two = read_table(_campaign(tmp_path, muscle, theta, "play", [R_TRUE], trials=(1, 2), name="two.csv"))

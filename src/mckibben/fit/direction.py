@@ -718,7 +718,7 @@ def _plain_force(res: FitResult, d: pd.DataFrame, muscle: MuscleSpec) -> np.ndar
 
 def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = DEFAULT_STRUCTURE,
                 test_trials=None, tare: str = "none", rails: str = "exclude", pressure_zero: str = "none",
-                grid=None, min_samples: int = 0, drift: bool = False) -> HeldoutGap:
+                grid=None, min_samples: int = 0, drift: bool = False, cache: dict | None = None) -> HeldoutGap:
     """Each trial held out in turn: the measured up/down gap and the gap a plain and a direction-aware law predict.
 
     For each held-out trial, the plain law (:func:`mckibben.fit.isometric.fit_points`) and its
@@ -749,6 +749,11 @@ def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = D
     drift : bool, default False
         As :func:`fit_direction_aware`: the drift fitted on the other trials, applied along each
         held-out run's own order (a prediction: the held-out trial gives it no value). [-]
+    cache : dict, optional
+        Fits to reuse, keyed by the law, the structure, the drift and the training points' content:
+        pass one dict to several calls that fit on the same points (a nested comparison's inner
+        folds fit each single trial twice) and each fit is made once. The results are those of
+        fitting again. [-]
 
     Returns
     -------
@@ -772,8 +777,7 @@ def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = D
     for t in tests:
         train = d_all[d_all["trial"] != t]
         test = d_all[d_all["trial"] == t]
-        plain = fit_points(train[train["fitted"]].drop(columns="fitted"), muscle, name, source=str(table.path))
-        res, _, _, force = _fit_points(train, muscle, name, structure, str(table.path), drift)
+        plain, res, force = _train_fits(train, muscle, name, structure, str(table.path), drift, cache)
         fit = DirectionAwareFit(name, structure, res, muscle, {}, *_fit_frame(res, test, force, structure), force)
         fits.append(fit)
         td = fit.data
@@ -795,6 +799,25 @@ def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = D
                 row["muscle"] = str(run["muscle"].iloc[0])
             rows.append(row)
     return HeldoutGap(name, structure, rows, fits)
+
+
+def _train_fits(train: pd.DataFrame, muscle: MuscleSpec, name: str, structure: str, source: str, drift: bool,
+                cache: dict | None):
+    """The plain law and its direction-aware form fitted on ``train``: (plain FitResult, FitResult, the law's force),
+    taken from ``cache`` when the same law, structure and drift were fitted on the same points."""
+    key = None
+    if cache is not None:
+        import pandas as pd  # deferred on purpose: pandas (0.25 s)
+
+        content = pd.util.hash_pandas_object(train, index=False).to_numpy().tobytes()
+        key = (name, structure, bool(drift), repr(muscle), source, tuple(train.columns), content)
+        if key in cache:
+            return cache[key]
+    plain = fit_points(train[train["fitted"]].drop(columns="fitted"), muscle, name, source=source)
+    res, _, _, force = _fit_points(train, muscle, name, structure, source, drift)
+    if key is not None:
+        cache[key] = (plain, res, force)
+    return plain, res, force
 
 
 def _fit_frame(res: FitResult, d: pd.DataFrame, law_force, structure: str):

@@ -526,16 +526,17 @@ def _trial_gap(rows: list[dict]) -> dict:
 
 
 def _gap_select(table: Table, muscle: MuscleSpec, candidates: list[GapCandidate], tare: str, rails: str,
-                pressure_zero: str, grid, min_samples: int) -> tuple[list[dict], dict[str, HeldoutGap]]:
+                pressure_zero: str, grid, min_samples: int, cache: dict) -> tuple[list[dict], dict[str, HeldoutGap]]:
     """Every candidate's held-out gap, each trial of ``table`` held out in turn (:func:`heldout_gap`): one
     score per candidate (``gap_error_rms_N`` pooled over every held-out run, ``flags`` of its fits, ``note``)
-    and its :class:`~mckibben.fit.direction.HeldoutGap`."""
+    and its :class:`~mckibben.fit.direction.HeldoutGap`. ``cache``: the fits shared by the outer and inner
+    selections (an inner fold on one trial recurs in two outer folds)."""
     scores, gaps = [], {}
     for c in candidates:
         row = {"candidate": c.name, "model": c.model, "structure": c.structure, "drift": c.drift}
         try:
             h = heldout_gap(table, muscle, c.model, c.structure, tare=tare, rails=rails, pressure_zero=pressure_zero,
-                            grid=grid, min_samples=min_samples, drift=c.drift)
+                            grid=grid, min_samples=min_samples, drift=c.drift, cache=cache)
         except InputError as exc:
             scores.append({**row, "gap_error_rms_N": float("nan"), "measured_gap_rms_N": float("nan"),
                            "n_pressures": 0, "flags": [], "note": f"not fitted: {exc}"})
@@ -745,7 +746,8 @@ def compare_direction_aware_nested(table: Table, muscle: MuscleSpec, models=None
     if trials.size < NESTED_MIN_FOLDS:
         raise InputError(f"table: nested leave-one-trial-out on {table.path} needs {NESTED_MIN_FOLDS} trials or more, "
                          f"found {trials.size}: each held-out trial's training trials are cross-validated again")
-    scores, gaps = _gap_select(table, muscle, candidates, tare, rails, pressure_zero, grid, min_samples)
+    cache: dict = {}  # fits on the same points, made once across the outer and inner folds
+    scores, gaps = _gap_select(table, muscle, candidates, tare, rails, pressure_zero, grid, min_samples, cache)
     best, every_flagged = _gap_best(scores)
     if best is None:
         notes = "; ".join(s["note"] for s in scores if s["note"])
@@ -762,7 +764,8 @@ def compare_direction_aware_nested(table: Table, muscle: MuscleSpec, models=None
         inner_table = _rows(table, (table.data["trial"] != t).to_numpy())
         note, pick, flagged, inner = "", None, False, []
         try:
-            inner, _ = _gap_select(inner_table, muscle, candidates, tare, rails, pressure_zero, grid, min_samples)
+            inner, _ = _gap_select(inner_table, muscle, candidates, tare, rails, pressure_zero, grid, min_samples,
+                                   cache)
             pick, flagged = _gap_best(inner)
         except InputError as exc:
             note = f"selection on the other trials failed: {exc}"
