@@ -35,7 +35,7 @@ def test_open_loop_with_plot(cli, tmp_path):
     "args, message",
     [
         (["--valve", "300"], "error: --valve: 300 must be a PWM count in 0..255"),
-        (["--duration", "0.5"], "error: --duration: '0.5' has no unit; write it with one of s, ms, us (e.g. 0.5s, 20ms)"),
+        (["--duration", "0.5"], "error: --duration: '0.5' has no unit; write it with one of s, ms, us, min (e.g. 0.5s, 20ms)"),
         (["--duration", "0.5005s"], "error: --duration: '0.5005s' must be a whole number of 1 ms control periods"),
         (["--supply", "2MPa"], "error: --supply: '2MPa' is above the compressor's 1 MPa"),
         (["--load", "-1N"], "error: --load: '-1N' is negative; a force here must be >= 0"),
