@@ -174,9 +174,10 @@ def test_isometric_tare_lowest_is_per_run_and_reported(tmp_path):
 BAD_ISO = [
     ("noheld.csv", "pressure_kPa,force_N,direction,trial\n0,1,inflate,1\n100,5,inflate,1\n",
      "noheld.csv: missing column held_length_<unit> (e.g. held_length_mm); a isometric table needs held_length,"
-     " pressure, force, direction, trial"),
-    ("nodir.csv", "held_length_mm,pressure_kPa,force_N,trial\n300,0,1,1\n300,100,5,1\n",
-     "nodir.csv: missing column direction; a isometric table needs held_length, pressure, force, direction, trial"),
+     " pressure, force"),
+    ("phase.csv", "held_length_mm,pressure_kPa,force_N,phase,trial\n300,0,1,inflate,1\n280,100,5,deflate,1\n",
+     "phase.csv: missing column direction (without it every row would be read as inflate); the unknown column phase"
+     " (its values are a loop's branches: map it with `columns` phase=direction) may be it"),
     ("onelength.csv", "held_length_mm,pressure_kPa,force_N,direction,trial\n300,0,1,inflate,1\n300,100,5,inflate,1\n",
      "onelength.csv: column held_length_mm: only one held length (300 mm); an isometric table needs two or more to"
      " fit force(P, L) (one length at rest is a blocked_force table)"),

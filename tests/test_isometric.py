@@ -226,7 +226,8 @@ def test_fit_save_then_predict_with_the_muscle_file(cli, tmp_path):
 
 
 BAD = [
-    ("missing.csv", "held_length_mm,pressure_kPa,force_N,trial\n300,0,1,1\n300,100,5,1\n", "missing column direction"),
+    ("missing.csv", "held_length_mm,pressure_kPa,direction,trial\n300,0,inflate,1\n280,100,inflate,1\n",
+     "missing column force_<unit>"),
     ("onelength.csv", "held_length_mm,pressure_kPa,force_N,direction,trial\n300,0,1,inflate,1\n300,100,5,inflate,1\n",
      "column held_length_mm: only one held length"),
     ("onepressure.csv", "held_length_mm,pressure_kPa,force_N,direction,trial\n300,100,1,inflate,1\n"

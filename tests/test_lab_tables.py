@@ -134,7 +134,7 @@ def test_an_error_in_a_selected_muscle_names_its_line_in_the_file(tmp_path):
     (["--columns", "phase=dirction"], "error: --columns: phase=dirction: 'dirction' is not a column mckibben reads"),
     (["--columns", "phase=direction"], "error: {f}: column cut_length_cm holds 6 muscles (10, 15, 20, 25, 30, 40), "
                                        "each with its own rest length; pick one with --select cut_length_cm=10"),
-    (["--select", "cut_length_cm=10"], "error: {f}: missing column direction; a isometric table needs"),
+    (["--select", "cut_length_cm=10"], "error: {f}: missing column direction (without it every row would be read as inflate); the unknown column phase"),
 ])
 @pytest.mark.parametrize("command", [["fit", "--model", "spring"], ["compare"]])
 def test_cli_bad_select_and_columns_one_line_exit_2(cli, table, command, args, message):

@@ -17,9 +17,11 @@ hysteresis         pressure, load, length, direction           trial, muscle
 braid_angle        braid_angle, length                         pressure, load, trial, muscle
 force_length       pressure, length, force, direction          trial, muscle
                    (elongation/contraction)
-isometric          held_length, pressure, force, direction,    tare, muscle, rest_length,
-                   trial (inflate/deflate)                     pressure_zero, n_samples (muscle +
-                                                               rest_length: a family)
+isometric          held_length, pressure, force                direction (inflate/deflate; absent:
+                                                               inflate), trial, tare, muscle,
+                                                               rest_length, pressure_zero,
+                                                               n_samples (muscle + rest_length:
+                                                               a family)
 step_response      time, pressure, command                     trial, muscle
 =================  ==========================================  ===============================
 """
@@ -76,6 +78,9 @@ class Schema:
         The allowed values of the ``direction`` column (empty if it has none).
     description : str
         One line saying what the experiment is.
+    defaults : tuple of (str, object)
+        Optional columns a table without them is read with, each with its value (a ``trial``
+        column is 1 for every kind without one); the reader notes each one it fills.
     """
 
     kind: str
@@ -83,6 +88,7 @@ class Schema:
     optional: tuple[str, ...]
     directions: tuple[str, ...] = ()
     description: str = ""
+    defaults: tuple[tuple[str, object], ...] = ()
 
     @property
     def allowed(self) -> tuple[str, ...]:
@@ -104,11 +110,13 @@ SCHEMAS: dict[str, Schema] = {
         Schema("force_length", ("pressure", "length", "force", "direction"), ("trial", "muscle"),
                ELONGATION_CONTRACTION,
                description="force-length loops at constant pressure (Wickramatunge & Leephakpreeda (2010) [wickramatunge2010], Fig. 5)"),
-        Schema("isometric", ("held_length", "pressure", "force", "direction", "trial"), ("tare", "muscle", "rest_length", "pressure_zero",
-                                                                                    "n_samples"),
+        Schema("isometric", ("held_length", "pressure", "force"),
+               ("direction", "trial", "tare", "muscle", "rest_length", "pressure_zero", "n_samples"),
                INFLATE_DEFLATE,
                description="force at held lengths while the pressure is stepped up (inflate) and back"
-                           " down (deflate); one run per held length and trial (commercial muscles)"),
+                           " down (deflate); one run per held length and trial (commercial muscles); a published"
+                           " force map of one value per point has no direction: its rows are read as one branch",
+               defaults=(("direction", "inflate"),)),
         Schema("step_response", ("time", "pressure", "command"), ("trial", "muscle"),
                description="pressure after a step of the valve command (§IV.A)"),
     ]
@@ -154,8 +162,12 @@ def schema_markdown() -> str:
     """
     lines = ["| kind | required | optional | what |", "| --- | --- | --- | --- |"]
     for s in SCHEMAS.values():
-        req = ", ".join(s.required) + (f" (direction: {'/'.join(s.directions)})" if s.directions else "")
-        lines.append(f"| `{s.kind}` | {req} | {', '.join(s.optional)} | {s.description} |")
+        dirs = f" (direction: {'/'.join(s.directions)})" if s.directions else ""
+        filled = dict(s.defaults)
+        req = ", ".join(s.required) + (dirs if "direction" in s.required else "")
+        opt = ", ".join(f"{q} ({'/'.join(s.directions) + '; ' if q == 'direction' else ''}absent: {filled[q]})"
+                        if q in filled else q for q in s.optional)
+        lines.append(f"| `{s.kind}` | {req} | {opt} | {s.description} |")
     lines += ["", "Quantities and the dimension of their unit:", "",
               "| column | dimension | negative values | meaning |", "| --- | --- | --- | --- |"]
     for q, (dim, no_neg, text) in QUANTITIES.items():

@@ -435,11 +435,20 @@ def read_table(path, kind: str | None = None, select: dict | None = None, column
     if kind is None:
         kind = detect_kind(cols)
         explains = [sc for sc in SCHEMAS.values() if set(cols) <= set(sc.allowed)]
+        # the kind a table missing a required column was meant to be: the one whose columns hold all of the
+        # table's, then whose branches a direction column's values are (inflate/deflate or elongation/contraction),
+        # then with most of its required columns there
+        branches = set(df[cols["direction"][2]].astype(str).str.strip().str.lower()) if "direction" in cols else set()
+
+        def closest(sc):
+            return (set(cols) <= set(sc.allowed), bool(branches) and branches <= set(sc.directions),
+                    len(set(sc.required) & set(cols)))
+
         if explains and kind is not None and not set(cols) <= set(SCHEMAS[kind].allowed):
             # the columns name one kind (e.g. held_length: isometric) that misses a required one
-            kind = max(explains, key=lambda sc: len(set(sc.required) & set(cols))).kind
+            kind = max(explains, key=closest).kind
         if kind is None:
-            best = max(SCHEMAS.values(), key=lambda s: len(set(s.required) & set(cols)))
+            best = max(SCHEMAS.values(), key=closest)
             missing = [q for q in best.required if q not in cols]
             raise InputError(
                 f"{name}: missing column {_example_column(missing[0])}: no experiment kind matches the columns"
@@ -450,6 +459,12 @@ def read_table(path, kind: str | None = None, select: dict | None = None, column
         if q not in cols:
             raise InputError(f"{name}: missing column {_example_column(q)}; a {kind} table needs "
                              f"{', '.join(schema.required)}{_meant(q, df, aside)}")
+    filled = [(q, value) for q, value in schema.defaults if q not in cols]
+    for q, value in filled:
+        meant = _meant(q, df, aside)
+        if meant:  # a lab's own name for the column (phase): refused rather than read as the default
+            raise InputError(f"{name}: missing column {_example_column(q)} (without it every row would be read as "
+                             f"{value}){meant}")
     for q, (_, _, col) in cols.items():
         if q not in schema.allowed:
             raise InputError(
@@ -515,6 +530,10 @@ def read_table(path, kind: str | None = None, select: dict | None = None, column
         errors.sort(key=lambda e: (e[0], e[1]))
         raise InputError(errors[0][2])
     data = _pd().DataFrame(out, index=_pd().Index(rows, name="row"))
+    for q, value in filled:
+        data[q] = value
+        notes += (f"{name}: no {q} column: every row read as {value} (one branch: a published force map of one "
+                  "value per point; the direction-aware forms need both branches)",)
     if "trial" not in data:
         data["trial"] = 1
     if "time" in data:

@@ -59,6 +59,7 @@ import numpy as np
 from mckibben.data.preprocessing import RAIL_POLICIES, apply_pressure_zero, apply_tare, find_rails
 from mckibben.data.muscle_file import MuscleSpec
 from mckibben.data.tables import Table
+from mckibben.data.schema import SCHEMAS
 from mckibben.errors import InputError, check_instance, unknown_name
 from mckibben.fit.core import (FitResult, bounded_fit, censor_hinge, data_range, heldout_flags, interpolated_rms,
                                linear_fit)
@@ -439,7 +440,7 @@ def isometric_points(table: Table, tare: str = "none", rails: str = "keep",
         ``rows_at_rail``, ``excluded``), ``transitions`` (``min_samples``, ``rows_excluded``) and ``flags``.
     """
     if table.kind != "isometric":
-        raise InputError(f"fit: needs an isometric table (held_length, pressure, force, direction, trial);"
+        raise InputError(f"fit: needs an isometric table ({', '.join(SCHEMAS['isometric'].required)}, ...);"
                          f" {table.path} is a {table.kind} table")
     if rails not in RAIL_POLICIES:
         raise unknown_name("rails policy", rails, RAIL_POLICIES)
