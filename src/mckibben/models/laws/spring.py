@@ -360,11 +360,12 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
     Parameters
     ----------
     values : dict
-        :data:`SPRING_NAMES`. [SI]
+        :data:`SPRING_NAMES`, or the first seven of a fit on one branch (no
+        :data:`SPRING_DEFLATE_NAMES`). [SI]
     muscle : MuscleSpec
         The muscle the law was fitted for. [-]
     direction : {"inflate", "deflate"}, default "inflate"
-        The branch. [-]
+        The branch (a fit on one branch runs it for both). [-]
     valid_range : dict, optional
         ``pressure`` -> (min, max) the law was fitted on. [Pa]
     """
