@@ -247,9 +247,6 @@ NOMINAL_TOL = 0.10
 
 SPRING_NAMES = ("h2_m_per_Pa2", "h1_m_per_Pa", "h0_m") + tuple(
     f"c{k}_{d}" for d in ("inflate", "deflate") for k in (3, 2, 1, 0))
-#: The deflate branch's coefficients: absent from a fit on a table of one branch (a published force map of one value
-#: per point, read as ``inflate``), whose law runs its one branch both ways. [-]
-SPRING_DEFLATE_NAMES = SPRING_NAMES[7:]
 
 
 def spring_model_of(v, l0, pmax) -> SpringModel:
@@ -265,8 +262,7 @@ def spring_model_of(v, l0, pmax) -> SpringModel:
         Top of the fitted pressure range. [Pa]
     """
     h = (float(v[0]), float(v[1]), float(v[2]))
-    contraction = v[7:11] if len(v) >= len(SPRING_NAMES) else v[3:7]  # a fit of one branch runs it both ways
-    coeffs = {(ELONGATION, LOW): tuple(float(x) for x in v[3:7]), (CONTRACTION, LOW): tuple(float(x) for x in contraction)}
+    coeffs = {(ELONGATION, LOW): tuple(float(x) for x in v[3:7]), (CONTRACTION, LOW): tuple(float(x) for x in v[7:11])}
     return SpringModel(l0, h, coeffs, DEFAULT_TERMS, np.inf, (0.0, pmax), (0.0, np.inf), "fitted (isometric)")
 
 
@@ -276,9 +272,6 @@ def fit_spec(muscle, fmax: float, data) -> FitSpec:
     ``inflate`` rows are the ``elongation`` branch (the force rises at a fixed length), ``deflate``
     the ``contraction`` branch. No load-cell zero: the stretch term already gives a force at zero
     pressure. K ≥ 0 is checked at every data point (``negative_stiffness``), not forced by bounds.
-    A table without ``deflate`` rows (one branch: a published force map of one value per point)
-    fits the inflate coefficients alone (:data:`SPRING_DEFLATE_NAMES` absent, not fitted against
-    no data and flagged unconstrained), and its law runs that branch both ways, as every other law.
 
     Parameters
     ----------
@@ -300,9 +293,6 @@ def fit_spec(muscle, fmax: float, data) -> FitSpec:
     lo = np.array([-np.inf, -np.inf, 0.5 * l0] + [-np.inf] * 8)
     hi = np.array([np.inf, np.inf, 1.5 * l0] + [np.inf] * 8)
     dirs = np.where(direction == "deflate", CONTRACTION, ELONGATION)
-    one_branch = p.size > 0 and not np.any(dirs == CONTRACTION)
-    names = SPRING_NAMES[:7] if one_branch else SPRING_NAMES
-    lo, hi = lo[: len(names)], hi[: len(names)]
 
     def force(v, pressure, length, direction=None, rest_length=None):
         d = ELONGATION if direction is None else np.where(np.asarray(direction) == "deflate", CONTRACTION, ELONGATION)
@@ -331,13 +321,12 @@ def fit_spec(muscle, fmax: float, data) -> FitSpec:
     for free in (0.15, 0.3) if p.size else ():  # free contraction at the top pressure
         u = optimize.least_squares(lambda u: linear_c(u)[2], [1.0, 0.0, -free], method="lm", max_nfev=400).x
         h, c, _ = linear_c(u)
-        starts.append(np.concatenate([h, c])[: len(names)])
+        starts.append(np.concatenate([h, c]))
 
     def physical(v):
         out = []
         stretch = ell - np.polyval(v[:3], p)
-        k = np.where(dirs == ELONGATION, stiffness(p, stretch, v[3:7]),
-                     stiffness(p, stretch, v[7:11] if len(v) >= len(SPRING_NAMES) else v[3:7]))
+        k = np.where(dirs == ELONGATION, stiffness(p, stretch, v[3:7]), stiffness(p, stretch, v[7:11]))
         if np.any((stretch > 0) & (k < 0)):
             out.append("negative_stiffness")
         pg = np.linspace(0.0, pmax, 50)
@@ -347,7 +336,7 @@ def fit_spec(muscle, fmax: float, data) -> FitSpec:
             out.append("free_length_far_from_nominal")
         return out
 
-    return FitSpec(names, lo, hi, starts, force, physical)
+    return FitSpec(SPRING_NAMES, lo, hi, starts, force, physical)
 
 
 def from_values(values: dict, muscle, direction: str = "inflate", valid_range: dict | None = None) -> SpringModel:
@@ -360,17 +349,16 @@ def from_values(values: dict, muscle, direction: str = "inflate", valid_range: d
     Parameters
     ----------
     values : dict
-        :data:`SPRING_NAMES`, or the first seven of a fit on one branch (no
-        :data:`SPRING_DEFLATE_NAMES`). [SI]
+        :data:`SPRING_NAMES`. [SI]
     muscle : MuscleSpec
         The muscle the law was fitted for. [-]
     direction : {"inflate", "deflate"}, default "inflate"
-        The branch (a fit on one branch runs it for both). [-]
+        The branch. [-]
     valid_range : dict, optional
         ``pressure`` -> (min, max) the law was fitted on. [Pa]
     """
     pressure_range = (valid_range or {}).get("pressure", (0.0, np.inf))
-    key = "deflate" if direction == "deflate" and SPRING_DEFLATE_NAMES[0] in values else "inflate"  # one branch: both ways
+    key = "deflate" if direction == "deflate" else "inflate"
     c = tuple(float(values[f"c{k}_{key}"]) for k in (3, 2, 1, 0))
     h = (float(values["h2_m_per_Pa2"]), float(values["h1_m_per_Pa"]), float(values["h0_m"]))
     coef = {(dn, rng): c for dn in (CONTRACTION, ELONGATION) for rng in (LOW, HIGH)}
@@ -382,7 +370,7 @@ LAW = Law(
     "spring", spring, "Wickramatunge & Leephakpreeda (2010) [wickramatunge2010] eq. (1)-(2)",
     description="F = K(P, Ls)*Ls of Wickramatunge & Leephakpreeda (2010) (Lu(P) quadratic, K per inflate/deflate)",
     params=SpringModel, theta_of=spring_theta, fit_spec=fit_spec, from_values=from_values,
-    needs=("nominal_length",), branches=2, extra={"optional_names": SPRING_DEFLATE_NAMES},
+    needs=("nominal_length",), branches=2,
     own_fit=OwnFitSpec(("force_length", "isotonic"),
                    "Lu(P) and K(P, Ls) per direction and pressure range (force_length, isotonic or isometric)",
                    split_pressure=True),
