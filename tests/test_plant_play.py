@@ -17,7 +17,6 @@ import subprocess
 import sys
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from mckibben.data import read_muscle, read_table
@@ -26,8 +25,7 @@ from mckibben.errors import InputError
 from mckibben.export import export_fmu
 from mckibben.fit import fit_table
 from mckibben.fit.isometric import fit_isometric
-from mckibben.models import laws
-from mckibben.models.hysteresis.direction import direction_aware_force, play_pressure
+from mckibben.models.hysteresis.direction import play_pressure
 from mckibben.models.muscle import Muscle
 from mckibben.plant import packing as PK
 from mckibben.plant import physics as ph
@@ -35,10 +33,10 @@ from mckibben.plant import simulate, static_branch_lengths
 from mckibben.plant.params import PlantParams
 from mckibben.plant.simulator import initial_states
 
+from test_direction_aware import LAW, _campaign
+
 COMMERCIAL = BUNDLED_ISOMETRIC / "commercial10"
-LAW = "relative-strain"  # fits the bundled table without a flag, in a fraction of a second
 R_TRUE = 30e3  # [Pa] play threshold of the synthetic truth
-NOISE_N = 0.3  # [N] force noise of the synthetic truth
 
 
 @pytest.fixture(scope="module")
@@ -47,25 +45,7 @@ def play_file(tmp_path_factory):
     folder = tmp_path_factory.mktemp("plant_play")
     muscle = read_muscle(COMMERCIAL / "muscle.toml")
     theta = fit_isometric(read_table(COMMERCIAL / "isometric.csv"), muscle, LAW).result.values
-    rng = np.random.default_rng(0)
-    l0 = muscle.nominal_length
-    up = np.linspace(20e3, 620e3, 21)
-    seq = np.concatenate([up, up[::-1][1:]])
-    dirn = np.array(["inflate"] * up.size + ["deflate"] * (up.size - 1))
-    rows = []
-    for trial in (1, 2):
-        for ell in l0 * np.array([1.0, 0.95, 0.9, 0.85]):
-            data = {"pressure": seq, "held_length": np.full(seq.size, ell), "force": np.zeros(seq.size),
-                    "direction": dirn, "rest_length": np.full(seq.size, l0)}
-            spec = laws.LAWS[LAW].fit_spec(muscle, 1.0, data)
-            z, _ = play_pressure(seq, R_TRUE)
-            f = direction_aware_force(spec.force, "play", np.r_[theta, R_TRUE], seq, data["held_length"], z,
-                                      direction=dirn, rest_length=data["rest_length"])
-            rows.append(pd.DataFrame({"held_length_mm": ell * 1e3, "pressure_kPa": seq / 1e3,
-                                      "force_N": f + rng.normal(0, NOISE_N, f.size), "direction": dirn,
-                                      "trial": trial}))
-    table = folder / "iso.csv"
-    pd.concat(rows).to_csv(table, index=False)
+    table = _campaign(folder, muscle, theta, "play", [R_TRUE], trials=(1, 2))
     path = folder / "play.toml"
     res = fit_table(str(table), LAW, str(COMMERCIAL / "muscle.toml"), save=str(path), direction_aware="play")
     r = res.fits[0].result["play_threshold_Pa"]
