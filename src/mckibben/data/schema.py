@@ -78,9 +78,9 @@ class Schema:
         The allowed values of the ``direction`` column (empty if it has none).
     description : str
         One line saying what the experiment is.
-    defaults : tuple of (str, object)
-        Optional columns a table without them is read with, each with its value (a ``trial``
-        column is 1 for every kind without one); the reader notes each one it fills.
+    defaults : tuple of (str, object, str)
+        Optional columns a table without them is read with: the column, its value, and what
+        reading it so means (the reader's note). A ``trial`` column is 1 for every kind without one.
     """
 
     kind: str
@@ -88,7 +88,7 @@ class Schema:
     optional: tuple[str, ...]
     directions: tuple[str, ...] = ()
     description: str = ""
-    defaults: tuple[tuple[str, object], ...] = ()
+    defaults: tuple[tuple[str, object, str], ...] = ()
 
     @property
     def allowed(self) -> tuple[str, ...]:
@@ -116,7 +116,8 @@ SCHEMAS: dict[str, Schema] = {
                description="force at held lengths while the pressure is stepped up (inflate) and back"
                            " down (deflate); one run per held length and trial (commercial muscles); a published"
                            " force map of one value per point has no direction: its rows are read as one branch",
-               defaults=(("direction", "inflate"),)),
+               defaults=(("direction", "inflate", "one branch: a published force map of one value per point; the "
+                                                  "direction-aware forms need both branches"),)),
         Schema("step_response", ("time", "pressure", "command"), ("trial", "muscle"),
                description="pressure after a step of the valve command (§IV.A)"),
     ]
@@ -163,7 +164,7 @@ def schema_markdown() -> str:
     lines = ["| kind | required | optional | what |", "| --- | --- | --- | --- |"]
     for s in SCHEMAS.values():
         dirs = f" (direction: {'/'.join(s.directions)})" if s.directions else ""
-        filled = dict(s.defaults)
+        filled = {q: value for q, value, _ in s.defaults}
         req = ", ".join(s.required) + (dirs if "direction" in s.required else "")
         opt = ", ".join(f"{q} ({'/'.join(s.directions) + '; ' if q == 'direction' else ''}absent: {filled[q]})"
                         if q in filled else q for q in s.optional)

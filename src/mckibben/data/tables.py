@@ -459,8 +459,8 @@ def read_table(path, kind: str | None = None, select: dict | None = None, column
         if q not in cols:
             raise InputError(f"{name}: missing column {_example_column(q)}; a {kind} table needs "
                              f"{', '.join(schema.required)}{_meant(q, df, aside)}")
-    filled = [(q, value) for q, value in schema.defaults if q not in cols]
-    for q, value in filled:
+    filled = [(q, value, why) for q, value, why in schema.defaults if q not in cols]
+    for q, value, _ in filled:
         meant = _meant(q, df, aside)
         if meant:  # a lab's own name for the column (phase): refused rather than read as the default
             raise InputError(f"{name}: missing column {_example_column(q)} (without it every row would be read as "
@@ -530,10 +530,9 @@ def read_table(path, kind: str | None = None, select: dict | None = None, column
         errors.sort(key=lambda e: (e[0], e[1]))
         raise InputError(errors[0][2])
     data = _pd().DataFrame(out, index=_pd().Index(rows, name="row"))
-    for q, value in filled:
+    for q, value, why in filled:
         data[q] = value
-        notes += (f"{name}: no {q} column: every row read as {value} (one branch: a published force map of one "
-                  "value per point; the direction-aware forms need both branches)",)
+        notes += (f"{name}: no {q} column: every row read as {value} ({why})",)
     if "trial" not in data:
         data["trial"] = 1
     if "time" in data:
