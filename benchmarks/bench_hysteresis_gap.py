@@ -143,12 +143,13 @@ def family(law: str = "virtual-work", structure: str = "play", min_samples: int 
     """One operator across the six muscles: a family law's direction-aware form on the family table."""
     c = bh.CAMPAIGN
     table = read_table(c.path, "isometric", None, {"phase": "direction", "cut_length_cm": "muscle"})
-    rest = pd.read_csv(c.path)["rest_length_mm"]
-    muscle = MuscleSpec(id=c.name, nominal_length=float(rest.median()) / 1e3, outer_diameter=c.outer_diameter_mm / 1e3)
+    data = pd.read_csv(c.path)
+    muscle = MuscleSpec(id=c.name, nominal_length=float(data["rest_length_mm"].median()) / 1e3,
+                        outer_diameter=c.outer_diameter_mm / 1e3)
     h = heldout_gap(table, muscle, law, structure, grid=GRID_KPA * 1e3, min_samples=min_samples, drift=drift)
     thr = ", ".join(f"{f.operator['play_threshold_Pa'] / 1e3:.1f}" for f in h.fits)
     dr = (", drift " + ", ".join(f"{f.operator['run_drift_ratio']:+.3f}" for f in h.fits)) if drift else ""
-    n = pd.read_csv(c.path)["cut_length_cm"].nunique()
+    n = data["cut_length_cm"].nunique()
     print(f"\nfamily ({law}, {structure}; one operator for {_count(n)} muscles; thresholds {thr} kPa per fold{dr}):")
     for t in sorted({r["trial"] for r in h.rows}):
         sel = [r for r in h.rows if r["trial"] == t]
@@ -332,11 +333,12 @@ def main(argv: list[str]) -> int:
     if "--pi-only" in argv:
         return 0
     sel = f" (points of {min_samples} readings or more)" if min_samples else ""
-    others = _count(pd.read_csv(bh.SOURCE)["trial"].nunique() - 1)
-    print(f"\nthe other {others} trials' measured gap (per pair, their mean) as the held-out trial's prediction{sel}:")
+    replayed = replay(min_samples)  # per held-out trial
+    print(f"\nthe other {_count(len(replayed) - 1)} trials' measured gap (per pair, their mean) as the held-out trial's "
+          f"prediction{sel}:")
     print("| held-out trial | measured gap RMS N | error RMS / max N | ratio |")
     print("| --- | --- | --- | --- |")
-    for t, (m, e, mx) in replay(min_samples).items():
+    for t, (m, e, mx) in replayed.items():
         print(f"| {t} | {m:.2f} | {e:.2f} / {mx:.2f} | {e / m:.2f} |")
     if "--replay-only" in argv:
         return 0
