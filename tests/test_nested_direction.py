@@ -22,7 +22,7 @@ import pytest  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from mckibben.data import read_muscle, read_table  # noqa: E402
-from mckibben.errors import InputError  # noqa: E402
+from mckibben.errors import ArgumentTypeError, InputError  # noqa: E402
 from mckibben.fit.direction import heldout_gap  # noqa: E402
 from mckibben.fit.isometric import fit_isometric  # noqa: E402
 from mckibben.fit.nested import (NESTED_MIN_FOLDS, NestedGapComparison, compare_direction_aware_nested,  # noqa: E402
@@ -120,6 +120,8 @@ def test_fits_on_the_same_points_are_made_once_and_equal_fitting_again(tmp_path,
     first = heldout_gap(table, muscle, LAW, "play", cache=cache).metrics
     again = heldout_gap(table, muscle, LAW, "play", cache=cache).metrics
     assert len(made) == 3 and first == again == fresh  # the second call fits nothing; the numbers are fitting's own
+    with pytest.raises(ArgumentTypeError, match=r"cache = \[\]: not a dict"):
+        heldout_gap(table, muscle, LAW, "play", cache=[])
     assert res.folds[0]["non_nested_gap_error_rms_N"] == pytest.approx(
         heldout_gap(table, muscle, LAW, "play", test_trials=[1]).metrics["direction_aware_gap_error_rms_N"], rel=1e-12)
 

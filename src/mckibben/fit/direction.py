@@ -761,6 +761,7 @@ def heldout_gap(table: Table, muscle: MuscleSpec, model: str, structure: str = D
     """
     check_instance(table, "table", Table, "a Table (mckibben.read_table)")
     check_instance(muscle, "muscle", MuscleSpec, "a MuscleSpec (mckibben.read_muscle)")
+    check_instance(cache, "cache", dict, "a dict (shared by the calls whose fits it keeps)", optional=True)
     name = _law_name(model)
     if structure not in STRUCTURES:
         raise unknown_name("structure", structure, STRUCTURES)
